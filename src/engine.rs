@@ -1,0 +1,336 @@
+//! The one facade: a scene's model, its committed state and the solver workspace.
+//!
+//! Everything outside the physics (the FMI adapter, `velarium solve`, tests) drives the solver
+//! through this type:
+//!
+//! ```text
+//! Engine::try_new(scene)          validate, build the model, start values
+//! set_real / get_real / get_integer   by value reference (the variable table)
+//! solve()                         equilibrium under the current inputs, reached by load
+//!                                 increments from the last committed equilibrium; committed
+//!                                 only if it converged (otherwise nothing changes)
+//! state() / set_state()           the committed state as plain data (FMU get/set state)
+//! reset()                         back to the start values and the undeformed configuration
+//! ```
+
+use crate::error::Error;
+use crate::model::Model;
+use crate::results;
+use crate::scene::{validate, Scene};
+use crate::solver::{Settings, Solver, StepReport};
+use crate::variables::{self, Binding, Causality, VarType, Variable, Variability};
+use serde::{Deserialize, Serialize};
+
+/// Everything needed to continue a run: plain data, `Clone + Serialize`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EngineState {
+    /// Displacement of every DOF (3 per node), m.
+    pub displacement: Vec<f64>,
+    /// Input values of the committed equilibrium (what the structure carries now).
+    pub applied: Vec<f64>,
+    /// Input values as last set (applied at the next solve).
+    pub inputs: Vec<f64>,
+    /// Parameter values, in `scene.parameters` order.
+    pub parameters: Vec<f64>,
+    /// Newton iterations of the last solve.
+    pub last_iterations: u32,
+}
+
+pub struct Engine {
+    /// The scene as given (parameter values are applied on top of it when the model is built).
+    scene: Scene,
+    variables: Vec<Variable>,
+    model: Model,
+    solver: Solver,
+    state: EngineState,
+    /// Parameters changed since the model was built.
+    model_stale: bool,
+    /// Outputs of the committed state, in probe order (recomputed whenever the state changes).
+    outputs: Vec<f64>,
+}
+
+impl Engine {
+    /// Validate the scene and build its model. Inputs and parameters take their start values;
+    /// the state is the undeformed configuration (call [`Engine::solve`] for the equilibrium
+    /// under the start values).
+    pub fn try_new(scene: Scene) -> Result<Engine, Error> {
+        let problems = validate::validate(&scene);
+        if !problems.is_empty() {
+            return Err(Error::Scene(problems));
+        }
+        let variables = variables::table(&scene);
+        let model = Model::build(&scene);
+        let solver = Solver::new(&model, settings(&scene));
+        let state = initial_state(&scene, &variables, &model);
+        let mut engine = Engine {
+            scene,
+            variables,
+            model,
+            solver,
+            state,
+            model_stale: false,
+            outputs: Vec::new(),
+        };
+        engine.refresh_outputs();
+        Ok(engine)
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The variable table (parameters, inputs, outputs with value references).
+    pub fn variables(&self) -> &[Variable] {
+        &self.variables
+    }
+
+    /// Find a variable by value reference and type.
+    pub fn variable(&self, vr: u32, var_type: VarType) -> Result<&Variable, Error> {
+        self.variables
+            .iter()
+            .find(|v| v.value_reference == vr && v.var_type == var_type)
+            .ok_or(Error::UnknownValueReference {
+                vr,
+                kind: type_name(var_type),
+            })
+    }
+
+    /// Set an input or a parameter. Rejects outputs, unknown references and non-finite values
+    /// and values outside [min, max]; the FMI layer adds its own rules of when a set is legal.
+    pub fn set_real(&mut self, vr: u32, value: f64) -> Result<(), Error> {
+        let var = self.variable(vr, VarType::Real)?.clone();
+        if !value.is_finite() {
+            return Err(Error::NonFinite {
+                vr,
+                name: var.name,
+                value,
+            });
+        }
+        check_bounds(&var, value)?;
+        match var.binding {
+            Binding::Input(i) => self.state.inputs[i] = value,
+            Binding::Parameter(i) => {
+                check_parameter(&self.scene, &var, i, value)?;
+                if self.state.parameters[i] != value {
+                    self.state.parameters[i] = value;
+                    self.model_stale = true;
+                }
+            }
+            Binding::Output(_) => {
+                return Err(Error::NotSettable {
+                    vr,
+                    name: var.name,
+                    why: "it is an output".into(),
+                })
+            }
+        }
+        Ok(())
+    }
+
+    /// Current value of a Real variable (outputs are computed from the committed state).
+    pub fn get_real(&self, vr: u32) -> Result<f64, Error> {
+        let var = self.variable(vr, VarType::Real)?;
+        Ok(match var.binding {
+            Binding::Input(i) => self.state.inputs[i],
+            Binding::Parameter(i) => self.state.parameters[i],
+            Binding::Output(i) => self.outputs[i],
+        })
+    }
+
+    /// Current value of an Integer variable.
+    pub fn get_integer(&self, vr: u32) -> Result<i32, Error> {
+        let var = self.variable(vr, VarType::Integer)?;
+        match var.binding {
+            Binding::Output(i) => Ok(self.outputs[i].round() as i32),
+            _ => Err(Error::UnknownValueReference { vr, kind: "Integer" }),
+        }
+    }
+
+    /// All outputs in table order, as f64 (Integer outputs converted).
+    pub fn outputs(&self) -> Vec<(String, f64)> {
+        self.variables
+            .iter()
+            .filter(|v| v.causality == Causality::Output)
+            .map(|v| {
+                let Binding::Output(i) = v.binding else { unreachable!("outputs bind outputs") };
+                (v.name.clone(), self.outputs[i])
+            })
+            .collect()
+    }
+
+    /// Reach the equilibrium under the current inputs from the committed one, by load increments
+    /// with cut-back. On convergence the new equilibrium is committed; otherwise the committed
+    /// state is unchanged and the report says how far the increments got.
+    pub fn solve(&mut self) -> StepReport {
+        if self.model_stale {
+            self.rebuild();
+        }
+        let report = self.solver.solve_step(&self.model, &self.state.applied, &self.state.inputs, &mut self.state.displacement);
+        if report.converged() {
+            self.state.applied = self.state.inputs.clone();
+            self.state.last_iterations = report.iterations as u32;
+            self.refresh_outputs();
+        }
+        report
+    }
+
+    /// The committed state.
+    pub fn state(&self) -> &EngineState {
+        &self.state
+    }
+
+    /// Restore a committed state (from [`Engine::state`] of an engine of the same scene).
+    pub fn set_state(&mut self, state: EngineState) -> Result<(), Error> {
+        let s = &self.state;
+        if state.displacement.len() != s.displacement.len()
+            || state.applied.len() != s.applied.len()
+            || state.inputs.len() != s.inputs.len()
+            || state.parameters.len() != s.parameters.len()
+        {
+            return Err(Error::State(format!(
+                "sizes (dofs {}, inputs {}, parameters {}) do not match this model (dofs {}, inputs {}, parameters {})",
+                state.displacement.len(),
+                state.inputs.len(),
+                state.parameters.len(),
+                s.displacement.len(),
+                s.inputs.len(),
+                s.parameters.len()
+            )));
+        }
+        let params_changed = state.parameters != s.parameters;
+        self.state = state;
+        if params_changed {
+            self.model_stale = true;
+            self.rebuild();
+        }
+        self.refresh_outputs();
+        Ok(())
+    }
+
+    /// Back to the start values and the undeformed configuration.
+    pub fn reset(&mut self) {
+        let fresh = initial_state(&self.scene, &self.variables, &self.model);
+        if fresh.parameters != self.state.parameters {
+            self.model_stale = true;
+        }
+        self.state = fresh;
+        if self.model_stale {
+            self.rebuild();
+        }
+        self.refresh_outputs();
+    }
+
+    /// Free DOFs of the current model (the size of the linear systems).
+    pub fn free_dofs(&self) -> usize {
+        self.solver.free_dofs()
+    }
+
+    /// Residual R = f_int − f_ext of the committed state on every DOF (reactions at held DOFs).
+    pub fn residual(&mut self) -> Vec<f64> {
+        self.solver.residual(&self.model, &self.state.displacement, &self.state.applied)
+    }
+
+    /// Seconds of one assembly and of one numeric factorization + solve at the committed
+    /// state (best of `repeats`): the per-iteration floor the benchmark compares against.
+    pub fn time_floor(&mut self, repeats: usize) -> (f64, f64) {
+        self.solver.time_floor(&self.model, &self.state.displacement, &self.state.applied, repeats)
+    }
+
+    fn refresh_outputs(&mut self) {
+        self.outputs = results::evaluate(&self.model, &mut self.solver, &self.state);
+    }
+
+    /// Rebuild model and solver workspace from the scene with the current parameter values.
+    fn rebuild(&mut self) {
+        let mut scene = self.scene.clone();
+        for (p, value) in scene.parameters.clone().iter().zip(&self.state.parameters) {
+            variables::set_parameter_value(&mut scene, &p.target, *value);
+        }
+        self.model = Model::build(&scene);
+        self.solver = Solver::new(&self.model, settings(&scene));
+        self.model_stale = false;
+    }
+}
+
+/// The solver's settings from the scene's solver section.
+fn settings(scene: &Scene) -> Settings {
+    let s = &scene.solver;
+    Settings {
+        tolerance: s.tolerance,
+        max_iterations: s.max_iterations,
+        initial_increment: s.initial_increment,
+        min_increment: s.min_increment,
+        target_iterations: s.target_iterations,
+        line_search: s.line_search,
+    }
+}
+
+fn type_name(t: VarType) -> &'static str {
+    match t {
+        VarType::Real => "Real",
+        VarType::Integer => "Integer",
+    }
+}
+
+fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> EngineState {
+    let start = |b: fn(Binding) -> bool| -> Vec<f64> {
+        vars.iter().filter(|v| b(v.binding)).map(|v| v.start.unwrap_or(0.0)).collect()
+    };
+    let inputs = start(|b| matches!(b, Binding::Input(_)));
+    let parameters = start(|b| matches!(b, Binding::Parameter(_)));
+    debug_assert_eq!(inputs.len(), scene.inputs.len());
+    EngineState {
+        displacement: vec![0.0; model.dof_count()],
+        applied: vec![0.0; inputs.len()],
+        inputs,
+        parameters,
+        last_iterations: 0,
+    }
+}
+
+fn check_bounds(var: &Variable, value: f64) -> Result<(), Error> {
+    let out = |why: String| Error::OutOfRange {
+        vr: var.value_reference,
+        name: var.name.clone(),
+        value,
+        why,
+    };
+    if let Some(min) = var.min {
+        if value < min {
+            return Err(out(format!("below min = {min}")));
+        }
+    }
+    if let Some(max) = var.max {
+        if value > max {
+            return Err(out(format!("above max = {max}")));
+        }
+    }
+    Ok(())
+}
+
+/// Physical range of a parameter: the same rules validation applies to the scene field.
+fn check_parameter(scene: &Scene, var: &Variable, index: usize, value: f64) -> Result<(), Error> {
+    let mut trial = scene.clone();
+    variables::set_parameter_value(&mut trial, &scene.parameters[index].target, value);
+    let problems = validate::validate(&trial);
+    match problems.first() {
+        None => Ok(()),
+        Some(p) => Err(Error::OutOfRange {
+            vr: var.value_reference,
+            name: var.name.clone(),
+            value,
+            why: p.to_string(),
+        }),
+    }
+}
+
+impl Variable {
+    /// Parameters with fixed variability may not change after initialization.
+    pub fn is_tunable(&self) -> bool {
+        self.variability == Variability::Tunable
+    }
+}

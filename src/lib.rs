@@ -1,0 +1,32 @@
+//! Velarium: geometrically nonlinear cable-reinforced membranes, shipped as FMI co-simulation
+//! FMUs.
+//!
+//! Data flows one way (each module imports only those above it):
+//!
+//! ```text
+//! scene      validated plain data (serde), mesh generators          src/scene/
+//! variables  the FMU variable table derived from a scene            src/variables.rs
+//! model      mesh, DOFs, element kernels, loads, probes             src/model/
+//! solver     assembly, sparse LDLT, Newton, load increments         src/solver/
+//! results    outputs computed from model + state                    src/results.rs
+//! engine     model + state + solver workspace: the one facade       src/engine.rs
+//! fmi        thin C ABI adapter over the engine (the only unsafe)   src/fmi/
+//! description, pack, history   modelDescription.xml, FMU archives, load histories (CLI)
+//! ```
+//! Units are SI throughout: m, N, Pa.
+
+pub mod description;
+pub mod engine;
+pub mod error;
+pub mod fmi;
+pub mod history;
+pub mod model;
+pub mod pack;
+pub mod results;
+pub mod scene;
+pub mod solver;
+pub mod variables;
+
+pub use engine::{Engine, EngineState};
+pub use error::Error;
+pub use scene::Scene;

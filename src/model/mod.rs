@@ -1,0 +1,312 @@
+//! The model: a validated scene turned into numbers the solver works on. Immutable once built;
+//! built again when a parameter changes.
+//!
+//! ```text
+//! DOFs         3 per node (x, y, z displacement), dof = 3 node + component
+//! held         a DOF fixed by a support, prescribed by a displacement input, or of a node no
+//!              element uses (it has no stiffness)
+//! triangles    membrane CST elements with reference data, material, artificial prestress
+//! segments     cable segments with unstretched length
+//! loads        one per input: force per unit value, pressure triangles, prescribed DOFs
+//! probes       one per output, with node ids and DOFs resolved
+//! ```
+//! "Model only what a scene needs": only the element kinds and loads the scene declares exist.
+
+pub mod cable;
+pub mod membrane;
+pub mod pressure;
+
+use crate::scene::generate::{resolve, Mesh};
+use crate::scene::{Load, Material, NodeRef, OneNode, Probe, Scene, StrainLaw, TriangleRef as TriSel};
+use nalgebra::Vector3;
+
+/// Default artificial prestress of a flat membrane group, as a fraction of its E.
+pub const AUTO_PRESTRESS_FRACTION: f64 = 1e-4;
+
+#[derive(Clone, Debug)]
+pub struct Triangle {
+    pub nodes: [usize; 3],
+    pub reference: membrane::TriangleRef,
+    pub material: membrane::Svk,
+    /// Tangent-only artificial prestress, Pa.
+    pub prestress: f64,
+}
+
+#[derive(Clone, Debug)]
+pub struct Segment {
+    pub nodes: [usize; 2],
+    pub l0: f64,
+    pub ea: f64,
+    pub law: cable::Law,
+}
+
+#[derive(Clone, Debug)]
+pub struct CableInfo {
+    pub name: String,
+    /// Indices into `Model::segments`, in order along the cable.
+    pub segments: std::ops::Range<usize>,
+}
+
+/// What one input does, per unit of its value.
+#[derive(Clone, Debug)]
+pub enum LoadModel {
+    /// (dof, force per unit input value).
+    PointForce(Vec<(usize, f64)>),
+    /// Triangles (indices into `Model::triangles`) loaded by the pressure.
+    Pressure { triangles: Vec<usize>, follower: bool },
+    /// Prescribed DOFs.
+    Displacement(Vec<usize>),
+}
+
+/// What one output reads.
+#[derive(Clone, Debug)]
+pub enum ProbeModel {
+    Displacement { dof: usize },
+    Position { dof: usize, reference: f64 },
+    CableLength { cable: usize },
+    CableTension { cable: usize, segment: Option<usize> },
+    Reaction { dofs: Vec<usize> },
+    NewtonIterations,
+}
+
+#[derive(Clone, Debug)]
+pub struct Model {
+    pub reference: Vec<Vector3<f64>>,
+    pub triangles: Vec<Triangle>,
+    pub segments: Vec<Segment>,
+    pub cables: Vec<CableInfo>,
+    pub loads: Vec<LoadModel>,
+    pub probes: Vec<ProbeModel>,
+    /// Per DOF: held (not an unknown of the solver).
+    pub held: Vec<bool>,
+    /// A force scale (N) for absolute convergence floors: the largest of E t h and EA.
+    pub force_scale: f64,
+    /// A length scale (m): the bounding-box diagonal of the used nodes.
+    pub length_scale: f64,
+}
+
+impl Model {
+    /// Build from a scene that passed validation (validation guarantees every reference
+    /// resolves; this function does not re-check).
+    pub fn build(scene: &Scene) -> Model {
+        let mesh = resolve(&scene.geometry);
+        let reference: Vec<Vector3<f64>> = mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
+        let n = reference.len();
+        let mut used = vec![false; n];
+        let triangles = build_triangles(scene, &mesh, &reference, &mut used);
+        let (segments, cables) = build_cables(scene, &mesh, &reference, &mut used);
+        let mut held = vec![false; 3 * n];
+        for (node, u) in used.iter().enumerate() {
+            if !u {
+                held[3 * node..3 * node + 3].fill(true);
+            }
+        }
+        for s in &scene.supports {
+            for id in node_ids(&mesh, &s.nodes) {
+                for c in &s.fix {
+                    held[3 * id + c.index()] = true;
+                }
+            }
+        }
+        let loads: Vec<LoadModel> = scene.inputs.iter().map(|i| build_load(scene, &mesh, &triangles, &i.load)).collect();
+        for l in &loads {
+            if let LoadModel::Displacement(dofs) = l {
+                for &d in dofs {
+                    held[d] = true;
+                }
+            }
+        }
+        let probes = scene.outputs.iter().map(|o| build_probe(&mesh, &cables, &o.probe)).collect();
+        let force_scale = triangles
+            .iter()
+            .map(|t| t.material.young * t.material.thickness * t.reference.area.sqrt())
+            .chain(segments.iter().map(|s| s.ea))
+            .fold(0.0, f64::max);
+        let length_scale = bounding_diagonal(&reference, &used);
+        Model {
+            reference,
+            triangles,
+            segments,
+            cables,
+            loads,
+            probes,
+            held,
+            force_scale,
+            length_scale,
+        }
+    }
+
+    pub fn dof_count(&self) -> usize {
+        3 * self.reference.len()
+    }
+
+    /// Current position of a node under displacement `u`.
+    pub fn position(&self, u: &[f64], node: usize) -> Vector3<f64> {
+        self.reference[node] + Vector3::new(u[3 * node], u[3 * node + 1], u[3 * node + 2])
+    }
+}
+
+/// Node ids of a (validated) reference.
+pub fn node_ids(mesh: &Mesh, r: &NodeRef) -> Vec<usize> {
+    match r {
+        NodeRef::Ids(ids) => ids.clone(),
+        NodeRef::Set(name) => mesh.node_sets[name].clone(),
+    }
+}
+
+fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
+    match r {
+        OneNode::Id(id) => *id,
+        OneNode::Set(name) => mesh.node_sets[name][0],
+    }
+}
+
+fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
+    match r {
+        TriSel::Ids(ids) => ids.clone(),
+        TriSel::Set(name) => mesh.triangle_sets[name].clone(),
+    }
+}
+
+/// Membrane elements, group by group. A group is flat when all its reference normals agree.
+fn build_triangles(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [bool]) -> Vec<Triangle> {
+    let mut out = Vec::new();
+    for m in &scene.membranes {
+        let Material::Svk { young, nu } = m.material;
+        let material = membrane::Svk {
+            young,
+            nu,
+            thickness: m.thickness,
+        };
+        let first = out.len();
+        for t in triangle_ids(mesh, &m.triangles) {
+            let nodes = mesh.triangles[t];
+            let reference = membrane::triangle_ref(nodes.map(|i| x[i])).expect("validated: no zero-area triangle");
+            for &i in &nodes {
+                used[i] = true;
+            }
+            out.push(Triangle {
+                nodes,
+                reference,
+                material,
+                prestress: 0.0,
+            });
+        }
+        let group = &mut out[first..];
+        let n0 = group[0].reference.normal;
+        let flat = group.iter().all(|t| t.reference.normal.dot(&n0) > 1.0 - 1e-10);
+        let prestress = scene
+            .solver
+            .artificial_prestress
+            .unwrap_or(if flat { AUTO_PRESTRESS_FRACTION * young } else { 0.0 });
+        for t in group {
+            t.prestress = prestress;
+        }
+    }
+    out
+}
+
+fn build_cables(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [bool]) -> (Vec<Segment>, Vec<CableInfo>) {
+    let mut segments = Vec::new();
+    let mut cables = Vec::new();
+    for c in &scene.cables {
+        let ids = node_ids(mesh, &c.nodes);
+        let law = match c.strain {
+            StrainLaw::Engineering => cable::Law::Engineering,
+            StrainLaw::GreenLagrange => cable::Law::GreenLagrange,
+        };
+        let lengths: Vec<f64> = ids.windows(2).map(|w| (x[w[1]] - x[w[0]]).norm()).collect();
+        let total: f64 = lengths.iter().sum();
+        let start = segments.len();
+        for (k, w) in ids.windows(2).enumerate() {
+            let l = lengths[k];
+            let l0 = match (c.pretension, c.unstretched_length) {
+                (_, Some(l0_total)) => l0_total * l / total,
+                (t0, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
+            };
+            used[w[0]] = true;
+            used[w[1]] = true;
+            segments.push(Segment {
+                nodes: [w[0], w[1]],
+                l0,
+                ea: c.ea,
+                law,
+            });
+        }
+        cables.push(CableInfo {
+            name: c.name.clone(),
+            segments: start..segments.len(),
+        });
+    }
+    (segments, cables)
+}
+
+fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> LoadModel {
+    match load {
+        Load::PointForce { nodes, direction } => {
+            let ids = node_ids(mesh, nodes);
+            let d = Vector3::from(*direction).normalize() / ids.len() as f64;
+            LoadModel::PointForce(ids.iter().flat_map(|&i| (0..3).map(move |c| (3 * i + c, d[c]))).filter(|(_, f)| *f != 0.0).collect())
+        }
+        Load::Pressure { membrane, follower } => {
+            // Element indices of the group: groups are laid out in scene order.
+            let mut first = 0;
+            let mut range = 0..0;
+            for m in &scene.membranes {
+                let count = triangle_ids(mesh, &m.triangles).len();
+                if &m.name == membrane {
+                    range = first..first + count;
+                }
+                first += count;
+            }
+            debug_assert!(range.end <= triangles.len());
+            LoadModel::Pressure {
+                triangles: range.collect(),
+                follower: *follower,
+            }
+        }
+        Load::Displacement { nodes, component } => {
+            LoadModel::Displacement(node_ids(mesh, nodes).iter().map(|&i| 3 * i + component.index()).collect())
+        }
+    }
+}
+
+fn build_probe(mesh: &Mesh, cables: &[CableInfo], probe: &Probe) -> ProbeModel {
+    let cable_index = |name: &str| cables.iter().position(|c| c.name == name).expect("validated cable name");
+    match probe {
+        Probe::Displacement { node, component } => ProbeModel::Displacement {
+            dof: 3 * one_node(mesh, node) + component.index(),
+        },
+        Probe::Position { node, component } => {
+            let id = one_node(mesh, node);
+            ProbeModel::Position {
+                dof: 3 * id + component.index(),
+                reference: mesh.nodes[id][component.index()],
+            }
+        }
+        Probe::CableLength { cable } => ProbeModel::CableLength { cable: cable_index(cable) },
+        Probe::CableTension { cable, segment } => ProbeModel::CableTension {
+            cable: cable_index(cable),
+            segment: *segment,
+        },
+        Probe::Reaction { nodes, component } => ProbeModel::Reaction {
+            dofs: node_ids(mesh, nodes).iter().map(|&i| 3 * i + component.index()).collect(),
+        },
+        Probe::NewtonIterations => ProbeModel::NewtonIterations,
+    }
+}
+
+fn bounding_diagonal(x: &[Vector3<f64>], used: &[bool]) -> f64 {
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for (p, _) in x.iter().zip(used).filter(|(_, u)| **u) {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let d = (hi - lo).norm();
+    if d.is_finite() && d > 0.0 {
+        d
+    } else {
+        1.0
+    }
+}

@@ -1,0 +1,462 @@
+//! Scene format v1: plain serde data describing one structure, its loads and its probes.
+//!
+//! A scene is JSON in SI units (m, N, Pa, N/m for membrane forces). It is read with
+//! [`Scene::from_json`], which names the JSON path of a type error, and checked with
+//! [`validate::validate`], which lists every semantic problem by JSON path. Only a validated
+//! scene is turned into a model (`crate::model`).
+//!
+//! ```text
+//! format      always 1
+//! name        model name: a C identifier, used as the FMU's modelIdentifier
+//! geometry    explicit nodes / triangles / named sets, plus generators (rectangle, disc, annulus)
+//! membranes   groups of triangles: thickness, material
+//! cables      tension-only polylines of nodes: EA, strain law, pretension or unstretched length
+//! supports    fixed displacement components on node sets
+//! inputs      named loads that become FMU inputs
+//! outputs     named probes that become FMU outputs
+//! parameters  scene values exposed as FMU parameters (fixed or tunable)
+//! solver      tolerances, increments, artificial prestress
+//! ```
+
+pub mod generate;
+pub mod validate;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The only scene format version this build reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// A whole scene (format 1).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Scene format version; must be 1.
+    pub format: u32,
+    /// Model name: a C identifier (letters, digits, `_`, not starting with a digit). It names the
+    /// FMU file, its modelIdentifier and its shared library.
+    pub name: String,
+    /// Free text carried into the FMU's modelDescription.
+    #[serde(default)]
+    pub description: String,
+    /// Nodes, triangles, named sets and mesh generators.
+    #[serde(default)]
+    pub geometry: Geometry,
+    #[serde(default)]
+    pub membranes: Vec<Membrane>,
+    #[serde(default)]
+    pub cables: Vec<Cable>,
+    #[serde(default)]
+    pub supports: Vec<Support>,
+    #[serde(default)]
+    pub inputs: Vec<Input>,
+    #[serde(default)]
+    pub outputs: Vec<Output>,
+    #[serde(default)]
+    pub parameters: Vec<Parameter>,
+    #[serde(default)]
+    pub solver: SolverSettings,
+    /// The FMU's DefaultExperiment (pseudo-time: one unit of time is one load history step
+    /// as the master chooses it).
+    #[serde(default)]
+    pub experiment: Experiment,
+}
+
+/// Explicit mesh data plus generators. Generated nodes and triangles are appended after the
+/// explicit ones, in generator order.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Geometry {
+    /// Explicit node coordinates [x, y, z] in m; node ids are their positions (0-based).
+    #[serde(default)]
+    pub nodes: Vec<[f64; 3]>,
+    /// Explicit triangles as three node ids, counter-clockwise seen from the membrane's front.
+    #[serde(default)]
+    pub triangles: Vec<[usize; 3]>,
+    /// Named, ordered node sets over explicit node ids.
+    #[serde(default)]
+    pub node_sets: BTreeMap<String, Vec<usize>>,
+    /// Named triangle sets over explicit triangle ids.
+    #[serde(default)]
+    pub triangle_sets: BTreeMap<String, Vec<usize>>,
+    /// Mesh generators; each defines the triangle set `<name>` and node sets `<name>.<set>`.
+    #[serde(default)]
+    pub generators: Vec<Generator>,
+}
+
+/// A mesh generator. All generated meshes lie in a plane parallel to x-y.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Generator {
+    /// Rectangle [x0, x0+size_x] x [y0, y0+size_y] at height z0, nx x ny cells, each cell split
+    /// into two triangles (alternating diagonals when `pattern` is "crossed").
+    /// Node sets: `all`, `edge_bottom` (y = y0, ordered by x), `edge_top`, `edge_left`
+    /// (x = x0, ordered by y), `edge_right`, `corner_bl`, `corner_br`, `corner_tl`, `corner_tr`,
+    /// `center` (the node nearest the centre), `boundary` (all edge nodes).
+    Rectangle {
+        name: String,
+        /// Lower-left corner [x0, y0, z0] in m.
+        origin: [f64; 3],
+        /// [size_x, size_y] in m.
+        size: [f64; 2],
+        /// [nx, ny] cells.
+        divisions: [usize; 2],
+        #[serde(default)]
+        pattern: DiagonalPattern,
+    },
+    /// Disc of radius `radius` centred at `center`, `rings` rings of nearly equilateral
+    /// triangles (ring k has 6k nodes). Node sets: `all`, `center`, `rim` (outer ring,
+    /// counter-clockwise), `boundary` (= rim).
+    Disc {
+        name: String,
+        center: [f64; 3],
+        radius: f64,
+        rings: usize,
+    },
+    /// Annulus inner_radius < r < outer_radius, `rings` radial divisions (geometric grading by
+    /// `grading`, 1 = uniform) and `sectors` nodes per ring. Node sets: `all`, `inner_rim`,
+    /// `outer_rim` (counter-clockwise), `boundary` (both rims).
+    Annulus {
+        name: String,
+        center: [f64; 3],
+        inner_radius: f64,
+        outer_radius: f64,
+        rings: usize,
+        sectors: usize,
+        #[serde(default = "one")]
+        grading: f64,
+    },
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// How the rectangle generator splits its cells.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum DiagonalPattern {
+    /// All diagonals from lower-left to upper-right.
+    Right,
+    /// All diagonals from lower-right to upper-left.
+    Left,
+    /// Alternating diagonals (a symmetric "union jack" on cell pairs).
+    #[default]
+    Crossed,
+}
+
+/// A reference to nodes: explicit ids or the name of a node set.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(untagged)]
+pub enum NodeRef {
+    Ids(Vec<usize>),
+    Set(String),
+}
+
+/// A reference to one node: an id or the name of a one-node set.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(untagged)]
+pub enum OneNode {
+    Id(usize),
+    Set(String),
+}
+
+/// A reference to triangles: explicit ids or the name of a triangle set.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(untagged)]
+pub enum TriangleRef {
+    Ids(Vec<usize>),
+    Set(String),
+}
+
+/// A membrane group.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Membrane {
+    pub name: String,
+    pub triangles: TriangleRef,
+    /// Thickness in m (> 0).
+    pub thickness: f64,
+    pub material: Material,
+}
+
+/// Membrane material (plane stress, total Lagrangian).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Material {
+    /// St Venant-Kirchhoff: S = D E with the isotropic plane-stress D. For films at small
+    /// strain (below a few %). `E` in Pa, `nu` in [0, 0.5).
+    Svk {
+        #[serde(rename = "E")]
+        young: f64,
+        nu: f64,
+    },
+}
+
+/// Strain law of a cable.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum StrainLaw {
+    /// T = EA (l - L0) / L0.
+    #[default]
+    Engineering,
+    /// T = EA (l² - L0²) l / (2 L0³)  (Green-Lagrange strain, PK2 stress, SVK).
+    GreenLagrange,
+}
+
+/// A tension-only cable: a chain of 2-node elements along `nodes`.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Cable {
+    pub name: String,
+    /// At least two distinct nodes, in order along the cable.
+    pub nodes: NodeRef,
+    /// Axial stiffness E·A in N (> 0).
+    #[serde(rename = "EA")]
+    pub ea: f64,
+    #[serde(default)]
+    pub strain: StrainLaw,
+    /// Tension in N in the initial (scene) geometry; sets the unstretched length of every
+    /// segment. Give at most one of `pretension` and `unstretched_length`; neither = 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pretension: Option<f64>,
+    /// Total unstretched length in m, shared among the segments in proportion to their
+    /// initial lengths.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unstretched_length: Option<f64>,
+}
+
+/// A displacement component.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, JsonSchema, PartialEq, Eq, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum Component {
+    X,
+    Y,
+    Z,
+}
+
+impl Component {
+    pub fn index(self) -> usize {
+        match self {
+            Component::X => 0,
+            Component::Y => 1,
+            Component::Z => 2,
+        }
+    }
+}
+
+/// Fixed displacement components on a node set.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Support {
+    pub nodes: NodeRef,
+    /// Components held at zero displacement.
+    pub fix: Vec<Component>,
+}
+
+/// A named load that becomes an FMU input (causality input, continuous Real).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Input {
+    /// Variable name (flat FMI name: letters, digits, `_`, `.`, `[`, `]`).
+    pub name: String,
+    pub load: Load,
+    /// Value the FMU uses until the master sets one; also the value of the initial equilibrium.
+    #[serde(default)]
+    pub start: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<f64>,
+    #[serde(default)]
+    pub description: String,
+}
+
+/// What an input does.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Load {
+    /// Total force in N along `direction` (normalised), split equally over the set's nodes.
+    /// Dead load: the direction does not follow the structure.
+    PointForce { nodes: NodeRef, direction: [f64; 3] },
+    /// Pressure in Pa on a membrane group. `follower: true`: normal to the deformed surface,
+    /// per deformed area (inflation). `follower: false`: dead, per reference area along the
+    /// reference normal.
+    Pressure {
+        membrane: String,
+        #[serde(default = "yes")]
+        follower: bool,
+    },
+    /// Prescribed displacement in m of one component of every node of the set.
+    Displacement { nodes: NodeRef, component: Component },
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// A named probe that becomes an FMU output.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Output {
+    pub name: String,
+    pub probe: Probe,
+    #[serde(default)]
+    pub description: String,
+}
+
+/// What an output measures.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Probe {
+    /// Displacement component of one node, m.
+    Displacement { node: OneNode, component: Component },
+    /// Current position component of one node, m.
+    Position { node: OneNode, component: Component },
+    /// Current total length of a cable, m.
+    CableLength { cable: String },
+    /// Axial force of a cable, N: of segment `segment` (0-based), or the largest if absent.
+    CableTension {
+        cable: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        segment: Option<usize>,
+    },
+    /// Sum of the reaction forces (N) in one component over the constrained nodes of a set:
+    /// the force the supports and prescribed displacements exert on the structure.
+    Reaction { nodes: NodeRef, component: Component },
+    /// Newton iterations used by the last step (all internal increments), Integer.
+    NewtonIterations,
+}
+
+/// A scene value exposed as an FMU parameter.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Parameter {
+    /// Variable name.
+    pub name: String,
+    /// What it sets: `membranes.<name>.E`, `membranes.<name>.nu`, `membranes.<name>.thickness`,
+    /// `cables.<name>.EA`, `cables.<name>.pretension`, `solver.artificial_prestress`.
+    pub target: String,
+    #[serde(default)]
+    pub variability: ParameterVariability,
+    #[serde(default)]
+    pub description: String,
+}
+
+/// When a parameter may change.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ParameterVariability {
+    /// Set before initialization only.
+    #[default]
+    Fixed,
+    /// May also change at communication points; takes effect from the next step.
+    Tunable,
+}
+
+/// Newton and path-following settings. Every default is chosen for the shipped scenes and
+/// explained on its field.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSettings {
+    /// Relative residual tolerance: converged when |R|∞ <= tolerance · (|f_ext|∞ + |reactions|∞)
+    /// and the last correction is below `tolerance` times the displacement scale. 1e-9 keeps
+    /// verification at 1e-8 honest while quadratic convergence makes it cheap.
+    pub tolerance: f64,
+    /// Newton iterations per load increment before it is cut back. 25: quadratic convergence
+    /// needs under 10; more is a sign the increment is too large.
+    pub max_iterations: usize,
+    /// First load increment inside a step, as a fraction of the step's load change (1 = try the
+    /// whole step at once).
+    pub initial_increment: f64,
+    /// Smallest increment before the step is declared failed (1e-4: ten thousand increments).
+    pub min_increment: f64,
+    /// Increment growth aims at this many iterations per increment (6).
+    pub target_iterations: usize,
+    /// Artificial isotropic prestress in Pa for flat, stress-free membranes. It enters the
+    /// tangent only (never the residual), so it changes the iteration path, not the equilibrium.
+    /// Absent: 1e-4 · E of each flat membrane group (about 1 % of the stress at qa/Eh = 1e-3);
+    /// 0 switches it off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub artificial_prestress: Option<f64>,
+    /// Energy (slope) line search on every Newton correction.
+    pub line_search: bool,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        SolverSettings {
+            tolerance: 1e-9,
+            max_iterations: 25,
+            initial_increment: 1.0,
+            min_increment: 1e-4,
+            target_iterations: 6,
+            artificial_prestress: None,
+            line_search: true,
+        }
+    }
+}
+
+/// The FMU's DefaultExperiment.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Experiment {
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub step_size: f64,
+}
+
+impl Default for Experiment {
+    fn default() -> Self {
+        Experiment {
+            start_time: 0.0,
+            stop_time: 1.0,
+            step_size: 0.1,
+        }
+    }
+}
+
+/// A scene that could not be read: the JSON path and what is wrong there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Problem {
+    /// JSON path such as `cables[0].nodes[3]` (empty for the whole document).
+    pub path: String,
+    pub message: String,
+}
+
+impl std::fmt::Display for Problem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.path.is_empty() {
+            write!(f, "{}", self.message)
+        } else {
+            write!(f, "{}: {}", self.path, self.message)
+        }
+    }
+}
+
+impl Scene {
+    /// Parse a scene from JSON text. A syntax or type error is reported with its JSON path.
+    pub fn from_json(text: &str) -> Result<Scene, Problem> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let path = if path == "." { String::new() } else { path };
+            Problem {
+                path,
+                message: e.into_inner().to_string(),
+            }
+        })
+    }
+
+    /// Pretty JSON text of the scene (what is stored in an FMU's resources).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a scene always serializes")
+    }
+
+    /// The JSON Schema of the format.
+    pub fn json_schema() -> String {
+        let schema = schemars::schema_for!(Scene);
+        serde_json::to_string_pretty(&schema).expect("a schema always serializes")
+    }
+}

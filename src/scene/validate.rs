@@ -1,0 +1,503 @@
+//! Semantic checks of a parsed scene. Every problem is reported (not only the first), each with
+//! the JSON path of the field and a sentence a user can act on.
+
+use super::generate::{resolve, Mesh};
+use super::{Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION};
+use crate::variables;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// All problems of a scene; empty means valid.
+pub fn validate(scene: &Scene) -> Vec<Problem> {
+    let mut v = Validator { problems: Vec::new() };
+    v.header(scene);
+    v.generators(scene);
+    if !v.problems.is_empty() {
+        // Without a sound mesh the references below cannot be checked meaningfully.
+        return v.problems;
+    }
+    let mesh = resolve(&scene.geometry);
+    v.explicit_geometry(scene, &mesh);
+    v.membranes(scene, &mesh);
+    v.cables(scene, &mesh);
+    let held = v.supports(scene, &mesh);
+    v.inputs(scene, &mesh, &held);
+    v.outputs(scene, &mesh, &held);
+    v.parameters(scene);
+    v.names(scene);
+    v.solver(scene);
+    v.problems
+}
+
+struct Validator {
+    problems: Vec<Problem>,
+}
+
+fn positive(x: f64) -> bool {
+    x.is_finite() && x > 0.0
+}
+
+/// A C identifier: what an FMU modelIdentifier and a shared-library name must be.
+pub fn is_identifier(s: &str) -> bool {
+    let mut chars = s.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// A flat FMI variable name we accept: identifier characters plus `.`, `[`, `]`.
+fn is_variable_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.chars().all(|c| c.is_ascii_alphanumeric() || "_.[]".contains(c))
+        && !s.starts_with(|c: char| c.is_ascii_digit() || c == '.')
+}
+
+impl Validator {
+    fn push(&mut self, path: impl Into<String>, message: impl Into<String>) {
+        self.problems.push(Problem {
+            path: path.into(),
+            message: message.into(),
+        });
+    }
+
+    fn header(&mut self, s: &Scene) {
+        if s.format != FORMAT_VERSION {
+            self.push("format", format!("format {} is not supported; this build reads format {FORMAT_VERSION}", s.format));
+        }
+        if !is_identifier(&s.name) {
+            self.push("name", format!("\"{}\" is not a C identifier (letters, digits and _, not starting with a digit); it names the FMU and its library", s.name));
+        }
+        let e = &s.experiment;
+        if !(e.start_time.is_finite() && e.stop_time.is_finite() && e.stop_time > e.start_time) {
+            self.push("experiment.stop_time", "must be finite and greater than start_time");
+        }
+        if !positive(e.step_size) {
+            self.push("experiment.step_size", "must be a positive number");
+        }
+    }
+
+    fn generators(&mut self, s: &Scene) {
+        for (i, node) in s.geometry.nodes.iter().enumerate() {
+            if node.iter().any(|x| !x.is_finite()) {
+                self.push(format!("geometry.nodes[{i}]"), "coordinates must be finite numbers");
+            }
+        }
+        let mut seen = BTreeSet::new();
+        for (i, g) in s.geometry.generators.iter().enumerate() {
+            let p = format!("geometry.generators[{i}]");
+            let name = match g {
+                Generator::Rectangle { name, .. } | Generator::Disc { name, .. } | Generator::Annulus { name, .. } => name,
+            };
+            if !is_identifier(name) {
+                self.push(format!("{p}.name"), format!("\"{name}\" must be an identifier (letters, digits, _)"));
+            }
+            if !seen.insert(name.clone()) || s.geometry.triangle_sets.contains_key(name) {
+                self.push(format!("{p}.name"), format!("\"{name}\" is used twice; generator and triangle-set names must be unique"));
+            }
+            match g {
+                Generator::Rectangle { origin, size, divisions, .. } => {
+                    if origin.iter().any(|x| !x.is_finite()) {
+                        self.push(format!("{p}.origin"), "must be finite");
+                    }
+                    if !positive(size[0]) || !positive(size[1]) {
+                        self.push(format!("{p}.size"), "both sizes must be positive lengths in m");
+                    }
+                    if divisions[0] == 0 || divisions[1] == 0 {
+                        self.push(format!("{p}.divisions"), "needs at least one cell in each direction");
+                    }
+                }
+                Generator::Disc { center, radius, rings, .. } => {
+                    if center.iter().any(|x| !x.is_finite()) {
+                        self.push(format!("{p}.center"), "must be finite");
+                    }
+                    if !positive(*radius) {
+                        self.push(format!("{p}.radius"), "must be a positive length in m");
+                    }
+                    if *rings == 0 {
+                        self.push(format!("{p}.rings"), "needs at least one ring");
+                    }
+                }
+                Generator::Annulus { center, inner_radius, outer_radius, rings, sectors, grading, .. } => {
+                    if center.iter().any(|x| !x.is_finite()) {
+                        self.push(format!("{p}.center"), "must be finite");
+                    }
+                    if !positive(*inner_radius) || !(outer_radius > inner_radius) || !outer_radius.is_finite() {
+                        self.push(format!("{p}.inner_radius"), "needs 0 < inner_radius < outer_radius");
+                    }
+                    if *rings == 0 {
+                        self.push(format!("{p}.rings"), "needs at least one ring");
+                    }
+                    if *sectors < 3 {
+                        self.push(format!("{p}.sectors"), "needs at least 3 sectors");
+                    }
+                    if !positive(*grading) {
+                        self.push(format!("{p}.grading"), "must be positive (1 = uniform)");
+                    }
+                }
+            }
+        }
+    }
+
+    fn explicit_geometry(&mut self, s: &Scene, mesh: &Mesh) {
+        let n = s.geometry.nodes.len();
+        for (i, t) in s.geometry.triangles.iter().enumerate() {
+            let mut ok = true;
+            for (k, &id) in t.iter().enumerate() {
+                if id >= n {
+                    self.push(format!("geometry.triangles[{i}][{k}]"), format!("unknown node {id}: geometry.nodes has {n} nodes (ids 0 to {})", n.saturating_sub(1)));
+                    ok = false;
+                }
+            }
+            if ok && triangle_area(mesh, t) <= 1e-14 * longest_edge2(mesh, t) {
+                self.push(format!("geometry.triangles[{i}]"), format!("zero-area triangle {i} (its three nodes are collinear or repeated)"));
+            }
+        }
+        for (name, ids) in &s.geometry.node_sets {
+            for (k, &id) in ids.iter().enumerate() {
+                if id >= n {
+                    self.push(format!("geometry.node_sets.{name}[{k}]"), format!("unknown node {id}"));
+                }
+            }
+            if mesh.node_sets.get(name) != Some(ids) {
+                self.push(format!("geometry.node_sets.{name}"), "clashes with a generated node set of the same name");
+            }
+        }
+        let nt = s.geometry.triangles.len();
+        for (name, ids) in &s.geometry.triangle_sets {
+            for (k, &id) in ids.iter().enumerate() {
+                if id >= nt {
+                    self.push(format!("geometry.triangle_sets.{name}[{k}]"), format!("unknown triangle {id}: geometry.triangles has {nt}"));
+                }
+            }
+        }
+    }
+
+    /// Resolve a node reference, reporting unknown ids or sets. Returns None on a problem.
+    fn nodes(&mut self, mesh: &Mesh, r: &NodeRef, path: &str) -> Option<Vec<usize>> {
+        match r {
+            NodeRef::Set(name) => match mesh.node_sets.get(name) {
+                Some(ids) if !ids.is_empty() => Some(ids.clone()),
+                Some(_) => {
+                    self.push(path, format!("node set \"{name}\" is empty"));
+                    None
+                }
+                None => {
+                    self.push(path, format!("no node set is named \"{name}\"{}", suggest(name, mesh.node_sets.keys())));
+                    None
+                }
+            },
+            NodeRef::Ids(ids) => {
+                let mut ok = !ids.is_empty();
+                if ids.is_empty() {
+                    self.push(path, "lists no nodes");
+                }
+                for (k, &id) in ids.iter().enumerate() {
+                    if id >= mesh.nodes.len() {
+                        self.push(format!("{path}[{k}]"), format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()));
+                        ok = false;
+                    }
+                }
+                ok.then(|| ids.clone())
+            }
+        }
+    }
+
+    fn one_node(&mut self, mesh: &Mesh, r: &OneNode, path: &str) -> Option<usize> {
+        let ids = match r {
+            OneNode::Id(id) => self.nodes(mesh, &NodeRef::Ids(vec![*id]), path)?,
+            OneNode::Set(name) => self.nodes(mesh, &NodeRef::Set(name.clone()), path)?,
+        };
+        if ids.len() != 1 {
+            self.push(path, format!("names {} nodes; a probe needs exactly one", ids.len()));
+            return None;
+        }
+        Some(ids[0])
+    }
+
+    fn membranes(&mut self, s: &Scene, mesh: &Mesh) {
+        for (i, m) in s.membranes.iter().enumerate() {
+            let p = format!("membranes[{i}]");
+            match &m.triangles {
+                TriangleRef::Set(name) => {
+                    if !mesh.triangle_sets.contains_key(name) {
+                        self.push(format!("{p}.triangles"), format!("no triangle set is named \"{name}\"{}", suggest(name, mesh.triangle_sets.keys())));
+                    } else if mesh.triangle_sets[name].is_empty() {
+                        self.push(format!("{p}.triangles"), format!("triangle set \"{name}\" is empty"));
+                    }
+                }
+                TriangleRef::Ids(ids) => {
+                    if ids.is_empty() {
+                        self.push(format!("{p}.triangles"), "lists no triangles");
+                    }
+                    for (k, &id) in ids.iter().enumerate() {
+                        if id >= mesh.triangles.len() {
+                            self.push(format!("{p}.triangles[{k}]"), format!("unknown triangle {id}: the mesh has {}", mesh.triangles.len()));
+                        }
+                    }
+                }
+            }
+            if !positive(m.thickness) {
+                self.push(format!("{p}.thickness"), format!("{} is not a positive thickness in m", m.thickness));
+            }
+            let Material::Svk { young, nu } = m.material;
+            if !positive(young) {
+                self.push(format!("{p}.material.E"), format!("{young} is not a positive Young's modulus in Pa"));
+            }
+            if !(nu.is_finite() && (0.0..0.5).contains(&nu)) {
+                self.push(format!("{p}.material.nu"), format!("{nu}: Poisson's ratio must be in [0, 0.5) for the SVK membrane"));
+            }
+        }
+    }
+
+    fn cables(&mut self, s: &Scene, mesh: &Mesh) {
+        for (i, c) in s.cables.iter().enumerate() {
+            let p = format!("cables[{i}]");
+            if let Some(ids) = self.nodes(mesh, &c.nodes, &format!("{p}.nodes")) {
+                if ids.len() < 2 {
+                    self.push(format!("{p}.nodes"), format!("a cable needs at least two nodes, this one has {}", ids.len()));
+                }
+                for k in 1..ids.len() {
+                    let (a, b) = (mesh.nodes[ids[k - 1]], mesh.nodes[ids[k]]);
+                    if dist(a, b) <= 0.0 {
+                        self.push(format!("{p}.nodes[{k}]"), format!("segment {} has zero length (nodes {} and {} coincide)", k - 1, ids[k - 1], ids[k]));
+                    }
+                }
+            }
+            if !positive(c.ea) {
+                self.push(format!("{p}.EA"), format!("{} is not a positive axial stiffness in N", c.ea));
+            }
+            if c.pretension.is_some() && c.unstretched_length.is_some() {
+                self.push(format!("{p}.pretension"), "give either pretension or unstretched_length, not both");
+            }
+            if let Some(t) = c.pretension {
+                if !(t.is_finite() && t >= 0.0) {
+                    self.push(format!("{p}.pretension"), format!("{t} is not a tension in N (>= 0)"));
+                }
+            }
+            if let Some(l) = c.unstretched_length {
+                if !positive(l) {
+                    self.push(format!("{p}.unstretched_length"), format!("{l} is not a positive length in m"));
+                }
+            }
+        }
+    }
+
+    /// Supports; returns the held (node, component) pairs.
+    fn supports(&mut self, s: &Scene, mesh: &Mesh) -> BTreeSet<(usize, usize)> {
+        let mut held = BTreeSet::new();
+        for (i, sup) in s.supports.iter().enumerate() {
+            let p = format!("supports[{i}]");
+            if sup.fix.is_empty() {
+                self.push(format!("{p}.fix"), "names no component; use [\"x\", \"y\", \"z\"] to clamp");
+            }
+            if let Some(ids) = self.nodes(mesh, &sup.nodes, &format!("{p}.nodes")) {
+                for id in ids {
+                    for c in &sup.fix {
+                        held.insert((id, c.index()));
+                    }
+                }
+            }
+        }
+        let mut prescribed = BTreeSet::new();
+        for (i, input) in s.inputs.iter().enumerate() {
+            if let Load::Displacement { nodes, component } = &input.load {
+                let p = format!("inputs[{i}].load.nodes");
+                if let Some(ids) = self.nodes(mesh, nodes, &p) {
+                    for id in ids {
+                        let key = (id, component.index());
+                        if held.contains(&key) && !prescribed.contains(&key) {
+                            self.push(&p, format!("node {id} is already fixed in {component:?} by a support; a prescribed displacement cannot move it"));
+                        } else if !prescribed.insert(key) {
+                            self.push(&p, format!("node {id} component {component:?} is prescribed by two inputs"));
+                        }
+                        held.insert(key);
+                    }
+                }
+            }
+        }
+        if held.is_empty() && (!s.membranes.is_empty() || !s.cables.is_empty()) {
+            self.push("supports", "nothing is held: add a support or a prescribed displacement, or the structure floats freely");
+        }
+        held
+    }
+
+    fn inputs(&mut self, s: &Scene, mesh: &Mesh, _held: &BTreeSet<(usize, usize)>) {
+        for (i, input) in s.inputs.iter().enumerate() {
+            let p = format!("inputs[{i}]");
+            match &input.load {
+                Load::PointForce { nodes, direction } => {
+                    self.nodes(mesh, nodes, &format!("{p}.load.nodes"));
+                    let n = direction.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    if !positive(n) {
+                        self.push(format!("{p}.load.direction"), "must be a non-zero finite vector");
+                    }
+                }
+                Load::Pressure { membrane, .. } => {
+                    if !s.membranes.iter().any(|m| &m.name == membrane) {
+                        let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
+                        self.push(format!("{p}.load.membrane"), format!("no membrane group is named \"{membrane}\"{}", suggest(membrane, names.into_iter())));
+                    }
+                }
+                Load::Displacement { .. } => {} // checked with the supports
+            }
+            if !input.start.is_finite() {
+                self.push(format!("{p}.start"), "must be a finite number");
+            }
+            if let (Some(lo), Some(hi)) = (input.min, input.max) {
+                if lo > hi {
+                    self.push(format!("{p}.min"), format!("min {lo} is above max {hi}"));
+                }
+            }
+            if input.min.is_some_and(|lo| input.start < lo) || input.max.is_some_and(|hi| input.start > hi) {
+                self.push(format!("{p}.start"), format!("start {} is outside [min, max]", input.start));
+            }
+        }
+    }
+
+    fn outputs(&mut self, s: &Scene, mesh: &Mesh, held: &BTreeSet<(usize, usize)>) {
+        for (i, out) in s.outputs.iter().enumerate() {
+            let p = format!("outputs[{i}].probe");
+            match &out.probe {
+                Probe::Displacement { node, .. } | Probe::Position { node, .. } => {
+                    self.one_node(mesh, node, &format!("{p}.node"));
+                }
+                Probe::CableLength { cable } => self.cable_name(s, cable, &format!("{p}.cable")),
+                Probe::CableTension { cable, segment } => {
+                    self.cable_name(s, cable, &format!("{p}.cable"));
+                    if let (Some(seg), Some(c)) = (segment, s.cables.iter().find(|c| &c.name == cable)) {
+                        let n = match &c.nodes {
+                            NodeRef::Ids(ids) => ids.len(),
+                            NodeRef::Set(name) => mesh.node_sets.get(name).map_or(0, Vec::len),
+                        };
+                        if *seg + 1 >= n.max(1) {
+                            self.push(format!("{p}.segment"), format!("cable \"{cable}\" has {} segments (0 to {})", n.saturating_sub(1), n.saturating_sub(2)));
+                        }
+                    }
+                }
+                Probe::Reaction { nodes, component } => {
+                    if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.nodes")) {
+                        if !ids.iter().any(|&id| held.contains(&(id, component.index()))) {
+                            self.push(format!("{p}.nodes"), format!("no node of this set is held in {component:?}, so there is no reaction to report"));
+                        }
+                    }
+                }
+                Probe::NewtonIterations => {}
+            }
+        }
+    }
+
+    fn cable_name(&mut self, s: &Scene, cable: &str, path: &str) {
+        if !s.cables.iter().any(|c| c.name == cable) {
+            let names: Vec<&String> = s.cables.iter().map(|c| &c.name).collect();
+            self.push(path, format!("no cable is named \"{cable}\"{}", suggest(cable, names.into_iter())));
+        }
+    }
+
+    fn parameters(&mut self, s: &Scene) {
+        for (i, p) in s.parameters.iter().enumerate() {
+            let path = format!("parameters[{i}].target");
+            match variables::parameter_value(s, &p.target) {
+                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|thickness, cables.<name>.EA|pretension or solver.artificial_prestress", p.target)),
+                Some(v) if !v.is_finite() => self.push(path, "solver.artificial_prestress must be given a value in solver settings to be exposed as a parameter"),
+                Some(_) => {}
+            }
+            if p.target.ends_with(".pretension") {
+                if let Some(c) = s.cables.iter().find(|c| p.target == format!("cables.{}.pretension", c.name)) {
+                    if c.unstretched_length.is_some() {
+                        self.push(format!("parameters[{i}].target"), format!("cable \"{}\" is given by unstretched_length; expose that or give it a pretension", c.name));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Variable names: valid and unique over parameters, inputs and outputs; names unique
+    /// within membranes and cables.
+    fn names(&mut self, s: &Scene) {
+        let mut seen: BTreeMap<&str, String> = BTreeMap::new();
+        let all = s.parameters.iter().map(|p| (&p.name, "parameters"))
+            .chain(s.inputs.iter().map(|p| (&p.name, "inputs")))
+            .chain(s.outputs.iter().map(|p| (&p.name, "outputs")));
+        let mut counters: BTreeMap<&str, usize> = BTreeMap::new();
+        for (name, list) in all {
+            let k = counters.entry(list).or_insert(0);
+            let path = format!("{list}[{k}].name");
+            *k += 1;
+            if !is_variable_name(name) || name == "time" {
+                self.push(&path, format!("\"{name}\" is not a usable variable name (letters, digits, _ . [ ], not \"time\")"));
+            }
+            if let Some(first) = seen.get(name.as_str()) {
+                self.push(&path, format!("\"{name}\" is already used by {first}"));
+            } else {
+                seen.insert(name, path);
+            }
+        }
+        for (list, names) in [
+            ("membranes", s.membranes.iter().map(|m| &m.name).collect::<Vec<_>>()),
+            ("cables", s.cables.iter().map(|c| &c.name).collect()),
+        ] {
+            let mut set = BTreeSet::new();
+            for (i, n) in names.iter().enumerate() {
+                if !is_identifier(n) {
+                    self.push(format!("{list}[{i}].name"), format!("\"{n}\" must be an identifier (letters, digits, _)"));
+                }
+                if !set.insert(*n) {
+                    self.push(format!("{list}[{i}].name"), format!("\"{n}\" is used twice"));
+                }
+            }
+        }
+    }
+
+    fn solver(&mut self, s: &Scene) {
+        let st = &s.solver;
+        if !(positive(st.tolerance) && st.tolerance < 1e-2) {
+            self.push("solver.tolerance", format!("{} must be in (0, 1e-2)", st.tolerance));
+        }
+        if st.max_iterations == 0 {
+            self.push("solver.max_iterations", "must be at least 1");
+        }
+        if !(positive(st.initial_increment) && st.initial_increment <= 1.0) {
+            self.push("solver.initial_increment", "must be in (0, 1]");
+        }
+        if !(positive(st.min_increment) && st.min_increment <= st.initial_increment) {
+            self.push("solver.min_increment", "must be positive and not above initial_increment");
+        }
+        if st.target_iterations == 0 {
+            self.push("solver.target_iterations", "must be at least 1");
+        }
+        if let Some(p) = st.artificial_prestress {
+            if !(p.is_finite() && p >= 0.0) {
+                self.push("solver.artificial_prestress", format!("{p} must be a stress >= 0 in Pa"));
+            }
+        }
+    }
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+fn triangle_area(mesh: &Mesh, t: &[usize; 3]) -> f64 {
+    let [a, b, c] = t.map(|i| mesh.nodes[i]);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let w = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    0.5 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt()
+}
+
+fn longest_edge2(mesh: &Mesh, t: &[usize; 3]) -> f64 {
+    let [a, b, c] = t.map(|i| mesh.nodes[i]);
+    dist(a, b).max(dist(b, c)).max(dist(c, a)).powi(2)
+}
+
+/// ", did you mean \"x\"?" for the closest known name sharing a prefix or suffix, else a list.
+fn suggest<'a>(name: &str, known: impl Iterator<Item = &'a String>) -> String {
+    let known: Vec<&String> = known.collect();
+    if known.is_empty() {
+        return String::new();
+    }
+    let tail = name.rsplit('.').next().unwrap_or(name);
+    if let Some(k) = known.iter().find(|k| k.ends_with(tail) || k.starts_with(name)) {
+        return format!("; did you mean \"{k}\"?");
+    }
+    let shown: Vec<&str> = known.iter().take(8).map(|s| s.as_str()).collect();
+    format!("; known: {}", shown.join(", "))
+}

@@ -1,0 +1,204 @@
+//! The solver: assembly, sparse LDLT, Newton with a slope line search, and load increments with
+//! cut-back. It sees the model only; it owns scratch buffers, never committed state.
+//!
+//! ```text
+//! solve_step(from, to, u):  load(λ) = from + λ (to − from),  λ: 0 → 1 in increments Δλ
+//!   each increment: Newton from the last converged u; on failure Δλ ← Δλ/4 (down to min);
+//!   on success Δλ ← Δλ · clamp(sqrt(N_target / N_iter), 1/2, 2)
+//! Newton: K Δu = −R on free DOFs; u ← u + α Δu with α from the slope s(α) = Δu·R(u + αΔu)
+//!   converged when |R_free|∞ <= tol · max(|f_ext|∞, |reactions|∞) (+ a round-off floor)
+//! ```
+//! Non-convergence is an outcome ([`StepReport`]), not an error: the caller's state is left as
+//! it was.
+//!
+//! # References
+//! Crisfield 1991, *Non-linear Finite Element Analysis of Solids and Structures*, vol. 1, §9.3
+//! (line search on the slope); Bonet & Wood 2008, §9.6; MECHANICS.md §5.
+
+pub mod assemble;
+pub mod linear;
+mod newton;
+
+use crate::model::Model;
+use assemble::Pattern;
+use linear::Ldlt;
+
+/// Solver settings (the scene's solver section; defaults are documented there).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    pub tolerance: f64,
+    pub max_iterations: usize,
+    pub initial_increment: f64,
+    pub min_increment: f64,
+    pub target_iterations: usize,
+    pub line_search: bool,
+}
+
+/// How a step ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// The whole load change was applied and the equilibrium committed.
+    Converged,
+    /// The smallest increment failed; nothing was committed.
+    Failed,
+}
+
+/// What one step did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepReport {
+    pub outcome: Outcome,
+    /// Newton iterations (factorizations), failed increments included.
+    pub iterations: usize,
+    /// Converged increments.
+    pub increments: usize,
+    /// Increments that were cut back.
+    pub cutbacks: usize,
+    /// Fraction of the load change reached by converged increments (1 when converged).
+    pub reached: f64,
+    /// Why the step failed (empty when converged).
+    pub message: String,
+    /// One line per increment and per Newton iteration (capped), for the FMU's logSolver.
+    pub log: Vec<String>,
+}
+
+impl StepReport {
+    pub fn converged(&self) -> bool {
+        self.outcome == Outcome::Converged
+    }
+}
+
+/// Longest solver log kept per step.
+const MAX_LOG_LINES: usize = 2000;
+
+pub struct Solver {
+    settings: Settings,
+    pattern: Pattern,
+    linear: Ldlt,
+    residual: Vec<f64>,
+    trial: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl Solver {
+    /// Pattern, position maps and the symbolic factorization, once per model.
+    pub fn new(model: &Model, settings: Settings) -> Solver {
+        let pattern = Pattern::new(model);
+        let linear = Ldlt::new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone());
+        let n = model.dof_count();
+        Solver {
+            settings,
+            linear,
+            residual: vec![0.0; n],
+            trial: vec![0.0; n],
+            rhs: vec![0.0; pattern.n],
+            pattern,
+        }
+    }
+
+    /// Number of unknowns (free DOFs).
+    pub fn free_dofs(&self) -> usize {
+        self.pattern.n
+    }
+
+    /// Residual R = f_int − f_ext on all DOFs (reactions at held DOFs) at `u` under `loads`.
+    pub fn residual(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<f64> {
+        let mut r = vec![0.0; model.dof_count()];
+        assemble::assemble(model, &self.pattern, u, loads, &mut r, None);
+        r
+    }
+
+    /// Apply the load change `from` → `to` starting from the equilibrium `u`. On convergence
+    /// `u` is the new equilibrium; otherwise `u` is unchanged.
+    pub fn solve_step(&mut self, model: &Model, from: &[f64], to: &[f64], u: &mut Vec<f64>) -> StepReport {
+        let mut report = StepReport {
+            outcome: Outcome::Failed,
+            iterations: 0,
+            increments: 0,
+            cutbacks: 0,
+            reached: 0.0,
+            message: String::new(),
+            log: Vec::new(),
+        };
+        let s = self.settings.clone();
+        let mut converged = u.clone();
+        let (mut lambda, mut dl) = (0.0, s.initial_increment);
+        while lambda < 1.0 {
+            dl = dl.min(1.0 - lambda);
+            let target = if 1.0 - (lambda + dl) < 1e-12 { 1.0 } else { lambda + dl };
+            let loads: Vec<f64> = from.iter().zip(to).map(|(a, b)| a + target * (b - a)).collect();
+            let mut trial = converged.clone();
+            prescribe(model, &loads, &mut trial);
+            let result = self.newton(model, &loads, &mut trial, &mut report.log);
+            match result {
+                Ok(iters) => {
+                    report.iterations += iters;
+                    report.increments += 1;
+                    push_log(&mut report.log, format!("increment λ {lambda:.6} -> {target:.6}: converged in {iters} iterations"));
+                    converged = trial;
+                    lambda = target;
+                    let ratio = (s.target_iterations as f64 / iters.max(1) as f64).sqrt();
+                    dl *= ratio.clamp(0.5, 2.0);
+                }
+                Err((iters, why)) => {
+                    report.iterations += iters;
+                    report.cutbacks += 1;
+                    push_log(&mut report.log, format!("increment λ {lambda:.6} -> {target:.6}: {why}; cutting back"));
+                    dl *= 0.25;
+                    if dl < s.min_increment {
+                        report.reached = lambda;
+                        report.message = format!(
+                            "no equilibrium found beyond load fraction {lambda:.6} of the step (smallest increment {:.1e} failed: {why})",
+                            s.min_increment
+                        );
+                        return report;
+                    }
+                }
+            }
+        }
+        *u = converged;
+        report.outcome = Outcome::Converged;
+        report.reached = 1.0;
+        report
+    }
+}
+
+impl Solver {
+    /// Wall time in seconds of one assembly (residual and tangent) and of one numeric
+    /// factorization plus solve at `u`: the floor a Newton iteration cannot beat. Best of
+    /// `repeats`.
+    pub fn time_floor(&mut self, model: &Model, u: &[f64], loads: &[f64], repeats: usize) -> (f64, f64) {
+        let (mut assembly, mut factor) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..repeats.max(1) {
+            let t = std::time::Instant::now();
+            assemble::assemble(model, &self.pattern, u, loads, &mut self.residual, Some(self.linear.values_mut()));
+            assembly = assembly.min(t.elapsed().as_secs_f64());
+            for (d, &e) in self.pattern.eq.iter().enumerate() {
+                if e != assemble::NONE {
+                    self.rhs[e] = -self.residual[d];
+                }
+            }
+            let t = std::time::Instant::now();
+            // A failed factorization still costs its time; the floor is about cost only.
+            let _ = self.linear.factor_solve(&mut self.rhs);
+            factor = factor.min(t.elapsed().as_secs_f64());
+        }
+        (assembly, factor)
+    }
+}
+
+/// Set prescribed DOFs to their load values.
+fn prescribe(model: &Model, loads: &[f64], u: &mut [f64]) {
+    for (load, &value) in model.loads.iter().zip(loads) {
+        if let crate::model::LoadModel::Displacement(dofs) = load {
+            for &d in dofs {
+                u[d] = value;
+            }
+        }
+    }
+}
+
+fn push_log(log: &mut Vec<String>, line: String) {
+    if log.len() < MAX_LOG_LINES {
+        log.push(line);
+    }
+}

@@ -1,0 +1,110 @@
+//! Newton iterations of one load increment, with the slope line search.
+
+use super::assemble::{assemble, NONE};
+use super::{push_log, Solver};
+use crate::model::Model;
+
+/// Smallest current/reference area ratio a membrane triangle may reach (inversion guard).
+const MIN_AREA_RATIO: f64 = 1e-6;
+/// Line search: accept α when |s(α)| <= LS_RATIO · |s(0)|.
+const LS_RATIO: f64 = 0.5;
+const LS_MAX_TRIES: usize = 8;
+
+impl Solver {
+    /// Iterate to equilibrium at fixed `loads`. Ok(iterations) or Err((iterations, reason)).
+    pub(super) fn newton(&mut self, model: &Model, loads: &[f64], u: &mut [f64], log: &mut Vec<String>) -> Result<usize, (usize, String)> {
+        // Round-off level of internal forces (reference geometry is not exact in floating point).
+        let floor = 1e-12 * model.force_scale.max(f64::MIN_POSITIVE);
+        for it in 0..=self.settings.max_iterations {
+            let info = assemble(model, &self.pattern, u, loads, &mut self.residual, Some(self.linear.values_mut()));
+            if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
+                return Err((it, format!("a membrane element inverted or collapsed (area ratio {:.2e})", info.min_area_ratio)));
+            }
+            let (free, held) = self.norms();
+            if !free.is_finite() {
+                return Err((it, "the residual is not finite".into()));
+            }
+            let scale = info.external.max(held);
+            if free <= self.settings.tolerance * scale + floor {
+                return Ok(it);
+            }
+            if it == self.settings.max_iterations {
+                return Err((it, format!("no convergence in {it} iterations (|R| = {free:.3e}, scale {scale:.3e})")));
+            }
+            for (d, &e) in self.pattern.eq.iter().enumerate() {
+                if e != NONE {
+                    self.rhs[e] = -self.residual[d];
+                }
+            }
+            self.linear.factor_solve(&mut self.rhs).map_err(|why| (it + 1, why))?;
+            let alpha = if self.settings.line_search { self.line_search(model, loads, u) } else { 1.0 };
+            self.update(u, alpha);
+            push_log(log, format!("  iteration {}: |R| = {free:.3e} (scale {scale:.3e}), step α = {alpha:.3}", it + 1));
+        }
+        unreachable!("the loop returns at it == max_iterations")
+    }
+
+    /// |R|∞ over free DOFs and over held DOFs (the reactions).
+    fn norms(&self) -> (f64, f64) {
+        let (mut free, mut held) = (0.0f64, 0.0f64);
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            let r = self.residual[d].abs();
+            if e == NONE {
+                held = held.max(r);
+            } else if r.is_nan() {
+                free = f64::NAN;
+            } else {
+                free = free.max(r);
+            }
+        }
+        (free, held)
+    }
+
+    fn update(&self, u: &mut [f64], alpha: f64) {
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                u[d] += alpha * self.rhs[e];
+            }
+        }
+    }
+
+    /// Slope s(α) = Δu·R(u + αΔu) along the Newton direction (Δu in `rhs`).
+    fn slope(&mut self, model: &Model, loads: &[f64], u: &[f64], alpha: f64) -> f64 {
+        self.trial.copy_from_slice(u);
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                self.trial[d] += alpha * self.rhs[e];
+            }
+        }
+        let info = assemble(model, &self.pattern, &self.trial, loads, &mut self.residual, None);
+        if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
+            return f64::NAN;
+        }
+        self.pattern.eq.iter().enumerate().filter(|(_, &e)| e != NONE).map(|(d, &e)| self.rhs[e] * self.residual[d]).sum()
+    }
+
+    /// Step length: 1 unless the slope at the full step is worse than half the initial one;
+    /// then regula falsi on s(α) between 0 and the last overshooting α.
+    fn line_search(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> f64 {
+        // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
+        let s0: f64 = self.pattern.eq.iter().enumerate().filter(|(_, &e)| e != NONE).map(|(d, &e)| self.rhs[e] * self.residual[d]).sum();
+        if !(s0 < 0.0) {
+            return 1.0;
+        }
+        let mut alpha = 1.0;
+        for _ in 0..LS_MAX_TRIES {
+            let s = self.slope(model, loads, u, alpha);
+            if s.is_nan() {
+                alpha *= 0.5;
+                continue;
+            }
+            if s.abs() <= LS_RATIO * s0.abs() || s < 0.0 {
+                // Close enough to the minimum, or still descending: take it.
+                return alpha;
+            }
+            // Overshoot (s > 0): secant between (0, s0) and (α, s).
+            alpha = (alpha * s0 / (s0 - s)).max(0.05 * alpha);
+        }
+        alpha
+    }
+}

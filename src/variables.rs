@@ -1,0 +1,217 @@
+//! The variable table: the one list of FMU variables (parameters, inputs, outputs) derived from
+//! a scene. The FMU binary, the generated modelDescription.xml and `velarium solve` all read
+//! this table, so they cannot disagree.
+//!
+//! Value references are unique across types and assigned in order: parameters, inputs,
+//! outputs (scene order within each), starting at 1.
+
+use crate::scene::{Load, Material, ParameterVariability, Probe, Scene};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Causality {
+    Parameter,
+    Input,
+    Output,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variability {
+    Fixed,
+    Tunable,
+    Continuous,
+    Discrete,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VarType {
+    Real,
+    Integer,
+}
+
+/// Which scene entry a variable stands for (index into `scene.parameters`, `.inputs`,
+/// `.outputs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binding {
+    Parameter(usize),
+    Input(usize),
+    Output(usize),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Variable {
+    pub name: String,
+    pub value_reference: u32,
+    pub causality: Causality,
+    pub variability: Variability,
+    pub var_type: VarType,
+    /// Unit name as declared in the modelDescription's UnitDefinitions (None: dimensionless).
+    pub unit: Option<&'static str>,
+    /// Start value (parameters and inputs); outputs have none (initial = calculated).
+    pub start: Option<f64>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    pub description: String,
+    pub binding: Binding,
+}
+
+/// Every unit a variable may carry, with its SI base-unit exponents (kg, m, s).
+pub const UNITS: &[(&str, [i32; 3])] = &[("m", [0, 1, 0]), ("N", [1, 1, -2]), ("Pa", [1, -1, -2])];
+
+/// Build the table of a (validated) scene. Parameter start values are read from the scene.
+pub fn table(scene: &Scene) -> Vec<Variable> {
+    let mut vars = Vec::new();
+    let mut vr = 1u32;
+    let mut next = || {
+        let v = vr;
+        vr += 1;
+        v
+    };
+    for (i, p) in scene.parameters.iter().enumerate() {
+        vars.push(Variable {
+            name: p.name.clone(),
+            value_reference: next(),
+            causality: Causality::Parameter,
+            variability: match p.variability {
+                ParameterVariability::Fixed => Variability::Fixed,
+                ParameterVariability::Tunable => Variability::Tunable,
+            },
+            var_type: VarType::Real,
+            unit: parameter_unit(&p.target),
+            start: parameter_value(scene, &p.target),
+            min: None,
+            max: None,
+            description: p.description.clone(),
+            binding: Binding::Parameter(i),
+        });
+    }
+    for (i, input) in scene.inputs.iter().enumerate() {
+        vars.push(Variable {
+            name: input.name.clone(),
+            value_reference: next(),
+            causality: Causality::Input,
+            variability: Variability::Continuous,
+            var_type: VarType::Real,
+            unit: Some(match input.load {
+                Load::PointForce { .. } => "N",
+                Load::Pressure { .. } => "Pa",
+                Load::Displacement { .. } => "m",
+            }),
+            start: Some(input.start),
+            min: input.min,
+            max: input.max,
+            description: input.description.clone(),
+            binding: Binding::Input(i),
+        });
+    }
+    for (i, out) in scene.outputs.iter().enumerate() {
+        let (var_type, variability, unit) = match out.probe {
+            Probe::NewtonIterations => (VarType::Integer, Variability::Discrete, None),
+            Probe::Displacement { .. } | Probe::Position { .. } | Probe::CableLength { .. } => {
+                (VarType::Real, Variability::Continuous, Some("m"))
+            }
+            Probe::CableTension { .. } | Probe::Reaction { .. } => (VarType::Real, Variability::Continuous, Some("N")),
+        };
+        vars.push(Variable {
+            name: out.name.clone(),
+            value_reference: next(),
+            causality: Causality::Output,
+            variability,
+            var_type,
+            unit,
+            start: None,
+            min: None,
+            max: None,
+            description: out.description.clone(),
+            binding: Binding::Output(i),
+        });
+    }
+    vars
+}
+
+/// The unit of a parameter target, or None for a dimensionless one (nu) or an unknown target.
+pub fn parameter_unit(target: &str) -> Option<&'static str> {
+    match target.rsplit('.').next() {
+        Some("E") | Some("artificial_prestress") => Some("Pa"),
+        Some("thickness") => Some("m"),
+        Some("EA") | Some("pretension") => Some("N"),
+        _ => None,
+    }
+}
+
+/// Split a parameter target `membranes.<name>.<field>` into its three parts.
+fn split_target(target: &str) -> Option<(&str, &str, &str)> {
+    if let Some(field) = target.strip_prefix("solver.") {
+        return Some(("solver", "", field));
+    }
+    let (kind, rest) = target.split_once('.')?;
+    let (name, field) = rest.rsplit_once('.')?;
+    Some((kind, name, field))
+}
+
+/// The scene's current value of a parameter target (None: the target does not exist).
+pub fn parameter_value(scene: &Scene, target: &str) -> Option<f64> {
+    let (kind, name, field) = split_target(target)?;
+    match (kind, field) {
+        ("solver", "artificial_prestress") => Some(scene.solver.artificial_prestress.unwrap_or(f64::NAN)),
+        ("membranes", _) => {
+            let m = scene.membranes.iter().find(|m| m.name == name)?;
+            let Material::Svk { young, nu } = m.material;
+            match field {
+                "E" => Some(young),
+                "nu" => Some(nu),
+                "thickness" => Some(m.thickness),
+                _ => None,
+            }
+        }
+        ("cables", _) => {
+            let c = scene.cables.iter().find(|c| c.name == name)?;
+            match field {
+                "EA" => Some(c.ea),
+                "pretension" => Some(c.pretension.unwrap_or(0.0)),
+                _ => None,
+            }
+        }
+        _ => None,
+    }
+}
+
+/// Write a parameter value into the scene. Returns false when the target does not exist.
+pub fn set_parameter_value(scene: &mut Scene, target: &str, value: f64) -> bool {
+    let Some((kind, name, field)) = split_target(target) else {
+        return false;
+    };
+    match (kind, field) {
+        ("solver", "artificial_prestress") => {
+            scene.solver.artificial_prestress = Some(value);
+            true
+        }
+        ("membranes", _) => {
+            let Some(m) = scene.membranes.iter_mut().find(|m| m.name == name) else {
+                return false;
+            };
+            let Material::Svk { young, nu } = &mut m.material;
+            match field {
+                "E" => *young = value,
+                "nu" => *nu = value,
+                "thickness" => m.thickness = value,
+                _ => return false,
+            }
+            true
+        }
+        ("cables", _) => {
+            let Some(c) = scene.cables.iter_mut().find(|c| c.name == name) else {
+                return false;
+            };
+            match field {
+                "EA" => c.ea = value,
+                "pretension" => {
+                    c.pretension = Some(value);
+                    c.unstretched_length = None;
+                }
+                _ => return false,
+            }
+            true
+        }
+        _ => false,
+    }
+}

@@ -1,0 +1,52 @@
+//! Helpers shared by the verification tests: drive an Engine by variable names.
+#![allow(dead_code)]
+
+use velarium::variables::VarType;
+use velarium::{Engine, Scene};
+
+/// Path of a shipped scene.
+pub fn shipped(name: &str) -> String {
+    format!("{}/modelDescription/{name}/scene.json", env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn read_scene(path: &str) -> Scene {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    Scene::from_json(&text).unwrap_or_else(|p| panic!("{path}: {p}"))
+}
+
+pub fn engine(scene: Scene) -> Engine {
+    Engine::try_new(scene).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn vr(engine: &Engine, name: &str) -> u32 {
+    engine
+        .variables()
+        .iter()
+        .find(|v| v.name == name)
+        .unwrap_or_else(|| panic!("no variable {name}"))
+        .value_reference
+}
+
+pub fn set(engine: &mut Engine, name: &str, value: f64) {
+    let r = vr(engine, name);
+    engine.set_real(r, value).unwrap();
+}
+
+pub fn get(engine: &Engine, name: &str) -> f64 {
+    let v = engine.variables().iter().find(|v| v.name == name).unwrap();
+    match v.var_type {
+        VarType::Real => engine.get_real(v.value_reference).unwrap(),
+        VarType::Integer => engine.get_integer(v.value_reference).unwrap() as f64,
+    }
+}
+
+/// Solve and insist on convergence.
+pub fn solve(engine: &mut Engine) -> velarium::solver::StepReport {
+    let report = engine.solve();
+    assert!(report.converged(), "did not converge: {}\n{}", report.message, report.log.join("\n"));
+    report
+}
+
+pub fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
