@@ -241,7 +241,8 @@ impl Engine {
     }
 
     fn refresh_outputs(&mut self) {
-        self.outputs = results::evaluate(&self.model, &mut self.solver, &self.state);
+        let s = &self.state;
+        self.outputs = results::evaluate(&self.model, &mut self.solver, &s.displacement, &s.applied, s.last_iterations);
     }
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.

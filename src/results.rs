@@ -10,15 +10,14 @@
 //! iterations     Newton iterations of the last step
 //! ```
 
-use crate::engine::EngineState;
 use crate::model::{cable, Model, ProbeModel};
 use crate::solver::Solver;
 
 /// Every output of the model, in probe order.
-pub fn evaluate(model: &Model, solver: &mut Solver, state: &EngineState) -> Vec<f64> {
-    let u = &state.displacement;
+/// `u` displacement, `applied` input values it carries, `iterations` of the last step.
+pub fn evaluate(model: &Model, solver: &mut Solver, u: &[f64], applied: &[f64], iterations: u32) -> Vec<f64> {
     let needs_reactions = model.probes.iter().any(|p| matches!(p, ProbeModel::Reaction { .. }));
-    let r = if needs_reactions { solver.residual(model, u, &state.applied) } else { Vec::new() };
+    let r = if needs_reactions { solver.residual(model, u, applied) } else { Vec::new() };
     model
         .probes
         .iter()
@@ -34,7 +33,7 @@ pub fn evaluate(model: &Model, solver: &mut Solver, state: &EngineState) -> Vec<
                 }
             }
             ProbeModel::Reaction { dofs } => dofs.iter().filter(|&&d| model.held[d]).map(|&d| r[d]).sum(),
-            ProbeModel::NewtonIterations => state.last_iterations as f64,
+            ProbeModel::NewtonIterations => iterations as f64,
         })
         .collect()
 }

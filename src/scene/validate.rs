@@ -10,8 +10,9 @@ use std::collections::{BTreeMap, BTreeSet};
 pub fn validate(scene: &Scene) -> Vec<Problem> {
     let mut v = Validator { problems: Vec::new() };
     v.header(scene);
+    let before = v.problems.len();
     v.generators(scene);
-    if !v.problems.is_empty() {
+    if v.problems.len() > before {
         // Without a sound mesh the references below cannot be checked meaningfully.
         return v.problems;
     }
@@ -202,7 +203,11 @@ impl Validator {
 
     fn one_node(&mut self, mesh: &Mesh, r: &OneNode, path: &str) -> Option<usize> {
         let ids = match r {
-            OneNode::Id(id) => self.nodes(mesh, &NodeRef::Ids(vec![*id]), path)?,
+            OneNode::Id(id) if *id >= mesh.nodes.len() => {
+                self.push(path, format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()));
+                return None;
+            }
+            OneNode::Id(id) => vec![*id],
             OneNode::Set(name) => self.nodes(mesh, &NodeRef::Set(name.clone()), path)?,
         };
         if ids.len() != 1 {

@@ -1,0 +1,331 @@
+//! The FMI 2.0 Co-Simulation `modelDescription.xml` of a scene, generated from the same variable
+//! table the FMU binary uses (`crate::variables`), so the two cannot disagree.
+//!
+//! ```text
+//! fmiModelDescription  fmiVersion 2.0, modelName = scene.name, guid = hash of this document
+//!   CoSimulation       modelIdentifier = scene.name, the capability flags of crate::fmi
+//!   UnitDefinitions    only the units some variable uses, with SI base-unit exponents
+//!   LogCategories      crate::fmi::log_categories(): every category the binary logs under
+//!   DefaultExperiment  scene.experiment
+//!   ModelVariables     parameters (fixed | tunable, start), inputs (continuous, start, no
+//!                      `initial`), outputs (Real continuous | Integer discrete, no start)
+//!   ModelStructure     Outputs and InitialUnknowns: every output, 1-based indices, no
+//!                      `dependencies` attribute (= depends on every input and parameter)
+//! ```
+//!
+//! The GUID is a 128-bit FNV-1a hash of the document rendered with a placeholder GUID: the same
+//! scene and crate version give the same GUID on every machine, any change to the description
+//! gives a different one, and the FMU binary compares it at instantiation.
+
+use crate::engine::Engine;
+use crate::fmi;
+use crate::scene::Scene;
+use crate::variables::{Causality, VarType, Variability, Variable, UNITS};
+use std::fmt::Write;
+
+/// Stands where the GUID goes while the document is hashed.
+const GUID_PLACEHOLDER: &str = "{00000000-0000-0000-0000-000000000000}";
+
+/// Display units offered per unit: (unit, display unit, factor from unit to display unit).
+const DISPLAY_UNITS: &[(&str, &str, f64)] = &[
+    ("m", "mm", 1e3),
+    ("N", "kN", 1e-3),
+    ("Pa", "MPa", 1e-6),
+    ("Pa", "GPa", 1e-9),
+];
+
+/// The complete modelDescription.xml of the engine's scene.
+pub fn model_description(engine: &Engine) -> String {
+    let scene = engine.scene();
+    let variables = engine.variables();
+    let draft = render(scene, variables, GUID_PLACEHOLDER);
+    draft.replacen(GUID_PLACEHOLDER, &guid_of(&draft), 1)
+}
+
+/// The GUID of the engine's scene, `{8-4-4-4-12}` lowercase hex.
+pub fn guid(engine: &Engine) -> String {
+    guid_of(&render(engine.scene(), engine.variables(), GUID_PLACEHOLDER))
+}
+
+fn render(scene: &Scene, variables: &[Variable], guid: &str) -> String {
+    let mut x = String::new();
+    x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    header(&mut x, scene, variables, guid);
+    co_simulation(&mut x, scene);
+    unit_definitions(&mut x, variables);
+    log_categories(&mut x);
+    let e = &scene.experiment;
+    let _ = writeln!(
+        x,
+        "  <DefaultExperiment startTime=\"{}\" stopTime=\"{}\" stepSize=\"{}\"/>",
+        real(e.start_time),
+        real(e.stop_time),
+        real(e.step_size)
+    );
+    model_variables(&mut x, variables);
+    model_structure(&mut x, variables);
+    x.push_str("</fmiModelDescription>\n");
+    x
+}
+
+fn header(x: &mut String, scene: &Scene, variables: &[Variable], guid: &str) {
+    let convention = if variables.iter().all(|v| !v.name.contains(['.', '['])) {
+        "flat"
+    } else if variables.iter().all(|v| is_structured_name(&v.name)) {
+        "structured"
+    } else {
+        "flat"
+    };
+    x.push_str("<fmiModelDescription\n  fmiVersion=\"2.0\"\n");
+    let _ = writeln!(x, "  modelName=\"{}\"", escape(&scene.name));
+    let _ = writeln!(x, "  guid=\"{guid}\"");
+    if !scene.description.is_empty() {
+        let _ = writeln!(x, "  description=\"{}\"", escape(&scene.description));
+    }
+    let _ = writeln!(x, "  generationTool=\"Velarium {}\"", env!("CARGO_PKG_VERSION"));
+    let _ = writeln!(x, "  variableNamingConvention=\"{convention}\"");
+    x.push_str("  numberOfEventIndicators=\"0\">\n");
+}
+
+fn co_simulation(x: &mut String, scene: &Scene) {
+    let _ = write!(x, "  <CoSimulation\n    modelIdentifier=\"{}\"", escape(&scene.name));
+    for (flag, value) in fmi::capability_flags() {
+        let _ = write!(x, "\n    {flag}=\"{value}\"");
+    }
+    let _ = writeln!(x, "\n    maxOutputDerivativeOrder=\"{}\"/>", fmi::MAX_OUTPUT_DERIVATIVE_ORDER);
+}
+
+/// Units in `UNITS` order, only those some variable uses; absent when none is used.
+fn unit_definitions(x: &mut String, variables: &[Variable]) {
+    let used: Vec<&(&str, [i32; 3])> = UNITS
+        .iter()
+        .filter(|(name, _)| variables.iter().any(|v| v.unit == Some(*name)))
+        .collect();
+    if used.is_empty() {
+        return;
+    }
+    x.push_str("  <UnitDefinitions>\n");
+    for (name, exponents) in used {
+        let _ = writeln!(x, "    <Unit name=\"{}\">", escape(name));
+        x.push_str("      <BaseUnit");
+        for (base, exponent) in ["kg", "m", "s"].iter().zip(exponents) {
+            if *exponent != 0 {
+                let _ = write!(x, " {base}=\"{exponent}\"");
+            }
+        }
+        x.push_str("/>\n");
+        for (_, display, factor) in DISPLAY_UNITS.iter().filter(|(u, _, _)| u == name) {
+            let _ = writeln!(x, "      <DisplayUnit name=\"{display}\" factor=\"{}\"/>", real(*factor));
+        }
+        x.push_str("    </Unit>\n");
+    }
+    x.push_str("  </UnitDefinitions>\n");
+}
+
+fn log_categories(x: &mut String) {
+    x.push_str("  <LogCategories>\n");
+    for (name, description) in fmi::log_categories() {
+        let _ = writeln!(
+            x,
+            "    <Category name=\"{}\" description=\"{}\"/>",
+            escape(name),
+            escape(description)
+        );
+    }
+    x.push_str("  </LogCategories>\n");
+}
+
+fn model_variables(x: &mut String, variables: &[Variable]) {
+    x.push_str("  <ModelVariables>\n");
+    for (i, v) in variables.iter().enumerate() {
+        let _ = writeln!(x, "    <!-- index {} -->", i + 1);
+        scalar_variable(x, v);
+    }
+    x.push_str("  </ModelVariables>\n");
+}
+
+fn scalar_variable(x: &mut String, v: &Variable) {
+    let _ = write!(
+        x,
+        "    <ScalarVariable\n      name=\"{}\"\n      valueReference=\"{}\"",
+        escape(&v.name),
+        v.value_reference
+    );
+    if !v.description.is_empty() {
+        let _ = write!(x, "\n      description=\"{}\"", escape(&v.description));
+    }
+    let _ = writeln!(
+        x,
+        "\n      causality=\"{}\"\n      variability=\"{}\">",
+        causality(v.causality),
+        variability(v.variability)
+    );
+    let (element, mut attributes) = match v.var_type {
+        VarType::Real => ("Real", String::new()),
+        VarType::Integer => ("Integer", String::new()),
+    };
+    if let Some(unit) = v.unit {
+        let _ = write!(attributes, " unit=\"{}\"", escape(unit));
+    }
+    // Outputs are `initial="calculated"` (the default) and so carry no start value.
+    let start = if v.causality == Causality::Output { None } else { v.start };
+    for (name, value) in [("start", start), ("min", v.min), ("max", v.max)] {
+        if let Some(value) = value {
+            let text = match v.var_type {
+                VarType::Real => real(value),
+                VarType::Integer => format!("{}", value.round() as i64),
+            };
+            let _ = write!(attributes, " {name}=\"{text}\"");
+        }
+    }
+    let _ = writeln!(x, "      <{element}{attributes}/>");
+    x.push_str("    </ScalarVariable>\n");
+}
+
+/// Outputs and InitialUnknowns both list exactly the outputs (all `initial="calculated"`; there
+/// are no calculated parameters), by 1-based index, in index order.
+fn model_structure(x: &mut String, variables: &[Variable]) {
+    let outputs: Vec<usize> = variables
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Output)
+        .map(|(i, _)| i + 1)
+        .collect();
+    x.push_str("  <ModelStructure>\n");
+    if !outputs.is_empty() {
+        for section in ["Outputs", "InitialUnknowns"] {
+            let _ = writeln!(x, "    <{section}>");
+            for index in &outputs {
+                let _ = writeln!(x, "      <Unknown index=\"{index}\"/>");
+            }
+            let _ = writeln!(x, "    </{section}>");
+        }
+    }
+    x.push_str("  </ModelStructure>\n");
+}
+
+fn causality(c: Causality) -> &'static str {
+    match c {
+        Causality::Parameter => "parameter",
+        Causality::Input => "input",
+        Causality::Output => "output",
+    }
+}
+
+fn variability(v: Variability) -> &'static str {
+    match v {
+        Variability::Fixed => "fixed",
+        Variability::Tunable => "tunable",
+        Variability::Continuous => "continuous",
+        Variability::Discrete => "discrete",
+    }
+}
+
+/// An `xs:double`: Rust's shortest round-trip text (exponent form for very large or small
+/// magnitudes), `NaN`, `INF`, `-INF`.
+fn real(value: f64) -> String {
+    if value.is_nan() {
+        "NaN".into()
+    } else if value.is_infinite() {
+        if value > 0.0 { "INF" } else { "-INF" }.into()
+    } else {
+        let text = format!("{value:?}");
+        text.strip_suffix(".0").map(str::to_owned).unwrap_or(text)
+    }
+}
+
+/// Text for an XML attribute value in double quotes.
+fn escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            '\n' => out.push_str("&#10;"),
+            '\r' => out.push_str("&#13;"),
+            '\t' => out.push_str("&#9;"),
+            c if (c as u32) < 0x20 => {} // not representable in XML 1.0
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// A name under FMI 2's structured convention as far as our names can go (no quoted names, no
+/// `der(...)`): `B-name [indices] {"." B-name [indices]}`, indices `[1]` or `[1,2]`.
+fn is_structured_name(name: &str) -> bool {
+    name.split('.').all(|part| {
+        let (base, indices) = match part.find('[') {
+            Some(at) => (&part[..at], Some(&part[at..])),
+            None => (part, None),
+        };
+        let mut chars = base.chars();
+        let base_ok = matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+            && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
+        let indices_ok = indices.is_none_or(|ix| {
+            ix.strip_prefix('[')
+                .and_then(|s| s.strip_suffix(']'))
+                .is_some_and(|list| list.split(',').all(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit())))
+        });
+        base_ok && indices_ok
+    })
+}
+
+/// 128-bit FNV-1a of the text, formatted `{8-4-4-4-12}`.
+fn guid_of(text: &str) -> String {
+    const OFFSET: u128 = 0x6c62272e07bb014262b821756295c58d;
+    const PRIME: u128 = 0x0000000001000000000000000000013b;
+    let hash = text
+        .bytes()
+        .fold(OFFSET, |h, b| (h ^ u128::from(b)).wrapping_mul(PRIME));
+    let hex = format!("{hash:032x}");
+    format!(
+        "{{{}-{}-{}-{}-{}}}",
+        &hex[0..8],
+        &hex[8..12],
+        &hex[12..16],
+        &hex[16..20],
+        &hex[20..32]
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv1a_128_matches_the_published_vectors() {
+        // Of "" it is the offset basis; of "a" the value in the FNV reference test suite.
+        assert_eq!(guid_of(""), "{6c62272e-07bb-0142-62b8-21756295c58d}");
+        assert_eq!(guid_of("a"), "{d228cb69-6f1a-8caf-7891-2b704e4a8964}");
+    }
+
+    #[test]
+    fn structured_names() {
+        for ok in ["a", "a.b", "cable[2].length", "u[12,3]", "_x1.y_2[0]"] {
+            assert!(is_structured_name(ok), "{ok}");
+        }
+        for bad in ["a..b", "a[", "a[]", "1a", "a.[1]", "a]b", ".a", "a."] {
+            assert!(!is_structured_name(bad), "{bad}");
+        }
+    }
+
+    #[test]
+    fn reals_are_xs_doubles() {
+        assert_eq!(real(1.0), "1");
+        assert_eq!(real(0.1), "0.1");
+        assert_eq!(real(1e-9), "1e-9");
+        assert_eq!(real(2.1e11), "210000000000");
+        assert_eq!(real(1e20), "1e20");
+        assert_eq!(real(f64::NAN), "NaN");
+        assert_eq!(real(f64::NEG_INFINITY), "-INF");
+    }
+
+    #[test]
+    fn escapes_attribute_text() {
+        assert_eq!(escape("a<b & \"c\" 'd'>\n"), "a&lt;b &amp; &quot;c&quot; &apos;d&apos;&gt;&#10;");
+    }
+}

@@ -1,0 +1,272 @@
+//! The 34 exported FMI 2.0 functions (common + Co-Simulation), each a short shim:
+//! [`with_instance`] (NULL instance -> fmi2Error, panic boundary), pointer arguments turned into
+//! `Result`s by the helpers of `ffi.rs`, then one method of [`Instance`].
+//!
+//! # Safety
+//! The contract is the FMI 2.0 standard's: `c` is NULL or an instance from `fmi2Instantiate`
+//! not yet freed; an array argument with length `n > 0` is NULL (rejected) or holds `n`
+//! elements; strings are NUL-terminated; FMU states come from this FMU. Within that contract
+//! no call crashes or unwinds into the caller.
+
+#![allow(non_snake_case, clippy::missing_safety_doc)]
+
+use super::ffi::{
+    free_component, guard, into_component, release_state, slice_in, slice_out, state_mut, store_new_state, store_state,
+    text, texts, with_instance, write_out, CallbackFunctions, Component, FmuState,
+};
+use super::fsm::Func;
+use super::instance::{Instance, InstantiateArgs};
+use super::logging::Logger;
+use super::Status;
+use std::ffi::{c_char, c_int, c_uint};
+use std::ptr::null_mut;
+
+/// `fmi2Boolean`.
+pub type Fmi2Boolean = c_int;
+
+#[no_mangle]
+pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char {
+    c"default".as_ptr()
+}
+
+#[no_mangle]
+pub extern "C" fn fmi2GetVersion() -> *const c_char {
+    c"2.0".as_ptr()
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetDebugLogging(
+    c: Component,
+    logging_on: Fmi2Boolean,
+    n_categories: usize,
+    categories: *const *const c_char,
+) -> Status {
+    with_instance(c, "fmi2SetDebugLogging", |i| {
+        i.set_debug_logging(logging_on != 0, texts(categories, n_categories, "categories"))
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2Instantiate(
+    instance_name: *const c_char,
+    fmu_type: c_int,
+    fmu_guid: *const c_char,
+    fmu_resource_location: *const c_char,
+    functions: *const CallbackFunctions,
+    _visible: Fmi2Boolean,
+    logging_on: Fmi2Boolean,
+) -> Component {
+    guard(null_mut(), || {
+        let callbacks = functions.as_ref();
+        let (name, guid, location) = (text(instance_name), text(fmu_guid), text(fmu_resource_location));
+        let logger = Logger::new(
+            callbacks.and_then(|f| f.logger),
+            callbacks.map_or(null_mut(), |f| f.component_environment),
+            name.as_deref().unwrap_or_default(),
+            logging_on != 0,
+        );
+        let args = InstantiateArgs {
+            instance_name: name.as_deref(),
+            fmu_type,
+            guid: guid.as_deref(),
+            resource_location: location.as_deref(),
+        };
+        Instance::instantiate(&args, logger).map_or(null_mut(), into_component)
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2FreeInstance(c: Component) {
+    with_instance(c, "fmi2FreeInstance", Instance::freeing);
+    free_component(c);
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetupExperiment(
+    c: Component,
+    tolerance_defined: Fmi2Boolean,
+    tolerance: f64,
+    start_time: f64,
+    stop_time_defined: Fmi2Boolean,
+    stop_time: f64,
+) -> Status {
+    let tolerance = (tolerance_defined != 0).then_some(tolerance);
+    let stop_time = (stop_time_defined != 0).then_some(stop_time);
+    with_instance(c, "fmi2SetupExperiment", |i| i.setup_experiment(tolerance, start_time, stop_time))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Component) -> Status {
+    with_instance(c, "fmi2EnterInitializationMode", Instance::enter_initialization_mode)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Component) -> Status {
+    with_instance(c, "fmi2ExitInitializationMode", Instance::exit_initialization_mode)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2Terminate(c: Component) -> Status {
+    with_instance(c, "fmi2Terminate", Instance::terminate)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2Reset(c: Component) -> Status {
+    with_instance(c, "fmi2Reset", Instance::reset)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetReal(c: Component, vr: *const c_uint, nvr: usize, value: *mut f64) -> Status {
+    with_instance(c, "fmi2GetReal", |i| i.get_real(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetInteger(c: Component, vr: *const c_uint, nvr: usize, value: *mut c_int) -> Status {
+    with_instance(c, "fmi2GetInteger", |i| i.get_integer(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetBoolean(c: Component, vr: *const c_uint, nvr: usize, _value: *mut Fmi2Boolean) -> Status {
+    with_instance(c, "fmi2GetBoolean", |i| i.no_such_variables(Func::GetBoolean, "Boolean", slice_in(vr, nvr, "vr")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetString(c: Component, vr: *const c_uint, nvr: usize, _value: *mut *const c_char) -> Status {
+    with_instance(c, "fmi2GetString", |i| i.no_such_variables(Func::GetString, "String", slice_in(vr, nvr, "vr")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetReal(c: Component, vr: *const c_uint, nvr: usize, value: *const f64) -> Status {
+    with_instance(c, "fmi2SetReal", |i| i.set_real(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetInteger(c: Component, vr: *const c_uint, nvr: usize, value: *const c_int) -> Status {
+    with_instance(c, "fmi2SetInteger", |i| i.set_integer(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetBoolean(c: Component, vr: *const c_uint, nvr: usize, _value: *const Fmi2Boolean) -> Status {
+    with_instance(c, "fmi2SetBoolean", |i| i.no_such_variables(Func::SetBoolean, "Boolean", slice_in(vr, nvr, "vr")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetString(c: Component, vr: *const c_uint, nvr: usize, _value: *const *const c_char) -> Status {
+    with_instance(c, "fmi2SetString", |i| i.no_such_variables(Func::SetString, "String", slice_in(vr, nvr, "vr")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetFMUstate(c: Component, state: *mut FmuState) -> Status {
+    with_instance(c, "fmi2GetFMUstate", |i| i.get_fmu_state(|s| store_state(state, s)))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetFMUstate(c: Component, state: FmuState) -> Status {
+    with_instance(c, "fmi2SetFMUstate", |i| i.set_fmu_state(state_mut(state).map(|s| &*s)))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2FreeFMUstate(c: Component, state: *mut FmuState) -> Status {
+    with_instance(c, "fmi2FreeFMUstate", |i| i.free_fmu_state(|| release_state(state)))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: Component, state: FmuState, size: *mut usize) -> Status {
+    with_instance(c, "fmi2SerializedFMUstateSize", |i| {
+        i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| write_out(size, n, "size"))
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SerializeFMUstate(c: Component, state: FmuState, bytes: *mut c_char, size: usize) -> Status {
+    with_instance(c, "fmi2SerializeFMUstate", |i| {
+        i.serialize_fmu_state(state_mut(state).map(|s| &*s), slice_out(bytes.cast::<u8>(), size, "serializedState"))
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2DeSerializeFMUstate(c: Component, bytes: *const c_char, size: usize, state: *mut FmuState) -> Status {
+    with_instance(c, "fmi2DeSerializeFMUstate", |i| {
+        i.deserialize_fmu_state(slice_in(bytes.cast::<u8>(), size, "serializedState"), |s| store_new_state(state, s))
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
+    c: Component,
+    _unknown: *const c_uint,
+    _n_unknown: usize,
+    _known: *const c_uint,
+    _n_known: usize,
+    _dv_known: *const f64,
+    _dv_unknown: *mut f64,
+) -> Status {
+    with_instance(c, "fmi2GetDirectionalDerivative", |i| {
+        i.unsupported(Func::GetDirectionalDerivative, "providesDirectionalDerivative is false")
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
+    c: Component,
+    _vr: *const c_uint,
+    _nvr: usize,
+    _order: *const c_int,
+    _value: *const f64,
+) -> Status {
+    with_instance(c, "fmi2SetRealInputDerivatives", |i| {
+        i.unsupported(Func::SetRealInputDerivatives, "canInterpolateInputs is false; inputs are held over each step")
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
+    c: Component,
+    _vr: *const c_uint,
+    _nvr: usize,
+    _order: *const c_int,
+    _value: *mut f64,
+) -> Status {
+    with_instance(c, "fmi2GetRealOutputDerivatives", |i| {
+        i.unsupported(Func::GetRealOutputDerivatives, "maxOutputDerivativeOrder is 0")
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2DoStep(c: Component, t: f64, h: f64, no_set_prior: Fmi2Boolean) -> Status {
+    with_instance(c, "fmi2DoStep", |i| i.do_step(t, h, no_set_prior != 0))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2CancelStep(c: Component) -> Status {
+    with_instance(c, "fmi2CancelStep", |i| {
+        i.unsupported(Func::CancelStep, "fmi2DoStep never runs asynchronously, so there is no step to cancel")
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetStatus(c: Component, kind: c_int, _value: *mut Status) -> Status {
+    with_instance(c, "fmi2GetStatus", |i| i.get_status(kind))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetRealStatus(c: Component, kind: c_int, value: *mut f64) -> Status {
+    with_instance(c, "fmi2GetRealStatus", |i| i.get_real_status(kind, |v| write_out(value, v, "value")))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetIntegerStatus(c: Component, kind: c_int, _value: *mut c_int) -> Status {
+    with_instance(c, "fmi2GetIntegerStatus", |i| i.no_such_status(Func::GetIntegerStatus, kind))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetBooleanStatus(c: Component, kind: c_int, value: *mut Fmi2Boolean) -> Status {
+    with_instance(c, "fmi2GetBooleanStatus", |i| {
+        i.get_boolean_status(kind, |v| write_out(value, v as Fmi2Boolean, "value"))
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2GetStringStatus(c: Component, kind: c_int, _value: *mut *const c_char) -> Status {
+    with_instance(c, "fmi2GetStringStatus", |i| i.no_such_status(Func::GetStringStatus, kind))
+}

@@ -1,0 +1,307 @@
+//! The one panic boundary and the one set of pointer helpers of the C ABI.
+//!
+//! Every exported function goes through [`with_instance`] (or [`guard`] where there is no
+//! instance yet), which
+//!
+//! ```text
+//! 1. rejects a NULL (or foreign) instance pointer with fmi2Error,
+//! 2. runs the safe body inside catch_unwind: a panic is logged, the instance goes to the
+//!    Error state and the call returns fmi2Error (a panic never unwinds into the master),
+//! ```
+//!
+//! and arrays become slices only through [`slice_in`] / [`slice_out`]: `n == 0` gives an empty
+//! slice whatever the pointer, a NULL pointer with `n > 0` is an error naming the argument.
+//! Instances and FMU states are `Box`es handed out as raw pointers, tagged with a magic word
+//! so that a wrong kind of pointer is rejected instead of misread.
+
+use super::instance::Instance;
+use super::snapshot::Snapshot;
+use super::Status;
+use std::any::Any;
+use std::ffi::{c_char, c_int, c_void, CStr};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// `fmi2Component`.
+pub type Component = *mut c_void;
+/// `fmi2FMUstate`.
+pub type FmuState = *mut c_void;
+
+/// `fmi2CallbackLogger`: `void logger(env, instanceName, status, category, message, ...)`.
+pub type LoggerFn = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
+
+/// `fmi2CallbackFunctions`. Only the logger and the environment are used
+/// (`canNotUseMemoryManagementFunctions = true`).
+#[repr(C)]
+pub struct CallbackFunctions {
+    pub logger: Option<LoggerFn>,
+    pub allocate_memory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
+    pub free_memory: Option<unsafe extern "C" fn(*mut c_void)>,
+    pub step_finished: Option<unsafe extern "C" fn(*mut c_void, c_int)>,
+    pub component_environment: *mut c_void,
+}
+
+const INSTANCE_TAG: u64 = 0x5645_4c41_5249_4e53; // "VELARINS"
+const STATE_TAG: u64 = 0x5645_4c41_5253_5441; // "VELARSTA"
+
+/// What an instance pointer points to (the tag first, so it can be read alone).
+#[repr(C)]
+pub(crate) struct InstanceBox {
+    tag: u64,
+    instance: Instance,
+}
+
+/// What an FMU state pointer points to (the tag first).
+#[repr(C)]
+pub(crate) struct StateBox {
+    tag: u64,
+    snapshot: Snapshot,
+}
+
+/// Run `body`, turning a panic into `fallback`.
+pub(crate) fn guard<T>(fallback: T, body: impl FnOnce() -> T) -> T {
+    catch_unwind(AssertUnwindSafe(body)).unwrap_or(fallback)
+}
+
+/// The panic boundary of every function that takes an instance.
+///
+/// # Safety
+/// `c` is NULL or a pointer returned by [`into_component`] and not yet freed.
+pub(crate) unsafe fn with_instance(c: Component, function: &'static str, body: impl FnOnce(&mut Instance) -> Status) -> Status {
+    if !has_tag(c, INSTANCE_TAG) {
+        return Status::Error;
+    }
+    let instance = &mut (*(c as *mut InstanceBox)).instance;
+    match catch_unwind(AssertUnwindSafe(|| body(&mut *instance))) {
+        Ok(status) => status,
+        Err(payload) => {
+            let message = panic_message(payload.as_ref());
+            guard((), || instance.panicked(function, &message));
+            Status::Error
+        }
+    }
+}
+
+/// Whether `p` is non-NULL and starts with `tag` (reads only the tag word).
+///
+/// # Safety
+/// A non-NULL `p` points to at least 8 readable, aligned bytes.
+unsafe fn has_tag(p: *mut c_void, tag: u64) -> bool {
+    !p.is_null() && (p as *const u64).read() == tag
+}
+
+fn panic_message(payload: &(dyn Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic payload".to_string()
+    }
+}
+
+/// Hand an instance to the master.
+pub(crate) fn into_component(instance: Instance) -> Component {
+    Box::into_raw(Box::new(InstanceBox {
+        tag: INSTANCE_TAG,
+        instance,
+    })) as Component
+}
+
+/// Take an instance back and drop it. NULL or a foreign pointer: nothing happens.
+///
+/// # Safety
+/// `c` is NULL or a pointer returned by [`into_component`] and not yet freed.
+pub(crate) unsafe fn free_component(c: Component) {
+    if has_tag(c, INSTANCE_TAG) {
+        let boxed = c as *mut InstanceBox;
+        (*boxed).tag = 0;
+        guard((), || drop(Box::from_raw(boxed)));
+    }
+}
+
+/// Box a snapshot as an `fmi2FMUstate`.
+pub(crate) fn into_state(snapshot: Snapshot) -> FmuState {
+    Box::into_raw(Box::new(StateBox {
+        tag: STATE_TAG,
+        snapshot,
+    })) as FmuState
+}
+
+/// The snapshot behind an `fmi2FMUstate`, or an error naming the problem.
+///
+/// # Safety
+/// `s` is NULL or a pointer returned by [`into_state`] and not yet freed.
+pub(crate) unsafe fn state_mut<'a>(s: FmuState) -> Result<&'a mut Snapshot, String> {
+    if s.is_null() {
+        Err("the FMU state is NULL".into())
+    } else if !has_tag(s, STATE_TAG) {
+        Err("the pointer is not an FMU state of this FMU (or was already freed)".into())
+    } else {
+        Ok(&mut (*(s as *mut StateBox)).snapshot)
+    }
+}
+
+/// Free an FMU state. NULL: nothing happens.
+///
+/// # Safety
+/// As [`state_mut`].
+pub(crate) unsafe fn free_state(s: FmuState) -> Result<(), String> {
+    if s.is_null() {
+        return Ok(());
+    }
+    state_mut(s)?;
+    let boxed = s as *mut StateBox;
+    (*boxed).tag = 0;
+    guard((), || drop(Box::from_raw(boxed)));
+    Ok(())
+}
+
+/// `fmi2GetFMUstate`: a NULL `*slot` gets a new state, a non-NULL one is overwritten in place
+/// (the handle stays the same).
+///
+/// # Safety
+/// `slot` is NULL or valid for reads and writes; `*slot` is NULL or as in [`state_mut`].
+pub(crate) unsafe fn store_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), String> {
+    let slot = slot.as_mut().ok_or("argument FMUstate is NULL")?;
+    if slot.is_null() {
+        *slot = into_state(snapshot);
+    } else {
+        *state_mut(*slot)? = snapshot;
+    }
+    Ok(())
+}
+
+/// `fmi2DeSerializeFMUstate`: always a new state (whatever `*slot` held before).
+///
+/// # Safety
+/// `slot` is NULL or valid for writes.
+pub(crate) unsafe fn store_new_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), String> {
+    let slot = slot.as_mut().ok_or("argument FMUstate is NULL")?;
+    *slot = into_state(snapshot);
+    Ok(())
+}
+
+/// `fmi2FreeFMUstate`: free `*slot` and set it to NULL; a NULL `slot` or `*slot` is a no-op.
+///
+/// # Safety
+/// `slot` is NULL or valid for reads and writes; `*slot` as in [`state_mut`].
+pub(crate) unsafe fn release_state(slot: *mut FmuState) -> Result<(), String> {
+    let Some(slot) = slot.as_mut() else { return Ok(()) };
+    free_state(*slot)?;
+    *slot = std::ptr::null_mut();
+    Ok(())
+}
+
+/// An input array of `n` elements. `n == 0`: empty, whatever the pointer.
+///
+/// # Safety
+/// A non-NULL `ptr` points to `n` readable, initialized elements.
+pub(crate) unsafe fn slice_in<'a, T>(ptr: *const T, n: usize, name: &str) -> Result<&'a [T], String> {
+    if n == 0 {
+        Ok(&[])
+    } else if ptr.is_null() {
+        Err(format!("argument {name} is NULL but its length is {n}"))
+    } else {
+        Ok(std::slice::from_raw_parts(ptr, n))
+    }
+}
+
+/// An output array of `n` elements. `n == 0`: empty, whatever the pointer.
+///
+/// # Safety
+/// A non-NULL `ptr` points to `n` writable elements.
+pub(crate) unsafe fn slice_out<'a, T>(ptr: *mut T, n: usize, name: &str) -> Result<&'a mut [T], String> {
+    if n == 0 {
+        Ok(&mut [])
+    } else if ptr.is_null() {
+        Err(format!("argument {name} is NULL but its length is {n}"))
+    } else {
+        Ok(std::slice::from_raw_parts_mut(ptr, n))
+    }
+}
+
+/// A C string argument as UTF-8 text. NULL -> None; invalid UTF-8 is replaced.
+///
+/// # Safety
+/// A non-NULL `ptr` points to a NUL-terminated string.
+pub(crate) unsafe fn text<'a>(ptr: *const c_char) -> Option<std::borrow::Cow<'a, str>> {
+    (!ptr.is_null()).then(|| CStr::from_ptr(ptr).to_string_lossy())
+}
+
+/// An array of C strings (`fmi2String[]`) as text; any NULL entry is an error.
+///
+/// # Safety
+/// As [`slice_in`], and every entry as [`text`].
+pub(crate) unsafe fn texts(ptr: *const *const c_char, n: usize, name: &str) -> Result<Vec<String>, String> {
+    slice_in(ptr, n, name)?
+        .iter()
+        .enumerate()
+        .map(|(i, p)| text(*p).map(|s| s.into_owned()).ok_or(format!("{name}[{i}] is NULL")))
+        .collect()
+}
+
+/// Write through an out-pointer; NULL is an error naming it.
+///
+/// # Safety
+/// A non-NULL `ptr` is valid for a write of `T`.
+pub(crate) unsafe fn write_out<T>(ptr: *mut T, value: T, name: &str) -> Result<(), String> {
+    match ptr.as_mut() {
+        Some(p) => {
+            *p = value;
+            Ok(())
+        }
+        None => Err(format!("argument {name} is NULL")),
+    }
+}
+
+/// Call the master's variadic logger as `logger(env, name, status, category, "%s", message)`.
+pub(crate) fn call_logger(
+    logger: LoggerFn,
+    environment: *mut c_void,
+    instance_name: &CStr,
+    status: Status,
+    category: &CStr,
+    message: &CStr,
+) {
+    // SAFETY: the master gave this function pointer for exactly this call signature; every
+    // string is NUL-terminated and outlives the call; "%s" consumes exactly one char* argument.
+    unsafe {
+        logger(
+            environment,
+            instance_name.as_ptr(),
+            status,
+            category.as_ptr(),
+            c"%s".as_ptr(),
+            message.as_ptr(),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn guard_catches_a_panic() {
+        let status = guard(Status::Error, || -> Status { panic!("boom") });
+        assert_eq!(status, Status::Error);
+    }
+
+    #[test]
+    fn empty_arrays_ignore_the_pointer() {
+        let s: &[f64] = unsafe { slice_in(std::ptr::null(), 0, "vr").unwrap() };
+        assert!(s.is_empty());
+        let e = unsafe { slice_in::<f64>(std::ptr::null(), 2, "value").unwrap_err() };
+        assert!(e.contains("value") && e.contains('2'), "{e}");
+    }
+
+    #[test]
+    fn null_and_foreign_instances_are_rejected() {
+        let status = unsafe { with_instance(std::ptr::null_mut(), "f", |_| Status::Ok) };
+        assert_eq!(status, Status::Error);
+        let mut not_an_instance = [0u64; 8];
+        let c = not_an_instance.as_mut_ptr() as Component;
+        assert_eq!(unsafe { with_instance(c, "f", |_| Status::Ok) }, Status::Error);
+        unsafe { free_component(c) };
+    }
+}

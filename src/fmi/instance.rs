@@ -1,0 +1,576 @@
+//! One FMU instance in safe Rust: the engine, the calling-sequence state, the experiment, the
+//! logger. Every FMI function is a method here; the C shims in `abi.rs` only turn pointers into
+//! references, slices and closures.
+//!
+//! Each method runs through [`Instance::call`]:
+//!
+//! ```text
+//! 1. the function must be legal in the current state   else "fmiX: illegal call in state S"
+//! 2. the body runs; Err(message) is logged as "fmiX: message" (logStatusError) -> fmi2Error
+//! 3. with logCalls enabled: "fmiX(arguments) -> status"
+//! ```
+//!
+//! An illegal call or argument changes nothing. Only an internal failure (a caught panic, an
+//! initial equilibrium that does not converge) moves the instance to the Error state.
+
+use super::fsm::{FsmState, Func};
+use super::logging::{escape, Category, Logger};
+use super::snapshot::{self, Experiment, Snapshot};
+use super::uri::file_uri_to_path;
+use super::{Status, FMI2_COSIMULATION, FMI2_DO_STEP_STATUS, FMI2_LAST_SUCCESSFUL_TIME, FMI2_TERMINATED};
+use crate::description;
+use crate::engine::Engine;
+use crate::scene::Scene;
+use crate::solver::StepReport;
+use crate::variables::{Causality, VarType};
+
+/// Relative tolerance on communication points: |t - expected| <= TIME_TOLERANCE · max(1, |t|).
+pub const TIME_TOLERANCE: f64 = 1e-9;
+
+type Outcome = Result<Status, String>;
+
+/// The arguments of `fmi2Instantiate` that matter, as Rust values.
+pub struct InstantiateArgs<'a> {
+    pub instance_name: Option<&'a str>,
+    pub fmu_type: i32,
+    pub guid: Option<&'a str>,
+    pub resource_location: Option<&'a str>,
+}
+
+pub struct Instance {
+    guid: String,
+    logger: Logger,
+    engine: Engine,
+    fsm: FsmState,
+    experiment: Experiment,
+    /// The current communication point.
+    time: f64,
+    last_successful_time: f64,
+    wants_to_terminate: bool,
+    /// A panic may have left the engine half-updated: rebuild it before it is used again.
+    poisoned: bool,
+}
+
+impl Instance {
+    /// `fmi2Instantiate`: None (after logging why) when an argument, the scene or the GUID is
+    /// wrong.
+    pub fn instantiate(args: &InstantiateArgs, logger: Logger) -> Option<Instance> {
+        match build_engine(args) {
+            Ok((engine, guid)) => {
+                let instance = Instance::new(engine, guid, logger);
+                instance.logger.log(Category::Calls, &format!("fmi2Instantiate({}) -> instance", describe(args)));
+                Some(instance)
+            }
+            Err(message) => {
+                logger.log(Category::StatusError, &format!("fmi2Instantiate: {message}"));
+                None
+            }
+        }
+    }
+
+    fn new(engine: Engine, guid: String, logger: Logger) -> Instance {
+        Instance {
+            guid,
+            logger,
+            engine,
+            fsm: FsmState::Instantiated,
+            experiment: Experiment::default(),
+            time: 0.0,
+            last_successful_time: 0.0,
+            wants_to_terminate: false,
+            poisoned: false,
+        }
+    }
+
+    pub fn state(&self) -> FsmState {
+        self.fsm
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn guid(&self) -> &str {
+        &self.guid
+    }
+
+    pub fn engine(&self) -> &Engine {
+        &self.engine
+    }
+
+    /// Run one FMI function: state check, body, error logging, call trace.
+    fn call(&mut self, func: Func, args: String, body: impl FnOnce(&mut Self) -> Outcome) -> Status {
+        let outcome = if func.allowed_in(self.fsm) {
+            body(self)
+        } else {
+            Err(format!("illegal call in state {}", self.fsm))
+        };
+        let status = match outcome {
+            Ok(status) => status,
+            Err(message) => {
+                self.logger.log(Category::StatusError, &format!("{}: {message}", func.name()));
+                Status::Error
+            }
+        };
+        if self.logger.enabled(Category::Calls) {
+            self.logger.log(Category::Calls, &format!("{}({args}) -> {}", func.name(), status.name()));
+        }
+        status
+    }
+
+    /// The arguments shown in the logCalls trace (only formatted when it is enabled).
+    fn args(&self, show: impl FnOnce() -> String) -> String {
+        if self.logger.enabled(Category::Calls) {
+            show()
+        } else {
+            String::new()
+        }
+    }
+
+    /// `fmi2FreeInstance` is about to drop the instance: trace the call.
+    pub fn freeing(&mut self) -> Status {
+        self.logger.log(Category::Calls, "fmi2FreeInstance()");
+        Status::Ok
+    }
+
+    /// A panic was caught in `function`: log it and go to the Error state.
+    pub fn panicked(&mut self, function: &str, message: &str) {
+        self.fsm = FsmState::Error;
+        self.poisoned = true;
+        self.logger.log(
+            Category::StatusError,
+            &format!("{function}: internal error ({message}); the instance is now in state Error, fmi2Reset or fmi2SetFMUstate recovers it"),
+        );
+    }
+
+    /// A function this FMU does not support: log why, return fmi2Error.
+    pub fn unsupported(&mut self, func: Func, why: &str) -> Status {
+        self.call(func, String::new(), |_| Err(format!("not supported: {why}")))
+    }
+
+    pub fn set_debug_logging(&mut self, on: bool, names: Result<Vec<String>, String>) -> Status {
+        let args = self.args(|| format!("loggingOn={}, categories={:?}", on as i32, names.as_deref().unwrap_or_default()));
+        self.call(Func::SetDebugLogging, args, |s| {
+            let names = names?;
+            let names: Vec<&str> = names.iter().map(String::as_str).collect();
+            s.logger.set(on, &names)?;
+            Ok(Status::Ok)
+        })
+    }
+
+    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> Status {
+        let args = self.args(|| format!("tolerance={tolerance:?}, startTime={start_time}, stopTime={stop_time:?}"));
+        self.call(Func::SetupExperiment, args, |s| {
+            check_experiment(tolerance, start_time, stop_time)?;
+            s.experiment = Experiment {
+                done: true,
+                tolerance,
+                start_time,
+                stop_time,
+            };
+            Ok(Status::Ok)
+        })
+    }
+
+    pub fn enter_initialization_mode(&mut self) -> Status {
+        self.call(Func::EnterInitializationMode, String::new(), |s| {
+            if !s.experiment.done {
+                return Err("fmi2SetupExperiment must be called before fmi2EnterInitializationMode".into());
+            }
+            s.fsm = FsmState::InitializationMode;
+            Ok(Status::Ok)
+        })
+    }
+
+    /// Solve the equilibrium under the current inputs and parameters (the start values unless
+    /// the master set others).
+    pub fn exit_initialization_mode(&mut self) -> Status {
+        self.call(Func::ExitInitializationMode, String::new(), |s| {
+            let report = s.solve()?;
+            if !report.converged() {
+                s.fsm = FsmState::Error;
+                return Err(format!(
+                    "the initial equilibrium did not converge: {}; the instance is now in state Error",
+                    reached(&report)
+                ));
+            }
+            s.fsm = FsmState::StepComplete;
+            s.time = s.experiment.start_time;
+            s.last_successful_time = s.time;
+            Ok(Status::Ok)
+        })
+    }
+
+    pub fn terminate(&mut self) -> Status {
+        self.call(Func::Terminate, String::new(), |s| {
+            s.fsm = FsmState::Terminated;
+            Ok(Status::Ok)
+        })
+    }
+
+    /// Back to Instantiated with the start values; works from every state.
+    pub fn reset(&mut self) -> Status {
+        self.call(Func::Reset, String::new(), |s| {
+            if !s.heal()? {
+                s.engine.reset();
+            }
+            s.fsm = FsmState::Instantiated;
+            s.experiment = Experiment::default();
+            s.time = 0.0;
+            s.last_successful_time = 0.0;
+            s.wants_to_terminate = false;
+            Ok(Status::Ok)
+        })
+    }
+
+    /// After a panic, rebuild the engine from its scene. Returns whether it did.
+    fn heal(&mut self) -> Result<bool, String> {
+        if !self.poisoned {
+            return Ok(false);
+        }
+        self.engine = Engine::try_new(self.engine.scene().clone()).map_err(|e| e.to_string())?;
+        self.poisoned = false;
+        Ok(true)
+    }
+
+    /// `engine.solve()` with its log lines sent to logSolver.
+    fn solve(&mut self) -> Result<StepReport, String> {
+        if self.poisoned {
+            return Err("the engine is unusable after an internal error; call fmi2Reset".into());
+        }
+        let report = self.engine.solve();
+        if self.logger.enabled(Category::Solver) {
+            for line in &report.log {
+                self.logger.log(Category::Solver, line);
+            }
+        }
+        Ok(report)
+    }
+
+    pub fn get_real(&mut self, vr: Result<&[u32], String>, values: Result<&mut [f64], String>) -> Status {
+        let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
+        self.call(Func::GetReal, args, |s| {
+            for (r, v) in vr?.iter().zip(values?.iter_mut()) {
+                *v = s.engine.get_real(*r).map_err(|e| e.to_string())?;
+            }
+            Ok(Status::Ok)
+        })
+    }
+
+    pub fn get_integer(&mut self, vr: Result<&[u32], String>, values: Result<&mut [i32], String>) -> Status {
+        let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
+        self.call(Func::GetInteger, args, |s| {
+            for (r, v) in vr?.iter().zip(values?.iter_mut()) {
+                *v = s.engine.get_integer(*r).map_err(|e| e.to_string())?;
+            }
+            Ok(Status::Ok)
+        })
+    }
+
+    /// Get or set Boolean / String: this FMU has no such variables, so any reference is
+    /// unknown.
+    pub fn no_such_variables(&mut self, func: Func, kind: &str, vr: Result<&[u32], String>) -> Status {
+        let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
+        self.call(func, args, |_| match vr?.first() {
+            Some(r) => Err(format!("no {kind} variable has value reference {r} (this FMU has no {kind} variables)")),
+            None => Ok(Status::Ok),
+        })
+    }
+
+    /// Set inputs and parameters. All or nothing: on any rejected value the engine state is
+    /// restored to what it was before the call.
+    pub fn set_real(&mut self, vr: Result<&[u32], String>, values: Result<&[f64], String>) -> Status {
+        let args = self.args(|| format!("vr={:?}, value={:?}", vr.as_deref().unwrap_or_default(), values.as_deref().unwrap_or_default()));
+        self.call(Func::SetReal, args, |s| {
+            let (vr, values) = (vr?, values?);
+            for r in vr {
+                s.check_settable(*r, VarType::Real)?;
+            }
+            let backup = s.engine.state().clone();
+            for (r, v) in vr.iter().zip(values) {
+                if let Err(e) = s.engine.set_real(*r, *v) {
+                    let _ = s.engine.set_state(backup);
+                    return Err(e.to_string());
+                }
+            }
+            Ok(Status::Ok)
+        })
+    }
+
+    /// There are no Integer inputs or parameters: every reference is an output or unknown.
+    pub fn set_integer(&mut self, vr: Result<&[u32], String>, values: Result<&[i32], String>) -> Status {
+        let args = self.args(|| format!("vr={:?}, value={:?}", vr.as_deref().unwrap_or_default(), values.as_deref().unwrap_or_default()));
+        self.call(Func::SetInteger, args, |s| {
+            values?;
+            match vr?.first() {
+                Some(r) => {
+                    s.check_settable(*r, VarType::Integer)?;
+                    Err(format!("value reference {r} cannot be set as an Integer"))
+                }
+                None => Ok(Status::Ok),
+            }
+        })
+    }
+
+    /// Whether the variable may be set now (FMI.md 2.7): outputs never; fixed parameters
+    /// before the end of initialization only; inputs and tunable parameters also at
+    /// communication points (the state mask already excludes the other states).
+    fn check_settable(&self, vr: u32, var_type: VarType) -> Result<(), String> {
+        let var = self.engine.variable(vr, var_type).map_err(|e| e.to_string())?;
+        let (name, why) = match var.causality {
+            Causality::Output => (&var.name, "it is an output"),
+            Causality::Parameter if self.fsm == FsmState::StepComplete && !var.is_tunable() => {
+                (&var.name, "it is a fixed parameter, settable only before fmi2ExitInitializationMode")
+            }
+            _ => return Ok(()),
+        };
+        Err(format!("variable {name} (value reference {vr}) cannot be set: {why}"))
+    }
+
+    /// The instance's state as plain data.
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            engine: self.engine.state().clone(),
+            time: self.time,
+            last_successful_time: self.last_successful_time,
+            wants_to_terminate: self.wants_to_terminate,
+            fsm: self.fsm,
+            experiment: self.experiment,
+        }
+    }
+
+    /// `fmi2GetFMUstate`: `store` puts the snapshot where the master's handle points.
+    pub fn get_fmu_state(&mut self, store: impl FnOnce(Snapshot) -> Result<(), String>) -> Status {
+        self.call(Func::GetFmuState, String::new(), |s| {
+            store(s.snapshot())?;
+            Ok(Status::Ok)
+        })
+    }
+
+    /// `fmi2SetFMUstate`: continue exactly from the snapshot (also into a fresh instance).
+    pub fn set_fmu_state(&mut self, snapshot: Result<&Snapshot, String>) -> Status {
+        self.call(Func::SetFmuState, String::new(), |s| {
+            let snapshot = snapshot?;
+            s.heal()?;
+            s.engine.set_state(snapshot.engine.clone()).map_err(|e| e.to_string())?;
+            s.time = snapshot.time;
+            s.last_successful_time = snapshot.last_successful_time;
+            s.wants_to_terminate = snapshot.wants_to_terminate;
+            s.fsm = snapshot.fsm;
+            s.experiment = snapshot.experiment;
+            Ok(Status::Ok)
+        })
+    }
+
+    /// `fmi2FreeFMUstate`: `release` frees the master's handle.
+    pub fn free_fmu_state(&mut self, release: impl FnOnce() -> Result<(), String>) -> Status {
+        self.call(Func::FreeFmuState, String::new(), |_| release().map(|_| Status::Ok))
+    }
+
+    pub fn serialized_fmu_state_size(
+        &mut self,
+        snapshot: Result<&Snapshot, String>,
+        store: impl FnOnce(usize) -> Result<(), String>,
+    ) -> Status {
+        self.call(Func::SerializedFmuStateSize, String::new(), |s| {
+            store(snapshot::encode(snapshot?, &s.guid)?.len())?;
+            Ok(Status::Ok)
+        })
+    }
+
+    pub fn serialize_fmu_state(&mut self, snapshot: Result<&Snapshot, String>, buffer: Result<&mut [u8], String>) -> Status {
+        self.call(Func::SerializeFmuState, String::new(), |s| {
+            let bytes = snapshot::encode(snapshot?, &s.guid)?;
+            let buffer = buffer?;
+            if buffer.len() < bytes.len() {
+                return Err(format!(
+                    "the buffer holds {} bytes, the state needs {} (see fmi2SerializedFMUstateSize)",
+                    buffer.len(),
+                    bytes.len()
+                ));
+            }
+            buffer[..bytes.len()].copy_from_slice(&bytes);
+            Ok(Status::Ok)
+        })
+    }
+
+    /// `fmi2DeSerializeFMUstate`: check the bytes (see `snapshot.rs`), then `store` a new state.
+    pub fn deserialize_fmu_state(&mut self, bytes: Result<&[u8], String>, store: impl FnOnce(Snapshot) -> Result<(), String>) -> Status {
+        let args = self.args(|| format!("size={}", bytes.as_ref().map_or(0, |b| b.len())));
+        self.call(Func::DeSerializeFmuState, args, |s| {
+            let snapshot = snapshot::decode(bytes?, &s.guid)?;
+            store(snapshot)?;
+            Ok(Status::Ok)
+        })
+    }
+
+    /// `fmi2DoStep`: reach the equilibrium under the inputs set before the call. Not converged:
+    /// keep the last equilibrium, go to StepFailed and ask the master to stop (Discard).
+    pub fn do_step(&mut self, t: f64, h: f64, no_set_prior: bool) -> Status {
+        let args = self.args(|| {
+            format!(
+                "currentCommunicationPoint={t}, communicationStepSize={h}, noSetFMUStatePriorToCurrentPoint={}",
+                no_set_prior as i32
+            )
+        });
+        self.call(Func::DoStep, args, |s| {
+            s.check_step(t, h)?;
+            let report = s.solve()?;
+            if report.converged() {
+                s.time = t + h;
+                s.last_successful_time = s.time;
+                return Ok(Status::Ok);
+            }
+            s.fsm = FsmState::StepFailed;
+            s.wants_to_terminate = true;
+            s.time = t;
+            s.last_successful_time = t;
+            s.log_discard(t, h, &report);
+            Ok(Status::Discard)
+        })
+    }
+
+    /// The step must start where the last one ended (within round-off), be positive and end
+    /// by the stop time.
+    fn check_step(&self, t: f64, h: f64) -> Result<(), String> {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(format!("communicationStepSize = {h} must be positive and finite"));
+        }
+        if !t.is_finite() || (t - self.time).abs() > TIME_TOLERANCE * t.abs().max(1.0) {
+            return Err(format!(
+                "currentCommunicationPoint = {t} does not match the time of the instance: expected {}, got {t}",
+                self.time
+            ));
+        }
+        match self.experiment.stop_time {
+            Some(stop) if t + h > stop + TIME_TOLERANCE * stop.abs().max(1.0) => Err(format!(
+                "the step from {t} to {} ends after stopTime = {stop}",
+                t + h
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// logStatusDiscard: how far the step got, why it stopped, and the inputs (`#r<vr>#`).
+    fn log_discard(&self, t: f64, h: f64, report: &StepReport) {
+        if !self.logger.enabled(Category::StatusDiscard) {
+            return;
+        }
+        let plain = format!(
+            "fmi2DoStep: the step from {t} to {} did not converge: {}; the state stays at t = {t}, fmi2Terminated is true. Inputs:",
+            t + h,
+            reached(report)
+        );
+        let mut message = escape(&plain);
+        for var in self.engine.variables().iter().filter(|v| v.causality == Causality::Input) {
+            if let Ok(value) = self.engine.get_real(var.value_reference) {
+                message.push_str(&format!(" #r{}# = {value}", var.value_reference));
+            }
+        }
+        self.logger.log_formatted(Category::StatusDiscard, &message);
+    }
+
+    /// `fmi2GetStatus`: only fmi2DoStepStatus exists, for asynchronous steps, which this FMU
+    /// does not do.
+    pub fn get_status(&mut self, kind: i32) -> Status {
+        self.call(Func::GetStatus, format!("kind={kind}"), |_| {
+            Err(match kind {
+                FMI2_DO_STEP_STATUS => "fmi2DoStepStatus is not available: this FMU never returns fmi2Pending".into(),
+                _ => format!("status kind {kind} is not a fmi2Status kind"),
+            })
+        })
+    }
+
+    /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`.
+    pub fn get_real_status(&mut self, kind: i32, store: impl FnOnce(f64) -> Result<(), String>) -> Status {
+        self.call(Func::GetRealStatus, format!("kind={kind}"), |s| match kind {
+            FMI2_LAST_SUCCESSFUL_TIME => store(s.last_successful_time).map(|_| Status::Ok),
+            _ => Err(format!("status kind {kind} is not a Real status; only fmi2LastSuccessfulTime ({FMI2_LAST_SUCCESSFUL_TIME}) is")),
+        })
+    }
+
+    /// `fmi2GetBooleanStatus(fmi2Terminated)`: true after a discarded step.
+    pub fn get_boolean_status(&mut self, kind: i32, store: impl FnOnce(bool) -> Result<(), String>) -> Status {
+        self.call(Func::GetBooleanStatus, format!("kind={kind}"), |s| match kind {
+            FMI2_TERMINATED => store(s.wants_to_terminate).map(|_| Status::Ok),
+            _ => Err(format!("status kind {kind} is not a Boolean status; only fmi2Terminated ({FMI2_TERMINATED}) is")),
+        })
+    }
+
+    /// `fmi2GetIntegerStatus` / `fmi2GetStringStatus`: no status kind has these types here.
+    pub fn no_such_status(&mut self, func: Func, kind: i32) -> Status {
+        self.call(func, format!("kind={kind}"), |_| {
+            Err(format!("status kind {kind} is not available as this type (no asynchronous steps)"))
+        })
+    }
+}
+
+/// Check the instantiation arguments, read the scene, build the engine, compare the GUID.
+fn build_engine(args: &InstantiateArgs) -> Result<(Engine, String), String> {
+    match args.instance_name {
+        None => return Err("instanceName is NULL".into()),
+        Some("") => return Err("instanceName is empty".into()),
+        Some(_) => {}
+    }
+    if args.fmu_type != FMI2_COSIMULATION {
+        return Err(format!(
+            "fmuType = {} is not supported: this FMU is Co-Simulation only (fmi2CoSimulation = {FMI2_COSIMULATION})",
+            args.fmu_type
+        ));
+    }
+    let given_guid = args.guid.ok_or("fmuGUID is NULL")?;
+    let location = args.resource_location.ok_or("fmuResourceLocation is NULL")?;
+    let engine = load_engine(location)?;
+    let guid = description::guid(&engine);
+    if given_guid != guid {
+        return Err(format!(
+            "GUID mismatch: the master passed {given_guid}, but this binary and its resources have {guid} (was the FMU repackaged with another modelDescription.xml?)"
+        ));
+    }
+    Ok((engine, guid))
+}
+
+/// `<resources>/scene.json` -> scene -> engine; every error names the file.
+fn load_engine(resource_location: &str) -> Result<Engine, String> {
+    let dir = file_uri_to_path(resource_location).map_err(|e| format!("fmuResourceLocation: {e}"))?;
+    let path = dir.join("scene.json");
+    let shown = path.display();
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+    let scene = Scene::from_json(&text).map_err(|p| format!("{shown}: {p}"))?;
+    Engine::try_new(scene).map_err(|e| format!("{shown}: {e}"))
+}
+
+fn check_experiment(tolerance: Option<f64>, start: f64, stop: Option<f64>) -> Result<(), String> {
+    if !start.is_finite() {
+        return Err(format!("startTime = {start} must be finite"));
+    }
+    if let Some(stop) = stop {
+        if !(stop.is_finite() && stop >= start) {
+            return Err(format!("stopTime = {stop} must be finite and not before startTime = {start}"));
+        }
+    }
+    match tolerance {
+        Some(tol) if !(tol.is_finite() && tol > 0.0) => Err(format!("tolerance = {tol} must be positive and finite")),
+        _ => Ok(()),
+    }
+}
+
+/// "reached 37.5 % of the load change (why)".
+fn reached(report: &StepReport) -> String {
+    format!(
+        "reached {:.4} % of the load change after {} Newton iterations ({})",
+        report.reached * 100.0,
+        report.iterations,
+        report.message
+    )
+}
+
+fn describe(args: &InstantiateArgs) -> String {
+    format!(
+        "instanceName={:?}, fmuType={}, fmuGUID={:?}, fmuResourceLocation={:?}",
+        args.instance_name.unwrap_or_default(),
+        args.fmu_type,
+        args.guid.unwrap_or_default(),
+        args.resource_location.unwrap_or_default()
+    )
+}

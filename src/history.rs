@@ -1,0 +1,219 @@
+//! Quasi-static load histories without an FMI master: `velarium solve SCENE.json --loads F.csv`.
+//!
+//! ```text
+//! loads CSV   header  time,<input names...>   (any subset of the scene's inputs, any order)
+//!             rows    time and one value per named input; `#` lines and blank lines ignored
+//! result CSV  header  time,<output names...>  (every output, table order)
+//!             row k   the equilibrium under row k's inputs, reached from row k-1's
+//! ```
+//!
+//! Row 0 is the initial equilibrium under the first row's inputs (inputs not in the table keep
+//! their start values): what an FMU gives right after initialization with those inputs. Row k
+//! is what the FMU gives after the `fmi2DoStep` that follows setting row k's inputs, i.e. the
+//! row fmpy records at t_{k+1} (FMI.md 1.2, the one-step lag). Numbers are written in Rust's
+//! shortest round-trip form, so a reader gets the exact f64 back.
+
+use crate::engine::Engine;
+use crate::error::Error;
+use crate::variables::{Causality, VarType};
+use std::fmt::Write;
+
+/// A parsed load table whose columns are inputs of one engine.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadTable {
+    /// The file it was read from (named in errors).
+    pub file: String,
+    /// Input name and value reference of each value column.
+    pub columns: Vec<(String, u32)>,
+    pub rows: Vec<LoadRow>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadRow {
+    /// 1-based line of the row in the file (for messages).
+    pub line: usize,
+    pub time: f64,
+    pub values: Vec<f64>,
+}
+
+/// The outputs computed for a load table, possibly cut short by a step that did not converge.
+#[derive(Clone, Debug, PartialEq)]
+pub struct History {
+    /// `time` and the output names.
+    pub header: Vec<String>,
+    /// One row per converged load row: time, then the outputs.
+    pub rows: Vec<Vec<f64>>,
+    pub failure: Option<Failure>,
+}
+
+/// Where a history stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Failure {
+    pub time: f64,
+    pub line: usize,
+    pub message: String,
+}
+
+impl LoadTable {
+    /// Parse CSV `text` (from file `file`, named in errors) against the engine's inputs. Every
+    /// value is checked by the engine (finite, within [min, max]) before any solve; the engine's
+    /// inputs are left at the first row's values.
+    pub fn parse(text: &str, file: &str, engine: &mut Engine) -> Result<LoadTable, Error> {
+        let err = |message: String| Error::Io {
+            path: file.to_string(),
+            message,
+        };
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.trim()))
+            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+        let (header_line, header) = lines.next().ok_or_else(|| err("no header line; expected `time,<input names>`".into()))?;
+        let columns = parse_header(header, engine).map_err(|m| err(format!("line {header_line}: {m}")))?;
+        let mut rows: Vec<LoadRow> = Vec::new();
+        for (line, text) in lines {
+            let row = parse_row(line, text, &columns).map_err(&err)?;
+            if let Some(previous) = rows.last() {
+                if row.time < previous.time {
+                    return Err(err(format!(
+                        "line {line}, column 1 (time): {} is earlier than the previous row's {}",
+                        row.time, previous.time
+                    )));
+                }
+            }
+            rows.push(row);
+        }
+        if rows.is_empty() {
+            return Err(err("no data rows after the header".into()));
+        }
+        let table = LoadTable {
+            file: file.to_string(),
+            columns,
+            rows,
+        };
+        for row in table.rows.iter().rev() {
+            table.apply(engine, row).map_err(&err)?;
+        }
+        Ok(table)
+    }
+
+    /// Set a row's inputs on the engine.
+    fn apply(&self, engine: &mut Engine, row: &LoadRow) -> Result<(), String> {
+        for (c, ((name, vr), value)) in self.columns.iter().zip(&row.values).enumerate() {
+            engine
+                .set_real(*vr, *value)
+                .map_err(|e| format!("line {}, column {} ({name}): {e}", row.line, c + 2))?;
+        }
+        Ok(())
+    }
+}
+
+fn parse_header(header: &str, engine: &Engine) -> Result<Vec<(String, u32)>, String> {
+    let mut cells = header.split(',').map(str::trim);
+    if cells.next() != Some("time") {
+        return Err("the first column must be `time`".into());
+    }
+    let mut columns: Vec<(String, u32)> = Vec::new();
+    for (c, name) in cells.enumerate() {
+        let Some(var) = engine.variables().iter().find(|v| v.name == name) else {
+            let inputs: Vec<&str> = input_names(engine).collect();
+            return Err(format!(
+                "column {} ({name:?}) is not an input of this scene; its inputs are: {}",
+                c + 2,
+                inputs.join(", ")
+            ));
+        };
+        if var.causality != Causality::Input || var.var_type != VarType::Real {
+            return Err(format!("column {} ({name}) is not an input (loads can only set inputs)", c + 2));
+        }
+        if columns.iter().any(|(n, _)| n == name) {
+            return Err(format!("column {} ({name}) appears twice", c + 2));
+        }
+        columns.push((name.to_string(), var.value_reference));
+    }
+    Ok(columns)
+}
+
+fn input_names(engine: &Engine) -> impl Iterator<Item = &str> {
+    engine
+        .variables()
+        .iter()
+        .filter(|v| v.causality == Causality::Input)
+        .map(|v| v.name.as_str())
+}
+
+fn parse_row(line: usize, text: &str, columns: &[(String, u32)]) -> Result<LoadRow, String> {
+    let cells: Vec<&str> = text.split(',').map(str::trim).collect();
+    if cells.len() != columns.len() + 1 {
+        return Err(format!(
+            "line {line}: {} cells, but the header has {}",
+            cells.len(),
+            columns.len() + 1
+        ));
+    }
+    let names = std::iter::once("time").chain(columns.iter().map(|(n, _)| n.as_str()));
+    let mut numbers = Vec::with_capacity(cells.len());
+    for (c, (cell, name)) in cells.iter().zip(names).enumerate() {
+        match cell.parse::<f64>() {
+            Ok(x) if x.is_finite() => numbers.push(x),
+            _ => {
+                return Err(format!(
+                    "line {line}, column {} ({name}): {cell:?} is not a finite number",
+                    c + 1
+                ))
+            }
+        }
+    }
+    Ok(LoadRow {
+        line,
+        time: numbers[0],
+        values: numbers[1..].to_vec(),
+    })
+}
+
+/// Run the table: for each row set its inputs, solve, record time and every output. Stops at
+/// the first row that does not converge (the engine keeps the last converged equilibrium).
+pub fn run(engine: &mut Engine, table: &LoadTable) -> Result<History, Error> {
+    let header = std::iter::once("time".to_string())
+        .chain(engine.outputs().into_iter().map(|(name, _)| name))
+        .collect();
+    let mut history = History {
+        header,
+        rows: Vec::with_capacity(table.rows.len()),
+        failure: None,
+    };
+    for row in &table.rows {
+        table.apply(engine, row).map_err(|message| Error::Io {
+            path: table.file.clone(),
+            message,
+        })?;
+        let report = engine.solve();
+        if !report.converged() {
+            history.failure = Some(Failure {
+                time: row.time,
+                line: row.line,
+                message: report.message.to_string(),
+            });
+            break;
+        }
+        let outputs = engine.outputs().into_iter().map(|(_, value)| value);
+        history.rows.push(std::iter::once(row.time).chain(outputs).collect());
+    }
+    Ok(history)
+}
+
+impl History {
+    /// CSV text: the header, then one line per row, numbers in shortest round-trip form.
+    pub fn to_csv(&self) -> String {
+        let mut out = self.header.join(",");
+        out.push('\n');
+        for row in &self.rows {
+            for (i, x) in row.iter().enumerate() {
+                let sep = if i == 0 { "" } else { "," };
+                let _ = write!(out, "{sep}{x:?}");
+            }
+            out.push('\n');
+        }
+        out
+    }
+}

@@ -1,0 +1,113 @@
+//! FMU archives: `velarium pack` writes `<out>/<Name>.fmu` for a scene.
+//!
+//! ```text
+//! <Name>.fmu (ZIP, deflate only, forward slashes, every entry dated 1980-01-01 00:00:00)
+//!   modelDescription.xml            crate::description, generated from the variable table
+//!   binaries/linux64/<Name>.so      a copy of the built cdylib libvelarium.so
+//!   resources/scene.json            the scene, re-serialized with Scene::to_json
+//! ```
+//!
+//! The same scene and library give byte-identical archives. The archive is written to a
+//! temporary file in the output directory and renamed at the end, so a failed pack never
+//! leaves a partial `.fmu` behind.
+
+use crate::description::model_description;
+use crate::engine::Engine;
+use crate::error::Error;
+use crate::scene::Scene;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use zip::write::SimpleFileOptions;
+use zip::{CompressionMethod, DateTime, ZipWriter};
+
+/// The scene's file name inside the FMU's `resources/` folder.
+pub const SCENE_RESOURCE: &str = "scene.json";
+
+/// The file name cargo gives the cdylib.
+pub const LIBRARY_FILE: &str = "libvelarium.so";
+
+/// Write `<out_dir>/<scene.name>.fmu` and return its path. The scene is validated first (every
+/// problem is reported); `library` is the built `libvelarium.so`.
+pub fn pack(scene: &Scene, out_dir: &Path, library: &Path) -> Result<PathBuf, Error> {
+    let engine = Engine::try_new(scene.clone())?;
+    let binary = std::fs::read(library).map_err(|e| io_error(library, "cannot read the FMU library", e))?;
+    let archive = archive(scene, &model_description(&engine), &binary).map_err(|e| Error::Io {
+        path: library.display().to_string(),
+        message: format!("cannot build the FMU archive: {e}"),
+    })?;
+    std::fs::create_dir_all(out_dir).map_err(|e| io_error(out_dir, "cannot create the output directory", e))?;
+    let target = out_dir.join(format!("{}.fmu", scene.name));
+    write_atomically(&target, &archive)?;
+    Ok(target)
+}
+
+/// The library to ship: `explicit` if given (it must exist), else `libvelarium.so` next to the
+/// running executable (cargo puts both in `target/release` or `target/debug`).
+pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
+    if let Some(path) = explicit {
+        return if path.is_file() {
+            Ok(path.to_path_buf())
+        } else {
+            Err(Error::Io {
+                path: path.display().to_string(),
+                message: "no such library file (given with --lib)".into(),
+            })
+        };
+    }
+    let exe = std::env::current_exe().map_err(|e| Error::Io {
+        path: "velarium".into(),
+        message: format!("cannot locate the running executable to find {LIBRARY_FILE}: {e}"),
+    })?;
+    let beside = exe.with_file_name(LIBRARY_FILE);
+    if beside.is_file() {
+        Ok(beside)
+    } else {
+        Err(Error::Io {
+            path: beside.display().to_string(),
+            message: format!(
+                "{LIBRARY_FILE} not found next to the velarium executable; run `cargo build --release` \
+                 (it builds both) or pass --lib PATH"
+            ),
+        })
+    }
+}
+
+/// Write `bytes` to `path` through a temporary file in the same directory and a rename: the
+/// file at `path` is either the old one or the complete new one, and no temporary is left.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let temp = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
+    let result = std::fs::File::create(&temp)
+        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
+        .and_then(|()| std::fs::rename(&temp, path));
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&temp);
+        io_error(path, "cannot write", e)
+    })
+}
+
+/// The archive bytes, entries in a fixed order with fixed metadata.
+fn archive(scene: &Scene, description: &str, binary: &[u8]) -> zip::result::ZipResult<Vec<u8>> {
+    let options = SimpleFileOptions::default()
+        .compression_method(CompressionMethod::Deflated)
+        .last_modified_time(DateTime::default());
+    let scene_json = scene.to_json();
+    let mut zip = ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let entries: [(String, &[u8], u32); 3] = [
+        ("modelDescription.xml".into(), description.as_bytes(), 0o644),
+        (format!("binaries/linux64/{}.so", scene.name), binary, 0o755),
+        (format!("resources/{SCENE_RESOURCE}"), scene_json.as_bytes(), 0o644),
+    ];
+    for (name, bytes, mode) in entries {
+        zip.start_file(name, options.unix_permissions(mode))?;
+        zip.write_all(bytes)?;
+    }
+    Ok(zip.finish()?.into_inner())
+}
+
+fn io_error(path: &Path, what: &str, e: std::io::Error) -> Error {
+    Error::Io {
+        path: path.display().to_string(),
+        message: format!("{what}: {e}"),
+    }
+}

@@ -1,0 +1,185 @@
+//! GOAL: every tangent equals the central finite difference of its force vector.
+//! MESH: single elements in random deformed states; the assembled LiftedMembrane model.
+//! REFERENCE: MECHANICS.md §5 (verify every tangent against central differences, relative
+//!            error < 1e-6). Step h = 1e-6 times the element size; central differences are
+//!            O(h²) accurate, so 1e-6 relative leaves room for round-off only.
+
+mod common;
+use nalgebra::{SMatrix, Vector3};
+use velarium::model::{cable, membrane, pressure};
+
+/// Small deterministic generator (no rand dependency): xorshift64*.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545F4914F6CDD1D) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+    fn vec3(&mut self, scale: f64) -> Vector3<f64> {
+        Vector3::new(self.next(), self.next(), self.next()) * scale
+    }
+}
+
+/// Max |K − K_fd| / max |K| for a force function of N/3 nodes.
+fn fd_error<const N: usize>(x: &[Vector3<f64>], k: &SMatrix<f64, N, N>, force: impl Fn(&[Vector3<f64>]) -> Vec<f64>, h: f64) -> f64 {
+    let mut worst = 0.0f64;
+    let scale = k.abs().max();
+    for j in 0..N {
+        let (node, c) = (j / 3, j % 3);
+        let mut xp = x.to_vec();
+        let mut xm = x.to_vec();
+        xp[node][c] += h;
+        xm[node][c] -= h;
+        let (fp, fm) = (force(&xp), force(&xm));
+        for i in 0..N {
+            let fd = (fp[i] - fm[i]) / (2.0 * h);
+            worst = worst.max((k[(i, j)] - fd).abs() / scale);
+        }
+    }
+    worst
+}
+
+#[test]
+fn membrane_tangent_matches_finite_differences() {
+    let mut rng = Rng(0x9E3779B97F4A7C15);
+    for _ in 0..200 {
+        let reference = [Vector3::zeros(), Vector3::new(1.0, 0.1, 0.0), Vector3::new(0.3, 0.9, 0.2)].map(|p| p + rng.vec3(0.1));
+        let r = membrane::triangle_ref(reference).unwrap();
+        let mat = membrane::Svk { young: 2e8 * (1.0 + 0.5 * rng.next()), nu: 0.3 + 0.15 * rng.next(), thickness: 1e-4 };
+        // Large displacements and rotations, strains up to ~20 %.
+        let x: Vec<Vector3<f64>> = reference.iter().map(|p| p * 1.05 + rng.vec3(0.15)).collect();
+        let xa = [x[0], x[1], x[2]];
+        let (_, k, _) = membrane::svk_triangle(&r, &mat, 0.0, &xa);
+        let force = |y: &[Vector3<f64>]| membrane::svk_triangle(&r, &mat, 0.0, &[y[0], y[1], y[2]]).0.as_slice().to_vec();
+        let err = fd_error(&x, &k, force, 1e-6);
+        assert!(err < 1e-6, "membrane tangent error {err:e}");
+    }
+}
+
+#[test]
+fn membrane_force_is_the_gradient_of_its_energy() {
+    let mut rng = Rng(7);
+    let reference = [Vector3::zeros(), Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.4, 0.8, 0.0)];
+    let r = membrane::triangle_ref(reference).unwrap();
+    let mat = membrane::Svk { young: 1e6, nu: 0.3, thickness: 1e-3 };
+    let x: Vec<Vector3<f64>> = reference.iter().map(|p| p + rng.vec3(0.1)).collect();
+    let (f, _, _) = membrane::svk_triangle(&r, &mat, 0.0, &[x[0], x[1], x[2]]);
+    let h = 1e-6;
+    for j in 0..9 {
+        let (mut xp, mut xm) = (x.clone(), x.clone());
+        xp[j / 3][j % 3] += h;
+        xm[j / 3][j % 3] -= h;
+        let wp = membrane::svk_triangle(&r, &mat, 0.0, &[xp[0], xp[1], xp[2]]).2;
+        let wm = membrane::svk_triangle(&r, &mat, 0.0, &[xm[0], xm[1], xm[2]]).2;
+        let fd = (wp - wm) / (2.0 * h);
+        assert!((f[j] - fd).abs() < 1e-6 * f.abs().max(), "dof {j}: {} vs {fd}", f[j]);
+    }
+}
+
+#[test]
+fn cable_tangent_matches_finite_differences_for_both_laws() {
+    let mut rng = Rng(42);
+    for law in [cable::Law::Engineering, cable::Law::GreenLagrange] {
+        for _ in 0..200 {
+            let xa = rng.vec3(1.0);
+            let xb = xa + Vector3::new(1.0, 0.0, 0.0) + rng.vec3(0.3);
+            let l = (xb - xa).norm();
+            // Taut states only: l0 below l (slack tangent is a regulariser, checked apart).
+            let l0 = l / (1.0 + 0.2 * (rng.next() + 1.0) + 1e-3);
+            let (_, k, _) = cable::segment(law, 1e5, l0, &xa, &xb);
+            let force = |y: &[Vector3<f64>]| cable::segment(law, 1e5, l0, &y[0], &y[1]).0.as_slice().to_vec();
+            let err = fd_error(&[xa, xb], &k, force, 1e-6);
+            assert!(err < 1e-6, "{law:?} tangent error {err:e}");
+        }
+    }
+}
+
+#[test]
+fn slack_cable_has_zero_force_and_only_a_tiny_tangent() {
+    let (xa, xb) = (Vector3::zeros(), Vector3::new(0.9, 0.0, 0.0));
+    let (f, k, w) = cable::segment(cable::Law::Engineering, 1e5, 1.0, &xa, &xb);
+    assert_eq!(f.abs().max(), 0.0);
+    assert_eq!(w, 0.0);
+    assert!((k[(0, 0)] - cable::SLACK_STIFFNESS * 1e5).abs() < 1e-12);
+}
+
+#[test]
+fn follower_pressure_stiffness_matches_finite_differences() {
+    let mut rng = Rng(3);
+    for _ in 0..100 {
+        let x: Vec<Vector3<f64>> = [Vector3::zeros(), Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.2, 1.0, 0.0)].iter().map(|p| p + rng.vec3(0.3)).collect();
+        let p = 1e3 * rng.next();
+        let k = pressure::follower_stiffness(p, &[x[0], x[1], x[2]]);
+        // The load stiffness is −∂f_ext/∂x.
+        let force = |y: &[Vector3<f64>]| {
+            let f = pressure::follower_force(p, &[y[0], y[1], y[2]]);
+            (0..9).map(|i| -f[i % 3]).collect()
+        };
+        let err = fd_error(&x, &k, force, 1e-6);
+        assert!(err < 1e-6, "pressure stiffness error {err:e}");
+    }
+}
+
+/// The assembled tangent of a whole model (membrane, cables, follower pressure on a clamped
+/// disc) against central differences of the assembled residual, in a deformed state.
+#[test]
+fn assembled_tangent_matches_finite_differences() {
+    use velarium::solver::assemble::{assemble, Pattern, NONE};
+    for name in ["LiftedMembrane", "HenckyDisc"] {
+        let mut scene = common::read_scene(&common::shipped(name));
+        scene.solver.artificial_prestress = Some(0.0); // the exact tangent, no regulariser
+        if let velarium::scene::Generator::Rectangle { divisions, .. } = &mut scene.geometry.generators[0] {
+            *divisions = [4, 3];
+        }
+        if let velarium::scene::Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
+            *rings = 3;
+        }
+        let model = velarium::model::Model::build(&scene);
+        let pattern = Pattern::new(&model);
+        let mut rng = Rng(11);
+        let mut u: Vec<f64> = (0..model.dof_count()).map(|d| if model.held[d] { 0.0 } else { 0.02 * rng.next() }).collect();
+        for d in (2..u.len()).step_by(3) {
+            if !model.held[d] {
+                u[d] += 0.05; // lift out of plane so membrane and pressure terms are all active
+            }
+        }
+        let loads = vec![30.0; model.loads.len()];
+        let mut r = vec![0.0; model.dof_count()];
+        let nnz = pattern.row_idx.len();
+        let mut k = vec![0.0; nnz];
+        assemble(&model, &pattern, &u, &loads, &mut r, Some(&mut k));
+        // Dense upper-triangular tangent for lookup.
+        let n = pattern.n;
+        let mut dense = vec![0.0; n * n];
+        for j in 0..n {
+            for p in pattern.col_ptr[j]..pattern.col_ptr[j + 1] {
+                let i = pattern.row_idx[p];
+                dense[i * n + j] = k[p];
+                dense[j * n + i] = k[p];
+            }
+        }
+        let scale = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let h = 1e-7;
+        let mut worst = 0.0f64;
+        for (dj, &j) in pattern.eq.iter().enumerate() {
+            if j == NONE {
+                continue;
+            }
+            let (mut up, mut um) = (u.clone(), u.clone());
+            up[dj] += h;
+            um[dj] -= h;
+            let (mut rp, mut rm) = (vec![0.0; r.len()], vec![0.0; r.len()]);
+            assemble(&model, &pattern, &up, &loads, &mut rp, None);
+            assemble(&model, &pattern, &um, &loads, &mut rm, None);
+            for (di, &i) in pattern.eq.iter().enumerate() {
+                if i != NONE {
+                    let fd = (rp[di] - rm[di]) / (2.0 * h);
+                    worst = worst.max((dense[i * n + j] - fd).abs() / scale);
+                }
+            }
+        }
+        assert!(worst < 1e-6, "{name}: assembled tangent error {worst:e}");
+    }
+}
