@@ -11,9 +11,12 @@
 //! K_ab = A0 t [ (∇N_a·S ∇N_b) I + B_aᵀ D B_b ]      B_a = [N1 F1ᵀ; N2 F2ᵀ; N2 F1ᵀ + N1 F2ᵀ]
 //! W = A0 t ½ Eᵀ D E           stored energy
 //! ```
-//! The artificial prestress σ0 (Pa) adds `A0 t σ0 (∇N_a·∇N_b) I` to the tangent only: an
-//! isotropic initial-stress stiffness that makes a flat, stress-free membrane loaded normal to
-//! its plane solvable without changing the residual, hence without changing the equilibrium.
+//! The artificial prestress σ0 (Pa) adds `A0 t σa (∇N_a·∇N_b) I` to the tangent only, with
+//! `σa = clamp(σ0 − S_min, 0, σ0)` and S_min the minor principal PK2 stress: an isotropic
+//! initial-stress stiffness that makes a flat, stress-free membrane loaded normal to its plane
+//! solvable without changing the residual, hence without changing the equilibrium. It fills in
+//! only the tension that is missing: where the membrane already carries S_min >= σ0 the tangent
+//! is exact, so Newton regains quadratic convergence once the membrane is taut.
 //!
 //! # References
 //! Bonet & Wood, *Nonlinear Continuum Mechanics for Finite Element Analysis*, 2nd ed. 2008, ch. 9;
@@ -107,6 +110,8 @@ pub fn svk_triangle(r: &TriangleRef, mat: &Svk, prestress: f64, x: &[Vector3<f64
     let S = D * E;
     let vol = r.area * mat.thickness;
     let Smat = Matrix2::new(S[0], S[2], S[2], S[1]);
+    let s_min = 0.5 * (S[0] + S[1]) - (0.25 * (S[0] - S[1]).powi(2) + S[2] * S[2]).sqrt();
+    let prestress = (prestress - s_min).clamp(0.0, prestress);
     let (F1, F2) = (F.column(0).into_owned(), F.column(1).into_owned());
     let B: [Matrix3<f64>; 3] = [0, 1, 2].map(|a| {
         let (n1, n2) = (r.grad[a].x, r.grad[a].y);

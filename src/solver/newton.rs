@@ -26,6 +26,7 @@ impl Solver {
             }
             let scale = info.external.max(held);
             if free <= self.settings.tolerance * scale + floor {
+                push_log(log, format!("  converged: |R| = {free:.3e} (scale {scale:.3e})"));
                 return Ok(it);
             }
             if it == self.settings.max_iterations {

@@ -1,0 +1,62 @@
+//! Path following and outcomes: non-convergence is reported and leaves the committed state
+//! untouched; the elastic equilibrium does not depend on how the load is split into steps;
+//! Newton converges quadratically near the solution.
+
+mod common;
+use common::*;
+
+#[test]
+fn a_failed_step_is_an_outcome_and_commits_nothing() {
+    let mut scene = read_scene(&shipped("PrestressedCable"));
+    // One Newton iteration per increment and no room to cut back: the step must fail.
+    scene.solver.max_iterations = 1;
+    scene.solver.min_increment = 0.5;
+    let mut e = engine(scene);
+    solve(&mut e);
+    set(&mut e, "P", 1000.0);
+    let before = e.state().clone();
+    let outputs = e.outputs();
+    let report = e.solve();
+    assert!(!report.converged());
+    assert!(report.message.contains("no equilibrium found"), "{}", report.message);
+    assert!(report.cutbacks >= 1);
+    assert_eq!(e.state(), &before, "a failed step must not change the committed state");
+    assert_eq!(e.outputs(), outputs);
+}
+
+#[test]
+fn equilibrium_is_independent_of_the_load_steps() {
+    let run = |steps: usize| {
+        let mut e = engine(read_scene(&shipped("HenckyDisc")));
+        solve(&mut e);
+        for k in 1..=steps {
+            set(&mut e, "pressure", 40.0 * k as f64 / steps as f64);
+            solve(&mut e);
+        }
+        get(&e, "center_uz")
+    };
+    let (one, ten) = (run(1), run(10));
+    // Both are equilibria within the residual tolerance 1e-9; the displacement difference is
+    // bounded by it times the tangent's condition, here far below 1e-7.
+    assert!(rel(one, ten) < 1e-7, "{one} vs {ten}");
+}
+
+#[test]
+fn newton_converges_quadratically_near_the_solution() {
+    let mut e = engine(read_scene(&shipped("HenckyDisc")));
+    solve(&mut e);
+    set(&mut e, "pressure", 40.0);
+    let report = solve(&mut e);
+    let residuals: Vec<f64> = report
+        .log
+        .iter()
+        .filter_map(|l| l.split("|R| = ").nth(1)?.split_whitespace().next()?.parse().ok())
+        .collect();
+    assert!(residuals.len() >= 3, "{:?}", report.log);
+    // The last three residuals before convergence: r_{k+1} <= C r_k² with a modest C relative
+    // to the first residual's scale (quadratic), not r_{k+1} ≈ ρ r_k (linear).
+    let n = residuals.len();
+    let (a, b, c) = (residuals[n - 3], residuals[n - 2], residuals[n - 1]);
+    let (ra, rb) = (b / a, c / b);
+    assert!(rb < ra * 0.5 && rb < 1e-2, "convergence rate not quadratic: {residuals:?}");
+}
