@@ -55,6 +55,9 @@ fn membrane_tangent_matches_finite_differences() {
         let force = |y: &[Vector3<f64>]| membrane::svk_triangle(&r, &mat, 0.0, &[y[0], y[1], y[2]]).0.as_slice().to_vec();
         let err = fd_error(&x, &k, force, 1e-6);
         assert!(err < 1e-6, "membrane tangent error {err:e}");
+        let (f_full, _, w_full) = membrane::svk_triangle(&r, &mat, 0.0, &xa);
+        let (f_only, w_only) = membrane::svk_triangle_force(&r, &mat, &xa);
+        assert_eq!((f_full, w_full), (f_only, w_only), "residual-only kernel must agree bit for bit");
     }
 }
 

@@ -136,6 +136,22 @@ pub fn svk_triangle(r: &TriangleRef, mat: &Svk, prestress: f64, x: &[Vector3<f64
     (f, K, W)
 }
 
+/// Internal force and stored energy only (no tangent): the residual-only path of the line
+/// search. Same formulas as [`svk_triangle`].
+#[allow(non_snake_case)]
+pub fn svk_triangle_force(r: &TriangleRef, mat: &Svk, x: &[Vector3<f64>; 3]) -> (Vec9, f64) {
+    let F = deformation_gradient(r, x);
+    let E = green_lagrange(&F);
+    let S = mat.d() * E;
+    let vol = r.area * mat.thickness;
+    let Smat = Matrix2::new(S[0], S[2], S[2], S[1]);
+    let mut f = Vec9::zeros();
+    for a in 0..3 {
+        f.fixed_rows_mut::<3>(3 * a).copy_from(&(F * (Smat * r.grad[a]) * vol));
+    }
+    (f, 0.5 * vol * E.dot(&S))
+}
+
 /// Current area and unit normal of a triangle.
 pub fn current_area_normal(x: &[Vector3<f64>; 3]) -> (f64, Vector3<f64>) {
     let n = (x[1] - x[0]).cross(&(x[2] - x[0]));

@@ -150,14 +150,22 @@ pub fn assemble(model: &Model, pattern: &Pattern, u: &[f64], loads: &[f64], r: &
     };
     for (e, t) in model.triangles.iter().enumerate() {
         let x = gather(model, u, t.nodes);
-        let (f, ke, w) = membrane::svk_triangle(&t.reference, &t.material, t.prestress, &x);
-        add_force(r, &t.nodes, f.as_slice());
+        let w = match k.as_deref_mut() {
+            Some(k) => {
+                let (f, ke, w) = membrane::svk_triangle(&t.reference, &t.material, t.prestress, &x);
+                add_force(r, &t.nodes, f.as_slice());
+                scatter(&ke, &pattern.tri_map[e], k);
+                w
+            }
+            None => {
+                let (f, w) = membrane::svk_triangle_force(&t.reference, &t.material, &x);
+                add_force(r, &t.nodes, f.as_slice());
+                w
+            }
+        };
         info.potential += w;
         let (area, _) = membrane::current_area_normal(&x);
         info.min_area_ratio = info.min_area_ratio.min(area / t.reference.area);
-        if let Some(k) = k.as_deref_mut() {
-            scatter(&ke, &pattern.tri_map[e], k);
-        }
     }
     for (e, s) in model.segments.iter().enumerate() {
         let x = gather(model, u, s.nodes);
