@@ -131,7 +131,7 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
 /// The unit of a parameter target, or None for a dimensionless one (nu) or an unknown target.
 pub fn parameter_unit(target: &str) -> Option<&'static str> {
     match target.rsplit('.').next() {
-        Some("E") | Some("artificial_prestress") => Some("Pa"),
+        Some("E") | Some("mu") | Some("artificial_prestress") => Some("Pa"),
         Some("thickness") => Some("m"),
         Some("EA") | Some("pretension") => Some("N"),
         _ => None,
@@ -155,11 +155,11 @@ pub fn parameter_value(scene: &Scene, target: &str) -> Option<f64> {
         ("solver", "artificial_prestress") => Some(scene.solver.artificial_prestress.unwrap_or(f64::NAN)),
         ("membranes", _) => {
             let m = scene.membranes.iter().find(|m| m.name == name)?;
-            let Material::Svk { young, nu } = m.material;
-            match field {
-                "E" => Some(young),
-                "nu" => Some(nu),
-                "thickness" => Some(m.thickness),
+            match (field, &m.material) {
+                ("E", Material::Svk { young, .. }) => Some(*young),
+                ("nu", Material::Svk { nu, .. }) => Some(*nu),
+                ("mu", Material::NeoHookean { mu }) => Some(*mu),
+                ("thickness", _) => Some(m.thickness),
                 _ => None,
             }
         }
@@ -189,11 +189,11 @@ pub fn set_parameter_value(scene: &mut Scene, target: &str, value: f64) -> bool 
             let Some(m) = scene.membranes.iter_mut().find(|m| m.name == name) else {
                 return false;
             };
-            let Material::Svk { young, nu } = &mut m.material;
-            match field {
-                "E" => *young = value,
-                "nu" => *nu = value,
-                "thickness" => m.thickness = value,
+            match (field, &mut m.material) {
+                ("E", Material::Svk { young, .. }) => *young = value,
+                ("nu", Material::Svk { nu, .. }) => *nu = value,
+                ("mu", Material::NeoHookean { mu }) => *mu = value,
+                ("thickness", _) => m.thickness = value,
                 _ => return false,
             }
             true

@@ -61,8 +61,8 @@ fn green_lagrange_strain_matches_exact_values() {
 }
 
 /// Exact equilibrium P = 2 T(l) w / l at the computed state, within the solver's documented
-/// criterion |R|∞ <= tolerance · max(|f_ext|∞, |reactions|∞) (tolerance 1e-9; the largest
-/// reaction is the horizontal one, at most T). This holds for any P, so it also checks points
+/// criterion |R|∞ <= tolerance · max(|f_ext|∞, |reactions|∞) + 1e-12 · EA (tolerance 1e-9;
+/// the largest reaction is the horizontal one, at most T; the last term is the round-off floor). This holds for any P, so it also checks points
 /// the table does not list.
 #[test]
 fn equilibrium_holds_to_round_off_along_a_load_ramp() {
@@ -78,9 +78,10 @@ fn equilibrium_holds_to_round_off_along_a_load_ramp() {
             let (w, t) = (-get(&e, "midspan_uz"), get(&e, "tension"));
             let l = (1.0 + w * w).sqrt();
             let residual = (2.0 * t * w / l) - p;
-            assert!(residual.abs() <= 1e-9 * p.max(t), "{law:?} P {p}: residual {residual:e}");
+            let bound = 1e-9 * p.max(t) + 1e-12 * 1e5;
+            assert!(residual.abs() <= bound, "{law:?} P {p}: residual {residual:e}");
             // The supports push up with the load's magnitude.
-            assert!((get(&e, "reaction_z") - p).abs() <= 1e-9 * p.max(t), "reaction must balance the load");
+            assert!((get(&e, "reaction_z") - p).abs() <= bound, "reaction must balance the load");
         }
     }
 }

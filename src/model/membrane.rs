@@ -1,15 +1,15 @@
-//! Constant-strain membrane triangle, total Lagrangian, St Venant-Kirchhoff plane stress.
+//! Constant-strain membrane triangle, total Lagrangian; the material law (SVK or neo-Hookean,
+//! with or without wrinkling) comes from `super::wrinkling`.
 //!
 //! ```text
 //! X_a        reference node positions (3-D); local orthonormal frame (e1, e2) in their plane
 //! ∇N_a       constant reference gradients of the linear shape functions (2-vectors)
 //! F = Σ x_a ⊗ ∇N_a            3x2 deformation gradient (current positions x_a)
 //! E = ½ (FᵀF − I)             Green-Lagrange strain, Voigt [E11, E22, 2 E12]
-//! S = D E                     PK2 stress, Voigt [S11, S22, S12]
-//! D = E/(1−ν²) [[1,ν,0],[ν,1,0],[0,0,(1−ν)/2]]
+//! S(E), D = ∂S/∂E            PK2 stress (Voigt [S11, S22, S12]) and tangent of the law
 //! f_a = A0 t F S ∇N_a         internal nodal force
 //! K_ab = A0 t [ (∇N_a·S ∇N_b) I + B_aᵀ D B_b ]      B_a = [N1 F1ᵀ; N2 F2ᵀ; N2 F1ᵀ + N1 F2ᵀ]
-//! W = A0 t ½ Eᵀ D E           stored energy
+//! W = A0 t ψ(E)               stored energy
 //! ```
 //! The artificial prestress σ0 (Pa) adds `A0 t σa (∇N_a·∇N_b) I` to the tangent only, with
 //! `σa = clamp(σ0 − S_min, 0, σ0)` and S_min the minor principal PK2 stress: an isotropic
@@ -22,6 +22,7 @@
 //! Bonet & Wood, *Nonlinear Continuum Mechanics for Finite Element Analysis*, 2nd ed. 2008, ch. 9;
 //! Gil 2006 (prestressed SVK membranes); seed paper §3 and Fig. 5 (artificial prestress).
 
+use super::wrinkling::{Law, Response, WrinkleState};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector2, Vector3};
 
 pub type Vec9 = SVector<f64, 9>;
@@ -38,19 +39,39 @@ pub struct TriangleRef {
     pub normal: Vector3<f64>,
 }
 
-/// Isotropic SVK plane-stress material with thickness.
+/// A membrane group's material: law, thickness and whether it wrinkles.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Svk {
-    pub young: f64,
-    pub nu: f64,
+pub struct Material {
+    pub law: Law,
     pub thickness: f64,
+    /// Tension-field law on (compression impossible); off: the plain elastic sheet.
+    pub wrinkling: bool,
 }
 
-impl Svk {
-    /// Plane-stress elasticity matrix (Voigt, engineering shear strain).
-    pub fn d(&self) -> Matrix3<f64> {
-        let c = self.young / (1.0 - self.nu * self.nu);
-        Matrix3::new(c, c * self.nu, 0.0, c * self.nu, c, 0.0, 0.0, 0.0, c * (1.0 - self.nu) / 2.0)
+impl Material {
+    /// Stress, tangent and energy density at a strain; `forced` overrides the wrinkle state.
+    pub fn response(&self, strain: &Vector3<f64>, forced: Option<WrinkleState>) -> Response {
+        if self.wrinkling {
+            self.law.response(strain, forced)
+        } else {
+            let (stress, tangent, energy) = self.law.elastic(strain);
+            let (_, _, angle) = super::wrinkling::principal(strain);
+            Response {
+                stress,
+                tangent,
+                energy,
+                state: WrinkleState::Taut,
+                angle,
+            }
+        }
+    }
+
+    /// A modulus for force scales: E (SVK) or 3μ (neo-Hookean).
+    pub fn modulus(&self) -> f64 {
+        match self.law {
+            Law::Svk { young, .. } => young,
+            Law::NeoHookean { mu } => 3.0 * mu,
+        }
     }
 }
 
@@ -95,61 +116,74 @@ pub fn green_lagrange(F: &SMatrix<f64, 3, 2>) -> Vector3<f64> {
     Vector3::new(0.5 * (C[(0, 0)] - 1.0), 0.5 * (C[(1, 1)] - 1.0), C[(0, 1)])
 }
 
-/// PK2 stress (Voigt) of the SVK law.
-pub fn svk_stress(mat: &Svk, strain: &Vector3<f64>) -> Vector3<f64> {
-    mat.d() * strain
+/// What one element evaluation gives besides force and tangent.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Evaluation {
+    /// Stored energy, J.
+    pub energy: f64,
+    pub state: WrinkleState,
+    /// Tension direction angle in the element frame.
+    pub angle: f64,
+    /// PK2 stress (Voigt).
+    pub stress: Vector3<f64>,
 }
 
-/// Internal force, tangent and stored energy of one SVK triangle at current positions `x`.
-/// `prestress` (Pa) enters the tangent only.
+/// Internal force, tangent (if `tangent` is given, written there) and evaluation of one
+/// triangle at current positions `x`. `prestress` (Pa) enters the tangent only; `forced`
+/// freezes the wrinkle state.
 #[allow(non_snake_case)]
-pub fn svk_triangle(r: &TriangleRef, mat: &Svk, prestress: f64, x: &[Vector3<f64>; 3]) -> (Vec9, Mat9, f64) {
+pub fn triangle(
+    r: &TriangleRef,
+    mat: &Material,
+    prestress: f64,
+    x: &[Vector3<f64>; 3],
+    forced: Option<WrinkleState>,
+    tangent: Option<&mut Mat9>,
+) -> (Vec9, Evaluation) {
     let F = deformation_gradient(r, x);
     let E = green_lagrange(&F);
-    let D = mat.d();
-    let S = D * E;
-    let vol = r.area * mat.thickness;
-    let Smat = Matrix2::new(S[0], S[2], S[2], S[1]);
-    let s_min = 0.5 * (S[0] + S[1]) - (0.25 * (S[0] - S[1]).powi(2) + S[2] * S[2]).sqrt();
-    let prestress = (prestress - s_min).clamp(0.0, prestress);
-    let (F1, F2) = (F.column(0).into_owned(), F.column(1).into_owned());
-    let B: [Matrix3<f64>; 3] = [0, 1, 2].map(|a| {
-        let (n1, n2) = (r.grad[a].x, r.grad[a].y);
-        Matrix3::from_rows(&[
-            (F1 * n1).transpose(),
-            (F2 * n2).transpose(),
-            (F1 * n2 + F2 * n1).transpose(),
-        ])
-    });
-    let mut f = Vec9::zeros();
-    let mut K = Mat9::zeros();
-    for a in 0..3 {
-        let fa = F * (Smat * r.grad[a]) * vol;
-        f.fixed_rows_mut::<3>(3 * a).copy_from(&fa);
-        for b in 0..3 {
-            let geo = r.grad[a].dot(&(Smat * r.grad[b])) + prestress * r.grad[a].dot(&r.grad[b]);
-            let kab = (B[a].transpose() * D * B[b] + Matrix3::identity() * geo) * vol;
-            K.fixed_view_mut::<3, 3>(3 * a, 3 * b).copy_from(&kab);
-        }
-    }
-    let W = 0.5 * vol * E.dot(&S);
-    (f, K, W)
-}
-
-/// Internal force and stored energy only (no tangent): the residual-only path of the line
-/// search. Same formulas as [`svk_triangle`].
-#[allow(non_snake_case)]
-pub fn svk_triangle_force(r: &TriangleRef, mat: &Svk, x: &[Vector3<f64>; 3]) -> (Vec9, f64) {
-    let F = deformation_gradient(r, x);
-    let E = green_lagrange(&F);
-    let S = mat.d() * E;
+    let resp = mat.response(&E, forced);
+    let S = resp.stress;
     let vol = r.area * mat.thickness;
     let Smat = Matrix2::new(S[0], S[2], S[2], S[1]);
     let mut f = Vec9::zeros();
     for a in 0..3 {
         f.fixed_rows_mut::<3>(3 * a).copy_from(&(F * (Smat * r.grad[a]) * vol));
     }
-    (f, 0.5 * vol * E.dot(&S))
+    if let Some(K) = tangent {
+        // Fill in only the tension the element lacks: its minor principal stress if taut, its
+        // tension if wrinkled, nothing if slack.
+        let (s_max, s_min) = principal_stresses(&S);
+        let carried = if resp.state == WrinkleState::Wrinkled { s_max } else { s_min };
+        let prestress = (prestress - carried).clamp(0.0, prestress);
+        let (F1, F2) = (F.column(0).into_owned(), F.column(1).into_owned());
+        let B: [Matrix3<f64>; 3] = [0, 1, 2].map(|a| {
+            let (n1, n2) = (r.grad[a].x, r.grad[a].y);
+            Matrix3::from_rows(&[(F1 * n1).transpose(), (F2 * n2).transpose(), (F1 * n2 + F2 * n1).transpose()])
+        });
+        let D = resp.tangent;
+        for a in 0..3 {
+            for b in 0..3 {
+                let geo = r.grad[a].dot(&(Smat * r.grad[b])) + prestress * r.grad[a].dot(&r.grad[b]);
+                let kab = (B[a].transpose() * D * B[b] + Matrix3::identity() * geo) * vol;
+                K.fixed_view_mut::<3, 3>(3 * a, 3 * b).copy_from(&kab);
+            }
+        }
+    }
+    let eval = Evaluation {
+        energy: resp.energy * vol,
+        state: resp.state,
+        angle: resp.angle,
+        stress: S,
+    };
+    (f, eval)
+}
+
+/// Principal values (max, min) of a Voigt stress.
+pub fn principal_stresses(s: &Vector3<f64>) -> (f64, f64) {
+    let mean = 0.5 * (s[0] + s[1]);
+    let radius = (0.25 * (s[0] - s[1]).powi(2) + s[2] * s[2]).sqrt();
+    (mean + radius, mean - radius)
 }
 
 /// Current area and unit normal of a triangle.

@@ -15,19 +15,21 @@
 pub mod cable;
 pub mod membrane;
 pub mod pressure;
+pub mod wrinkling;
 
 use crate::scene::generate::{resolve, Mesh};
 use crate::scene::{Load, Material, NodeRef, OneNode, Probe, Scene, StrainLaw, TriangleRef as TriSel};
 use nalgebra::Vector3;
 
-/// Default artificial prestress of a flat membrane group, as a fraction of its E.
+/// Default artificial prestress of a flat membrane group, as a fraction of its E (3μ for
+/// neo-Hookean).
 pub const AUTO_PRESTRESS_FRACTION: f64 = 1e-4;
 
 #[derive(Clone, Debug)]
 pub struct Triangle {
     pub nodes: [usize; 3],
     pub reference: membrane::TriangleRef,
-    pub material: membrane::Svk,
+    pub material: membrane::Material,
     /// Tangent-only artificial prestress, Pa.
     pub prestress: f64,
 }
@@ -119,7 +121,7 @@ impl Model {
         let probes = scene.outputs.iter().map(|o| build_probe(&mesh, &cables, &o.probe)).collect();
         let force_scale = triangles
             .iter()
-            .map(|t| t.material.young * t.material.thickness * t.reference.area.sqrt())
+            .map(|t| t.material.modulus() * t.material.thickness * t.reference.area.sqrt())
             .chain(segments.iter().map(|s| s.ea))
             .fold(0.0, f64::max);
         let length_scale = bounding_diagonal(&reference, &used);
@@ -172,11 +174,14 @@ fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
 fn build_triangles(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [bool]) -> Vec<Triangle> {
     let mut out = Vec::new();
     for m in &scene.membranes {
-        let Material::Svk { young, nu } = m.material;
-        let material = membrane::Svk {
-            young,
-            nu,
+        let law = match m.material {
+            Material::Svk { young, nu } => wrinkling::Law::Svk { young, nu },
+            Material::NeoHookean { mu } => wrinkling::Law::NeoHookean { mu },
+        };
+        let material = membrane::Material {
+            law,
             thickness: m.thickness,
+            wrinkling: m.wrinkling,
         };
         let first = out.len();
         for t in triangle_ids(mesh, &m.triangles) {
@@ -198,7 +203,7 @@ fn build_triangles(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [b
         let prestress = scene
             .solver
             .artificial_prestress
-            .unwrap_or(if flat { AUTO_PRESTRESS_FRACTION * young } else { 0.0 });
+            .unwrap_or(if flat { AUTO_PRESTRESS_FRACTION * material.modulus() } else { 0.0 });
         for t in group {
             t.prestress = prestress;
         }

@@ -179,6 +179,11 @@ pub struct Membrane {
     /// Thickness in m (> 0).
     pub thickness: f64,
     pub material: Material,
+    /// Tension-field law (on by default): where the elastic answer would compress the sheet it
+    /// wrinkles instead and carries uniaxial tension, or goes slack. `false`: a plain elastic
+    /// sheet that carries compression.
+    #[serde(default = "yes")]
+    pub wrinkling: bool,
 }
 
 /// Membrane material (plane stress, total Lagrangian).
@@ -192,6 +197,9 @@ pub enum Material {
         young: f64,
         nu: f64,
     },
+    /// Incompressible neo-Hookean plane stress, W = μ/2 (tr C + 1/det C − 3): rubber at large
+    /// strain. `mu` is the shear modulus in Pa (small-strain E = 3μ).
+    NeoHookean { mu: f64 },
 }
 
 /// Strain law of a cable.
@@ -335,7 +343,7 @@ pub enum Probe {
 pub struct Parameter {
     /// Variable name.
     pub name: String,
-    /// What it sets: `membranes.<name>.E`, `membranes.<name>.nu`, `membranes.<name>.thickness`,
+    /// What it sets: `membranes.<name>.E`, `.nu` (SVK), `.mu` (neo-Hookean), `.thickness`,
     /// `cables.<name>.EA`, `cables.<name>.pretension`, `solver.artificial_prestress`.
     pub target: String,
     #[serde(default)]

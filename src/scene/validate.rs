@@ -242,12 +242,20 @@ impl Validator {
             if !positive(m.thickness) {
                 self.push(format!("{p}.thickness"), format!("{} is not a positive thickness in m", m.thickness));
             }
-            let Material::Svk { young, nu } = m.material;
-            if !positive(young) {
-                self.push(format!("{p}.material.E"), format!("{young} is not a positive Young's modulus in Pa"));
-            }
-            if !(nu.is_finite() && (0.0..0.5).contains(&nu)) {
-                self.push(format!("{p}.material.nu"), format!("{nu}: Poisson's ratio must be in [0, 0.5) for the SVK membrane"));
+            match m.material {
+                Material::Svk { young, nu } => {
+                    if !positive(young) {
+                        self.push(format!("{p}.material.E"), format!("{young} is not a positive Young's modulus in Pa"));
+                    }
+                    if !(nu.is_finite() && (0.0..0.5).contains(&nu)) {
+                        self.push(format!("{p}.material.nu"), format!("{nu}: Poisson's ratio must be in [0, 0.5) for the SVK membrane"));
+                    }
+                }
+                Material::NeoHookean { mu } => {
+                    if !positive(mu) {
+                        self.push(format!("{p}.material.mu"), format!("{mu} is not a positive shear modulus in Pa"));
+                    }
+                }
             }
         }
     }
@@ -400,7 +408,7 @@ impl Validator {
         for (i, p) in s.parameters.iter().enumerate() {
             let path = format!("parameters[{i}].target");
             match variables::parameter_value(s, &p.target) {
-                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|thickness, cables.<name>.EA|pretension or solver.artificial_prestress", p.target)),
+                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|thickness, cables.<name>.EA|pretension or solver.artificial_prestress", p.target)),
                 Some(v) if !v.is_finite() => self.push(path, "solver.artificial_prestress must be given a value in solver settings to be exposed as a parameter"),
                 Some(_) => {}
             }

@@ -8,6 +8,8 @@
 //! R = f_int − f_ext   on every DOF; at held DOFs R is the reaction (what the support supplies)
 //! ```
 
+use crate::model::membrane::Evaluation;
+use crate::model::wrinkling::WrinkleState;
 use crate::model::{cable, membrane, pressure, LoadModel, Model};
 use nalgebra::{SMatrix, Vector3};
 
@@ -137,9 +139,31 @@ fn add_force(r: &mut [f64], nodes: &[usize], f: &[f64]) {
     }
 }
 
+/// Per-triangle wrinkle states: frozen ones to use, and where to write the evaluations.
+#[derive(Default)]
+pub struct Membranes<'a> {
+    /// States frozen by the solver against chatter (None: the mixed criterion decides).
+    pub forced: Option<&'a [WrinkleState]>,
+    /// Evaluation of every triangle (state, tension angle, stress), if wanted.
+    pub out: Option<&'a mut Vec<Evaluation>>,
+}
+
 /// Residual R = f_int − f_ext(loads) on all DOFs at displacement `u`, and, if `k` is given,
 /// the free-free tangent (upper triangle) into `k` (zeroed here).
-pub fn assemble(model: &Model, pattern: &Pattern, u: &[f64], loads: &[f64], r: &mut [f64], mut k: Option<&mut [f64]>) -> AssemblyInfo {
+pub fn assemble(model: &Model, pattern: &Pattern, u: &[f64], loads: &[f64], r: &mut [f64], k: Option<&mut [f64]>) -> AssemblyInfo {
+    assemble_with(model, pattern, u, loads, r, k, Membranes::default())
+}
+
+/// [`assemble`] with control over the membranes' wrinkle states.
+pub fn assemble_with(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    loads: &[f64],
+    r: &mut [f64],
+    mut k: Option<&mut [f64]>,
+    mut membranes: Membranes,
+) -> AssemblyInfo {
     r.fill(0.0);
     if let Some(k) = k.as_deref_mut() {
         k.fill(0.0);
@@ -148,22 +172,23 @@ pub fn assemble(model: &Model, pattern: &Pattern, u: &[f64], loads: &[f64], r: &
         min_area_ratio: f64::INFINITY,
         ..Default::default()
     };
+    if let Some(out) = membranes.out.as_deref_mut() {
+        out.clear();
+    }
+    let mut ke = membrane::Mat9::zeros();
     for (e, t) in model.triangles.iter().enumerate() {
         let x = gather(model, u, t.nodes);
-        let w = match k.as_deref_mut() {
-            Some(k) => {
-                let (f, ke, w) = membrane::svk_triangle(&t.reference, &t.material, t.prestress, &x);
-                add_force(r, &t.nodes, f.as_slice());
-                scatter(&ke, &pattern.tri_map[e], k);
-                w
-            }
-            None => {
-                let (f, w) = membrane::svk_triangle_force(&t.reference, &t.material, &x);
-                add_force(r, &t.nodes, f.as_slice());
-                w
-            }
-        };
-        info.potential += w;
+        let forced = membranes.forced.map(|f| f[e]);
+        let want_k = k.is_some();
+        let (f, eval) = membrane::triangle(&t.reference, &t.material, t.prestress, &x, forced, want_k.then_some(&mut ke));
+        add_force(r, &t.nodes, f.as_slice());
+        if let Some(k) = k.as_deref_mut() {
+            scatter(&ke, &pattern.tri_map[e], k);
+        }
+        if let Some(out) = membranes.out.as_deref_mut() {
+            out.push(eval);
+        }
+        info.potential += eval.energy;
         let (area, _) = membrane::current_area_normal(&x);
         info.min_area_ratio = info.min_area_ratio.min(area / t.reference.area);
     }

@@ -19,6 +19,8 @@ pub mod assemble;
 pub mod linear;
 mod newton;
 
+use crate::model::membrane::Evaluation;
+use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 use assemble::Pattern;
 use linear::Ldlt;
@@ -77,6 +79,10 @@ pub struct Solver {
     residual: Vec<f64>,
     trial: Vec<f64>,
     rhs: Vec<f64>,
+    /// Per-triangle evaluations of the last assembly.
+    evaluations: Vec<Evaluation>,
+    /// Wrinkle states frozen against chatter inside the current increment.
+    frozen: Option<Vec<WrinkleState>>,
 }
 
 impl Solver {
@@ -91,6 +97,8 @@ impl Solver {
             residual: vec![0.0; n],
             trial: vec![0.0; n],
             rhs: vec![0.0; pattern.n],
+            evaluations: Vec::with_capacity(model.triangles.len()),
+            frozen: None,
             pattern,
         }
     }
@@ -105,6 +113,15 @@ impl Solver {
         let mut r = vec![0.0; model.dof_count()];
         assemble::assemble(model, &self.pattern, u, loads, &mut r, None);
         r
+    }
+
+    /// Evaluation (state, tension angle, stress, energy) of every membrane triangle at `u`.
+    pub fn evaluate_membranes(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<Evaluation> {
+        let mut r = vec![0.0; model.dof_count()];
+        let mut out = Vec::with_capacity(model.triangles.len());
+        let membranes = assemble::Membranes { forced: None, out: Some(&mut out) };
+        assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
+        out
     }
 
     /// Apply the load change `from` → `to` starting from the equilibrium `u`. On convergence

@@ -1,8 +1,14 @@
 //! Newton iterations of one load increment, with the slope line search.
 
-use super::assemble::{assemble, NONE};
+use super::assemble::{assemble_with, Membranes, NONE};
 use super::{push_log, Solver};
+use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
+
+/// Iterations with wrinkle-state changes before the states are frozen (chatter guard).
+const FREEZE_AFTER: usize = 6;
+/// Times frozen states may turn out wrong at convergence before the increment is cut back.
+const MAX_UNFREEZE: usize = 3;
 
 /// Smallest current/reference area ratio a membrane triangle may reach (inversion guard).
 const MIN_AREA_RATIO: f64 = 1e-6;
@@ -15,8 +21,18 @@ impl Solver {
     pub(super) fn newton(&mut self, model: &Model, loads: &[f64], u: &mut [f64], log: &mut Vec<String>) -> Result<usize, (usize, String)> {
         // Round-off level of internal forces (reference geometry is not exact in floating point).
         let floor = 1e-12 * model.force_scale.max(f64::MIN_POSITIVE);
+        self.frozen = None;
+        let (mut previous, mut freeze_at, mut unfreezes) = (Vec::<WrinkleState>::new(), FREEZE_AFTER, 0);
         for it in 0..=self.settings.max_iterations {
-            let info = assemble(model, &self.pattern, u, loads, &mut self.residual, Some(self.linear.values_mut()));
+            let membranes = Membranes { forced: self.frozen.as_deref(), out: Some(&mut self.evaluations) };
+            let info = assemble_with(model, &self.pattern, u, loads, &mut self.residual, Some(self.linear.values_mut()), membranes);
+            let states: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
+            if self.frozen.is_none() && it >= freeze_at && states != previous {
+                let changed = states.iter().zip(&previous).filter(|(a, b)| a != b).count();
+                push_log(log, format!("  wrinkle states still changing ({changed} elements): frozen until convergence"));
+                self.frozen = Some(states.clone());
+            }
+            previous = states;
             if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
                 return Err((it, format!("a membrane element inverted or collapsed (area ratio {:.2e})", info.min_area_ratio)));
             }
@@ -26,6 +42,19 @@ impl Solver {
             }
             let scale = info.external.max(held);
             if free <= self.settings.tolerance * scale + floor {
+                if let Some(frozen) = self.frozen.take() {
+                    // Re-check the frozen states against the criterion at this equilibrium.
+                    let natural = self.natural_states(model, loads, u);
+                    if natural != frozen {
+                        unfreezes += 1;
+                        if unfreezes > MAX_UNFREEZE {
+                            return Err((it, "wrinkle states keep changing (chatter)".into()));
+                        }
+                        push_log(log, "  frozen wrinkle states were wrong at convergence: iterating on".into());
+                        freeze_at = it + FREEZE_AFTER;
+                        continue;
+                    }
+                }
                 push_log(log, format!("  converged: |R| = {free:.3e} (scale {scale:.3e})"));
                 return Ok(it);
             }
@@ -42,7 +71,17 @@ impl Solver {
             self.update(u, alpha);
             push_log(log, format!("  iteration {}: |R| = {free:.3e} (scale {scale:.3e}), step α = {alpha:.3}", it + 1));
         }
-        unreachable!("the loop returns at it == max_iterations")
+        // Reached only when frozen states were found wrong at the last allowed iteration.
+        let n = self.settings.max_iterations;
+        Err((n, format!("no convergence in {n} iterations (wrinkle states changed at the end)")))
+    }
+
+    /// Wrinkle states the mixed criterion gives at `u` (no freezing).
+    fn natural_states(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> Vec<WrinkleState> {
+        let mut r = vec![0.0; u.len()];
+        let membranes = Membranes { forced: None, out: Some(&mut self.evaluations) };
+        assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
+        self.evaluations.iter().map(|e| e.state).collect()
     }
 
     /// |R|∞ over free DOFs and over held DOFs (the reactions).
@@ -77,7 +116,8 @@ impl Solver {
                 self.trial[d] += alpha * self.rhs[e];
             }
         }
-        let info = assemble(model, &self.pattern, &self.trial, loads, &mut self.residual, None);
+        let membranes = Membranes { forced: self.frozen.as_deref(), out: None };
+        let info = assemble_with(model, &self.pattern, &self.trial, loads, &mut self.residual, None, membranes);
         if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
             return f64::NAN;
         }
