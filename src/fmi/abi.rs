@@ -11,8 +11,9 @@
 #![allow(non_snake_case, clippy::missing_safety_doc)]
 
 use super::ffi::{
-    free_component, guard, into_component, release_state, slice_in, slice_out, state_mut, store_new_state, store_state,
-    text, texts, with_instance, write_out, CallbackFunctions, Component, FmuState,
+    free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
+    store_new_state, store_state, text, texts, with_instance, write_out, CallbackFunctions,
+    Component, FmuState,
 };
 use super::fsm::Func;
 use super::instance::{Instance, InstantiateArgs};
@@ -42,7 +43,10 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
     categories: *const *const c_char,
 ) -> Status {
     with_instance(c, "fmi2SetDebugLogging", |i| {
-        i.set_debug_logging(logging_on != 0, texts(categories, n_categories, "categories"))
+        i.set_debug_logging(
+            logging_on != 0,
+            texts(categories, n_categories, "categories"),
+        )
     })
 }
 
@@ -58,7 +62,11 @@ pub unsafe extern "C" fn fmi2Instantiate(
 ) -> Component {
     guard(null_mut(), || {
         let callbacks = functions.as_ref();
-        let (name, guid, location) = (text(instance_name), text(fmu_guid), text(fmu_resource_location));
+        let (name, guid, location) = (
+            text(instance_name),
+            text(fmu_guid),
+            text(fmu_resource_location),
+        );
         let logger = Logger::new(
             callbacks.and_then(|f| f.logger),
             callbacks.map_or(null_mut(), |f| f.component_environment),
@@ -92,17 +100,27 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 ) -> Status {
     let tolerance = (tolerance_defined != 0).then_some(tolerance);
     let stop_time = (stop_time_defined != 0).then_some(stop_time);
-    with_instance(c, "fmi2SetupExperiment", |i| i.setup_experiment(tolerance, start_time, stop_time))
+    with_instance(c, "fmi2SetupExperiment", |i| {
+        i.setup_experiment(tolerance, start_time, stop_time)
+    })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Component) -> Status {
-    with_instance(c, "fmi2EnterInitializationMode", Instance::enter_initialization_mode)
+    with_instance(
+        c,
+        "fmi2EnterInitializationMode",
+        Instance::enter_initialization_mode,
+    )
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Component) -> Status {
-    with_instance(c, "fmi2ExitInitializationMode", Instance::exit_initialization_mode)
+    with_instance(
+        c,
+        "fmi2ExitInitializationMode",
+        Instance::exit_initialization_mode,
+    )
 }
 
 #[no_mangle]
@@ -116,78 +134,161 @@ pub unsafe extern "C" fn fmi2Reset(c: Component) -> Status {
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetReal(c: Component, vr: *const c_uint, nvr: usize, value: *mut f64) -> Status {
-    with_instance(c, "fmi2GetReal", |i| i.get_real(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value")))
+pub unsafe extern "C" fn fmi2GetReal(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *mut f64,
+) -> Status {
+    with_instance(c, "fmi2GetReal", |i| {
+        i.get_real(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value"))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetInteger(c: Component, vr: *const c_uint, nvr: usize, value: *mut c_int) -> Status {
-    with_instance(c, "fmi2GetInteger", |i| i.get_integer(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value")))
+pub unsafe extern "C" fn fmi2GetInteger(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *mut c_int,
+) -> Status {
+    with_instance(c, "fmi2GetInteger", |i| {
+        i.get_integer(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value"))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetBoolean(c: Component, vr: *const c_uint, nvr: usize, _value: *mut Fmi2Boolean) -> Status {
-    with_instance(c, "fmi2GetBoolean", |i| i.no_such_variables(Func::GetBoolean, "Boolean", slice_in(vr, nvr, "vr")))
+pub unsafe extern "C" fn fmi2GetBoolean(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    _value: *mut Fmi2Boolean,
+) -> Status {
+    with_instance(c, "fmi2GetBoolean", |i| {
+        i.no_such_variables(Func::GetBoolean, "Boolean", slice_in(vr, nvr, "vr"))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetString(c: Component, vr: *const c_uint, nvr: usize, _value: *mut *const c_char) -> Status {
-    with_instance(c, "fmi2GetString", |i| i.no_such_variables(Func::GetString, "String", slice_in(vr, nvr, "vr")))
+pub unsafe extern "C" fn fmi2GetString(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    _value: *mut *const c_char,
+) -> Status {
+    with_instance(c, "fmi2GetString", |i| {
+        i.no_such_variables(Func::GetString, "String", slice_in(vr, nvr, "vr"))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2SetReal(c: Component, vr: *const c_uint, nvr: usize, value: *const f64) -> Status {
-    with_instance(c, "fmi2SetReal", |i| i.set_real(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value")))
+pub unsafe extern "C" fn fmi2SetReal(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *const f64,
+) -> Status {
+    with_instance(c, "fmi2SetReal", |i| {
+        i.set_real(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value"))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2SetInteger(c: Component, vr: *const c_uint, nvr: usize, value: *const c_int) -> Status {
-    with_instance(c, "fmi2SetInteger", |i| i.set_integer(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value")))
+pub unsafe extern "C" fn fmi2SetInteger(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    value: *const c_int,
+) -> Status {
+    with_instance(c, "fmi2SetInteger", |i| {
+        i.set_integer(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value"))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2SetBoolean(c: Component, vr: *const c_uint, nvr: usize, _value: *const Fmi2Boolean) -> Status {
-    with_instance(c, "fmi2SetBoolean", |i| i.no_such_variables(Func::SetBoolean, "Boolean", slice_in(vr, nvr, "vr")))
+pub unsafe extern "C" fn fmi2SetBoolean(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    _value: *const Fmi2Boolean,
+) -> Status {
+    with_instance(c, "fmi2SetBoolean", |i| {
+        i.no_such_variables(Func::SetBoolean, "Boolean", slice_in(vr, nvr, "vr"))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2SetString(c: Component, vr: *const c_uint, nvr: usize, _value: *const *const c_char) -> Status {
-    with_instance(c, "fmi2SetString", |i| i.no_such_variables(Func::SetString, "String", slice_in(vr, nvr, "vr")))
+pub unsafe extern "C" fn fmi2SetString(
+    c: Component,
+    vr: *const c_uint,
+    nvr: usize,
+    _value: *const *const c_char,
+) -> Status {
+    with_instance(c, "fmi2SetString", |i| {
+        i.no_such_variables(Func::SetString, "String", slice_in(vr, nvr, "vr"))
+    })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetFMUstate(c: Component, state: *mut FmuState) -> Status {
-    with_instance(c, "fmi2GetFMUstate", |i| i.get_fmu_state(|s| store_state(state, s)))
+    with_instance(c, "fmi2GetFMUstate", |i| {
+        i.get_fmu_state(|s| store_state(state, s))
+    })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetFMUstate(c: Component, state: FmuState) -> Status {
-    with_instance(c, "fmi2SetFMUstate", |i| i.set_fmu_state(state_mut(state).map(|s| &*s)))
+    with_instance(c, "fmi2SetFMUstate", |i| {
+        i.set_fmu_state(state_mut(state).map(|s| &*s))
+    })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: Component, state: *mut FmuState) -> Status {
-    with_instance(c, "fmi2FreeFMUstate", |i| i.free_fmu_state(|| release_state(state)))
+    with_instance(c, "fmi2FreeFMUstate", |i| {
+        i.free_fmu_state(|| release_state(state))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: Component, state: FmuState, size: *mut usize) -> Status {
+pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
+    c: Component,
+    state: FmuState,
+    size: *mut usize,
+) -> Status {
     with_instance(c, "fmi2SerializedFMUstateSize", |i| {
-        i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| write_out(size, n, "size"))
+        i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| {
+            write_out(size, n, "size")
+        })
     })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2SerializeFMUstate(c: Component, state: FmuState, bytes: *mut c_char, size: usize) -> Status {
+pub unsafe extern "C" fn fmi2SerializeFMUstate(
+    c: Component,
+    state: FmuState,
+    bytes: *mut c_char,
+    size: usize,
+) -> Status {
     with_instance(c, "fmi2SerializeFMUstate", |i| {
-        i.serialize_fmu_state(state_mut(state).map(|s| &*s), slice_out(bytes.cast::<u8>(), size, "serializedState"))
+        i.serialize_fmu_state(
+            state_mut(state).map(|s| &*s),
+            slice_out(bytes.cast::<u8>(), size, "serializedState"),
+        )
     })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2DeSerializeFMUstate(c: Component, bytes: *const c_char, size: usize, state: *mut FmuState) -> Status {
+pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
+    c: Component,
+    bytes: *const c_char,
+    size: usize,
+    state: *mut FmuState,
+) -> Status {
     with_instance(c, "fmi2DeSerializeFMUstate", |i| {
-        i.deserialize_fmu_state(slice_in(bytes.cast::<u8>(), size, "serializedState"), |s| store_new_state(state, s))
+        i.deserialize_fmu_state(slice_in(bytes.cast::<u8>(), size, "serializedState"), |s| {
+            store_new_state(state, s)
+        })
     })
 }
 
@@ -202,7 +303,10 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     _dv_unknown: *mut f64,
 ) -> Status {
     with_instance(c, "fmi2GetDirectionalDerivative", |i| {
-        i.unsupported(Func::GetDirectionalDerivative, "providesDirectionalDerivative is false")
+        i.unsupported(
+            Func::GetDirectionalDerivative,
+            "providesDirectionalDerivative is false",
+        )
     })
 }
 
@@ -215,7 +319,10 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     _value: *const f64,
 ) -> Status {
     with_instance(c, "fmi2SetRealInputDerivatives", |i| {
-        i.unsupported(Func::SetRealInputDerivatives, "canInterpolateInputs is false; inputs are held over each step")
+        i.unsupported(
+            Func::SetRealInputDerivatives,
+            "canInterpolateInputs is false; inputs are held over each step",
+        )
     })
 }
 
@@ -228,19 +335,30 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     _value: *mut f64,
 ) -> Status {
     with_instance(c, "fmi2GetRealOutputDerivatives", |i| {
-        i.unsupported(Func::GetRealOutputDerivatives, "maxOutputDerivativeOrder is 0")
+        i.unsupported(
+            Func::GetRealOutputDerivatives,
+            "maxOutputDerivativeOrder is 0",
+        )
     })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2DoStep(c: Component, t: f64, h: f64, no_set_prior: Fmi2Boolean) -> Status {
+pub unsafe extern "C" fn fmi2DoStep(
+    c: Component,
+    t: f64,
+    h: f64,
+    no_set_prior: Fmi2Boolean,
+) -> Status {
     with_instance(c, "fmi2DoStep", |i| i.do_step(t, h, no_set_prior != 0))
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2CancelStep(c: Component) -> Status {
     with_instance(c, "fmi2CancelStep", |i| {
-        i.unsupported(Func::CancelStep, "fmi2DoStep never runs asynchronously, so there is no step to cancel")
+        i.unsupported(
+            Func::CancelStep,
+            "fmi2DoStep never runs asynchronously, so there is no step to cancel",
+        )
     })
 }
 
@@ -251,22 +369,40 @@ pub unsafe extern "C" fn fmi2GetStatus(c: Component, kind: c_int, _value: *mut S
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetRealStatus(c: Component, kind: c_int, value: *mut f64) -> Status {
-    with_instance(c, "fmi2GetRealStatus", |i| i.get_real_status(kind, |v| write_out(value, v, "value")))
+    with_instance(c, "fmi2GetRealStatus", |i| {
+        i.get_real_status(kind, |v| write_out(value, v, "value"))
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetIntegerStatus(c: Component, kind: c_int, _value: *mut c_int) -> Status {
-    with_instance(c, "fmi2GetIntegerStatus", |i| i.no_such_status(Func::GetIntegerStatus, kind))
+pub unsafe extern "C" fn fmi2GetIntegerStatus(
+    c: Component,
+    kind: c_int,
+    _value: *mut c_int,
+) -> Status {
+    with_instance(c, "fmi2GetIntegerStatus", |i| {
+        i.no_such_status(Func::GetIntegerStatus, kind)
+    })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetBooleanStatus(c: Component, kind: c_int, value: *mut Fmi2Boolean) -> Status {
+pub unsafe extern "C" fn fmi2GetBooleanStatus(
+    c: Component,
+    kind: c_int,
+    value: *mut Fmi2Boolean,
+) -> Status {
     with_instance(c, "fmi2GetBooleanStatus", |i| {
         i.get_boolean_status(kind, |v| write_out(value, v as Fmi2Boolean, "value"))
     })
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetStringStatus(c: Component, kind: c_int, _value: *mut *const c_char) -> Status {
-    with_instance(c, "fmi2GetStringStatus", |i| i.no_such_status(Func::GetStringStatus, kind))
+pub unsafe extern "C" fn fmi2GetStringStatus(
+    c: Component,
+    kind: c_int,
+    _value: *mut *const c_char,
+) -> Status {
+    with_instance(c, "fmi2GetStringStatus", |i| {
+        i.no_such_status(Func::GetStringStatus, kind)
+    })
 }

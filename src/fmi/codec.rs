@@ -57,7 +57,10 @@ pub fn from_bytes<'de, T: de::Deserialize<'de>>(bytes: &'de [u8]) -> Result<T> {
     let mut decoder = Decoder { input: bytes };
     let value = T::deserialize(&mut decoder)?;
     if !decoder.input.is_empty() {
-        return Err(CodecError(format!("{} bytes left over after the value", decoder.input.len())));
+        return Err(CodecError(format!(
+            "{} bytes left over after the value",
+            decoder.input.len()
+        )));
     }
     Ok(value)
 }
@@ -132,10 +135,20 @@ impl ser::Serializer for &mut Encoder {
     fn serialize_unit_variant(self, _: &'static str, index: u32, _: &'static str) -> Result<()> {
         self.serialize_u32(index)
     }
-    fn serialize_newtype_struct<T: ?Sized + Serialize>(self, _: &'static str, value: &T) -> Result<()> {
+    fn serialize_newtype_struct<T: ?Sized + Serialize>(
+        self,
+        _: &'static str,
+        value: &T,
+    ) -> Result<()> {
         value.serialize(self)
     }
-    fn serialize_newtype_variant<T: ?Sized + Serialize>(self, _: &'static str, index: u32, _: &'static str, value: &T) -> Result<()> {
+    fn serialize_newtype_variant<T: ?Sized + Serialize>(
+        self,
+        _: &'static str,
+        index: u32,
+        _: &'static str,
+        value: &T,
+    ) -> Result<()> {
         self.serialize_u32(index)?;
         value.serialize(self)
     }
@@ -149,7 +162,13 @@ impl ser::Serializer for &mut Encoder {
     fn serialize_tuple_struct(self, _: &'static str, _: usize) -> Result<Self> {
         Ok(self)
     }
-    fn serialize_tuple_variant(self, _: &'static str, index: u32, _: &'static str, _: usize) -> Result<Self> {
+    fn serialize_tuple_variant(
+        self,
+        _: &'static str,
+        index: u32,
+        _: &'static str,
+        _: usize,
+    ) -> Result<Self> {
         self.serialize_u32(index)?;
         Ok(self)
     }
@@ -159,7 +178,13 @@ impl ser::Serializer for &mut Encoder {
     fn serialize_struct(self, _: &'static str, _: usize) -> Result<Self> {
         Ok(self)
     }
-    fn serialize_struct_variant(self, _: &'static str, index: u32, _: &'static str, _: usize) -> Result<Self> {
+    fn serialize_struct_variant(
+        self,
+        _: &'static str,
+        index: u32,
+        _: &'static str,
+        _: usize,
+    ) -> Result<Self> {
         self.serialize_u32(index)?;
         Ok(self)
     }
@@ -180,8 +205,12 @@ macro_rules! compound {
     )*};
 }
 
-compound!(SerializeSeq::serialize_element, SerializeTuple::serialize_element,
-          SerializeTupleStruct::serialize_field, SerializeTupleVariant::serialize_field);
+compound!(
+    SerializeSeq::serialize_element,
+    SerializeTuple::serialize_element,
+    SerializeTupleStruct::serialize_field,
+    SerializeTupleVariant::serialize_field
+);
 
 macro_rules! compound_named {
     ($($trait:ident),*) => {$(
@@ -221,7 +250,10 @@ struct Decoder<'de> {
 impl<'de> Decoder<'de> {
     fn take(&mut self, n: usize) -> Result<&'de [u8]> {
         if self.input.len() < n {
-            return Err(CodecError(format!("need {n} more bytes, {} left", self.input.len())));
+            return Err(CodecError(format!(
+                "need {n} more bytes, {} left",
+                self.input.len()
+            )));
         }
         let (head, tail) = self.input.split_at(n);
         self.input = tail;
@@ -306,30 +338,62 @@ impl<'de> de::Deserializer<'de> for &mut Decoder<'de> {
     fn deserialize_unit<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value> {
         visitor.visit_unit()
     }
-    fn deserialize_unit_struct<V: Visitor<'de>>(self, _: &'static str, visitor: V) -> Result<V::Value> {
+    fn deserialize_unit_struct<V: Visitor<'de>>(
+        self,
+        _: &'static str,
+        visitor: V,
+    ) -> Result<V::Value> {
         visitor.visit_unit()
     }
-    fn deserialize_newtype_struct<V: Visitor<'de>>(self, _: &'static str, visitor: V) -> Result<V::Value> {
+    fn deserialize_newtype_struct<V: Visitor<'de>>(
+        self,
+        _: &'static str,
+        visitor: V,
+    ) -> Result<V::Value> {
         visitor.visit_newtype_struct(self)
     }
     fn deserialize_seq<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value> {
         let n = self.len()?;
-        visitor.visit_seq(Elements { decoder: self, left: n })
+        visitor.visit_seq(Elements {
+            decoder: self,
+            left: n,
+        })
     }
     fn deserialize_tuple<V: Visitor<'de>>(self, n: usize, visitor: V) -> Result<V::Value> {
-        visitor.visit_seq(Elements { decoder: self, left: n })
+        visitor.visit_seq(Elements {
+            decoder: self,
+            left: n,
+        })
     }
-    fn deserialize_tuple_struct<V: Visitor<'de>>(self, _: &'static str, n: usize, visitor: V) -> Result<V::Value> {
+    fn deserialize_tuple_struct<V: Visitor<'de>>(
+        self,
+        _: &'static str,
+        n: usize,
+        visitor: V,
+    ) -> Result<V::Value> {
         self.deserialize_tuple(n, visitor)
     }
     fn deserialize_map<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value> {
         let n = self.len()?;
-        visitor.visit_map(Elements { decoder: self, left: n })
+        visitor.visit_map(Elements {
+            decoder: self,
+            left: n,
+        })
     }
-    fn deserialize_struct<V: Visitor<'de>>(self, _: &'static str, fields: &'static [&'static str], visitor: V) -> Result<V::Value> {
+    fn deserialize_struct<V: Visitor<'de>>(
+        self,
+        _: &'static str,
+        fields: &'static [&'static str],
+        visitor: V,
+    ) -> Result<V::Value> {
         self.deserialize_tuple(fields.len(), visitor)
     }
-    fn deserialize_enum<V: Visitor<'de>>(self, _: &'static str, _: &'static [&'static str], visitor: V) -> Result<V::Value> {
+    fn deserialize_enum<V: Visitor<'de>>(
+        self,
+        _: &'static str,
+        _: &'static [&'static str],
+        visitor: V,
+    ) -> Result<V::Value> {
         visitor.visit_enum(self)
     }
     fn deserialize_identifier<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value> {
@@ -394,7 +458,11 @@ impl<'de> de::VariantAccess<'de> for &mut Decoder<'de> {
     fn tuple_variant<V: Visitor<'de>>(self, n: usize, visitor: V) -> Result<V::Value> {
         de::Deserializer::deserialize_tuple(self, n, visitor)
     }
-    fn struct_variant<V: Visitor<'de>>(self, fields: &'static [&'static str], visitor: V) -> Result<V::Value> {
+    fn struct_variant<V: Visitor<'de>>(
+        self,
+        fields: &'static [&'static str],
+        visitor: V,
+    ) -> Result<V::Value> {
         de::Deserializer::deserialize_tuple(self, fields.len(), visitor)
     }
 }
@@ -425,7 +493,13 @@ mod tests {
     #[test]
     fn round_trip_is_bit_exact() {
         let sample = Sample {
-            values: vec![0.1 + 0.2, 1.2345678901234567e-5, -0.0, f64::INFINITY, 5e-324],
+            values: vec![
+                0.1 + 0.2,
+                1.2345678901234567e-5,
+                -0.0,
+                f64::INFINITY,
+                5e-324,
+            ],
             name: "cable ä #1".into(),
             count: 7,
             flag: true,

@@ -27,7 +27,8 @@ pub type Component = *mut c_void;
 pub type FmuState = *mut c_void;
 
 /// `fmi2CallbackLogger`: `void logger(env, instanceName, status, category, message, ...)`.
-pub type LoggerFn = unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
+pub type LoggerFn =
+    unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
 
 /// `fmi2CallbackFunctions`. Only the logger and the environment are used
 /// (`canNotUseMemoryManagementFunctions = true`).
@@ -66,7 +67,11 @@ pub(crate) fn guard<T>(fallback: T, body: impl FnOnce() -> T) -> T {
 ///
 /// # Safety
 /// `c` is NULL or a pointer returned by [`into_component`] and not yet freed.
-pub(crate) unsafe fn with_instance(c: Component, function: &'static str, body: impl FnOnce(&mut Instance) -> Status) -> Status {
+pub(crate) unsafe fn with_instance(
+    c: Component,
+    function: &'static str,
+    body: impl FnOnce(&mut Instance) -> Status,
+) -> Status {
     if !has_tag(c, INSTANCE_TAG) {
         return Status::Error;
     }
@@ -175,7 +180,10 @@ pub(crate) unsafe fn store_state(slot: *mut FmuState, snapshot: Snapshot) -> Res
 ///
 /// # Safety
 /// `slot` is NULL or valid for writes.
-pub(crate) unsafe fn store_new_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), String> {
+pub(crate) unsafe fn store_new_state(
+    slot: *mut FmuState,
+    snapshot: Snapshot,
+) -> Result<(), String> {
     let slot = slot.as_mut().ok_or("argument FMUstate is NULL")?;
     *slot = into_state(snapshot);
     Ok(())
@@ -186,7 +194,9 @@ pub(crate) unsafe fn store_new_state(slot: *mut FmuState, snapshot: Snapshot) ->
 /// # Safety
 /// `slot` is NULL or valid for reads and writes; `*slot` as in [`state_mut`].
 pub(crate) unsafe fn release_state(slot: *mut FmuState) -> Result<(), String> {
-    let Some(slot) = slot.as_mut() else { return Ok(()) };
+    let Some(slot) = slot.as_mut() else {
+        return Ok(());
+    };
     free_state(*slot)?;
     *slot = std::ptr::null_mut();
     Ok(())
@@ -196,7 +206,11 @@ pub(crate) unsafe fn release_state(slot: *mut FmuState) -> Result<(), String> {
 ///
 /// # Safety
 /// A non-NULL `ptr` points to `n` readable, initialized elements.
-pub(crate) unsafe fn slice_in<'a, T>(ptr: *const T, n: usize, name: &str) -> Result<&'a [T], String> {
+pub(crate) unsafe fn slice_in<'a, T>(
+    ptr: *const T,
+    n: usize,
+    name: &str,
+) -> Result<&'a [T], String> {
     if n == 0 {
         Ok(&[])
     } else if ptr.is_null() {
@@ -210,7 +224,11 @@ pub(crate) unsafe fn slice_in<'a, T>(ptr: *const T, n: usize, name: &str) -> Res
 ///
 /// # Safety
 /// A non-NULL `ptr` points to `n` writable elements.
-pub(crate) unsafe fn slice_out<'a, T>(ptr: *mut T, n: usize, name: &str) -> Result<&'a mut [T], String> {
+pub(crate) unsafe fn slice_out<'a, T>(
+    ptr: *mut T,
+    n: usize,
+    name: &str,
+) -> Result<&'a mut [T], String> {
     if n == 0 {
         Ok(&mut [])
     } else if ptr.is_null() {
@@ -232,11 +250,19 @@ pub(crate) unsafe fn text<'a>(ptr: *const c_char) -> Option<std::borrow::Cow<'a,
 ///
 /// # Safety
 /// As [`slice_in`], and every entry as [`text`].
-pub(crate) unsafe fn texts(ptr: *const *const c_char, n: usize, name: &str) -> Result<Vec<String>, String> {
+pub(crate) unsafe fn texts(
+    ptr: *const *const c_char,
+    n: usize,
+    name: &str,
+) -> Result<Vec<String>, String> {
     slice_in(ptr, n, name)?
         .iter()
         .enumerate()
-        .map(|(i, p)| text(*p).map(|s| s.into_owned()).ok_or(format!("{name}[{i}] is NULL")))
+        .map(|(i, p)| {
+            text(*p)
+                .map(|s| s.into_owned())
+                .ok_or(format!("{name}[{i}] is NULL"))
+        })
         .collect()
 }
 
@@ -296,12 +322,39 @@ mod tests {
     }
 
     #[test]
+    fn a_panic_becomes_an_error_and_reset_recovers() {
+        use crate::fmi::FsmState;
+        let c = into_component(Instance::for_tests());
+        let state_is = |want: FsmState| unsafe {
+            with_instance(c, "check", |i| {
+                if i.state() == want {
+                    Status::Ok
+                } else {
+                    Status::Fatal
+                }
+            })
+        };
+        let status = unsafe { with_instance(c, "fmi2DoStep", |_| -> Status { panic!("boom") }) };
+        assert_eq!(status, Status::Error);
+        assert_eq!(state_is(FsmState::Error), Status::Ok);
+        assert_eq!(
+            unsafe { with_instance(c, "fmi2Reset", Instance::reset) },
+            Status::Ok
+        );
+        assert_eq!(state_is(FsmState::Instantiated), Status::Ok);
+        unsafe { free_component(c) };
+    }
+
+    #[test]
     fn null_and_foreign_instances_are_rejected() {
         let status = unsafe { with_instance(std::ptr::null_mut(), "f", |_| Status::Ok) };
         assert_eq!(status, Status::Error);
         let mut not_an_instance = [0u64; 8];
         let c = not_an_instance.as_mut_ptr() as Component;
-        assert_eq!(unsafe { with_instance(c, "f", |_| Status::Ok) }, Status::Error);
+        assert_eq!(
+            unsafe { with_instance(c, "f", |_| Status::Ok) },
+            Status::Error
+        );
         unsafe { free_component(c) };
     }
 }

@@ -136,7 +136,9 @@ impl Func {
             GetDirectionalDerivative | SetRealInputDerivatives | GetRealOutputDerivatives => ANY,
             DoStep => C,
             CancelStep => ANY,
-            GetStatus | GetRealStatus | GetIntegerStatus | GetBooleanStatus | GetStringStatus => C | F | T,
+            GetStatus | GetRealStatus | GetIntegerStatus | GetBooleanStatus | GetStringStatus => {
+                C | F | T
+            }
         }
     }
 
@@ -153,7 +155,12 @@ mod tests {
     #[test]
     fn do_step_only_at_a_communication_point() {
         assert!(Func::DoStep.allowed_in(FsmState::StepComplete));
-        for s in [FsmState::Instantiated, FsmState::InitializationMode, FsmState::StepFailed, FsmState::Error] {
+        for s in [
+            FsmState::Instantiated,
+            FsmState::InitializationMode,
+            FsmState::StepFailed,
+            FsmState::Error,
+        ] {
             assert!(!Func::DoStep.allowed_in(s), "{s}");
         }
     }

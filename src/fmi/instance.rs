@@ -13,13 +13,16 @@
 //! An illegal call or argument changes nothing. Only an internal failure (a caught panic, an
 //! initial equilibrium that does not converge) moves the instance to the Error state.
 
+mod fmu_state;
+mod status;
+
 use super::fsm::{FsmState, Func};
 use super::logging::{escape, Category, Logger};
-use super::snapshot::{self, Experiment, Snapshot};
+use super::snapshot::Experiment;
 use super::uri::file_uri_to_path;
-use super::{Status, FMI2_COSIMULATION, FMI2_DO_STEP_STATUS, FMI2_LAST_SUCCESSFUL_TIME, FMI2_TERMINATED};
+use super::{Status, FMI2_COSIMULATION};
 use crate::description;
-use crate::engine::Engine;
+use crate::engine::{Engine, EngineState};
 use crate::scene::Scene;
 use crate::solver::StepReport;
 use crate::variables::{Causality, VarType};
@@ -49,6 +52,11 @@ pub struct Instance {
     wants_to_terminate: bool,
     /// A panic may have left the engine half-updated: rebuild it before it is used again.
     poisoned: bool,
+    /// Initialization Mode: the committed state at its start, from which every initial
+    /// equilibrium is solved (so the result does not depend on when outputs were read).
+    init_base: Option<EngineState>,
+    /// Initialization Mode: the initial equilibrium for the current inputs is committed.
+    init_solved: bool,
 }
 
 impl Instance {
@@ -58,11 +66,17 @@ impl Instance {
         match build_engine(args) {
             Ok((engine, guid)) => {
                 let instance = Instance::new(engine, guid, logger);
-                instance.logger.log(Category::Calls, &format!("fmi2Instantiate({}) -> instance", describe(args)));
+                instance.logger.log(
+                    Category::Calls,
+                    &format!("fmi2Instantiate({}) -> instance", describe(args)),
+                );
                 Some(instance)
             }
             Err(message) => {
-                logger.log(Category::StatusError, &format!("fmi2Instantiate: {message}"));
+                logger.log(
+                    Category::StatusError,
+                    &format!("fmi2Instantiate: {message}"),
+                );
                 None
             }
         }
@@ -79,6 +93,8 @@ impl Instance {
             last_successful_time: 0.0,
             wants_to_terminate: false,
             poisoned: false,
+            init_base: None,
+            init_solved: false,
         }
     }
 
@@ -99,7 +115,12 @@ impl Instance {
     }
 
     /// Run one FMI function: state check, body, error logging, call trace.
-    fn call(&mut self, func: Func, args: String, body: impl FnOnce(&mut Self) -> Outcome) -> Status {
+    fn call(
+        &mut self,
+        func: Func,
+        args: String,
+        body: impl FnOnce(&mut Self) -> Outcome,
+    ) -> Status {
         let outcome = if func.allowed_in(self.fsm) {
             body(self)
         } else {
@@ -108,12 +129,18 @@ impl Instance {
         let status = match outcome {
             Ok(status) => status,
             Err(message) => {
-                self.logger.log(Category::StatusError, &format!("{}: {message}", func.name()));
+                self.logger.log(
+                    Category::StatusError,
+                    &format!("{}: {message}", func.name()),
+                );
                 Status::Error
             }
         };
         if self.logger.enabled(Category::Calls) {
-            self.logger.log(Category::Calls, &format!("{}({args}) -> {}", func.name(), status.name()));
+            self.logger.log(
+                Category::Calls,
+                &format!("{}({args}) -> {}", func.name(), status.name()),
+            );
         }
         status
     }
@@ -145,11 +172,19 @@ impl Instance {
 
     /// A function this FMU does not support: log why, return fmi2Error.
     pub fn unsupported(&mut self, func: Func, why: &str) -> Status {
-        self.call(func, String::new(), |_| Err(format!("not supported: {why}")))
+        self.call(func, String::new(), |_| {
+            Err(format!("not supported: {why}"))
+        })
     }
 
     pub fn set_debug_logging(&mut self, on: bool, names: Result<Vec<String>, String>) -> Status {
-        let args = self.args(|| format!("loggingOn={}, categories={:?}", on as i32, names.as_deref().unwrap_or_default()));
+        let args = self.args(|| {
+            format!(
+                "loggingOn={}, categories={:?}",
+                on as i32,
+                names.as_deref().unwrap_or_default()
+            )
+        });
         self.call(Func::SetDebugLogging, args, |s| {
             let names = names?;
             let names: Vec<&str> = names.iter().map(String::as_str).collect();
@@ -158,8 +193,19 @@ impl Instance {
         })
     }
 
-    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> Status {
-        let args = self.args(|| format!("tolerance={tolerance:?}, startTime={start_time}, stopTime={stop_time:?}"));
+    pub fn setup_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> Status {
+        let args = self.args(|| {
+            format!(
+                "tolerance={}, startTime={start_time}, stopTime={}",
+                shown(tolerance),
+                shown(stop_time)
+            )
+        });
         self.call(Func::SetupExperiment, args, |s| {
             check_experiment(tolerance, start_time, stop_time)?;
             s.experiment = Experiment {
@@ -175,30 +221,72 @@ impl Instance {
     pub fn enter_initialization_mode(&mut self) -> Status {
         self.call(Func::EnterInitializationMode, String::new(), |s| {
             if !s.experiment.done {
-                return Err("fmi2SetupExperiment must be called before fmi2EnterInitializationMode".into());
+                return Err(
+                    "fmi2SetupExperiment must be called before fmi2EnterInitializationMode".into(),
+                );
             }
             s.fsm = FsmState::InitializationMode;
+            s.init_base = Some(s.engine.state().clone());
+            s.init_solved = false;
             Ok(Status::Ok)
         })
     }
 
     /// Solve the equilibrium under the current inputs and parameters (the start values unless
-    /// the master set others).
+    /// the master set others), unless outputs read in Initialization Mode already did.
     pub fn exit_initialization_mode(&mut self) -> Status {
         self.call(Func::ExitInitializationMode, String::new(), |s| {
-            let report = s.solve()?;
-            if !report.converged() {
-                s.fsm = FsmState::Error;
-                return Err(format!(
-                    "the initial equilibrium did not converge: {}; the instance is now in state Error",
-                    reached(&report)
-                ));
-            }
+            s.solve_initial()?;
             s.fsm = FsmState::StepComplete;
+            s.init_base = None;
             s.time = s.experiment.start_time;
             s.last_successful_time = s.time;
             Ok(Status::Ok)
         })
+    }
+
+    /// The initial equilibrium under the current inputs and parameters, always solved from
+    /// the state at the start of Initialization Mode. Not converged: the instance goes to
+    /// Error (there is no equilibrium to continue from).
+    fn solve_initial(&mut self) -> Result<(), String> {
+        if self.init_solved {
+            return Ok(());
+        }
+        if let Some(base) = &self.init_base {
+            let current = self.engine.state();
+            let start = EngineState {
+                inputs: current.inputs.clone(),
+                parameters: current.parameters.clone(),
+                ..base.clone()
+            };
+            self.engine.set_state(start).map_err(|e| e.to_string())?;
+        }
+        let report = self.solve()?;
+        if !report.converged() {
+            self.fsm = FsmState::Error;
+            return Err(format!(
+                "the initial equilibrium did not converge: {}; the instance is now in state Error",
+                reached(&report)
+            ));
+        }
+        self.init_solved = true;
+        Ok(())
+    }
+
+    /// In Initialization Mode, outputs are the initial equilibrium: solve it before the first
+    /// output is read (and again after an input or parameter changed).
+    fn prepare_outputs(&mut self, vr: &[u32]) -> Result<(), String> {
+        let reads_output = || {
+            let vars = self.engine.variables();
+            vr.iter().any(|r| {
+                vars.iter()
+                    .any(|v| v.value_reference == *r && v.causality == Causality::Output)
+            })
+        };
+        if self.fsm == FsmState::InitializationMode && reads_output() {
+            self.solve_initial()?;
+        }
+        Ok(())
     }
 
     pub fn terminate(&mut self) -> Status {
@@ -219,6 +307,8 @@ impl Instance {
             s.time = 0.0;
             s.last_successful_time = 0.0;
             s.wants_to_terminate = false;
+            s.init_base = None;
+            s.init_solved = false;
             Ok(Status::Ok)
         })
     }
@@ -247,20 +337,32 @@ impl Instance {
         Ok(report)
     }
 
-    pub fn get_real(&mut self, vr: Result<&[u32], String>, values: Result<&mut [f64], String>) -> Status {
+    pub fn get_real(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&mut [f64], String>,
+    ) -> Status {
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
         self.call(Func::GetReal, args, |s| {
-            for (r, v) in vr?.iter().zip(values?.iter_mut()) {
+            let vr = vr?;
+            s.prepare_outputs(vr)?;
+            for (r, v) in vr.iter().zip(values?.iter_mut()) {
                 *v = s.engine.get_real(*r).map_err(|e| e.to_string())?;
             }
             Ok(Status::Ok)
         })
     }
 
-    pub fn get_integer(&mut self, vr: Result<&[u32], String>, values: Result<&mut [i32], String>) -> Status {
+    pub fn get_integer(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&mut [i32], String>,
+    ) -> Status {
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
         self.call(Func::GetInteger, args, |s| {
-            for (r, v) in vr?.iter().zip(values?.iter_mut()) {
+            let vr = vr?;
+            s.prepare_outputs(vr)?;
+            for (r, v) in vr.iter().zip(values?.iter_mut()) {
                 *v = s.engine.get_integer(*r).map_err(|e| e.to_string())?;
             }
             Ok(Status::Ok)
@@ -269,18 +371,35 @@ impl Instance {
 
     /// Get or set Boolean / String: this FMU has no such variables, so any reference is
     /// unknown.
-    pub fn no_such_variables(&mut self, func: Func, kind: &str, vr: Result<&[u32], String>) -> Status {
+    pub fn no_such_variables(
+        &mut self,
+        func: Func,
+        kind: &str,
+        vr: Result<&[u32], String>,
+    ) -> Status {
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
         self.call(func, args, |_| match vr?.first() {
-            Some(r) => Err(format!("no {kind} variable has value reference {r} (this FMU has no {kind} variables)")),
+            Some(r) => Err(format!(
+                "no {kind} variable has value reference {r} (this FMU has no {kind} variables)"
+            )),
             None => Ok(Status::Ok),
         })
     }
 
     /// Set inputs and parameters. All or nothing: on any rejected value the engine state is
     /// restored to what it was before the call.
-    pub fn set_real(&mut self, vr: Result<&[u32], String>, values: Result<&[f64], String>) -> Status {
-        let args = self.args(|| format!("vr={:?}, value={:?}", vr.as_deref().unwrap_or_default(), values.as_deref().unwrap_or_default()));
+    pub fn set_real(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&[f64], String>,
+    ) -> Status {
+        let args = self.args(|| {
+            format!(
+                "vr={:?}, value={:?}",
+                vr.as_deref().unwrap_or_default(),
+                values.as_deref().unwrap_or_default()
+            )
+        });
         self.call(Func::SetReal, args, |s| {
             let (vr, values) = (vr?, values?);
             for r in vr {
@@ -293,13 +412,24 @@ impl Instance {
                     return Err(e.to_string());
                 }
             }
+            s.init_solved &= vr.is_empty();
             Ok(Status::Ok)
         })
     }
 
     /// There are no Integer inputs or parameters: every reference is an output or unknown.
-    pub fn set_integer(&mut self, vr: Result<&[u32], String>, values: Result<&[i32], String>) -> Status {
-        let args = self.args(|| format!("vr={:?}, value={:?}", vr.as_deref().unwrap_or_default(), values.as_deref().unwrap_or_default()));
+    pub fn set_integer(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&[i32], String>,
+    ) -> Status {
+        let args = self.args(|| {
+            format!(
+                "vr={:?}, value={:?}",
+                vr.as_deref().unwrap_or_default(),
+                values.as_deref().unwrap_or_default()
+            )
+        });
         self.call(Func::SetInteger, args, |s| {
             values?;
             match vr?.first() {
@@ -316,92 +446,21 @@ impl Instance {
     /// before the end of initialization only; inputs and tunable parameters also at
     /// communication points (the state mask already excludes the other states).
     fn check_settable(&self, vr: u32, var_type: VarType) -> Result<(), String> {
-        let var = self.engine.variable(vr, var_type).map_err(|e| e.to_string())?;
+        let var = self
+            .engine
+            .variable(vr, var_type)
+            .map_err(|e| e.to_string())?;
         let (name, why) = match var.causality {
             Causality::Output => (&var.name, "it is an output"),
-            Causality::Parameter if self.fsm == FsmState::StepComplete && !var.is_tunable() => {
-                (&var.name, "it is a fixed parameter, settable only before fmi2ExitInitializationMode")
-            }
+            Causality::Parameter if self.fsm == FsmState::StepComplete && !var.is_tunable() => (
+                &var.name,
+                "it is a fixed parameter, settable only before fmi2ExitInitializationMode",
+            ),
             _ => return Ok(()),
         };
-        Err(format!("variable {name} (value reference {vr}) cannot be set: {why}"))
-    }
-
-    /// The instance's state as plain data.
-    pub fn snapshot(&self) -> Snapshot {
-        Snapshot {
-            engine: self.engine.state().clone(),
-            time: self.time,
-            last_successful_time: self.last_successful_time,
-            wants_to_terminate: self.wants_to_terminate,
-            fsm: self.fsm,
-            experiment: self.experiment,
-        }
-    }
-
-    /// `fmi2GetFMUstate`: `store` puts the snapshot where the master's handle points.
-    pub fn get_fmu_state(&mut self, store: impl FnOnce(Snapshot) -> Result<(), String>) -> Status {
-        self.call(Func::GetFmuState, String::new(), |s| {
-            store(s.snapshot())?;
-            Ok(Status::Ok)
-        })
-    }
-
-    /// `fmi2SetFMUstate`: continue exactly from the snapshot (also into a fresh instance).
-    pub fn set_fmu_state(&mut self, snapshot: Result<&Snapshot, String>) -> Status {
-        self.call(Func::SetFmuState, String::new(), |s| {
-            let snapshot = snapshot?;
-            s.heal()?;
-            s.engine.set_state(snapshot.engine.clone()).map_err(|e| e.to_string())?;
-            s.time = snapshot.time;
-            s.last_successful_time = snapshot.last_successful_time;
-            s.wants_to_terminate = snapshot.wants_to_terminate;
-            s.fsm = snapshot.fsm;
-            s.experiment = snapshot.experiment;
-            Ok(Status::Ok)
-        })
-    }
-
-    /// `fmi2FreeFMUstate`: `release` frees the master's handle.
-    pub fn free_fmu_state(&mut self, release: impl FnOnce() -> Result<(), String>) -> Status {
-        self.call(Func::FreeFmuState, String::new(), |_| release().map(|_| Status::Ok))
-    }
-
-    pub fn serialized_fmu_state_size(
-        &mut self,
-        snapshot: Result<&Snapshot, String>,
-        store: impl FnOnce(usize) -> Result<(), String>,
-    ) -> Status {
-        self.call(Func::SerializedFmuStateSize, String::new(), |s| {
-            store(snapshot::encode(snapshot?, &s.guid)?.len())?;
-            Ok(Status::Ok)
-        })
-    }
-
-    pub fn serialize_fmu_state(&mut self, snapshot: Result<&Snapshot, String>, buffer: Result<&mut [u8], String>) -> Status {
-        self.call(Func::SerializeFmuState, String::new(), |s| {
-            let bytes = snapshot::encode(snapshot?, &s.guid)?;
-            let buffer = buffer?;
-            if buffer.len() < bytes.len() {
-                return Err(format!(
-                    "the buffer holds {} bytes, the state needs {} (see fmi2SerializedFMUstateSize)",
-                    buffer.len(),
-                    bytes.len()
-                ));
-            }
-            buffer[..bytes.len()].copy_from_slice(&bytes);
-            Ok(Status::Ok)
-        })
-    }
-
-    /// `fmi2DeSerializeFMUstate`: check the bytes (see `snapshot.rs`), then `store` a new state.
-    pub fn deserialize_fmu_state(&mut self, bytes: Result<&[u8], String>, store: impl FnOnce(Snapshot) -> Result<(), String>) -> Status {
-        let args = self.args(|| format!("size={}", bytes.as_ref().map_or(0, |b| b.len())));
-        self.call(Func::DeSerializeFmuState, args, |s| {
-            let snapshot = snapshot::decode(bytes?, &s.guid)?;
-            store(snapshot)?;
-            Ok(Status::Ok)
-        })
+        Err(format!(
+            "variable {name} (value reference {vr}) cannot be set: {why}"
+        ))
     }
 
     /// `fmi2DoStep`: reach the equilibrium under the inputs set before the call. Not converged:
@@ -434,7 +493,9 @@ impl Instance {
     /// by the stop time.
     fn check_step(&self, t: f64, h: f64) -> Result<(), String> {
         if !(h.is_finite() && h > 0.0) {
-            return Err(format!("communicationStepSize = {h} must be positive and finite"));
+            return Err(format!(
+                "communicationStepSize = {h} must be positive and finite"
+            ));
         }
         if !t.is_finite() || (t - self.time).abs() > TIME_TOLERANCE * t.abs().max(1.0) {
             return Err(format!(
@@ -462,46 +523,17 @@ impl Instance {
             reached(report)
         );
         let mut message = escape(&plain);
-        for var in self.engine.variables().iter().filter(|v| v.causality == Causality::Input) {
+        for var in self
+            .engine
+            .variables()
+            .iter()
+            .filter(|v| v.causality == Causality::Input)
+        {
             if let Ok(value) = self.engine.get_real(var.value_reference) {
                 message.push_str(&format!(" #r{}# = {value}", var.value_reference));
             }
         }
         self.logger.log_formatted(Category::StatusDiscard, &message);
-    }
-
-    /// `fmi2GetStatus`: only fmi2DoStepStatus exists, for asynchronous steps, which this FMU
-    /// does not do.
-    pub fn get_status(&mut self, kind: i32) -> Status {
-        self.call(Func::GetStatus, format!("kind={kind}"), |_| {
-            Err(match kind {
-                FMI2_DO_STEP_STATUS => "fmi2DoStepStatus is not available: this FMU never returns fmi2Pending".into(),
-                _ => format!("status kind {kind} is not a fmi2Status kind"),
-            })
-        })
-    }
-
-    /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`.
-    pub fn get_real_status(&mut self, kind: i32, store: impl FnOnce(f64) -> Result<(), String>) -> Status {
-        self.call(Func::GetRealStatus, format!("kind={kind}"), |s| match kind {
-            FMI2_LAST_SUCCESSFUL_TIME => store(s.last_successful_time).map(|_| Status::Ok),
-            _ => Err(format!("status kind {kind} is not a Real status; only fmi2LastSuccessfulTime ({FMI2_LAST_SUCCESSFUL_TIME}) is")),
-        })
-    }
-
-    /// `fmi2GetBooleanStatus(fmi2Terminated)`: true after a discarded step.
-    pub fn get_boolean_status(&mut self, kind: i32, store: impl FnOnce(bool) -> Result<(), String>) -> Status {
-        self.call(Func::GetBooleanStatus, format!("kind={kind}"), |s| match kind {
-            FMI2_TERMINATED => store(s.wants_to_terminate).map(|_| Status::Ok),
-            _ => Err(format!("status kind {kind} is not a Boolean status; only fmi2Terminated ({FMI2_TERMINATED}) is")),
-        })
-    }
-
-    /// `fmi2GetIntegerStatus` / `fmi2GetStringStatus`: no status kind has these types here.
-    pub fn no_such_status(&mut self, func: Func, kind: i32) -> Status {
-        self.call(func, format!("kind={kind}"), |_| {
-            Err(format!("status kind {kind} is not available as this type (no asynchronous steps)"))
-        })
     }
 }
 
@@ -519,7 +551,9 @@ fn build_engine(args: &InstantiateArgs) -> Result<(Engine, String), String> {
         ));
     }
     let given_guid = args.guid.ok_or("fmuGUID is NULL")?;
-    let location = args.resource_location.ok_or("fmuResourceLocation is NULL")?;
+    let location = args
+        .resource_location
+        .ok_or("fmuResourceLocation is NULL")?;
     let engine = load_engine(location)?;
     let guid = description::guid(&engine);
     if given_guid != guid {
@@ -532,7 +566,8 @@ fn build_engine(args: &InstantiateArgs) -> Result<(Engine, String), String> {
 
 /// `<resources>/scene.json` -> scene -> engine; every error names the file.
 fn load_engine(resource_location: &str) -> Result<Engine, String> {
-    let dir = file_uri_to_path(resource_location).map_err(|e| format!("fmuResourceLocation: {e}"))?;
+    let dir =
+        file_uri_to_path(resource_location).map_err(|e| format!("fmuResourceLocation: {e}"))?;
     let path = dir.join("scene.json");
     let shown = path.display();
     let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {shown}: {e}"))?;
@@ -546,11 +581,15 @@ fn check_experiment(tolerance: Option<f64>, start: f64, stop: Option<f64>) -> Re
     }
     if let Some(stop) = stop {
         if !(stop.is_finite() && stop >= start) {
-            return Err(format!("stopTime = {stop} must be finite and not before startTime = {start}"));
+            return Err(format!(
+                "stopTime = {stop} must be finite and not before startTime = {start}"
+            ));
         }
     }
     match tolerance {
-        Some(tol) if !(tol.is_finite() && tol > 0.0) => Err(format!("tolerance = {tol} must be positive and finite")),
+        Some(tol) if !(tol.is_finite() && tol > 0.0) => {
+            Err(format!("tolerance = {tol} must be positive and finite"))
+        }
         _ => Ok(()),
     }
 }
@@ -565,6 +604,11 @@ fn reached(report: &StepReport) -> String {
     )
 }
 
+/// An optional number for the call trace.
+fn shown(value: Option<f64>) -> String {
+    value.map_or("undefined".into(), |v| v.to_string())
+}
+
 fn describe(args: &InstantiateArgs) -> String {
     format!(
         "instanceName={:?}, fmuType={}, fmuGUID={:?}, fmuResourceLocation={:?}",
@@ -573,4 +617,25 @@ fn describe(args: &InstantiateArgs) -> String {
         args.guid.unwrap_or_default(),
         args.resource_location.unwrap_or_default()
     )
+}
+
+/// A small pretensioned cable for unit tests.
+#[cfg(test)]
+pub(crate) const TEST_SCENE: &str = r#"{"format": 1, "name": "c",
+    "geometry": {"nodes": [[0, 0, 0], [1, 0, 0], [2, 0, 0]]},
+    "cables": [{"name": "c", "nodes": [0, 1, 2], "EA": 1e5, "pretension": 100}],
+    "supports": [{"nodes": [0, 2], "fix": ["x", "y", "z"]}, {"nodes": [1], "fix": ["y"]}]}"#;
+
+#[cfg(test)]
+impl Instance {
+    /// An instance of [`TEST_SCENE`] without a logger.
+    pub(crate) fn for_tests() -> Instance {
+        let engine = Engine::try_new(Scene::from_json(TEST_SCENE).unwrap()).unwrap();
+        let guid = description::guid(&engine);
+        Instance::new(
+            engine,
+            guid,
+            Logger::new(None, std::ptr::null_mut(), "test", false),
+        )
+    }
 }

@@ -22,15 +22,30 @@ use std::ffi::{c_void, CString};
 
 /// (name, description) of every category, in declaration order.
 pub(crate) const CATEGORIES: &[(&str, &str)] = &[
-    ("logStatusWarning", "Warnings: the call succeeded, but something deserves attention"),
-    ("logStatusDiscard", "Discarded steps: the load increments did not converge (reached fraction and reason)"),
-    ("logStatusError", "Errors: illegal calls, invalid arguments, rejected states (always logged)"),
+    (
+        "logStatusWarning",
+        "Warnings: the call succeeded, but something deserves attention",
+    ),
+    (
+        "logStatusDiscard",
+        "Discarded steps: the load increments did not converge (reached fraction and reason)",
+    ),
+    (
+        "logStatusError",
+        "Errors: illegal calls, invalid arguments, rejected states (always logged)",
+    ),
     ("logStatusFatal", "Fatal errors (always logged)"),
-    ("logSolver", "Solver progress: Newton iterations and residuals per load increment"),
-    ("logCalls", "A trace of the FMI function calls and their arguments"),
+    (
+        "logSolver",
+        "Solver progress: Newton iterations and residuals per load increment",
+    ),
+    (
+        "logCalls",
+        "A trace of the FMI function calls and their arguments",
+    ),
 ];
 
-/// A log category (index into [`CATEGORIES`]).
+/// A log category (its position in [`log_categories`](super::log_categories)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Category {
     StatusWarning = 0,
@@ -79,7 +94,12 @@ pub struct Logger {
 
 impl Logger {
     /// `callback` None: nothing is ever logged. `on`: every category enabled.
-    pub fn new(callback: Option<LoggerFn>, environment: *mut c_void, instance_name: &str, on: bool) -> Logger {
+    pub fn new(
+        callback: Option<LoggerFn>,
+        environment: *mut c_void,
+        instance_name: &str,
+        on: bool,
+    ) -> Logger {
         Logger {
             callback,
             environment,
@@ -102,7 +122,9 @@ impl Logger {
 
     /// Log a message already in FMI form (`##` for `#`, `#r<vr>#` references).
     pub fn log_formatted(&self, category: Category, message: &str) {
-        let Some(callback) = self.callback else { return };
+        let Some(callback) = self.callback else {
+            return;
+        };
         if !self.enabled(category) {
             return;
         }
@@ -129,7 +151,12 @@ impl Logger {
         for name in names {
             match CATEGORIES.iter().position(|(n, _)| n == name) {
                 Some(i) => indices.push(i),
-                None => return Err(format!("unknown log category \"{name}\"; declared: {}", declared())),
+                None => {
+                    return Err(format!(
+                        "unknown log category \"{name}\"; declared: {}",
+                        declared()
+                    ))
+                }
             }
         }
         for i in indices {
@@ -140,7 +167,11 @@ impl Logger {
 }
 
 fn declared() -> String {
-    CATEGORIES.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+    CATEGORIES
+        .iter()
+        .map(|(n, _)| *n)
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// A C string of `text` without its interior NUL bytes.

@@ -10,7 +10,8 @@
 //! Everything else is safe Rust on an [`Instance`]:
 //!
 //! ```text
-//! instance.rs  lifecycle, variables, stepping, status queries
+//! instance.rs  lifecycle, variables, stepping; instance/fmu_state.rs (get/set/serialize
+//!              FMU states) and instance/status.rs (fmi2Get*Status)
 //! fsm.rs       the calling-sequence state machine: one mask of legal states per function
 //! logging.rs   log categories, the enabled set, '#' escaping; the C logger is always called
 //!              with the format "%s" and the message as its argument
@@ -28,14 +29,16 @@
 //!   which `fmi2Reset`, `fmi2SetFMUstate` and `fmi2FreeInstance` recover or release it.
 //! - `fmi2SetupExperiment` is required before `fmi2EnterInitializationMode`.
 //! - `fmi2ExitInitializationMode` solves the equilibrium under the current inputs and
-//!   parameters; the outputs read right after it are that equilibrium.
+//!   parameters; the outputs read right after it are that equilibrium. Outputs read inside
+//!   Initialization Mode are the same equilibrium, solved on demand (always from the state at
+//!   `fmi2EnterInitializationMode`, so reading early does not change the result).
 //! - `fmi2DoStep(t, h)` applies the inputs set before it by load increments from the last
 //!   converged equilibrium. If the engine does not converge it keeps that equilibrium, the call
 //!   returns `fmi2Discard`, the instance goes to StepFailed, `fmi2Terminated` is true and
 //!   `fmi2LastSuccessfulTime` is `t`. A DoStep in StepFailed is an Error; `fmi2SetFMUstate`
 //!   with a state saved earlier returns to StepComplete.
 //! - FMU states are boxed plain structs; their serialized form is pointer-free and checked
-//!   (see [`snapshot`]).
+//!   (see [`Snapshot`], [`STATE_MAGIC`]).
 //! - No global mutable state and no threads: all data lives in the instance.
 
 mod abi;
@@ -116,13 +119,25 @@ pub const MAX_OUTPUT_DERIVATIVE_ORDER: u32 = 0;
 pub fn capability_flags() -> &'static [(&'static str, bool)] {
     &[
         ("needsExecutionTool", NEEDS_EXECUTION_TOOL),
-        ("canHandleVariableCommunicationStepSize", CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE),
+        (
+            "canHandleVariableCommunicationStepSize",
+            CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
+        ),
         ("canInterpolateInputs", CAN_INTERPOLATE_INPUTS),
         ("canRunAsynchronuously", CAN_RUN_ASYNCHRONUOUSLY),
-        ("canBeInstantiatedOnlyOncePerProcess", CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS),
-        ("canNotUseMemoryManagementFunctions", CAN_NOT_USE_MEMORY_MANAGEMENT_FUNCTIONS),
+        (
+            "canBeInstantiatedOnlyOncePerProcess",
+            CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS,
+        ),
+        (
+            "canNotUseMemoryManagementFunctions",
+            CAN_NOT_USE_MEMORY_MANAGEMENT_FUNCTIONS,
+        ),
         ("canGetAndSetFMUstate", CAN_GET_AND_SET_FMU_STATE),
         ("canSerializeFMUstate", CAN_SERIALIZE_FMU_STATE),
-        ("providesDirectionalDerivative", PROVIDES_DIRECTIONAL_DERIVATIVE),
+        (
+            "providesDirectionalDerivative",
+            PROVIDES_DIRECTIONAL_DERIVATIVE,
+        ),
     ]
 }

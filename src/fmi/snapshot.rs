@@ -54,12 +54,15 @@ pub struct Experiment {
 
 /// FNV-1a, 64 bit.
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3))
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// The byte form of a snapshot taken by the instance with this GUID.
 pub fn encode(snapshot: &Snapshot, guid: &str) -> Result<Vec<u8>, String> {
-    let payload = codec::to_bytes(snapshot).map_err(|e| format!("the state could not be encoded: {e}"))?;
+    let payload =
+        codec::to_bytes(snapshot).map_err(|e| format!("the state could not be encoded: {e}"))?;
     let guid_len = u32::try_from(guid.len()).map_err(|_| "the GUID is too long".to_string())?;
     let mut out = Vec::with_capacity(32 + guid.len() + payload.len());
     out.extend_from_slice(STATE_MAGIC);
@@ -81,12 +84,16 @@ pub fn decode(bytes: &[u8], guid: &str) -> Result<Snapshot, String> {
     }
     let version = r.u32("format version")?;
     if version != STATE_FORMAT_VERSION {
-        return Err(format!("version check failed: format version {version}, this FMU reads {STATE_FORMAT_VERSION}"));
+        return Err(format!(
+            "version check failed: format version {version}, this FMU reads {STATE_FORMAT_VERSION}"
+        ));
     }
     let guid_len = r.u32("GUID length")? as usize;
     let saved_guid = r.take(guid_len, "GUID")?;
     let payload_len = r.u64("payload length")?;
-    let expected = (r.at as u64).checked_add(payload_len).and_then(|n| n.checked_add(8));
+    let expected = (r.at as u64)
+        .checked_add(payload_len)
+        .and_then(|n| n.checked_add(8));
     if expected != Some(bytes.len() as u64) {
         return Err(format!(
             "length check failed: the header announces {} bytes, {} were given (truncated or extended)",
@@ -118,7 +125,10 @@ impl<'a> Reader<'a> {
     fn take(&mut self, n: usize, field: &str) -> Result<&'a [u8], String> {
         let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
         let end = end.ok_or_else(|| {
-            format!("length check failed: the bytes end inside the {field} ({} bytes given)", self.bytes.len())
+            format!(
+                "length check failed: the bytes end inside the {field} ({} bytes given)",
+                self.bytes.len()
+            )
         })?;
         let slice = &self.bytes[self.at..end];
         self.at = end;
@@ -126,11 +136,15 @@ impl<'a> Reader<'a> {
     }
 
     fn u32(&mut self, field: &str) -> Result<u32, String> {
-        Ok(u32::from_le_bytes(self.take(4, field)?.try_into().expect("4 bytes")))
+        Ok(u32::from_le_bytes(
+            self.take(4, field)?.try_into().expect("4 bytes"),
+        ))
     }
 
     fn u64(&mut self, field: &str) -> Result<u64, String> {
-        Ok(u64::from_le_bytes(self.take(8, field)?.try_into().expect("8 bytes")))
+        Ok(u64::from_le_bytes(
+            self.take(8, field)?.try_into().expect("8 bytes"),
+        ))
     }
 }
 
@@ -139,14 +153,12 @@ mod tests {
     use super::*;
 
     fn sample() -> Snapshot {
+        let scene = crate::Scene::from_json(super::super::instance::TEST_SCENE).unwrap();
+        let mut engine = crate::Engine::try_new(scene).unwrap().state().clone();
+        engine.displacement[4] = f64::NAN;
+        engine.displacement[5] = 0.1 + 0.2;
         Snapshot {
-            engine: EngineState {
-                displacement: vec![0.1, -0.2, f64::NAN],
-                applied: vec![3.0],
-                inputs: vec![4.0],
-                parameters: vec![],
-                last_iterations: 3,
-            },
+            engine,
             time: 0.30000000000000004,
             last_successful_time: 0.2,
             wants_to_terminate: false,
@@ -166,7 +178,11 @@ mod tests {
         assert_eq!(&bytes[..8], STATE_MAGIC);
         let back = decode(&bytes, "{abc}").unwrap();
         assert_eq!(back.time.to_bits(), sample().time.to_bits());
-        assert!(back.engine.displacement[2].is_nan());
+        assert!(back.engine.displacement[4].is_nan());
+        assert_eq!(
+            back.engine.displacement[5].to_bits(),
+            (0.1f64 + 0.2).to_bits()
+        );
         assert_eq!(back.fsm, FsmState::StepComplete);
     }
 

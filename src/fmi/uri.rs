@@ -18,9 +18,15 @@ pub fn file_uri_to_path(uri: &str) -> Result<PathBuf, String> {
     let path = match rest.strip_prefix("//") {
         None => rest,
         Some(authority_and_path) => {
-            let (host, path) = authority_and_path.split_at(authority_and_path.find('/').unwrap_or(authority_and_path.len()));
+            let (host, path) = authority_and_path.split_at(
+                authority_and_path
+                    .find('/')
+                    .unwrap_or(authority_and_path.len()),
+            );
             if !host.is_empty() && !host.eq_ignore_ascii_case("localhost") {
-                return Err(format!("\"{uri}\" names host \"{host}\"; only local files can be read"));
+                return Err(format!(
+                    "\"{uri}\" names host \"{host}\"; only local files can be read"
+                ));
             }
             path
         }
@@ -45,11 +51,18 @@ fn percent_decode(text: &str) -> Result<Vec<u8>, String> {
     let mut i = 0;
     while i < bytes.len() {
         if bytes[i] == b'%' {
-            let hex = bytes.get(i + 1..i + 3).ok_or("a '%' is not followed by two hex digits")?;
+            let hex = bytes
+                .get(i + 1..i + 3)
+                .ok_or("a '%' is not followed by two hex digits")?;
             let value = std::str::from_utf8(hex)
                 .ok()
                 .and_then(|h| u8::from_str_radix(h, 16).ok())
-                .ok_or_else(|| format!("\"%{}\" is not a percent escape", String::from_utf8_lossy(hex)))?;
+                .ok_or_else(|| {
+                    format!(
+                        "\"%{}\" is not a percent escape",
+                        String::from_utf8_lossy(hex)
+                    )
+                })?;
             out.push(value);
             i += 3;
         } else {
@@ -83,9 +96,18 @@ mod tests {
 
     #[test]
     fn accepts_the_short_and_localhost_forms() {
-        assert_eq!(file_uri_to_path("file:/x/y").unwrap(), PathBuf::from("/x/y"));
-        assert_eq!(file_uri_to_path("FILE://localhost/x").unwrap(), PathBuf::from("/x"));
-        assert_eq!(file_uri_to_path("file:///x%25y").unwrap(), PathBuf::from("/x%y"));
+        assert_eq!(
+            file_uri_to_path("file:/x/y").unwrap(),
+            PathBuf::from("/x/y")
+        );
+        assert_eq!(
+            file_uri_to_path("FILE://localhost/x").unwrap(),
+            PathBuf::from("/x")
+        );
+        assert_eq!(
+            file_uri_to_path("file:///x%25y").unwrap(),
+            PathBuf::from("/x%y")
+        );
     }
 
     #[test]
