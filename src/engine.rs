@@ -14,6 +14,7 @@
 //! ```
 
 use crate::error::Error;
+use crate::model::membrane::Evaluation;
 use crate::model::Model;
 use crate::results;
 use crate::scene::{validate, Scene};
@@ -34,6 +35,11 @@ pub struct EngineState {
     pub parameters: Vec<f64>,
     /// Newton iterations of the last solve.
     pub last_iterations: u32,
+    /// Wrinkle state of every membrane triangle (0 taut, 1 wrinkled, 2 slack), in model order.
+    pub wrinkle: Vec<u8>,
+    /// Tension direction of every membrane triangle: angle (rad) of the major principal strain
+    /// direction in the triangle's reference frame (first edge = 0).
+    pub tension_angle: Vec<f64>,
 }
 
 pub struct Engine {
@@ -47,6 +53,8 @@ pub struct Engine {
     model_stale: bool,
     /// Outputs of the committed state, in probe order (recomputed whenever the state changes).
     outputs: Vec<f64>,
+    /// Evaluation of every membrane triangle in the committed state.
+    membranes: Vec<Evaluation>,
 }
 
 impl Engine {
@@ -70,6 +78,7 @@ impl Engine {
             state,
             model_stale: false,
             outputs: Vec::new(),
+            membranes: Vec::new(),
         };
         engine.refresh_outputs();
         Ok(engine)
@@ -190,6 +199,8 @@ impl Engine {
             || state.applied.len() != s.applied.len()
             || state.inputs.len() != s.inputs.len()
             || state.parameters.len() != s.parameters.len()
+            || state.wrinkle.len() != s.wrinkle.len()
+            || state.tension_angle.len() != s.tension_angle.len()
         {
             return Err(Error::State(format!(
                 "sizes (dofs {}, inputs {}, parameters {}) do not match this model (dofs {}, inputs {}, parameters {})",
@@ -224,6 +235,12 @@ impl Engine {
         self.refresh_outputs();
     }
 
+    /// Evaluation (state, tension angle, stresses) of every membrane triangle in the committed
+    /// state, in model order.
+    pub fn membranes(&self) -> &[Evaluation] {
+        &self.membranes
+    }
+
     /// Free DOFs of the current model (the size of the linear systems).
     pub fn free_dofs(&self) -> usize {
         self.solver.free_dofs()
@@ -242,7 +259,11 @@ impl Engine {
 
     fn refresh_outputs(&mut self) {
         let s = &self.state;
-        self.outputs = results::evaluate(&self.model, &mut self.solver, &s.displacement, &s.applied, s.last_iterations);
+        let membranes = self.solver.evaluate_membranes(&self.model, &s.displacement, &s.applied);
+        self.outputs = results::evaluate(&self.model, &mut self.solver, &s.displacement, &s.applied, s.last_iterations, &membranes);
+        self.state.wrinkle = membranes.iter().map(|e| results::state_code(e.state)).collect();
+        self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
+        self.membranes = membranes;
     }
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.
@@ -290,6 +311,8 @@ fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> EngineState
         inputs,
         parameters,
         last_iterations: 0,
+        wrinkle: vec![0; model.triangles.len()],
+        tension_angle: vec![0.0; model.triangles.len()],
     }
 }
 

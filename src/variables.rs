@@ -55,7 +55,7 @@ pub struct Variable {
 }
 
 /// Every unit a variable may carry, with its SI base-unit exponents (kg, m, s).
-pub const UNITS: &[(&str, [i32; 3])] = &[("m", [0, 1, 0]), ("N", [1, 1, -2]), ("Pa", [1, -1, -2])];
+pub const UNITS: &[(&str, [i32; 3])] = &[("m", [0, 1, 0]), ("N", [1, 1, -2]), ("Pa", [1, -1, -2]), ("N/m", [1, 0, -2])];
 
 /// Build the table of a (validated) scene. Parameter start values are read from the scene.
 pub fn table(scene: &Scene) -> Vec<Variable> {
@@ -95,6 +95,7 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
                 Load::PointForce { .. } => "N",
                 Load::Pressure { .. } => "Pa",
                 Load::Displacement { .. } => "m",
+                Load::RadialEdgeLoad { .. } => "N/m",
             }),
             start: Some(input.start),
             min: input.min,
@@ -105,7 +106,9 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
     }
     for (i, out) in scene.outputs.iter().enumerate() {
         let (var_type, variability, unit) = match out.probe {
-            Probe::NewtonIterations => (VarType::Integer, Variability::Discrete, None),
+            Probe::NewtonIterations | Probe::ElementState { .. } => (VarType::Integer, Variability::Discrete, None),
+            Probe::WrinkledFraction { .. } | Probe::SlackFraction { .. } => (VarType::Real, Variability::Continuous, None),
+            Probe::MaxPrincipalStress { .. } | Probe::MinPrincipalStress { .. } => (VarType::Real, Variability::Continuous, Some("Pa")),
             Probe::Displacement { .. } | Probe::Position { .. } | Probe::CableLength { .. } => {
                 (VarType::Real, Variability::Continuous, Some("m"))
             }

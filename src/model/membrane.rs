@@ -37,6 +37,22 @@ pub struct TriangleRef {
     pub area: f64,
     /// Unit normal of the reference plane (counter-clockwise node order).
     pub normal: Vector3<f64>,
+    /// The element frame: e1 along the first edge, e2 = normal × e1. Stresses, strains and
+    /// tension angles of the element are expressed in it.
+    pub frame: [Vector3<f64>; 2],
+}
+
+impl TriangleRef {
+    /// A Voigt stress of the element frame as a 3x3 tensor in global axes.
+    pub fn to_global(&self, s: &Vector3<f64>) -> Matrix3<f64> {
+        let [e1, e2] = self.frame;
+        (e1 * e1.transpose()) * s[0] + (e2 * e2.transpose()) * s[1] + (e1 * e2.transpose() + e2 * e1.transpose()) * s[2]
+    }
+
+    /// Unit direction (global, reference configuration) at `angle` in the element frame.
+    pub fn direction(&self, angle: f64) -> Vector3<f64> {
+        self.frame[0] * angle.cos() + self.frame[1] * angle.sin()
+    }
 }
 
 /// A membrane group's material: law, thickness and whether it wrinkles.
@@ -96,6 +112,7 @@ pub fn triangle_ref(x: [Vector3<f64>; 3]) -> Option<TriangleRef> {
         grad,
         area: 0.5 * twice_area,
         normal,
+        frame: [e1, e2],
     })
 }
 
@@ -126,6 +143,11 @@ pub struct Evaluation {
     pub angle: f64,
     /// PK2 stress (Voigt).
     pub stress: Vector3<f64>,
+    /// Principal Cauchy stresses (major, minor) in Pa: σ = F S Fᵀ / j with j the area ratio
+    /// (thickness taken as unchanged) for SVK, j = 1 for the incompressible neo-Hookean law.
+    pub cauchy: (f64, f64),
+    /// Current area / reference area.
+    pub area_ratio: f64,
 }
 
 /// Internal force, tangent (if `tangent` is given, written there) and evaluation of one
@@ -170,11 +192,23 @@ pub fn triangle(
             }
         }
     }
+    // Eigenvalues of S C equal the nonzero eigenvalues of F S Fᵀ.
+    let C = F.transpose() * F;
+    let area_ratio = C.determinant().max(0.0).sqrt();
+    let j = match mat.law {
+        Law::Svk { .. } => area_ratio.max(f64::MIN_POSITIVE),
+        Law::NeoHookean { .. } => 1.0,
+    };
+    let M = Smat * C;
+    let (half_tr, det) = (0.5 * M.trace(), M.determinant());
+    let root = (half_tr * half_tr - det).max(0.0).sqrt();
     let eval = Evaluation {
         energy: resp.energy * vol,
         state: resp.state,
         angle: resp.angle,
         stress: S,
+        cauchy: ((half_tr + root) / j, (half_tr - root) / j),
+        area_ratio,
     };
     (f, eval)
 }

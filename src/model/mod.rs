@@ -69,6 +69,13 @@ pub enum ProbeModel {
     CableTension { cable: usize, segment: Option<usize> },
     Reaction { dofs: Vec<usize> },
     NewtonIterations,
+    /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
+    /// indices).
+    WrinkledFraction(Vec<usize>),
+    SlackFraction(Vec<usize>),
+    MaxPrincipalStress(Vec<usize>),
+    MinPrincipalStress(Vec<usize>),
+    ElementState(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -118,7 +125,8 @@ impl Model {
                 }
             }
         }
-        let probes = scene.outputs.iter().map(|o| build_probe(&mesh, &cables, &o.probe)).collect();
+        let groups = group_ranges(scene, &mesh);
+        let probes = scene.outputs.iter().map(|o| build_probe(&mesh, &cables, &groups, &o.probe)).collect();
         let force_scale = triangles
             .iter()
             .map(|t| t.material.modulus() * t.material.thickness * t.reference.area.sqrt())
@@ -246,6 +254,21 @@ fn build_cables(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [bool
     (segments, cables)
 }
 
+/// (group name, range of `Model::triangles` indices, mesh triangle ids) per membrane group.
+fn group_ranges(scene: &Scene, mesh: &Mesh) -> Vec<(String, std::ops::Range<usize>, Vec<usize>)> {
+    let mut first = 0;
+    scene
+        .membranes
+        .iter()
+        .map(|m| {
+            let ids = triangle_ids(mesh, &m.triangles);
+            let range = first..first + ids.len();
+            first = range.end;
+            (m.name.clone(), range, ids)
+        })
+        .collect()
+}
+
 fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> LoadModel {
     match load {
         Load::PointForce { nodes, direction } => {
@@ -254,16 +277,7 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
             LoadModel::PointForce(ids.iter().flat_map(|&i| (0..3).map(move |c| (3 * i + c, d[c]))).filter(|(_, f)| *f != 0.0).collect())
         }
         Load::Pressure { membrane, follower } => {
-            // Element indices of the group: groups are laid out in scene order.
-            let mut first = 0;
-            let mut range = 0..0;
-            for m in &scene.membranes {
-                let count = triangle_ids(mesh, &m.triangles).len();
-                if &m.name == membrane {
-                    range = first..first + count;
-                }
-                first += count;
-            }
+            let range = group_ranges(scene, mesh).into_iter().find(|g| &g.0 == membrane).map(|g| g.1).expect("validated group");
             debug_assert!(range.end <= triangles.len());
             LoadModel::Pressure {
                 triangles: range.collect(),
@@ -273,10 +287,41 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
         Load::Displacement { nodes, component } => {
             LoadModel::Displacement(node_ids(mesh, nodes).iter().map(|&i| 3 * i + component.index()).collect())
         }
+        Load::RadialEdgeLoad { nodes, center, closed } => radial_edge_load(mesh, &node_ids(mesh, nodes), Vector3::from(*center), *closed),
     }
 }
 
-fn build_probe(mesh: &Mesh, cables: &[CableInfo], probe: &Probe) -> ProbeModel {
+/// Nodal forces per unit edge load (N/m): half of each segment's reference length to each end
+/// node, along the node's radial direction from `center` (projected on nothing: 3-D radial).
+fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bool) -> LoadModel {
+    let x = |i: usize| Vector3::from(mesh.nodes[i]);
+    let mut length = vec![0.0; ids.len()];
+    let segments = if closed { ids.len() } else { ids.len() - 1 };
+    for k in 0..segments {
+        let (a, b) = (k, (k + 1) % ids.len());
+        let l = (x(ids[b]) - x(ids[a])).norm();
+        length[a] += 0.5 * l;
+        length[b] += 0.5 * l;
+    }
+    let mut forces = Vec::new();
+    for (k, &i) in ids.iter().enumerate() {
+        let radial = x(i) - center;
+        let dir = if radial.norm() > 0.0 { radial.normalize() } else { Vector3::zeros() };
+        for c in 0..3 {
+            if dir[c] != 0.0 {
+                forces.push((3 * i + c, dir[c] * length[k]));
+            }
+        }
+    }
+    LoadModel::PointForce(forces)
+}
+
+type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
+
+fn build_probe(mesh: &Mesh, cables: &[CableInfo], groups: &Groups, probe: &Probe) -> ProbeModel {
+    let elements = |name: &Option<String>| -> Vec<usize> {
+        groups.iter().filter(|g| name.as_ref().is_none_or(|n| n == &g.0)).flat_map(|g| g.1.clone()).collect()
+    };
     let cable_index = |name: &str| cables.iter().position(|c| c.name == name).expect("validated cable name");
     match probe {
         Probe::Displacement { node, component } => ProbeModel::Displacement {
@@ -298,6 +343,17 @@ fn build_probe(mesh: &Mesh, cables: &[CableInfo], probe: &Probe) -> ProbeModel {
             dofs: node_ids(mesh, nodes).iter().map(|&i| 3 * i + component.index()).collect(),
         },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
+        Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)),
+        Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)),
+        Probe::MaxPrincipalStress { membrane } => ProbeModel::MaxPrincipalStress(elements(membrane)),
+        Probe::MinPrincipalStress { membrane } => ProbeModel::MinPrincipalStress(elements(membrane)),
+        Probe::ElementState { triangle } => {
+            let index = groups
+                .iter()
+                .find_map(|g| g.2.iter().position(|t| t == triangle).map(|k| g.1.start + k))
+                .expect("validated: the triangle belongs to a membrane group");
+            ProbeModel::ElementState(index)
+        }
     }
 }
 

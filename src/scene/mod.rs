@@ -74,10 +74,11 @@ pub struct Geometry {
     /// Explicit triangles as three node ids, counter-clockwise seen from the membrane's front.
     #[serde(default)]
     pub triangles: Vec<[usize; 3]>,
-    /// Named, ordered node sets over explicit node ids.
+    /// Named, ordered node sets over node ids of the whole mesh: explicit nodes first, then the
+    /// generated ones in generator order (a rectangle's node (i, j) is base + j (nx+1) + i).
     #[serde(default)]
     pub node_sets: BTreeMap<String, Vec<usize>>,
-    /// Named triangle sets over explicit triangle ids.
+    /// Named triangle sets over triangle ids of the whole mesh (explicit first, then generated).
     #[serde(default)]
     pub triangle_sets: BTreeMap<String, Vec<usize>>,
     /// Mesh generators; each defines the triangle set `<name>` and node sets `<name>.<set>`.
@@ -298,6 +299,16 @@ pub enum Load {
     },
     /// Prescribed displacement in m of one component of every node of the set.
     Displacement { nodes: NodeRef, component: Component },
+    /// In-plane edge load in N/m (force per unit reference length of the edge polyline through
+    /// `nodes`, in order), directed radially away from `center` (negative: towards it). Each
+    /// edge segment gives half its load to each end node, along that node's radial direction.
+    /// Dead load. `closed`: the polyline returns from the last node to the first (a rim).
+    RadialEdgeLoad {
+        nodes: NodeRef,
+        center: [f64; 3],
+        #[serde(default)]
+        closed: bool,
+    },
 }
 
 fn yes() -> bool {
@@ -335,6 +346,28 @@ pub enum Probe {
     Reaction { nodes: NodeRef, component: Component },
     /// Newton iterations used by the last step (all internal increments), Integer.
     NewtonIterations,
+    /// Fraction (0..1) of the reference area that is wrinkled, of one membrane group or of all.
+    WrinkledFraction {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        membrane: Option<String>,
+    },
+    /// Fraction (0..1) of the reference area that is slack.
+    SlackFraction {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        membrane: Option<String>,
+    },
+    /// Largest major principal Cauchy stress (Pa) over a group or all membranes.
+    MaxPrincipalStress {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        membrane: Option<String>,
+    },
+    /// Smallest minor principal Cauchy stress (Pa) over a group or all membranes.
+    MinPrincipalStress {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        membrane: Option<String>,
+    },
+    /// State of one triangle (mesh triangle id), Integer: 0 taut, 1 wrinkled, 2 slack.
+    ElementState { triangle: usize },
 }
 
 /// A scene value exposed as an FMU parameter.

@@ -153,19 +153,19 @@ impl Validator {
         }
         for (name, ids) in &s.geometry.node_sets {
             for (k, &id) in ids.iter().enumerate() {
-                if id >= n {
-                    self.push(format!("geometry.node_sets.{name}[{k}]"), format!("unknown node {id}"));
+                if id >= mesh.nodes.len() {
+                    self.push(format!("geometry.node_sets.{name}[{k}]"), format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()));
                 }
             }
             if mesh.node_sets.get(name) != Some(ids) {
                 self.push(format!("geometry.node_sets.{name}"), "clashes with a generated node set of the same name");
             }
         }
-        let nt = s.geometry.triangles.len();
+        let nt = mesh.triangles.len();
         for (name, ids) in &s.geometry.triangle_sets {
             for (k, &id) in ids.iter().enumerate() {
                 if id >= nt {
-                    self.push(format!("geometry.triangle_sets.{name}[{k}]"), format!("unknown triangle {id}: geometry.triangles has {nt}"));
+                    self.push(format!("geometry.triangle_sets.{name}[{k}]"), format!("unknown triangle {id}: the mesh has {nt}"));
                 }
             }
         }
@@ -350,6 +350,16 @@ impl Validator {
                     }
                 }
                 Load::Displacement { .. } => {} // checked with the supports
+                Load::RadialEdgeLoad { nodes, center, .. } => {
+                    if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
+                        if ids.len() < 2 {
+                            self.push(format!("{p}.load.nodes"), "an edge load needs at least two nodes (one edge)");
+                        }
+                    }
+                    if center.iter().any(|x| !x.is_finite()) {
+                        self.push(format!("{p}.load.center"), "must be finite");
+                    }
+                }
             }
             if !input.start.is_finite() {
                 self.push(format!("{p}.start"), "must be a finite number");
@@ -393,6 +403,29 @@ impl Validator {
                     }
                 }
                 Probe::NewtonIterations => {}
+                Probe::WrinkledFraction { membrane }
+                | Probe::SlackFraction { membrane }
+                | Probe::MaxPrincipalStress { membrane }
+                | Probe::MinPrincipalStress { membrane } => {
+                    if s.membranes.is_empty() {
+                        self.push(format!("{p}.kind"), "the scene has no membrane to measure");
+                    }
+                    if let Some(name) = membrane {
+                        if !s.membranes.iter().any(|m| &m.name == name) {
+                            let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
+                            self.push(format!("{p}.membrane"), format!("no membrane group is named \"{name}\"{}", suggest(name, names.into_iter())));
+                        }
+                    }
+                }
+                Probe::ElementState { triangle } => {
+                    let in_group = s.membranes.iter().any(|m| match &m.triangles {
+                        TriangleRef::Ids(ids) => ids.contains(triangle),
+                        TriangleRef::Set(name) => mesh.triangle_sets.get(name).is_some_and(|t| t.contains(triangle)),
+                    });
+                    if !in_group {
+                        self.push(format!("{p}.triangle"), format!("triangle {triangle} belongs to no membrane group"));
+                    }
+                }
             }
         }
     }
