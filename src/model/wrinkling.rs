@@ -6,8 +6,8 @@
 //! λ1 >= λ2                eigenvalues of C (squared principal stretches), λi = 1 + 2Ei
 //! v = [t1², t2², t1 t2],  w = [t1 m1, t2 m2, (t1 m2 + t2 m1)/2]   (Voigt of t⊗t and sym(t⊗m))
 //!
-//! mixed criterion (Kang & Im 1997): taut ⇔ trial minor principal stress > 0 (>= 0 at the
-//!   border), slack ⇔ E1 <= 0, wrinkled otherwise
+//! mixed criterion (Kang & Im 1997): taut ⇔ trial minor principal stress >= 0, otherwise
+//!   slack ⇔ E1 <= 0, wrinkled ⇔ E1 > 0
 //! SVK      taut: S = D E;  trial S2 >= 0 ⇔ E2 + ν E1 >= 0
 //!          wrinkled: S = E·E1 v (uniaxial, modulus E), C_w = E v vᵀ + 2 E E1/(E1 − E2) w wᵀ
 //! neo-Hookean (incompressible, plane stress, shear modulus μ):
@@ -93,12 +93,12 @@ impl Law {
         Matrix3::new(c, c * nu, 0.0, c * nu, c, 0.0, 0.0, 0.0, c * (1.0 - nu) / 2.0)
     }
 
-    /// The state the mixed criterion assigns to a strain.
+    /// The state the mixed criterion assigns to a strain. The unstrained state counts as taut
+    /// (its trial minor stress is 0, the taut border), so a stress-free sheet starts with its
+    /// full elastic tangent; stresses are continuous across every border, so this choice
+    /// affects only the tangent exactly at E = 0.
     pub fn classify(&self, strain: &Vector3<f64>) -> WrinkleState {
         let (e1, e2, _) = principal(strain);
-        if e1 <= 0.0 {
-            return WrinkleState::Slack;
-        }
         let taut = match *self {
             Law::Svk { nu, .. } => e2 + nu * e1 >= 0.0,
             Law::NeoHookean { .. } => {
@@ -108,6 +108,8 @@ impl Law {
         };
         if taut {
             WrinkleState::Taut
+        } else if e1 <= 0.0 {
+            WrinkleState::Slack
         } else {
             WrinkleState::Wrinkled
         }
