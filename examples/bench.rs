@@ -13,20 +13,44 @@ use velarium::Engine;
 const W_FOLLOWER: f64 = 0.065404;
 
 fn main() {
-    let path = format!("{}/modelDescription/HenckyDisc/scene.json", env!("CARGO_MANIFEST_DIR"));
-    let base = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene")).expect("valid scene");
-    let rings: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
-    let rings = if rings.is_empty() { vec![8, 16, 32, 64] } else { rings };
+    let path = format!(
+        "{}/modelDescription/HenckyDisc/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let base = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene"))
+        .expect("valid scene");
+    let rings: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let rings = if rings.is_empty() {
+        vec![8, 16, 32, 64]
+    } else {
+        rings
+    };
     println!("Hencky disc, follower pressure, qa/(Eh) = 1e-3, reference w0/a = {W_FOLLOWER}");
-    println!("{:>6} {:>8} {:>11} {:>9} {:>6} {:>12} {:>12} {:>8}", "rings", "DOF", "error", "time s", "iters", "s/iter", "floor s", "ratio");
+    println!(
+        "{:>6} {:>8} {:>11} {:>9} {:>6} {:>12} {:>12} {:>8}",
+        "rings", "DOF", "error", "time s", "iters", "s/iter", "floor s", "ratio"
+    );
     for n in rings {
         let mut scene = base.clone();
         if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
             *rings = n;
         }
         let mut engine = Engine::try_new(scene).expect("valid scene");
-        let vr = engine.variables().iter().find(|v| v.name == "pressure").unwrap().value_reference;
-        let out = engine.variables().iter().find(|v| v.name == "center_uz").unwrap().value_reference;
+        let vr = engine
+            .variables()
+            .iter()
+            .find(|v| v.name == "pressure")
+            .unwrap()
+            .value_reference;
+        let out = engine
+            .variables()
+            .iter()
+            .find(|v| v.name == "center_uz")
+            .unwrap()
+            .value_reference;
         let t = Instant::now();
         engine.set_real(vr, 40.0).unwrap();
         let report = engine.solve();

@@ -44,7 +44,11 @@ pub fn model_description(engine: &Engine) -> String {
 
 /// The GUID of the engine's scene, `{8-4-4-4-12}` lowercase hex.
 pub fn guid(engine: &Engine) -> String {
-    guid_of(&render(engine.scene(), engine.variables(), GUID_PLACEHOLDER))
+    guid_of(&render(
+        engine.scene(),
+        engine.variables(),
+        GUID_PLACEHOLDER,
+    ))
 }
 
 fn render(scene: &Scene, variables: &[Variable], guid: &str) -> String {
@@ -58,9 +62,9 @@ fn render(scene: &Scene, variables: &[Variable], guid: &str) -> String {
     let _ = writeln!(
         x,
         "  <DefaultExperiment startTime=\"{}\" stopTime=\"{}\" stepSize=\"{}\"/>",
-        real(e.start_time),
-        real(e.stop_time),
-        real(e.step_size)
+        xs_double(e.start_time),
+        xs_double(e.stop_time),
+        xs_double(e.step_size)
     );
     model_variables(&mut x, variables);
     model_structure(&mut x, variables);
@@ -82,17 +86,29 @@ fn header(x: &mut String, scene: &Scene, variables: &[Variable], guid: &str) {
     if !scene.description.is_empty() {
         let _ = writeln!(x, "  description=\"{}\"", escape(&scene.description));
     }
-    let _ = writeln!(x, "  generationTool=\"Velarium {}\"", env!("CARGO_PKG_VERSION"));
+    let _ = writeln!(
+        x,
+        "  generationTool=\"Velarium {}\"",
+        env!("CARGO_PKG_VERSION")
+    );
     let _ = writeln!(x, "  variableNamingConvention=\"{convention}\"");
     x.push_str("  numberOfEventIndicators=\"0\">\n");
 }
 
 fn co_simulation(x: &mut String, scene: &Scene) {
-    let _ = write!(x, "  <CoSimulation\n    modelIdentifier=\"{}\"", escape(&scene.name));
+    let _ = write!(
+        x,
+        "  <CoSimulation\n    modelIdentifier=\"{}\"",
+        escape(&scene.name)
+    );
     for (flag, value) in fmi::capability_flags() {
         let _ = write!(x, "\n    {flag}=\"{value}\"");
     }
-    let _ = writeln!(x, "\n    maxOutputDerivativeOrder=\"{}\"/>", fmi::MAX_OUTPUT_DERIVATIVE_ORDER);
+    let _ = writeln!(
+        x,
+        "\n    maxOutputDerivativeOrder=\"{}\"/>",
+        fmi::MAX_OUTPUT_DERIVATIVE_ORDER
+    );
 }
 
 /// Units in `UNITS` order, only those some variable uses; absent when none is used.
@@ -115,7 +131,11 @@ fn unit_definitions(x: &mut String, variables: &[Variable]) {
         }
         x.push_str("/>\n");
         for (_, display, factor) in DISPLAY_UNITS.iter().filter(|(u, _, _)| u == name) {
-            let _ = writeln!(x, "      <DisplayUnit name=\"{display}\" factor=\"{}\"/>", real(*factor));
+            let _ = writeln!(
+                x,
+                "      <DisplayUnit name=\"{display}\" factor=\"{}\"/>",
+                xs_double(*factor)
+            );
         }
         x.push_str("    </Unit>\n");
     }
@@ -168,11 +188,15 @@ fn scalar_variable(x: &mut String, v: &Variable) {
         let _ = write!(attributes, " unit=\"{}\"", escape(unit));
     }
     // Outputs are `initial="calculated"` (the default) and so carry no start value.
-    let start = if v.causality == Causality::Output { None } else { v.start };
+    let start = if v.causality == Causality::Output {
+        None
+    } else {
+        v.start
+    };
     for (name, value) in [("start", start), ("min", v.min), ("max", v.max)] {
         if let Some(value) = value {
             let text = match v.var_type {
-                VarType::Real => real(value),
+                VarType::Real => xs_double(value),
                 VarType::Integer => format!("{}", value.round() as i64),
             };
             let _ = write!(attributes, " {name}=\"{text}\"");
@@ -221,9 +245,10 @@ fn variability(v: Variability) -> &'static str {
     }
 }
 
-/// An `xs:double`: Rust's shortest round-trip text (exponent form for very large or small
-/// magnitudes), `NaN`, `INF`, `-INF`.
-fn real(value: f64) -> String {
+/// A number as an `xs:double`: Rust's shortest round-trip text without a trailing `.0`
+/// (exponent form for very large or small magnitudes), `NaN`, `INF`, `-INF`. Python's `float`
+/// reads it back exactly too.
+pub fn xs_double(value: f64) -> String {
     if value.is_nan() {
         "NaN".into()
     } else if value.is_infinite() {
@@ -268,7 +293,10 @@ fn is_structured_name(name: &str) -> bool {
         let indices_ok = indices.is_none_or(|ix| {
             ix.strip_prefix('[')
                 .and_then(|s| s.strip_suffix(']'))
-                .is_some_and(|list| list.split(',').all(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit())))
+                .is_some_and(|list| {
+                    list.split(',')
+                        .all(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+                })
         });
         base_ok && indices_ok
     })
@@ -315,17 +343,20 @@ mod tests {
 
     #[test]
     fn reals_are_xs_doubles() {
-        assert_eq!(real(1.0), "1");
-        assert_eq!(real(0.1), "0.1");
-        assert_eq!(real(1e-9), "1e-9");
-        assert_eq!(real(2.1e11), "210000000000");
-        assert_eq!(real(1e20), "1e20");
-        assert_eq!(real(f64::NAN), "NaN");
-        assert_eq!(real(f64::NEG_INFINITY), "-INF");
+        assert_eq!(xs_double(1.0), "1");
+        assert_eq!(xs_double(0.1), "0.1");
+        assert_eq!(xs_double(1e-9), "1e-9");
+        assert_eq!(xs_double(2.1e11), "210000000000");
+        assert_eq!(xs_double(1e20), "1e20");
+        assert_eq!(xs_double(f64::NAN), "NaN");
+        assert_eq!(xs_double(f64::NEG_INFINITY), "-INF");
     }
 
     #[test]
     fn escapes_attribute_text() {
-        assert_eq!(escape("a<b & \"c\" 'd'>\n"), "a&lt;b &amp; &quot;c&quot; &apos;d&apos;&gt;&#10;");
+        assert_eq!(
+            escape("a<b & \"c\" 'd'>\n"),
+            "a&lt;b &amp; &quot;c&quot; &apos;d&apos;&gt;&#10;"
+        );
     }
 }

@@ -19,7 +19,7 @@ use crate::model::Model;
 use crate::results;
 use crate::scene::{validate, Scene};
 use crate::solver::{Settings, Solver, StepReport};
-use crate::variables::{self, Binding, Causality, VarType, Variable, Variability};
+use crate::variables::{self, Binding, Causality, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 
 /// Everything needed to continue a run: plain data, `Clone + Serialize`.
@@ -155,7 +155,10 @@ impl Engine {
         let var = self.variable(vr, VarType::Integer)?;
         match var.binding {
             Binding::Output(i) => Ok(self.outputs[i].round() as i32),
-            _ => Err(Error::UnknownValueReference { vr, kind: "Integer" }),
+            _ => Err(Error::UnknownValueReference {
+                vr,
+                kind: "Integer",
+            }),
         }
     }
 
@@ -165,7 +168,9 @@ impl Engine {
             .iter()
             .filter(|v| v.causality == Causality::Output)
             .map(|v| {
-                let Binding::Output(i) = v.binding else { unreachable!("outputs bind outputs") };
+                let Binding::Output(i) = v.binding else {
+                    unreachable!("outputs bind outputs")
+                };
                 (v.name.clone(), self.outputs[i])
             })
             .collect()
@@ -178,7 +183,12 @@ impl Engine {
         if self.model_stale {
             self.rebuild();
         }
-        let report = self.solver.solve_step(&self.model, &self.state.applied, &self.state.inputs, &mut self.state.displacement);
+        let report = self.solver.solve_step(
+            &self.model,
+            &self.state.applied,
+            &self.state.inputs,
+            &mut self.state.displacement,
+        );
         if report.converged() {
             self.state.applied = self.state.inputs.clone();
             self.state.last_iterations = report.iterations as u32;
@@ -248,20 +258,38 @@ impl Engine {
 
     /// Residual R = f_int − f_ext of the committed state on every DOF (reactions at held DOFs).
     pub fn residual(&mut self) -> Vec<f64> {
-        self.solver.residual(&self.model, &self.state.displacement, &self.state.applied)
+        self.solver
+            .residual(&self.model, &self.state.displacement, &self.state.applied)
     }
 
     /// Seconds of one assembly and of one numeric factorization + solve at the committed
     /// state (best of `repeats`): the per-iteration floor the benchmark compares against.
     pub fn time_floor(&mut self, repeats: usize) -> (f64, f64) {
-        self.solver.time_floor(&self.model, &self.state.displacement, &self.state.applied, repeats)
+        self.solver.time_floor(
+            &self.model,
+            &self.state.displacement,
+            &self.state.applied,
+            repeats,
+        )
     }
 
     fn refresh_outputs(&mut self) {
         let s = &self.state;
-        let membranes = self.solver.evaluate_membranes(&self.model, &s.displacement, &s.applied);
-        self.outputs = results::evaluate(&self.model, &mut self.solver, &s.displacement, &s.applied, s.last_iterations, &membranes);
-        self.state.wrinkle = membranes.iter().map(|e| results::state_code(e.state)).collect();
+        let membranes = self
+            .solver
+            .evaluate_membranes(&self.model, &s.displacement, &s.applied);
+        self.outputs = results::evaluate(
+            &self.model,
+            &mut self.solver,
+            &s.displacement,
+            &s.applied,
+            s.last_iterations,
+            &membranes,
+        );
+        self.state.wrinkle = membranes
+            .iter()
+            .map(|e| results::state_code(e.state))
+            .collect();
         self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
         self.membranes = membranes;
     }
@@ -300,7 +328,10 @@ fn type_name(t: VarType) -> &'static str {
 
 fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> EngineState {
     let start = |b: fn(Binding) -> bool| -> Vec<f64> {
-        vars.iter().filter(|v| b(v.binding)).map(|v| v.start.unwrap_or(0.0)).collect()
+        vars.iter()
+            .filter(|v| b(v.binding))
+            .map(|v| v.start.unwrap_or(0.0))
+            .collect()
     };
     let inputs = start(|b| matches!(b, Binding::Input(_)));
     let parameters = start(|b| matches!(b, Binding::Parameter(_)));

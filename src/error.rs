@@ -17,7 +17,12 @@ pub enum Error {
     /// NaN or infinite value for a variable.
     NonFinite { vr: u32, name: String, value: f64 },
     /// A value outside the variable's declared [min, max] or physical range.
-    OutOfRange { vr: u32, name: String, value: f64, why: String },
+    OutOfRange {
+        vr: u32,
+        name: String,
+        value: f64,
+        why: String,
+    },
     /// A file could not be read or written.
     Io { path: String, message: String },
     /// Saved state bytes that do not belong to this model or are damaged.

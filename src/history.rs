@@ -13,6 +13,7 @@
 //! row fmpy records at t_{k+1} (FMI.md 1.2, the one-step lag). Numbers are written in Rust's
 //! shortest round-trip form, so a reader gets the exact f64 back.
 
+use crate::description::xs_double;
 use crate::engine::Engine;
 use crate::error::Error;
 use crate::variables::{Causality, VarType};
@@ -68,8 +69,11 @@ impl LoadTable {
             .enumerate()
             .map(|(i, l)| (i + 1, l.trim()))
             .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-        let (header_line, header) = lines.next().ok_or_else(|| err("no header line; expected `time,<input names>`".into()))?;
-        let columns = parse_header(header, engine).map_err(|m| err(format!("line {header_line}: {m}")))?;
+        let (header_line, header) = lines
+            .next()
+            .ok_or_else(|| err("no header line; expected `time,<input names>`".into()))?;
+        let columns =
+            parse_header(header, engine).map_err(|m| err(format!("line {header_line}: {m}")))?;
         let mut rows: Vec<LoadRow> = Vec::new();
         for (line, text) in lines {
             let row = parse_row(line, text, &columns).map_err(&err)?;
@@ -124,7 +128,10 @@ fn parse_header(header: &str, engine: &Engine) -> Result<Vec<(String, u32)>, Str
             ));
         };
         if var.causality != Causality::Input || var.var_type != VarType::Real {
-            return Err(format!("column {} ({name}) is not an input (loads can only set inputs)", c + 2));
+            return Err(format!(
+                "column {} ({name}) is not an input (loads can only set inputs)",
+                c + 2
+            ));
         }
         if columns.iter().any(|(n, _)| n == name) {
             return Err(format!("column {} ({name}) appears twice", c + 2));
@@ -197,7 +204,9 @@ pub fn run(engine: &mut Engine, table: &LoadTable) -> Result<History, Error> {
             break;
         }
         let outputs = engine.outputs().into_iter().map(|(_, value)| value);
-        history.rows.push(std::iter::once(row.time).chain(outputs).collect());
+        history
+            .rows
+            .push(std::iter::once(row.time).chain(outputs).collect());
     }
     Ok(history)
 }
@@ -210,7 +219,7 @@ impl History {
         for row in &self.rows {
             for (i, x) in row.iter().enumerate() {
                 let sep = if i == 0 { "" } else { "," };
-                let _ = write!(out, "{sep}{x:?}");
+                let _ = write!(out, "{sep}{}", xs_double(*x));
             }
             out.push('\n');
         }

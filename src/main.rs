@@ -37,7 +37,10 @@ enum Stop {
 }
 
 fn main() -> ExitCode {
-    let args: Result<Vec<String>, _> = std::env::args_os().skip(1).map(|a| a.into_string()).collect();
+    let args: Result<Vec<String>, _> = std::env::args_os()
+        .skip(1)
+        .map(|a| a.into_string())
+        .collect();
     let result = match args {
         Ok(args) => run(&args),
         Err(bad) => Err(Stop::Usage(format!("argument {bad:?} is not valid UTF-8"))),
@@ -111,7 +114,10 @@ impl Args {
             }
             let value = match inline {
                 Some(v) => v,
-                None => iter.next().cloned().ok_or_else(|| Stop::Usage(format!("option {name} needs a value")))?,
+                None => iter
+                    .next()
+                    .cloned()
+                    .ok_or_else(|| Stop::Usage(format!("option {name} needs a value")))?,
             };
             parsed.options.push((name.to_string(), value));
         }
@@ -126,11 +132,15 @@ impl Args {
     }
 
     fn option(&self, name: &str) -> Option<&str> {
-        self.options.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str())
+        self.options
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
     }
 
     fn required(&self, name: &str) -> Result<&str, Stop> {
-        self.option(name).ok_or_else(|| Stop::Usage(format!("option {name} is required")))
+        self.option(name)
+            .ok_or_else(|| Stop::Usage(format!("option {name} is required")))
     }
 
     fn scene_path(&self) -> &str {
@@ -168,7 +178,8 @@ fn cmd_pack(args: &Args) -> Result<ExitCode, Stop> {
         )));
     }
     let library = find_library(args.option("--lib").map(Path::new)).map_err(failed)?;
-    let fmu = pack(&scene, &out, &library).map_err(|e| Stop::Failed(format!("{}: {e}", args.scene_path())))?;
+    let fmu = pack(&scene, &out, &library)
+        .map_err(|e| Stop::Failed(format!("{}: {e}", args.scene_path())))?;
     println!("{}", fmu.display());
     Ok(ExitCode::SUCCESS)
 }

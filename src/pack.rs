@@ -30,12 +30,14 @@ pub const LIBRARY_FILE: &str = "libvelarium.so";
 /// problem is reported); `library` is the built `libvelarium.so`.
 pub fn pack(scene: &Scene, out_dir: &Path, library: &Path) -> Result<PathBuf, Error> {
     let engine = Engine::try_new(scene.clone())?;
-    let binary = std::fs::read(library).map_err(|e| io_error(library, "cannot read the FMU library", e))?;
+    let binary =
+        std::fs::read(library).map_err(|e| io_error(library, "cannot read the FMU library", e))?;
     let archive = archive(scene, &model_description(&engine), &binary).map_err(|e| Error::Io {
         path: library.display().to_string(),
         message: format!("cannot build the FMU archive: {e}"),
     })?;
-    std::fs::create_dir_all(out_dir).map_err(|e| io_error(out_dir, "cannot create the output directory", e))?;
+    std::fs::create_dir_all(out_dir)
+        .map_err(|e| io_error(out_dir, "cannot create the output directory", e))?;
     let target = out_dir.join(format!("{}.fmu", scene.name));
     write_atomically(&target, &archive)?;
     Ok(target)
@@ -75,7 +77,10 @@ pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
 /// Write `bytes` to `path` through a temporary file in the same directory and a rename: the
 /// file at `path` is either the old one or the complete new one, and no temporary is left.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let temp = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
     let result = std::fs::File::create(&temp)
         .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
@@ -96,7 +101,11 @@ fn archive(scene: &Scene, description: &str, binary: &[u8]) -> zip::result::ZipR
     let entries: [(String, &[u8], u32); 3] = [
         ("modelDescription.xml".into(), description.as_bytes(), 0o644),
         (format!("binaries/linux64/{}.so", scene.name), binary, 0o755),
-        (format!("resources/{SCENE_RESOURCE}"), scene_json.as_bytes(), 0o644),
+        (
+            format!("resources/{SCENE_RESOURCE}"),
+            scene_json.as_bytes(),
+            0o644,
+        ),
     ];
     for (name, bytes, mode) in entries {
         zip.start_file(name, options.unix_permissions(mode))?;

@@ -17,14 +17,32 @@ use crate::solver::Solver;
 
 /// Every output of the model, in probe order. `u` displacement, `applied` input values it
 /// carries, `iterations` of the last step, `membranes` the evaluation of every triangle at `u`.
-pub fn evaluate(model: &Model, solver: &mut Solver, u: &[f64], applied: &[f64], iterations: u32, membranes: &[Evaluation]) -> Vec<f64> {
-    let needs_reactions = model.probes.iter().any(|p| matches!(p, ProbeModel::Reaction { .. }));
-    let r = if needs_reactions { solver.residual(model, u, applied) } else { Vec::new() };
+pub fn evaluate(
+    model: &Model,
+    solver: &mut Solver,
+    u: &[f64],
+    applied: &[f64],
+    iterations: u32,
+    membranes: &[Evaluation],
+) -> Vec<f64> {
+    let needs_reactions = model
+        .probes
+        .iter()
+        .any(|p| matches!(p, ProbeModel::Reaction { .. }));
+    let r = if needs_reactions {
+        solver.residual(model, u, applied)
+    } else {
+        Vec::new()
+    };
     let fraction = |tris: &[usize], state: WrinkleState| -> f64 {
         let area = |e: &usize| model.triangles[*e].reference.area;
         let total: f64 = tris.iter().map(area).sum();
-        let part: f64 = tris.iter().filter(|e| membranes[**e].state == state).map(area).sum();
-        if total > 0.0 {
+        let part: f64 = tris
+            .iter()
+            .filter(|e| membranes[**e].state == state)
+            .map(area)
+            .sum();
+        if total > 0.0 && part > 0.0 {
             part / total
         } else {
             0.0
@@ -44,12 +62,20 @@ pub fn evaluate(model: &Model, solver: &mut Solver, u: &[f64], applied: &[f64], 
                     None => tensions.iter().copied().fold(0.0, f64::max),
                 }
             }
-            ProbeModel::Reaction { dofs } => dofs.iter().filter(|&&d| model.held[d]).map(|&d| r[d]).sum(),
+            ProbeModel::Reaction { dofs } => {
+                dofs.iter().filter(|&&d| model.held[d]).map(|&d| r[d]).sum()
+            }
             ProbeModel::NewtonIterations => iterations as f64,
             ProbeModel::WrinkledFraction(tris) => fraction(tris, WrinkleState::Wrinkled),
             ProbeModel::SlackFraction(tris) => fraction(tris, WrinkleState::Slack),
-            ProbeModel::MaxPrincipalStress(tris) => tris.iter().map(|e| membranes[*e].cauchy.0).fold(f64::NEG_INFINITY, f64::max),
-            ProbeModel::MinPrincipalStress(tris) => tris.iter().map(|e| membranes[*e].cauchy.1).fold(f64::INFINITY, f64::min),
+            ProbeModel::MaxPrincipalStress(tris) => tris
+                .iter()
+                .map(|e| membranes[*e].cauchy.0)
+                .fold(f64::NEG_INFINITY, f64::max),
+            ProbeModel::MinPrincipalStress(tris) => tris
+                .iter()
+                .map(|e| membranes[*e].cauchy.1)
+                .fold(f64::INFINITY, f64::min),
             ProbeModel::ElementState(e) => state_code(membranes[*e].state) as f64,
         })
         .collect()

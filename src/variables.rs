@@ -55,7 +55,12 @@ pub struct Variable {
 }
 
 /// Every unit a variable may carry, with its SI base-unit exponents (kg, m, s).
-pub const UNITS: &[(&str, [i32; 3])] = &[("m", [0, 1, 0]), ("N", [1, 1, -2]), ("Pa", [1, -1, -2]), ("N/m", [1, 0, -2])];
+pub const UNITS: &[(&str, [i32; 3])] = &[
+    ("m", [0, 1, 0]),
+    ("N", [1, 1, -2]),
+    ("Pa", [1, -1, -2]),
+    ("N/m", [1, 0, -2]),
+];
 
 /// Build the table of a (validated) scene. Parameter start values are read from the scene.
 pub fn table(scene: &Scene) -> Vec<Variable> {
@@ -106,13 +111,21 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
     }
     for (i, out) in scene.outputs.iter().enumerate() {
         let (var_type, variability, unit) = match out.probe {
-            Probe::NewtonIterations | Probe::ElementState { .. } => (VarType::Integer, Variability::Discrete, None),
-            Probe::WrinkledFraction { .. } | Probe::SlackFraction { .. } => (VarType::Real, Variability::Continuous, None),
-            Probe::MaxPrincipalStress { .. } | Probe::MinPrincipalStress { .. } => (VarType::Real, Variability::Continuous, Some("Pa")),
+            Probe::NewtonIterations | Probe::ElementState { .. } => {
+                (VarType::Integer, Variability::Discrete, None)
+            }
+            Probe::WrinkledFraction { .. } | Probe::SlackFraction { .. } => {
+                (VarType::Real, Variability::Continuous, None)
+            }
+            Probe::MaxPrincipalStress { .. } | Probe::MinPrincipalStress { .. } => {
+                (VarType::Real, Variability::Continuous, Some("Pa"))
+            }
             Probe::Displacement { .. } | Probe::Position { .. } | Probe::CableLength { .. } => {
                 (VarType::Real, Variability::Continuous, Some("m"))
             }
-            Probe::CableTension { .. } | Probe::Reaction { .. } => (VarType::Real, Variability::Continuous, Some("N")),
+            Probe::CableTension { .. } | Probe::Reaction { .. } => {
+                (VarType::Real, Variability::Continuous, Some("N"))
+            }
         };
         vars.push(Variable {
             name: out.name.clone(),
@@ -155,7 +168,9 @@ fn split_target(target: &str) -> Option<(&str, &str, &str)> {
 pub fn parameter_value(scene: &Scene, target: &str) -> Option<f64> {
     let (kind, name, field) = split_target(target)?;
     match (kind, field) {
-        ("solver", "artificial_prestress") => Some(scene.solver.artificial_prestress.unwrap_or(f64::NAN)),
+        ("solver", "artificial_prestress") => {
+            Some(scene.solver.artificial_prestress.unwrap_or(f64::NAN))
+        }
         ("membranes", _) => {
             let m = scene.membranes.iter().find(|m| m.name == name)?;
             match (field, &m.material) {

@@ -5,10 +5,49 @@ use std::path::Path;
 
 /// (module path prefix, modules it must not import)
 const RULES: &[(&str, &[&str])] = &[
-    ("src/scene", &["model", "solver", "results", "engine", "fmi", "description", "pack", "history"]),
-    ("src/model", &["solver", "results", "engine", "fmi", "description", "pack", "history", "variables"]),
-    ("src/solver", &["scene", "results", "engine", "fmi", "description", "pack", "history", "variables"]),
-    ("src/results.rs", &["engine", "fmi", "scene", "description", "pack", "history"]),
+    (
+        "src/scene",
+        &[
+            "model",
+            "solver",
+            "results",
+            "engine",
+            "fmi",
+            "description",
+            "pack",
+            "history",
+        ],
+    ),
+    (
+        "src/model",
+        &[
+            "solver",
+            "results",
+            "engine",
+            "fmi",
+            "description",
+            "pack",
+            "history",
+            "variables",
+        ],
+    ),
+    (
+        "src/solver",
+        &[
+            "scene",
+            "results",
+            "engine",
+            "fmi",
+            "description",
+            "pack",
+            "history",
+            "variables",
+        ],
+    ),
+    (
+        "src/results.rs",
+        &["engine", "fmi", "scene", "description", "pack", "history"],
+    ),
     ("src/engine.rs", &["fmi", "description", "pack", "history"]),
 ];
 
@@ -32,7 +71,10 @@ fn modules_import_only_what_is_above_them() {
         assert!(!files.is_empty(), "{prefix} has no source");
         for f in files {
             let text = std::fs::read_to_string(&f).unwrap();
-            for line in text.lines().filter(|l| l.contains("crate::") && !l.trim_start().starts_with("//")) {
+            for line in text
+                .lines()
+                .filter(|l| l.contains("crate::") && !l.trim_start().starts_with("//"))
+            {
                 for m in *forbidden {
                     if line.contains(&format!("crate::{m}")) {
                         violations.push(format!("{}: {}", f.display(), line.trim()));
@@ -41,7 +83,11 @@ fn modules_import_only_what_is_above_them() {
             }
         }
     }
-    assert!(violations.is_empty(), "imports against the data flow:\n{}", violations.join("\n"));
+    assert!(
+        violations.is_empty(),
+        "imports against the data flow:\n{}",
+        violations.join("\n")
+    );
 }
 
 #[test]
@@ -54,6 +100,10 @@ fn unsafe_code_lives_only_in_the_fmi_layer() {
             continue;
         }
         let text = std::fs::read_to_string(&f).unwrap();
-        assert!(!text.contains("unsafe "), "{} uses unsafe outside src/fmi", f.display());
+        assert!(
+            !text.contains("unsafe "),
+            "{} uses unsafe outside src/fmi",
+            f.display()
+        );
     }
 }

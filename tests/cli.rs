@@ -55,7 +55,10 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 }
 
 fn velarium(args: &[&str]) -> Output {
-    Command::new(VELARIUM).args(args).output().expect("the velarium binary runs")
+    Command::new(VELARIUM)
+        .args(args)
+        .output()
+        .expect("the velarium binary runs")
 }
 
 fn text(bytes: &[u8]) -> String {
@@ -69,7 +72,9 @@ fn s(p: &Path) -> &str {
 /// The directory's entries, sorted.
 fn listing(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = match std::fs::read_dir(dir) {
-        Ok(entries) => entries.map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect(),
+        Ok(entries) => entries
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect(),
         Err(_) => Vec::new(),
     };
     names.sort();
@@ -82,8 +87,14 @@ fn check_accepts_a_good_scene_with_a_summary() {
     let out = velarium(&["check", s(&write(&dir, "tiny.json", TINY))]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
-    assert!(stdout.starts_with("ok: TinyCable, 3 nodes, 0 triangles,"), "{stdout}");
-    assert!(stdout.contains("1 cable, 1 input, 3 outputs, 1 parameter"), "{stdout}");
+    assert!(
+        stdout.starts_with("ok: TinyCable, 3 nodes, 0 triangles,"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("1 cable, 1 input, 3 outputs, 1 parameter"),
+        "{stdout}"
+    );
 }
 
 #[test]
@@ -94,26 +105,51 @@ fn check_lists_every_problem_by_path_and_exits_1() {
     assert_eq!(out.status.code(), Some(1));
     let stdout = text(&out.stdout);
     let lines: Vec<&str> = stdout.lines().collect();
-    for path in ["geometry.triangles[0][2]: ", "cables[0].nodes: ", "cables[0].EA: ", "outputs[0]"] {
-        assert!(lines.iter().any(|l| l.starts_with(path)), "no line starts with {path:?}:\n{stdout}");
+    for path in [
+        "geometry.triangles[0][2]: ",
+        "cables[0].nodes: ",
+        "cables[0].EA: ",
+        "outputs[0]",
+    ] {
+        assert!(
+            lines.iter().any(|l| l.starts_with(path)),
+            "no line starts with {path:?}:\n{stdout}"
+        );
     }
     assert!(lines.iter().any(|l| l.contains("nope")), "{stdout}");
-    assert!(text(&out.stderr).contains(s(&file)), "the summary names the file");
+    assert!(
+        text(&out.stderr).contains(s(&file)),
+        "the summary names the file"
+    );
 }
 
 #[test]
 fn a_type_error_names_the_json_path() {
     let dir = scratch("check-type");
-    let file = write(&dir, "typo.json", &TINY.replace("\"EA\": 100000.0", "\"EA\": \"stiff\""));
+    let file = write(
+        &dir,
+        "typo.json",
+        &TINY.replace("\"EA\": 100000.0", "\"EA\": \"stiff\""),
+    );
     let out = velarium(&["check", s(&file)]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(text(&out.stdout).starts_with("cables[0].EA: "), "{}", text(&out.stdout));
+    assert!(
+        text(&out.stdout).starts_with("cables[0].EA: "),
+        "{}",
+        text(&out.stdout)
+    );
     let out_dir = dir.join("fmus");
-    for args in [vec!["describe", s(&file)], vec!["pack", s(&file), "--out", s(&out_dir)]] {
+    for args in [
+        vec!["describe", s(&file)],
+        vec!["pack", s(&file), "--out", s(&out_dir)],
+    ] {
         let out = velarium(&args);
         assert_eq!(out.status.code(), Some(1));
         let stderr = text(&out.stderr);
-        assert!(stderr.contains(s(&file)) && stderr.contains("cables[0].EA"), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains(s(&file)) && stderr.contains("cables[0].EA"),
+            "{args:?}: {stderr}"
+        );
     }
 }
 
@@ -122,10 +158,20 @@ fn pack_of_a_bad_scene_leaves_no_fmu_and_no_temporary_file() {
     let dir = scratch("pack-bad");
     let lib = write(&dir, "libvelarium.so", "not really a library");
     let out_dir = dir.join("fmus");
-    let out = velarium(&["pack", s(&write(&dir, "bad.json", BAD)), "--out", s(&out_dir), "--lib", s(&lib)]);
+    let out = velarium(&[
+        "pack",
+        s(&write(&dir, "bad.json", BAD)),
+        "--out",
+        s(&out_dir),
+        "--lib",
+        s(&lib),
+    ]);
     assert_eq!(out.status.code(), Some(1));
     let stderr = text(&out.stderr);
-    assert!(stderr.contains("bad.json") && stderr.contains("cables[0].EA"), "{stderr}");
+    assert!(
+        stderr.contains("bad.json") && stderr.contains("cables[0].EA"),
+        "{stderr}"
+    );
     assert_eq!(listing(&out_dir), Vec::<String>::new());
 }
 
@@ -139,42 +185,76 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
         let out_dir = dir.join(run);
         let out = velarium(&["pack", s(&scene), "--out", s(&out_dir), "--lib", s(&lib)]);
         assert!(out.status.success(), "{}", text(&out.stderr));
-        assert_eq!(listing(&out_dir), vec!["TinyCable.fmu".to_string()], "no temporary file is left");
+        assert_eq!(
+            listing(&out_dir),
+            vec!["TinyCable.fmu".to_string()],
+            "no temporary file is left"
+        );
         assert_eq!(text(&out.stdout).trim(), s(&out_dir.join("TinyCable.fmu")));
         archives.push(std::fs::read(out_dir.join("TinyCable.fmu")).unwrap());
     }
-    assert!(archives[0] == archives[1], "two packs of the same inputs differ");
+    assert!(
+        archives[0] == archives[1],
+        "two packs of the same inputs differ"
+    );
 
     let mut zip = zip::ZipArchive::new(std::io::Cursor::new(archives.pop().unwrap())).unwrap();
     let names: Vec<String> = zip.file_names().map(str::to_owned).collect();
     assert_eq!(
         names,
-        ["modelDescription.xml", "binaries/linux64/TinyCable.so", "resources/scene.json"]
+        [
+            "modelDescription.xml",
+            "binaries/linux64/TinyCable.so",
+            "resources/scene.json"
+        ]
     );
     for i in 0..zip.len() {
         let entry = zip.by_index(i).unwrap();
-        assert_eq!(entry.compression(), zip::CompressionMethod::Deflated, "{}", entry.name());
+        assert_eq!(
+            entry.compression(),
+            zip::CompressionMethod::Deflated,
+            "{}",
+            entry.name()
+        );
     }
     let read = |zip: &mut zip::ZipArchive<_>, name: &str| {
         let mut bytes = Vec::new();
         std::io::Read::read_to_end(&mut zip.by_name(name).unwrap(), &mut bytes).unwrap();
         bytes
     };
-    assert_eq!(read(&mut zip, "binaries/linux64/TinyCable.so"), std::fs::read(&lib).unwrap());
+    assert_eq!(
+        read(&mut zip, "binaries/linux64/TinyCable.so"),
+        std::fs::read(&lib).unwrap()
+    );
     let shipped = Scene::from_json(&text(&read(&mut zip, "resources/scene.json"))).unwrap();
     assert_eq!(shipped, Scene::from_json(TINY).unwrap());
     let xml = text(&read(&mut zip, "modelDescription.xml"));
     let described = velarium(&["describe", s(&scene)]);
-    assert_eq!(xml, text(&described.stdout), "the archive holds what `describe` prints");
+    assert_eq!(
+        xml,
+        text(&described.stdout),
+        "the archive holds what `describe` prints"
+    );
 }
 
 #[test]
 fn pack_names_a_missing_library() {
     let dir = scratch("pack-nolib");
     let missing = dir.join("nowhere/libvelarium.so");
-    let out = velarium(&["pack", s(&write(&dir, "tiny.json", TINY)), "--out", s(&dir), "--lib", s(&missing)]);
+    let out = velarium(&[
+        "pack",
+        s(&write(&dir, "tiny.json", TINY)),
+        "--out",
+        s(&dir),
+        "--lib",
+        s(&missing),
+    ]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(text(&out.stderr).contains(s(&missing)), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains(s(&missing)),
+        "{}",
+        text(&out.stderr)
+    );
     assert_eq!(listing(&dir), vec!["tiny.json".to_string()]);
 }
 
@@ -182,7 +262,10 @@ fn pack_names_a_missing_library() {
 fn pack_finds_the_library_next_to_the_executable_when_it_was_built() {
     let beside = Path::new(VELARIUM).with_file_name("libvelarium.so");
     if !beside.is_file() {
-        eprintln!("skipped: {} is not built (cargo builds the cdylib with the library target)", beside.display());
+        eprintln!(
+            "skipped: {} is not built (cargo builds the cdylib with the library target)",
+            beside.display()
+        );
         return;
     }
     let dir = scratch("pack-default-lib");
@@ -196,8 +279,19 @@ fn describe_is_deterministic_and_the_guid_follows_the_scene() {
     let dir = scratch("describe");
     let a = velarium(&["describe", s(&write(&dir, "a.json", TINY))]);
     let again = velarium(&["describe", s(&dir.join("a.json"))]);
-    let b = velarium(&["describe", s(&write(&dir, "b.json", &TINY.replace("\"max\": 100.0", "\"max\": 200.0")))]);
-    assert!(a.status.success() && b.status.success(), "{}", text(&a.stderr));
+    let b = velarium(&[
+        "describe",
+        s(&write(
+            &dir,
+            "b.json",
+            &TINY.replace("\"max\": 100.0", "\"max\": 200.0"),
+        )),
+    ]);
+    assert!(
+        a.status.success() && b.status.success(),
+        "{}",
+        text(&a.stderr)
+    );
     let guid = |o: &Output| {
         let xml = text(&o.stdout);
         let at = xml.find("guid=\"").expect("a guid attribute") + 6;
@@ -224,11 +318,24 @@ fn solve_names_the_line_and_column_of_a_bad_cell() {
     ];
     for (csv, expected) in cases {
         let loads = write(&dir, "loads.csv", csv);
-        let out = velarium(&["solve", s(&scene), "--loads", s(&loads), "--out", s(&dir.join("out.csv"))]);
+        let out = velarium(&[
+            "solve",
+            s(&scene),
+            "--loads",
+            s(&loads),
+            "--out",
+            s(&dir.join("out.csv")),
+        ]);
         assert_eq!(out.status.code(), Some(1), "{csv}");
         let stderr = text(&out.stderr);
-        assert!(stderr.contains(s(&loads)) && stderr.contains(expected), "{csv:?}: expected {expected:?} in {stderr}");
-        assert!(!dir.join("out.csv").exists(), "no output for a table that was rejected");
+        assert!(
+            stderr.contains(s(&loads)) && stderr.contains(expected),
+            "{csv:?}: expected {expected:?} in {stderr}"
+        );
+        assert!(
+            !dir.join("out.csv").exists(),
+            "no output for a table that was rejected"
+        );
     }
 }
 
@@ -236,38 +343,75 @@ fn solve_names_the_line_and_column_of_a_bad_cell() {
 fn solve_writes_one_row_per_load_row() {
     let dir = scratch("solve-good");
     let scene = write(&dir, "tiny.json", TINY);
-    let loads = write(&dir, "loads.csv", "# a ramp\ntime,F\n0,0\n0.25,10\n0.5,20\n0.75,40\n1,80\n");
+    let loads = write(
+        &dir,
+        "loads.csv",
+        "# a ramp\ntime,F\n0,0\n0.25,10\n0.5,20\n0.75,40\n1,80\n",
+    );
     let out_csv = dir.join("out.csv");
-    let out = velarium(&["solve", s(&scene), "--loads", s(&loads), "--out", s(&out_csv)]);
+    let out = velarium(&[
+        "solve",
+        s(&scene),
+        "--loads",
+        s(&loads),
+        "--out",
+        s(&out_csv),
+    ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert_eq!(listing(&dir), ["loads.csv", "out.csv", "tiny.json"], "no temporary file is left");
+    assert_eq!(
+        listing(&dir),
+        ["loads.csv", "out.csv", "tiny.json"],
+        "no temporary file is left"
+    );
     let written = std::fs::read_to_string(&out_csv).unwrap();
     let to_stdout = velarium(&["solve", s(&scene), "--loads", s(&loads)]);
     assert_eq!(written, text(&to_stdout.stdout), "stdout and --out agree");
 
     let mut lines = written.lines();
     assert_eq!(lines.next(), Some("time,w,T,iterations"));
-    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
     assert_eq!(rows.len(), 5);
-    assert_eq!(rows.iter().map(|r| r[0]).collect::<Vec<_>>(), [0.0, 0.25, 0.5, 0.75, 1.0]);
+    assert_eq!(
+        rows.iter().map(|r| r[0]).collect::<Vec<_>>(),
+        [0.0, 0.25, 0.5, 0.75, 1.0]
+    );
     assert_eq!(rows[0][1], 0.0, "no load, no sag");
-    assert!((rows[0][2] - 100.0).abs() < 1e-6, "the pretension: {}", rows[0][2]);
+    assert!(
+        (rows[0][2] - 100.0).abs() < 1e-6,
+        "the pretension: {}",
+        rows[0][2]
+    );
     for pair in rows.windows(2) {
-        assert!(pair[1][1] < pair[0][1], "more load, more sag (w < 0 downward): {pair:?}");
+        assert!(
+            pair[1][1] < pair[0][1],
+            "more load, more sag (w < 0 downward): {pair:?}"
+        );
         assert!(pair[1][2] > pair[0][2], "and more tension: {pair:?}");
     }
     // Equilibrium of the middle node: 2 T sin(angle) = F, with sin = -w / sqrt(1 + w^2).
     let last = &rows[4];
     let sine = -last[1] / (1.0 + last[1] * last[1]).sqrt();
-    assert!((2.0 * last[2] * sine - 80.0).abs() < 1e-6 * 80.0, "{last:?}");
+    assert!(
+        (2.0 * last[2] * sine - 80.0).abs() < 1e-6 * 80.0,
+        "{last:?}"
+    );
 }
 
 #[test]
 fn schema_is_valid_json() {
     let out = velarium(&["schema"]);
     assert!(out.status.success());
-    let schema: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the schema is JSON");
-    assert!(schema.get("properties").and_then(|p| p.get("cables")).is_some(), "{schema}");
+    let schema: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("the schema is JSON");
+    assert!(
+        schema
+            .get("properties")
+            .and_then(|p| p.get("cables"))
+            .is_some(),
+        "{schema}"
+    );
 }
 
 #[test]
@@ -292,12 +436,19 @@ fn usage_errors_exit_2_and_show_the_usage() {
 fn a_missing_scene_file_is_named() {
     let out = velarium(&["check", "/no/such/scene.json"]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(text(&out.stderr).contains("/no/such/scene.json: cannot read"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("/no/such/scene.json: cannot read"),
+        "{}",
+        text(&out.stderr)
+    );
 }
 
 #[test]
 fn version_is_the_crate_version() {
     let out = velarium(&["--version"]);
     assert!(out.status.success());
-    assert_eq!(text(&out.stdout).trim(), format!("velarium {}", env!("CARGO_PKG_VERSION")));
+    assert_eq!(
+        text(&out.stdout).trim(),
+        format!("velarium {}", env!("CARGO_PKG_VERSION"))
+    );
 }

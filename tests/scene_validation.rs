@@ -20,11 +20,18 @@ fn shipped_scenes_are_valid() {
 
 #[test]
 fn type_errors_name_their_path() {
-    let p = problems(r#"{"format": 1, "name": "A", "cables": [{"name": "c", "nodes": [0, 1], "EA": "stiff"}]}"#);
+    let p = problems(
+        r#"{"format": 1, "name": "A", "cables": [{"name": "c", "nodes": [0, 1], "EA": "stiff"}]}"#,
+    );
     assert_eq!(p.len(), 1);
     assert!(p[0].starts_with("cables[0].EA"), "{p:?}");
-    let p = problems(r#"{"format": 1, "name": "A", "membranes": [{"name": "m", "triangles": "t", "thickness": 1, "materail": {}}]}"#);
-    assert!(p[0].contains("membranes[0]") && p[0].contains("materail"), "{p:?}");
+    let p = problems(
+        r#"{"format": 1, "name": "A", "membranes": [{"name": "m", "triangles": "t", "thickness": 1, "materail": {}}]}"#,
+    );
+    assert!(
+        p[0].contains("membranes[0]") && p[0].contains("materail"),
+        "{p:?}"
+    );
 }
 
 #[test]
@@ -53,14 +60,22 @@ fn every_semantic_problem_is_listed_with_its_path() {
         "outputs[0].name: \"P\" is already used",
     ];
     for e in expect {
-        assert!(p.iter().any(|m| m.starts_with(e) || m.contains(e)), "missing {e:?} in {p:#?}");
+        assert!(
+            p.iter().any(|m| m.starts_with(e) || m.contains(e)),
+            "missing {e:?} in {p:#?}"
+        );
     }
 }
 
 #[test]
 fn engine_refuses_an_invalid_scene() {
-    let scene = Scene::from_json(r#"{"format": 1, "name": "A", "cables": [{"name": "c", "nodes": [0, 1], "EA": 1}]}"#).unwrap();
-    let err = velarium::Engine::try_new(scene).err().expect("unknown nodes must be refused");
+    let scene = Scene::from_json(
+        r#"{"format": 1, "name": "A", "cables": [{"name": "c", "nodes": [0, 1], "EA": 1}]}"#,
+    )
+    .unwrap();
+    let err = velarium::Engine::try_new(scene)
+        .err()
+        .expect("unknown nodes must be refused");
     assert!(err.to_string().contains("cables[0].nodes[0]"), "{err}");
 }
 
@@ -68,7 +83,17 @@ fn engine_refuses_an_invalid_scene() {
 fn the_schema_is_json_and_covers_the_format() {
     let schema: serde_json::Value = serde_json::from_str(&Scene::json_schema()).unwrap();
     let text = schema.to_string();
-    for key in ["membranes", "cables", "supports", "inputs", "outputs", "parameters", "solver", "point_force", "reaction"] {
+    for key in [
+        "membranes",
+        "cables",
+        "supports",
+        "inputs",
+        "outputs",
+        "parameters",
+        "solver",
+        "point_force",
+        "reaction",
+    ] {
         assert!(text.contains(key), "schema lacks {key}");
     }
 }

@@ -18,9 +18,17 @@ fn a_failed_step_is_an_outcome_and_commits_nothing() {
     let outputs = e.outputs();
     let report = e.solve();
     assert!(!report.converged());
-    assert!(report.message.contains("no equilibrium found"), "{}", report.message);
+    assert!(
+        report.message.contains("no equilibrium found"),
+        "{}",
+        report.message
+    );
     assert!(report.cutbacks >= 1);
-    assert_eq!(e.state(), &before, "a failed step must not change the committed state");
+    assert_eq!(
+        e.state(),
+        &before,
+        "a failed step must not change the committed state"
+    );
     assert_eq!(e.outputs(), outputs);
 }
 
@@ -50,7 +58,14 @@ fn newton_converges_quadratically_near_the_solution() {
     let residuals: Vec<f64> = report
         .log
         .iter()
-        .filter_map(|l| l.split("|R| = ").nth(1)?.split_whitespace().next()?.parse().ok())
+        .filter_map(|l| {
+            l.split("|R| = ")
+                .nth(1)?
+                .split_whitespace()
+                .next()?
+                .parse()
+                .ok()
+        })
         .collect();
     assert!(residuals.len() >= 3, "{:?}", report.log);
     // The last three residuals before convergence: r_{k+1} <= C r_k² with a modest C relative
@@ -58,5 +73,8 @@ fn newton_converges_quadratically_near_the_solution() {
     let n = residuals.len();
     let (a, b, c) = (residuals[n - 3], residuals[n - 2], residuals[n - 1]);
     let (ra, rb) = (b / a, c / b);
-    assert!(rb < ra * 0.5 && rb < 1e-2, "convergence rate not quadratic: {residuals:?}");
+    assert!(
+        rb < ra * 0.5 && rb < 1e-2,
+        "convergence rate not quadratic: {residuals:?}"
+    );
 }

@@ -10,7 +10,11 @@ use velarium::model::wrinkling::Law;
 use velarium::model::{cable, membrane, pressure};
 
 /// Force and tangent of one triangle.
-fn tri(r: &membrane::TriangleRef, mat: &membrane::Material, x: &[Vector3<f64>]) -> (Vec<f64>, membrane::Mat9, f64) {
+fn tri(
+    r: &membrane::TriangleRef,
+    mat: &membrane::Material,
+    x: &[Vector3<f64>],
+) -> (Vec<f64>, membrane::Mat9, f64) {
     let mut k = membrane::Mat9::zeros();
     let (f, eval) = membrane::triangle(r, mat, 0.0, &[x[0], x[1], x[2]], None, Some(&mut k));
     (f.as_slice().to_vec(), k, eval.energy)
@@ -31,7 +35,12 @@ impl Rng {
 }
 
 /// Max |K − K_fd| / max |K| for a force function of N/3 nodes.
-fn fd_error<const N: usize>(x: &[Vector3<f64>], k: &SMatrix<f64, N, N>, force: impl Fn(&[Vector3<f64>]) -> Vec<f64>, h: f64) -> f64 {
+fn fd_error<const N: usize>(
+    x: &[Vector3<f64>],
+    k: &SMatrix<f64, N, N>,
+    force: impl Fn(&[Vector3<f64>]) -> Vec<f64>,
+    h: f64,
+) -> f64 {
     let mut worst = 0.0f64;
     let scale = k.abs().max();
     for j in 0..N {
@@ -53,26 +62,56 @@ fn fd_error<const N: usize>(x: &[Vector3<f64>], k: &SMatrix<f64, N, N>, force: i
 fn membrane_tangent_matches_finite_differences() {
     let mut rng = Rng(0x9E3779B97F4A7C15);
     for _ in 0..200 {
-        let reference = [Vector3::zeros(), Vector3::new(1.0, 0.1, 0.0), Vector3::new(0.3, 0.9, 0.2)].map(|p| p + rng.vec3(0.1));
+        let reference = [
+            Vector3::zeros(),
+            Vector3::new(1.0, 0.1, 0.0),
+            Vector3::new(0.3, 0.9, 0.2),
+        ]
+        .map(|p| p + rng.vec3(0.1));
         let r = membrane::triangle_ref(reference).unwrap();
-        let law = Law::Svk { young: 2e8 * (1.0 + 0.5 * rng.next()), nu: 0.3 + 0.15 * rng.next() };
-        let mat = membrane::Material { law, thickness: 1e-4, wrinkling: false };
+        let law = Law::Svk {
+            young: 2e8 * (1.0 + 0.5 * rng.next()),
+            nu: 0.3 + 0.15 * rng.next(),
+        };
+        let mat = membrane::Material {
+            law,
+            thickness: 1e-4,
+            wrinkling: false,
+        };
         // Large displacements and rotations, strains up to ~20 %.
-        let x: Vec<Vector3<f64>> = reference.iter().map(|p| p * 1.05 + rng.vec3(0.15)).collect();
+        let x: Vec<Vector3<f64>> = reference
+            .iter()
+            .map(|p| p * 1.05 + rng.vec3(0.15))
+            .collect();
         let (_, k, _) = tri(&r, &mat, &x);
         let err = fd_error(&x, &k, |y| tri(&r, &mat, y).0, 1e-6);
         assert!(err < 1e-6, "membrane tangent error {err:e}");
         let (f_only, _) = membrane::triangle(&r, &mat, 0.0, &[x[0], x[1], x[2]], None, None);
-        assert_eq!(f_only.as_slice(), tri(&r, &mat, &x).0.as_slice(), "residual-only path must agree bit for bit");
+        assert_eq!(
+            f_only.as_slice(),
+            tri(&r, &mat, &x).0.as_slice(),
+            "residual-only path must agree bit for bit"
+        );
     }
 }
 
 #[test]
 fn membrane_force_is_the_gradient_of_its_energy() {
     let mut rng = Rng(7);
-    let reference = [Vector3::zeros(), Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.4, 0.8, 0.0)];
+    let reference = [
+        Vector3::zeros(),
+        Vector3::new(1.0, 0.0, 0.0),
+        Vector3::new(0.4, 0.8, 0.0),
+    ];
     let r = membrane::triangle_ref(reference).unwrap();
-    let mat = membrane::Material { law: Law::Svk { young: 1e6, nu: 0.3 }, thickness: 1e-3, wrinkling: false };
+    let mat = membrane::Material {
+        law: Law::Svk {
+            young: 1e6,
+            nu: 0.3,
+        },
+        thickness: 1e-3,
+        wrinkling: false,
+    };
     let x: Vec<Vector3<f64>> = reference.iter().map(|p| p + rng.vec3(0.1)).collect();
     let (f, _, _) = tri(&r, &mat, &x);
     let h = 1e-6;
@@ -83,7 +122,11 @@ fn membrane_force_is_the_gradient_of_its_energy() {
         let wp = tri(&r, &mat, &xp).2;
         let wm = tri(&r, &mat, &xm).2;
         let fd = (wp - wm) / (2.0 * h);
-        assert!((f[j] - fd).abs() < 1e-6 * f.iter().fold(0.0f64, |m, v| m.max(v.abs())), "dof {j}: {} vs {fd}", f[j]);
+        assert!(
+            (f[j] - fd).abs() < 1e-6 * f.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+            "dof {j}: {} vs {fd}",
+            f[j]
+        );
     }
 }
 
@@ -98,7 +141,12 @@ fn cable_tangent_matches_finite_differences_for_both_laws() {
             // Taut states only: l0 below l (slack tangent is a regulariser, checked apart).
             let l0 = l / (1.0 + 0.2 * (rng.next() + 1.0) + 1e-3);
             let (_, k, _) = cable::segment(law, 1e5, l0, &xa, &xb);
-            let force = |y: &[Vector3<f64>]| cable::segment(law, 1e5, l0, &y[0], &y[1]).0.as_slice().to_vec();
+            let force = |y: &[Vector3<f64>]| {
+                cable::segment(law, 1e5, l0, &y[0], &y[1])
+                    .0
+                    .as_slice()
+                    .to_vec()
+            };
             let err = fd_error(&[xa, xb], &k, force, 1e-6);
             assert!(err < 1e-6, "{law:?} tangent error {err:e}");
         }
@@ -118,7 +166,14 @@ fn slack_cable_has_zero_force_and_only_a_tiny_tangent() {
 fn follower_pressure_stiffness_matches_finite_differences() {
     let mut rng = Rng(3);
     for _ in 0..100 {
-        let x: Vec<Vector3<f64>> = [Vector3::zeros(), Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.2, 1.0, 0.0)].iter().map(|p| p + rng.vec3(0.3)).collect();
+        let x: Vec<Vector3<f64>> = [
+            Vector3::zeros(),
+            Vector3::new(1.0, 0.0, 0.0),
+            Vector3::new(0.2, 1.0, 0.0),
+        ]
+        .iter()
+        .map(|p| p + rng.vec3(0.3))
+        .collect();
         let p = 1e3 * rng.next();
         let k = pressure::follower_stiffness(p, &[x[0], x[1], x[2]]);
         // The load stiffness is −∂f_ext/∂x.
@@ -139,7 +194,9 @@ fn assembled_tangent_matches_finite_differences() {
     for name in ["LiftedMembrane", "HenckyDisc"] {
         let mut scene = common::read_scene(&common::shipped(name));
         scene.solver.artificial_prestress = Some(0.0); // the exact tangent, no regulariser
-        if let velarium::scene::Generator::Rectangle { divisions, .. } = &mut scene.geometry.generators[0] {
+        if let velarium::scene::Generator::Rectangle { divisions, .. } =
+            &mut scene.geometry.generators[0]
+        {
             *divisions = [4, 3];
         }
         if let velarium::scene::Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
@@ -148,7 +205,15 @@ fn assembled_tangent_matches_finite_differences() {
         let model = velarium::model::Model::build(&scene);
         let pattern = Pattern::new(&model);
         let mut rng = Rng(11);
-        let mut u: Vec<f64> = (0..model.dof_count()).map(|d| if model.held[d] { 0.0 } else { 0.02 * rng.next() }).collect();
+        let mut u: Vec<f64> = (0..model.dof_count())
+            .map(|d| {
+                if model.held[d] {
+                    0.0
+                } else {
+                    0.02 * rng.next()
+                }
+            })
+            .collect();
         for d in (2..u.len()).step_by(3) {
             if !model.held[d] {
                 u[d] += 0.05; // lift out of plane so membrane and pressure terms are all active

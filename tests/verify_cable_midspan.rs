@@ -13,10 +13,30 @@ use velarium::scene::StrainLaw;
 
 /// (EA, T0, P, w eng, T eng, w SVK, T SVK)
 const TABLE: [(f64, f64, f64, f64, f64, f64, f64); 4] = [
-    (1e5, 100.0, 10.0, 0.03263501, 153.291262, 0.03259709, 153.469399),
-    (1e5, 100.0, 100.0, 0.09353292, 536.904348, 0.09325066, 538.515455),
-    (1e5, 100.0, 1000.0, 0.21472478, 2381.638486, 0.21213726, 2409.415241),
-    (1e4, 1000.0, 500.0, 0.20701705, 1233.235654, 0.18821363, 1351.599806),
+    (
+        1e5, 100.0, 10.0, 0.03263501, 153.291262, 0.03259709, 153.469399,
+    ),
+    (
+        1e5, 100.0, 100.0, 0.09353292, 536.904348, 0.09325066, 538.515455,
+    ),
+    (
+        1e5,
+        100.0,
+        1000.0,
+        0.21472478,
+        2381.638486,
+        0.21213726,
+        2409.415241,
+    ),
+    (
+        1e4,
+        1000.0,
+        500.0,
+        0.20701705,
+        1233.235654,
+        0.18821363,
+        1351.599806,
+    ),
 ];
 
 fn run(law: StrainLaw, ea: f64, t0: f64, p: f64) -> (f64, f64, f64) {
@@ -30,7 +50,9 @@ fn run(law: StrainLaw, ea: f64, t0: f64, p: f64) -> (f64, f64, f64) {
         // so give the reference's unstretched length directly (2 segments of half-span 1 m).
         StrainLaw::GreenLagrange => {
             scene.cables[0].pretension = None;
-            scene.parameters.retain(|p| !p.target.ends_with("pretension"));
+            scene
+                .parameters
+                .retain(|p| !p.target.ends_with("pretension"));
             scene.cables[0].unstretched_length = Some(2.0 / (1.0 + 2.0 * t0 / ea).sqrt());
         }
     }
@@ -38,7 +60,11 @@ fn run(law: StrainLaw, ea: f64, t0: f64, p: f64) -> (f64, f64, f64) {
     solve(&mut e);
     set(&mut e, "P", p);
     let report = solve(&mut e);
-    (-get(&e, "midspan_uz"), get(&e, "tension"), report.iterations as f64)
+    (
+        -get(&e, "midspan_uz"),
+        get(&e, "tension"),
+        report.iterations as f64,
+    )
 }
 
 #[test]
@@ -46,7 +72,10 @@ fn engineering_strain_matches_exact_values() {
     for (ea, t0, p, w, t, _, _) in TABLE {
         let (w_h, t_h, _) = run(StrainLaw::Engineering, ea, t0, p);
         // The reference values carry 7-9 significant digits; compare to their last digit.
-        assert!((w_h - w).abs() <= 1e-8, "EA {ea} T0 {t0} P {p}: w {w_h} vs {w}");
+        assert!(
+            (w_h - w).abs() <= 1e-8,
+            "EA {ea} T0 {t0} P {p}: w {w_h} vs {w}"
+        );
         assert!(rel(t_h, t) <= 1e-8, "EA {ea} T0 {t0} P {p}: T {t_h} vs {t}");
     }
 }
@@ -55,7 +84,10 @@ fn engineering_strain_matches_exact_values() {
 fn green_lagrange_strain_matches_exact_values() {
     for (ea, t0, p, _, _, w, t) in TABLE {
         let (w_h, t_h, _) = run(StrainLaw::GreenLagrange, ea, t0, p);
-        assert!((w_h - w).abs() <= 1e-8, "EA {ea} T0 {t0} P {p}: w {w_h} vs {w}");
+        assert!(
+            (w_h - w).abs() <= 1e-8,
+            "EA {ea} T0 {t0} P {p}: w {w_h} vs {w}"
+        );
         assert!(rel(t_h, t) <= 1e-8, "EA {ea} T0 {t0} P {p}: T {t_h} vs {t}");
     }
 }
@@ -79,9 +111,15 @@ fn equilibrium_holds_to_round_off_along_a_load_ramp() {
             let l = (1.0 + w * w).sqrt();
             let residual = (2.0 * t * w / l) - p;
             let bound = 1e-9 * p.max(t) + 1e-12 * 1e5;
-            assert!(residual.abs() <= bound, "{law:?} P {p}: residual {residual:e}");
+            assert!(
+                residual.abs() <= bound,
+                "{law:?} P {p}: residual {residual:e}"
+            );
             // The supports push up with the load's magnitude.
-            assert!((get(&e, "reaction_z") - p).abs() <= bound, "reaction must balance the load");
+            assert!(
+                (get(&e, "reaction_z") - p).abs() <= bound,
+                "reaction must balance the load"
+            );
         }
     }
 }

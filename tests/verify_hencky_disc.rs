@@ -18,7 +18,8 @@ const W_FOLLOWER: f64 = 0.065404;
 
 fn deflection(rings: usize, follower: bool) -> f64 {
     let mut scene = read_scene(&shipped("HenckyDisc"));
-    let velarium::scene::Generator::Disc { rings: r, .. } = &mut scene.geometry.generators[0] else {
+    let velarium::scene::Generator::Disc { rings: r, .. } = &mut scene.geometry.generators[0]
+    else {
         panic!("HenckyDisc is a disc")
     };
     *r = rings;
@@ -35,9 +36,15 @@ fn deflection(rings: usize, follower: bool) -> f64 {
 
 #[test]
 fn follower_pressure_within_one_percent_and_converging() {
-    let errors: Vec<f64> = [5, 10, 20].iter().map(|&n| rel(deflection(n, true), W_FOLLOWER)).collect();
+    let errors: Vec<f64> = [5, 10, 20]
+        .iter()
+        .map(|&n| rel(deflection(n, true), W_FOLLOWER))
+        .collect();
     assert!(errors[2] < 0.01, "20 rings: error {:.3e}", errors[2]);
-    assert!(errors[0] > errors[1] && errors[1] > errors[2], "error must fall with refinement: {errors:?}");
+    assert!(
+        errors[0] > errors[1] && errors[1] > errors[2],
+        "error must fall with refinement: {errors:?}"
+    );
 }
 
 #[test]
@@ -58,5 +65,9 @@ fn rim_reaction_balances_the_pressure() {
     let n = 96.0;
     let area = 0.5 * n * A * A * (2.0 * std::f64::consts::PI / n).sin();
     let r = get(&e, "rim_reaction_z");
-    assert!(rel(-r, Q * area) < 1e-8, "reaction {r} vs load {}", Q * area);
+    assert!(
+        rel(-r, Q * area) < 1e-8,
+        "reaction {r} vs load {}",
+        Q * area
+    );
 }

@@ -65,21 +65,40 @@ fn wrinkled_radius_hoop_and_radial_stress() {
     let h = (B - A) / RINGS as f64;
     for (tau, l_over_a) in [(2.5, 1.40400), (3.0, 1.80566), (3.5, 2.35830)] {
         let e = pull(tau).unwrap_or_else(|m| panic!("τ = {tau}: {m}"));
-        assert_eq!(e.model().reference.len(), (RINGS + 1) * SECTORS, "ring numbering assumed below");
+        assert_eq!(
+            e.model().reference.len(),
+            (RINGS + 1) * SECTORS,
+            "ring numbering assumed below"
+        );
         let l = l_over_a * A;
         let t_in = tau * T_OUT;
         let mut worst_hoop = 0.0f64;
         for (m, tri) in e.membranes().iter().zip(&e.model().triangles) {
-            let c = tri.nodes.iter().map(|&i| e.model().reference[i]).sum::<nalgebra::Vector3<f64>>() / 3.0;
+            let c = tri
+                .nodes
+                .iter()
+                .map(|&i| e.model().reference[i])
+                .sum::<nalgebra::Vector3<f64>>()
+                / 3.0;
             let r = c.norm();
             let (er, et) = (c / r, nalgebra::Vector3::new(-c.y, c.x, 0.0) / r);
             if r < l - h {
-                assert_eq!(m.state, WrinkleState::Wrinkled, "τ {tau}: element at r = {r:.3} < L − h = {:.3} must wrinkle", l - h);
+                assert_eq!(
+                    m.state,
+                    WrinkleState::Wrinkled,
+                    "τ {tau}: element at r = {r:.3} < L − h = {:.3} must wrinkle",
+                    l - h
+                );
                 let s = tri.reference.to_global(&m.stress);
                 assert!((er.transpose() * s * er)[0] > 0.0, "radial tension");
                 worst_hoop = worst_hoop.max((et.transpose() * s * et)[0].abs() / t_in);
             } else if r > l + h {
-                assert_eq!(m.state, WrinkleState::Taut, "τ {tau}: element at r = {r:.3} > L + h = {:.3} must be taut", l + h);
+                assert_eq!(
+                    m.state,
+                    WrinkleState::Taut,
+                    "τ {tau}: element at r = {r:.3} > L + h = {:.3} must be taut",
+                    l + h
+                );
             }
         }
         let mut worst_rs = 0.0f64;
@@ -91,8 +110,13 @@ fn wrinkled_radius_hoop_and_radial_stress() {
             worst_rs = worst_rs.max((flow - t_in * A).abs() / (t_in * A));
         }
         assert!(worst_rs < 0.01, "τ {tau}: σ_r r off by {worst_rs:.3e}");
-        assert!(worst_hoop < 1e-6, "τ {tau}: hoop stress {worst_hoop:.3e} T_in in the wrinkled zone");
-        println!("τ {tau}: L/a = {l_over_a}, σ_r r error {worst_rs:.2e}, |σ_θ|/T_in {worst_hoop:.1e}");
+        assert!(
+            worst_hoop < 1e-6,
+            "τ {tau}: hoop stress {worst_hoop:.3e} T_in in the wrinkled zone"
+        );
+        println!(
+            "τ {tau}: L/a = {l_over_a}, σ_r r error {worst_rs:.2e}, |σ_θ|/T_in {worst_hoop:.1e}"
+        );
     }
 }
 
@@ -109,7 +133,8 @@ fn radial_force_per_radian(e: &velarium::Engine, k: usize) -> f64 {
             continue;
         }
         let x = t.nodes.map(|i| model.position(u, i));
-        let (f, _) = velarium::model::membrane::triangle(&t.reference, &t.material, 0.0, &x, None, None);
+        let (f, _) =
+            velarium::model::membrane::triangle(&t.reference, &t.material, 0.0, &x, None, None);
         for (a, &i) in t.nodes.iter().enumerate() {
             if ring(i) == k {
                 let p = model.reference[i];
@@ -124,7 +149,12 @@ fn radial_force_per_radian(e: &velarium::Engine, k: usize) -> f64 {
 fn no_tension_only_equilibrium_is_an_outcome_not_a_hang() {
     // τ = 5 > ρ = 4: T_in a > T_out b, the sheet cannot carry it in tension.
     let started = std::time::Instant::now();
-    let err = pull(5.0).err().expect("τ > ρ has no tension-only equilibrium");
+    let err = pull(5.0)
+        .err()
+        .expect("τ > ρ has no tension-only equilibrium");
     assert!(err.contains("no equilibrium found"), "{err}");
-    println!("τ = 5 ended after {:.2} s: {err}", started.elapsed().as_secs_f64());
+    println!(
+        "τ = 5 ended after {:.2} s: {err}",
+        started.elapsed().as_secs_f64()
+    );
 }

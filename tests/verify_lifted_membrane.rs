@@ -31,9 +31,15 @@ fn equilibrium_does_not_depend_on_the_artificial_prestress() {
         if name == "newton_iterations" {
             continue;
         }
-        assert!((x - y).abs() <= 1e-7 * x.abs().max(1e-12), "{name}: {x} (10 N/m²) vs {y} (200 N/m²)");
+        assert!(
+            (x - y).abs() <= 1e-7 * x.abs().max(1e-12),
+            "{name}: {x} (10 N/m²) vs {y} (200 N/m²)"
+        );
     }
-    assert_ne!(iters_10, iters_200, "the prestress changes the iteration path");
+    assert_ne!(
+        iters_10, iters_200,
+        "the prestress changes the iteration path"
+    );
     let lift = a.iter().find(|(n, _)| n == "lift").unwrap().1;
     assert!(lift > 0.01, "the centre is lifted: {lift}");
     println!("iterations: prestress 10 N/m²: {iters_10}, 200 N/m²: {iters_200}");

@@ -68,9 +68,21 @@ fn uniaxial_stretch_is_exact_on_a_distorted_mesh() {
     let u = &e.state().displacement;
     for (n, x) in reference.iter().enumerate() {
         let (ux, uy) = ((l1 - 1.0) * x[0], (l2 - 1.0) * x[1]);
-        assert!((u[3 * n] - ux).abs() < 1e-9 * 0.2, "node {n} u_x {} vs {ux}", u[3 * n]);
-        assert!((u[3 * n + 1] - uy).abs() < 1e-9 * 0.2, "node {n} u_y {} vs {uy}", u[3 * n + 1]);
+        assert!(
+            (u[3 * n] - ux).abs() < 1e-9 * 0.2,
+            "node {n} u_x {} vs {ux}",
+            u[3 * n]
+        );
+        assert!(
+            (u[3 * n + 1] - uy).abs() < 1e-9 * 0.2,
+            "node {n} u_y {} vs {uy}",
+            u[3 * n + 1]
+        );
     }
     let force = l1 * young * e11 * t * h;
-    assert!(rel(get(&e, "force"), force) < 1e-9, "edge force {} vs {force}", get(&e, "force"));
+    assert!(
+        rel(get(&e, "force"), force) < 1e-9,
+        "edge force {} vs {force}",
+        get(&e, "force")
+    );
 }

@@ -84,16 +84,27 @@ fn check(f: [[f64; 2]; 2], stress: [f64; 3], angle_deg: f64, traction: [f64; 2])
         assert_eq!(m.state, WrinkleState::Wrinkled, "triangle {k}");
         for i in 0..3 {
             // The reference prints 7 significant digits.
-            assert!((s[i] - stress[i]).abs() <= 1e-6 * stress[i].abs(), "triangle {k} S[{i}] {} vs {}", s[i], stress[i]);
+            assert!(
+                (s[i] - stress[i]).abs() <= 1e-6 * stress[i].abs(),
+                "triangle {k} S[{i}] {} vs {}",
+                s[i],
+                stress[i]
+            );
         }
         // Homogeneous field: every triangle has the same stress to round-off.
         for i in 0..3 {
-            assert!((s[i] - stresses[0][i]).abs() <= 1e-9 * stress[0].abs(), "triangle {k} differs from triangle 0");
+            assert!(
+                (s[i] - stresses[0][i]).abs() <= 1e-9 * stress[0].abs(),
+                "triangle {k} differs from triangle 0"
+            );
         }
         // Tension direction of every triangle, in global axes.
         let d = e.model().triangles[k].reference.direction(m.angle);
         let angle = d.y.atan2(d.x).to_degrees().rem_euclid(180.0);
-        assert!((angle - angle_deg).abs() < 1e-4, "triangle {k} tension angle {angle} vs {angle_deg}");
+        assert!(
+            (angle - angle_deg).abs() < 1e-4,
+            "triangle {k} tension angle {angle} vs {angle_deg}"
+        );
     }
     // Top-edge reaction = nominal traction P·e2 times the edge length (1 m) and thickness (1 m);
     // the supports pull, so the reaction on the structure equals the traction applied to it.
@@ -106,7 +117,10 @@ fn check(f: [[f64; 2]; 2], stress: [f64; 3], angle_deg: f64, traction: [f64; 2])
 
 #[test]
 fn picture_frame_shear() {
-    for (gamma, s, tr) in [(0.01f64, 2.499958e-3, [2.524958e-3, 2.499833e-3]), (0.1, 2.495835e-2, [2.745003e-2, 2.483367e-2])] {
+    for (gamma, s, tr) in [
+        (0.01f64, 2.499958e-3, [2.524958e-3, 2.499833e-3]),
+        (0.1, 2.495835e-2, [2.745003e-2, 2.483367e-2]),
+    ] {
         let f = [[1.0, gamma.sin()], [0.0, gamma.cos()]];
         check(f, [s, s, s], 45.0, tr);
     }
@@ -114,8 +128,18 @@ fn picture_frame_shear() {
 
 #[test]
 fn simple_shear() {
-    check([[1.0, 0.01], [0.0, 1.0]], [2.499969e-3, 2.525094e-3, 2.512500e-3], 45.1432, [2.537751e-3, 2.525094e-3]);
-    check([[1.0, 0.1], [0.0, 1.0]], [2.496881e-2, 2.759365e-2, 2.624844e-2], 46.4312, [2.900781e-2, 2.759365e-2]);
+    check(
+        [[1.0, 0.01], [0.0, 1.0]],
+        [2.499969e-3, 2.525094e-3, 2.512500e-3],
+        45.1432,
+        [2.537751e-3, 2.525094e-3],
+    );
+    check(
+        [[1.0, 0.1], [0.0, 1.0]],
+        [2.496881e-2, 2.759365e-2, 2.624844e-2],
+        46.4312,
+        [2.900781e-2, 2.759365e-2],
+    );
 }
 
 #[test]

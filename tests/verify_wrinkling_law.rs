@@ -13,19 +13,62 @@
 use nalgebra::{Matrix2, Vector3};
 use velarium::model::wrinkling::{principal, Law, WrinkleState, REGULARIZATION};
 
-const SVK: Law = Law::Svk { young: 1.0, nu: 0.3 };
+const SVK: Law = Law::Svk {
+    young: 1.0,
+    nu: 0.3,
+};
 
 /// (strain, state, S/E printed in the table, tension angle in degrees if wrinkled)
 #[allow(clippy::type_complexity)]
 const TABLE: [([f64; 3], WrinkleState, [f64; 3], Option<f64>); 8] = [
-    ([1e-3, -3e-4, 0.0], WrinkleState::Taut, [1.0000e-3, 0.0, 0.0], None),
-    ([1e-3, 0.0, 0.0], WrinkleState::Taut, [1.0989e-3, 3.2967e-4, 0.0], None),
-    ([1e-3, -5e-4, 0.0], WrinkleState::Wrinkled, [1.0000e-3, 0.0, 0.0], Some(0.0)),
-    ([-1e-3, -1e-3, 0.0], WrinkleState::Slack, [0.0, 0.0, 0.0], None),
-    ([0.0, 0.0, 1e-3], WrinkleState::Wrinkled, [2.5e-4, 2.5e-4, 2.5e-4], Some(45.0)),
-    ([0.0, 1e-3, 1e-3], WrinkleState::Taut, [3.2967e-4, 1.0989e-3, 3.8462e-4], None),
-    ([0.0, 1e-3, 2e-3], WrinkleState::Wrinkled, [4.4721e-4, 1.1708e-3, 7.2361e-4], Some(58.28)),
-    ([0.0, 1e-3, 1e-2], WrinkleState::Wrinkled, [2.4876e-3, 3.0373e-3, 2.7488e-3], Some(47.86)),
+    (
+        [1e-3, -3e-4, 0.0],
+        WrinkleState::Taut,
+        [1.0000e-3, 0.0, 0.0],
+        None,
+    ),
+    (
+        [1e-3, 0.0, 0.0],
+        WrinkleState::Taut,
+        [1.0989e-3, 3.2967e-4, 0.0],
+        None,
+    ),
+    (
+        [1e-3, -5e-4, 0.0],
+        WrinkleState::Wrinkled,
+        [1.0000e-3, 0.0, 0.0],
+        Some(0.0),
+    ),
+    (
+        [-1e-3, -1e-3, 0.0],
+        WrinkleState::Slack,
+        [0.0, 0.0, 0.0],
+        None,
+    ),
+    (
+        [0.0, 0.0, 1e-3],
+        WrinkleState::Wrinkled,
+        [2.5e-4, 2.5e-4, 2.5e-4],
+        Some(45.0),
+    ),
+    (
+        [0.0, 1e-3, 1e-3],
+        WrinkleState::Taut,
+        [3.2967e-4, 1.0989e-3, 3.8462e-4],
+        None,
+    ),
+    (
+        [0.0, 1e-3, 2e-3],
+        WrinkleState::Wrinkled,
+        [4.4721e-4, 1.1708e-3, 7.2361e-4],
+        Some(58.28),
+    ),
+    (
+        [0.0, 1e-3, 1e-2],
+        WrinkleState::Wrinkled,
+        [2.4876e-3, 3.0373e-3, 2.7488e-3],
+        Some(47.86),
+    ),
 ];
 
 /// Closed-form reference, written independently of the implementation: the major
@@ -36,14 +79,26 @@ fn closed_form(e: [f64; 3], state: WrinkleState) -> [f64; 3] {
         WrinkleState::Slack => [0.0; 3],
         WrinkleState::Taut => {
             let c = young / (1.0 - nu * nu);
-            [c * (e[0] + nu * e[1]), c * (nu * e[0] + e[1]), c * (1.0 - nu) / 2.0 * e[2]]
+            [
+                c * (e[0] + nu * e[1]),
+                c * (nu * e[0] + e[1]),
+                c * (1.0 - nu) / 2.0 * e[2],
+            ]
         }
         WrinkleState::Wrinkled => {
             let m = Matrix2::new(e[0], e[2] / 2.0, e[2] / 2.0, e[1]);
             let eig = m.symmetric_eigen();
-            let k = if eig.eigenvalues[0] >= eig.eigenvalues[1] { 0 } else { 1 };
+            let k = if eig.eigenvalues[0] >= eig.eigenvalues[1] {
+                0
+            } else {
+                1
+            };
             let (e1, t) = (eig.eigenvalues[k], eig.eigenvectors.column(k));
-            [young * e1 * t[0] * t[0], young * e1 * t[1] * t[1], young * e1 * t[0] * t[1]]
+            [
+                young * e1 * t[0] * t[0],
+                young * e1 * t[1] * t[1],
+                young * e1 * t[0] * t[1],
+            ]
         }
     }
 }
@@ -56,9 +111,19 @@ fn svk_tension_field_table() {
         let exact = closed_form(strain, state);
         let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
         for i in 0..3 {
-            assert!((r.stress[i] - exact[i]).abs() <= 1e-12 * scale, "{strain:?} S[{i}] {} vs {}", r.stress[i], exact[i]);
+            assert!(
+                (r.stress[i] - exact[i]).abs() <= 1e-12 * scale,
+                "{strain:?} S[{i}] {} vs {}",
+                r.stress[i],
+                exact[i]
+            );
             // The table prints 5 significant digits.
-            assert!((r.stress[i] - printed[i]).abs() <= 5e-5 * scale, "{strain:?} S[{i}] {} vs table {}", r.stress[i], printed[i]);
+            assert!(
+                (r.stress[i] - printed[i]).abs() <= 5e-5 * scale,
+                "{strain:?} S[{i}] {} vs table {}",
+                r.stress[i],
+                printed[i]
+            );
         }
         if let Some(deg) = angle {
             let got = r.angle.to_degrees();
@@ -103,7 +168,11 @@ fn check_tangent(law: Law, strain_scale: f64, seed: u64) -> [usize; 3] {
         }
         let scale = law.small_strain().abs().max();
         let err = (tangent - fd).abs().max() / scale;
-        assert!(err < 1e-6, "{law:?} {:?} at {e:?}: tangent error {err:e}", r.state);
+        assert!(
+            err < 1e-6,
+            "{law:?} {:?} at {e:?}: tangent error {err:e}",
+            r.state
+        );
         counts[r.state as usize] += 1;
     }
     counts
@@ -113,7 +182,10 @@ fn check_tangent(law: Law, strain_scale: f64, seed: u64) -> [usize; 3] {
 fn consistent_tangents_match_finite_differences_in_every_state() {
     for (law, scale) in [(SVK, 1e-2), (Law::NeoHookean { mu: 1.0 }, 0.3)] {
         let counts = check_tangent(law, scale, 0x2545F4914F6CDD1D);
-        assert!(counts.iter().all(|&c| c > 100), "{law:?}: too few samples per state {counts:?}");
+        assert!(
+            counts.iter().all(|&c| c > 100),
+            "{law:?}: too few samples per state {counts:?}"
+        );
     }
 }
 
@@ -129,16 +201,25 @@ fn neo_hookean_closed_forms() {
             let r = law.response(&strain(lambda, l2), None);
             let p = lambda * r.stress[0];
             let exact = mu * (lambda - lambda.powi(-2));
-            assert!((p - exact).abs() <= 1e-12 * exact, "uniaxial λ {lambda} λ2 {l2}: {p} vs {exact}");
+            assert!(
+                (p - exact).abs() <= 1e-12 * exact,
+                "uniaxial λ {lambda} λ2 {l2}: {p} vs {exact}"
+            );
             assert!(r.stress[1].abs() <= 1e-12 * exact);
         }
         let r = law.response(&strain(lambda, lambda), None);
         let exact = mu * (lambda - lambda.powi(-5));
         assert_eq!(r.state, WrinkleState::Taut);
-        assert!((lambda * r.stress[0] - exact).abs() <= 1e-12 * exact, "equibiaxial λ {lambda}");
+        assert!(
+            (lambda * r.stress[0] - exact).abs() <= 1e-12 * exact,
+            "equibiaxial λ {lambda}"
+        );
         let r = law.response(&strain(lambda, 1.0), None);
         let exact = mu * (lambda - lambda.powi(-3));
-        assert!((lambda * r.stress[0] - exact).abs() <= 1e-12 * exact, "pure shear λ {lambda}");
+        assert!(
+            (lambda * r.stress[0] - exact).abs() <= 1e-12 * exact,
+            "pure shear λ {lambda}"
+        );
     }
     // Slack: both stretches below 1.
     let r = law.response(&strain(0.9, 0.8), None);

@@ -39,7 +39,10 @@ pub fn tension(law: Law, ea: f64, l0: f64, l: f64) -> (f64, f64) {
         Law::Engineering => (ea * (l - l0) / l0, ea / l0),
         Law::GreenLagrange => {
             let l03 = l0 * l0 * l0;
-            (ea * (l * l - l0 * l0) * l / (2.0 * l03), ea * (3.0 * l * l - l0 * l0) / (2.0 * l03))
+            (
+                ea * (l * l - l0 * l0) * l / (2.0 * l03),
+                ea * (3.0 * l * l - l0 * l0) / (2.0 * l03),
+            )
         }
     }
 }
@@ -67,7 +70,13 @@ pub fn unstretched_length(law: Law, ea: f64, l: f64, t0: f64) -> f64 {
 }
 
 /// Internal force (a then b), tangent and energy of one segment.
-pub fn segment(law: Law, ea: f64, l0: f64, xa: &Vector3<f64>, xb: &Vector3<f64>) -> (Vec6, Mat6, f64) {
+pub fn segment(
+    law: Law,
+    ea: f64,
+    l0: f64,
+    xa: &Vector3<f64>,
+    xb: &Vector3<f64>,
+) -> (Vec6, Mat6, f64) {
     let d = xb - xa;
     let l = d.norm();
     let e = d / l;

@@ -46,7 +46,9 @@ impl TriangleRef {
     /// A Voigt stress of the element frame as a 3x3 tensor in global axes.
     pub fn to_global(&self, s: &Vector3<f64>) -> Matrix3<f64> {
         let [e1, e2] = self.frame;
-        (e1 * e1.transpose()) * s[0] + (e2 * e2.transpose()) * s[1] + (e1 * e2.transpose() + e2 * e1.transpose()) * s[2]
+        (e1 * e1.transpose()) * s[0]
+            + (e2 * e2.transpose()) * s[1]
+            + (e1 * e2.transpose() + e2 * e1.transpose()) * s[2]
     }
 
     /// Unit direction (global, reference configuration) at `angle` in the element frame.
@@ -170,23 +172,33 @@ pub fn triangle(
     let Smat = Matrix2::new(S[0], S[2], S[2], S[1]);
     let mut f = Vec9::zeros();
     for a in 0..3 {
-        f.fixed_rows_mut::<3>(3 * a).copy_from(&(F * (Smat * r.grad[a]) * vol));
+        f.fixed_rows_mut::<3>(3 * a)
+            .copy_from(&(F * (Smat * r.grad[a]) * vol));
     }
     if let Some(K) = tangent {
         // Fill in only the tension the element lacks: its minor principal stress if taut, its
         // tension if wrinkled, nothing if slack.
         let (s_max, s_min) = principal_stresses(&S);
-        let carried = if resp.state == WrinkleState::Wrinkled { s_max } else { s_min };
+        let carried = if resp.state == WrinkleState::Wrinkled {
+            s_max
+        } else {
+            s_min
+        };
         let prestress = (prestress - carried).clamp(0.0, prestress);
         let (F1, F2) = (F.column(0).into_owned(), F.column(1).into_owned());
         let B: [Matrix3<f64>; 3] = [0, 1, 2].map(|a| {
             let (n1, n2) = (r.grad[a].x, r.grad[a].y);
-            Matrix3::from_rows(&[(F1 * n1).transpose(), (F2 * n2).transpose(), (F1 * n2 + F2 * n1).transpose()])
+            Matrix3::from_rows(&[
+                (F1 * n1).transpose(),
+                (F2 * n2).transpose(),
+                (F1 * n2 + F2 * n1).transpose(),
+            ])
         });
         let D = resp.tangent;
         for a in 0..3 {
             for b in 0..3 {
-                let geo = r.grad[a].dot(&(Smat * r.grad[b])) + prestress * r.grad[a].dot(&r.grad[b]);
+                let geo =
+                    r.grad[a].dot(&(Smat * r.grad[b])) + prestress * r.grad[a].dot(&r.grad[b]);
                 let kab = (B[a].transpose() * D * B[b] + Matrix3::identity() * geo) * vol;
                 K.fixed_view_mut::<3, 3>(3 * a, 3 * b).copy_from(&kab);
             }

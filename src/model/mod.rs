@@ -18,7 +18,9 @@ pub mod pressure;
 pub mod wrinkling;
 
 use crate::scene::generate::{resolve, Mesh};
-use crate::scene::{Load, Material, NodeRef, OneNode, Probe, Scene, StrainLaw, TriangleRef as TriSel};
+use crate::scene::{
+    Load, Material, NodeRef, OneNode, Probe, Scene, StrainLaw, TriangleRef as TriSel,
+};
 use nalgebra::Vector3;
 
 /// Default artificial prestress of a flat membrane group, as a fraction of its E (3μ for
@@ -55,7 +57,10 @@ pub enum LoadModel {
     /// (dof, force per unit input value).
     PointForce(Vec<(usize, f64)>),
     /// Triangles (indices into `Model::triangles`) loaded by the pressure.
-    Pressure { triangles: Vec<usize>, follower: bool },
+    Pressure {
+        triangles: Vec<usize>,
+        follower: bool,
+    },
     /// Prescribed DOFs.
     Displacement(Vec<usize>),
 }
@@ -63,11 +68,23 @@ pub enum LoadModel {
 /// What one output reads.
 #[derive(Clone, Debug)]
 pub enum ProbeModel {
-    Displacement { dof: usize },
-    Position { dof: usize, reference: f64 },
-    CableLength { cable: usize },
-    CableTension { cable: usize, segment: Option<usize> },
-    Reaction { dofs: Vec<usize> },
+    Displacement {
+        dof: usize,
+    },
+    Position {
+        dof: usize,
+        reference: f64,
+    },
+    CableLength {
+        cable: usize,
+    },
+    CableTension {
+        cable: usize,
+        segment: Option<usize>,
+    },
+    Reaction {
+        dofs: Vec<usize>,
+    },
     NewtonIterations,
     /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
     /// indices).
@@ -117,7 +134,11 @@ impl Model {
                 }
             }
         }
-        let loads: Vec<LoadModel> = scene.inputs.iter().map(|i| build_load(scene, &mesh, &triangles, &i.load)).collect();
+        let loads: Vec<LoadModel> = scene
+            .inputs
+            .iter()
+            .map(|i| build_load(scene, &mesh, &triangles, &i.load))
+            .collect();
         for l in &loads {
             if let LoadModel::Displacement(dofs) = l {
                 for &d in dofs {
@@ -126,7 +147,11 @@ impl Model {
             }
         }
         let groups = group_ranges(scene, &mesh);
-        let probes = scene.outputs.iter().map(|o| build_probe(&mesh, &cables, &groups, &o.probe)).collect();
+        let probes = scene
+            .outputs
+            .iter()
+            .map(|o| build_probe(&mesh, &cables, &groups, &o.probe))
+            .collect();
         let force_scale = triangles
             .iter()
             .map(|t| t.material.modulus() * t.material.thickness * t.reference.area.sqrt())
@@ -144,6 +169,14 @@ impl Model {
             force_scale,
             length_scale,
         }
+    }
+
+    /// True when every load has a potential (no follower pressure).
+    pub fn is_conservative(&self) -> bool {
+        !self
+            .loads
+            .iter()
+            .any(|l| matches!(l, LoadModel::Pressure { follower: true, .. }))
     }
 
     pub fn dof_count(&self) -> usize {
@@ -179,7 +212,12 @@ fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
 }
 
 /// Membrane elements, group by group. A group is flat when all its reference normals agree.
-fn build_triangles(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [bool]) -> Vec<Triangle> {
+fn build_triangles(
+    scene: &Scene,
+    mesh: &Mesh,
+    x: &[Vector3<f64>],
+    used: &mut [bool],
+) -> Vec<Triangle> {
     let mut out = Vec::new();
     for m in &scene.membranes {
         let law = match m.material {
@@ -194,7 +232,8 @@ fn build_triangles(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [b
         let first = out.len();
         for t in triangle_ids(mesh, &m.triangles) {
             let nodes = mesh.triangles[t];
-            let reference = membrane::triangle_ref(nodes.map(|i| x[i])).expect("validated: no zero-area triangle");
+            let reference = membrane::triangle_ref(nodes.map(|i| x[i]))
+                .expect("validated: no zero-area triangle");
             for &i in &nodes {
                 used[i] = true;
             }
@@ -207,11 +246,14 @@ fn build_triangles(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [b
         }
         let group = &mut out[first..];
         let n0 = group[0].reference.normal;
-        let flat = group.iter().all(|t| t.reference.normal.dot(&n0) > 1.0 - 1e-10);
-        let prestress = scene
-            .solver
-            .artificial_prestress
-            .unwrap_or(if flat { AUTO_PRESTRESS_FRACTION * material.modulus() } else { 0.0 });
+        let flat = group
+            .iter()
+            .all(|t| t.reference.normal.dot(&n0) > 1.0 - 1e-10);
+        let prestress = scene.solver.artificial_prestress.unwrap_or(if flat {
+            AUTO_PRESTRESS_FRACTION * material.modulus()
+        } else {
+            0.0
+        });
         for t in group {
             t.prestress = prestress;
         }
@@ -219,7 +261,12 @@ fn build_triangles(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [b
     out
 }
 
-fn build_cables(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>], used: &mut [bool]) -> (Vec<Segment>, Vec<CableInfo>) {
+fn build_cables(
+    scene: &Scene,
+    mesh: &Mesh,
+    x: &[Vector3<f64>],
+    used: &mut [bool],
+) -> (Vec<Segment>, Vec<CableInfo>) {
     let mut segments = Vec::new();
     let mut cables = Vec::new();
     for c in &scene.cables {
@@ -274,20 +321,41 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
         Load::PointForce { nodes, direction } => {
             let ids = node_ids(mesh, nodes);
             let d = Vector3::from(*direction).normalize() / ids.len() as f64;
-            LoadModel::PointForce(ids.iter().flat_map(|&i| (0..3).map(move |c| (3 * i + c, d[c]))).filter(|(_, f)| *f != 0.0).collect())
+            LoadModel::PointForce(
+                ids.iter()
+                    .flat_map(|&i| (0..3).map(move |c| (3 * i + c, d[c])))
+                    .filter(|(_, f)| *f != 0.0)
+                    .collect(),
+            )
         }
         Load::Pressure { membrane, follower } => {
-            let range = group_ranges(scene, mesh).into_iter().find(|g| &g.0 == membrane).map(|g| g.1).expect("validated group");
+            let range = group_ranges(scene, mesh)
+                .into_iter()
+                .find(|g| &g.0 == membrane)
+                .map(|g| g.1)
+                .expect("validated group");
             debug_assert!(range.end <= triangles.len());
             LoadModel::Pressure {
                 triangles: range.collect(),
                 follower: *follower,
             }
         }
-        Load::Displacement { nodes, component } => {
-            LoadModel::Displacement(node_ids(mesh, nodes).iter().map(|&i| 3 * i + component.index()).collect())
-        }
-        Load::RadialEdgeLoad { nodes, center, closed } => radial_edge_load(mesh, &node_ids(mesh, nodes), Vector3::from(*center), *closed),
+        Load::Displacement { nodes, component } => LoadModel::Displacement(
+            node_ids(mesh, nodes)
+                .iter()
+                .map(|&i| 3 * i + component.index())
+                .collect(),
+        ),
+        Load::RadialEdgeLoad {
+            nodes,
+            center,
+            closed,
+        } => radial_edge_load(
+            mesh,
+            &node_ids(mesh, nodes),
+            Vector3::from(*center),
+            *closed,
+        ),
     }
 }
 
@@ -306,7 +374,11 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
     let mut forces = Vec::new();
     for (k, &i) in ids.iter().enumerate() {
         let radial = x(i) - center;
-        let dir = if radial.norm() > 0.0 { radial.normalize() } else { Vector3::zeros() };
+        let dir = if radial.norm() > 0.0 {
+            radial.normalize()
+        } else {
+            Vector3::zeros()
+        };
         for c in 0..3 {
             if dir[c] != 0.0 {
                 forces.push((3 * i + c, dir[c] * length[k]));
@@ -320,9 +392,18 @@ type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
 
 fn build_probe(mesh: &Mesh, cables: &[CableInfo], groups: &Groups, probe: &Probe) -> ProbeModel {
     let elements = |name: &Option<String>| -> Vec<usize> {
-        groups.iter().filter(|g| name.as_ref().is_none_or(|n| n == &g.0)).flat_map(|g| g.1.clone()).collect()
+        groups
+            .iter()
+            .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
+            .flat_map(|g| g.1.clone())
+            .collect()
     };
-    let cable_index = |name: &str| cables.iter().position(|c| c.name == name).expect("validated cable name");
+    let cable_index = |name: &str| {
+        cables
+            .iter()
+            .position(|c| c.name == name)
+            .expect("validated cable name")
+    };
     match probe {
         Probe::Displacement { node, component } => ProbeModel::Displacement {
             dof: 3 * one_node(mesh, node) + component.index(),
@@ -334,23 +415,36 @@ fn build_probe(mesh: &Mesh, cables: &[CableInfo], groups: &Groups, probe: &Probe
                 reference: mesh.nodes[id][component.index()],
             }
         }
-        Probe::CableLength { cable } => ProbeModel::CableLength { cable: cable_index(cable) },
+        Probe::CableLength { cable } => ProbeModel::CableLength {
+            cable: cable_index(cable),
+        },
         Probe::CableTension { cable, segment } => ProbeModel::CableTension {
             cable: cable_index(cable),
             segment: *segment,
         },
         Probe::Reaction { nodes, component } => ProbeModel::Reaction {
-            dofs: node_ids(mesh, nodes).iter().map(|&i| 3 * i + component.index()).collect(),
+            dofs: node_ids(mesh, nodes)
+                .iter()
+                .map(|&i| 3 * i + component.index())
+                .collect(),
         },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
         Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)),
         Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)),
-        Probe::MaxPrincipalStress { membrane } => ProbeModel::MaxPrincipalStress(elements(membrane)),
-        Probe::MinPrincipalStress { membrane } => ProbeModel::MinPrincipalStress(elements(membrane)),
+        Probe::MaxPrincipalStress { membrane } => {
+            ProbeModel::MaxPrincipalStress(elements(membrane))
+        }
+        Probe::MinPrincipalStress { membrane } => {
+            ProbeModel::MinPrincipalStress(elements(membrane))
+        }
         Probe::ElementState { triangle } => {
             let index = groups
                 .iter()
-                .find_map(|g| g.2.iter().position(|t| t == triangle).map(|k| g.1.start + k))
+                .find_map(|g| {
+                    g.2.iter()
+                        .position(|t| t == triangle)
+                        .map(|k| g.1.start + k)
+                })
                 .expect("validated: the triangle belongs to a membrane group");
             ProbeModel::ElementState(index)
         }

@@ -35,7 +35,8 @@ pub fn follower_stiffness(p: f64, x: &[Vector3<f64>; 3]) -> Mat9 {
     let mut k = Mat9::zeros();
     for row in 0..3 {
         for (col, block) in d.iter().enumerate() {
-            k.fixed_view_mut::<3, 3>(3 * row, 3 * col).copy_from(&(-block));
+            k.fixed_view_mut::<3, 3>(3 * row, 3 * col)
+                .copy_from(&(-block));
         }
     }
     k

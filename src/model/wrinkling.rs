@@ -90,7 +90,17 @@ impl Law {
             Law::NeoHookean { mu } => (3.0 * mu, 0.5),
         };
         let c = e / (1.0 - nu * nu);
-        Matrix3::new(c, c * nu, 0.0, c * nu, c, 0.0, 0.0, 0.0, c * (1.0 - nu) / 2.0)
+        Matrix3::new(
+            c,
+            c * nu,
+            0.0,
+            c * nu,
+            c,
+            0.0,
+            0.0,
+            0.0,
+            c * (1.0 - nu) / 2.0,
+        )
     }
 
     /// The state the mixed criterion assigns to a strain. The unstrained state counts as taut
@@ -129,7 +139,8 @@ impl Law {
                 match *self {
                     Law::Svk { young, .. } => {
                         let gap = (e1 - e2).max(f64::MIN_POSITIVE);
-                        let c = v * v.transpose() * young + w * w.transpose() * (2.0 * young * e1 / gap);
+                        let c = v * v.transpose() * young
+                            + w * w.transpose() * (2.0 * young * e1 / gap);
                         (v * (young * e1), c + reg, 0.5 * young * e1 * e1)
                     }
                     Law::NeoHookean { mu } => {
@@ -137,8 +148,13 @@ impl Law {
                         let d1 = 0.5 * mu * (1.0 - l1.powf(-1.5));
                         let d2 = 0.75 * mu * l1.powf(-2.5);
                         let gap = (l1 - l2).max(f64::MIN_POSITIVE);
-                        let c = v * v.transpose() * (4.0 * d2) + w * w.transpose() * (8.0 * d1 / gap);
-                        (v * (2.0 * d1), c + reg, 0.5 * mu * (l1 + 2.0 / l1.sqrt() - 3.0))
+                        let c =
+                            v * v.transpose() * (4.0 * d2) + w * w.transpose() * (8.0 * d1 / gap);
+                        (
+                            v * (2.0 * d1),
+                            c + reg,
+                            0.5 * mu * (l1 + 2.0 / l1.sqrt() - 3.0),
+                        )
                     }
                 }
             }
@@ -162,7 +178,12 @@ impl Law {
                 (S, D, 0.5 * strain.dot(&S))
             }
             Law::NeoHookean { mu } => {
-                let C = Matrix2::new(1.0 + 2.0 * strain[0], strain[2], strain[2], 1.0 + 2.0 * strain[1]);
+                let C = Matrix2::new(
+                    1.0 + 2.0 * strain[0],
+                    strain[2],
+                    strain[2],
+                    1.0 + 2.0 * strain[1],
+                );
                 let J = C.determinant();
                 let Ci = C.try_inverse().unwrap_or_else(Matrix2::zeros);
                 let S = (Matrix2::identity() - Ci / J) * mu;
@@ -170,7 +191,9 @@ impl Law {
                 let mut T = Matrix3::zeros();
                 for (p, &(i, j)) in idx.iter().enumerate() {
                     for (q, &(k, l)) in idx.iter().enumerate() {
-                        T[(p, q)] = 2.0 * mu / J * (Ci[(i, j)] * Ci[(k, l)] + 0.5 * (Ci[(i, k)] * Ci[(j, l)] + Ci[(i, l)] * Ci[(j, k)]));
+                        T[(p, q)] = 2.0 * mu / J
+                            * (Ci[(i, j)] * Ci[(k, l)]
+                                + 0.5 * (Ci[(i, k)] * Ci[(j, l)] + Ci[(i, l)] * Ci[(j, k)]));
                     }
                 }
                 let W = 0.5 * mu * (C.trace() + 1.0 / J - 3.0);

@@ -72,7 +72,8 @@ impl Mesh {
     fn push_ccw(&mut self, t: [usize; 3]) {
         let [a, b, c] = t.map(|i| self.nodes[i]);
         let cross = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-        self.triangles.push(if cross < 0.0 { [t[0], t[2], t[1]] } else { t });
+        self.triangles
+            .push(if cross < 0.0 { [t[0], t[2], t[1]] } else { t });
     }
 
     fn add_sets(&mut self, name: &str, sets: Vec<(&str, Vec<usize>)>, tris: Vec<usize>) {
@@ -123,7 +124,13 @@ fn rectangle(
     let top: Vec<usize> = (0..=nx).map(|i| id(i, ny)).collect();
     let left: Vec<usize> = (0..=ny).map(|j| id(0, j)).collect();
     let right: Vec<usize> = (0..=ny).map(|j| id(nx, j)).collect();
-    let mut boundary: Vec<usize> = bottom.iter().chain(&top).chain(&left).chain(&right).copied().collect();
+    let mut boundary: Vec<usize> = bottom
+        .iter()
+        .chain(&top)
+        .chain(&left)
+        .chain(&right)
+        .copied()
+        .collect();
     boundary.sort_unstable();
     boundary.dedup();
     let sets = vec![
@@ -148,12 +155,22 @@ fn disc(mesh: &mut Mesh, name: &str, center: [f64; 3], radius: f64, rings: usize
     mesh.nodes.push(center);
     // First node id of ring k (k >= 1): 1 + 3k(k-1).
     let ring_start = |k: usize| base + 1 + 3 * k * (k - 1);
-    let node = |k: usize, m: usize| if k == 0 { base } else { ring_start(k) + m % (6 * k) };
+    let node = |k: usize, m: usize| {
+        if k == 0 {
+            base
+        } else {
+            ring_start(k) + m % (6 * k)
+        }
+    };
     for k in 1..=rings {
         let r = radius * k as f64 / rings as f64;
         for m in 0..6 * k {
             let phi = 2.0 * PI * m as f64 / (6 * k) as f64;
-            mesh.nodes.push([center[0] + r * phi.cos(), center[1] + r * phi.sin(), center[2]]);
+            mesh.nodes.push([
+                center[0] + r * phi.cos(),
+                center[1] + r * phi.sin(),
+                center[2],
+            ]);
         }
     }
     let t0 = mesh.triangles.len();
@@ -208,7 +225,11 @@ fn annulus(
         }
         for m in 0..sectors {
             let phi = 2.0 * PI * (m as f64 + 0.5 * (k % 2) as f64) / sectors as f64;
-            mesh.nodes.push([center[0] + r * phi.cos(), center[1] + r * phi.sin(), center[2]]);
+            mesh.nodes.push([
+                center[0] + r * phi.cos(),
+                center[1] + r * phi.sin(),
+                center[2],
+            ]);
         }
     }
     let t0 = mesh.triangles.len();
@@ -262,7 +283,11 @@ mod tests {
 
     #[test]
     fn rectangle_counts_area_and_orientation() {
-        for pattern in [DiagonalPattern::Right, DiagonalPattern::Left, DiagonalPattern::Crossed] {
+        for pattern in [
+            DiagonalPattern::Right,
+            DiagonalPattern::Left,
+            DiagonalPattern::Crossed,
+        ] {
             let m = resolve(&geometry(Generator::Rectangle {
                 name: "r".into(),
                 origin: [1.0, 2.0, 0.5],

@@ -237,7 +237,9 @@ pub struct Cable {
 }
 
 /// A displacement component.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, JsonSchema, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(
+    Clone, Copy, Debug, Serialize, Deserialize, JsonSchema, PartialEq, Eq, PartialOrd, Ord,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Component {
     X,
@@ -298,7 +300,10 @@ pub enum Load {
         follower: bool,
     },
     /// Prescribed displacement in m of one component of every node of the set.
-    Displacement { nodes: NodeRef, component: Component },
+    Displacement {
+        nodes: NodeRef,
+        component: Component,
+    },
     /// In-plane edge load in N/m (force per unit reference length of the edge polyline through
     /// `nodes`, in order), directed radially away from `center` (negative: towards it). Each
     /// edge segment gives half its load to each end node, along that node's radial direction.
@@ -343,7 +348,10 @@ pub enum Probe {
     },
     /// Sum of the reaction forces (N) in one component over the constrained nodes of a set:
     /// the force the supports and prescribed displacements exert on the structure.
-    Reaction { nodes: NodeRef, component: Component },
+    Reaction {
+        nodes: NodeRef,
+        component: Component,
+    },
     /// Newton iterations used by the last step (all internal increments), Integer.
     NewtonIterations,
     /// Fraction (0..1) of the reference area that is wrinkled, of one membrane group or of all.

@@ -2,13 +2,17 @@
 //! the JSON path of the field and a sentence a user can act on.
 
 use super::generate::{resolve, Mesh};
-use super::{Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION};
+use super::{
+    Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
+};
 use crate::variables;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// All problems of a scene; empty means valid.
 pub fn validate(scene: &Scene) -> Vec<Problem> {
-    let mut v = Validator { problems: Vec::new() };
+    let mut v = Validator {
+        problems: Vec::new(),
+    };
     v.header(scene);
     let before = v.problems.len();
     v.generators(scene);
@@ -47,7 +51,8 @@ pub fn is_identifier(s: &str) -> bool {
 /// A flat FMI variable name we accept: identifier characters plus `.`, `[`, `]`.
 fn is_variable_name(s: &str) -> bool {
     !s.is_empty()
-        && s.chars().all(|c| c.is_ascii_alphanumeric() || "_.[]".contains(c))
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_.[]".contains(c))
         && !s.starts_with(|c: char| c.is_ascii_digit() || c == '.')
 }
 
@@ -61,14 +66,23 @@ impl Validator {
 
     fn header(&mut self, s: &Scene) {
         if s.format != FORMAT_VERSION {
-            self.push("format", format!("format {} is not supported; this build reads format {FORMAT_VERSION}", s.format));
+            self.push(
+                "format",
+                format!(
+                    "format {} is not supported; this build reads format {FORMAT_VERSION}",
+                    s.format
+                ),
+            );
         }
         if !is_identifier(&s.name) {
             self.push("name", format!("\"{}\" is not a C identifier (letters, digits and _, not starting with a digit); it names the FMU and its library", s.name));
         }
         let e = &s.experiment;
         if !(e.start_time.is_finite() && e.stop_time.is_finite() && e.stop_time > e.start_time) {
-            self.push("experiment.stop_time", "must be finite and greater than start_time");
+            self.push(
+                "experiment.stop_time",
+                "must be finite and greater than start_time",
+            );
         }
         if !positive(e.step_size) {
             self.push("experiment.step_size", "must be a positive number");
@@ -78,34 +92,63 @@ impl Validator {
     fn generators(&mut self, s: &Scene) {
         for (i, node) in s.geometry.nodes.iter().enumerate() {
             if node.iter().any(|x| !x.is_finite()) {
-                self.push(format!("geometry.nodes[{i}]"), "coordinates must be finite numbers");
+                self.push(
+                    format!("geometry.nodes[{i}]"),
+                    "coordinates must be finite numbers",
+                );
             }
         }
         let mut seen = BTreeSet::new();
         for (i, g) in s.geometry.generators.iter().enumerate() {
             let p = format!("geometry.generators[{i}]");
             let name = match g {
-                Generator::Rectangle { name, .. } | Generator::Disc { name, .. } | Generator::Annulus { name, .. } => name,
+                Generator::Rectangle { name, .. }
+                | Generator::Disc { name, .. }
+                | Generator::Annulus { name, .. } => name,
             };
             if !is_identifier(name) {
-                self.push(format!("{p}.name"), format!("\"{name}\" must be an identifier (letters, digits, _)"));
+                self.push(
+                    format!("{p}.name"),
+                    format!("\"{name}\" must be an identifier (letters, digits, _)"),
+                );
             }
             if !seen.insert(name.clone()) || s.geometry.triangle_sets.contains_key(name) {
-                self.push(format!("{p}.name"), format!("\"{name}\" is used twice; generator and triangle-set names must be unique"));
+                self.push(
+                    format!("{p}.name"),
+                    format!(
+                        "\"{name}\" is used twice; generator and triangle-set names must be unique"
+                    ),
+                );
             }
             match g {
-                Generator::Rectangle { origin, size, divisions, .. } => {
+                Generator::Rectangle {
+                    origin,
+                    size,
+                    divisions,
+                    ..
+                } => {
                     if origin.iter().any(|x| !x.is_finite()) {
                         self.push(format!("{p}.origin"), "must be finite");
                     }
                     if !positive(size[0]) || !positive(size[1]) {
-                        self.push(format!("{p}.size"), "both sizes must be positive lengths in m");
+                        self.push(
+                            format!("{p}.size"),
+                            "both sizes must be positive lengths in m",
+                        );
                     }
                     if divisions[0] == 0 || divisions[1] == 0 {
-                        self.push(format!("{p}.divisions"), "needs at least one cell in each direction");
+                        self.push(
+                            format!("{p}.divisions"),
+                            "needs at least one cell in each direction",
+                        );
                     }
                 }
-                Generator::Disc { center, radius, rings, .. } => {
+                Generator::Disc {
+                    center,
+                    radius,
+                    rings,
+                    ..
+                } => {
                     if center.iter().any(|x| !x.is_finite()) {
                         self.push(format!("{p}.center"), "must be finite");
                     }
@@ -116,12 +159,26 @@ impl Validator {
                         self.push(format!("{p}.rings"), "needs at least one ring");
                     }
                 }
-                Generator::Annulus { center, inner_radius, outer_radius, rings, sectors, grading, .. } => {
+                Generator::Annulus {
+                    center,
+                    inner_radius,
+                    outer_radius,
+                    rings,
+                    sectors,
+                    grading,
+                    ..
+                } => {
                     if center.iter().any(|x| !x.is_finite()) {
                         self.push(format!("{p}.center"), "must be finite");
                     }
-                    if !positive(*inner_radius) || !(outer_radius > inner_radius) || !outer_radius.is_finite() {
-                        self.push(format!("{p}.inner_radius"), "needs 0 < inner_radius < outer_radius");
+                    if !positive(*inner_radius)
+                        || !(outer_radius > inner_radius)
+                        || !outer_radius.is_finite()
+                    {
+                        self.push(
+                            format!("{p}.inner_radius"),
+                            "needs 0 < inner_radius < outer_radius",
+                        );
                     }
                     if *rings == 0 {
                         self.push(format!("{p}.rings"), "needs at least one ring");
@@ -143,29 +200,47 @@ impl Validator {
             let mut ok = true;
             for (k, &id) in t.iter().enumerate() {
                 if id >= n {
-                    self.push(format!("geometry.triangles[{i}][{k}]"), format!("unknown node {id}: geometry.nodes has {n} nodes (ids 0 to {})", n.saturating_sub(1)));
+                    self.push(
+                        format!("geometry.triangles[{i}][{k}]"),
+                        format!(
+                            "unknown node {id}: geometry.nodes has {n} nodes (ids 0 to {})",
+                            n.saturating_sub(1)
+                        ),
+                    );
                     ok = false;
                 }
             }
             if ok && triangle_area(mesh, t) <= 1e-14 * longest_edge2(mesh, t) {
-                self.push(format!("geometry.triangles[{i}]"), format!("zero-area triangle {i} (its three nodes are collinear or repeated)"));
+                self.push(
+                    format!("geometry.triangles[{i}]"),
+                    format!("zero-area triangle {i} (its three nodes are collinear or repeated)"),
+                );
             }
         }
         for (name, ids) in &s.geometry.node_sets {
             for (k, &id) in ids.iter().enumerate() {
                 if id >= mesh.nodes.len() {
-                    self.push(format!("geometry.node_sets.{name}[{k}]"), format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()));
+                    self.push(
+                        format!("geometry.node_sets.{name}[{k}]"),
+                        format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()),
+                    );
                 }
             }
             if mesh.node_sets.get(name) != Some(ids) {
-                self.push(format!("geometry.node_sets.{name}"), "clashes with a generated node set of the same name");
+                self.push(
+                    format!("geometry.node_sets.{name}"),
+                    "clashes with a generated node set of the same name",
+                );
             }
         }
         let nt = mesh.triangles.len();
         for (name, ids) in &s.geometry.triangle_sets {
             for (k, &id) in ids.iter().enumerate() {
                 if id >= nt {
-                    self.push(format!("geometry.triangle_sets.{name}[{k}]"), format!("unknown triangle {id}: the mesh has {nt}"));
+                    self.push(
+                        format!("geometry.triangle_sets.{name}[{k}]"),
+                        format!("unknown triangle {id}: the mesh has {nt}"),
+                    );
                 }
             }
         }
@@ -181,7 +256,13 @@ impl Validator {
                     None
                 }
                 None => {
-                    self.push(path, format!("no node set is named \"{name}\"{}", suggest(name, mesh.node_sets.keys())));
+                    self.push(
+                        path,
+                        format!(
+                            "no node set is named \"{name}\"{}",
+                            suggest(name, mesh.node_sets.keys())
+                        ),
+                    );
                     None
                 }
             },
@@ -192,7 +273,10 @@ impl Validator {
                 }
                 for (k, &id) in ids.iter().enumerate() {
                     if id >= mesh.nodes.len() {
-                        self.push(format!("{path}[{k}]"), format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()));
+                        self.push(
+                            format!("{path}[{k}]"),
+                            format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()),
+                        );
                         ok = false;
                     }
                 }
@@ -204,14 +288,20 @@ impl Validator {
     fn one_node(&mut self, mesh: &Mesh, r: &OneNode, path: &str) -> Option<usize> {
         let ids = match r {
             OneNode::Id(id) if *id >= mesh.nodes.len() => {
-                self.push(path, format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()));
+                self.push(
+                    path,
+                    format!("unknown node {id}: the mesh has {} nodes", mesh.nodes.len()),
+                );
                 return None;
             }
             OneNode::Id(id) => vec![*id],
             OneNode::Set(name) => self.nodes(mesh, &NodeRef::Set(name.clone()), path)?,
         };
         if ids.len() != 1 {
-            self.push(path, format!("names {} nodes; a probe needs exactly one", ids.len()));
+            self.push(
+                path,
+                format!("names {} nodes; a probe needs exactly one", ids.len()),
+            );
             return None;
         }
         Some(ids[0])
@@ -223,9 +313,18 @@ impl Validator {
             match &m.triangles {
                 TriangleRef::Set(name) => {
                     if !mesh.triangle_sets.contains_key(name) {
-                        self.push(format!("{p}.triangles"), format!("no triangle set is named \"{name}\"{}", suggest(name, mesh.triangle_sets.keys())));
+                        self.push(
+                            format!("{p}.triangles"),
+                            format!(
+                                "no triangle set is named \"{name}\"{}",
+                                suggest(name, mesh.triangle_sets.keys())
+                            ),
+                        );
                     } else if mesh.triangle_sets[name].is_empty() {
-                        self.push(format!("{p}.triangles"), format!("triangle set \"{name}\" is empty"));
+                        self.push(
+                            format!("{p}.triangles"),
+                            format!("triangle set \"{name}\" is empty"),
+                        );
                     }
                 }
                 TriangleRef::Ids(ids) => {
@@ -234,26 +333,46 @@ impl Validator {
                     }
                     for (k, &id) in ids.iter().enumerate() {
                         if id >= mesh.triangles.len() {
-                            self.push(format!("{p}.triangles[{k}]"), format!("unknown triangle {id}: the mesh has {}", mesh.triangles.len()));
+                            self.push(
+                                format!("{p}.triangles[{k}]"),
+                                format!(
+                                    "unknown triangle {id}: the mesh has {}",
+                                    mesh.triangles.len()
+                                ),
+                            );
                         }
                     }
                 }
             }
             if !positive(m.thickness) {
-                self.push(format!("{p}.thickness"), format!("{} is not a positive thickness in m", m.thickness));
+                self.push(
+                    format!("{p}.thickness"),
+                    format!("{} is not a positive thickness in m", m.thickness),
+                );
             }
             match m.material {
                 Material::Svk { young, nu } => {
                     if !positive(young) {
-                        self.push(format!("{p}.material.E"), format!("{young} is not a positive Young's modulus in Pa"));
+                        self.push(
+                            format!("{p}.material.E"),
+                            format!("{young} is not a positive Young's modulus in Pa"),
+                        );
                     }
                     if !(nu.is_finite() && (0.0..0.5).contains(&nu)) {
-                        self.push(format!("{p}.material.nu"), format!("{nu}: Poisson's ratio must be in [0, 0.5) for the SVK membrane"));
+                        self.push(
+                            format!("{p}.material.nu"),
+                            format!(
+                                "{nu}: Poisson's ratio must be in [0, 0.5) for the SVK membrane"
+                            ),
+                        );
                     }
                 }
                 Material::NeoHookean { mu } => {
                     if !positive(mu) {
-                        self.push(format!("{p}.material.mu"), format!("{mu} is not a positive shear modulus in Pa"));
+                        self.push(
+                            format!("{p}.material.mu"),
+                            format!("{mu} is not a positive shear modulus in Pa"),
+                        );
                     }
                 }
             }
@@ -265,29 +384,55 @@ impl Validator {
             let p = format!("cables[{i}]");
             if let Some(ids) = self.nodes(mesh, &c.nodes, &format!("{p}.nodes")) {
                 if ids.len() < 2 {
-                    self.push(format!("{p}.nodes"), format!("a cable needs at least two nodes, this one has {}", ids.len()));
+                    self.push(
+                        format!("{p}.nodes"),
+                        format!(
+                            "a cable needs at least two nodes, this one has {}",
+                            ids.len()
+                        ),
+                    );
                 }
                 for k in 1..ids.len() {
                     let (a, b) = (mesh.nodes[ids[k - 1]], mesh.nodes[ids[k]]);
                     if dist(a, b) <= 0.0 {
-                        self.push(format!("{p}.nodes[{k}]"), format!("segment {} has zero length (nodes {} and {} coincide)", k - 1, ids[k - 1], ids[k]));
+                        self.push(
+                            format!("{p}.nodes[{k}]"),
+                            format!(
+                                "segment {} has zero length (nodes {} and {} coincide)",
+                                k - 1,
+                                ids[k - 1],
+                                ids[k]
+                            ),
+                        );
                     }
                 }
             }
             if !positive(c.ea) {
-                self.push(format!("{p}.EA"), format!("{} is not a positive axial stiffness in N", c.ea));
+                self.push(
+                    format!("{p}.EA"),
+                    format!("{} is not a positive axial stiffness in N", c.ea),
+                );
             }
             if c.pretension.is_some() && c.unstretched_length.is_some() {
-                self.push(format!("{p}.pretension"), "give either pretension or unstretched_length, not both");
+                self.push(
+                    format!("{p}.pretension"),
+                    "give either pretension or unstretched_length, not both",
+                );
             }
             if let Some(t) = c.pretension {
                 if !(t.is_finite() && t >= 0.0) {
-                    self.push(format!("{p}.pretension"), format!("{t} is not a tension in N (>= 0)"));
+                    self.push(
+                        format!("{p}.pretension"),
+                        format!("{t} is not a tension in N (>= 0)"),
+                    );
                 }
             }
             if let Some(l) = c.unstretched_length {
                 if !positive(l) {
-                    self.push(format!("{p}.unstretched_length"), format!("{l} is not a positive length in m"));
+                    self.push(
+                        format!("{p}.unstretched_length"),
+                        format!("{l} is not a positive length in m"),
+                    );
                 }
             }
         }
@@ -299,7 +444,10 @@ impl Validator {
         for (i, sup) in s.supports.iter().enumerate() {
             let p = format!("supports[{i}]");
             if sup.fix.is_empty() {
-                self.push(format!("{p}.fix"), "names no component; use [\"x\", \"y\", \"z\"] to clamp");
+                self.push(
+                    format!("{p}.fix"),
+                    "names no component; use [\"x\", \"y\", \"z\"] to clamp",
+                );
             }
             if let Some(ids) = self.nodes(mesh, &sup.nodes, &format!("{p}.nodes")) {
                 for id in ids {
@@ -319,7 +467,12 @@ impl Validator {
                         if held.contains(&key) && !prescribed.contains(&key) {
                             self.push(&p, format!("node {id} is already fixed in {component:?} by a support; a prescribed displacement cannot move it"));
                         } else if !prescribed.insert(key) {
-                            self.push(&p, format!("node {id} component {component:?} is prescribed by two inputs"));
+                            self.push(
+                                &p,
+                                format!(
+                                    "node {id} component {component:?} is prescribed by two inputs"
+                                ),
+                            );
                         }
                         held.insert(key);
                     }
@@ -340,20 +493,32 @@ impl Validator {
                     self.nodes(mesh, nodes, &format!("{p}.load.nodes"));
                     let n = direction.iter().map(|x| x * x).sum::<f64>().sqrt();
                     if !positive(n) {
-                        self.push(format!("{p}.load.direction"), "must be a non-zero finite vector");
+                        self.push(
+                            format!("{p}.load.direction"),
+                            "must be a non-zero finite vector",
+                        );
                     }
                 }
                 Load::Pressure { membrane, .. } => {
                     if !s.membranes.iter().any(|m| &m.name == membrane) {
                         let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
-                        self.push(format!("{p}.load.membrane"), format!("no membrane group is named \"{membrane}\"{}", suggest(membrane, names.into_iter())));
+                        self.push(
+                            format!("{p}.load.membrane"),
+                            format!(
+                                "no membrane group is named \"{membrane}\"{}",
+                                suggest(membrane, names.into_iter())
+                            ),
+                        );
                     }
                 }
                 Load::Displacement { .. } => {} // checked with the supports
                 Load::RadialEdgeLoad { nodes, center, .. } => {
                     if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
                         if ids.len() < 2 {
-                            self.push(format!("{p}.load.nodes"), "an edge load needs at least two nodes (one edge)");
+                            self.push(
+                                format!("{p}.load.nodes"),
+                                "an edge load needs at least two nodes (one edge)",
+                            );
                         }
                     }
                     if center.iter().any(|x| !x.is_finite()) {
@@ -369,8 +534,13 @@ impl Validator {
                     self.push(format!("{p}.min"), format!("min {lo} is above max {hi}"));
                 }
             }
-            if input.min.is_some_and(|lo| input.start < lo) || input.max.is_some_and(|hi| input.start > hi) {
-                self.push(format!("{p}.start"), format!("start {} is outside [min, max]", input.start));
+            if input.min.is_some_and(|lo| input.start < lo)
+                || input.max.is_some_and(|hi| input.start > hi)
+            {
+                self.push(
+                    format!("{p}.start"),
+                    format!("start {} is outside [min, max]", input.start),
+                );
             }
         }
     }
@@ -385,19 +555,31 @@ impl Validator {
                 Probe::CableLength { cable } => self.cable_name(s, cable, &format!("{p}.cable")),
                 Probe::CableTension { cable, segment } => {
                     self.cable_name(s, cable, &format!("{p}.cable"));
-                    if let (Some(seg), Some(c)) = (segment, s.cables.iter().find(|c| &c.name == cable)) {
+                    if let (Some(seg), Some(c)) =
+                        (segment, s.cables.iter().find(|c| &c.name == cable))
+                    {
                         let n = match &c.nodes {
                             NodeRef::Ids(ids) => ids.len(),
                             NodeRef::Set(name) => mesh.node_sets.get(name).map_or(0, Vec::len),
                         };
                         if *seg + 1 >= n.max(1) {
-                            self.push(format!("{p}.segment"), format!("cable \"{cable}\" has {} segments (0 to {})", n.saturating_sub(1), n.saturating_sub(2)));
+                            self.push(
+                                format!("{p}.segment"),
+                                format!(
+                                    "cable \"{cable}\" has {} segments (0 to {})",
+                                    n.saturating_sub(1),
+                                    n.saturating_sub(2)
+                                ),
+                            );
                         }
                     }
                 }
                 Probe::Reaction { nodes, component } => {
                     if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.nodes")) {
-                        if !ids.iter().any(|&id| held.contains(&(id, component.index()))) {
+                        if !ids
+                            .iter()
+                            .any(|&id| held.contains(&(id, component.index())))
+                        {
                             self.push(format!("{p}.nodes"), format!("no node of this set is held in {component:?}, so there is no reaction to report"));
                         }
                     }
@@ -413,17 +595,29 @@ impl Validator {
                     if let Some(name) = membrane {
                         if !s.membranes.iter().any(|m| &m.name == name) {
                             let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
-                            self.push(format!("{p}.membrane"), format!("no membrane group is named \"{name}\"{}", suggest(name, names.into_iter())));
+                            self.push(
+                                format!("{p}.membrane"),
+                                format!(
+                                    "no membrane group is named \"{name}\"{}",
+                                    suggest(name, names.into_iter())
+                                ),
+                            );
                         }
                     }
                 }
                 Probe::ElementState { triangle } => {
                     let in_group = s.membranes.iter().any(|m| match &m.triangles {
                         TriangleRef::Ids(ids) => ids.contains(triangle),
-                        TriangleRef::Set(name) => mesh.triangle_sets.get(name).is_some_and(|t| t.contains(triangle)),
+                        TriangleRef::Set(name) => mesh
+                            .triangle_sets
+                            .get(name)
+                            .is_some_and(|t| t.contains(triangle)),
                     });
                     if !in_group {
-                        self.push(format!("{p}.triangle"), format!("triangle {triangle} belongs to no membrane group"));
+                        self.push(
+                            format!("{p}.triangle"),
+                            format!("triangle {triangle} belongs to no membrane group"),
+                        );
                     }
                 }
             }
@@ -433,7 +627,13 @@ impl Validator {
     fn cable_name(&mut self, s: &Scene, cable: &str, path: &str) {
         if !s.cables.iter().any(|c| c.name == cable) {
             let names: Vec<&String> = s.cables.iter().map(|c| &c.name).collect();
-            self.push(path, format!("no cable is named \"{cable}\"{}", suggest(cable, names.into_iter())));
+            self.push(
+                path,
+                format!(
+                    "no cable is named \"{cable}\"{}",
+                    suggest(cable, names.into_iter())
+                ),
+            );
         }
     }
 
@@ -446,7 +646,11 @@ impl Validator {
                 Some(_) => {}
             }
             if p.target.ends_with(".pretension") {
-                if let Some(c) = s.cables.iter().find(|c| p.target == format!("cables.{}.pretension", c.name)) {
+                if let Some(c) = s
+                    .cables
+                    .iter()
+                    .find(|c| p.target == format!("cables.{}.pretension", c.name))
+                {
                     if c.unstretched_length.is_some() {
                         self.push(format!("parameters[{i}].target"), format!("cable \"{}\" is given by unstretched_length; expose that or give it a pretension", c.name));
                     }
@@ -459,7 +663,10 @@ impl Validator {
     /// within membranes and cables.
     fn names(&mut self, s: &Scene) {
         let mut seen: BTreeMap<&str, String> = BTreeMap::new();
-        let all = s.parameters.iter().map(|p| (&p.name, "parameters"))
+        let all = s
+            .parameters
+            .iter()
+            .map(|p| (&p.name, "parameters"))
             .chain(s.inputs.iter().map(|p| (&p.name, "inputs")))
             .chain(s.outputs.iter().map(|p| (&p.name, "outputs")));
         let mut counters: BTreeMap<&str, usize> = BTreeMap::new();
@@ -477,16 +684,25 @@ impl Validator {
             }
         }
         for (list, names) in [
-            ("membranes", s.membranes.iter().map(|m| &m.name).collect::<Vec<_>>()),
+            (
+                "membranes",
+                s.membranes.iter().map(|m| &m.name).collect::<Vec<_>>(),
+            ),
             ("cables", s.cables.iter().map(|c| &c.name).collect()),
         ] {
             let mut set = BTreeSet::new();
             for (i, n) in names.iter().enumerate() {
                 if !is_identifier(n) {
-                    self.push(format!("{list}[{i}].name"), format!("\"{n}\" must be an identifier (letters, digits, _)"));
+                    self.push(
+                        format!("{list}[{i}].name"),
+                        format!("\"{n}\" must be an identifier (letters, digits, _)"),
+                    );
                 }
                 if !set.insert(*n) {
-                    self.push(format!("{list}[{i}].name"), format!("\"{n}\" is used twice"));
+                    self.push(
+                        format!("{list}[{i}].name"),
+                        format!("\"{n}\" is used twice"),
+                    );
                 }
             }
         }
@@ -495,7 +711,10 @@ impl Validator {
     fn solver(&mut self, s: &Scene) {
         let st = &s.solver;
         if !(positive(st.tolerance) && st.tolerance < 1e-2) {
-            self.push("solver.tolerance", format!("{} must be in (0, 1e-2)", st.tolerance));
+            self.push(
+                "solver.tolerance",
+                format!("{} must be in (0, 1e-2)", st.tolerance),
+            );
         }
         if st.max_iterations == 0 {
             self.push("solver.max_iterations", "must be at least 1");
@@ -504,14 +723,20 @@ impl Validator {
             self.push("solver.initial_increment", "must be in (0, 1]");
         }
         if !(positive(st.min_increment) && st.min_increment <= st.initial_increment) {
-            self.push("solver.min_increment", "must be positive and not above initial_increment");
+            self.push(
+                "solver.min_increment",
+                "must be positive and not above initial_increment",
+            );
         }
         if st.target_iterations == 0 {
             self.push("solver.target_iterations", "must be at least 1");
         }
         if let Some(p) = st.artificial_prestress {
             if !(p.is_finite() && p >= 0.0) {
-                self.push("solver.artificial_prestress", format!("{p} must be a stress >= 0 in Pa"));
+                self.push(
+                    "solver.artificial_prestress",
+                    format!("{p} must be a stress >= 0 in Pa"),
+                );
             }
         }
     }
@@ -525,7 +750,11 @@ fn triangle_area(mesh: &Mesh, t: &[usize; 3]) -> f64 {
     let [a, b, c] = t.map(|i| mesh.nodes[i]);
     let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let w = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    let w = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
     0.5 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt()
 }
 
@@ -541,7 +770,10 @@ fn suggest<'a>(name: &str, known: impl Iterator<Item = &'a String>) -> String {
         return String::new();
     }
     let tail = name.rsplit('.').next().unwrap_or(name);
-    if let Some(k) = known.iter().find(|k| k.ends_with(tail) || k.starts_with(name)) {
+    if let Some(k) = known
+        .iter()
+        .find(|k| k.ends_with(tail) || k.starts_with(name))
+    {
         return format!("; did you mean \"{k}\"?");
     }
     let shown: Vec<&str> = known.iter().take(8).map(|s| s.as_str()).collect();

@@ -49,7 +49,12 @@ impl Pattern {
         // Column lists (rows <= col) from every element's DOFs.
         let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n];
         let eqr = &eq;
-        let element_dofs = |nodes: &[usize]| -> Vec<usize> { nodes.iter().flat_map(|&i| (0..3).map(move |c| eqr[3 * i + c])).collect() };
+        let element_dofs = |nodes: &[usize]| -> Vec<usize> {
+            nodes
+                .iter()
+                .flat_map(|&i| (0..3).map(move |c| eqr[3 * i + c]))
+                .collect()
+        };
         let elements: Vec<Vec<usize>> = model
             .triangles
             .iter()
@@ -78,7 +83,10 @@ impl Pattern {
                 return NONE;
             }
             let col = &row_idx[col_ptr[j]..col_ptr[j + 1]];
-            col_ptr[j] + col.binary_search(&i).expect("pattern holds every element pair")
+            col_ptr[j]
+                + col
+                    .binary_search(&i)
+                    .expect("pattern holds every element pair")
         };
         let map = |dofs: &[usize], out: &mut [usize]| {
             let m = dofs.len();
@@ -150,7 +158,14 @@ pub struct Membranes<'a> {
 
 /// Residual R = f_int − f_ext(loads) on all DOFs at displacement `u`, and, if `k` is given,
 /// the free-free tangent (upper triangle) into `k` (zeroed here).
-pub fn assemble(model: &Model, pattern: &Pattern, u: &[f64], loads: &[f64], r: &mut [f64], k: Option<&mut [f64]>) -> AssemblyInfo {
+pub fn assemble(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    loads: &[f64],
+    r: &mut [f64],
+    k: Option<&mut [f64]>,
+) -> AssemblyInfo {
     assemble_with(model, pattern, u, loads, r, k, Membranes::default())
 }
 
@@ -180,7 +195,14 @@ pub fn assemble_with(
         let x = gather(model, u, t.nodes);
         let forced = membranes.forced.map(|f| f[e]);
         let want_k = k.is_some();
-        let (f, eval) = membrane::triangle(&t.reference, &t.material, t.prestress, &x, forced, want_k.then_some(&mut ke));
+        let (f, eval) = membrane::triangle(
+            &t.reference,
+            &t.material,
+            t.prestress,
+            &x,
+            forced,
+            want_k.then_some(&mut ke),
+        );
         add_force(r, &t.nodes, f.as_slice());
         if let Some(k) = k.as_deref_mut() {
             scatter(&ke, &pattern.tri_map[e], k);
@@ -210,7 +232,10 @@ pub fn assemble_with(
                     fext[d] += f * value;
                 }
             }
-            LoadModel::Pressure { triangles, follower } => {
+            LoadModel::Pressure {
+                triangles,
+                follower,
+            } => {
                 for &e in triangles {
                     let t = &model.triangles[e];
                     if *follower {

@@ -8,7 +8,9 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
+};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
@@ -36,10 +38,19 @@ impl Ldlt {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
             ..Default::default()
         };
-        let symbolic = factorize_symbolic_cholesky(matrix.symbolic(), Side::Upper, SymmetricOrdering::Amd, params)
-            .expect("a square pattern with sorted, in-range indices always has a symbolic factorization");
+        let symbolic = factorize_symbolic_cholesky(
+            matrix.symbolic(),
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            params,
+        )
+        .expect(
+            "a square pattern with sorted, in-range indices always has a symbolic factorization",
+        );
         let l_values = vec![0.0; symbolic.len_val()];
-        let factor_mem = MemBuffer::new(symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()));
+        let factor_mem = MemBuffer::new(
+            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+        );
         let solve_mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
         Ldlt {
             matrix,
@@ -64,7 +75,9 @@ impl Ldlt {
         }
         let max_diag = self.max_diagonal();
         if !(max_diag.is_finite() && max_diag > 0.0) {
-            return Err(format!("tangent diagonal is not positive and finite (max {max_diag:e})"));
+            return Err(format!(
+                "tangent diagonal is not positive and finite (max {max_diag:e})"
+            ));
         }
         let reg = LdltRegularization {
             dynamic_regularization_signs: None,
@@ -84,7 +97,12 @@ impl Ldlt {
             )
             .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
-        ldlt.solve_in_place_with_conj(Conj::No, rhs_mat, Par::Seq, MemStack::new(&mut self.solve_mem));
+        ldlt.solve_in_place_with_conj(
+            Conj::No,
+            rhs_mat,
+            Par::Seq,
+            MemStack::new(&mut self.solve_mem),
+        );
         if rhs.iter().all(|x| x.is_finite()) {
             Ok(())
         } else {

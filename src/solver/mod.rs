@@ -69,6 +69,10 @@ impl StepReport {
     }
 }
 
+/// Increments (converged or cut back) one step may use before it is declared failed: a step
+/// that creeps forward by tiny increments is reported, not left to run for minutes.
+const MAX_INCREMENTS: usize = 400;
+
 /// Longest solver log kept per step.
 const MAX_LOG_LINES: usize = 2000;
 
@@ -116,17 +120,31 @@ impl Solver {
     }
 
     /// Evaluation (state, tension angle, stress, energy) of every membrane triangle at `u`.
-    pub fn evaluate_membranes(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<Evaluation> {
+    pub fn evaluate_membranes(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+    ) -> Vec<Evaluation> {
         let mut r = vec![0.0; model.dof_count()];
         let mut out = Vec::with_capacity(model.triangles.len());
-        let membranes = assemble::Membranes { forced: None, out: Some(&mut out) };
+        let membranes = assemble::Membranes {
+            forced: None,
+            out: Some(&mut out),
+        };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         out
     }
 
     /// Apply the load change `from` → `to` starting from the equilibrium `u`. On convergence
     /// `u` is the new equilibrium; otherwise `u` is unchanged.
-    pub fn solve_step(&mut self, model: &Model, from: &[f64], to: &[f64], u: &mut Vec<f64>) -> StepReport {
+    pub fn solve_step(
+        &mut self,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        u: &mut Vec<f64>,
+    ) -> StepReport {
         let mut report = StepReport {
             outcome: Outcome::Failed,
             iterations: 0,
@@ -140,9 +158,22 @@ impl Solver {
         let mut converged = u.clone();
         let (mut lambda, mut dl) = (0.0, s.initial_increment);
         while lambda < 1.0 {
+            if report.increments + report.cutbacks >= MAX_INCREMENTS {
+                report.reached = lambda;
+                report.message = format!("no equilibrium found beyond load fraction {lambda:.6} of the step ({MAX_INCREMENTS} increments used)");
+                return report;
+            }
             dl = dl.min(1.0 - lambda);
-            let target = if 1.0 - (lambda + dl) < 1e-12 { 1.0 } else { lambda + dl };
-            let loads: Vec<f64> = from.iter().zip(to).map(|(a, b)| a + target * (b - a)).collect();
+            let target = if 1.0 - (lambda + dl) < 1e-12 {
+                1.0
+            } else {
+                lambda + dl
+            };
+            let loads: Vec<f64> = from
+                .iter()
+                .zip(to)
+                .map(|(a, b)| a + target * (b - a))
+                .collect();
             let mut trial = converged.clone();
             prescribe(model, &loads, &mut trial);
             let result = self.newton(model, &loads, &mut trial, &mut report.log);
@@ -159,7 +190,10 @@ impl Solver {
                 Err((iters, why)) => {
                     report.iterations += iters;
                     report.cutbacks += 1;
-                    push_log(&mut report.log, format!("increment λ {lambda:.6} -> {target:.6}: {why}; cutting back"));
+                    push_log(
+                        &mut report.log,
+                        format!("increment λ {lambda:.6} -> {target:.6}: {why}; cutting back"),
+                    );
                     dl *= 0.25;
                     if dl < s.min_increment {
                         report.reached = lambda;
@@ -183,11 +217,24 @@ impl Solver {
     /// Wall time in seconds of one assembly (residual and tangent) and of one numeric
     /// factorization plus solve at `u`: the floor a Newton iteration cannot beat. Best of
     /// `repeats`.
-    pub fn time_floor(&mut self, model: &Model, u: &[f64], loads: &[f64], repeats: usize) -> (f64, f64) {
+    pub fn time_floor(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        repeats: usize,
+    ) -> (f64, f64) {
         let (mut assembly, mut factor) = (f64::INFINITY, f64::INFINITY);
         for _ in 0..repeats.max(1) {
             let t = std::time::Instant::now();
-            assemble::assemble(model, &self.pattern, u, loads, &mut self.residual, Some(self.linear.values_mut()));
+            assemble::assemble(
+                model,
+                &self.pattern,
+                u,
+                loads,
+                &mut self.residual,
+                Some(self.linear.values_mut()),
+            );
             assembly = assembly.min(t.elapsed().as_secs_f64());
             for (d, &e) in self.pattern.eq.iter().enumerate() {
                 if e != assemble::NONE {

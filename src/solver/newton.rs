@@ -15,17 +15,37 @@ const MIN_AREA_RATIO: f64 = 1e-6;
 /// Line search: accept α when |s(α)| <= LS_RATIO · |s(0)|.
 const LS_RATIO: f64 = 0.5;
 const LS_MAX_TRIES: usize = 8;
+/// Armijo sufficient-decrease fraction.
+const ARMIJO: f64 = 1e-4;
 
 impl Solver {
     /// Iterate to equilibrium at fixed `loads`. Ok(iterations) or Err((iterations, reason)).
-    pub(super) fn newton(&mut self, model: &Model, loads: &[f64], u: &mut [f64], log: &mut Vec<String>) -> Result<usize, (usize, String)> {
+    pub(super) fn newton(
+        &mut self,
+        model: &Model,
+        loads: &[f64],
+        u: &mut [f64],
+        log: &mut Vec<String>,
+    ) -> Result<usize, (usize, String)> {
         // Round-off level of internal forces (reference geometry is not exact in floating point).
         let floor = 1e-12 * model.force_scale.max(f64::MIN_POSITIVE);
         self.frozen = None;
-        let (mut previous, mut freeze_at, mut unfreezes) = (Vec::<WrinkleState>::new(), FREEZE_AFTER, 0);
+        let (mut previous, mut freeze_at, mut unfreezes) =
+            (Vec::<WrinkleState>::new(), FREEZE_AFTER, 0);
         for it in 0..=self.settings.max_iterations {
-            let membranes = Membranes { forced: self.frozen.as_deref(), out: Some(&mut self.evaluations) };
-            let info = assemble_with(model, &self.pattern, u, loads, &mut self.residual, Some(self.linear.values_mut()), membranes);
+            let membranes = Membranes {
+                forced: self.frozen.as_deref(),
+                out: Some(&mut self.evaluations),
+            };
+            let info = assemble_with(
+                model,
+                &self.pattern,
+                u,
+                loads,
+                &mut self.residual,
+                Some(self.linear.values_mut()),
+                membranes,
+            );
             let states: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
             if self.frozen.is_none() && it >= freeze_at && states != previous {
                 let changed = states.iter().zip(&previous).filter(|(a, b)| a != b).count();
@@ -34,7 +54,13 @@ impl Solver {
             }
             previous = states;
             if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
-                return Err((it, format!("a membrane element inverted or collapsed (area ratio {:.2e})", info.min_area_ratio)));
+                return Err((
+                    it,
+                    format!(
+                        "a membrane element inverted or collapsed (area ratio {:.2e})",
+                        info.min_area_ratio
+                    ),
+                ));
             }
             let (free, held) = self.norms();
             if !free.is_finite() {
@@ -50,36 +76,66 @@ impl Solver {
                         if unfreezes > MAX_UNFREEZE {
                             return Err((it, "wrinkle states keep changing (chatter)".into()));
                         }
-                        push_log(log, "  frozen wrinkle states were wrong at convergence: iterating on".into());
+                        push_log(
+                            log,
+                            "  frozen wrinkle states were wrong at convergence: iterating on"
+                                .into(),
+                        );
                         freeze_at = it + FREEZE_AFTER;
                         continue;
                     }
                 }
-                push_log(log, format!("  converged: |R| = {free:.3e} (scale {scale:.3e})"));
+                push_log(
+                    log,
+                    format!("  converged: |R| = {free:.3e} (scale {scale:.3e})"),
+                );
                 return Ok(it);
             }
             if it == self.settings.max_iterations {
-                return Err((it, format!("no convergence in {it} iterations (|R| = {free:.3e}, scale {scale:.3e})")));
+                return Err((
+                    it,
+                    format!(
+                        "no convergence in {it} iterations (|R| = {free:.3e}, scale {scale:.3e})"
+                    ),
+                ));
             }
             for (d, &e) in self.pattern.eq.iter().enumerate() {
                 if e != NONE {
                     self.rhs[e] = -self.residual[d];
                 }
             }
-            self.linear.factor_solve(&mut self.rhs).map_err(|why| (it + 1, why))?;
-            let alpha = if self.settings.line_search { self.line_search(model, loads, u) } else { 1.0 };
+            self.linear
+                .factor_solve(&mut self.rhs)
+                .map_err(|why| (it + 1, why))?;
+            let alpha = if self.settings.line_search {
+                self.line_search(model, loads, u, info.potential)
+            } else {
+                1.0
+            };
             self.update(u, alpha);
-            push_log(log, format!("  iteration {}: |R| = {free:.3e} (scale {scale:.3e}), step α = {alpha:.3}", it + 1));
+            push_log(
+                log,
+                format!(
+                    "  iteration {}: |R| = {free:.3e} (scale {scale:.3e}), step α = {alpha:.3}",
+                    it + 1
+                ),
+            );
         }
         // Reached only when frozen states were found wrong at the last allowed iteration.
         let n = self.settings.max_iterations;
-        Err((n, format!("no convergence in {n} iterations (wrinkle states changed at the end)")))
+        Err((
+            n,
+            format!("no convergence in {n} iterations (wrinkle states changed at the end)"),
+        ))
     }
 
     /// Wrinkle states the mixed criterion gives at `u` (no freezing).
     fn natural_states(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> Vec<WrinkleState> {
         let mut r = vec![0.0; u.len()];
-        let membranes = Membranes { forced: None, out: Some(&mut self.evaluations) };
+        let membranes = Membranes {
+            forced: None,
+            out: Some(&mut self.evaluations),
+        };
         assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         self.evaluations.iter().map(|e| e.state).collect()
     }
@@ -108,33 +164,69 @@ impl Solver {
         }
     }
 
-    /// Slope s(α) = Δu·R(u + αΔu) along the Newton direction (Δu in `rhs`).
-    fn slope(&mut self, model: &Model, loads: &[f64], u: &[f64], alpha: f64) -> f64 {
+    /// Slope s(α) = Δu·R(u + αΔu) along the Newton direction (Δu in `rhs`) and the potential
+    /// there; (NaN, NaN) if an element inverts.
+    fn slope(&mut self, model: &Model, loads: &[f64], u: &[f64], alpha: f64) -> (f64, f64) {
         self.trial.copy_from_slice(u);
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             if e != NONE {
                 self.trial[d] += alpha * self.rhs[e];
             }
         }
-        let membranes = Membranes { forced: self.frozen.as_deref(), out: None };
-        let info = assemble_with(model, &self.pattern, &self.trial, loads, &mut self.residual, None, membranes);
+        let membranes = Membranes {
+            forced: self.frozen.as_deref(),
+            out: None,
+        };
+        let info = assemble_with(
+            model,
+            &self.pattern,
+            &self.trial,
+            loads,
+            &mut self.residual,
+            None,
+            membranes,
+        );
         if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
-            return f64::NAN;
+            return (f64::NAN, f64::NAN);
         }
-        self.pattern.eq.iter().enumerate().filter(|(_, &e)| e != NONE).map(|(d, &e)| self.rhs[e] * self.residual[d]).sum()
+        let s = self
+            .pattern
+            .eq
+            .iter()
+            .enumerate()
+            .filter(|(_, &e)| e != NONE)
+            .map(|(d, &e)| self.rhs[e] * self.residual[d])
+            .sum();
+        (s, info.potential)
     }
 
-    /// Step length: 1 unless the slope at the full step is worse than half the initial one;
-    /// then regula falsi on s(α) between 0 and the last overshooting α.
-    fn line_search(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> f64 {
+    /// Step length along the Newton direction. With a potential (no follower pressure, whose
+    /// work has none): backtracking until the potential decreases by the Armijo fraction of the
+    /// slope (the relaxed membrane energy is C¹, so this is robust across state switches).
+    /// Otherwise: 1 unless the slope at the full step is worse than half the initial one, then
+    /// regula falsi on s(α) between 0 and the last overshooting α.
+    fn line_search(&mut self, model: &Model, loads: &[f64], u: &[f64], potential: f64) -> f64 {
         // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
-        let s0: f64 = self.pattern.eq.iter().enumerate().filter(|(_, &e)| e != NONE).map(|(d, &e)| self.rhs[e] * self.residual[d]).sum();
+        let s0: f64 = self
+            .pattern
+            .eq
+            .iter()
+            .enumerate()
+            .filter(|(_, &e)| e != NONE)
+            .map(|(d, &e)| self.rhs[e] * self.residual[d])
+            .sum();
         if !(s0 < 0.0) {
             return 1.0;
         }
+        // The potential resolves changes down to round-off of its own size; below a thousand
+        // times that, the slope (computed from forces) is the sharper measure.
+        let noise = 1e-13 * potential.abs().max(f64::MIN_POSITIVE);
+        if model.is_conservative() && -s0 > 1e3 * noise {
+            return self.armijo(model, loads, u, potential, s0);
+        }
         let mut alpha = 1.0;
         for _ in 0..LS_MAX_TRIES {
-            let s = self.slope(model, loads, u, alpha);
+            let (s, _) = self.slope(model, loads, u, alpha);
             if s.is_nan() {
                 alpha *= 0.5;
                 continue;
@@ -145,6 +237,27 @@ impl Solver {
             }
             // Overshoot (s > 0): secant between (0, s0) and (α, s).
             alpha = (alpha * s0 / (s0 - s)).max(0.05 * alpha);
+        }
+        alpha
+    }
+
+    /// Armijo backtracking on the potential Π with quadratic interpolation.
+    fn armijo(&mut self, model: &Model, loads: &[f64], u: &[f64], p0: f64, s0: f64) -> f64 {
+        let noise = 1e-13 * p0.abs().max(f64::MIN_POSITIVE);
+        let mut alpha = 1.0;
+        for _ in 0..LS_MAX_TRIES {
+            let (_, p) = self.slope(model, loads, u, alpha);
+            if p.is_nan() {
+                alpha *= 0.25;
+                continue;
+            }
+            let drop = p - p0;
+            if drop <= ARMIJO * alpha * s0 + noise {
+                return alpha;
+            }
+            // Minimum of the parabola through Π(0), Π'(0) = s0 and Π(α).
+            let a = -s0 * alpha * alpha / (2.0 * (drop - s0 * alpha));
+            alpha = a.clamp(0.1 * alpha, 0.5 * alpha);
         }
         alpha
     }

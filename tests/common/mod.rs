@@ -6,7 +6,10 @@ use velarium::{Engine, Scene};
 
 /// Path of a shipped scene.
 pub fn shipped(name: &str) -> String {
-    format!("{}/modelDescription/{name}/scene.json", env!("CARGO_MANIFEST_DIR"))
+    format!(
+        "{}/modelDescription/{name}/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    )
 }
 
 pub fn read_scene(path: &str) -> Scene {
@@ -43,7 +46,12 @@ pub fn get(engine: &Engine, name: &str) -> f64 {
 /// Solve and insist on convergence.
 pub fn solve(engine: &mut Engine) -> velarium::solver::StepReport {
     let report = engine.solve();
-    assert!(report.converged(), "did not converge: {}\n{}", report.message, report.log.join("\n"));
+    assert!(
+        report.converged(),
+        "did not converge: {}\n{}",
+        report.message,
+        report.log.join("\n")
+    );
     report
 }
 

@@ -1,0 +1,134 @@
+"""Shared pieces of the harness: where things are, load tables, and the two ways to run one.
+
+A load table is a NumPy structured array: field ``time`` first, then one float field per FMU
+input, exactly what ``fmpy.simulate_fmu(input=...)`` takes. The same table goes through
+``velarium solve`` as CSV (``write_loads_csv``) so both runs see the same f64 values.
+
+Timing (FMI.md 1.2): fmpy sets ``u(t_k)`` before ``DoStep(t_k, h)`` and records after it, so its
+row at ``t_{k+1}`` is the equilibrium under ``u(t_k)``, which is ``velarium solve``'s row ``k``;
+its row at ``t_0`` (read right after initialization) is solve's row 0 as well.
+"""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import zipfile
+from pathlib import Path
+
+import fmpy
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENES = ROOT / "modelDescription"
+FMU_DIR = ROOT / "build" / "fmus"
+VELARIUM = ROOT / "target" / "release" / "velarium"
+
+# Wall-clock limit of one simulate_fmu run in seconds: the guard against a master loop that
+# does not advance (FMI.md 1.5).
+TIMEOUT = 300
+
+
+def shipped_models() -> list[str]:
+    """Names of the shipped scenes: every modelDescription/<Name>/scene.json."""
+    return sorted(p.parent.name for p in SCENES.glob("*/scene.json"))
+
+
+def inputs(model_description) -> list:
+    return [v for v in model_description.modelVariables if v.causality == "input"]
+
+
+def outputs(model_description) -> list:
+    return [v for v in model_description.modelVariables if v.causality == "output"]
+
+
+def ramp_target(variable) -> float:
+    """Where a ramp of this input ends: its max if declared, else 10x its start (1.0 if 0)."""
+    if variable.max is not None:
+        return float(variable.max)
+    start = float(variable.start)
+    return 10.0 * start if start != 0.0 else 1.0
+
+
+def experiment(model_description) -> tuple[float, float]:
+    e = model_description.defaultExperiment
+    return float(e.startTime), float(e.stopTime)
+
+
+def ramp_table(model_description, steps: int) -> np.ndarray:
+    """Every input ramped linearly from its start to ``ramp_target`` over the default
+    experiment, on the grid fmpy uses (``t_k = start + k * h``), ``steps + 1`` rows."""
+    start, stop = experiment(model_description)
+    h = (stop - start) / steps
+    names = [v.name for v in inputs(model_description)]
+    table = np.zeros(steps + 1, dtype=[("time", np.float64)] + [(n, np.float64) for n in names])
+    for k in range(steps + 1):
+        table["time"][k] = start + k * h
+    for v in inputs(model_description):
+        u0, u1 = float(v.start), ramp_target(v)
+        table[v.name] = [u0 + (u1 - u0) * k / steps for k in range(steps + 1)]
+    return table
+
+
+def write_loads_csv(table: np.ndarray, path: Path) -> None:
+    """The table as `velarium solve` reads it; repr() of a float round-trips exactly."""
+    names = table.dtype.names
+    with open(path, "w") as f:
+        f.write(",".join(names) + "\n")
+        for row in table:
+            f.write(",".join(repr(float(row[n])) for n in names) + "\n")
+
+
+def read_csv(path: Path) -> np.ndarray:
+    """A CSV with a header line as a structured float array."""
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    header, data = rows[0], rows[1:]
+    out = np.zeros(len(data), dtype=[(n, np.float64) for n in header])
+    for i, row in enumerate(data):
+        for n, cell in zip(header, row):
+            out[n][i] = float(cell)
+    return out
+
+
+def solve(scene: Path, table: np.ndarray, workdir: Path, binary: Path = VELARIUM) -> np.ndarray:
+    """Run the table through `velarium solve`; raises with its stderr if it fails."""
+    loads = workdir / f"{scene.parent.name}-loads.csv"
+    result = workdir / f"{scene.parent.name}-solve.csv"
+    write_loads_csv(table, loads)
+    run = subprocess.run(
+        [str(binary), "solve", str(scene), "--loads", str(loads), "--out", str(result)],
+        capture_output=True,
+        text=True,
+    )
+    if run.returncode != 0:
+        raise RuntimeError(f"velarium solve failed ({run.returncode}):\n{run.stderr}")
+    return read_csv(result)
+
+
+def simulate(fmu: Path, table: np.ndarray | None = None, **kwargs) -> np.ndarray:
+    """simulate_fmu with the table's grid as communication grid and a timeout. Checks that the
+    run reached its stop time: an FMU whose step does not converge returns fmi2Discard with
+    Terminated true, and fmpy then ends the run early without raising."""
+    if table is not None:
+        kwargs.setdefault("input", table)
+        kwargs.setdefault("start_time", float(table["time"][0]))
+        kwargs.setdefault("stop_time", float(table["time"][-1]))
+        kwargs.setdefault("output_interval", float(table["time"][1] - table["time"][0]))
+    kwargs.setdefault("timeout", TIMEOUT)
+    result = fmpy.simulate_fmu(str(fmu), **kwargs)
+    stop = kwargs.get("stop_time")
+    if stop is None:
+        stop = float(fmpy.read_model_description(str(fmu)).defaultExperiment.stopTime)
+    end = float(result["time"][-1])
+    if not np.isclose(end, stop, rtol=1e-12, atol=1e-12):
+        raise AssertionError(
+            f"{fmu.name}: the run ended at t = {end}, before stop_time = {stop}: a step did not "
+            f"converge (fmi2Discard, Terminated) or timed out; the FMU's log above says which"
+        )
+    return result
+
+
+def fmu_member(fmu: Path, name: str) -> bytes:
+    with zipfile.ZipFile(fmu) as z:
+        return z.read(name)
