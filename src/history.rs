@@ -45,6 +45,8 @@ pub struct History {
     /// One row per converged load row: time, then the outputs.
     pub rows: Vec<Vec<f64>>,
     pub failure: Option<Failure>,
+    /// Per-element CSV (header and one line per triangle per row), when asked for.
+    pub elements: String,
 }
 
 /// Where a history stopped.
@@ -181,6 +183,12 @@ fn parse_row(line: usize, text: &str, columns: &[(String, u32)]) -> Result<LoadR
 /// Run the table: for each row set its inputs, solve, record time and every output. Stops at
 /// the first row that does not converge (the engine keeps the last converged equilibrium).
 pub fn run(engine: &mut Engine, table: &LoadTable) -> Result<History, Error> {
+    run_with(engine, table, false)
+}
+
+/// [`run`], also recording every membrane triangle's state, tension direction and principal
+/// stresses after each row when `elements` is true (`History::elements`).
+pub fn run_with(engine: &mut Engine, table: &LoadTable, elements: bool) -> Result<History, Error> {
     let header = std::iter::once("time".to_string())
         .chain(engine.outputs().into_iter().map(|(name, _)| name))
         .collect();
@@ -188,7 +196,11 @@ pub fn run(engine: &mut Engine, table: &LoadTable) -> Result<History, Error> {
         header,
         rows: Vec::with_capacity(table.rows.len()),
         failure: None,
+        elements: String::new(),
     };
+    if elements {
+        history.elements.push_str(ELEMENT_HEADER);
+    }
     for row in &table.rows {
         table.apply(engine, row).map_err(|message| Error::Io {
             path: table.file.clone(),
@@ -203,12 +215,44 @@ pub fn run(engine: &mut Engine, table: &LoadTable) -> Result<History, Error> {
             });
             break;
         }
+        if elements {
+            element_rows(engine, row.time, &mut history.elements);
+        }
         let outputs = engine.outputs().into_iter().map(|(_, value)| value);
         history
             .rows
             .push(std::iter::once(row.time).chain(outputs).collect());
     }
     Ok(history)
+}
+
+const ELEMENT_HEADER: &str =
+    "time,triangle,state,tension_x,tension_y,tension_z,centroid_x,centroid_y,centroid_z,sigma_max,sigma_min,x1,y1,z1,x2,y2,z2,x3,y3,z3\n";
+
+/// One CSV line per membrane triangle: mesh id, state (0 taut, 1 wrinkled, 2 slack), the unit
+/// tension direction (major principal direction) in the current configuration, the current
+/// centroid, the principal Cauchy stresses and the three current vertices.
+fn element_rows(engine: &Engine, time: f64, out: &mut String) {
+    let model = engine.model();
+    let u = &engine.state().displacement;
+    for (t, m) in model.triangles.iter().zip(engine.membranes()) {
+        let x = t.nodes.map(|i| model.position(u, i));
+        let centroid = (x[0] + x[1] + x[2]) / 3.0;
+        // Push the reference direction forward with the element's deformation gradient.
+        let d = crate::model::membrane::deformation_gradient(&t.reference, &x)
+            * nalgebra::Vector2::new(m.angle.cos(), m.angle.sin());
+        let d = if d.norm() > 0.0 { d.normalize() } else { d };
+        let state = crate::results::state_code(m.state);
+        // Columns after the state: see ELEMENT_HEADER.
+        let v = [
+            d.x, d.y, d.z, centroid.x, centroid.y, centroid.z, m.cauchy.0, m.cauchy.1,
+        ];
+        let _ = write!(out, "{},{},{state}", xs_double(time), t.id);
+        for value in v.iter().chain(x.iter().flat_map(|p| p.iter())) {
+            let _ = write!(out, ",{}", xs_double(*value));
+        }
+        out.push('\n');
+    }
 }
 
 impl History {

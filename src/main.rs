@@ -17,7 +17,7 @@ usage:
   velarium pack SCENE.json --out DIR [--lib PATH]
         write DIR/<name>.fmu (FMI 2.0 co-simulation); the library is PATH, else
         libvelarium.so next to this executable (built by `cargo build --release`)
-  velarium solve SCENE.json --loads LOADS.csv [--out OUT.csv]
+  velarium solve SCENE.json --loads LOADS.csv [--out OUT.csv] [--elements ELEMENTS.csv]
         run a quasi-static load history (CSV header: time,<input names>) and write
         time and every output per row as CSV (to stdout without --out)
   velarium check SCENE.json
@@ -64,7 +64,7 @@ fn run(args: &[String]) -> Result<ExitCode, Stop> {
     };
     match command.as_str() {
         "pack" => cmd_pack(&Args::parse(rest, 1, &["--out", "--lib"])?),
-        "solve" => cmd_solve(&Args::parse(rest, 1, &["--loads", "--out"])?),
+        "solve" => cmd_solve(&Args::parse(rest, 1, &["--loads", "--out", "--elements"])?),
         "check" => cmd_check(&Args::parse(rest, 1, &[])?),
         "describe" => cmd_describe(&Args::parse(rest, 1, &[])?),
         "schema" => {
@@ -188,7 +188,11 @@ fn cmd_solve(args: &Args) -> Result<ExitCode, Stop> {
     let loads = args.required("--loads")?;
     let mut engine = engine_for(args.scene_path())?;
     let table = LoadTable::parse(&read_text(loads)?, loads, &mut engine).map_err(failed)?;
-    let history = history::run(&mut engine, &table).map_err(failed)?;
+    let elements = args.option("--elements");
+    let history = history::run_with(&mut engine, &table, elements.is_some()).map_err(failed)?;
+    if let Some(path) = elements {
+        write_atomically(Path::new(path), history.elements.as_bytes()).map_err(failed)?;
+    }
     let csv = history.to_csv();
     match args.option("--out") {
         Some(out) => write_atomically(Path::new(out), csv.as_bytes()).map_err(failed)?,

@@ -29,6 +29,8 @@ pub const AUTO_PRESTRESS_FRACTION: f64 = 1e-4;
 
 #[derive(Clone, Debug)]
 pub struct Triangle {
+    /// Mesh triangle id (explicit triangles first, then generated ones).
+    pub id: usize,
     pub nodes: [usize; 3],
     pub reference: membrane::TriangleRef,
     pub material: membrane::Material,
@@ -238,6 +240,7 @@ fn build_triangles(
                 used[i] = true;
             }
             out.push(Triangle {
+                id: t,
                 nodes,
                 reference,
                 material,
