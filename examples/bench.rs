@@ -5,6 +5,11 @@
 //! wall time of the whole solve (flat start to full load, one step), Newton iterations, time
 //! per iteration, and that time divided by the floor (one assembly + one numeric LDLT
 //! factorization and solve, measured at the solution). One core (faer runs `Par::Seq`).
+//!
+//! Then the wrinkled Lamé annulus (MECHANICS.md §4b, ρ = 4, τ = 3, reference L/a = 1.80566)
+//! at several meshes: DOF, wrinkled radius (midpoint between the outermost wrinkled and the
+//! innermost taut centroid beyond it) and its error in units of the radial element size, the
+//! largest hoop stress in the wrinkled zone relative to T_in, time and Newton iterations.
 
 use std::time::Instant;
 use velarium::scene::{Generator, Scene};
@@ -13,6 +18,82 @@ use velarium::Engine;
 const W_FOLLOWER: f64 = 0.065404;
 
 fn main() {
+    hencky();
+    lame();
+}
+
+fn lame() {
+    const L_OVER_A: f64 = 1.80566;
+    println!();
+    println!("Lamé annulus, a = 1 m, b = 4 m, τ = 3 (T_out = 1 kPa), reference L/a = {L_OVER_A}");
+    println!(
+        "{:>6} {:>8} {:>8} {:>9} {:>10} {:>11} {:>9} {:>6}",
+        "rings", "sectors", "DOF", "L/a", "error/h", "hoop/T_in", "time s", "iters"
+    );
+    for (rings, sectors) in [(18usize, 48usize), (36, 96), (72, 192)] {
+        let text = format!(
+            r#"{{"format": 1, "name": "Lame",
+            "geometry": {{"generators": [{{"kind": "annulus", "name": "ring", "center": [0,0,0], "inner_radius": 1, "outer_radius": 4, "rings": {rings}, "sectors": {sectors}}}],
+                         "node_sets": {{"east": [0], "north": [{north}]}}}},
+            "membranes": [{{"name": "film", "triangles": "ring", "thickness": 1e-3, "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}}}}],
+            "supports": [{{"nodes": "ring.all", "fix": ["z"]}}, {{"nodes": "east", "fix": ["y"]}}, {{"nodes": "north", "fix": ["x"]}}],
+            "inputs": [{{"name": "inner", "load": {{"kind": "radial_edge_load", "nodes": "ring.inner_rim", "center": [0,0,0], "closed": true}}}},
+                       {{"name": "outer", "load": {{"kind": "radial_edge_load", "nodes": "ring.outer_rim", "center": [0,0,0], "closed": true}}}}]}}"#,
+            north = sectors / 4
+        );
+        let mut engine =
+            Engine::try_new(Scene::from_json(&text).expect("valid JSON")).expect("valid scene");
+        let vr = |e: &Engine, n: &str| {
+            e.variables()
+                .iter()
+                .find(|v| v.name == n)
+                .unwrap()
+                .value_reference
+        };
+        let (inner, outer) = (vr(&engine, "inner"), vr(&engine, "outer"));
+        let t = Instant::now();
+        engine.set_real(outer, 1.0).unwrap();
+        engine.set_real(inner, -3.0).unwrap();
+        let report = engine.solve();
+        let time = t.elapsed().as_secs_f64();
+        assert!(report.converged(), "{}", report.message);
+        let (mut r_wrinkled, mut hoop) = (0.0f64, 0.0f64);
+        let mut radii = Vec::new();
+        for (m, tri) in engine.membranes().iter().zip(&engine.model().triangles) {
+            let c = tri
+                .nodes
+                .iter()
+                .map(|&i| engine.model().reference[i])
+                .sum::<nalgebra::Vector3<f64>>()
+                / 3.0;
+            let r = c.norm();
+            radii.push((r, m.state));
+            if m.state == velarium::model::wrinkling::WrinkleState::Wrinkled {
+                r_wrinkled = r_wrinkled.max(r);
+                let et = nalgebra::Vector3::new(-c.y, c.x, 0.0) / r;
+                hoop = hoop
+                    .max((et.transpose() * tri.reference.to_global(&m.stress) * et)[0].abs() / 3e3);
+            }
+        }
+        let r_taut = radii
+            .iter()
+            .filter(|(r, s)| {
+                *r > r_wrinkled - 1e-12 && *s != velarium::model::wrinkling::WrinkleState::Wrinkled
+            })
+            .map(|(r, _)| *r)
+            .fold(f64::INFINITY, f64::min);
+        let l = 0.5 * (r_wrinkled + r_taut.min(4.0));
+        let h = 3.0 / rings as f64;
+        println!(
+            "{rings:>6} {sectors:>8} {:>8} {l:>9.4} {:>10.2} {hoop:>11.1e} {time:>9.3} {:>6}",
+            engine.free_dofs(),
+            (l - L_OVER_A) / h,
+            report.iterations
+        );
+    }
+}
+
+fn hencky() {
     let path = format!(
         "{}/modelDescription/HenckyDisc/scene.json",
         env!("CARGO_MANIFEST_DIR")
