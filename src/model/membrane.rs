@@ -11,7 +11,8 @@
 //! K_ab = A0 t [ (∇N_a·S ∇N_b) I + B_aᵀ D B_b ]      B_a = [N1 F1ᵀ; N2 F2ᵀ; N2 F1ᵀ + N1 F2ᵀ]
 //! W = A0 t ψ(E)               stored energy
 //! ```
-//! The artificial prestress σ0 (Pa) adds `A0 t σa (∇N_a·∇N_b) I` to the tangent only, with
+//! The artificial prestress σ0 (Pa) adds `A0 t σa (∇N_a·∇N_b) n nᵀ` (n the current unit
+//! normal: out of plane only) to the tangent only, with
 //! `σa = clamp(σ0 − S_min, 0, σ0)` and S_min the minor principal PK2 stress: an isotropic
 //! initial-stress stiffness that makes a flat, stress-free membrane loaded normal to its plane
 //! solvable without changing the residual, hence without changing the equilibrium. It fills in
@@ -195,11 +196,22 @@ pub fn triangle(
             ])
         });
         let D = resp.tangent;
+        // The artificial prestress acts out of the current plane only: that is the direction
+        // a flat, stress-free sheet lacks; in plane the material tangent is already there and a
+        // fictitious stress would only slow convergence.
+        let normal = F1.cross(&F2);
+        let nn = if normal.norm() > 0.0 {
+            let n = normal.normalize();
+            n * n.transpose()
+        } else {
+            Matrix3::identity()
+        };
         for a in 0..3 {
             for b in 0..3 {
-                let geo =
-                    r.grad[a].dot(&(Smat * r.grad[b])) + prestress * r.grad[a].dot(&r.grad[b]);
-                let kab = (B[a].transpose() * D * B[b] + Matrix3::identity() * geo) * vol;
+                let geo = r.grad[a].dot(&(Smat * r.grad[b]));
+                let fill = prestress * r.grad[a].dot(&r.grad[b]);
+                let kab =
+                    (B[a].transpose() * D * B[b] + Matrix3::identity() * geo + nn * fill) * vol;
                 K.fixed_view_mut::<3, 3>(3 * a, 3 * b).copy_from(&kab);
             }
         }

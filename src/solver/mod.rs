@@ -4,8 +4,7 @@
 //! ```text
 //! solve_step(from, to, u):  load(λ) = from + λ (to − from),  λ: 0 → 1 in increments Δλ
 //!   each increment: Newton from the last converged u; on failure Δλ ← Δλ/4 (down to min);
-//!   on success Δλ ← Δλ · growth: clamp(sqrt(N_target / N_iter), 1.5, 2) if N_iter <= N_target,
-//!   1 up to 2 N_target, else max(sqrt(N_target / N_iter), 1/2)
+//!   on success Δλ ← 2 Δλ if N_iter <= N_target, 1.5 Δλ if N_iter <= 3/4 N_max, else Δλ
 //! Newton: K Δu = −R on free DOFs; u ← u + α Δu with α from the slope s(α) = Δu·R(u + αΔu)
 //!   converged when |R_free|∞ <= tol · max(|f_ext|∞, |reactions|∞) (+ a round-off floor)
 //! ```
@@ -185,7 +184,7 @@ impl Solver {
                     push_log(&mut report.log, format!("increment λ {lambda:.6} -> {target:.6}: converged in {iters} iterations"));
                     converged = trial;
                     lambda = target;
-                    dl *= growth(iters, s.target_iterations);
+                    dl *= growth(iters, s.target_iterations, s.max_iterations);
                 }
                 Err((iters, why)) => {
                     report.iterations += iters;
@@ -250,18 +249,17 @@ impl Solver {
     }
 }
 
-/// Increment growth after a converged increment: 1.5x to 2x when it took no more than the
-/// target iterations (so an increment cut back for a local difficulty recovers), unchanged up
-/// to twice the target (a state switch costs a few iterations whatever the increment size, so
-/// shrinking would not help), else `sqrt(target / iterations)`, at least 1/2.
-fn growth(iterations: usize, target: usize) -> f64 {
-    let ratio = (target as f64 / iterations.max(1) as f64).sqrt();
+/// Increment growth after a converged increment. A state switch (wrinkled/slack/taut) costs a
+/// few Newton iterations whatever the increment size, so iteration counts above the target do
+/// not mean the increment is too large: grow 2x up to the target, 1.5x up to three quarters of
+/// the iteration limit, keep it otherwise. Failures cut it by 4.
+fn growth(iterations: usize, target: usize, max_iterations: usize) -> f64 {
     if iterations <= target {
-        ratio.clamp(1.5, 2.0)
-    } else if iterations <= 2 * target {
-        1.0
+        2.0
+    } else if 4 * iterations <= 3 * max_iterations {
+        1.5
     } else {
-        ratio.max(0.5)
+        1.0
     }
 }
 
