@@ -205,15 +205,19 @@ impl Solver {
         if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
             return (f64::NAN, f64::NAN);
         }
-        let s = self
-            .pattern
+        let s = self.direction_dot_residual();
+        (s, info.potential)
+    }
+
+    /// Δu·R: the Newton direction (in `rhs`) dotted with the residual on the free DOFs.
+    fn direction_dot_residual(&self) -> f64 {
+        self.pattern
             .eq
             .iter()
             .enumerate()
             .filter(|(_, &e)| e != NONE)
             .map(|(d, &e)| self.rhs[e] * self.residual[d])
-            .sum();
-        (s, info.potential)
+            .sum()
     }
 
     /// Step length along the Newton direction. With a potential (no follower pressure, whose
@@ -223,14 +227,7 @@ impl Solver {
     /// regula falsi on s(α) between 0 and the last overshooting α.
     fn line_search(&mut self, model: &Model, loads: &[f64], u: &[f64], potential: f64) -> f64 {
         // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
-        let s0: f64 = self
-            .pattern
-            .eq
-            .iter()
-            .enumerate()
-            .filter(|(_, &e)| e != NONE)
-            .map(|(d, &e)| self.rhs[e] * self.residual[d])
-            .sum();
+        let s0 = self.direction_dot_residual();
         if !(s0 < 0.0) {
             return 1.0;
         }
