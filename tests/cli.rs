@@ -42,7 +42,9 @@ const BAD: &str = r#"{
 
 /// A fresh, empty directory for one test.
 fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("velarium-cli-{}-{test}", std::process::id()));
+    // Under target/ (cargo's per-test scratch root), so no run leaves files in /tmp.
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("velarium-cli-{}-{test}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir

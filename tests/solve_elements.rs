@@ -5,7 +5,8 @@ use std::process::Command;
 
 #[test]
 fn element_table_has_one_line_per_triangle_and_row() {
-    let dir = std::env::temp_dir().join(format!("velarium-elements-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("velarium-elements-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let loads = dir.join("loads.csv");
     std::fs::write(&loads, "time,lift_force\n0,0\n1,20\n2,50\n").unwrap();
