@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # The main job on a fresh machine: build, install the Python environment, pack every shipped
 # scene into build/fmus/, run LiftedMembrane's load history through fmpy, print the table and
-# write build/plots/LiftedMembrane.png. Extra arguments go to harness/run_main.py.
+# write build/plots/LiftedMembrane.png; then shear the pretensioned WrinkledShear film through
+# fmpy and plot its wrinkle states (harness/wrinkled_shear.py). Extra arguments go to
+# harness/run_main.py.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash harness/setup.sh
 .venv/bin/python harness/run_main.py "$@"
+.venv/bin/python harness/wrinkled_shear.py
