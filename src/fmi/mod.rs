@@ -36,7 +36,11 @@
 //!   converged equilibrium. If the engine does not converge it keeps that equilibrium, the call
 //!   returns `fmi2Discard`, the instance goes to StepFailed, `fmi2Terminated` is true and
 //!   `fmi2LastSuccessfulTime` is `t`. A DoStep in StepFailed is an Error; `fmi2SetFMUstate`
-//!   with a state saved earlier returns to StepComplete.
+//!   with a state saved earlier returns to StepComplete. The Discard is logged under
+//!   `logStatusDiscard` whatever the logging settings.
+//! - Debug switches (test variants of a scene only, `Scene::debug`): a step ending after
+//!   `fail_after_time` is reported as not converged without touching the engine; one ending
+//!   after `panic_after_time` panics, so the panic boundary is exercised from outside.
 //! - FMU states are boxed plain structs; their serialized form is pointer-free and checked
 //!   (see [`Snapshot`], [`STATE_MAGIC`]).
 //! - No global mutable state and no threads: all data lives in the instance.
