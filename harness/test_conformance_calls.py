@@ -94,13 +94,6 @@ def test_item17_set_real_rules(unzipdir, model_description):
             assert any(str(ref) in m for m in fs.messages(fs.ERROR)), fs.RECORDS
 
 
-def run_to(s, md, steps, value):
-    """Initialize, step once with the ramp's first inputs, return the instance time."""
-    fs.initialize(s, md)
-    rows = fs.ramp_run(s, md, steps)
-    return rows
-
-
 def test_item17_tunable_parameter_takes_effect_next_step(unzipdir, model_description):
     """A tunable parameter set at a communication point returns OK and the next step uses it:
     stepping on with unchanged loads reaches the equilibrium a fresh instance initialized with
@@ -126,7 +119,6 @@ def test_item17_tunable_parameter_takes_effect_next_step(unzipdir, model_descrip
             fs.initialize(s, md, values={p.name: new, **{v.name: float(table[-2][v.name]) for v in vr.inputs(md)}})
             expected = np.array(s.getReal(refs))
         assert not np.allclose(changed, before, rtol=1e-6), f"{p.name} had no effect"
-        scale = np.maximum(np.abs(expected), 1e-12 * np.max(np.abs(expected)) + 1e-300)
         assert np.all(np.abs(changed - expected) <= 1e-7 * np.max(np.abs(expected))), (p.name, changed, expected)
 
 

@@ -66,8 +66,8 @@ def test_item32_forced_non_convergence_ends_the_run_gracefully(model, debug_fmus
     fs.clear_log()
     rows = fmpy.simulate_fmu(str(fmu), input=vr.ramp_table(md, 10), timeout=60)
     assert any("did not converge" in m for m in fs.messages(fs.DISCARD)), fs.RECORDS
-    t_star = failure_time(md)
-    assert rows["time"][-1] < t_star and rows["time"][-1] > t_star - 0.1 * 1.01, rows["time"]
+    t_star, h = failure_time(md), (vr.experiment(md)[1] - vr.experiment(md)[0]) / 10
+    assert t_star - h < rows["time"][-1] < t_star, rows["time"]
     with fs.slave(unzipdir, md) as s:
         fs.initialize(s, md)
         t, h, saved, _ = step_until_discard(s, md)
@@ -167,6 +167,9 @@ with fs.slave(unzipdir, md, name="panicky") as s:
     s.exitInitializationMode()
     s.doStep(0.0, 0.1)
     assert np.all(np.isfinite(s.getReal(fs.real_output_refs(md))))
+# the panic left nothing behind that pins the library
+so = vr.Path(unzipdir, "binaries", "linux64", md.coSimulation.modelIdentifier + ".so").resolve()
+assert fs.mappings_of(so) == 0, "the library stays mapped after a panic"
 # simulate_fmu on the same FMU raises an FMICallException (status 3), not a crash
 try:
     fmpy.simulate_fmu(fmu, timeout=30)
@@ -470,15 +473,21 @@ def test_item46_reset_and_rerun_on_one_instance(model, unzipdir):
 
 LOOP_SCRIPT = r"""
 import sys, json, os, fmpy
-import fmi_support as fs
+import fmi_support as fs, velarium_run as vr
 from pathlib import Path
 unzipdir, runs = sys.argv[1], int(sys.argv[2])
 md = fmpy.read_model_description(unzipdir)
 so = Path(unzipdir, "binaries", "linux64", md.coSimulation.modelIdentifier + ".so").resolve()
+# the check can fail: while an instance is alive the library is mapped
+with fs.slave(Path(unzipdir), md) as s:
+    assert fs.mappings_of(so) > 0, "the maps check does not see the loaded library"
+assert fs.mappings_of(so) == 0
+stop = float(md.defaultExperiment.stopTime)
+table = vr.ramp_table(md, 10)  # loads that change: every step factorizes (dense kernels run)
 marks = {}
 for i in range(runs):
-    result = fmpy.simulate_fmu(unzipdir, model_description=md)
-    assert len(result) == 11 or len(result) > 1, len(result)
+    result = fmpy.simulate_fmu(unzipdir, model_description=md, input=table)
+    assert abs(result["time"][-1] - stop) < 1e-12, result["time"]
     n = fs.mappings_of(so)
     assert n == 0, f"run {i}: {so} still mapped {n} times"
     if i + 1 in (1, runs // 10, runs):
@@ -488,7 +497,8 @@ print(json.dumps(marks))
 
 
 def test_item47_thousands_of_runs_in_one_process(model, unzipdir):
-    """2000 simulate_fmu runs in one process on PrestressedCable (20 on the others): no crash,
+    """2000 simulate_fmu runs of an input ramp in one process on PrestressedCable (20 on the
+    others): no crash,
     the .so is unmapped after every run (/proc/self/maps), the open-fd count is the same at the
     10 % mark and at the end, RSS grows by at most 1 MiB between them."""
     runs = 2000 if model == SMALLEST else 20

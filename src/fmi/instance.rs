@@ -20,6 +20,7 @@ use super::fsm::{FsmState, Func};
 use super::logging::{escape, Category, Logger};
 use super::snapshot::Experiment;
 use super::uri::file_uri_to_path;
+use super::worker::on_own_thread;
 use super::{Status, FMI2_COSIMULATION};
 use crate::description;
 use crate::engine::{Engine, EngineState};
@@ -328,7 +329,8 @@ impl Instance {
         if self.poisoned {
             return Err("the engine is unusable after an internal error; call fmi2Reset".into());
         }
-        let report = self.engine.solve();
+        let engine = &mut self.engine;
+        let report = on_own_thread(|| engine.solve());
         if self.logger.enabled(Category::Solver) {
             for line in &report.log {
                 self.logger.log(Category::Solver, line);

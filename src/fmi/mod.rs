@@ -1,10 +1,12 @@
 //! FMI 2.0 Co-Simulation adapter: the C ABI over [`crate::Engine`]. This module tree is the only
-//! place in the crate with `unsafe` code, and that code sits in two files:
+//! place in the crate with `unsafe` code, and that code sits in three files:
 //!
 //! ```text
 //! abi.rs       the 34 exported fmi2* functions; each is a short shim
 //! ffi.rs       the one panic boundary and the pointer helpers (NULL instance -> Error,
 //!              n == 0 -> empty slice before any array check, NULL array -> Error)
+//! worker.rs    solves run on a short-lived pthread of their own, so that thread-local
+//!              scratch of the linear algebra never pins the library after dlclose
 //! ```
 //!
 //! Everything else is safe Rust on an [`Instance`]:
@@ -43,7 +45,8 @@
 //!   after `panic_after_time` panics, so the panic boundary is exercised from outside.
 //! - FMU states are boxed plain structs; their serialized form is pointer-free and checked
 //!   (see [`Snapshot`], [`STATE_MAGIC`]).
-//! - No global mutable state and no threads: all data lives in the instance.
+//! - No global mutable state and no thread outlives a call: all data lives in the instance;
+//!   each solve runs on a thread that is joined before the call returns (see `worker.rs`).
 
 mod abi;
 mod codec;
@@ -53,6 +56,7 @@ mod instance;
 mod logging;
 mod snapshot;
 mod uri;
+mod worker;
 
 pub use abi::*;
 pub use ffi::{CallbackFunctions, Component, FmuState, LoggerFn};
