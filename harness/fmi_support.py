@@ -6,7 +6,8 @@ variadic message and forwards it to ONE process-wide Python callback: the last o
 This module registers exactly one, at import, kept alive for the life of the process, that
 records every message *and prints it exactly as fmpy's default printer does*. So the default
 callbacks of fmpy (which now reach this callback too) keep their behaviour, and no callback is
-ever garbage-collected while the native proxy still points at it.
+ever garbage-collected while the native proxy still points at it. Never pass ``logger=`` to
+``simulate_fmu`` in the harness: that would register a short-lived callback in its place.
 """
 
 from __future__ import annotations
@@ -33,12 +34,24 @@ LABELS = ["OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING"]
 
 # (instanceName, status, category, message) of every FMU message since the last clear().
 RECORDS: list[tuple[str, int, str, str]] = []
+# Raw bytes of every message (or instance/category name) that was not valid UTF-8.
+NOT_UTF8: list[bytes] = []
+
+
+def _text(raw: bytes | None) -> str:
+    if raw is None:
+        return ""
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        NOT_UTF8.append(raw)
+        return raw.decode("utf-8", errors="replace")
 
 
 def _record(_env, instance_name, status, category, message):
-    text = message.decode("utf-8")
-    RECORDS.append((instance_name.decode("utf-8"), status, category.decode("utf-8") if category else "", text))
-    print(f"[{LABELS[status]}] {text}")
+    text = _text(message)
+    RECORDS.append((_text(instance_name), status, _text(category), text))
+    print(f"[{LABELS[status] if 0 <= status < len(LABELS) else status}] {text}")
 
 
 _LOGGER = fmi2CallbackLoggerTYPE(_record)
@@ -51,6 +64,7 @@ addLoggerProxy(byref(CALLBACKS))
 
 def clear_log() -> None:
     RECORDS.clear()
+    NOT_UTF8.clear()
 
 
 def messages(status: int | None = None) -> list[str]:

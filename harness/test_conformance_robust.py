@@ -251,6 +251,7 @@ def test_item40_categories_declared_messages_clean(model, unzipdir, model_descri
     seen = {r[2] for r in fs.RECORDS}
     assert {"logStatusError", "logStatusDiscard", "logCalls", "logSolver"} <= seen
     assert seen <= declared, seen - declared
+    assert fs.NOT_UTF8 == []
     for _, _, _, m in fs.RECORDS:
         assert not m.endswith(("\n", "\r")), m
 
@@ -360,6 +361,8 @@ sim = fmpy.simulate_fmu(unzipdir, fmu_state=data, start_time=float(table["time"]
                         stop_time=float(table["time"][-1]), input=table,
                         output_interval=float(table["time"][1] - table["time"][0]))
 results["simulate_fmu"] = [[float(r[n]) for n in sim.dtype.names[1:] if n in {v.name for v in vr.outputs(md) if v.type == "Real"}] for r in sim]
+so = vr.Path(unzipdir, "binaries", "linux64", md.coSimulation.modelIdentifier + ".so").resolve()
+assert fs.mappings_of(so) == 0, "the library stays mapped after restoring states"
 print(json.dumps(results))
 """
 
@@ -451,6 +454,8 @@ with fs.slave(unzipdir, md) as s:
         assert rows == fresh[i % 2], (i, rows, fresh[i % 2])
         if i + 1 in (cycles // 10, cycles):
             rss[i + 1] = fs.rss_kib()
+so = vr.Path(unzipdir, "binaries", "linux64", md.coSimulation.modelIdentifier + ".so").resolve()
+assert fs.mappings_of(so) == 0, "the library stays mapped after resets and parameter changes"
 print(json.dumps({"rss_kib": rss}))
 """
 
