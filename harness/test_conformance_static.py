@@ -291,11 +291,15 @@ def test_item11_ten_threads_equal_sequential_runs(unzipdir, model_description):
 
 
 def test_item12_null_component(unzipdir, model_description):
-    """fmi2FreeInstance(NULL) is a no-op; every other function with a NULL component returns
-    fmi2Error (checked through the raw ctypes functions, without an instance)."""
+    """fmi2FreeInstance(NULL) is a no-op; every one of the other 31 functions that take a
+    component returns fmi2Error for a NULL component (raw ctypes calls, valid other arguments)."""
+    from ctypes import c_char, c_char_p
+
     with fs.slave(unzipdir, model_description, instantiate=False) as s:
         s.fmi2FreeInstance(None)
-        vr_, real, integer, size, state = (c_uint * 1)(1), (c_double * 1)(), (c_int * 1)(), c_size_t(), c_void_p()
+        ref, real, integer, size = (c_uint * 1)(1), (c_double * 1)(), (c_int * 1)(), c_size_t()
+        state, text, buffer = c_void_p(), (c_char_p * 1)(b"x"), (c_char_p * 1)()
+        blob = (c_char * 64)()
         calls = {
             "fmi2SetDebugLogging": (0, 0, None),
             "fmi2SetupExperiment": (0, 0.0, 0.0, 0, 0.0),
@@ -303,16 +307,31 @@ def test_item12_null_component(unzipdir, model_description):
             "fmi2ExitInitializationMode": (),
             "fmi2Terminate": (),
             "fmi2Reset": (),
-            "fmi2GetReal": (vr_, 1, real),
-            "fmi2GetInteger": (vr_, 1, integer),
-            "fmi2SetReal": (vr_, 1, real),
-            "fmi2SetInteger": (vr_, 1, integer),
+            "fmi2GetReal": (ref, 1, real),
+            "fmi2GetInteger": (ref, 1, integer),
+            "fmi2GetBoolean": (ref, 1, integer),
+            "fmi2GetString": (ref, 1, buffer),
+            "fmi2SetReal": (ref, 1, real),
+            "fmi2SetInteger": (ref, 1, integer),
+            "fmi2SetBoolean": (ref, 1, integer),
+            "fmi2SetString": (ref, 1, text),
             "fmi2GetFMUstate": (byref(state),),
+            "fmi2SetFMUstate": (state,),
+            "fmi2FreeFMUstate": (byref(state),),
             "fmi2SerializedFMUstateSize": (state, byref(size)),
+            "fmi2SerializeFMUstate": (state, blob, 64),
+            "fmi2DeSerializeFMUstate": (blob, 64, byref(state)),
+            "fmi2GetDirectionalDerivative": (ref, 1, ref, 1, real, real),
+            "fmi2SetRealInputDerivatives": (ref, 1, integer, real),
+            "fmi2GetRealOutputDerivatives": (ref, 1, integer, real),
             "fmi2DoStep": (0.0, 0.1, 1),
             "fmi2CancelStep": (),
+            "fmi2GetStatus": (0, integer),
             "fmi2GetRealStatus": (2, real),
+            "fmi2GetIntegerStatus": (0, integer),
             "fmi2GetBooleanStatus": (3, integer),
+            "fmi2GetStringStatus": (0, buffer),
         }
         for name, args in calls.items():
             assert fs.status_of(getattr(s, name), None, *args) == fs.ERROR, name
+        assert len(calls) == len(FMI2_FUNCTIONS) - 4  # all but GetTypesPlatform, GetVersion, Instantiate, FreeInstance
