@@ -94,10 +94,11 @@ def test_item17_set_real_rules(unzipdir, model_description):
             assert any(str(ref) in m for m in fs.messages(fs.ERROR)), fs.RECORDS
 
 
-def test_item17_tunable_parameter_takes_effect_next_step(unzipdir, model_description):
-    """A tunable parameter set at a communication point returns OK and the next step uses it:
-    stepping on with unchanged loads reaches the equilibrium a fresh instance initialized with
-    the new value has under the same loads (no shipped scene has path dependence)."""
+def test_item17_tunable_parameter_takes_effect_next_step(fmu, unzipdir, model_description):
+    """A tunable parameter (+50 %) set at a communication point returns OK and the next step
+    uses it: stepping on with unchanged loads changes the outputs and, where the equilibrium
+    does not depend on the path (no friction), reaches the one a fresh instance initialized
+    with the new value has under the same loads."""
     md = model_description
     tunable = parameters(md, "tunable")
     if not tunable:
@@ -119,7 +120,8 @@ def test_item17_tunable_parameter_takes_effect_next_step(unzipdir, model_descrip
             fs.initialize(s, md, values={p.name: new, **{v.name: float(table[-2][v.name]) for v in vr.inputs(md)}})
             expected = np.array(s.getReal(refs))
         assert not np.allclose(changed, before, rtol=1e-6), f"{p.name} had no effect"
-        assert np.all(np.abs(changed - expected) <= 1e-7 * np.max(np.abs(expected))), (p.name, changed, expected)
+        if not has_friction(fmu):
+            assert np.all(np.abs(changed - expected) <= 1e-7 * np.max(np.abs(expected))), (p.name, changed, expected)
 
 
 def test_item17_tunable_debug_switch_takes_effect_next_step(model, debug_fmus, extract_root, tmp_path):

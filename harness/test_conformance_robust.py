@@ -432,7 +432,7 @@ import fmi_support as fs, velarium_run as vr
 unzipdir, cycles = sys.argv[1], int(sys.argv[2])
 md = fmpy.read_model_description(unzipdir)
 params = [v for v in md.modelVariables if v.causality == "parameter"]
-variants = [{}, {p.name: 1.1 * float(p.start) for p in params}]
+variants = [{}, {p.name: 0.95 * float(p.start) for p in params}]
 
 def run(s, values):
     s.setupExperiment(startTime=0.0)
