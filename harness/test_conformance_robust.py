@@ -24,7 +24,7 @@ import pytest
 
 import fmi_support as fs
 import velarium_run as vr
-from test_fmus import RTOL, assert_rows_close, real_outputs
+from test_fmus import assert_rows_close, real_outputs
 
 SMALLEST = "PrestressedCable"
 

@@ -17,7 +17,6 @@ import zipfile
 from ctypes import byref, c_double, c_int, c_size_t, c_uint, c_void_p
 
 import fmpy
-import numpy as np
 import pytest
 
 import fmi_support as fs

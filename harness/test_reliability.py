@@ -10,7 +10,6 @@ import json
 import re
 import shutil
 
-import fmpy
 import pytest
 
 import fmi_support as fs
