@@ -20,7 +20,7 @@ use super::fsm::{FsmState, Func};
 use super::logging::{escape, Category, Logger};
 use super::snapshot::Experiment;
 use super::uri::file_uri_to_path;
-use super::worker::on_own_thread;
+use super::worker::Worker;
 use super::{Status, FMI2_COSIMULATION};
 use crate::description;
 use crate::engine::{Engine, EngineState};
@@ -58,6 +58,8 @@ pub struct Instance {
     init_base: Option<EngineState>,
     /// Initialization Mode: the initial equilibrium for the current inputs is committed.
     init_solved: bool,
+    /// The thread the solves run on (joined when the instance is dropped; see `worker.rs`).
+    worker: Worker,
 }
 
 impl Instance {
@@ -96,6 +98,7 @@ impl Instance {
             poisoned: false,
             init_base: None,
             init_solved: false,
+            worker: Worker::new(),
         }
     }
 
@@ -330,7 +333,7 @@ impl Instance {
             return Err("the engine is unusable after an internal error; call fmi2Reset".into());
         }
         let engine = &mut self.engine;
-        let report = on_own_thread(|| engine.solve());
+        let report = self.worker.run(|| engine.solve());
         if self.logger.enabled(Category::Solver) {
             for line in &report.log {
                 self.logger.log(Category::Solver, line);

@@ -5,8 +5,9 @@
 //! abi.rs       the 34 exported fmi2* functions; each is a short shim
 //! ffi.rs       the one panic boundary and the pointer helpers (NULL instance -> Error,
 //!              n == 0 -> empty slice before any array check, NULL array -> Error)
-//! worker.rs    solves run on a short-lived pthread of their own, so that thread-local
-//!              scratch of the linear algebra never pins the library after dlclose
+//! worker.rs    each instance's solves run on a pthread of its own, joined when the instance
+//!              is freed, so thread-local scratch of the linear algebra never pins the library
+//!              after dlclose
 //! ```
 //!
 //! Everything else is safe Rust on an [`Instance`]:
@@ -45,8 +46,9 @@
 //!   after `panic_after_time` panics, so the panic boundary is exercised from outside.
 //! - FMU states are boxed plain structs; their serialized form is pointer-free and checked
 //!   (see [`Snapshot`], [`STATE_MAGIC`]).
-//! - No global mutable state and no thread outlives a call: all data lives in the instance;
-//!   each solve runs on a thread that is joined before the call returns (see `worker.rs`).
+//! - No global mutable state and no thread outlives its instance: all data lives in the
+//!   instance; its solves run on its own worker thread, joined by `fmi2FreeInstance` (see
+//!   `worker.rs`).
 
 mod abi;
 mod codec;
