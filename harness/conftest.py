@@ -46,3 +46,36 @@ def model_description(fmu):
     import fmpy
 
     return fmpy.read_model_description(str(fmu))
+
+
+@pytest.fixture(scope="session")
+def extract_root(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("extracted")
+
+
+@pytest.fixture
+def unzipdir(fmu, extract_root) -> Path:
+    """The FMU unzipped once per session (for the low-level FMU2Slave tests)."""
+    import fmi_support
+
+    return fmi_support.extracted(fmu, extract_root)
+
+
+@pytest.fixture(scope="session")
+def debug_fmus(tmp_path_factory):
+    """debug_fmus(model, **switches) -> Path of a debug variant of a shipped scene (packed once
+    per session and set of switches), see fmi_support.debug_variant."""
+    import fmi_support
+
+    cache: dict = {}
+
+    def make(model: str, **switches: float) -> Path:
+        key = (model, tuple(sorted(switches.items())))
+        if key not in cache:
+            if not vr.VELARIUM.is_file():
+                pytest.skip(f"{vr.VELARIUM} is missing: run `cargo build --release`")
+            directory = tmp_path_factory.mktemp(f"debug_{model}")
+            cache[key] = fmi_support.debug_variant(model, directory, vr.VELARIUM, **switches)
+        return cache[key]
+
+    return make

@@ -17,7 +17,7 @@ use crate::error::Error;
 use crate::model::membrane::Evaluation;
 use crate::model::Model;
 use crate::results;
-use crate::scene::{validate, Scene};
+use crate::scene::{validate, DebugSettings, Scene};
 use crate::solver::{Settings, Solver, StepReport};
 use crate::variables::{self, Binding, Causality, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
@@ -90,6 +90,17 @@ impl Engine {
 
     pub fn model(&self) -> &Model {
         &self.model
+    }
+
+    /// The scene's debug switches with the current values of the parameters that target them.
+    pub fn debug(&self) -> DebugSettings {
+        let mut debug = self.scene.debug.clone();
+        for (p, value) in self.scene.parameters.iter().zip(&self.state.parameters) {
+            if let Some(field) = p.target.strip_prefix("debug.") {
+                debug.set(field, *value);
+            }
+        }
+        debug
     }
 
     /// The variable table (parameters, inputs, outputs with value references).

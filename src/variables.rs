@@ -156,8 +156,13 @@ pub fn parameter_unit(target: &str) -> Option<&'static str> {
 
 /// Split a parameter target `membranes.<name>.<field>` into its three parts.
 fn split_target(target: &str) -> Option<(&str, &str, &str)> {
-    if let Some(field) = target.strip_prefix("solver.") {
-        return Some(("solver", "", field));
+    for section in ["solver", "debug"] {
+        if let Some(field) = target
+            .strip_prefix(section)
+            .and_then(|t| t.strip_prefix('.'))
+        {
+            return Some((section, "", field));
+        }
     }
     let (kind, rest) = target.split_once('.')?;
     let (name, field) = rest.rsplit_once('.')?;
@@ -171,6 +176,7 @@ pub fn parameter_value(scene: &Scene, target: &str) -> Option<f64> {
         ("solver", "artificial_prestress") => {
             Some(scene.solver.artificial_prestress.unwrap_or(f64::NAN))
         }
+        ("debug", _) => scene.debug.get(field),
         ("membranes", _) => {
             let m = scene.membranes.iter().find(|m| m.name == name)?;
             match (field, &m.material) {
@@ -203,6 +209,7 @@ pub fn set_parameter_value(scene: &mut Scene, target: &str, value: f64) -> bool 
             scene.solver.artificial_prestress = Some(value);
             true
         }
+        ("debug", _) => scene.debug.set(field, value),
         ("membranes", _) => {
             let Some(m) = scene.membranes.iter_mut().find(|m| m.name == name) else {
                 return false;

@@ -890,6 +890,93 @@ fn non_convergence_discards_and_terminates() {
     assert_eq!(fmu.terminate(), OK);
 }
 
+/// The standard scene with a `debug` section, each switch also exposed as a tunable parameter
+/// `debug_<field>` (what the harness's debug variants do).
+fn debug_scene_text(switches: &[(&str, f64)]) -> String {
+    let mut scene: serde_json::Value = serde_json::from_str(&scene_text()).unwrap();
+    let mut debug = serde_json::Map::new();
+    for (field, value) in switches {
+        debug.insert(field.to_string(), serde_json::json!(value));
+        let parameter = serde_json::json!({"name": format!("debug_{field}"),
+            "target": format!("debug.{field}"), "variability": "tunable"});
+        scene["parameters"].as_array_mut().unwrap().push(parameter);
+    }
+    scene["debug"] = serde_json::Value::Object(debug);
+    scene.to_string()
+}
+
+#[test]
+fn debug_fail_after_time_discards_the_step_that_passes_it_even_without_logging() {
+    let fx = Fixture::new(
+        "velarium-fmi-debug-fail",
+        &debug_scene_text(&[("fail_after_time", 0.25)]),
+    );
+    let log = Log::default();
+    let fmu = fx.fmu(&log, false);
+    fmu.init(0.0, 1.0);
+    assert_eq!(fmu.load_step(0), OK);
+    assert_eq!(
+        fmu.load_step(1),
+        OK,
+        "the step ending at 0.2 is before 0.25"
+    );
+    let before = fmu.outputs();
+    assert_eq!(fmu.load_step(2), DISCARD);
+    assert_eq!(fmu.outputs(), before);
+    assert_eq!(fmu.terminated(), Ok(true));
+    assert_eq!(fmu.real_status(fmi::FMI2_LAST_SUCCESSFUL_TIME), Ok(0.2));
+    log.expect("forced by debug.fail_after_time = 0.25");
+    assert!(log
+        .records()
+        .iter()
+        .all(|r| r.category == "logStatusDiscard"));
+}
+
+#[test]
+fn debug_switch_is_a_tunable_parameter() {
+    let fx = Fixture::new(
+        "velarium-fmi-debug-tune",
+        &debug_scene_text(&[("fail_after_time", 1e9)]),
+    );
+    let log = Log::default();
+    let fmu = fx.fmu(&log, false);
+    fmu.init(0.0, 1.0);
+    assert_eq!(fmu.load_step(0), OK);
+    assert_eq!(fmu.set("debug_fail_after_time", 0.1), OK);
+    assert_eq!(fmu.load_step(1), DISCARD);
+}
+
+#[test]
+fn debug_panic_after_time_is_an_error_and_reset_recovers() {
+    let fx = Fixture::new(
+        "velarium-fmi-debug-panic",
+        &debug_scene_text(&[("panic_after_time", 0.15)]),
+    );
+    let log = Log::default();
+    let fmu = fx.fmu(&log, false);
+    fmu.init(0.0, 1.0);
+    assert_eq!(fmu.load_step(0), OK);
+    assert_eq!(fmu.load_step(1), ERROR);
+    log.expect("forced panic");
+    assert_eq!(fmu.step(0.1, 0.1), ERROR, "the instance is in state Error");
+    assert_eq!(fmu.reset(), OK);
+    fmu.init(0.0, 1.0);
+    assert_eq!(fmu.load_step(0), OK);
+}
+
+#[test]
+fn a_debug_parameter_needs_a_value_in_the_scene() {
+    let mut scene: serde_json::Value = serde_json::from_str(&scene_text()).unwrap();
+    let parameter = serde_json::json!({"name": "f", "target": "debug.fail_after_time"});
+    scene["parameters"].as_array_mut().unwrap().push(parameter);
+    let scene = Scene::from_json(&scene.to_string()).unwrap();
+    let message = Engine::try_new(scene).err().expect("rejected").to_string();
+    assert!(
+        message.contains("debug.fail_after_time must be given a value"),
+        "{message}"
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // Logging.
 

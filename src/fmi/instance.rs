@@ -20,11 +20,12 @@ use super::fsm::{FsmState, Func};
 use super::logging::{escape, Category, Logger};
 use super::snapshot::Experiment;
 use super::uri::file_uri_to_path;
+use super::worker::Worker;
 use super::{Status, FMI2_COSIMULATION};
 use crate::description;
 use crate::engine::{Engine, EngineState};
 use crate::scene::Scene;
-use crate::solver::StepReport;
+use crate::solver::{Outcome as StepOutcome, StepReport};
 use crate::variables::{Causality, VarType};
 
 /// Relative tolerance on communication points: |t - expected| <= TIME_TOLERANCE · max(1, |t|).
@@ -57,6 +58,8 @@ pub struct Instance {
     init_base: Option<EngineState>,
     /// Initialization Mode: the initial equilibrium for the current inputs is committed.
     init_solved: bool,
+    /// The thread the solves run on (joined when the instance is dropped; see `worker.rs`).
+    worker: Worker,
 }
 
 impl Instance {
@@ -95,6 +98,7 @@ impl Instance {
             poisoned: false,
             init_base: None,
             init_solved: false,
+            worker: Worker::new(),
         }
     }
 
@@ -328,7 +332,8 @@ impl Instance {
         if self.poisoned {
             return Err("the engine is unusable after an internal error; call fmi2Reset".into());
         }
-        let report = self.engine.solve();
+        let engine = &mut self.engine;
+        let report = self.worker.run(|| engine.solve());
         if self.logger.enabled(Category::Solver) {
             for line in &report.log {
                 self.logger.log(Category::Solver, line);
@@ -474,7 +479,10 @@ impl Instance {
         });
         self.call(Func::DoStep, args, |s| {
             s.check_step(t, h)?;
-            let report = s.solve()?;
+            let report = match s.forced_failure(t + h) {
+                Some(report) => report,
+                None => s.solve()?,
+            };
             if report.converged() {
                 s.time = t + h;
                 s.last_successful_time = s.time;
@@ -486,6 +494,26 @@ impl Instance {
             s.last_successful_time = t;
             s.log_discard(t, h, &report);
             Ok(Status::Discard)
+        })
+    }
+
+    /// The scene's debug switches (test variants only): a step ending after `panic_after_time`
+    /// panics here, one ending after `fail_after_time` is reported as not converged, without
+    /// touching the engine, exactly as a real non-convergence leaves it.
+    fn forced_failure(&self, end: f64) -> Option<StepReport> {
+        let debug = self.engine.debug();
+        let after = |at: Option<f64>| at.filter(|t| end > t + TIME_TOLERANCE * t.abs().max(1.0));
+        if let Some(at) = after(debug.panic_after_time) {
+            panic!("debug.panic_after_time = {at}: forced panic in the step to t = {end}");
+        }
+        after(debug.fail_after_time).map(|at| StepReport {
+            outcome: StepOutcome::Failed,
+            iterations: 0,
+            increments: 0,
+            cutbacks: 0,
+            reached: 0.0,
+            message: format!("forced by debug.fail_after_time = {at}"),
+            log: Vec::new(),
         })
     }
 

@@ -4,6 +4,7 @@
 //! category          status passed    when
 //! logStatusWarning  fmi2Warning      recoverable oddities
 //! logStatusDiscard  fmi2Discard      a DoStep that did not converge (reached fraction, why)
+//!                                    (always emitted: a master must learn why a run ended)
 //! logStatusError    fmi2Error        every Error: illegal call, bad argument, failed check
 //!                                    (always emitted, whatever is enabled)
 //! logStatusFatal    fmi2Fatal        reserved (always emitted)
@@ -72,9 +73,13 @@ impl Category {
         }
     }
 
-    /// Errors are logged whatever the debug-logging settings are.
+    /// Discards and errors are logged whatever the debug-logging settings are: a run that
+    /// ends early or fails must say why even when the master did not ask for logging.
     fn always(self) -> bool {
-        matches!(self, Category::StatusError | Category::StatusFatal)
+        matches!(
+            self,
+            Category::StatusDiscard | Category::StatusError | Category::StatusFatal
+        )
     }
 }
 

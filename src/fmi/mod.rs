@@ -1,10 +1,13 @@
 //! FMI 2.0 Co-Simulation adapter: the C ABI over [`crate::Engine`]. This module tree is the only
-//! place in the crate with `unsafe` code, and that code sits in two files:
+//! place in the crate with `unsafe` code, and that code sits in three files:
 //!
 //! ```text
 //! abi.rs       the 34 exported fmi2* functions; each is a short shim
 //! ffi.rs       the one panic boundary and the pointer helpers (NULL instance -> Error,
 //!              n == 0 -> empty slice before any array check, NULL array -> Error)
+//! worker.rs    each instance's solves run on a pthread of its own, joined when the instance
+//!              is freed, so thread-local scratch of the linear algebra never pins the library
+//!              after dlclose
 //! ```
 //!
 //! Everything else is safe Rust on an [`Instance`]:
@@ -36,10 +39,16 @@
 //!   converged equilibrium. If the engine does not converge it keeps that equilibrium, the call
 //!   returns `fmi2Discard`, the instance goes to StepFailed, `fmi2Terminated` is true and
 //!   `fmi2LastSuccessfulTime` is `t`. A DoStep in StepFailed is an Error; `fmi2SetFMUstate`
-//!   with a state saved earlier returns to StepComplete.
+//!   with a state saved earlier returns to StepComplete. The Discard is logged under
+//!   `logStatusDiscard` whatever the logging settings.
+//! - Debug switches (test variants of a scene only, `Scene::debug`): a step ending after
+//!   `fail_after_time` is reported as not converged without touching the engine; one ending
+//!   after `panic_after_time` panics, so the panic boundary is exercised from outside.
 //! - FMU states are boxed plain structs; their serialized form is pointer-free and checked
 //!   (see [`Snapshot`], [`STATE_MAGIC`]).
-//! - No global mutable state and no threads: all data lives in the instance.
+//! - No global mutable state and no thread outlives its instance: all data lives in the
+//!   instance; its solves run on its own worker thread, joined by `fmi2FreeInstance` (see
+//!   `worker.rs`).
 
 mod abi;
 mod codec;
@@ -49,6 +58,7 @@ mod instance;
 mod logging;
 mod snapshot;
 mod uri;
+mod worker;
 
 pub use abi::*;
 pub use ffi::{CallbackFunctions, Component, FmuState, LoggerFn};

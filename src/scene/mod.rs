@@ -61,6 +61,11 @@ pub struct Scene {
     /// as the master chooses it).
     #[serde(default)]
     pub experiment: Experiment,
+    /// Debug-only switches that force the FMU's failure paths (a step that does not converge,
+    /// an internal panic) so that an importer's handling of them can be tested. Shipped scenes
+    /// leave this out; test variants add it (and may expose its fields as parameters).
+    #[serde(default, skip_serializing_if = "DebugSettings::is_off")]
+    pub debug: DebugSettings,
 }
 
 /// Explicit mesh data plus generators. Generated nodes and triangles are appended after the
@@ -385,7 +390,8 @@ pub struct Parameter {
     /// Variable name.
     pub name: String,
     /// What it sets: `membranes.<name>.E`, `.nu` (SVK), `.mu` (neo-Hookean), `.thickness`,
-    /// `cables.<name>.EA`, `cables.<name>.pretension`, `solver.artificial_prestress`.
+    /// `cables.<name>.EA`, `cables.<name>.pretension`, `solver.artificial_prestress`,
+    /// `debug.fail_after_time`, `debug.panic_after_time` (test variants only).
     pub target: String,
     #[serde(default)]
     pub variability: ParameterVariability,
@@ -443,6 +449,49 @@ impl Default for SolverSettings {
             target_iterations: 6,
             artificial_prestress: None,
             line_search: true,
+        }
+    }
+}
+
+/// Debug-only switches, honoured by the FMU's `fmi2DoStep` (not by `velarium solve`). Each may
+/// be exposed as a parameter (targets `debug.fail_after_time`, `debug.panic_after_time`), which
+/// then needs a value here as its start value.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct DebugSettings {
+    /// A step that ends after this time (beyond round-off) does not converge: it returns
+    /// `fmi2Discard` exactly as a real non-convergence would (pseudo-time, same unit as the
+    /// experiment).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fail_after_time: Option<f64>,
+    /// A step that ends after this time panics inside the FMU: the panic boundary turns it into
+    /// `fmi2Error` and the instance goes to the Error state.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub panic_after_time: Option<f64>,
+}
+
+impl DebugSettings {
+    /// No switch set (the section is then left out of the serialized scene).
+    pub fn is_off(&self) -> bool {
+        self.fail_after_time.is_none() && self.panic_after_time.is_none()
+    }
+
+    /// Set the field a `debug.<field>` parameter targets. False: no such field.
+    pub fn set(&mut self, field: &str, value: f64) -> bool {
+        match field {
+            "fail_after_time" => self.fail_after_time = Some(value),
+            "panic_after_time" => self.panic_after_time = Some(value),
+            _ => return false,
+        }
+        true
+    }
+
+    /// The value of the field a `debug.<field>` parameter targets (NaN: not set).
+    pub fn get(&self, field: &str) -> Option<f64> {
+        match field {
+            "fail_after_time" => Some(self.fail_after_time.unwrap_or(f64::NAN)),
+            "panic_after_time" => Some(self.panic_after_time.unwrap_or(f64::NAN)),
+            _ => None,
         }
     }
 }

@@ -641,8 +641,8 @@ impl Validator {
         for (i, p) in s.parameters.iter().enumerate() {
             let path = format!("parameters[{i}].target");
             match variables::parameter_value(s, &p.target) {
-                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|thickness, cables.<name>.EA|pretension or solver.artificial_prestress", p.target)),
-                Some(v) if !v.is_finite() => self.push(path, "solver.artificial_prestress must be given a value in solver settings to be exposed as a parameter"),
+                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
+                Some(v) if !v.is_finite() => self.push(path, format!("{} must be given a value in the scene to be exposed as a parameter", p.target)),
                 Some(_) => {}
             }
             if p.target.ends_with(".pretension") {
