@@ -30,9 +30,13 @@ SMALLEST = "PrestressedCable"
 
 
 def failure_time(md) -> float:
-    """Where the debug variants fail: between the 5th and 6th step of the default grid."""
+    """Where the debug variants fail: in the middle of the communication step of the default
+    grid (DefaultExperiment stepSize) that contains the experiment's midpoint, so that no grid
+    point coincides with it."""
     start, stop = vr.experiment(md)
-    return start + 0.55 * (stop - start)
+    h = float(md.defaultExperiment.stepSize)
+    k = int(0.5 * (stop - start) / h + 1e-9)
+    return start + (k + 0.5) * h
 
 
 def variant(debug_fmus, model, tmp_path, **switches):
