@@ -62,7 +62,7 @@ pub fn evaluate(
             ProbeModel::CableLength { segments } => {
                 segments.clone().map(|e| segment_length(model, u, e)).sum()
             }
-            ProbeModel::CableSlip { slip } => -u[model.dof_count() + slip],
+            ProbeModel::CableSlip { slip } => 0.0 - u[model.dof_count() + slip],
             ProbeModel::ContactForce { slips } => slips
                 .iter()
                 .map(|&j| tie_gap(model, u, j) * model.ties[model.slips[j].tie].k)
