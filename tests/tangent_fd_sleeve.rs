@@ -2,7 +2,8 @@
 //!       with respect to the three cable points and the two unstretched lengths, dT/dL0 of the
 //!       cable law (the B block of the sliding Newton), and the penalty tie.
 //! MESH: one sleeve point with random neighbours (kinks from a few degrees to ~120°), both
-//!       strain laws, σμ ∈ {0, 0.3, −0.3}.
+//!       strain laws, σμ ∈ {0, 0.3, −0.3}; the assembled blocks B, C, D of the shipped
+//!       SlidingCable model (μ = 0.3) in a deformed, slipped state.
 //! REFERENCE: MECHANICS.md §5 (every tangent against central differences, relative error
 //!            < 1e-6); step h = 1e-6 times the segment length.
 
@@ -120,4 +121,74 @@ fn tie_stiffness_matches_finite_differences() {
             );
         }
     }
+}
+
+#[test]
+fn assembled_slip_blocks_match_finite_differences() {
+    use velarium::model::sleeve::{SLIP_BACKWARD, SLIP_FORWARD};
+    use velarium::solver::assemble::{assemble, Pattern, NONE};
+    use velarium::solver::sliding::slip_blocks;
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/modelDescription/SlidingCable/scene.json"
+    ))
+    .unwrap();
+    let mut scene = velarium::Scene::from_json(&text).unwrap();
+    scene.cables[0].sleeve.as_mut().unwrap().mu = 0.3;
+    let model = velarium::model::Model::build(&scene);
+    let pattern = Pattern::new(&model);
+    let n3 = model.dof_count();
+    let m = model.slips.len();
+    let mut u = vec![0.0; model.unknown_count()];
+    for (d, v) in u.iter_mut().enumerate().take(n3) {
+        if !model.held[d] {
+            *v = 0.05 * ((d as f64) * 1.7).sin();
+        }
+    }
+    for j in 0..m {
+        u[n3 + j] = 0.01 * (j as f64 + 1.0) * if j % 2 == 0 { 1.0 } else { -1.0 };
+    }
+    let committed = vec![0.0; m];
+    let states = vec![SLIP_FORWARD, SLIP_BACKWARD, SLIP_FORWARD];
+    let loads = vec![0.0; model.loads.len()];
+    let (_, b, c, d) = slip_blocks(&model, &pattern.eq, &u, &committed, &states);
+    let residual = |u: &[f64]| {
+        let mut r = vec![0.0; n3];
+        assemble(&model, &pattern, u, &loads, &mut r, None);
+        (
+            r,
+            slip_blocks(&model, &pattern.eq, u, &committed, &states).0,
+        )
+    };
+    let h = 1e-7;
+    let scale = b.amax().max(c.amax()).max(d.amax());
+    let mut worst = 0.0f64;
+    for j in 0..m {
+        let (mut p, mut q) = (u.clone(), u.clone());
+        p[n3 + j] += h;
+        q[n3 + j] -= h;
+        let ((rp, sp), (rq, sq)) = (residual(&p), residual(&q));
+        for (dof, &e) in pattern.eq.iter().enumerate() {
+            if e != NONE {
+                worst = worst.max(((rp[dof] - rq[dof]) / (2.0 * h) - b[(e, j)]).abs() / scale);
+            }
+        }
+        for i in 0..m {
+            worst = worst.max(((sp[i] - sq[i]) / (2.0 * h) - d[(i, j)]).abs() / scale);
+        }
+    }
+    for (dof, &e) in pattern.eq.iter().enumerate() {
+        if e == NONE {
+            continue;
+        }
+        let (mut p, mut q) = (u.clone(), u.clone());
+        p[dof] += h;
+        q[dof] -= h;
+        let ((_, sp), (_, sq)) = (residual(&p), residual(&q));
+        for i in 0..m {
+            worst = worst.max(((sp[i] - sq[i]) / (2.0 * h) - c[(i, e)]).abs() / scale);
+        }
+    }
+    println!("assembled slip blocks: worst relative FD error {worst:.2e}");
+    assert!(worst < 1e-6, "worst {worst:e}");
 }

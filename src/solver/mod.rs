@@ -18,7 +18,7 @@
 pub mod assemble;
 pub mod linear;
 mod newton;
-mod sliding;
+pub mod sliding;
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;

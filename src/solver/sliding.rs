@@ -10,7 +10,7 @@
 //!               (D − C Y) Δs = −r − C y0    (dense m×m LU, m = number of sleeve points)
 //!               Δx = y0 − Y Δs
 //! step          u ← u + α Δ with α ≤ 1 keeping every sleeved segment's L above 10 % of its
-//!               current value; stuck slips are set to their committed values
+//!               current value
 //! converged     |R_x|∞ and |r|∞ ≤ tol · scale (+ floor) and no stick/slip state changed
 //! ```
 //! The consistent tangent is non-symmetric only in the slip rows and columns, so the large
@@ -30,13 +30,15 @@ use crate::model::Model;
 use nalgebra::{DMatrix, DVector};
 
 /// Iterations with stick/slip or wrinkle changes before the states are frozen.
-const FREEZE_AFTER: usize = 8;
+const FREEZE_AFTER: usize = 3;
 /// Times frozen states may turn out wrong at convergence before the increment is cut back.
 const MAX_UNFREEZE: usize = 3;
 /// Smallest fraction of its current unstretched length a sleeved segment may keep in one step.
 const KEEP_LENGTH: f64 = 0.1;
 /// Smallest current/reference area ratio of a membrane triangle.
 const MIN_AREA_RATIO: f64 = 1e-6;
+/// Backtracking halvings per Newton step.
+const LS_MAX_TRIES: usize = 6;
 
 /// One slip row: residual and its non-zero couplings.
 struct Row {
@@ -99,7 +101,7 @@ impl Solver {
             let changed = if frozen_slip {
                 0
             } else {
-                return_map(model, u, &committed, states)
+                return_map(model, u, &committed, states, 0.0)
             };
             if changed > 0 && it >= freeze_at {
                 push_log(log, format!("  stick/slip states still changing ({changed} points): frozen until convergence"));
@@ -116,7 +118,7 @@ impl Solver {
             if changed == 0 && free <= limit && slip_res <= limit {
                 let natural_ok = {
                     let mut check = states.to_vec();
-                    return_map(model, u, &committed, &mut check) == 0
+                    return_map(model, u, &committed, &mut check, limit) == 0
                 };
                 let wrinkle_ok = self.frozen.is_none() || {
                     let frozen = self.frozen.take();
@@ -163,19 +165,16 @@ impl Solver {
             let (dx, ds) = self
                 .schur_solve(model, u, &rows)
                 .map_err(|why| (it + 1, why))?;
-            let alpha = step_limit(model, u, &ds);
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != NONE {
-                    u[d] += alpha * dx[e];
-                }
-            }
-            for (j, st) in states.iter().enumerate() {
-                u[n3 + j] = if *st == STICK {
-                    committed[j]
-                } else {
-                    u[n3 + j] + alpha * ds[j]
-                };
-            }
+            let alpha = self.damped_step(
+                model,
+                loads,
+                u,
+                &dx,
+                &ds,
+                states,
+                &committed,
+                free.max(slip_res),
+            );
             push_log(log, format!("  iteration {}: |R| = {free:.3e}, |r_slip| = {slip_res:.3e} (scale {scale:.3e}), α = {alpha:.3}", it + 1));
         }
         let n = self.settings.max_iterations;
@@ -183,6 +182,58 @@ impl Solver {
             n,
             format!("no convergence in {n} iterations (states changed at the end)"),
         ))
+    }
+
+    /// Take the Newton step, backtracking (halving α from the fraction-to-boundary limit) while
+    /// the residual norm max(|R_x|∞, |r|∞) does not fall below `before`; the friction law has no
+    /// potential, so the residual norm is the merit function. Returns the α taken.
+    #[allow(clippy::too_many_arguments)]
+    fn damped_step(
+        &mut self,
+        model: &Model,
+        loads: &[f64],
+        u: &mut [f64],
+        dx: &[f64],
+        ds: &[f64],
+        states: &[u8],
+        committed: &[f64],
+        before: f64,
+    ) -> f64 {
+        let n3 = model.dof_count();
+        let start = u.to_vec();
+        let mut alpha = step_limit(model, u, ds);
+        for _ in 0..LS_MAX_TRIES {
+            u.copy_from_slice(&start);
+            for (d, &e) in self.pattern.eq.iter().enumerate() {
+                if e != NONE {
+                    u[d] += alpha * dx[e];
+                }
+            }
+            for (j, d) in ds.iter().enumerate() {
+                u[n3 + j] += alpha * d;
+            }
+            assemble_with(
+                model,
+                &self.pattern,
+                u,
+                loads,
+                &mut self.residual,
+                None,
+                Membranes {
+                    forced: self.frozen.as_deref(),
+                    out: None,
+                },
+            );
+            let (free, _) = self.free_held_norms();
+            let rows = slip_rows(model, &self.pattern.eq, u, committed, states);
+            let slip = rows.iter().fold(0.0f64, |a, r| a.max(r.r.abs()));
+            let now = free.max(slip);
+            if now.is_finite() && now < before {
+                return alpha;
+            }
+            alpha *= 0.5;
+        }
+        alpha * 2.0
     }
 
     /// |R|∞ over free DOFs and over held DOFs (reactions).
@@ -267,7 +318,15 @@ impl Solver {
 }
 
 /// Return mapping of every sleeve point at `u`; returns how many states changed.
-pub(crate) fn return_map(model: &Model, u: &[f64], committed: &[f64], states: &mut [u8]) -> usize {
+/// `tol_f` (N) is the force tolerance of the cone test (0 inside the iterations, the
+/// convergence tolerance when a converged point's states are checked).
+pub(crate) fn return_map(
+    model: &Model,
+    u: &[f64],
+    committed: &[f64],
+    states: &mut [u8],
+    tol_f: f64,
+) -> usize {
     let n3 = model.dof_count();
     let mut changed = 0;
     for (j, p) in model.slips.iter().enumerate() {
@@ -284,10 +343,13 @@ pub(crate) fn return_map(model: &Model, u: &[f64], committed: &[f64], states: &m
         } else {
             SLIP_BACKWARD
         };
-        let new = if p.mu == 0.0 {
+        let new = if ta + tb == 0.0 {
+            // Slack on both sides: nothing drives or resists a slip; hold the material.
+            STICK
+        } else if p.mu == 0.0 {
             SLIP_FORWARD
         } else if states[j] == STICK {
-            let tiny = 1e-12 * (ta + tb);
+            let tiny = 1e-12 * (ta + tb) + tol_f;
             if ft.abs() > p.mu * fnormal + tiny {
                 direction
             } else {
@@ -414,9 +476,42 @@ fn step_limit(model: &Model, u: &[f64], ds: &[f64]) -> f64 {
         let d = |k: Option<usize>| k.map_or(0.0, |j| ds[j]);
         let dl = d(s.slip[1]) - d(s.slip[0]);
         let l = model.segment_l0(u, e);
-        if dl < 0.0 && l + dl < KEEP_LENGTH * l {
+        if l > 0.0 && dl < 0.0 && l + dl < KEEP_LENGTH * l {
             alpha = alpha.min((1.0 - KEEP_LENGTH) * l / -dl);
         }
     }
     alpha
+}
+
+/// The slip blocks at `u` as dense matrices, for finite-difference tests: slip residuals r,
+/// B = ∂R_x/∂s (free equations × slips), C = ∂r/∂x (slips × free equations), D = ∂r/∂s.
+pub fn slip_blocks(
+    model: &Model,
+    eq: &[usize],
+    u: &[f64],
+    committed: &[f64],
+    states: &[u8],
+) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let n = eq.iter().filter(|&&e| e != NONE).count();
+    let m = model.slips.len();
+    let rows = slip_rows(model, eq, u, committed, states);
+    let (mut b, mut c, mut d) = (
+        DMatrix::zeros(n, m),
+        DMatrix::zeros(m, n),
+        DMatrix::zeros(m, m),
+    );
+    for (j, col) in slip_columns(model, eq, u).iter().enumerate() {
+        for &(e, v) in col {
+            b[(e, j)] += v;
+        }
+    }
+    for (i, row) in rows.iter().enumerate() {
+        for &(e, v) in &row.dx {
+            c[(i, e)] += v;
+        }
+        for &(j, v) in &row.ds {
+            d[(i, j)] += v;
+        }
+    }
+    (rows.iter().map(|r| r.r).collect(), b, c, d)
 }
