@@ -1,0 +1,152 @@
+//! Speed against error, printed (not asserted): `cargo run --release --example bench`.
+//!
+//! For the Hencky disc (MECHANICS.md §4a, follower pressure, qa/(Eh) = 1e-3, reference
+//! w0/a = 0.065404) at several mesh sizes: free DOF, relative error of the centre deflection,
+//! wall time of the whole solve (flat start to full load, one step), Newton iterations, time
+//! per iteration, and that time divided by the floor (one assembly + one numeric LDLT
+//! factorization and solve, measured at the solution). One core (faer runs `Par::Seq`).
+//!
+//! Then the wrinkled Lamé annulus (MECHANICS.md §4b, ρ = 4, τ = 3, reference L/a = 1.80566)
+//! at several meshes: DOF, wrinkled radius (midpoint between the outermost wrinkled and the
+//! innermost taut centroid beyond it) and its error in units of the radial element size, the
+//! largest hoop stress in the wrinkled zone relative to T_in, time and Newton iterations.
+
+use std::time::Instant;
+use velarium::scene::{Generator, Scene};
+use velarium::Engine;
+
+const W_FOLLOWER: f64 = 0.065404;
+
+fn main() {
+    hencky();
+    lame();
+}
+
+fn lame() {
+    const L_OVER_A: f64 = 1.80566;
+    println!();
+    println!("Lamé annulus, a = 1 m, b = 4 m, τ = 3 (T_out = 1 kPa), reference L/a = {L_OVER_A}");
+    println!(
+        "{:>6} {:>8} {:>8} {:>9} {:>10} {:>11} {:>9} {:>6}",
+        "rings", "sectors", "DOF", "L/a", "error/h", "hoop/T_in", "time s", "iters"
+    );
+    for (rings, sectors) in [(18usize, 48usize), (36, 96), (72, 192)] {
+        let text = format!(
+            r#"{{"format": 1, "name": "Lame",
+            "geometry": {{"generators": [{{"kind": "annulus", "name": "ring", "center": [0,0,0], "inner_radius": 1, "outer_radius": 4, "rings": {rings}, "sectors": {sectors}}}],
+                         "node_sets": {{"east": [0], "north": [{north}]}}}},
+            "membranes": [{{"name": "film", "triangles": "ring", "thickness": 1e-3, "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}}}}],
+            "supports": [{{"nodes": "ring.all", "fix": ["z"]}}, {{"nodes": "east", "fix": ["y"]}}, {{"nodes": "north", "fix": ["x"]}}],
+            "inputs": [{{"name": "inner", "load": {{"kind": "radial_edge_load", "nodes": "ring.inner_rim", "center": [0,0,0], "closed": true}}}},
+                       {{"name": "outer", "load": {{"kind": "radial_edge_load", "nodes": "ring.outer_rim", "center": [0,0,0], "closed": true}}}}]}}"#,
+            north = sectors / 4
+        );
+        let mut engine =
+            Engine::try_new(Scene::from_json(&text).expect("valid JSON")).expect("valid scene");
+        let vr = |e: &Engine, n: &str| {
+            e.variables()
+                .iter()
+                .find(|v| v.name == n)
+                .unwrap()
+                .value_reference
+        };
+        let (inner, outer) = (vr(&engine, "inner"), vr(&engine, "outer"));
+        let t = Instant::now();
+        engine.set_real(outer, 1.0).unwrap();
+        engine.set_real(inner, -3.0).unwrap();
+        let report = engine.solve();
+        let time = t.elapsed().as_secs_f64();
+        assert!(report.converged(), "{}", report.message);
+        let (mut r_wrinkled, mut hoop) = (0.0f64, 0.0f64);
+        let mut radii = Vec::new();
+        for (m, tri) in engine.membranes().iter().zip(&engine.model().triangles) {
+            let c = tri
+                .nodes
+                .iter()
+                .map(|&i| engine.model().reference[i])
+                .sum::<nalgebra::Vector3<f64>>()
+                / 3.0;
+            let r = c.norm();
+            radii.push((r, m.state));
+            if m.state == velarium::model::wrinkling::WrinkleState::Wrinkled {
+                r_wrinkled = r_wrinkled.max(r);
+                let et = nalgebra::Vector3::new(-c.y, c.x, 0.0) / r;
+                hoop = hoop
+                    .max((et.transpose() * tri.reference.to_global(&m.stress) * et)[0].abs() / 3e3);
+            }
+        }
+        let r_taut = radii
+            .iter()
+            .filter(|(r, s)| {
+                *r > r_wrinkled - 1e-12 && *s != velarium::model::wrinkling::WrinkleState::Wrinkled
+            })
+            .map(|(r, _)| *r)
+            .fold(f64::INFINITY, f64::min);
+        let l = 0.5 * (r_wrinkled + r_taut.min(4.0));
+        let h = 3.0 / rings as f64;
+        println!(
+            "{rings:>6} {sectors:>8} {:>8} {l:>9.4} {:>10.2} {hoop:>11.1e} {time:>9.3} {:>6}",
+            engine.free_dofs(),
+            (l - L_OVER_A) / h,
+            report.iterations
+        );
+    }
+}
+
+fn hencky() {
+    let path = format!(
+        "{}/modelDescription/HenckyDisc/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let base = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene"))
+        .expect("valid scene");
+    let rings: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let rings = if rings.is_empty() {
+        vec![8, 16, 32, 64]
+    } else {
+        rings
+    };
+    println!("Hencky disc, follower pressure, qa/(Eh) = 1e-3, reference w0/a = {W_FOLLOWER}");
+    println!(
+        "{:>6} {:>8} {:>11} {:>9} {:>6} {:>12} {:>12} {:>8}",
+        "rings", "DOF", "error", "time s", "iters", "s/iter", "floor s", "ratio"
+    );
+    for n in rings {
+        let mut scene = base.clone();
+        if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
+            *rings = n;
+        }
+        let mut engine = Engine::try_new(scene).expect("valid scene");
+        let vr = engine
+            .variables()
+            .iter()
+            .find(|v| v.name == "pressure")
+            .unwrap()
+            .value_reference;
+        let out = engine
+            .variables()
+            .iter()
+            .find(|v| v.name == "center_uz")
+            .unwrap()
+            .value_reference;
+        let t = Instant::now();
+        engine.set_real(vr, 40.0).unwrap();
+        let report = engine.solve();
+        let time = t.elapsed().as_secs_f64();
+        assert!(report.converged(), "{}", report.message);
+        let w = engine.get_real(out).unwrap() / 0.5;
+        let error = (w - W_FOLLOWER).abs() / W_FOLLOWER;
+        let (assembly, factor) = engine.time_floor(5);
+        let per_iter = time / report.iterations.max(1) as f64;
+        let floor = assembly + factor;
+        println!(
+            "{n:>6} {:>8} {error:>11.3e} {time:>9.4} {:>6} {per_iter:>12.3e} {floor:>12.3e} {:>8.2}",
+            engine.free_dofs(),
+            report.iterations,
+            per_iter / floor
+        );
+    }
+}
