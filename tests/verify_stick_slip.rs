@@ -185,3 +185,21 @@ fn step_size_does_not_change_the_final_slip() {
         assert!((x - y).abs() <= 1e-7 * scale, "{x} vs {y}");
     }
 }
+
+#[test]
+fn a_too_soft_penalty_is_reported() {
+    // k = 50 N/m against a contact force of ~0.8 T0 opens the tie by ~0.16 m of a 1 m segment.
+    let mut e = engine(sleeve_scene(1, Some(50.0)));
+    let report = solve(&mut e);
+    assert!(
+        report
+            .log
+            .iter()
+            .any(|l| l.contains("warning: a sleeve tie opened")),
+        "{:#?}",
+        report.log
+    );
+    let mut stiff = engine(sleeve_scene(1, None));
+    let report = solve(&mut stiff);
+    assert!(!report.log.iter().any(|l| l.contains("warning")));
+}

@@ -37,6 +37,9 @@ const MAX_UNFREEZE: usize = 3;
 const KEEP_LENGTH: f64 = 0.1;
 /// Smallest current/reference area ratio of a membrane triangle.
 const MIN_AREA_RATIO: f64 = 1e-6;
+/// Largest tie gap, relative to the shorter adjacent segment, before the log warns
+/// (MECHANICS.md §2.3: penetration below 1e-3 of the element size).
+pub const MAX_GAP: f64 = 1e-3;
 /// Backtracking halvings per Newton step.
 const LS_MAX_TRIES: usize = 6;
 
@@ -140,6 +143,10 @@ impl Solver {
                     same || natural_free <= limit
                 };
                 if natural_ok && wrinkle_ok {
+                    let gap = largest_gap(model, u);
+                    if gap > MAX_GAP {
+                        push_log(log, format!("  warning: a sleeve tie opened by {gap:.2e} of its segment length (more than {MAX_GAP:.0e}): the penalty is too soft for this load; set cables[].sleeve.penalty higher"));
+                    }
                     push_log(log, format!("  converged: |R| = {free:.3e}, |r_slip| = {slip_res:.3e} (scale {scale:.3e})"));
                     return Ok(it);
                 }
@@ -466,6 +473,23 @@ fn slip_columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(usize, f64)>
         }
     }
     cols
+}
+
+/// Largest tie gap |x_c − x_m| over the shorter adjacent segment length.
+fn largest_gap(model: &Model, u: &[f64]) -> f64 {
+    let length = |e: usize| {
+        let s = &model.segments[e];
+        (model.position(u, s.nodes[1]) - model.position(u, s.nodes[0])).norm()
+    };
+    model
+        .slips
+        .iter()
+        .map(|p| {
+            let [c, m] = model.ties[p.tie].nodes;
+            let gap = (model.position(u, c) - model.position(u, m)).norm();
+            gap / length(p.segments[0]).min(length(p.segments[1]))
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Largest α ≤ 1 keeping every sleeved segment's unstretched length above KEEP_LENGTH of its
