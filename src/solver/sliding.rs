@@ -30,7 +30,7 @@ use crate::model::Model;
 use nalgebra::{DMatrix, DVector};
 
 /// Iterations with stick/slip or wrinkle changes before the states are frozen.
-const FREEZE_AFTER: usize = 3;
+const FREEZE_AFTER: usize = 8;
 /// Times frozen states may turn out wrong at convergence before the increment is cut back.
 const MAX_UNFREEZE: usize = 3;
 /// Smallest fraction of its current unstretched length a sleeved segment may keep in one step.
