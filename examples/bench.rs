@@ -10,6 +10,12 @@
 //! at several meshes: DOF, wrinkled radius (midpoint between the outermost wrinkled and the
 //! innermost taut centroid beyond it) and its error in units of the radial element size, the
 //! largest hoop stress in the wrinkled zone relative to T_in, time and Newton iterations.
+//!
+//! Then the shipped WrinkledShear film (Wong & Pellegrino's shear test, MECHANICS.md §4c),
+//! sheared 0 → 3 mm in 20 steps at three pretensions (edge separation 1 mm, the scene's start
+//! value, 0.5 mm and 0.1 mm): Newton iterations per step (median and largest), steps that
+//! needed cut-back, the relative error of the centre triangle's shear stress S12 against the
+//! homogeneous tension-field solution at 3 mm, and the wall time of the whole history.
 
 use std::time::Instant;
 use velarium::scene::{Generator, Scene};
@@ -20,6 +26,81 @@ const W_FOLLOWER: f64 = 0.065404;
 fn main() {
     hencky();
     lame();
+    sheared_film();
+}
+
+fn sheared_film() {
+    use velarium::model::wrinkling::Law;
+    const H: f64 = 0.128;
+    const STEPS: usize = 20;
+    println!();
+    println!("WrinkledShear: Kapton 380 x 128 mm, 25 µm, sheared 0 → 3 mm in {STEPS} steps");
+    println!(
+        "{:>14} {:>7} {:>7} {:>8} {:>10} {:>12} {:>9}",
+        "separation mm", "median", "max", "cut back", "wrinkled", "S12 error", "time s"
+    );
+    let path = format!(
+        "{}/modelDescription/WrinkledShear/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(path).expect("the shipped scene");
+    for separation in [1e-3, 5e-4, 1e-4] {
+        let mut e =
+            Engine::try_new(Scene::from_json(&text).expect("valid JSON")).expect("valid scene");
+        let (sep, shear) = (
+            value_reference(&e, "separation"),
+            value_reference(&e, "shear"),
+        );
+        e.set_real(sep, separation).unwrap();
+        let t = Instant::now();
+        let mut iterations = Vec::new();
+        let (mut cut, mut failed) = (0, 0);
+        assert!(e.solve().converged());
+        for k in 1..=STEPS {
+            e.set_real(shear, 3e-3 * k as f64 / STEPS as f64).unwrap();
+            let r = e.solve();
+            iterations.push(r.iterations);
+            cut += (r.cutbacks > 0) as usize;
+            failed += (!r.converged()) as usize;
+        }
+        let time = t.elapsed().as_secs_f64();
+        let (g, s) = (3e-3 / H, separation / H);
+        let strain = nalgebra::Vector3::new(0.0, 0.5 * (g * g + (1.0 + s) * (1.0 + s) - 1.0), g);
+        let reference = Law::Svk {
+            young: 3.5e9,
+            nu: 0.3,
+        }
+        .response(&strain, None)
+        .stress[2];
+        let centre = 494;
+        let stress = e.model().triangles[centre]
+            .reference
+            .to_global(&e.membranes()[centre].stress)[(0, 1)];
+        let mut sorted = iterations.clone();
+        sorted.sort_unstable();
+        let median = (sorted[STEPS / 2 - 1] + sorted[STEPS / 2]) as f64 / 2.0;
+        let wrinkled = e
+            .outputs()
+            .iter()
+            .find(|(n, _)| n == "wrinkled_fraction")
+            .unwrap()
+            .1;
+        println!(
+            "{:>14} {:>7} {:>7} {:>8} {:>10.3} {:>12.2e} {:>9.2}{}",
+            separation * 1e3,
+            median,
+            sorted[STEPS - 1],
+            cut,
+            wrinkled,
+            (stress - reference) / reference,
+            time,
+            if failed > 0 {
+                format!("  ({failed} steps failed)")
+            } else {
+                String::new()
+            }
+        );
+    }
 }
 
 fn lame() {
@@ -43,14 +124,10 @@ fn lame() {
         );
         let mut engine =
             Engine::try_new(Scene::from_json(&text).expect("valid JSON")).expect("valid scene");
-        let vr = |e: &Engine, n: &str| {
-            e.variables()
-                .iter()
-                .find(|v| v.name == n)
-                .unwrap()
-                .value_reference
-        };
-        let (inner, outer) = (vr(&engine, "inner"), vr(&engine, "outer"));
+        let (inner, outer) = (
+            value_reference(&engine, "inner"),
+            value_reference(&engine, "outer"),
+        );
         let t = Instant::now();
         engine.set_real(outer, 1.0).unwrap();
         engine.set_real(inner, -3.0).unwrap();
@@ -149,4 +226,13 @@ fn hencky() {
             per_iter / floor
         );
     }
+}
+
+/// Value reference of a scene variable.
+fn value_reference(e: &Engine, name: &str) -> u32 {
+    e.variables()
+        .iter()
+        .find(|v| v.name == name)
+        .expect("a variable of the scene")
+        .value_reference
 }

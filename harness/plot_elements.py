@@ -48,7 +48,7 @@ def plot(rows: np.ndarray, out: Path, title: str) -> None:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(title)
-    ax.legend(handles=[Patch(color=COLOURS[k], label=NAMES[k]) for k in NAMES], loc="upper right")
+    ax.legend(handles=[Patch(color=COLOURS[k], label=NAMES[k]) for k in NAMES], loc="upper left", bbox_to_anchor=(1.01, 1.0))
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=120, bbox_inches="tight")
     plt.close(fig)

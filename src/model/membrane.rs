@@ -244,9 +244,9 @@ pub fn principal_stresses(s: &Vector3<f64>) -> (f64, f64) {
     (mean + radius, mean - radius)
 }
 
-/// Current area and unit normal of a triangle.
-pub fn current_area_normal(x: &[Vector3<f64>; 3]) -> (f64, Vector3<f64>) {
-    let n = (x[1] - x[0]).cross(&(x[2] - x[0]));
-    let a = n.norm();
-    (0.5 * a, if a > 0.0 { n / a } else { Vector3::zeros() })
+/// Current area over reference area, negative when the triangle has turned over: its current
+/// normal points against its reference normal (an in-plane inversion, or a fold). Tension
+/// structures do not turn single elements over; an iterate that does is rejected.
+pub fn signed_area_ratio(r: &TriangleRef, x: &[Vector3<f64>; 3]) -> f64 {
+    (x[1] - x[0]).cross(&(x[2] - x[0])).dot(&r.normal) / (2.0 * r.area)
 }

@@ -35,6 +35,10 @@ use serde::{Deserialize, Serialize};
 /// Tangent-only stiffness fraction in wrinkled and slack states.
 pub const REGULARIZATION: f64 = 1e-6;
 
+/// Principal strains of at most this size count as the unstrained state (round-off of the
+/// reference geometry is about 1e-16 times coordinate over element size).
+pub const UNSTRAINED: f64 = 1e-12;
+
 /// The state of a membrane point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum WrinkleState {
@@ -106,9 +110,14 @@ impl Law {
     /// The state the mixed criterion assigns to a strain. The unstrained state counts as taut
     /// (its trial minor stress is 0, the taut border), so a stress-free sheet starts with its
     /// full elastic tangent; stresses are continuous across every border, so this choice
-    /// affects only the tangent exactly at E = 0.
+    /// affects only the tangent at E = 0. Principal strains within [`UNSTRAINED`] of zero are
+    /// the round-off of an undeformed element and count as unstrained: otherwise a sheet at
+    /// rest would report random wrinkled and slack elements and start from a random tangent.
     pub fn classify(&self, strain: &Vector3<f64>) -> WrinkleState {
         let (e1, e2, _) = principal(strain);
+        if e1.abs().max(e2.abs()) <= UNSTRAINED {
+            return WrinkleState::Taut;
+        }
         let taut = match *self {
             Law::Svk { nu, .. } => e2 + nu * e1 >= 0.0,
             Law::NeoHookean { .. } => {

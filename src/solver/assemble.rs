@@ -32,7 +32,8 @@ pub struct AssemblyInfo {
     pub potential: f64,
     /// |f_ext|∞ over all DOFs.
     pub external: f64,
-    /// Smallest current/reference area ratio of a membrane triangle (inversion check).
+    /// Smallest signed current/reference area ratio of a membrane triangle (inversion check:
+    /// negative for a triangle turned over against its reference normal).
     pub min_area_ratio: f64,
 }
 
@@ -155,6 +156,20 @@ pub struct Membranes<'a> {
     pub forced: Option<&'a [WrinkleState]>,
     /// Evaluation of every triangle (state, tension angle, stress), if wanted.
     pub out: Option<&'a mut Vec<Evaluation>>,
+    /// Held-DOF coupling: given a displacement change on held DOFs (zero elsewhere), add
+    /// K·change (element tangents, every row) into the second vector. Needs the tangent.
+    pub held_step: Option<(&'a [f64], &'a mut [f64])>,
+}
+
+/// Add K_e·du_e (the element's rows) to `out` for an element with `nodes`.
+fn couple<const N: usize>(k: &SMatrix<f64, N, N>, nodes: &[usize], du: &[f64], out: &mut [f64]) {
+    let dofs = |a: usize| 3 * nodes[a / 3] + a % 3;
+    for b in (0..N).filter(|&b| du[dofs(b)] != 0.0) {
+        let d = du[dofs(b)];
+        for a in 0..N {
+            out[dofs(a)] += k[(a, b)] * d;
+        }
+    }
 }
 
 /// Residual R = f_int − f_ext(loads) on all DOFs at displacement `u`, and, if `k` is given,
@@ -195,7 +210,7 @@ pub fn assemble_with(
     for (e, t) in model.triangles.iter().enumerate() {
         let x = gather(model, u, t.nodes);
         let forced = membranes.forced.map(|f| f[e]);
-        let want_k = k.is_some();
+        let want_k = k.is_some() || membranes.held_step.is_some();
         let (f, eval) = membrane::triangle(
             &t.reference,
             &t.material,
@@ -208,12 +223,15 @@ pub fn assemble_with(
         if let Some(k) = k.as_deref_mut() {
             scatter(&ke, &pattern.tri_map[e], k);
         }
+        if let Some((du, out)) = membranes.held_step.as_mut() {
+            couple(&ke, &t.nodes, du, out);
+        }
         if let Some(out) = membranes.out.as_deref_mut() {
             out.push(eval);
         }
         info.potential += eval.energy;
-        let (area, _) = membrane::current_area_normal(&x);
-        info.min_area_ratio = info.min_area_ratio.min(area / t.reference.area);
+        let ratio = membrane::signed_area_ratio(&t.reference, &x);
+        info.min_area_ratio = info.min_area_ratio.min(ratio);
     }
     for (e, s) in model.segments.iter().enumerate() {
         let x = gather(model, u, s.nodes);
@@ -222,6 +240,9 @@ pub fn assemble_with(
         info.potential += w;
         if let Some(k) = k.as_deref_mut() {
             scatter(&ke, &pattern.seg_map[e], k);
+        }
+        if let Some((du, out)) = membranes.held_step.as_mut() {
+            couple(&ke, &s.nodes, du, out);
         }
     }
     let ns = model.segments.len();
@@ -257,9 +278,15 @@ pub fn assemble_with(
                                 fext[3 * i + c] += f[c];
                             }
                         }
-                        if let Some(k) = k.as_deref_mut() {
+                        if k.is_some() || membranes.held_step.is_some() {
                             let kp = pressure::follower_stiffness(value, &x);
-                            scatter(&((kp + kp.transpose()) * 0.5), &pattern.tri_map[e], k);
+                            let ks = (kp + kp.transpose()) * 0.5;
+                            if let Some(k) = k.as_deref_mut() {
+                                scatter(&ks, &pattern.tri_map[e], k);
+                            }
+                            if let Some((du, out)) = membranes.held_step.as_mut() {
+                                couple(&ks, &t.nodes, du, out);
+                            }
                         }
                     } else {
                         let f = t.reference.normal * (value * t.reference.area / 3.0);

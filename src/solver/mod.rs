@@ -18,6 +18,7 @@
 pub mod assemble;
 pub mod linear;
 mod newton;
+mod relax;
 pub mod sliding;
 
 use crate::model::membrane::Evaluation;
@@ -88,6 +89,8 @@ pub struct Solver {
     evaluations: Vec<Evaluation>,
     /// Wrinkle states frozen against chatter inside the current increment.
     frozen: Option<Vec<WrinkleState>>,
+    /// Elements and loads at each node, for nodal relaxation.
+    adjacency: relax::Adjacency,
 }
 
 impl Solver {
@@ -105,6 +108,7 @@ impl Solver {
             rhs: vec![0.0; pattern.n],
             evaluations: Vec::with_capacity(model.triangles.len()),
             frozen: None,
+            adjacency: relax::Adjacency::new(model),
             pattern,
         }
     }
@@ -133,6 +137,7 @@ impl Solver {
         let membranes = assemble::Membranes {
             forced: None,
             out: Some(&mut out),
+            held_step: None,
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         out
@@ -194,7 +199,7 @@ impl Solver {
                 .map(|(a, b)| a + target * (b - a))
                 .collect();
             let mut trial = converged.clone();
-            prescribe(model, &loads, &mut trial);
+            let predicted = self.predict(model, &loads, &mut trial);
             let mut trial_states = converged_states.clone();
             let result = if model.slips.is_empty() {
                 self.newton(model, &loads, &mut trial, &mut report.log)
@@ -207,6 +212,9 @@ impl Solver {
                     &mut report.log,
                 )
             };
+            let result = result
+                .map(|i| i + predicted)
+                .map_err(|(i, why)| (i + predicted, why));
             match result {
                 Ok(iters) => {
                     report.iterations += iters;
@@ -292,6 +300,60 @@ fn growth(iterations: usize, target: usize, max_iterations: usize) -> f64 {
         1.5
     } else {
         1.0
+    }
+}
+
+impl Solver {
+    /// Start an increment whose prescribed displacements change: one Newton step linearized at
+    /// the converged state `u`, with the prescribed change as a load on the free DOFs,
+    /// K_ff Δu_f = −(R_f + K_fp Δu_p). Moving only the prescribed DOFs would strain a single
+    /// layer of elements and spend the first iterations (and wrinkle-state switches) undoing
+    /// it. Returns the factorizations used (0 when nothing is prescribed to move, or 1);
+    /// `u` leaves with the prescribed values set in any case.
+    fn predict(&mut self, model: &Model, loads: &[f64], u: &mut [f64]) -> usize {
+        let mut du = vec![0.0; u.len()];
+        let mut target = u.to_vec();
+        prescribe(model, loads, &mut target);
+        let mut moved = false;
+        for (d, (a, b)) in u.iter().zip(&target).enumerate() {
+            if a != b {
+                du[d] = b - a;
+                moved = true;
+            }
+        }
+        if !moved {
+            return 0;
+        }
+        let mut coupling = vec![0.0; u.len()];
+        let membranes = assemble::Membranes {
+            forced: None,
+            out: None,
+            held_step: Some((&du, &mut coupling)),
+        };
+        assemble::assemble_with(
+            model,
+            &self.pattern,
+            u,
+            loads,
+            &mut self.residual,
+            Some(self.linear.values_mut()),
+            membranes,
+        );
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != assemble::NONE {
+                self.rhs[e] = -(self.residual[d] + coupling[d]);
+            }
+        }
+        let solved = self.linear.factor_solve(&mut self.rhs).is_ok();
+        u.copy_from_slice(&target);
+        if solved {
+            for (d, &e) in self.pattern.eq.iter().enumerate() {
+                if e != assemble::NONE {
+                    u[d] += self.rhs[e];
+                }
+            }
+        }
+        1
     }
 }
 

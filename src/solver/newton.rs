@@ -1,6 +1,16 @@
-//! Newton iterations of one load increment, with the slope line search.
+//! Newton iterations of one load increment: line search, wrinkle-state freezing against
+//! chatter, and nodal relaxation when the global iteration stalls.
+//!
+//! ```text
+//! iterate:  assemble R, K at u (states from the mixed criterion, or frozen)
+//!           converged when |R_free|∞ <= tol · max(|f_ext|∞, |reactions|∞) + round-off floor
+//!           stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
+//!               relax the nodes carrying >= 1/10 of |R|∞ (super::relax), reassemble
+//!           K Δu = −R;  u ← u + α Δu (α from the line search)
+//! ```
 
-use super::assemble::{assemble_with, Membranes, NONE};
+use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
+use super::relax::relax_nodes;
 use super::{push_log, Solver};
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
@@ -15,6 +25,23 @@ const MIN_AREA_RATIO: f64 = 1e-6;
 /// Line search: accept α when |s(α)| <= LS_RATIO · |s(0)|.
 const LS_RATIO: f64 = 0.5;
 const LS_MAX_TRIES: usize = 8;
+/// Nodes whose residual is at least this share of the largest are relaxed when Newton stalls.
+const RELAX_SHARE: f64 = 0.1;
+/// Relaxation is for local trouble: not when more than this share of the nodes qualify.
+const RELAX_MAX_SHARE: f64 = 0.1;
+/// Gauss-Seidel sweeps over the nodes to relax.
+const RELAX_SWEEPS: usize = 3;
+
+/// Newton has stalled when, past its first two iterations, the last step was shortened or the
+/// residual fell by less than a factor 4 (quadratic convergence falls much faster).
+fn stalled(it: usize, free: f64, last_free: f64, last_alpha: f64) -> bool {
+    it >= 2 && (last_alpha < 1.0 || free > 0.25 * last_free)
+}
+
+/// Non-monotone line search (Grippo, Lampariello & Lucidi 1986): a step must bring the
+/// potential below the largest of the last NONMONOTONE_MEMORY iterates' potentials, not
+/// necessarily below the current one, so narrow curved valleys do not force tiny steps.
+const NONMONOTONE_MEMORY: usize = 5;
 /// Armijo sufficient-decrease fraction.
 const ARMIJO: f64 = 1e-4;
 
@@ -32,20 +59,10 @@ impl Solver {
         self.frozen = None;
         let (mut previous, mut freeze_at, mut unfreezes) =
             (Vec::<WrinkleState>::new(), FREEZE_AFTER, 0);
+        let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
+        let mut recent = std::collections::VecDeque::with_capacity(NONMONOTONE_MEMORY + 1);
         for it in 0..=self.settings.max_iterations {
-            let membranes = Membranes {
-                forced: self.frozen.as_deref(),
-                out: Some(&mut self.evaluations),
-            };
-            let info = assemble_with(
-                model,
-                &self.pattern,
-                u,
-                loads,
-                &mut self.residual,
-                Some(self.linear.values_mut()),
-                membranes,
-            );
+            let mut info = self.assemble_at(model, loads, u);
             let states: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
             if self.frozen.is_none() && it >= freeze_at && states != previous {
                 let changed = states.iter().zip(&previous).filter(|(a, b)| a != b).count();
@@ -62,19 +79,20 @@ impl Solver {
                     ),
                 ));
             }
-            let (free, held) = self.norms();
+            let (mut free, held) = self.norms();
             if !free.is_finite() {
                 return Err((it, "the residual is not finite".into()));
             }
             let scale = info.external.max(held);
-            if free <= self.settings.tolerance * scale + floor {
+            let tolerance = self.settings.tolerance * scale + floor;
+            if free <= tolerance {
                 if let Some(frozen) = self.frozen.take() {
                     // Re-check at this point with the states the criterion gives. Elements whose
                     // frozen state was wrong but sit on a state border (stress continuous there)
                     // change the residual by almost nothing: the point is an equilibrium of the
                     // true law when the natural residual also meets the tolerance.
                     let (natural, natural_free) = self.natural_states(model, loads, u);
-                    if natural != frozen && natural_free > self.settings.tolerance * scale + floor {
+                    if natural != frozen && natural_free > tolerance {
                         unfreezes += 1;
                         if unfreezes > MAX_UNFREEZE {
                             return Err((it, "wrinkle states keep changing (chatter)".into()));
@@ -94,6 +112,19 @@ impl Solver {
                 );
                 return Ok(it);
             }
+            if stalled(it, free, last_free, last_alpha) {
+                let moved = self.relax(model, loads, u, free, 0.1 * tolerance);
+                if moved > 0 {
+                    info = self.assemble_at(model, loads, u);
+                    let before = free;
+                    free = self.norms().0;
+                    push_log(
+                        log,
+                        format!("  stalled: relaxed {moved} nodes, |R| {before:.3e} -> {free:.3e}"),
+                    );
+                }
+            }
+            last_free = free;
             if it == self.settings.max_iterations {
                 return Err((
                     it,
@@ -111,10 +142,16 @@ impl Solver {
                 .factor_solve(&mut self.rhs)
                 .map_err(|why| (it + 1, why))?;
             let alpha = if self.settings.line_search {
-                self.line_search(model, loads, u, info.potential)
+                recent.push_back(info.potential);
+                if recent.len() > NONMONOTONE_MEMORY {
+                    recent.pop_front();
+                }
+                let reference = recent.iter().fold(f64::NEG_INFINITY, |m, &p| m.max(p));
+                self.line_search(model, loads, u, info.potential, reference)
             } else {
                 1.0
             };
+            last_alpha = alpha;
             self.update(u, alpha);
             push_log(
                 log,
@@ -132,6 +169,63 @@ impl Solver {
         ))
     }
 
+    /// Residual, tangent and evaluations at `u` (frozen wrinkle states if any).
+    fn assemble_at(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> AssemblyInfo {
+        let membranes = Membranes {
+            forced: self.frozen.as_deref(),
+            out: Some(&mut self.evaluations),
+            held_step: None,
+        };
+        assemble_with(
+            model,
+            &self.pattern,
+            u,
+            loads,
+            &mut self.residual,
+            Some(self.linear.values_mut()),
+            membranes,
+        )
+    }
+
+    /// Relax, one at a time with all others held, the nodes with a free DOF whose residual is
+    /// at least RELAX_SHARE · |R|∞ (`free`), to `target`, when they are few (at most
+    /// RELAX_MAX_SHARE of the nodes); returns how many moved.
+    fn relax(
+        &mut self,
+        model: &Model,
+        loads: &[f64],
+        u: &mut [f64],
+        free: f64,
+        target: f64,
+    ) -> usize {
+        let nodes: Vec<usize> = (0..model.reference.len())
+            .filter(|&i| {
+                (0..3).any(|c| {
+                    let d = 3 * i + c;
+                    self.pattern.eq[d] != NONE && self.residual[d].abs() >= RELAX_SHARE * free
+                })
+            })
+            .collect();
+        if nodes.len() as f64 > RELAX_MAX_SHARE * model.reference.len() as f64 {
+            // The residual is spread over the mesh: a global, not a local, difficulty.
+            return 0;
+        }
+        let forced = self.frozen.as_deref();
+        let mut moved = 0;
+        for _ in 0..RELAX_SWEEPS {
+            moved = moved.max(relax_nodes(
+                model,
+                &self.adjacency,
+                u,
+                loads,
+                &nodes,
+                forced,
+                target,
+            ));
+        }
+        moved
+    }
+
     /// Wrinkle states the mixed criterion gives at `u` (no freezing), and |R|∞ over the free
     /// DOFs with those states.
     fn natural_states(
@@ -144,6 +238,7 @@ impl Solver {
         let membranes = Membranes {
             forced: None,
             out: Some(&mut self.evaluations),
+            held_step: None,
         };
         assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         let free = self
@@ -192,6 +287,7 @@ impl Solver {
         let membranes = Membranes {
             forced: self.frozen.as_deref(),
             out: None,
+            held_step: None,
         };
         let info = assemble_with(
             model,
@@ -225,7 +321,14 @@ impl Solver {
     /// slope (the relaxed membrane energy is C¹, so this is robust across state switches).
     /// Otherwise: 1 unless the slope at the full step is worse than half the initial one, then
     /// regula falsi on s(α) between 0 and the last overshooting α.
-    fn line_search(&mut self, model: &Model, loads: &[f64], u: &[f64], potential: f64) -> f64 {
+    fn line_search(
+        &mut self,
+        model: &Model,
+        loads: &[f64],
+        u: &[f64],
+        potential: f64,
+        reference: f64,
+    ) -> f64 {
         // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
         let s0 = self.direction_dot_residual();
         if !(s0 < 0.0) {
@@ -235,7 +338,7 @@ impl Solver {
         // times that, the slope (computed from forces) is the sharper measure.
         let noise = 1e-13 * potential.abs().max(f64::MIN_POSITIVE);
         if model.is_conservative() && -s0 > 1e3 * noise {
-            return self.armijo(model, loads, u, potential, s0);
+            return self.armijo(model, loads, u, (potential, reference), s0);
         }
         let mut alpha = 1.0;
         for _ in 0..LS_MAX_TRIES {
@@ -255,7 +358,14 @@ impl Solver {
     }
 
     /// Armijo backtracking on the potential Π with quadratic interpolation.
-    fn armijo(&mut self, model: &Model, loads: &[f64], u: &[f64], p0: f64, s0: f64) -> f64 {
+    fn armijo(
+        &mut self,
+        model: &Model,
+        loads: &[f64],
+        u: &[f64],
+        (p0, reference): (f64, f64),
+        s0: f64,
+    ) -> f64 {
         let noise = 1e-13 * p0.abs().max(f64::MIN_POSITIVE);
         let mut alpha = 1.0;
         for _ in 0..LS_MAX_TRIES {
@@ -265,7 +375,7 @@ impl Solver {
                 continue;
             }
             let drop = p - p0;
-            if drop <= ARMIJO * alpha * s0 + noise {
+            if p - reference <= ARMIJO * alpha * s0 + noise {
                 return alpha;
             }
             // Minimum of the parabola through Π(0), Π'(0) = s0 and Π(α).

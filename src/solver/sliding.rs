@@ -73,6 +73,7 @@ impl Solver {
             let membranes = Membranes {
                 forced: self.frozen.as_deref(),
                 out: Some(&mut self.evaluations),
+                held_step: None,
             };
             let info = assemble_with(
                 model,
@@ -129,6 +130,7 @@ impl Solver {
                     let membranes = Membranes {
                         forced: None,
                         out: Some(&mut self.evaluations),
+                        held_step: None,
                     };
                     assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
                     let natural_free = self
@@ -229,6 +231,7 @@ impl Solver {
                 Membranes {
                     forced: self.frozen.as_deref(),
                     out: None,
+                    held_step: None,
                 },
             );
             let (free, _) = self.free_held_norms();

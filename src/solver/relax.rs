@@ -1,0 +1,256 @@
+//! Nodal relaxation: equilibrate single nodes with all other nodes held.
+//!
+//! ```text
+//! for a node i:  Π_i(x_i) = Σ_{e ∋ i} W_e − f_dead·u_i      (its elements' energy and its loads)
+//!                r_i = ∂Π_i/∂x_i (the node's rows of R),  K_ii (its 3x3 diagonal block of K)
+//!                damped Newton on the free components: Δ = −K_ii⁻¹ r_i, Armijo on Π_i
+//! ```
+//! Used by Newton when the global step stalls: a node held only by nearly stress-free wrinkled
+//! or slack triangles (free-edge corners of a sheared sheet) sits on a near-mechanism whose
+//! tangent is valid only over strain changes of the size of its tiny strains, so every global
+//! step overshoots there and the line search then shortens the step everywhere. Solving those
+//! few nodes locally (nonlinear Gauss-Seidel, a nonlinear elimination of the bad unknowns) costs
+//! assemblies of a handful of elements, no factorization, and never raises the potential.
+//! The equilibrium sought is unchanged: only the path to it.
+//!
+//! # References
+//! Cai & Li 2011, *Inexact Newton methods with restricted additive Schwarz based nonlinear
+//! elimination*, SIAM J. Sci. Comput. 33:746-762; Brandt 1977 (nonlinear Gauss-Seidel
+//! smoothing); MECHANICS.md §1.4 (slack and wrinkled near-mechanisms).
+
+use crate::model::membrane::{self, Mat9};
+use crate::model::wrinkling::WrinkleState;
+use crate::model::{cable, pressure, LoadModel, Model};
+use nalgebra::{Matrix3, Vector3};
+
+/// What touches a node: (triangle, local index) and (segment, local index).
+#[derive(Clone, Debug, Default)]
+pub struct Adjacency {
+    triangles: Vec<Vec<(usize, usize)>>,
+    segments: Vec<Vec<(usize, usize)>>,
+    /// Per triangle: (load index, follower) of the pressures acting on it.
+    pressures: Vec<Vec<(usize, bool)>>,
+    /// Per node: (load index, component, force per unit load value).
+    forces: Vec<Vec<(usize, usize, f64)>>,
+}
+
+/// Smallest signed area ratio a local step may leave a triangle with (as Newton's guard).
+const MIN_AREA_RATIO: f64 = 1e-6;
+/// Local Newton steps per node and sweep.
+const LOCAL_ITERATIONS: usize = 20;
+/// Backtracking halvings of one local step.
+const LOCAL_HALVINGS: usize = 30;
+
+impl Adjacency {
+    pub fn new(model: &Model) -> Adjacency {
+        let n = model.reference.len();
+        let mut a = Adjacency {
+            triangles: vec![Vec::new(); n],
+            segments: vec![Vec::new(); n],
+            pressures: vec![Vec::new(); model.triangles.len()],
+            forces: vec![Vec::new(); n],
+        };
+        for (e, t) in model.triangles.iter().enumerate() {
+            for (k, &i) in t.nodes.iter().enumerate() {
+                a.triangles[i].push((e, k));
+            }
+        }
+        for (e, s) in model.segments.iter().enumerate() {
+            for (k, &i) in s.nodes.iter().enumerate() {
+                a.segments[i].push((e, k));
+            }
+        }
+        for (l, load) in model.loads.iter().enumerate() {
+            match load {
+                LoadModel::Pressure {
+                    triangles,
+                    follower,
+                } => {
+                    for &e in triangles {
+                        a.pressures[e].push((l, *follower));
+                    }
+                }
+                LoadModel::PointForce(dofs) => {
+                    for &(d, f) in dofs {
+                        a.forces[d / 3].push((l, d % 3, f));
+                    }
+                }
+                LoadModel::Displacement(_) => {}
+            }
+        }
+        a
+    }
+}
+
+/// One node's residual rows, diagonal tangent block and local potential (None with follower
+/// pressure, which has no potential).
+struct Local {
+    r: Vector3<f64>,
+    k: Matrix3<f64>,
+    potential: Option<f64>,
+    inverted: bool,
+}
+
+fn local(
+    model: &Model,
+    adj: &Adjacency,
+    u: &[f64],
+    loads: &[f64],
+    node: usize,
+    forced: Option<&[WrinkleState]>,
+) -> Local {
+    let mut out = Local {
+        r: Vector3::zeros(),
+        k: Matrix3::zeros(),
+        potential: Some(0.0),
+        inverted: false,
+    };
+    let mut ke = Mat9::zeros();
+    for &(e, a) in &adj.triangles[node] {
+        let t = &model.triangles[e];
+        let x = t.nodes.map(|i| model.position(u, i));
+        let state = forced.map(|f| f[e]);
+        let (f, eval) = membrane::triangle(
+            &t.reference,
+            &t.material,
+            t.prestress,
+            &x,
+            state,
+            Some(&mut ke),
+        );
+        out.r += f.fixed_rows::<3>(3 * a);
+        out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
+        out.potential = out.potential.map(|p| p + eval.energy);
+        out.inverted |= !(membrane::signed_area_ratio(&t.reference, &x) > MIN_AREA_RATIO);
+        for &(l, follower) in &adj.pressures[e] {
+            if follower {
+                out.r -= pressure::follower_force(loads[l], &x);
+                let kp = pressure::follower_stiffness(loads[l], &x);
+                let ks = (kp + kp.transpose()) * 0.5;
+                out.k += ks.fixed_view::<3, 3>(3 * a, 3 * a);
+                out.potential = None;
+            } else {
+                let f = t.reference.normal * (loads[l] * t.reference.area / 3.0);
+                out.r -= f;
+                out.potential = out.potential.map(|p| p - f.dot(&displacement(u, node)));
+            }
+        }
+    }
+    for &(e, a) in &adj.segments[node] {
+        let s = &model.segments[e];
+        let (x0, x1) = (model.position(u, s.nodes[0]), model.position(u, s.nodes[1]));
+        let (f, k, w) = cable::segment(s.law, s.ea, s.l0, &x0, &x1);
+        out.r += f.fixed_rows::<3>(3 * a);
+        out.k += k.fixed_view::<3, 3>(3 * a, 3 * a);
+        out.potential = out.potential.map(|p| p + w);
+    }
+    for &(l, c, f) in &adj.forces[node] {
+        out.r[c] -= f * loads[l];
+        out.potential = out.potential.map(|p| p - f * loads[l] * u[3 * node + c]);
+    }
+    out
+}
+
+fn displacement(u: &[f64], node: usize) -> Vector3<f64> {
+    Vector3::new(u[3 * node], u[3 * node + 1], u[3 * node + 2])
+}
+
+/// Relax each node of `nodes` in turn (free components only, `held` per DOF). Returns the
+/// number of nodes that moved.
+pub fn relax_nodes(
+    model: &Model,
+    adj: &Adjacency,
+    u: &mut [f64],
+    loads: &[f64],
+    nodes: &[usize],
+    forced: Option<&[WrinkleState]>,
+    target: f64,
+) -> usize {
+    let mut moved = 0;
+    for &node in nodes {
+        let free: Vec<usize> = (0..3).filter(|&c| !model.held[3 * node + c]).collect();
+        if free.is_empty() {
+            continue;
+        }
+        let mut changed = false;
+        for _ in 0..LOCAL_ITERATIONS {
+            let here = local(model, adj, u, loads, node, forced);
+            let norm = free.iter().fold(0.0f64, |m, &c| m.max(here.r[c].abs()));
+            if norm <= target {
+                break;
+            }
+            let Some(step) = newton_step(&here, &free) else {
+                break;
+            };
+            if !line_search(model, adj, u, loads, node, forced, &here, &step, norm) {
+                break;
+            }
+            changed = true;
+        }
+        moved += changed as usize;
+    }
+    moved
+}
+
+/// Δ = −K⁻¹ r on the free components (a tiny diagonal shift keeps a singular block solvable).
+fn newton_step(here: &Local, free: &[usize]) -> Option<Vector3<f64>> {
+    let mut k = Matrix3::identity();
+    let mut r = Vector3::zeros();
+    for &a in free {
+        r[a] = here.r[a];
+        for &b in free {
+            k[(a, b)] = here.k[(a, b)];
+        }
+    }
+    let shift = 1e-12
+        * free
+            .iter()
+            .map(|&c| here.k[(c, c)].abs())
+            .fold(0.0, f64::max);
+    for &a in free {
+        k[(a, a)] += shift;
+    }
+    let step = -(k.try_inverse()? * r);
+    step.iter().all(|v| v.is_finite()).then_some(step)
+}
+
+/// Backtrack along `step` until the local potential drops (Armijo) or, without a potential,
+/// the local residual shrinks. Leaves `u` at the accepted point; false if none was found.
+#[allow(clippy::too_many_arguments)]
+fn line_search(
+    model: &Model,
+    adj: &Adjacency,
+    u: &mut [f64],
+    loads: &[f64],
+    node: usize,
+    forced: Option<&[WrinkleState]>,
+    here: &Local,
+    step: &Vector3<f64>,
+    norm: f64,
+) -> bool {
+    let start = displacement(u, node);
+    let slope = here.r.dot(step);
+    let mut alpha = 1.0;
+    for _ in 0..LOCAL_HALVINGS {
+        for c in 0..3 {
+            u[3 * node + c] = start[c] + alpha * step[c];
+        }
+        let trial = local(model, adj, u, loads, node, forced);
+        let ok = !trial.inverted
+            && match (here.potential, trial.potential) {
+                // Below its round-off the potential cannot rank the points: the residual does.
+                (Some(p0), Some(p1)) if (p1 - p0).abs() > 1e-13 * p0.abs() => {
+                    p1 - p0 <= 1e-4 * alpha * slope
+                }
+                _ => trial.r.amax() < norm,
+            };
+        if ok {
+            return true;
+        }
+        alpha *= 0.5;
+    }
+    for c in 0..3 {
+        u[3 * node + c] = start[c];
+    }
+    false
+}
