@@ -2,9 +2,14 @@
 
 1. Pack every shipped scene (modelDescription/<Name>/scene.json) into build/fmus/<Name>.fmu
    with target/release/velarium.
-2. Run a load history of LiftedMembrane through fmpy: each input ramped from its start value
-   to its max (10x start, or 1.0, when it declares no max) over the default experiment.
-3. Print the table (time, loads, outputs) and write build/plots/LiftedMembrane.png.
+2. Default (SleeveCable, the seed paper's Table 1): calibrate the rubber's shear modulus and
+   the sleeve friction to Table 1 through the FMU (harness/calibrate_sleeve.py), print our
+   numbers beside the experiment and write build/plots/SleeveCable_table1.png and
+   SleeveCable_deformed.png (harness/sleeve_table.py).
+3. With --model NAME (another shipped scene): run a load history through fmpy, each input
+   ramped from its start value to its max (10x start, or 1.0, when it declares no max) over
+   the default experiment; print the table (time, loads, outputs) and write
+   build/plots/<NAME>.png.
 
 fmpy sets u(t_k) before DoStep(t_k, h) and records after it, so the row at t_{k+1} is the
 equilibrium under u(t_k). The table prints the load each row's equilibrium carries.
@@ -89,7 +94,7 @@ def plot(rows: np.ndarray, table: np.ndarray, md, path: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--model", default="LiftedMembrane", help="which packed scene to run (default: %(default)s)")
+    parser.add_argument("--model", default="SleeveCable", help="which packed scene to run (default: %(default)s)")
     parser.add_argument("--velarium", type=Path, default=vr.VELARIUM, help="the velarium binary")
     args = parser.parse_args()
     if not args.velarium.is_file():
@@ -99,6 +104,13 @@ def main() -> None:
     fmu = next((f for f in fmus if f.stem == args.model), None)
     if fmu is None:
         sys.exit(f"no shipped scene is named {args.model}: {[f.stem for f in fmus]}")
+    if args.model == "SleeveCable":
+        import calibrate_sleeve
+        import sleeve_table
+
+        calibrate_sleeve.main()
+        sleeve_table.main([])
+        return
     md = fmpy.read_model_description(str(fmu))
     start, stop = vr.experiment(md)
     steps = round((stop - start) / float(md.defaultExperiment.stepSize))

@@ -25,8 +25,12 @@ use serde::{Deserialize, Serialize};
 /// Everything needed to continue a run: plain data, `Clone + Serialize`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EngineState {
-    /// Displacement of every DOF (3 per node), m.
+    /// Displacement of every DOF (3 per node, sleeve points included), then the slip of every
+    /// sleeve point (material coordinate change, m): `Model::unknown_count` values.
     pub displacement: Vec<f64>,
+    /// Stick/slip state of every sleeve point at the last converged increment
+    /// (0 stick, 1 slip toward the cable's end, 2 toward its start).
+    pub slip_state: Vec<u8>,
     /// Input values of the committed equilibrium (what the structure carries now).
     pub applied: Vec<f64>,
     /// Input values as last set (applied at the next solve).
@@ -194,11 +198,12 @@ impl Engine {
         if self.model_stale {
             self.rebuild();
         }
-        let report = self.solver.solve_step(
+        let report = self.solver.solve_step_with(
             &self.model,
             &self.state.applied,
             &self.state.inputs,
             &mut self.state.displacement,
+            &mut self.state.slip_state,
         );
         if report.converged() {
             self.state.applied = self.state.inputs.clone();
@@ -217,6 +222,7 @@ impl Engine {
     pub fn set_state(&mut self, state: EngineState) -> Result<(), Error> {
         let s = &self.state;
         if state.displacement.len() != s.displacement.len()
+            || state.slip_state.len() != s.slip_state.len()
             || state.applied.len() != s.applied.len()
             || state.inputs.len() != s.inputs.len()
             || state.parameters.len() != s.parameters.len()
@@ -296,6 +302,7 @@ impl Engine {
             &s.applied,
             s.last_iterations,
             &membranes,
+            &s.slip_state,
         );
         self.state.wrinkle = membranes
             .iter()
@@ -348,7 +355,8 @@ fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> EngineState
     let parameters = start(|b| matches!(b, Binding::Parameter(_)));
     debug_assert_eq!(inputs.len(), scene.inputs.len());
     EngineState {
-        displacement: vec![0.0; model.dof_count()],
+        displacement: vec![0.0; model.unknown_count()],
+        slip_state: vec![0; model.slips.len()],
         applied: vec![0.0; inputs.len()],
         inputs,
         parameters,

@@ -228,13 +228,11 @@ fn cmd_check(args: &Args) -> Result<ExitCode, Stop> {
         (scene.outputs.len(), "output"),
         (scene.parameters.len(), "parameter"),
     ];
-    let free = Engine::try_new(scene.clone())
-        .map_err(|e| Stop::Failed(format!("{path}: {e}")))?
-        .model()
-        .held
-        .iter()
-        .filter(|held| !**held)
-        .count();
+    let engine =
+        Engine::try_new(scene.clone()).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
+    let model = engine.model();
+    // Free displacement DOFs plus one slip per sleeve point.
+    let free = model.held.iter().filter(|held| !**held).count() + model.slips.len();
     let mut line = format!(
         "ok: {}, {}, {}",
         scene.name,

@@ -3,7 +3,11 @@
 //! ```text
 //! displacement   u[dof]                       m
 //! position       X[dof] + u[dof]              m
-//! cable length   Σ |x_b − x_a| over segments  m
+//! cable length   Σ |x_b − x_a| over the segments of the cable or span      m
+//! cable slip     −s_j: unstretched cable that passed the sleeve point toward the cable's end  m
+//! contact force  |k_c (x_c − x_m)| of a sleeve tie (largest over the listed ones)  N
+//! contact gap    largest |x_c − x_m| / min(l_a, l_b) over the sleeve (penetration check)
+//! slip count     sleeve points in the stick or slip state
 //! cable tension  T of a segment, or the largest     N
 //! reaction       Σ R[dof] over held DOFs of the set, R = f_int − f_ext: the force the supports
 //!                and prescribed displacements exert on the structure        N
@@ -12,7 +16,7 @@
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
-use crate::model::{cable, Model, ProbeModel};
+use crate::model::{cable, sleeve, Model, ProbeModel};
 use crate::solver::Solver;
 
 /// Every output of the model, in probe order. `u` displacement, `applied` input values it
@@ -24,6 +28,7 @@ pub fn evaluate(
     applied: &[f64],
     iterations: u32,
     membranes: &[Evaluation],
+    slip_states: &[u8],
 ) -> Vec<f64> {
     let needs_reactions = model
         .probes
@@ -54,7 +59,29 @@ pub fn evaluate(
         .map(|p| match p {
             ProbeModel::Displacement { dof } => u[*dof],
             ProbeModel::Position { dof, reference } => reference + u[*dof],
-            ProbeModel::CableLength { cable } => segment_lengths(model, u, *cable).iter().sum(),
+            ProbeModel::CableLength { segments } => {
+                segments.clone().map(|e| segment_length(model, u, e)).sum()
+            }
+            ProbeModel::CableSlip { slip } => 0.0 - u[model.dof_count() + slip],
+            ProbeModel::ContactForce { slips } => slips
+                .iter()
+                .map(|&j| tie_gap(model, u, j) * model.ties[model.slips[j].tie].k)
+                .fold(0.0, f64::max),
+            ProbeModel::ContactGap { slips } => slips
+                .iter()
+                .map(|&j| {
+                    let [a, b] = model.slips[j].segments;
+                    tie_gap(model, u, j)
+                        / segment_length(model, u, a).min(segment_length(model, u, b))
+                })
+                .fold(0.0, f64::max),
+            ProbeModel::SlipCount { slips, slipping } => slips
+                .iter()
+                .filter(|&&j| {
+                    let state = slip_states.get(j).copied().unwrap_or(sleeve::STICK);
+                    (state != sleeve::STICK) == *slipping
+                })
+                .count() as f64,
             ProbeModel::CableTension { cable, segment } => {
                 let tensions = segment_tensions(model, u, *cable);
                 match segment {
@@ -81,14 +108,22 @@ pub fn evaluate(
         .collect()
 }
 
+fn segment_length(model: &Model, u: &[f64], e: usize) -> f64 {
+    let [a, b] = model.segments[e].nodes;
+    (model.position(u, b) - model.position(u, a)).norm()
+}
+
+/// |x_c − x_m| of the tie of sleeve point `j`.
+fn tie_gap(model: &Model, u: &[f64], j: usize) -> f64 {
+    let [c, m] = model.ties[model.slips[j].tie].nodes;
+    (model.position(u, c) - model.position(u, m)).norm()
+}
+
 fn segment_lengths(model: &Model, u: &[f64], cable: usize) -> Vec<f64> {
     model.cables[cable]
         .segments
         .clone()
-        .map(|s| {
-            let [a, b] = model.segments[s].nodes;
-            (model.position(u, b) - model.position(u, a)).norm()
-        })
+        .map(|e| segment_length(model, u, e))
         .collect()
 }
 
@@ -101,7 +136,7 @@ pub fn segment_tensions(model: &Model, u: &[f64], cable: usize) -> Vec<f64> {
         .zip(lengths)
         .map(|(s, l)| {
             let seg = &model.segments[s];
-            cable::tension(seg.law, seg.ea, seg.l0, l).0
+            cable::tension(seg.law, seg.ea, model.segment_l0(u, s), l).0
         })
         .collect()
 }

@@ -111,19 +111,21 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
     }
     for (i, out) in scene.outputs.iter().enumerate() {
         let (var_type, variability, unit) = match out.probe {
-            Probe::NewtonIterations | Probe::ElementState { .. } => {
+            Probe::NewtonIterations | Probe::ElementState { .. } | Probe::SlipCount { .. } => {
                 (VarType::Integer, Variability::Discrete, None)
             }
-            Probe::WrinkledFraction { .. } | Probe::SlackFraction { .. } => {
-                (VarType::Real, Variability::Continuous, None)
-            }
+            Probe::WrinkledFraction { .. }
+            | Probe::SlackFraction { .. }
+            | Probe::ContactGap { .. } => (VarType::Real, Variability::Continuous, None),
             Probe::MaxPrincipalStress { .. } | Probe::MinPrincipalStress { .. } => {
                 (VarType::Real, Variability::Continuous, Some("Pa"))
             }
-            Probe::Displacement { .. } | Probe::Position { .. } | Probe::CableLength { .. } => {
-                (VarType::Real, Variability::Continuous, Some("m"))
-            }
-            Probe::CableTension { .. } | Probe::Reaction { .. } => {
+            Probe::Displacement { .. }
+            | Probe::Position { .. }
+            | Probe::CableLength { .. }
+            | Probe::CableSlip { .. }
+            | Probe::CableEndSlip { .. } => (VarType::Real, Variability::Continuous, Some("m")),
+            Probe::CableTension { .. } | Probe::Reaction { .. } | Probe::ContactForce { .. } => {
                 (VarType::Real, Variability::Continuous, Some("N"))
             }
         };
@@ -146,6 +148,9 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
 
 /// The unit of a parameter target, or None for a dimensionless one (nu) or an unknown target.
 pub fn parameter_unit(target: &str) -> Option<&'static str> {
+    if target.starts_with("cables.") && target.ends_with(".mu") {
+        return None; // a friction coefficient
+    }
     match target.rsplit('.').next() {
         Some("E") | Some("mu") | Some("artificial_prestress") => Some("Pa"),
         Some("thickness") => Some("m"),
@@ -192,6 +197,7 @@ pub fn parameter_value(scene: &Scene, target: &str) -> Option<f64> {
             match field {
                 "EA" => Some(c.ea),
                 "pretension" => Some(c.pretension.unwrap_or(0.0)),
+                "mu" => c.sleeve.as_ref().map(|s| s.mu),
                 _ => None,
             }
         }
@@ -229,6 +235,10 @@ pub fn set_parameter_value(scene: &mut Scene, target: &str, value: f64) -> bool 
             };
             match field {
                 "EA" => c.ea = value,
+                "mu" => match c.sleeve.as_mut() {
+                    Some(sleeve) => sleeve.mu = value,
+                    None => return false,
+                },
                 "pretension" => {
                     c.pretension = Some(value);
                     c.unstretched_length = None;

@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 /// First bytes of every serialized state.
 pub const STATE_MAGIC: &[u8; 8] = b"VLRMSTAT";
 /// Version of the byte layout and payload; bumped on any change to either.
-pub const STATE_FORMAT_VERSION: u32 = 1;
+pub const STATE_FORMAT_VERSION: u32 = 2;
 
 /// Everything needed to continue a run from the moment it was taken.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

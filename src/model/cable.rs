@@ -47,6 +47,18 @@ pub fn tension(law: Law, ea: f64, l0: f64, l: f64) -> (f64, f64) {
     }
 }
 
+/// Derivative dT/dL0 of the tension with respect to the unstretched length at current length
+/// `l` (0 when slack): engineering −EA l/L0², Green-Lagrange −EA l (3 l² − L0²)/(2 L0⁴).
+pub fn tension_dl0(law: Law, ea: f64, l0: f64, l: f64) -> f64 {
+    if l <= l0 {
+        return 0.0;
+    }
+    match law {
+        Law::Engineering => -ea * l / (l0 * l0),
+        Law::GreenLagrange => -ea * l * (3.0 * l * l - l0 * l0) / (2.0 * l0.powi(4)),
+    }
+}
+
 /// Unstretched length that gives tension `t0` at length `l`.
 pub fn unstretched_length(law: Law, ea: f64, l: f64, t0: f64) -> f64 {
     match law {

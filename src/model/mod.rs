@@ -7,6 +7,9 @@
 //!              element uses (it has no stiffness)
 //! triangles    membrane CST elements with reference data, material, artificial prestress
 //! segments     cable segments with unstretched length
+//! slips        sleeve points: one slip unknown each, stored after the 3 N displacements
+//!              (u[3 N + j]); each sleeve point is its own node, tied to its sleeve node
+//! ties         penalty springs between a cable's sleeve point and its sleeve node
 //! loads        one per input: force per unit value, pressure triangles, prescribed DOFs
 //! probes       one per output, with node ids and DOFs resolved
 //! ```
@@ -15,11 +18,13 @@
 pub mod cable;
 pub mod membrane;
 pub mod pressure;
+pub mod sleeve;
 pub mod wrinkling;
 
 use crate::scene::generate::{resolve, Mesh};
 use crate::scene::{
-    Load, Material, NodeRef, OneNode, Probe, Scene, StrainLaw, TriangleRef as TriSel,
+    CableEnd, Load, Material, NodeRef, OneNode, Probe, Scene, SlipState, StrainLaw,
+    TriangleRef as TriSel,
 };
 use nalgebra::Vector3;
 
@@ -44,6 +49,9 @@ pub struct Segment {
     pub l0: f64,
     pub ea: f64,
     pub law: cable::Law,
+    /// Slip unknowns (indices into `Model::slips`) at the start and end point: the unstretched
+    /// length is `l0 + s_end − s_start` (material flows through sleeve points).
+    pub slip: [Option<usize>; 2],
 }
 
 #[derive(Clone, Debug)]
@@ -51,6 +59,10 @@ pub struct CableInfo {
     pub name: String,
     /// Indices into `Model::segments`, in order along the cable.
     pub segments: std::ops::Range<usize>,
+    /// Mesh node id of every cable point, in order (sleeve points: the sleeve node).
+    pub mesh_nodes: Vec<usize>,
+    /// Indices into `Model::slips` of this cable's sleeve points, in order.
+    pub slips: Vec<usize>,
 }
 
 /// What one input does, per unit of its value.
@@ -77,8 +89,24 @@ pub enum ProbeModel {
         dof: usize,
         reference: f64,
     },
+    /// Length of the segments `segments` (indices into `Model::segments`).
     CableLength {
-        cable: usize,
+        segments: std::ops::Range<usize>,
+    },
+    /// Slip at a sleeve point (index into `Model::slips`).
+    CableSlip {
+        slip: usize,
+    },
+    /// Tie force at a sleeve point, or the largest over a cable's sleeve points.
+    ContactForce {
+        slips: Vec<usize>,
+    },
+    ContactGap {
+        slips: Vec<usize>,
+    },
+    SlipCount {
+        slips: Vec<usize>,
+        slipping: bool,
     },
     CableTension {
         cable: usize,
@@ -103,6 +131,8 @@ pub struct Model {
     pub triangles: Vec<Triangle>,
     pub segments: Vec<Segment>,
     pub cables: Vec<CableInfo>,
+    pub slips: Vec<sleeve::SlipPoint>,
+    pub ties: Vec<sleeve::Tie>,
     pub loads: Vec<LoadModel>,
     pub probes: Vec<ProbeModel>,
     /// Per DOF: held (not an unknown of the solver).
@@ -118,11 +148,20 @@ impl Model {
     /// resolves; this function does not re-check).
     pub fn build(scene: &Scene) -> Model {
         let mesh = resolve(&scene.geometry);
-        let reference: Vec<Vector3<f64>> = mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
-        let n = reference.len();
-        let mut used = vec![false; n];
+        let mut reference: Vec<Vector3<f64>> =
+            mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
+        let mut used = vec![false; reference.len()];
         let triangles = build_triangles(scene, &mesh, &reference, &mut used);
-        let (segments, cables) = build_cables(scene, &mesh, &reference, &mut used);
+        let mut sleeves = Sleeves::default();
+        let (segments, cables) = build_cables(
+            scene,
+            &mesh,
+            &triangles,
+            &mut reference,
+            &mut used,
+            &mut sleeves,
+        );
+        let n = reference.len();
         let mut held = vec![false; 3 * n];
         for (node, u) in used.iter().enumerate() {
             if !u {
@@ -152,7 +191,7 @@ impl Model {
         let probes = scene
             .outputs
             .iter()
-            .map(|o| build_probe(&mesh, &cables, &groups, &o.probe))
+            .map(|o| build_probe(&mesh, &cables, &sleeves.slips, &groups, &o.probe))
             .collect();
         let force_scale = triangles
             .iter()
@@ -165,6 +204,8 @@ impl Model {
             triangles,
             segments,
             cables,
+            slips: sleeves.slips,
+            ties: sleeves.ties,
             loads,
             probes,
             held,
@@ -181,8 +222,22 @@ impl Model {
             .any(|l| matches!(l, LoadModel::Pressure { follower: true, .. }))
     }
 
+    /// Displacement DOFs: 3 per node.
     pub fn dof_count(&self) -> usize {
         3 * self.reference.len()
+    }
+
+    /// Length of the unknown vector: the displacements, then one slip per sleeve point.
+    pub fn unknown_count(&self) -> usize {
+        self.dof_count() + self.slips.len()
+    }
+
+    /// Current unstretched length of segment `e` (its reference one plus the material that
+    /// slipped in through its ends).
+    pub fn segment_l0(&self, u: &[f64], e: usize) -> f64 {
+        let s = &self.segments[e];
+        let slip = |k: Option<usize>| k.map_or(0.0, |j| u[self.dof_count() + j]);
+        s.l0 + slip(s.slip[1]) - slip(s.slip[0])
     }
 
     /// Current position of a node under displacement `u`.
@@ -264,11 +319,20 @@ fn build_triangles(
     out
 }
 
+/// Sleeve points and ties collected while the cables are built.
+#[derive(Default)]
+struct Sleeves {
+    slips: Vec<sleeve::SlipPoint>,
+    ties: Vec<sleeve::Tie>,
+}
+
 fn build_cables(
     scene: &Scene,
     mesh: &Mesh,
-    x: &[Vector3<f64>],
-    used: &mut [bool],
+    triangles: &[Triangle],
+    x: &mut Vec<Vector3<f64>>,
+    used: &mut Vec<bool>,
+    sleeves: &mut Sleeves,
 ) -> (Vec<Segment>, Vec<CableInfo>) {
     let mut segments = Vec::new();
     let mut cables = Vec::new();
@@ -280,8 +344,58 @@ fn build_cables(
         };
         let lengths: Vec<f64> = ids.windows(2).map(|w| (x[w[1]] - x[w[0]]).norm()).collect();
         let total: f64 = lengths.iter().sum();
+        let sleeved = c
+            .sleeve
+            .as_ref()
+            .and_then(|sl| crate::scene::sleeve_nodes(&ids, sl, mesh))
+            .unwrap_or_default();
+        // Cable points: a sleeve node gets its own point (a new node at the same place).
+        let mut points = ids.clone();
+        let mut slip_of_point = vec![None; ids.len()];
+        let cable_index = cables.len();
+        let first_slip = sleeves.slips.len();
+        for (k, id) in ids.iter().enumerate() {
+            if k == 0 || k + 1 == ids.len() || !sleeved.contains(id) {
+                continue;
+            }
+            let sl = c.sleeve.as_ref().expect("sleeved nodes come from a sleeve");
+            let point = x.len();
+            x.push(x[*id]);
+            used.push(true);
+            used[*id] = true;
+            points[k] = point;
+            let j = sleeves.slips.len();
+            slip_of_point[k] = Some(j);
+            let shortest = lengths[k - 1].min(lengths[k]);
+            let k_tie = sl
+                .penalty
+                .unwrap_or_else(|| default_penalty(c.ea, shortest, *id, triangles));
+            sleeves.ties.push(sleeve::Tie {
+                nodes: [point, *id],
+                k: k_tie,
+            });
+            let seg0 = segments.len() + k - 1;
+            sleeves.slips.push(sleeve::SlipPoint {
+                node: point,
+                membrane: *id,
+                prev: 0,
+                next: 0,
+                segments: [seg0, seg0 + 1],
+                mu: sl.mu,
+                tie: sleeves.ties.len() - 1,
+                cable: cable_index,
+            });
+        }
+        for j in first_slip..sleeves.slips.len() {
+            let k = slip_of_point
+                .iter()
+                .position(|s| *s == Some(j))
+                .expect("own point");
+            sleeves.slips[j].prev = points[k - 1];
+            sleeves.slips[j].next = points[k + 1];
+        }
         let start = segments.len();
-        for (k, w) in ids.windows(2).enumerate() {
+        for (k, w) in points.windows(2).enumerate() {
             let l = lengths[k];
             let l0 = match (c.pretension, c.unstretched_length) {
                 (_, Some(l0_total)) => l0_total * l / total,
@@ -294,14 +408,27 @@ fn build_cables(
                 l0,
                 ea: c.ea,
                 law,
+                slip: [slip_of_point[k], slip_of_point[k + 1]],
             });
         }
         cables.push(CableInfo {
             name: c.name.clone(),
             segments: start..segments.len(),
+            mesh_nodes: ids,
+            slips: (first_slip..sleeves.slips.len()).collect(),
         });
     }
     (segments, cables)
+}
+
+/// Default tie penalty: `PENALTY_FACTOR × max(EA/ℓ, E t)` over the membranes at `node`.
+fn default_penalty(ea: f64, segment: f64, node: usize, triangles: &[Triangle]) -> f64 {
+    let et = triangles
+        .iter()
+        .filter(|t| t.nodes.contains(&node))
+        .map(|t| t.material.modulus() * t.material.thickness)
+        .fold(0.0, f64::max);
+    sleeve::PENALTY_FACTOR * (ea / segment).max(et)
 }
 
 /// (group name, range of `Model::triangles` indices, mesh triangle ids) per membrane group.
@@ -393,7 +520,13 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
 
 type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
 
-fn build_probe(mesh: &Mesh, cables: &[CableInfo], groups: &Groups, probe: &Probe) -> ProbeModel {
+fn build_probe(
+    mesh: &Mesh,
+    cables: &[CableInfo],
+    slips: &[sleeve::SlipPoint],
+    groups: &Groups,
+    probe: &Probe,
+) -> ProbeModel {
     let elements = |name: &Option<String>| -> Vec<usize> {
         groups
             .iter()
@@ -418,8 +551,64 @@ fn build_probe(mesh: &Mesh, cables: &[CableInfo], groups: &Groups, probe: &Probe
                 reference: mesh.nodes[id][component.index()],
             }
         }
-        Probe::CableLength { cable } => ProbeModel::CableLength {
-            cable: cable_index(cable),
+        Probe::CableLength { cable, from, to } => {
+            let c = &cables[cable_index(cable)];
+            let point = |r: &Option<OneNode>, default: usize| {
+                r.as_ref().map_or(default, |r| {
+                    let id = one_node(mesh, r);
+                    c.mesh_nodes
+                        .iter()
+                        .position(|&i| i == id)
+                        .expect("validated: a node of the cable")
+                })
+            };
+            let (a, b) = (point(from, 0), point(to, c.mesh_nodes.len() - 1));
+            ProbeModel::CableLength {
+                segments: c.segments.start + a..c.segments.start + b,
+            }
+        }
+        Probe::CableSlip { cable, node } => {
+            let id = one_node(mesh, node);
+            let c = &cables[cable_index(cable)];
+            ProbeModel::CableSlip {
+                slip: *c
+                    .slips
+                    .iter()
+                    .find(|&&j| slips[j].membrane == id)
+                    .expect("validated: a sleeve node"),
+            }
+        }
+        Probe::CableEndSlip { cable, end } => {
+            let c = &cables[cable_index(cable)];
+            let j = match end {
+                CableEnd::Start => c.slips.first(),
+                CableEnd::End => c.slips.last(),
+            };
+            ProbeModel::CableSlip {
+                slip: *j.expect("validated: the cable has a sleeve point"),
+            }
+        }
+        Probe::ContactForce { cable, node } => {
+            let c = &cables[cable_index(cable)];
+            let slips = match node {
+                Some(r) => {
+                    let id = one_node(mesh, r);
+                    c.slips
+                        .iter()
+                        .copied()
+                        .filter(|&j| slips[j].membrane == id)
+                        .collect()
+                }
+                None => c.slips.clone(),
+            };
+            ProbeModel::ContactForce { slips }
+        }
+        Probe::ContactGap { cable } => ProbeModel::ContactGap {
+            slips: cables[cable_index(cable)].slips.clone(),
+        },
+        Probe::SlipCount { cable, state } => ProbeModel::SlipCount {
+            slips: cables[cable_index(cable)].slips.clone(),
+            slipping: *state == SlipState::Slip,
         },
         Probe::CableTension { cable, segment } => ProbeModel::CableTension {
             cable: cable_index(cable),

@@ -239,6 +239,42 @@ pub struct Cable {
     /// initial lengths.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unstretched_length: Option<f64>,
+    /// The cable slides through these of its nodes (a sleeve), with friction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sleeve: Option<Sleeve>,
+}
+
+/// A sleeve: interior cable nodes the cable slides through (MECHANICS.md §2.3 option A). Each
+/// sleeve node gets its own cable point, tied to the node by a penalty spring (the seed's contact
+/// element), and a slip unknown with the Coulomb law in the bisector frame.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Sleeve {
+    /// Interior cable nodes that slide (default: every interior node of the cable).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<NodeRef>,
+    /// Friction coefficient (0: frictionless).
+    #[serde(default)]
+    pub mu: f64,
+    /// Tie penalty in N/m (default 100 × max(EA/ℓ_min, E t), model/sleeve.rs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub penalty: Option<f64>,
+}
+
+/// Which end of a cable.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum CableEnd {
+    Start,
+    End,
+}
+
+/// Stick or slip.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SlipState {
+    Stick,
+    Slip,
 }
 
 /// A displacement component.
@@ -344,7 +380,30 @@ pub enum Probe {
     /// Current position component of one node, m.
     Position { node: OneNode, component: Component },
     /// Current total length of a cable, m.
-    CableLength { cable: String },
+    /// Current length of a cable, or of its span between two of its nodes.
+    CableLength {
+        cable: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        from: Option<OneNode>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        to: Option<OneNode>,
+    },
+    /// Slip (m of unstretched cable, + toward the cable's last node) at a sleeve node.
+    CableSlip { cable: String, node: OneNode },
+    /// Slip at the first or last sleeve point of a cable (where it leaves the sleeve).
+    CableEndSlip { cable: String, end: CableEnd },
+    /// Tie (contact) force magnitude at a sleeve node, or the largest over the sleeve.
+    ContactForce {
+        cable: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        node: Option<OneNode>,
+    },
+    /// Largest tie gap |x_cable − x_node| over the sleeve, relative to the shorter adjacent
+    /// segment (the penetration check: keep below 1e-3).
+    ContactGap { cable: String },
+    /// Number of sleeve points of a cable in a state (stick or slip) at the last converged
+    /// increment.
+    SlipCount { cable: String, state: SlipState },
     /// Axial force of a cable, N: of segment `segment` (0-based), or the largest if absent.
     CableTension {
         cable: String,
@@ -556,5 +615,16 @@ impl Scene {
     pub fn json_schema() -> String {
         let schema = schemars::schema_for!(Scene);
         serde_json::to_string_pretty(&schema).expect("a schema always serializes")
+    }
+}
+
+/// Sleeve node ids of a cable with node ids `ids` (every interior node unless the sleeve lists
+/// them); None when a listed set does not exist.
+pub fn sleeve_nodes(ids: &[usize], sleeve: &Sleeve, mesh: &generate::Mesh) -> Option<Vec<usize>> {
+    match &sleeve.nodes {
+        None if ids.len() < 3 => Some(Vec::new()),
+        None => Some(ids[1..ids.len() - 1].to_vec()),
+        Some(NodeRef::Ids(list)) => Some(list.clone()),
+        Some(NodeRef::Set(name)) => mesh.node_sets.get(name).cloned(),
     }
 }

@@ -41,6 +41,17 @@ fn positive(x: f64) -> bool {
     x.is_finite() && x > 0.0
 }
 
+/// Node ids of a cable's node reference, if it resolves.
+fn cable_ids(mesh: &Mesh, r: &NodeRef) -> Option<Vec<usize>> {
+    match r {
+        NodeRef::Ids(ids) => ids
+            .iter()
+            .all(|&i| i < mesh.nodes.len())
+            .then(|| ids.clone()),
+        NodeRef::Set(name) => mesh.node_sets.get(name).cloned(),
+    }
+}
+
 /// A C identifier: what an FMU modelIdentifier and a shared-library name must be.
 pub fn is_identifier(s: &str) -> bool {
     let mut chars = s.chars();
@@ -435,6 +446,107 @@ impl Validator {
                     );
                 }
             }
+            if let Some(sleeve) = &c.sleeve {
+                self.sleeve(mesh, c, sleeve, &format!("{p}.sleeve"));
+            }
+        }
+    }
+
+    fn sleeve(&mut self, mesh: &Mesh, c: &super::Cable, sleeve: &super::Sleeve, p: &str) {
+        if !(sleeve.mu.is_finite() && sleeve.mu >= 0.0) {
+            self.push(
+                format!("{p}.mu"),
+                format!("{} is not a friction coefficient >= 0", sleeve.mu),
+            );
+        }
+        if let Some(k) = sleeve.penalty {
+            if !positive(k) {
+                self.push(
+                    format!("{p}.penalty"),
+                    format!("{k} is not a positive penalty stiffness in N/m"),
+                );
+            }
+        }
+        let Some(ids) = cable_ids(mesh, &c.nodes) else {
+            return;
+        };
+        if ids.len() < 3 {
+            self.push(
+                format!("{p}"),
+                "a sleeve needs a cable with at least one interior node to slide through",
+            );
+            return;
+        }
+        if let Some(r) = &sleeve.nodes {
+            if let Some(nodes) = self.nodes(mesh, r, &format!("{p}.nodes")) {
+                let interior = &ids[1..ids.len() - 1];
+                for (k, id) in nodes.iter().enumerate() {
+                    if !interior.contains(id) {
+                        self.push(
+                            format!("{p}.nodes[{k}]"),
+                            format!("node {id} is not an interior node of cable \"{}\"", c.name),
+                        );
+                    } else if nodes[..k].contains(id) {
+                        self.push(
+                            format!("{p}.nodes[{k}]"),
+                            format!("node {id} is listed twice"),
+                        );
+                    }
+                }
+            }
+        }
+        for (k, id) in ids.iter().enumerate() {
+            if ids[..k].contains(id) {
+                self.push(
+                    format!("{p}"),
+                    format!(
+                        "cable \"{}\" passes node {id} twice; a sleeved cable may not",
+                        c.name
+                    ),
+                );
+            }
+        }
+    }
+
+    /// The sleeve node ids of a cable (None: no sleeve or unresolved).
+    fn sleeve_ids(s: &Scene, mesh: &Mesh, cable: &str) -> Option<Vec<usize>> {
+        let c = s.cables.iter().find(|c| c.name == cable)?;
+        let ids = cable_ids(mesh, &c.nodes)?;
+        super::sleeve_nodes(&ids, c.sleeve.as_ref()?, mesh)
+    }
+
+    /// Probe checks of a sleeve: the cable has one, and `node` (if any) is one of its nodes.
+    fn sleeve_probe(
+        &mut self,
+        s: &Scene,
+        mesh: &Mesh,
+        cable: &str,
+        node: Option<&OneNode>,
+        p: &str,
+    ) {
+        self.cable_name(s, cable, &format!("{p}.cable"));
+        let Some(c) = s.cables.iter().find(|c| c.name == cable) else {
+            return;
+        };
+        if c.sleeve.is_none() {
+            self.push(
+                format!("{p}.cable"),
+                format!("cable \"{cable}\" has no sleeve"),
+            );
+            return;
+        }
+        if let Some(node) = node {
+            if let (Some(id), Some(ids)) = (
+                self.one_node(mesh, node, &format!("{p}.node")),
+                Self::sleeve_ids(s, mesh, cable),
+            ) {
+                if !ids.contains(&id) {
+                    self.push(
+                        format!("{p}.node"),
+                        format!("node {id} is not a sleeve node of cable \"{cable}\""),
+                    );
+                }
+            }
         }
     }
 
@@ -552,7 +664,41 @@ impl Validator {
                 Probe::Displacement { node, .. } | Probe::Position { node, .. } => {
                     self.one_node(mesh, node, &format!("{p}.node"));
                 }
-                Probe::CableLength { cable } => self.cable_name(s, cable, &format!("{p}.cable")),
+                Probe::CableLength { cable, from, to } => {
+                    self.cable_name(s, cable, &format!("{p}.cable"));
+                    let ids = s
+                        .cables
+                        .iter()
+                        .find(|c| &c.name == cable)
+                        .and_then(|c| cable_ids(mesh, &c.nodes));
+                    let mut at = |r: &Option<OneNode>, field: &str| -> Option<usize> {
+                        let id = self.one_node(mesh, r.as_ref()?, &format!("{p}.{field}"))?;
+                        let k = ids.as_ref()?.iter().position(|&i| i == id);
+                        if k.is_none() {
+                            self.push(
+                                format!("{p}.{field}"),
+                                format!("node {id} is not a node of cable \"{cable}\""),
+                            );
+                        }
+                        k
+                    };
+                    if let (Some(a), Some(b)) = (at(from, "from"), at(to, "to")) {
+                        if a >= b {
+                            self.push(format!("{p}.to"), "must come after `from` along the cable");
+                        }
+                    }
+                }
+                Probe::CableSlip { cable, node } => {
+                    self.sleeve_probe(s, mesh, cable, Some(node), &p);
+                }
+                Probe::ContactForce { cable, node } => {
+                    self.sleeve_probe(s, mesh, cable, node.as_ref(), &p);
+                }
+                Probe::CableEndSlip { cable, .. }
+                | Probe::ContactGap { cable }
+                | Probe::SlipCount { cable, .. } => {
+                    self.sleeve_probe(s, mesh, cable, None, &p);
+                }
                 Probe::CableTension { cable, segment } => {
                     self.cable_name(s, cable, &format!("{p}.cable"));
                     if let (Some(seg), Some(c)) =

@@ -10,7 +10,7 @@
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
-use crate::model::{cable, membrane, pressure, LoadModel, Model};
+use crate::model::{cable, membrane, pressure, sleeve, LoadModel, Model};
 use nalgebra::{SMatrix, Vector3};
 
 pub const NONE: usize = usize::MAX;
@@ -61,6 +61,7 @@ impl Pattern {
             .iter()
             .map(|t| element_dofs(&t.nodes))
             .chain(model.segments.iter().map(|s| element_dofs(&s.nodes)))
+            .chain(model.ties.iter().map(|t| element_dofs(&t.nodes)))
             .collect();
         for dofs in &elements {
             for &i in dofs.iter().filter(|&&i| i != NONE) {
@@ -234,7 +235,7 @@ pub fn assemble_with(
     }
     for (e, s) in model.segments.iter().enumerate() {
         let x = gather(model, u, s.nodes);
-        let (f, ke, w) = cable::segment(s.law, s.ea, s.l0, &x[0], &x[1]);
+        let (f, ke, w) = cable::segment(s.law, s.ea, model.segment_l0(u, e), &x[0], &x[1]);
         add_force(r, &s.nodes, f.as_slice());
         info.potential += w;
         if let Some(k) = k.as_deref_mut() {
@@ -242,6 +243,16 @@ pub fn assemble_with(
         }
         if let Some((du, out)) = membranes.held_step.as_mut() {
             couple(&ke, &s.nodes, du, out);
+        }
+    }
+    let ns = model.segments.len();
+    for (e, t) in model.ties.iter().enumerate() {
+        let x = gather(model, u, t.nodes);
+        let (f, w) = sleeve::tie_force(t.k, &x[0], &x[1]);
+        add_force(r, &t.nodes, &[f.x, f.y, f.z, -f.x, -f.y, -f.z]);
+        info.potential += w;
+        if let Some(k) = k.as_deref_mut() {
+            scatter(&sleeve::tie_stiffness(t.k), &pattern.seg_map[ns + e], k);
         }
     }
     // External loads: R −= f_ext.

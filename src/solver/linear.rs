@@ -9,7 +9,8 @@
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky,
+    SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
@@ -69,8 +70,16 @@ impl Ldlt {
     /// Factor the current values and solve K x = rhs in place. Err with a reason when the
     /// factorization fails or the solution is not finite.
     pub fn factor_solve(&mut self, rhs: &mut [f64]) -> Result<(), String> {
-        let n = rhs.len();
-        if n == 0 {
+        if rhs.is_empty() {
+            return Ok(());
+        }
+        self.factor()?;
+        self.solve(rhs)
+    }
+
+    /// Numeric factorization of the current values (kept for [`Ldlt::solve`]).
+    pub fn factor(&mut self) -> Result<(), String> {
+        if self.matrix.ncols() == 0 {
             return Ok(());
         }
         let max_diag = self.max_diagonal();
@@ -84,8 +93,7 @@ impl Ldlt {
             dynamic_regularization_delta: PIVOT_DELTA * max_diag,
             dynamic_regularization_epsilon: PIVOT_EPSILON * max_diag,
         };
-        let ldlt = self
-            .symbolic
+        self.symbolic
             .factorize_numeric_ldlt(
                 &mut self.l_values,
                 self.matrix.as_ref(),
@@ -96,6 +104,16 @@ impl Ldlt {
                 Default::default(),
             )
             .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
+        Ok(())
+    }
+
+    /// Solve with the last factorization, in place (one more forward/back substitution).
+    pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+        let n = rhs.len();
+        if n == 0 {
+            return Ok(());
+        }
+        let ldlt = LdltRef::new(&self.symbolic, &self.l_values);
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
         ldlt.solve_in_place_with_conj(
             Conj::No,

@@ -19,6 +19,7 @@ pub mod assemble;
 pub mod linear;
 mod newton;
 mod relax;
+pub mod sliding;
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
@@ -98,11 +99,12 @@ impl Solver {
         let pattern = Pattern::new(model);
         let linear = Ldlt::new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone());
         let n = model.dof_count();
+        let trial_len = model.unknown_count();
         Solver {
             settings,
             linear,
             residual: vec![0.0; n],
-            trial: vec![0.0; n],
+            trial: vec![0.0; trial_len],
             rhs: vec![0.0; pattern.n],
             evaluations: Vec::with_capacity(model.triangles.len()),
             frozen: None,
@@ -150,6 +152,22 @@ impl Solver {
         to: &[f64],
         u: &mut Vec<f64>,
     ) -> StepReport {
+        let mut states = vec![0; model.slips.len()];
+        self.solve_step_with(model, from, to, u, &mut states)
+    }
+
+    /// [`Solver::solve_step`] for a model with sleeves: `u` holds displacements then slips
+    /// (`Model::unknown_count`), `states` the stick/slip code of every sleeve point
+    /// (`model::sleeve`). The history (slips, states) advances only at converged increments;
+    /// on failure both are unchanged.
+    pub fn solve_step_with(
+        &mut self,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        u: &mut Vec<f64>,
+        states: &mut Vec<u8>,
+    ) -> StepReport {
         let mut report = StepReport {
             outcome: Outcome::Failed,
             iterations: 0,
@@ -161,6 +179,7 @@ impl Solver {
         };
         let s = self.settings.clone();
         let mut converged = u.clone();
+        let mut converged_states = states.clone();
         let (mut lambda, mut dl) = (0.0, s.initial_increment);
         while lambda < 1.0 {
             if report.increments + report.cutbacks >= MAX_INCREMENTS {
@@ -181,8 +200,19 @@ impl Solver {
                 .collect();
             let mut trial = converged.clone();
             let predicted = self.predict(model, &loads, &mut trial);
-            let result = self
-                .newton(model, &loads, &mut trial, &mut report.log)
+            let mut trial_states = converged_states.clone();
+            let result = if model.slips.is_empty() {
+                self.newton(model, &loads, &mut trial, &mut report.log)
+            } else {
+                self.newton_sliding(
+                    model,
+                    &loads,
+                    &mut trial,
+                    &mut trial_states,
+                    &mut report.log,
+                )
+            };
+            let result = result
                 .map(|i| i + predicted)
                 .map_err(|(i, why)| (i + predicted, why));
             match result {
@@ -191,6 +221,7 @@ impl Solver {
                     report.increments += 1;
                     push_log(&mut report.log, format!("increment λ {lambda:.6} -> {target:.6}: converged in {iters} iterations"));
                     converged = trial;
+                    converged_states = trial_states;
                     lambda = target;
                     dl *= growth(iters, s.target_iterations, s.max_iterations);
                 }
@@ -214,6 +245,7 @@ impl Solver {
             }
         }
         *u = converged;
+        *states = converged_states;
         report.outcome = Outcome::Converged;
         report.reached = 1.0;
         report

@@ -1,0 +1,195 @@
+//! A cable sliding through a sleeve: slip unknowns at the sleeve points, the nodal Coulomb law in
+//! the bisector frame, and the penalty tie between a cable point and its membrane node.
+//!
+//! Formulation (MECHANICS.md §2.3 option A, with the seed's penalty contact element):
+//!
+//! ```text
+//! cable points   P_0 … P_n along the cable; the ends and unsleeved nodes are material points
+//!                (fixed material coordinate); each sleeve point P_c is its own 3-DOF point
+//!                plus one slip unknown s_c
+//! material coord S_c = S⁰_c + s_c,  S⁰_c = Σ_{k<c} L⁰_k  (reference unstretched lengths)
+//! segment        L_k = S_{k+1} − S_k: unstretched length of the cable between two points;
+//!                material flows through a sleeve point when its s_c changes
+//! tie            f = k_c (x_c − x_m) on the cable point, −f on the membrane node m:
+//!                the seed's contact element k_ce = [[k I, −k I], [−k I, k I]]
+//! kink           segments a = (P_p → P_c), b = (P_c → P_q), unit vectors e_a, e_b,
+//!                g = e_a·e_b = cos Δθ,  c = cos(Δθ/2) = √((1+g)/2),  s = sin(Δθ/2) = √((1−g)/2)
+//! contact force  F = T_b e_b − T_a e_a (what the cable puts on the tie), in the bisector frame
+//!                f_t = F·t = (T_b − T_a) c     (along the cable, + toward the cable's end)
+//!                f_n = |F·n| = (T_a + T_b) s
+//! Coulomb        |f_t| ≤ μ f_n                  (stick)
+//!                f_t = σ μ f_n,  σ = sign f_t   (slip; the material moves toward σ: σ Δs ≤ 0)
+//!                ⇔ at slip  T_b/T_a = (1 + μ tan(Δθ/2))/(1 − μ tan(Δθ/2))   (σ = +1)
+//! frictionless   μ = 0: f_t = 0 ⇔ T_a = T_b at every sleeve point
+//! ```
+//!
+//! Return mapping per sleeve point and Newton iteration (the trial state is stick, s_c = s_c^n of
+//! the last converged increment): stick while |f_t| ≤ μ f_n, slip with σ = sign f_t when the trial
+//! violates the cone; a slipping point whose slip runs backwards (σ (s_c − s_c^n) > 0) returns to
+//! stick. The slip equation row is r_c = f_t − σ μ f_n; a stuck point has the row s_c − s_c^n.
+//! Both depend on the geometry through l_a, l_b and g, so the tangent is non-symmetric; its
+//! derivatives are written in [`slip_row`] and checked by finite differences.
+//!
+//! Over N equal kinks of a curve turning by θ the bisector law gives
+//! `T_out/T_in = ((1 + μ tan(θ/2N))/(1 − μ tan(θ/2N)))^N → exp(μθ)` (capstan), MECHANICS.md §4f.
+//!
+//! Default penalty: `k_c = 100 × max(EA/ℓ_min, E t)` with ℓ_min the shortest reference segment of
+//! the cable and E t the largest membrane tensile stiffness (E = 3μ for neo-Hookean) at its
+//! sleeve nodes: the middle of the range 10…1000 of MECHANICS.md §2.3. The gap `|x_c − x_m|` is
+//! reported by the `contact_gap` probe relative to the adjacent segment length (keep it below 1e-3).
+//!
+//! ```text
+//! Symbols: T tension (N), L unstretched length (m), l current length (m), S material
+//! coordinate (m, unstretched length from the cable's first node), s slip (m), μ friction
+//! coefficient, k_c tie penalty (N/m), σ slip direction (±1).
+//! ```
+//!
+//! # References
+//! Wriggers, *Computational Contact Mechanics*, 2nd ed. 2006, §5.2 (penalty, Coulomb return
+//! mapping); Simo & Laursen 1992, Comput. Struct. 42:97–116; Aufaure 1993 and Chen et al. 2010
+//! (cables sliding through nodes); Bel Hadj Ali, Sychterz & Smith 2017, IJSS 126–127:240–251
+//! (nodal friction, Euler–Eytelwein); MECHANICS.md §2.3, §4f; seed paper eqs. (4)–(7).
+
+use super::cable::{self, Law};
+use nalgebra::Vector3;
+
+/// Default tie penalty as a multiple of the stiffer of EA/ℓ_min and E t.
+pub const PENALTY_FACTOR: f64 = 100.0;
+
+/// Below this sin(Δθ/2) the kink is treated as straight in the tangent (the friction cone has
+/// its apex there and f_n is not differentiable).
+const STRAIGHT: f64 = 1e-10;
+
+/// One slip unknown: a sleeve point of a cable.
+#[derive(Clone, Debug)]
+pub struct SlipPoint {
+    /// Cable point (its own node, tied to `membrane`).
+    pub node: usize,
+    /// The membrane (or free) node the sleeve point belongs to (mesh id).
+    pub membrane: usize,
+    /// Previous and next cable points (node ids) and the segments (indices into
+    /// `Model::segments`) before and after.
+    pub prev: usize,
+    pub next: usize,
+    pub segments: [usize; 2],
+    pub mu: f64,
+    /// Index into `Model::ties`.
+    pub tie: usize,
+    /// Index into `Model::cables`.
+    pub cable: usize,
+}
+
+/// Penalty tie between a cable point and a membrane node.
+#[derive(Clone, Debug)]
+pub struct Tie {
+    /// (cable point, membrane node)
+    pub nodes: [usize; 2],
+    pub k: f64,
+}
+
+/// Slip state codes stored in the engine state: 0 stick, 1 slipping toward the cable's end
+/// (σ = +1), 2 slipping toward its start (σ = −1).
+pub const STICK: u8 = 0;
+pub const SLIP_FORWARD: u8 = 1;
+pub const SLIP_BACKWARD: u8 = 2;
+
+/// σ of a state code.
+pub fn sigma(state: u8) -> f64 {
+    match state {
+        SLIP_FORWARD => 1.0,
+        SLIP_BACKWARD => -1.0,
+        _ => 0.0,
+    }
+}
+
+/// The material law of one segment.
+#[derive(Clone, Copy, Debug)]
+pub struct SegmentLaw {
+    pub law: Law,
+    pub ea: f64,
+}
+
+/// Bisector-frame contact forces (f_t, f_n) at a kink with tensions `ta` before and `tb` after.
+pub fn contact_forces(
+    xp: &Vector3<f64>,
+    xc: &Vector3<f64>,
+    xq: &Vector3<f64>,
+    ta: f64,
+    tb: f64,
+) -> (f64, f64) {
+    let ea = (xc - xp).normalize();
+    let eb = (xq - xc).normalize();
+    let g = ea.dot(&eb).clamp(-1.0, 1.0);
+    let c = ((1.0 + g) / 2.0).sqrt();
+    let s = ((1.0 - g) / 2.0).sqrt();
+    ((tb - ta) * c, (ta + tb) * s)
+}
+
+/// Ratio T_b/T_a at slip (σ = +1) of the bisector law at a kink Δθ.
+pub fn slip_ratio(mu: f64, kink: f64) -> f64 {
+    let t = (kink / 2.0).tan();
+    (1.0 + mu * t) / (1.0 - mu * t)
+}
+
+/// Slip row r = f_t − σμ f_n of a slipping point (σμ given as `sigma_mu`), and its derivatives
+/// with respect to the positions of the previous, own and next cable points and the unstretched
+/// lengths (L_a, L_b) of the segments before and after.
+#[allow(clippy::too_many_arguments)]
+pub fn slip_row(
+    a: SegmentLaw,
+    b: SegmentLaw,
+    la0: f64,
+    lb0: f64,
+    xp: &Vector3<f64>,
+    xc: &Vector3<f64>,
+    xq: &Vector3<f64>,
+    sigma_mu: f64,
+) -> (f64, [Vector3<f64>; 3], [f64; 2]) {
+    let (da, db) = (xc - xp, xq - xc);
+    let (la, lb) = (da.norm(), db.norm());
+    let (ea, eb) = (da / la, db / lb);
+    let (ta, ka) = cable::tension(a.law, a.ea, la0, la);
+    let (tb, kb) = cable::tension(b.law, b.ea, lb0, lb);
+    let ma = cable::tension_dl0(a.law, a.ea, la0, la);
+    let mb = cable::tension_dl0(b.law, b.ea, lb0, lb);
+    let g = ea.dot(&eb).clamp(-1.0, 1.0);
+    let c = ((1.0 + g) / 2.0).sqrt();
+    let s = ((1.0 - g) / 2.0).sqrt();
+    let r = (tb - ta) * c - sigma_mu * (ta + tb) * s;
+    let dr_ta = -c - sigma_mu * s;
+    let dr_tb = c - sigma_mu * s;
+    // dc/dg = 1/(4c), ds/dg = −1/(4s).
+    let mut dr_g = if c > STRAIGHT {
+        (tb - ta) / (4.0 * c)
+    } else {
+        0.0
+    };
+    if s > STRAIGHT {
+        dr_g += sigma_mu * (ta + tb) / (4.0 * s);
+    }
+    // ∂g/∂d_a = (I − e_a e_aᵀ) e_b / l_a,  ∂g/∂d_b = (I − e_b e_bᵀ) e_a / l_b.
+    let ha = (eb - ea * ea.dot(&eb)) / la;
+    let hb = (ea - eb * eb.dot(&ea)) / lb;
+    let dp = -ea * (dr_ta * ka) - ha * dr_g;
+    let dc = ea * (dr_ta * ka) - eb * (dr_tb * kb) + (ha - hb) * dr_g;
+    let dq = eb * (dr_tb * kb) + hb * dr_g;
+    (r, [dp, dc, dq], [dr_ta * ma, dr_tb * mb])
+}
+
+/// Tie force on the cable point (the membrane node gets its negative) and energy.
+pub fn tie_force(k: f64, xc: &Vector3<f64>, xm: &Vector3<f64>) -> (Vector3<f64>, f64) {
+    let d = xc - xm;
+    (d * k, 0.5 * k * d.norm_squared())
+}
+
+/// Tangent of a tie: [[k I, −k I], [−k I, k I]] (cable point, membrane node).
+pub fn tie_stiffness(k: f64) -> cable::Mat6 {
+    let mut m = cable::Mat6::zeros();
+    for i in 0..3 {
+        m[(i, i)] = k;
+        m[(i + 3, i + 3)] = k;
+        m[(i, i + 3)] = -k;
+        m[(i + 3, i)] = -k;
+    }
+    m
+}
