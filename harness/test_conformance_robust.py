@@ -30,13 +30,11 @@ SMALLEST = "PrestressedCable"
 
 
 def failure_time(md) -> float:
-    """Where the debug variants fail: in the middle of the communication step of the default
-    grid (DefaultExperiment stepSize) that contains the experiment's midpoint, so that no grid
-    point coincides with it."""
+    """Where the debug variants fail: between the 5th and 6th step of the 10-step grid of
+    ``vr.ramp_table(md, 10)``, which the tests below also use as communication grid (a scene's
+    own DefaultExperiment stepSize may put a grid point at 0.55 of the experiment)."""
     start, stop = vr.experiment(md)
-    h = float(md.defaultExperiment.stepSize)
-    k = int(0.5 * (stop - start) / h + 1e-9)
-    return start + (k + 0.5) * h
+    return start + 0.55 * (stop - start)
 
 
 def variant(debug_fmus, model, tmp_path, **switches):
@@ -68,7 +66,8 @@ def test_item32_forced_non_convergence_ends_the_run_gracefully(model, debug_fmus
     Discard message; Terminated is true and LastSuccessfulTime equals that last row's time."""
     fmu, md, unzipdir = variant(debug_fmus, model, tmp_path, fail_after_time=failure_time(md_of(model)))
     fs.clear_log()
-    rows = fmpy.simulate_fmu(str(fmu), input=vr.ramp_table(md, 10), timeout=60)
+    table = vr.ramp_table(md, 10)
+    rows = fmpy.simulate_fmu(str(fmu), input=table, output_interval=float(table["time"][1] - table["time"][0]), timeout=60)
     assert any("did not converge" in m for m in fs.messages(fs.DISCARD)), fs.RECORDS
     t_star, h = failure_time(md), (vr.experiment(md)[1] - vr.experiment(md)[0]) / 10
     assert t_star - h < rows["time"][-1] < t_star, rows["time"]
@@ -107,7 +106,8 @@ def test_item33_no_silent_retry_and_rollback(model, debug_fmus, tmp_path):
 def test_item34_a_forced_failure_never_reaches_the_timeout(model, debug_fmus, tmp_path):
     fmu, md, _ = variant(debug_fmus, model, tmp_path, fail_after_time=failure_time(md_of(model)))
     t = time.monotonic()
-    rows = fmpy.simulate_fmu(str(fmu), input=vr.ramp_table(md, 10), timeout=5)
+    table = vr.ramp_table(md, 10)
+    rows = fmpy.simulate_fmu(str(fmu), input=table, output_interval=float(table["time"][1] - table["time"][0]), timeout=5)
     elapsed = time.monotonic() - t
     assert elapsed < 5, f"{elapsed:.2f} s"
     assert rows["time"][-1] < failure_time(md)
