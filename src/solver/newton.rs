@@ -170,7 +170,7 @@ impl Solver {
     }
 
     /// Residual, tangent and evaluations at `u` (frozen wrinkle states if any).
-    fn assemble_at(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> AssemblyInfo {
+    pub(super) fn assemble_at(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> AssemblyInfo {
         let membranes = Membranes {
             forced: self.frozen.as_deref(),
             out: Some(&mut self.evaluations),
@@ -228,13 +228,13 @@ impl Solver {
 
     /// Wrinkle states the mixed criterion gives at `u` (no freezing), and |R|∞ over the free
     /// DOFs with those states.
-    fn natural_states(
+    pub(super) fn natural_states(
         &mut self,
         model: &Model,
         loads: &[f64],
         u: &[f64],
     ) -> (Vec<WrinkleState>, f64) {
-        let mut r = vec![0.0; u.len()];
+        let mut r = vec![0.0; model.dof_count()];
         let membranes = Membranes {
             forced: None,
             out: Some(&mut self.evaluations),

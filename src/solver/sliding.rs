@@ -70,20 +70,7 @@ impl Solver {
         let mut previous: Vec<WrinkleState> = Vec::new();
         let (mut frozen_slip, mut freeze_at, mut unfreezes) = (false, FREEZE_AFTER, 0);
         for it in 0..=self.settings.max_iterations {
-            let membranes = Membranes {
-                forced: self.frozen.as_deref(),
-                out: Some(&mut self.evaluations),
-                held_step: None,
-            };
-            let info = assemble_with(
-                model,
-                &self.pattern,
-                u,
-                loads,
-                &mut self.residual,
-                Some(self.linear.values_mut()),
-                membranes,
-            );
+            let info = self.assemble_at(model, loads, u);
             let wrinkle: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
             if self.frozen.is_none() && it >= freeze_at && wrinkle != previous {
                 push_log(
@@ -124,25 +111,12 @@ impl Solver {
                     let mut check = states.to_vec();
                     return_map(model, u, &committed, &mut check, limit) == 0
                 };
-                let wrinkle_ok = self.frozen.is_none() || {
-                    let frozen = self.frozen.take();
-                    let mut r = vec![0.0; n3];
-                    let membranes = Membranes {
-                        forced: None,
-                        out: Some(&mut self.evaluations),
-                        held_step: None,
-                    };
-                    assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
-                    let natural_free = self
-                        .pattern
-                        .eq
-                        .iter()
-                        .zip(&r)
-                        .filter(|(&e, _)| e != NONE)
-                        .fold(0.0f64, |m, (_, v)| m.max(v.abs()));
-                    let same = frozen.as_deref()
-                        == Some(&self.evaluations.iter().map(|e| e.state).collect::<Vec<_>>()[..]);
-                    same || natural_free <= limit
+                let wrinkle_ok = match self.frozen.take() {
+                    None => true,
+                    Some(frozen) => {
+                        let (natural, natural_free) = self.natural_states(model, loads, u);
+                        natural == frozen || natural_free <= limit
+                    }
                 };
                 if natural_ok && wrinkle_ok {
                     let gap = largest_gap(model, u);
