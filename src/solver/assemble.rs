@@ -159,6 +159,8 @@ pub struct Membranes<'a> {
     /// Held-DOF coupling: given a displacement change on held DOFs (zero elsewhere), add
     /// K·change (element tangents, every row) into the second vector. Needs the tangent.
     pub held_step: Option<(&'a [f64], &'a mut [f64])>,
+    /// Factor on every triangle's artificial prestress (None: 1).
+    pub prestress_factor: Option<f64>,
 }
 
 /// Add K_e·du_e (the element's rows) to `out` for an element with `nodes`.
@@ -214,7 +216,7 @@ pub fn assemble_with(
         let (f, eval) = membrane::triangle(
             &t.reference,
             &t.material,
-            t.prestress,
+            t.prestress * membranes.prestress_factor.unwrap_or(1.0),
             &x,
             forced,
             want_k.then_some(&mut ke),

@@ -91,6 +91,8 @@ pub struct Solver {
     frozen: Option<Vec<WrinkleState>>,
     /// Elements and loads at each node, for nodal relaxation.
     adjacency: relax::Adjacency,
+    /// Factor on the artificial prestress in the tangent of the current Newton iteration.
+    prestress_factor: f64,
 }
 
 impl Solver {
@@ -109,6 +111,7 @@ impl Solver {
             evaluations: Vec::with_capacity(model.triangles.len()),
             frozen: None,
             adjacency: relax::Adjacency::new(model),
+            prestress_factor: 1.0,
             pattern,
         }
     }
@@ -138,6 +141,7 @@ impl Solver {
             forced: None,
             out: Some(&mut out),
             held_step: None,
+            prestress_factor: None,
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         out
@@ -329,6 +333,7 @@ impl Solver {
             forced: None,
             out: None,
             held_step: Some((&du, &mut coupling)),
+            prestress_factor: None,
         };
         assemble::assemble_with(
             model,

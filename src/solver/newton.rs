@@ -32,6 +32,22 @@ const RELAX_MAX_SHARE: f64 = 0.1;
 /// Gauss-Seidel sweeps over the nodes to relax.
 const RELAX_SWEEPS: usize = 3;
 
+/// The artificial prestress fades with the relative residual below this level: the
+/// over-stiff out-of-plane tangent it gives a nearly unstressed membrane (the singular flat
+/// state, approached when a flat sheet is unloaded) would otherwise make the last iterations
+/// converge only linearly. Tangent only, so the equilibrium does not change.
+const PRESTRESS_FADE: f64 = 1e-2;
+
+/// Factor on the artificial prestress for the next tangent: 1 down to a relative residual of
+/// PRESTRESS_FADE, proportional to it below.
+fn prestress_factor(free: f64, scale: f64) -> f64 {
+    if scale > 0.0 && free.is_finite() {
+        (free / (PRESTRESS_FADE * scale)).min(1.0)
+    } else {
+        1.0
+    }
+}
+
 /// Newton has stalled when, past its first two iterations, the last step was shortened or the
 /// residual fell by less than a factor 4 (quadratic convergence falls much faster).
 fn stalled(it: usize, free: f64, last_free: f64, last_alpha: f64) -> bool {
@@ -57,6 +73,7 @@ impl Solver {
         // Round-off level of internal forces (reference geometry is not exact in floating point).
         let floor = 1e-12 * model.force_scale.max(f64::MIN_POSITIVE);
         self.frozen = None;
+        self.prestress_factor = 1.0;
         let (mut previous, mut freeze_at, mut unfreezes) =
             (Vec::<WrinkleState>::new(), FREEZE_AFTER, 0);
         let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
@@ -85,6 +102,7 @@ impl Solver {
             }
             let scale = info.external.max(held);
             let tolerance = self.settings.tolerance * scale + floor;
+            self.prestress_factor = prestress_factor(free, scale + floor);
             if free <= tolerance {
                 if let Some(frozen) = self.frozen.take() {
                     // Re-check at this point with the states the criterion gives. Elements whose
@@ -175,6 +193,7 @@ impl Solver {
             forced: self.frozen.as_deref(),
             out: Some(&mut self.evaluations),
             held_step: None,
+            prestress_factor: Some(self.prestress_factor),
         };
         assemble_with(
             model,
@@ -239,6 +258,7 @@ impl Solver {
             forced: None,
             out: Some(&mut self.evaluations),
             held_step: None,
+            prestress_factor: None,
         };
         assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         let free = self
@@ -288,6 +308,7 @@ impl Solver {
             forced: self.frozen.as_deref(),
             out: None,
             held_step: None,
+            prestress_factor: None,
         };
         let info = assemble_with(
             model,

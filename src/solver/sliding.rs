@@ -206,6 +206,7 @@ impl Solver {
                     forced: self.frozen.as_deref(),
                     out: None,
                     held_step: None,
+                    prestress_factor: None,
                 },
             );
             let (free, _) = self.free_held_norms();
