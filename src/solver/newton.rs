@@ -5,7 +5,8 @@
 //! iterate:  assemble R, K at u (states from the mixed criterion, or frozen)
 //!           converged when |R_free|∞ <= tol · max(|f_ext|∞, |reactions|∞) + round-off floor
 //!           stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
-//!               relax the nodes carrying >= 1/10 of |R|∞ (super::relax), reassemble
+//!               relax the nodes carrying >= 1/10 of |R|∞ (super::relax); repeat over the
+//!               nodes that then carry it while each round lowers |R|∞ by a tenth; reassemble
 //!           K Δu = −R;  u ← u + α Δu (α from the line search)
 //! ```
 
@@ -29,6 +30,9 @@ const LS_MAX_TRIES: usize = 8;
 const RELAX_SHARE: f64 = 0.1;
 /// Relaxation is for local trouble: not when more than this share of the nodes qualify.
 const RELAX_MAX_SHARE: f64 = 0.1;
+/// Rounds of relaxation, each over the nodes that then carry the residual, while each round
+/// lowers it by at least a tenth.
+const RELAX_ROUNDS: usize = 20;
 /// Gauss-Seidel sweeps over the nodes to relax.
 const RELAX_SWEEPS: usize = 3;
 
@@ -103,6 +107,18 @@ impl Solver {
             let scale = info.external.max(held);
             let tolerance = self.settings.tolerance * scale + floor;
             self.prestress_factor = prestress_factor(free, scale + floor);
+            if free > tolerance && stalled(it, free, last_free, last_alpha) {
+                let moved = self.relax(model, loads, u, free, tolerance);
+                if moved > 0 {
+                    info = self.assemble_at(model, loads, u);
+                    let before = free;
+                    free = self.norms().0;
+                    push_log(
+                        log,
+                        format!("  stalled: relaxed {moved} nodes, |R| {before:.3e} -> {free:.3e}"),
+                    );
+                }
+            }
             if free <= tolerance {
                 if let Some(frozen) = self.frozen.take() {
                     // Re-check at this point with the states the criterion gives. Elements whose
@@ -129,18 +145,6 @@ impl Solver {
                     format!("  converged: |R| = {free:.3e} (scale {scale:.3e})"),
                 );
                 return Ok(it);
-            }
-            if stalled(it, free, last_free, last_alpha) {
-                let moved = self.relax(model, loads, u, free, 0.1 * tolerance);
-                if moved > 0 {
-                    info = self.assemble_at(model, loads, u);
-                    let before = free;
-                    free = self.norms().0;
-                    push_log(
-                        log,
-                        format!("  stalled: relaxed {moved} nodes, |R| {before:.3e} -> {free:.3e}"),
-                    );
-                }
             }
             last_free = free;
             if it == self.settings.max_iterations {
@@ -215,34 +219,62 @@ impl Solver {
         loads: &[f64],
         u: &mut [f64],
         free: f64,
-        target: f64,
+        tolerance: f64,
     ) -> usize {
-        let nodes: Vec<usize> = (0..model.reference.len())
-            .filter(|&i| {
-                (0..3).any(|c| {
-                    let d = 3 * i + c;
-                    self.pattern.eq[d] != NONE && self.residual[d].abs() >= RELAX_SHARE * free
+        let (mut free, mut moved_total) = (free, 0);
+        for _ in 0..RELAX_ROUNDS {
+            let nodes: Vec<usize> = (0..model.reference.len())
+                .filter(|&i| {
+                    (0..3).any(|c| {
+                        let d = 3 * i + c;
+                        self.pattern.eq[d] != NONE && self.residual[d].abs() >= RELAX_SHARE * free
+                    })
                 })
-            })
-            .collect();
-        if nodes.len() as f64 > RELAX_MAX_SHARE * model.reference.len() as f64 {
-            // The residual is spread over the mesh: a global, not a local, difficulty.
-            return 0;
-        }
-        let forced = self.frozen.as_deref();
-        let mut moved = 0;
-        for _ in 0..RELAX_SWEEPS {
-            moved = moved.max(relax_nodes(
+                .collect();
+            if nodes.len() as f64 > RELAX_MAX_SHARE * model.reference.len() as f64 {
+                // The residual is spread over the mesh: a global, not a local, difficulty.
+                break;
+            }
+            let forced = self.frozen.as_deref();
+            let mut moved = 0;
+            for _ in 0..RELAX_SWEEPS {
+                moved = moved.max(relax_nodes(
+                    model,
+                    &self.adjacency,
+                    u,
+                    loads,
+                    &nodes,
+                    forced,
+                    0.1 * tolerance,
+                ));
+            }
+            if moved == 0 {
+                break;
+            }
+            moved_total += moved;
+            // The relaxed nodes pass residual on to their neighbours: relax those next.
+            let membranes = Membranes {
+                forced,
+                out: None,
+                held_step: None,
+                prestress_factor: None,
+            };
+            assemble_with(
                 model,
-                &self.adjacency,
+                &self.pattern,
                 u,
                 loads,
-                &nodes,
-                forced,
-                target,
-            ));
+                &mut self.residual,
+                None,
+                membranes,
+            );
+            let before = free;
+            free = self.norms().0;
+            if free <= tolerance || free > 0.9 * before {
+                break;
+            }
         }
-        moved
+        moved_total
     }
 
     /// Wrinkle states the mixed criterion gives at `u` (no freezing), and |R|∞ over the free
