@@ -67,6 +67,8 @@ impl Solver {
         let committed: Vec<f64> = u[n3..].to_vec();
         let floor = 1e-12 * model.force_scale.max(f64::MIN_POSITIVE);
         self.frozen = None;
+        // The prestress fade of `newton` is not used here: full artificial prestress.
+        self.prestress_factor = 1.0;
         let mut previous: Vec<WrinkleState> = Vec::new();
         let (mut frozen_slip, mut freeze_at, mut unfreezes) = (false, FREEZE_AFTER, 0);
         for it in 0..=self.settings.max_iterations {
