@@ -26,12 +26,23 @@ BOUNDS = ([4.0, 0.0], [7.0, 1.5])  # log10(mu_rubber / Pa), mu_friction
 FAILED = 1e3  # residual (mm) of a run that did not converge
 
 
+DISCARDED = []  # (mu_rubber, mu_friction, the FMU's message) of the runs that stopped early
+
+
 def residuals(x: np.ndarray, exp: np.ndarray, loads: np.ndarray) -> np.ndarray:
+    messages = []
+
+    def logger(_env, _name, status, _category, message):
+        if status >= 2:  # Discard, Error, Fatal
+            messages.append(message.decode(errors="replace") if isinstance(message, bytes) else str(message))
+
     try:
-        ours = st.run(10.0 ** x[0], x[1], loads)
-    except Exception:  # a discarded step: a bad point, not a crash of the fit
+        ours = st.run(10.0 ** x[0], x[1], loads, logger=logger)
+    except Exception as e:  # an error status: a bad point, not a crash of the fit
+        DISCARDED.append((10.0 ** x[0], x[1], str(e)))
         return np.full(4 * (len(loads) - 1), FAILED)
     if len(ours) < len(loads):  # the FMU discarded a step and stopped early
+        DISCARDED.append((10.0 ** x[0], x[1], messages[-1] if messages else "stopped early"))
         return np.full(4 * (len(loads) - 1), FAILED)
     return np.concatenate([1e3 * (ours[o][1:] - exp[c][1:]) for c, o in st.QUANTITIES])
 
@@ -60,6 +71,10 @@ def main() -> int:
     lo, hi = f(np.array([fit.x[0], max(0.0, fit.x[1] - 0.1)])), f(np.array([fit.x[0], min(1.5, fit.x[1] + 0.1)]))
     spread = float(max(np.sqrt(np.mean(lo ** 2)), np.sqrt(np.mean(hi ** 2))) - rms)
     print(f"calibration of SleeveCable to Table 1 ({evaluations} FMU runs, least_squares: {fit.message})")
+    if DISCARDED:
+        worst = max(DISCARDED, key=lambda d: d[0])
+        print(f"  {len(DISCARDED)} runs stopped at a step that did not converge (scored as a {FAILED:g} mm miss), "
+              f"e.g. mu_rubber = {worst[0]:.3g} Pa, mu_friction = {worst[1]:.3g}: {worst[2][:160]}")
     print(f"  mu_rubber   = {mu_rubber:.4g} Pa  (E = 3 mu = {3 * mu_rubber / 1e6:.3g} MPa, thickness 0.5 mm)")
     print(f"  mu_friction = {mu_friction:.4g}  (RMS changes by {spread:+.3f} mm for mu_friction ± 0.1)")
     print(f"  RMS error {rms:.2f} mm over 16 entries; per quantity: " + ", ".join(f"{k} {v:.2f} mm" for k, v in per.items()))

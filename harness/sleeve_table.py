@@ -43,9 +43,10 @@ def experiment() -> np.ndarray:
     return np.genfromtxt(lines, delimiter=",", names=True)
 
 
-def run(mu_rubber: float, mu_friction: float, loads: np.ndarray) -> np.ndarray:
+def run(mu_rubber: float, mu_friction: float, loads: np.ndarray, logger=None) -> np.ndarray:
     """One FMU run: step k carries loads[k] (fmpy records after DoStep, so row k+1 is the
-    equilibrium under loads[k])."""
+    equilibrium under loads[k]). `logger` replaces fmpy's printing of the FMU's messages
+    (fmpy's signature: component environment, instance name, status, category, message)."""
     n = len(loads)
     signal = np.zeros(n, dtype=[("time", np.float64), ("force_2P", np.float64), ("cable_preload", np.float64)])
     signal["time"] = np.arange(n, dtype=float)
@@ -59,6 +60,8 @@ def run(mu_rubber: float, mu_friction: float, loads: np.ndarray) -> np.ndarray:
         input=signal,
         start_values={"mu_rubber": mu_rubber, "mu_friction": mu_friction},
         validate=False,
+        timeout=vr.TIMEOUT,
+        **({"logger": logger} if logger is not None else {}),
     )
     return rows[1:]
 
