@@ -5,8 +5,8 @@
 //! iterate:  assemble R, K at u (states from the mixed criterion, or frozen)
 //!           converged when |R_free|∞ <= tol · max(|f_ext|∞, |reactions|∞) + round-off floor
 //!           stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
-//!               relax the nodes carrying >= 1/10 of |R|∞ (super::relax); repeat over the
-//!               nodes that then carry it while each round lowers |R|∞ by a tenth; reassemble
+//!               relax the nodes carrying >= 1/10 of |R|∞ (super::relax); repeat, adding the
+//!               nodes that then carry it, while each round lowers |R|∞ by a tenth; reassemble
 //!           K Δu = −R;  u ← u + α Δu (α from the line search)
 //! ```
 
@@ -222,15 +222,17 @@ impl Solver {
         tolerance: f64,
     ) -> usize {
         let (mut free, mut moved_total) = (free, 0);
+        let mut patch = vec![false; model.reference.len()];
         for _ in 0..RELAX_ROUNDS {
-            let nodes: Vec<usize> = (0..model.reference.len())
-                .filter(|&i| {
-                    (0..3).any(|c| {
-                        let d = 3 * i + c;
-                        self.pattern.eq[d] != NONE && self.residual[d].abs() >= RELAX_SHARE * free
-                    })
-                })
-                .collect();
+            // The patch grows by the nodes that now carry the residual (the neighbours the last
+            // round passed it on to) and is relaxed as a whole: block Gauss-Seidel on it.
+            for i in 0..model.reference.len() {
+                patch[i] |= (0..3).any(|c| {
+                    let d = 3 * i + c;
+                    self.pattern.eq[d] != NONE && self.residual[d].abs() >= RELAX_SHARE * free
+                });
+            }
+            let nodes: Vec<usize> = (0..patch.len()).filter(|&i| patch[i]).collect();
             if nodes.len() as f64 > RELAX_MAX_SHARE * model.reference.len() as f64 {
                 // The residual is spread over the mesh: a global, not a local, difficulty.
                 break;
@@ -252,7 +254,6 @@ impl Solver {
                 break;
             }
             moved_total += moved;
-            // The relaxed nodes pass residual on to their neighbours: relax those next.
             let membranes = Membranes {
                 forced,
                 out: None,
