@@ -305,7 +305,7 @@ impl Solver {
     }
 
     /// |R|∞ over free DOFs and over held DOFs (the reactions).
-    fn norms(&self) -> (f64, f64) {
+    pub(super) fn norms(&self) -> (f64, f64) {
         let (mut free, mut held) = (0.0f64, 0.0f64);
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             let r = self.residual[d].abs();

@@ -101,7 +101,7 @@ impl Solver {
                 frozen_slip = true;
             }
             let rows = slip_rows(model, &self.pattern.eq, u, &committed, states);
-            let (free, held) = self.free_held_norms();
+            let (free, held) = self.norms();
             let slip_res = rows.iter().fold(0.0f64, |a, r| a.max(r.r.abs()));
             if !(free.is_finite() && slip_res.is_finite()) {
                 return Err((it, "the residual is not finite".into()));
@@ -211,7 +211,7 @@ impl Solver {
                     prestress_factor: None,
                 },
             );
-            let (free, _) = self.free_held_norms();
+            let (free, _) = self.norms();
             let rows = slip_rows(model, &self.pattern.eq, u, committed, states);
             let slip = rows.iter().fold(0.0f64, |a, r| a.max(r.r.abs()));
             let now = free.max(slip);
@@ -221,22 +221,6 @@ impl Solver {
             alpha *= 0.5;
         }
         alpha * 2.0
-    }
-
-    /// |R|∞ over free DOFs and over held DOFs (reactions).
-    fn free_held_norms(&self) -> (f64, f64) {
-        let (mut free, mut held) = (0.0f64, 0.0f64);
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            let r = self.residual[d].abs();
-            if e == NONE {
-                held = held.max(r);
-            } else if r.is_nan() {
-                free = f64::NAN;
-            } else {
-                free = free.max(r);
-            }
-        }
-        (free, held)
     }
 
     /// Newton direction (Δx on equations, Δs) by block elimination of the slip unknowns.
