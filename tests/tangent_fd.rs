@@ -5,6 +5,7 @@
 //!            O(h²) accurate, so 1e-6 relative leaves room for round-off only.
 
 mod common;
+use common::Rng;
 use nalgebra::{SMatrix, Vector3};
 use velarium::model::wrinkling::Law;
 use velarium::model::{cable, membrane, pressure};
@@ -18,20 +19,6 @@ fn tri(
     let mut k = membrane::Mat9::zeros();
     let (f, eval) = membrane::triangle(r, mat, 0.0, &[x[0], x[1], x[2]], None, Some(&mut k));
     (f.as_slice().to_vec(), k, eval.energy)
-}
-
-/// Small deterministic generator (no rand dependency): xorshift64*.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545F4914F6CDD1D) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-    fn vec3(&mut self, scale: f64) -> Vector3<f64> {
-        Vector3::new(self.next(), self.next(), self.next()) * scale
-    }
 }
 
 /// Max |K − K_fd| / max |K| for a force function of N/3 nodes.

@@ -7,19 +7,11 @@
 //! REFERENCE: MECHANICS.md §5 (every tangent against central differences, relative error
 //!            < 1e-6); step h = 1e-6 times the segment length.
 
+mod common;
+use common::Rng;
 use nalgebra::Vector3;
 use velarium::model::cable::{self, Law};
 use velarium::model::sleeve::{self, SegmentLaw};
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545F4914F6CDD1D) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-}
 
 #[test]
 fn slip_row_matches_finite_differences() {

@@ -106,11 +106,7 @@ fn dissipation(e: &Engine, before: &[f64]) -> f64 {
         .iter()
         .enumerate()
         .map(|(j, p)| {
-            let t = |k: usize| {
-                let s = &model.segments[k];
-                let l = (model.position(u, s.nodes[1]) - model.position(u, s.nodes[0])).norm();
-                velarium::model::cable::tension(s.law, s.ea, model.segment_l0(u, k), l).0
-            };
+            let t = |k: usize| model.segment_tension(u, k);
             let (ft, _) = sleeve::contact_forces(
                 &model.position(u, p.prev),
                 &model.position(u, p.node),

@@ -240,6 +240,13 @@ impl Model {
         s.l0 + slip(s.slip[1]) - slip(s.slip[0])
     }
 
+    /// Axial force (N) of segment `e` under `u` (displacements, then slips).
+    pub fn segment_tension(&self, u: &[f64], e: usize) -> f64 {
+        let s = &self.segments[e];
+        let l = (self.position(u, s.nodes[1]) - self.position(u, s.nodes[0])).norm();
+        cable::tension(s.law, s.ea, self.segment_l0(u, e), l).0
+    }
+
     /// Current position of a node under displacement `u`.
     pub fn position(&self, u: &[f64], node: usize) -> Vector3<f64> {
         self.reference[node] + Vector3::new(u[3 * node], u[3 * node + 1], u[3 * node + 2])

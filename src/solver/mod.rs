@@ -71,6 +71,23 @@ impl StepReport {
     }
 }
 
+/// Smallest signed current/reference area ratio a membrane triangle may reach: below it the
+/// triangle has collapsed or turned over (inversion guard of every Newton loop and of nodal
+/// relaxation).
+pub(super) const MIN_AREA_RATIO: f64 = 1e-6;
+
+/// Err with the reason when an assembly found an inverted or collapsed membrane triangle.
+pub(super) fn check_inversion(model: &Model, info: &assemble::AssemblyInfo) -> Result<(), String> {
+    if model.triangles.is_empty() || info.min_area_ratio > MIN_AREA_RATIO {
+        Ok(())
+    } else {
+        Err(format!(
+            "a membrane element inverted or collapsed (area ratio {:.2e})",
+            info.min_area_ratio
+        ))
+    }
+}
+
 /// Increments (converged or cut back) one step may use before it is declared failed: a step
 /// that creeps forward by tiny increments is reported, not left to run for minutes.
 const MAX_INCREMENTS: usize = 400;

@@ -21,8 +21,6 @@ const FREEZE_AFTER: usize = 6;
 /// Times frozen states may turn out wrong at convergence before the increment is cut back.
 const MAX_UNFREEZE: usize = 3;
 
-/// Smallest current/reference area ratio a membrane triangle may reach (inversion guard).
-const MIN_AREA_RATIO: f64 = 1e-6;
 /// Line search: accept α when |s(α)| <= LS_RATIO · |s(0)|.
 const LS_RATIO: f64 = 0.5;
 const LS_MAX_TRIES: usize = 8;
@@ -91,15 +89,7 @@ impl Solver {
                 self.frozen = Some(states.clone());
             }
             previous = states;
-            if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
-                return Err((
-                    it,
-                    format!(
-                        "a membrane element inverted or collapsed (area ratio {:.2e})",
-                        info.min_area_ratio
-                    ),
-                ));
-            }
+            super::check_inversion(model, &info).map_err(|why| (it, why))?;
             let (mut free, held) = self.norms();
             if !free.is_finite() {
                 return Err((it, "the residual is not finite".into()));
@@ -352,7 +342,7 @@ impl Solver {
             None,
             membranes,
         );
-        if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
+        if super::check_inversion(model, &info).is_err() {
             return (f64::NAN, f64::NAN);
         }
         let s = self.direction_dot_residual();

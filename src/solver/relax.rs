@@ -34,8 +34,6 @@ pub struct Adjacency {
     forces: Vec<Vec<(usize, usize, f64)>>,
 }
 
-/// Smallest signed area ratio a local step may leave a triangle with (as Newton's guard).
-const MIN_AREA_RATIO: f64 = 1e-6;
 /// Local Newton steps per node and sweep.
 const LOCAL_ITERATIONS: usize = 20;
 /// Backtracking halvings of one local step.
@@ -121,7 +119,7 @@ fn local(
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
         out.potential = out.potential.map(|p| p + eval.energy);
-        out.inverted |= !(membrane::signed_area_ratio(&t.reference, &x) > MIN_AREA_RATIO);
+        out.inverted |= !(membrane::signed_area_ratio(&t.reference, &x) > super::MIN_AREA_RATIO);
         for &(l, follower) in &adj.pressures[e] {
             if follower {
                 out.r -= pressure::follower_force(loads[l], &x);

@@ -35,8 +35,6 @@ const FREEZE_AFTER: usize = 8;
 const MAX_UNFREEZE: usize = 3;
 /// Smallest fraction of its current unstretched length a sleeved segment may keep in one step.
 const KEEP_LENGTH: f64 = 0.1;
-/// Smallest current/reference area ratio of a membrane triangle.
-const MIN_AREA_RATIO: f64 = 1e-6;
 /// Largest tie gap, relative to the shorter adjacent segment, before the log warns
 /// (MECHANICS.md §2.3: penetration below 1e-3 of the element size).
 pub const MAX_GAP: f64 = 1e-3;
@@ -82,15 +80,7 @@ impl Solver {
                 self.frozen = Some(wrinkle.clone());
             }
             previous = wrinkle;
-            if !model.triangles.is_empty() && !(info.min_area_ratio > MIN_AREA_RATIO) {
-                return Err((
-                    it,
-                    format!(
-                        "a membrane element inverted or collapsed (area ratio {:.2e})",
-                        info.min_area_ratio
-                    ),
-                ));
-            }
+            super::check_inversion(model, &info).map_err(|why| (it, why))?;
             let changed = if frozen_slip {
                 0
             } else {
@@ -346,12 +336,8 @@ pub(crate) fn return_map(
 }
 
 fn tensions(model: &Model, u: &[f64], p: &sleeve::SlipPoint) -> (f64, f64) {
-    let t = |e: usize| {
-        let s = &model.segments[e];
-        let l = (model.position(u, s.nodes[1]) - model.position(u, s.nodes[0])).norm();
-        crate::model::cable::tension(s.law, s.ea, model.segment_l0(u, e), l).0
-    };
-    (t(p.segments[0]), t(p.segments[1]))
+    let [a, b] = p.segments;
+    (model.segment_tension(u, a), model.segment_tension(u, b))
 }
 
 /// Slip rows: r = f_t − σμ f_n for slipping points, k_ref (s − s^n) for stuck ones.

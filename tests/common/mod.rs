@@ -1,6 +1,7 @@
 //! Helpers shared by the verification tests: drive an Engine by variable names.
 #![allow(dead_code)]
 
+use nalgebra::Vector3;
 use velarium::variables::VarType;
 use velarium::{Engine, Scene};
 
@@ -57,4 +58,18 @@ pub fn solve(engine: &mut Engine) -> velarium::solver::StepReport {
 
 pub fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
+}
+
+/// Small deterministic generator (no rand dependency): xorshift64*.
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545F4914F6CDD1D) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+    pub fn vec3(&mut self, scale: f64) -> Vector3<f64> {
+        Vector3::new(self.next(), self.next(), self.next()) * scale
+    }
 }
