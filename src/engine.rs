@@ -334,6 +334,7 @@ fn settings(scene: &Scene) -> Settings {
         min_increment: s.min_increment,
         target_iterations: s.target_iterations,
         line_search: s.line_search,
+        ..Settings::default()
     }
 }
 

@@ -119,7 +119,7 @@ fn tie_stiffness_matches_finite_differences() {
 fn assembled_slip_blocks_match_finite_differences() {
     use velarium::model::sleeve::{SLIP_BACKWARD, SLIP_FORWARD};
     use velarium::solver::assemble::{assemble, Pattern, NONE};
-    use velarium::solver::sliding::slip_blocks;
+    use velarium::solver::slip::slip_blocks;
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/modelDescription/SlidingCable/scene.json"

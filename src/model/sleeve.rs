@@ -93,6 +93,43 @@ pub const STICK: u8 = 0;
 pub const SLIP_FORWARD: u8 = 1;
 pub const SLIP_BACKWARD: u8 = 2;
 
+/// Stick/slip state of a sleeve point (the solver's typed view of the state codes above).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Contact {
+    #[default]
+    Stick,
+    /// Slipping toward the cable's end (σ = +1).
+    Forward,
+    /// Slipping toward the cable's start (σ = −1).
+    Backward,
+}
+
+impl Contact {
+    /// The state code stored in the engine state and FMU snapshots.
+    pub fn code(self) -> u8 {
+        match self {
+            Contact::Stick => STICK,
+            Contact::Forward => SLIP_FORWARD,
+            Contact::Backward => SLIP_BACKWARD,
+        }
+    }
+
+    /// The state of a code; None for a code that is not one.
+    pub fn from_code(code: u8) -> Option<Contact> {
+        match code {
+            STICK => Some(Contact::Stick),
+            SLIP_FORWARD => Some(Contact::Forward),
+            SLIP_BACKWARD => Some(Contact::Backward),
+            _ => None,
+        }
+    }
+
+    /// σ: +1 forward, −1 backward, 0 stuck.
+    pub fn sigma(self) -> f64 {
+        sigma(self.code())
+    }
+}
+
 /// σ of a state code.
 pub fn sigma(state: u8) -> f64 {
     match state {

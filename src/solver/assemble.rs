@@ -35,6 +35,9 @@ pub struct AssemblyInfo {
     /// Smallest signed current/reference area ratio of a membrane triangle (inversion check:
     /// negative for a triangle turned over against its reference normal).
     pub min_area_ratio: f64,
+    /// Largest nodal force component any single element carries (N): the internal-force part
+    /// of the convergence test's force scale.
+    pub carried: f64,
 }
 
 impl Pattern {
@@ -141,15 +144,26 @@ fn gather<const M: usize>(model: &Model, u: &[f64], nodes: [usize; M]) -> [Vecto
     nodes.map(|i| model.position(u, i))
 }
 
-fn add_force(r: &mut [f64], nodes: &[usize], f: &[f64]) {
+fn add_force(r: &mut [f64], nodes: &[usize], f: &[f64], magnitude: &mut Option<&mut [f64]>) {
     for (a, &i) in nodes.iter().enumerate() {
         for c in 0..3 {
             r[3 * i + c] += f[3 * a + c];
         }
     }
+    if let Some(m) = magnitude.as_deref_mut() {
+        for (a, &i) in nodes.iter().enumerate() {
+            for c in 0..3 {
+                m[3 * i + c] += f[3 * a + c].abs();
+            }
+        }
+    }
 }
 
-/// Per-triangle wrinkle states: frozen ones to use, and where to write the evaluations.
+fn largest(f: &[f64]) -> f64 {
+    f.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+/// What an assembly computes besides R (and K when a matrix is given).
 #[derive(Default)]
 pub struct Membranes<'a> {
     /// States frozen by the solver against chatter (None: the mixed criterion decides).
@@ -161,6 +175,9 @@ pub struct Membranes<'a> {
     pub held_step: Option<(&'a [f64], &'a mut [f64])>,
     /// Factor on every triangle's artificial prestress (None: 1).
     pub prestress_factor: Option<f64>,
+    /// Per DOF, the sum of the magnitudes of every force that meets there (element forces and
+    /// loads): the size of the terms whose sum is R, for its round-off floor. Zeroed here.
+    pub magnitude: Option<&'a mut [f64]>,
 }
 
 /// Add K_e·du_e (the element's rows) to `out` for an element with `nodes`.
@@ -171,6 +188,69 @@ fn couple<const N: usize>(k: &SMatrix<f64, N, N>, nodes: &[usize], du: &[f64], o
         for a in 0..N {
             out[dofs(a)] += k[(a, b)] * d;
         }
+    }
+}
+
+/// One membrane triangle's internal force, tangent (into `ke` when given) and evaluation at `u`:
+/// the element routine every assembly (global or per node) goes through.
+pub(super) fn triangle_contribution(
+    model: &Model,
+    e: usize,
+    u: &[f64],
+    prestress_factor: f64,
+    forced: Option<WrinkleState>,
+    ke: Option<&mut membrane::Mat9>,
+) -> (membrane::Vec9, Evaluation, f64) {
+    let t = &model.triangles[e];
+    let x = gather(model, u, t.nodes);
+    let (f, eval) = membrane::triangle(
+        &t.reference,
+        &t.material,
+        t.prestress * prestress_factor,
+        &x,
+        forced,
+        ke,
+    );
+    (f, eval, membrane::signed_area_ratio(&t.reference, &x))
+}
+
+/// One cable segment's internal force, tangent and energy at `u` (its unstretched length
+/// includes the slips at its sleeve ends).
+pub(super) fn segment_contribution(model: &Model, e: usize, u: &[f64]) -> (cable::Vec6, cable::Mat6, f64) {
+    let s = &model.segments[e];
+    let x = gather(model, u, s.nodes);
+    cable::segment(s.law, s.ea, model.segment_l0(u, e), &x[0], &x[1])
+}
+
+/// One sleeve tie's force (cable point, then membrane node), tangent and energy at `u`.
+pub(super) fn tie_contribution(model: &Model, e: usize, u: &[f64]) -> (cable::Vec6, cable::Mat6, f64) {
+    let t = &model.ties[e];
+    let x = gather(model, u, t.nodes);
+    let (f, w) = sleeve::tie_force(t.k, &x[0], &x[1]);
+    let f = cable::Vec6::from_column_slice(&[f.x, f.y, f.z, -f.x, -f.y, -f.z]);
+    (f, sleeve::tie_stiffness(t.k), w)
+}
+
+/// Pressure `value` on triangle `e` at `u`: the nodal force (the same on its three nodes) and,
+/// for a follower pressure, the symmetric part of its load stiffness (`model::pressure`).
+pub(super) fn pressure_contribution(
+    model: &Model,
+    e: usize,
+    u: &[f64],
+    value: f64,
+    follower: bool,
+    want_k: bool,
+) -> (Vector3<f64>, Option<membrane::Mat9>) {
+    let t = &model.triangles[e];
+    if follower {
+        let x = gather(model, u, t.nodes);
+        let k = want_k.then(|| {
+            let kp = pressure::follower_stiffness(value, &x);
+            (kp + kp.transpose()) * 0.5
+        });
+        (pressure::follower_force(value, &x), k)
+    } else {
+        (t.reference.normal * (value * t.reference.area / 3.0), None)
     }
 }
 
@@ -187,7 +267,7 @@ pub fn assemble(
     assemble_with(model, pattern, u, loads, r, k, Membranes::default())
 }
 
-/// [`assemble`] with control over the membranes' wrinkle states.
+/// [`assemble`] with control over the membranes' wrinkle states and the extra outputs.
 pub fn assemble_with(
     model: &Model,
     pattern: &Pattern,
@@ -195,66 +275,55 @@ pub fn assemble_with(
     loads: &[f64],
     r: &mut [f64],
     mut k: Option<&mut [f64]>,
-    mut membranes: Membranes,
+    mut extra: Membranes,
 ) -> AssemblyInfo {
     r.fill(0.0);
     if let Some(k) = k.as_deref_mut() {
         k.fill(0.0);
     }
+    if let Some(m) = extra.magnitude.as_deref_mut() {
+        m.fill(0.0);
+    }
     let mut info = AssemblyInfo {
         min_area_ratio: f64::INFINITY,
         ..Default::default()
     };
-    if let Some(out) = membranes.out.as_deref_mut() {
+    if let Some(out) = extra.out.as_deref_mut() {
         out.clear();
     }
+    let want_k = k.is_some() || extra.held_step.is_some();
+    let factor = extra.prestress_factor.unwrap_or(1.0);
     let mut ke = membrane::Mat9::zeros();
     for (e, t) in model.triangles.iter().enumerate() {
-        let x = gather(model, u, t.nodes);
-        let forced = membranes.forced.map(|f| f[e]);
-        let want_k = k.is_some() || membranes.held_step.is_some();
-        let (f, eval) = membrane::triangle(
-            &t.reference,
-            &t.material,
-            t.prestress * membranes.prestress_factor.unwrap_or(1.0),
-            &x,
-            forced,
-            want_k.then_some(&mut ke),
-        );
-        add_force(r, &t.nodes, f.as_slice());
+        let forced = extra.forced.map(|f| f[e]);
+        let (f, eval, ratio) =
+            triangle_contribution(model, e, u, factor, forced, want_k.then_some(&mut ke));
+        add_force(r, &t.nodes, f.as_slice(), &mut extra.magnitude);
+        info.carried = info.carried.max(largest(f.as_slice()));
         if let Some(k) = k.as_deref_mut() {
             scatter(&ke, &pattern.tri_map[e], k);
         }
-        if let Some((du, out)) = membranes.held_step.as_mut() {
+        if let Some((du, out)) = extra.held_step.as_mut() {
             couple(&ke, &t.nodes, du, out);
         }
-        if let Some(out) = membranes.out.as_deref_mut() {
+        if let Some(out) = extra.out.as_deref_mut() {
             out.push(eval);
         }
         info.potential += eval.energy;
-        let ratio = membrane::signed_area_ratio(&t.reference, &x);
         info.min_area_ratio = info.min_area_ratio.min(ratio);
     }
-    for (e, s) in model.segments.iter().enumerate() {
-        let x = gather(model, u, s.nodes);
-        let (f, ke, w) = cable::segment(s.law, s.ea, model.segment_l0(u, e), &x[0], &x[1]);
-        add_force(r, &s.nodes, f.as_slice());
-        info.potential += w;
-        if let Some(k) = k.as_deref_mut() {
-            scatter(&ke, &pattern.seg_map[e], k);
-        }
-        if let Some((du, out)) = membranes.held_step.as_mut() {
-            couple(&ke, &s.nodes, du, out);
-        }
-    }
     let ns = model.segments.len();
-    for (e, t) in model.ties.iter().enumerate() {
-        let x = gather(model, u, t.nodes);
-        let (f, w) = sleeve::tie_force(t.k, &x[0], &x[1]);
-        add_force(r, &t.nodes, &[f.x, f.y, f.z, -f.x, -f.y, -f.z]);
+    let lines = (0..ns).map(|e| (e, segment_contribution(model, e, u), model.segments[e].nodes));
+    let ties = (0..model.ties.len()).map(|e| (ns + e, tie_contribution(model, e, u), model.ties[e].nodes));
+    for (m, (f, ke, w), nodes) in lines.chain(ties) {
+        add_force(r, &nodes, f.as_slice(), &mut extra.magnitude);
+        info.carried = info.carried.max(largest(f.as_slice()));
         info.potential += w;
         if let Some(k) = k.as_deref_mut() {
-            scatter(&sleeve::tie_stiffness(t.k), &pattern.seg_map[ns + e], k);
+            scatter(&ke, &pattern.seg_map[m], k);
+        }
+        if let Some((du, out)) = extra.held_step.as_mut() {
+            couple(&ke, &nodes, du, out);
         }
     }
     // External loads: R −= f_ext.
@@ -271,31 +340,19 @@ pub fn assemble_with(
                 follower,
             } => {
                 for &e in triangles {
-                    let t = &model.triangles[e];
-                    if *follower {
-                        let x = gather(model, u, t.nodes);
-                        let f = pressure::follower_force(value, &x);
-                        for &i in &t.nodes {
-                            for c in 0..3 {
-                                fext[3 * i + c] += f[c];
-                            }
+                    let nodes = model.triangles[e].nodes;
+                    let (f, kp) = pressure_contribution(model, e, u, value, *follower, want_k);
+                    for &i in &nodes {
+                        for c in 0..3 {
+                            fext[3 * i + c] += f[c];
                         }
-                        if k.is_some() || membranes.held_step.is_some() {
-                            let kp = pressure::follower_stiffness(value, &x);
-                            let ks = (kp + kp.transpose()) * 0.5;
-                            if let Some(k) = k.as_deref_mut() {
-                                scatter(&ks, &pattern.tri_map[e], k);
-                            }
-                            if let Some((du, out)) = membranes.held_step.as_mut() {
-                                couple(&ks, &t.nodes, du, out);
-                            }
+                    }
+                    if let Some(kp) = kp {
+                        if let Some(k) = k.as_deref_mut() {
+                            scatter(&kp, &pattern.tri_map[e], k);
                         }
-                    } else {
-                        let f = t.reference.normal * (value * t.reference.area / 3.0);
-                        for &i in &t.nodes {
-                            for c in 0..3 {
-                                fext[3 * i + c] += f[c];
-                            }
+                        if let Some((du, out)) = extra.held_step.as_mut() {
+                            couple(&kp, &nodes, du, out);
                         }
                     }
                 }
@@ -309,6 +366,11 @@ pub fn assemble_with(
             info.potential -= f * u[d];
         }
         info.external = info.external.max(f.abs());
+    }
+    if let Some(m) = extra.magnitude.as_deref_mut() {
+        for (m, f) in m.iter_mut().zip(&fext) {
+            *m += f.abs();
+        }
     }
     info
 }

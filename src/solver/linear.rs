@@ -62,6 +62,11 @@ impl Ldlt {
         }
     }
 
+    /// The matrix values (upper triangle, CSC order) as last filled.
+    pub fn values(&self) -> &[f64] {
+        self.matrix.val()
+    }
+
     /// The matrix values (upper triangle, CSC order) to fill before [`Ldlt::factor_solve`].
     pub fn values_mut(&mut self) -> &mut [f64] {
         self.matrix.val_mut()

@@ -1,41 +1,104 @@
-//! The solver: assembly, sparse LDLT, Newton with a slope line search, and load increments with
-//! cut-back. It sees the model only; it owns scratch buffers, never committed state.
+//! The solver: assembly, sparse LDLT, one Newton loop with line search and damping, and load
+//! increments with cut-back. It sees the model only; it owns scratch buffers, never committed
+//! state.
 //!
 //! ```text
-//! solve_step(from, to, u):  load(λ) = from + λ (to − from),  λ: 0 → 1 in increments Δλ
-//!   each increment: Newton from the last converged u; on failure Δλ ← Δλ/4 (down to min);
-//!   on success Δλ ← 2 Δλ if N_iter <= N_target, 1.5 Δλ if N_iter <= 3/4 N_max, else Δλ
-//! Newton: K Δu = −R on free DOFs; u ← u + α Δu with α from the slope s(α) = Δu·R(u + αΔu)
-//!   converged when |R_free|∞ <= tol · max(|f_ext|∞, |reactions|∞) (+ a round-off floor)
+//! path.rs         solve_step(from, to, u): load(λ) = from + λ (to − from), λ: 0 → 1 in
+//!                 increments Δλ; a tangent predictor for moved prescribed displacements; on
+//!                 failure Δλ ← Δλ/4 (down to min_increment); on success Δλ grows
+//! newton.rs       the one Newton loop: assemble → active set → convergence test → direction
+//!                 → line search → damping update
+//! active_set.rs   wrinkle-state freezing and stick/slip states, one chatter policy
+//! slip.rs         slip rows and columns, return map, Schur direction (m = 0: plain LDLT)
+//! line_search.rs  one backtracking search: potential, slope or residual merit
+//! relax.rs        nodal relaxation of the few nodes that carry a stalled residual
 //! ```
 //! Non-convergence is an outcome ([`StepReport`]), not an error: the caller's state is left as
-//! it was.
+//! it was. Every constant that tunes the iteration is a field of [`Settings`] with its default
+//! and the reason for it.
 //!
 //! # References
 //! Crisfield 1991, *Non-linear Finite Element Analysis of Solids and Structures*, vol. 1, §9.3
-//! (line search on the slope); Bonet & Wood 2008, §9.6; MECHANICS.md §5.
+//! (line search on the slope); Bonet & Wood 2008, §9.6; docs/mechanics.md (solver).
 
 pub mod assemble;
+mod active_set;
 pub mod linear;
+mod line_search;
+pub mod mechanism;
 mod newton;
+mod path;
 mod relax;
-pub mod sliding;
+pub mod slip;
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
-use assemble::Pattern;
+use assemble::{Pattern, NONE};
 use linear::Ldlt;
 
-/// Solver settings (the scene's solver section; defaults are documented there).
+/// Solver settings: the scene's solver section (tolerance, iterations, increments, line search)
+/// and the tuning constants of the iteration, each with its default and why.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
+    /// Relative residual tolerance (see `newton.rs`, the convergence test): every free DOF's
+    /// residual within tolerance · F (F the applied and carried force scale) plus its
+    /// round-off floor. Default 1e-9.
     pub tolerance: f64,
+    /// Newton iterations per increment before it is cut back. Default 25.
     pub max_iterations: usize,
+    /// First increment as a fraction of the step's load change. Default 1.
     pub initial_increment: f64,
+    /// Smallest increment before the step fails. Default 1e-4.
     pub min_increment: f64,
+    /// Increment growth aims at this many iterations per increment. Default 6.
     pub target_iterations: usize,
+    /// Backtracking line search on every Newton correction. Default on.
     pub line_search: bool,
+    /// Iterations with wrinkle or stick/slip state changes before the states are frozen until
+    /// convergence (chatter guard). Default 8: a state switch costs 2-4 iterations, and the
+    /// sleeve scenes settle their stick/slip states within 8.
+    pub freeze_after: usize,
+    /// Times frozen states may turn out wrong at convergence before the increment is cut back.
+    /// Default 3.
+    pub max_unfreeze: usize,
+    /// Trial steps of one line search. Default 8 (α down to about 1e-3 with interpolation).
+    pub line_search_tries: usize,
+    /// Increments (converged or cut back) one step may use before it fails: a step that creeps
+    /// forward by tiny increments is reported, not left to run for minutes. Default 400.
+    pub max_increments: usize,
+    /// c of the round-off floor c·ε·(Σ|f|_d + K_dd X) of the convergence test. Default 16: an
+    /// element force is a sum of a few dozen rounded products, and measured residuals of
+    /// converged iterates sit at 1-8 ε of those terms.
+    pub roundoff_factor: f64,
+    /// Damping τ of the globalisation when it switches on (relative to the taut-structure
+    /// diagonal). Default 1e-3: a mechanism then moves by 1000 elastic displacements per step.
+    pub damping_start: f64,
+    /// Damping below which it switches off. Default 1e-8 (no effect on the Newton direction).
+    pub damping_min: f64,
+    /// Largest damping. Default 1e6.
+    pub damping_max: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Settings {
+        Settings {
+            tolerance: 1e-9,
+            max_iterations: 25,
+            initial_increment: 1.0,
+            min_increment: 1e-4,
+            target_iterations: 6,
+            line_search: true,
+            freeze_after: 6,
+            max_unfreeze: 3,
+            line_search_tries: 8,
+            max_increments: 400,
+            roundoff_factor: 16.0,
+            damping_start: 0.0,
+            damping_min: 1e-8,
+            damping_max: 1e6,
+        }
+    }
 }
 
 /// How a step ended.
@@ -72,7 +135,7 @@ impl StepReport {
 }
 
 /// Smallest signed current/reference area ratio a membrane triangle may reach: below it the
-/// triangle has collapsed or turned over (inversion guard of every Newton loop and of nodal
+/// triangle has collapsed or turned over (inversion guard of the Newton loop and of nodal
 /// relaxation).
 pub(super) const MIN_AREA_RATIO: f64 = 1e-6;
 
@@ -88,10 +151,6 @@ pub(super) fn check_inversion(model: &Model, info: &assemble::AssemblyInfo) -> R
     }
 }
 
-/// Increments (converged or cut back) one step may use before it is declared failed: a step
-/// that creeps forward by tiny increments is reported, not left to run for minutes.
-const MAX_INCREMENTS: usize = 400;
-
 /// Longest solver log kept per step.
 const MAX_LOG_LINES: usize = 2000;
 
@@ -102,6 +161,15 @@ pub struct Solver {
     residual: Vec<f64>,
     trial: Vec<f64>,
     rhs: Vec<f64>,
+    /// Per DOF, the magnitudes of the forces meeting there (last assembly).
+    magnitude: Vec<f64>,
+    /// Position of every equation's diagonal entry in the tangent's values.
+    diagonal_positions: Vec<usize>,
+    /// D of the damped system: per equation the diagonal stiffness of the structure with every
+    /// element taut and elastic, then one entry per slip.
+    reference_diagonal: Vec<f64>,
+    /// Largest coordinate magnitude of the reference nodes.
+    reference_size: f64,
     /// Per-triangle evaluations of the last assembly.
     evaluations: Vec<Evaluation>,
     /// Wrinkle states frozen against chatter inside the current increment.
@@ -119,12 +187,22 @@ impl Solver {
         let linear = Ldlt::new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone());
         let n = model.dof_count();
         let trial_len = model.unknown_count();
+        let diagonal_positions = (0..pattern.n).map(|j| pattern.col_ptr[j + 1] - 1).collect();
+        let reference_diagonal = reference_diagonal(model, &pattern);
+        let reference_size = model
+            .reference
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.amax()));
         Solver {
             settings,
             linear,
             residual: vec![0.0; n],
             trial: vec![0.0; trial_len],
             rhs: vec![0.0; pattern.n],
+            magnitude: vec![0.0; n],
+            diagonal_positions,
+            reference_diagonal,
+            reference_size,
             evaluations: Vec::with_capacity(model.triangles.len()),
             frozen: None,
             adjacency: relax::Adjacency::new(model),
@@ -155,122 +233,55 @@ impl Solver {
         let mut r = vec![0.0; model.dof_count()];
         let mut out = Vec::with_capacity(model.triangles.len());
         let membranes = assemble::Membranes {
-            forced: None,
             out: Some(&mut out),
-            held_step: None,
-            prestress_factor: None,
+            ..Default::default()
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         out
     }
+}
 
-    /// Apply the load change `from` → `to` starting from the equilibrium `u`. On convergence
-    /// `u` is the new equilibrium; otherwise `u` is unchanged.
-    pub fn solve_step(
-        &mut self,
-        model: &Model,
-        from: &[f64],
-        to: &[f64],
-        u: &mut Vec<f64>,
-    ) -> StepReport {
-        let mut states = vec![0; model.slips.len()];
-        self.solve_step_with(model, from, to, u, &mut states)
-    }
-
-    /// [`Solver::solve_step`] for a model with sleeves: `u` holds displacements then slips
-    /// (`Model::unknown_count`), `states` the stick/slip code of every sleeve point
-    /// (`model::sleeve`). The history (slips, states) advances only at converged increments;
-    /// on failure both are unchanged.
-    pub fn solve_step_with(
-        &mut self,
-        model: &Model,
-        from: &[f64],
-        to: &[f64],
-        u: &mut Vec<f64>,
-        states: &mut Vec<u8>,
-    ) -> StepReport {
-        let mut report = StepReport {
-            outcome: Outcome::Failed,
-            iterations: 0,
-            increments: 0,
-            cutbacks: 0,
-            reached: 0.0,
-            message: String::new(),
-            log: Vec::new(),
-        };
-        let s = self.settings.clone();
-        let mut converged = u.clone();
-        let mut converged_states = states.clone();
-        let (mut lambda, mut dl) = (0.0, s.initial_increment);
-        while lambda < 1.0 {
-            if report.increments + report.cutbacks >= MAX_INCREMENTS {
-                report.reached = lambda;
-                report.message = format!("no equilibrium found beyond load fraction {lambda:.6} of the step ({MAX_INCREMENTS} increments used)");
-                return report;
-            }
-            dl = dl.min(1.0 - lambda);
-            let target = if 1.0 - (lambda + dl) < 1e-12 {
-                1.0
-            } else {
-                lambda + dl
-            };
-            let loads: Vec<f64> = from
-                .iter()
-                .zip(to)
-                .map(|(a, b)| a + target * (b - a))
-                .collect();
-            let mut trial = converged.clone();
-            let predicted = self.predict(model, &loads, &mut trial);
-            let mut trial_states = converged_states.clone();
-            let result = if model.slips.is_empty() {
-                self.newton(model, &loads, &mut trial, &mut report.log)
-            } else {
-                self.newton_sliding(
-                    model,
-                    &loads,
-                    &mut trial,
-                    &mut trial_states,
-                    &mut report.log,
-                )
-            };
-            let result = result
-                .map(|i| i + predicted)
-                .map_err(|(i, why)| (i + predicted, why));
-            match result {
-                Ok(iters) => {
-                    report.iterations += iters;
-                    report.increments += 1;
-                    push_log(&mut report.log, format!("increment λ {lambda:.6} -> {target:.6}: converged in {iters} iterations"));
-                    converged = trial;
-                    converged_states = trial_states;
-                    lambda = target;
-                    dl *= growth(iters, s.target_iterations, s.max_iterations);
-                }
-                Err((iters, why)) => {
-                    report.iterations += iters;
-                    report.cutbacks += 1;
-                    push_log(
-                        &mut report.log,
-                        format!("increment λ {lambda:.6} -> {target:.6}: {why}; cutting back"),
-                    );
-                    dl *= 0.25;
-                    if dl < s.min_increment {
-                        report.reached = lambda;
-                        report.message = format!(
-                            "no equilibrium found beyond load fraction {lambda:.6} of the step (smallest increment {:.1e} failed: {why})",
-                            s.min_increment
-                        );
-                        return report;
-                    }
-                }
-            }
+/// D of the damped system (`newton.rs`): per free equation, the diagonal stiffness its node
+/// would have if every element at it were taut and elastic and unstressed (membranes E t A
+/// |∇N_a|², cables EA/L, ties k; the same for x, y, z), and per slip the axial stiffness of
+/// its two segments. Positive wherever an element touches; 1 N/m elsewhere.
+fn reference_diagonal(model: &Model, pattern: &Pattern) -> Vec<f64> {
+    let mut node = vec![0.0; model.reference.len()];
+    for t in &model.triangles {
+        let k = t.material.modulus() * t.material.thickness * t.reference.area;
+        for (a, &i) in t.nodes.iter().enumerate() {
+            node[i] += k * t.reference.grad[a].norm_squared();
         }
-        *u = converged;
-        *states = converged_states;
-        report.outcome = Outcome::Converged;
-        report.reached = 1.0;
-        report
     }
+    for s in &model.segments {
+        for &i in &s.nodes {
+            node[i] += s.ea / s.l0;
+        }
+    }
+    for t in &model.ties {
+        for &i in &t.nodes {
+            node[i] += t.k;
+        }
+    }
+    let mut d = vec![0.0; pattern.n + model.slips.len()];
+    for (dof, &e) in pattern.eq.iter().enumerate() {
+        if e != NONE {
+            d[e] = node[dof / 3];
+        }
+    }
+    for (j, p) in model.slips.iter().enumerate() {
+        d[pattern.n + j] = p
+            .segments
+            .iter()
+            .map(|&s| model.segments[s].ea / model.segments[s].l0)
+            .sum();
+    }
+    for v in &mut d {
+        if !(*v > 0.0 && v.is_finite()) {
+            *v = 1.0;
+        }
+    }
+    d
 }
 
 impl Solver {
@@ -307,86 +318,6 @@ impl Solver {
             factor = factor.min(t.elapsed().as_secs_f64());
         }
         (assembly, factor)
-    }
-}
-
-/// Increment growth after a converged increment. A state switch (wrinkled/slack/taut) costs a
-/// few Newton iterations whatever the increment size, so iteration counts above the target do
-/// not mean the increment is too large: grow 2x up to the target, 1.5x up to three quarters of
-/// the iteration limit, keep it otherwise. Failures cut it by 4.
-fn growth(iterations: usize, target: usize, max_iterations: usize) -> f64 {
-    if iterations <= target {
-        2.0
-    } else if 4 * iterations <= 3 * max_iterations {
-        1.5
-    } else {
-        1.0
-    }
-}
-
-impl Solver {
-    /// Start an increment whose prescribed displacements change: one Newton step linearized at
-    /// the converged state `u`, with the prescribed change as a load on the free DOFs,
-    /// K_ff Δu_f = −(R_f + K_fp Δu_p). Moving only the prescribed DOFs would strain a single
-    /// layer of elements and spend the first iterations (and wrinkle-state switches) undoing
-    /// it. Returns the factorizations used (0 when nothing is prescribed to move, or 1);
-    /// `u` leaves with the prescribed values set in any case.
-    fn predict(&mut self, model: &Model, loads: &[f64], u: &mut [f64]) -> usize {
-        let mut du = vec![0.0; u.len()];
-        let mut target = u.to_vec();
-        prescribe(model, loads, &mut target);
-        let mut moved = false;
-        for (d, (a, b)) in u.iter().zip(&target).enumerate() {
-            if a != b {
-                du[d] = b - a;
-                moved = true;
-            }
-        }
-        if !moved {
-            return 0;
-        }
-        let mut coupling = vec![0.0; u.len()];
-        let membranes = assemble::Membranes {
-            forced: None,
-            out: None,
-            held_step: Some((&du, &mut coupling)),
-            prestress_factor: None,
-        };
-        assemble::assemble_with(
-            model,
-            &self.pattern,
-            u,
-            loads,
-            &mut self.residual,
-            Some(self.linear.values_mut()),
-            membranes,
-        );
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            if e != assemble::NONE {
-                self.rhs[e] = -(self.residual[d] + coupling[d]);
-            }
-        }
-        let solved = self.linear.factor_solve(&mut self.rhs).is_ok();
-        u.copy_from_slice(&target);
-        if solved {
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != assemble::NONE {
-                    u[d] += self.rhs[e];
-                }
-            }
-        }
-        1
-    }
-}
-
-/// Set prescribed DOFs to their load values.
-fn prescribe(model: &Model, loads: &[f64], u: &mut [f64]) {
-    for (load, &value) in model.loads.iter().zip(loads) {
-        if let crate::model::LoadModel::Displacement(dofs) = load {
-            for &d in dofs {
-                u[d] = value;
-            }
-        }
     }
 }
 

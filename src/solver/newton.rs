@@ -1,29 +1,57 @@
-//! Newton iterations of one load increment: line search, wrinkle-state freezing against
-//! chatter, and nodal relaxation when the global iteration stalls.
+//! The one Newton loop of a load increment, for every scene (with or without sleeves).
 //!
 //! ```text
-//! iterate:  assemble R, K at u (states from the mixed criterion, or frozen)
-//!           converged when |R_free|∞ <= tol · max(|f_ext|∞, |reactions|∞) + round-off floor
+//! iterate:  assemble R, K at u (wrinkle states from the mixed criterion, or frozen)
+//!           stick/slip states by the return map (or frozen)       active_set.rs
+//!           converged when every free DOF d and slip row j meets
+//!               |R_d| <= tol · F + ρ_d                              (the convergence test)
+//!           and no stick/slip state changed, and the re-check of frozen states accepts
 //!           stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
-//!               relax the nodes carrying >= 1/10 of |R|∞ (super::relax); repeat, adding the
-//!               nodes that then carry it, while each round lowers |R|∞ by a tenth; reassemble
-//!           K Δu = −R;  u ← u + α Δu (α from the line search)
+//!               relax the nodes carrying the residual (relax.rs)
+//!           direction: (K + τ D) Δ = −R, slips eliminated by Schur    slip.rs
+//!           u ← u + α Δ, α from the line search                       line_search.rs
+//!           τ: 0 while Newton steps work; τ0 when the line search fails or cuts α below
+//!              1e-3, or below 1/4 twice in a row after the second iteration (short first
+//!              steps are normal from a flat start), ×4 on every further such step; ÷8 after
+//!              every full step (0 below τ_min)
 //! ```
+//!
+//! # The convergence test
+//! `F = max(|f_ext|∞, |reactions|∞, largest nodal force of any element, |Δf_ext|∞ of the
+//! step)`: the forces applied to and carried by the structure, never a stiffness. `ρ_d =
+//! c·ε·(Σ|f|_d + K_dd·X)` is the round-off floor of DOF d: ε machine epsilon, Σ|f|_d the
+//! magnitudes of every force meeting at d (its terms), K_dd the diagonal of the tangent, X the
+//! coordinate size (rounding a coordinate by εX moves the forces by about K_dd εX), c the
+//! settings' `roundoff_factor`. The floor is local, so a very stiff member raises it only at
+//! its own nodes, where it corresponds to a displacement of c·ε·X. In the first iteration of a
+//! step whose loads changed the floor does not count: a load change is never accepted unless
+//! it is below tol·F.
+//!
+//! # Globalisation
+//! Slack cables, slack or wrinkled membrane and frictionless sleeves leave directions with no
+//! stiffness (mechanisms before the structure is stressed) or almost none. Full Newton steps
+//! there are huge and the line search cannot save them. The damped system (K + τD) Δ = −R,
+//! D the diagonal of the structure's stiffness if every element were taut (`reference
+//! diagonal`), is a Levenberg–Marquardt / pseudo-transient step: it moves a mechanism by
+//! R/(τD), grows that move by 8x per accepted step and shrinks it by 4x per rejected one.
+//! τ = 0 at convergence (quadratic convergence kept) and R is the true residual, so the
+//! equilibrium is unchanged.
+//!
+//! # References
+//! Kelley & Keyes 1998, SIAM J. Numer. Anal. 35:508–523 (pseudo-transient continuation);
+//! Nocedal & Wright 2006, §10.3 (Levenberg–Marquardt); Higham 2002, §7.2 (componentwise
+//! residual bounds); Crisfield 1991, vol. 1, §9.
 
+use super::active_set::{ActiveSet, Recheck};
 use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
+use super::line_search::{Direction, Merit, Trial};
 use super::relax::relax_nodes;
+use super::slip::{largest_gap, slip_rows, Row, MAX_GAP};
 use super::{push_log, Solver};
+use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 
-/// Iterations with wrinkle-state changes before the states are frozen (chatter guard).
-const FREEZE_AFTER: usize = 6;
-/// Times frozen states may turn out wrong at convergence before the increment is cut back.
-const MAX_UNFREEZE: usize = 3;
-
-/// Line search: accept α when |s(α)| <= LS_RATIO · |s(0)|.
-const LS_RATIO: f64 = 0.5;
-const LS_MAX_TRIES: usize = 8;
 /// Nodes whose residual is at least this share of the largest are relaxed when Newton stalls.
 const RELAX_SHARE: f64 = 0.1;
 /// Relaxation is for local trouble: not when more than this share of the nodes qualify.
@@ -33,6 +61,14 @@ const RELAX_MAX_SHARE: f64 = 0.1;
 const RELAX_ROUNDS: usize = 20;
 /// Gauss-Seidel sweeps over the nodes to relax.
 const RELAX_SWEEPS: usize = 3;
+/// Iterates whose merit the non-monotone line search remembers.
+const NONMONOTONE_MEMORY: usize = 5;
+/// Steps shorter than this twice in a row (past the first two iterations, which a flat start
+/// may need for itself) switch the damping on or raise it.
+const SHORT_STEP: f64 = 0.25;
+/// A step shorter than this (or a failed search) switches the damping on or raises it at once:
+/// the Newton step was a thousand times too long, the mark of a mechanism.
+const TINY_STEP: f64 = 1e-3;
 
 /// The artificial prestress fades with the relative residual below this level: the
 /// over-stiff out-of-plane tangent it gives a nearly unstressed membrane (the singular flat
@@ -42,9 +78,9 @@ const PRESTRESS_FADE: f64 = 1e-2;
 
 /// Factor on the artificial prestress for the next tangent: 1 down to a relative residual of
 /// PRESTRESS_FADE, proportional to it below.
-fn prestress_factor(free: f64, scale: f64) -> f64 {
-    if scale > 0.0 && free.is_finite() {
-        (free / (PRESTRESS_FADE * scale)).min(1.0)
+fn prestress_factor(relative: f64) -> f64 {
+    if relative.is_finite() {
+        (relative / PRESTRESS_FADE).min(1.0)
     } else {
         1.0
     }
@@ -56,138 +92,282 @@ fn stalled(it: usize, free: f64, last_free: f64, last_alpha: f64) -> bool {
     it >= 2 && (last_alpha < 1.0 || free > 0.25 * last_free)
 }
 
-/// Non-monotone line search (Grippo, Lampariello & Lucidi 1986): a step must bring the
-/// potential below the largest of the last NONMONOTONE_MEMORY iterates' potentials, not
-/// necessarily below the current one, so narrow curved valleys do not force tiny steps.
-const NONMONOTONE_MEMORY: usize = 5;
-/// Armijo sufficient-decrease fraction.
-const ARMIJO: f64 = 1e-4;
+/// The convergence test at one iterate.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Check {
+    /// Every row within its allowance.
+    pub converged: bool,
+    /// |R|∞ over the free DOFs and over the slip rows.
+    pub free: f64,
+    pub slip: f64,
+    /// The force scale F.
+    pub scale: f64,
+}
+
+/// Where a Newton loop starts and what it knows of its step.
+pub(super) struct Increment<'a> {
+    pub loads: &'a [f64],
+    /// |Δf_ext|∞ of the whole step (0 when only prescribed displacements or nothing changed).
+    pub change: f64,
+    /// Whether the loads or prescribed displacements of the step changed at all.
+    pub moved: bool,
+}
 
 impl Solver {
-    /// Iterate to equilibrium at fixed `loads`. Ok(iterations) or Err((iterations, reason)).
+    /// Iterate to equilibrium at fixed loads. `u` holds displacements then slips, `contact` the
+    /// stick/slip states (in: last converged, out: this increment's). Ok(iterations) or
+    /// Err((iterations, reason)); on Err `u` and `contact` are scratch.
     pub(super) fn newton(
         &mut self,
         model: &Model,
-        loads: &[f64],
+        inc: &Increment,
         u: &mut [f64],
+        contact: &mut Vec<Contact>,
         log: &mut Vec<String>,
     ) -> Result<usize, (usize, String)> {
-        // Round-off level of internal forces (reference geometry is not exact in floating point).
-        let floor = 1e-12 * model.force_scale.max(f64::MIN_POSITIVE);
+        let n3 = model.dof_count();
+        let committed: Vec<f64> = u[n3..].to_vec();
+        let mut active = ActiveSet::new(contact.clone(), &self.settings);
         self.frozen = None;
         self.prestress_factor = 1.0;
-        let (mut previous, mut freeze_at, mut unfreezes) =
-            (Vec::<WrinkleState>::new(), FREEZE_AFTER, 0);
+        let mut damping = 0.0f64;
         let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
         let mut recent = std::collections::VecDeque::with_capacity(NONMONOTONE_MEMORY + 1);
-        for it in 0..=self.settings.max_iterations {
-            let mut info = self.assemble_at(model, loads, u);
+        let max = self.settings.max_iterations;
+        for it in 0..=max {
+            self.frozen = active.wrinkle_frozen.clone();
+            let info = self.assemble_at(model, inc.loads, u);
             let states: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
-            if self.frozen.is_none() && it >= freeze_at && states != previous {
-                let changed = states.iter().zip(&previous).filter(|(a, b)| a != b).count();
-                push_log(log, format!("  wrinkle states still changing ({changed} elements): frozen until convergence"));
-                self.frozen = Some(states.clone());
-            }
-            previous = states;
+            active.observe_wrinkles(it, states, log);
+            self.frozen = active.wrinkle_frozen.clone();
             super::check_inversion(model, &info).map_err(|why| (it, why))?;
-            let (mut free, held) = self.norms();
-            if !free.is_finite() {
+            let changed = active.update_contact(it, model, u, &committed, log);
+            let rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
+            let mut check = self.check(model, &info, &rows, u, inc, it);
+            if !(check.free.is_finite() && check.slip.is_finite()) {
                 return Err((it, "the residual is not finite".into()));
             }
-            let scale = info.external.max(held);
-            let tolerance = self.settings.tolerance * scale + floor;
-            self.prestress_factor = prestress_factor(free, scale + floor);
-            if free > tolerance && stalled(it, free, last_free, last_alpha) {
-                let moved = self.relax(model, loads, u, free, tolerance);
+            let tolerance = self.settings.tolerance * check.scale;
+            self.prestress_factor =
+                prestress_factor(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
+            if !check.converged && stalled(it, check.free, last_free, last_alpha) {
+                let moved = self.relax(model, inc.loads, u, check.free, tolerance);
                 if moved > 0 {
-                    info = self.assemble_at(model, loads, u);
-                    let before = free;
-                    free = self.norms().0;
+                    let info = self.assemble_at(model, inc.loads, u);
+                    let before = check.free;
+                    check = self.check(model, &info, &rows, u, inc, it);
                     push_log(
                         log,
-                        format!("  stalled: relaxed {moved} nodes, |R| {before:.3e} -> {free:.3e}"),
+                        format!("  stalled: relaxed {moved} nodes, |R| {before:.3e} -> {:.3e}", check.free),
                     );
                 }
             }
-            if free <= tolerance {
-                if let Some(frozen) = self.frozen.take() {
-                    // Re-check at this point with the states the criterion gives. Elements whose
-                    // frozen state was wrong but sit on a state border (stress continuous there)
-                    // change the residual by almost nothing: the point is an equilibrium of the
-                    // true law when the natural residual also meets the tolerance.
-                    let (natural, natural_free) = self.natural_states(model, loads, u);
-                    if natural != frozen && natural_free > tolerance {
-                        unfreezes += 1;
-                        if unfreezes > MAX_UNFREEZE {
-                            return Err((it, "wrinkle states keep changing (chatter)".into()));
+            if check.converged && changed == 0 {
+                let verdict = active.recheck(
+                    it,
+                    model,
+                    u,
+                    &committed,
+                    tolerance,
+                    || self.natural_states_converged(model, &rows, u, inc, it),
+                    log,
+                );
+                match verdict.map_err(|why| (it, why))? {
+                    Recheck::Accept => {
+                        if !model.slips.is_empty() {
+                            let gap = largest_gap(model, u);
+                            if gap > MAX_GAP {
+                                push_log(log, format!("  warning: a sleeve tie opened by {gap:.2e} of its segment length (more than {MAX_GAP:.0e}): the penalty is too soft for this load; set cables[].sleeve.penalty higher"));
+                            }
                         }
                         push_log(
                             log,
-                            "  frozen wrinkle states were wrong at convergence: iterating on"
-                                .into(),
+                            format!(
+                                "  converged: |R| = {:.3e} (scale {:.3e}){}",
+                                check.free,
+                                check.scale,
+                                slip_note(&check)
+                            ),
                         );
-                        freeze_at = it + FREEZE_AFTER;
+                        *contact = active.contact;
+                        return Ok(it);
+                    }
+                    Recheck::IterateOn => {
+                        last_free = f64::INFINITY;
                         continue;
                     }
                 }
-                push_log(
-                    log,
-                    format!("  converged: |R| = {free:.3e} (scale {scale:.3e})"),
-                );
-                return Ok(it);
             }
-            last_free = free;
-            if it == self.settings.max_iterations {
+            last_free = check.free;
+            if it == max {
                 return Err((
                     it,
                     format!(
-                        "no convergence in {it} iterations (|R| = {free:.3e}, scale {scale:.3e})"
+                        "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e})",
+                        check.free, check.slip, check.scale
                     ),
                 ));
             }
+            let (dx, ds) = self
+                .direction(model, u, &rows, damping)
+                .map_err(|why| (it + 1, why))?;
+            let merit = if !model.slips.is_empty() {
+                let slip: Vec<f64> = rows.iter().map(|r| r.r).collect();
+                Merit::Residual {
+                    reference: remember(&mut recent, self.residual_norm(&slip)),
+                }
+            } else if model.is_conservative() {
+                Merit::Potential {
+                    value: info.potential,
+                    reference: remember(&mut recent, info.potential),
+                }
+            } else {
+                Merit::Slope
+            };
+            let (alpha, ok) = self.line_search(
+                model,
+                u,
+                &Direction { dx: &dx, ds: &ds },
+                &Trial {
+                    loads: inc.loads,
+                    committed: &committed,
+                    contact: &active.contact,
+                },
+                merit,
+            );
+            let short = alpha < SHORT_STEP;
+            let trouble = !ok || alpha < TINY_STEP || (short && last_alpha < SHORT_STEP && it >= 2);
+            last_alpha = alpha;
             for (d, &e) in self.pattern.eq.iter().enumerate() {
                 if e != NONE {
-                    self.rhs[e] = -self.residual[d];
+                    u[d] += alpha * dx[e];
                 }
             }
-            self.linear
-                .factor_solve(&mut self.rhs)
-                .map_err(|why| (it + 1, why))?;
-            let alpha = if self.settings.line_search {
-                recent.push_back(info.potential);
-                if recent.len() > NONMONOTONE_MEMORY {
-                    recent.pop_front();
+            for (j, v) in ds.iter().enumerate() {
+                u[n3 + j] += alpha * v;
+            }
+            let s = &self.settings;
+            damping = if trouble {
+                if damping == 0.0 {
+                    s.damping_start
+                } else {
+                    (4.0 * damping).min(s.damping_max)
                 }
-                let reference = recent.iter().fold(f64::NEG_INFINITY, |m, &p| m.max(p));
-                self.line_search(model, loads, u, info.potential, reference)
+            } else if alpha >= 1.0 {
+                let next = damping / 8.0;
+                if next < s.damping_min {
+                    0.0
+                } else {
+                    next
+                }
             } else {
-                1.0
+                damping
             };
-            last_alpha = alpha;
-            self.update(u, alpha);
             push_log(
                 log,
                 format!(
-                    "  iteration {}: |R| = {free:.3e} (scale {scale:.3e}), step α = {alpha:.3}",
-                    it + 1
+                    "  iteration {}: |R| = {:.3e} (scale {:.3e}){}, step α = {alpha:.3}, damping τ = {damping:.1e}",
+                    it + 1,
+                    check.free,
+                    check.scale,
+                    slip_note(&check),
                 ),
             );
         }
         // Reached only when frozen states were found wrong at the last allowed iteration.
-        let n = self.settings.max_iterations;
         Err((
-            n,
-            format!("no convergence in {n} iterations (wrinkle states changed at the end)"),
+            max,
+            format!("no convergence in {max} iterations (states changed at the end)"),
         ))
     }
 
-    /// Residual, tangent and evaluations at `u` (frozen wrinkle states if any).
+    /// The convergence test (module docs) on the last assembly.
+    pub(super) fn check(
+        &self,
+        model: &Model,
+        info: &AssemblyInfo,
+        rows: &[Row],
+        u: &[f64],
+        inc: &Increment,
+        it: usize,
+    ) -> Check {
+        let (mut free, mut held) = (0.0f64, 0.0f64);
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            let r = self.residual[d].abs();
+            if e == NONE {
+                held = held.max(r);
+            } else if r.is_nan() {
+                free = f64::NAN;
+            } else {
+                free = free.max(r);
+            }
+        }
+        let slip = rows.iter().fold(0.0f64, |m, r| {
+            if r.r.is_nan() {
+                f64::NAN
+            } else {
+                m.max(r.r.abs())
+            }
+        });
+        let scale = info
+            .external
+            .max(held)
+            .max(info.carried)
+            .max(inc.change);
+        let tolerance = self.settings.tolerance * scale;
+        let first_of_changed_step = it == 0 && inc.moved;
+        let x = self.coordinate_size(model, u);
+        let c = self.settings.roundoff_factor * f64::EPSILON;
+        let values = self.linear.values();
+        let mut converged = free.is_finite() && slip.is_finite();
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e == NONE || !converged {
+                continue;
+            }
+            let floor = if first_of_changed_step {
+                0.0
+            } else {
+                c * (self.magnitude[d] + values[self.diagonal_positions[e]].abs() * x)
+            };
+            converged = self.residual[d].abs() <= tolerance + floor;
+        }
+        for row in rows {
+            if !converged {
+                break;
+            }
+            let own = row.ds.first().map_or(0.0, |&(_, v)| v.abs());
+            let floor = if first_of_changed_step {
+                0.0
+            } else {
+                c * (row.magnitude + own * x)
+            };
+            converged = row.r.abs() <= tolerance + floor;
+        }
+        Check {
+            converged,
+            free,
+            slip,
+            scale,
+        }
+    }
+
+    /// Largest coordinate magnitude of the current positions, at least the model's length
+    /// scale: the X of the round-off floor.
+    fn coordinate_size(&self, model: &Model, u: &[f64]) -> f64 {
+        let n3 = model.dof_count();
+        let moved = u[..n3].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        (self.reference_size + moved).max(model.length_scale)
+    }
+
+    /// Residual, tangent, force magnitudes and evaluations at `u` (frozen wrinkle states if
+    /// any).
     pub(super) fn assemble_at(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> AssemblyInfo {
         let membranes = Membranes {
             forced: self.frozen.as_deref(),
             out: Some(&mut self.evaluations),
             held_step: None,
             prestress_factor: Some(self.prestress_factor),
+            magnitude: Some(&mut self.magnitude),
         };
         assemble_with(
             model,
@@ -198,6 +378,35 @@ impl Solver {
             Some(self.linear.values_mut()),
             membranes,
         )
+    }
+
+    /// The wrinkle states the mixed criterion gives at `u` (no freezing), and whether the
+    /// residual with those states also passes the convergence test.
+    fn natural_states_converged(
+        &mut self,
+        model: &Model,
+        rows: &[Row],
+        u: &[f64],
+        inc: &Increment,
+        it: usize,
+    ) -> (Vec<WrinkleState>, bool) {
+        let membranes = Membranes {
+            forced: None,
+            out: Some(&mut self.evaluations),
+            magnitude: Some(&mut self.magnitude),
+            ..Default::default()
+        };
+        let info = assemble_with(
+            model,
+            &self.pattern,
+            u,
+            inc.loads,
+            &mut self.residual,
+            None,
+            membranes,
+        );
+        let met = self.check(model, &info, rows, u, inc, it).converged;
+        (self.evaluations.iter().map(|e| e.state).collect(), met)
     }
 
     /// Relax, one at a time with all others held, the nodes with a free DOF whose residual is
@@ -216,8 +425,8 @@ impl Solver {
         for _ in 0..RELAX_ROUNDS {
             // The patch grows by the nodes that now carry the residual (the neighbours the last
             // round passed it on to) and is relaxed as a whole: block Gauss-Seidel on it.
-            for i in 0..model.reference.len() {
-                patch[i] |= (0..3).any(|c| {
+            for (i, p) in patch.iter_mut().enumerate() {
+                *p |= (0..3).any(|c| {
                     let d = 3 * i + c;
                     self.pattern.eq[d] != NONE && self.residual[d].abs() >= RELAX_SHARE * free
                 });
@@ -246,9 +455,7 @@ impl Solver {
             moved_total += moved;
             let membranes = Membranes {
                 forced,
-                out: None,
-                held_step: None,
-                prestress_factor: None,
+                ..Default::default()
             };
             assemble_with(
                 model,
@@ -260,7 +467,7 @@ impl Solver {
                 membranes,
             );
             let before = free;
-            free = self.norms().0;
+            free = self.free_norm();
             if free <= tolerance || free > 0.9 * before {
                 break;
             }
@@ -268,164 +475,31 @@ impl Solver {
         moved_total
     }
 
-    /// Wrinkle states the mixed criterion gives at `u` (no freezing), and |R|∞ over the free
-    /// DOFs with those states.
-    pub(super) fn natural_states(
-        &mut self,
-        model: &Model,
-        loads: &[f64],
-        u: &[f64],
-    ) -> (Vec<WrinkleState>, f64) {
-        let mut r = vec![0.0; model.dof_count()];
-        let membranes = Membranes {
-            forced: None,
-            out: Some(&mut self.evaluations),
-            held_step: None,
-            prestress_factor: None,
-        };
-        assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
-        let free = self
-            .pattern
-            .eq
-            .iter()
-            .zip(&r)
-            .filter(|(&e, _)| e != NONE)
-            .fold(0.0f64, |m, (_, v)| m.max(v.abs()));
-        (self.evaluations.iter().map(|e| e.state).collect(), free)
-    }
-
-    /// |R|∞ over free DOFs and over held DOFs (the reactions).
-    pub(super) fn norms(&self) -> (f64, f64) {
-        let (mut free, mut held) = (0.0f64, 0.0f64);
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            let r = self.residual[d].abs();
-            if e == NONE {
-                held = held.max(r);
-            } else if r.is_nan() {
-                free = f64::NAN;
-            } else {
-                free = free.max(r);
-            }
-        }
-        (free, held)
-    }
-
-    fn update(&self, u: &mut [f64], alpha: f64) {
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            if e != NONE {
-                u[d] += alpha * self.rhs[e];
-            }
-        }
-    }
-
-    /// Slope s(α) = Δu·R(u + αΔu) along the Newton direction (Δu in `rhs`) and the potential
-    /// there; (NaN, NaN) if an element inverts.
-    fn slope(&mut self, model: &Model, loads: &[f64], u: &[f64], alpha: f64) -> (f64, f64) {
-        self.trial.copy_from_slice(u);
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            if e != NONE {
-                self.trial[d] += alpha * self.rhs[e];
-            }
-        }
-        let membranes = Membranes {
-            forced: self.frozen.as_deref(),
-            out: None,
-            held_step: None,
-            prestress_factor: None,
-        };
-        let info = assemble_with(
-            model,
-            &self.pattern,
-            &self.trial,
-            loads,
-            &mut self.residual,
-            None,
-            membranes,
-        );
-        if super::check_inversion(model, &info).is_err() {
-            return (f64::NAN, f64::NAN);
-        }
-        let s = self.direction_dot_residual();
-        (s, info.potential)
-    }
-
-    /// Δu·R: the Newton direction (in `rhs`) dotted with the residual on the free DOFs.
-    fn direction_dot_residual(&self) -> f64 {
+    /// |R|∞ over the free DOFs of the last assembly.
+    fn free_norm(&self) -> f64 {
         self.pattern
             .eq
             .iter()
-            .enumerate()
-            .filter(|(_, &e)| e != NONE)
-            .map(|(d, &e)| self.rhs[e] * self.residual[d])
-            .sum()
+            .zip(&self.residual)
+            .filter(|(&e, _)| e != NONE)
+            .fold(0.0f64, |m, (_, r)| m.max(r.abs()))
     }
+}
 
-    /// Step length along the Newton direction. With a potential (no follower pressure, whose
-    /// work has none): backtracking until the potential decreases by the Armijo fraction of the
-    /// slope (the relaxed membrane energy is C¹, so this is robust across state switches).
-    /// Otherwise: 1 unless the slope at the full step is worse than half the initial one, then
-    /// regula falsi on s(α) between 0 and the last overshooting α.
-    fn line_search(
-        &mut self,
-        model: &Model,
-        loads: &[f64],
-        u: &[f64],
-        potential: f64,
-        reference: f64,
-    ) -> f64 {
-        // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
-        let s0 = self.direction_dot_residual();
-        if !(s0 < 0.0) {
-            return 1.0;
-        }
-        // The potential resolves changes down to round-off of its own size; below a thousand
-        // times that, the slope (computed from forces) is the sharper measure.
-        let noise = 1e-13 * potential.abs().max(f64::MIN_POSITIVE);
-        if model.is_conservative() && -s0 > 1e3 * noise {
-            return self.armijo(model, loads, u, (potential, reference), s0);
-        }
-        let mut alpha = 1.0;
-        for _ in 0..LS_MAX_TRIES {
-            let (s, _) = self.slope(model, loads, u, alpha);
-            if s.is_nan() {
-                alpha *= 0.5;
-                continue;
-            }
-            if s.abs() <= LS_RATIO * s0.abs() || s < 0.0 {
-                // Close enough to the minimum, or still descending: take it.
-                return alpha;
-            }
-            // Overshoot (s > 0): secant between (0, s0) and (α, s).
-            alpha = (alpha * s0 / (s0 - s)).max(0.05 * alpha);
-        }
-        alpha
+/// ", |r_slip| = …" when the model has slip rows (their largest residual is then not 0).
+fn slip_note(check: &Check) -> String {
+    if check.slip > 0.0 {
+        format!(", |r_slip| = {:.3e}", check.slip)
+    } else {
+        String::new()
     }
+}
 
-    /// Armijo backtracking on the potential Π with quadratic interpolation.
-    fn armijo(
-        &mut self,
-        model: &Model,
-        loads: &[f64],
-        u: &[f64],
-        (p0, reference): (f64, f64),
-        s0: f64,
-    ) -> f64 {
-        let noise = 1e-13 * p0.abs().max(f64::MIN_POSITIVE);
-        let mut alpha = 1.0;
-        for _ in 0..LS_MAX_TRIES {
-            let (_, p) = self.slope(model, loads, u, alpha);
-            if p.is_nan() {
-                alpha *= 0.25;
-                continue;
-            }
-            let drop = p - p0;
-            if p - reference <= ARMIJO * alpha * s0 + noise {
-                return alpha;
-            }
-            // Minimum of the parabola through Π(0), Π'(0) = s0 and Π(α).
-            let a = -s0 * alpha * alpha / (2.0 * (drop - s0 * alpha));
-            alpha = a.clamp(0.1 * alpha, 0.5 * alpha);
-        }
-        alpha
+/// Push `value` into the non-monotone memory and return the largest remembered value.
+fn remember(recent: &mut std::collections::VecDeque<f64>, value: f64) -> f64 {
+    recent.push_back(value);
+    if recent.len() > NONMONOTONE_MEMORY {
+        recent.pop_front();
     }
+    recent.iter().fold(f64::NEG_INFINITY, |m, &p| m.max(p))
 }

@@ -18,16 +18,18 @@
 //! elimination*, SIAM J. Sci. Comput. 33:746-762; Brandt 1977 (nonlinear Gauss-Seidel
 //! smoothing); MECHANICS.md §1.4 (slack and wrinkled near-mechanisms).
 
-use crate::model::membrane::{self, Mat9};
+use super::assemble::{pressure_contribution, segment_contribution, tie_contribution, triangle_contribution};
+use crate::model::membrane::Mat9;
 use crate::model::wrinkling::WrinkleState;
-use crate::model::{cable, pressure, LoadModel, Model};
+use crate::model::{LoadModel, Model};
 use nalgebra::{Matrix3, Vector3};
 
-/// What touches a node: (triangle, local index) and (segment, local index).
+/// What touches a node: (element, local index) for triangles, segments and ties.
 #[derive(Clone, Debug, Default)]
 pub struct Adjacency {
     triangles: Vec<Vec<(usize, usize)>>,
     segments: Vec<Vec<(usize, usize)>>,
+    ties: Vec<Vec<(usize, usize)>>,
     /// Per triangle: (load index, follower) of the pressures acting on it.
     pressures: Vec<Vec<(usize, bool)>>,
     /// Per node: (load index, component, force per unit load value).
@@ -45,6 +47,7 @@ impl Adjacency {
         let mut a = Adjacency {
             triangles: vec![Vec::new(); n],
             segments: vec![Vec::new(); n],
+            ties: vec![Vec::new(); n],
             pressures: vec![Vec::new(); model.triangles.len()],
             forces: vec![Vec::new(); n],
         };
@@ -56,6 +59,11 @@ impl Adjacency {
         for (e, s) in model.segments.iter().enumerate() {
             for (k, &i) in s.nodes.iter().enumerate() {
                 a.segments[i].push((e, k));
+            }
+        }
+        for (e, t) in model.ties.iter().enumerate() {
+            for (k, &i) in t.nodes.iter().enumerate() {
+                a.ties[i].push((e, k));
             }
         }
         for (l, load) in model.loads.iter().enumerate() {
@@ -89,6 +97,8 @@ struct Local {
     inverted: bool,
 }
 
+/// The node's rows of R and its 3x3 diagonal block of K, from the same element routines as
+/// the global assembly (`super::assemble`), so ties and slipped cable lengths are included.
 fn local(
     model: &Model,
     adj: &Adjacency,
@@ -105,39 +115,28 @@ fn local(
     };
     let mut ke = Mat9::zeros();
     for &(e, a) in &adj.triangles[node] {
-        let t = &model.triangles[e];
-        let x = t.nodes.map(|i| model.position(u, i));
         let state = forced.map(|f| f[e]);
-        let (f, eval) = membrane::triangle(
-            &t.reference,
-            &t.material,
-            t.prestress,
-            &x,
-            state,
-            Some(&mut ke),
-        );
+        let (f, eval, ratio) = triangle_contribution(model, e, u, 1.0, state, Some(&mut ke));
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
         out.potential = out.potential.map(|p| p + eval.energy);
-        out.inverted |= !(membrane::signed_area_ratio(&t.reference, &x) > super::MIN_AREA_RATIO);
+        out.inverted |= !(ratio > super::MIN_AREA_RATIO);
         for &(l, follower) in &adj.pressures[e] {
-            if follower {
-                out.r -= pressure::follower_force(loads[l], &x);
-                let kp = pressure::follower_stiffness(loads[l], &x);
-                let ks = (kp + kp.transpose()) * 0.5;
-                out.k += ks.fixed_view::<3, 3>(3 * a, 3 * a);
+            let (f, kp) = pressure_contribution(model, e, u, loads[l], follower, true);
+            out.r -= f;
+            if let Some(kp) = kp {
+                out.k += kp.fixed_view::<3, 3>(3 * a, 3 * a);
                 out.potential = None;
             } else {
-                let f = t.reference.normal * (loads[l] * t.reference.area / 3.0);
-                out.r -= f;
                 out.potential = out.potential.map(|p| p - f.dot(&displacement(u, node)));
             }
         }
     }
-    for &(e, a) in &adj.segments[node] {
-        let s = &model.segments[e];
-        let (x0, x1) = (model.position(u, s.nodes[0]), model.position(u, s.nodes[1]));
-        let (f, k, w) = cable::segment(s.law, s.ea, s.l0, &x0, &x1);
+    let lines = adj.segments[node]
+        .iter()
+        .map(|&(e, a)| (segment_contribution(model, e, u), a))
+        .chain(adj.ties[node].iter().map(|&(e, a)| (tie_contribution(model, e, u), a)));
+    for ((f, k, w), a) in lines {
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += k.fixed_view::<3, 3>(3 * a, 3 * a);
         out.potential = out.potential.map(|p| p + w);

@@ -1,4 +1,6 @@
-//! Newton iterations of one load increment for a model with sleeves (slip unknowns).
+//! Slip unknowns of sleeved cables: the stick/slip return map, the slip rows and columns of the
+//! tangent, and the Newton direction by block elimination. With no sleeve points (m = 0) the
+//! direction is the plain LDLT solve, so the one Newton loop serves every scene.
 //!
 //! ```text
 //! unknowns      x (displacements, free DOFs) and s (one slip per sleeve point)
@@ -6,222 +8,62 @@
 //!               [C D] [Δs] = − [r  ]                     L, ties; stored upper, faer LDLT)
 //!                                          B = ∂R_x/∂s  (cable forces through L = l0 + Δs)
 //!                                          C = ∂r/∂x, D = ∂r/∂s (slip rows, model/sleeve.rs)
+//! damping       A + τ D_x, D + τ D_s (globalisation, `super::newton`; τ = 0 is plain Newton)
 //! Schur         y0 = −A⁻¹ R_x,  Y = A⁻¹ B   (m + 1 solves with one LDLT factorization)
 //!               (D − C Y) Δs = −r − C y0    (dense m×m LU, m = number of sleeve points)
 //!               Δx = y0 − Y Δs
-//! step          u ← u + α Δ with α ≤ 1 keeping every sleeved segment's L above 10 % of its
-//!               current value
-//! converged     |R_x|∞ and |r|∞ ≤ tol · scale (+ floor) and no stick/slip state changed
 //! ```
 //! The consistent tangent is non-symmetric only in the slip rows and columns, so the large
-//! symmetric block keeps the LDLT of the rest of the solver; the price is m extra triangular
-//! solves and an m×m dense LU per iteration (small against the factorization for sleeves of
-//! tens of points). No line search: the friction law has no potential.
+//! symmetric block keeps the LDLT; the price is m extra triangular solves and an m×m dense LU
+//! per iteration (small against the factorization for sleeves of tens of points).
 //!
 //! # References
 //! Wriggers 2006, §5.2 and §6.3 (return mapping, non-symmetric friction tangent); Golub & Van
 //! Loan 2013, §3.2 (block elimination / Schur complement).
 
-use super::assemble::{assemble_with, Membranes, NONE};
-use super::{push_log, Solver};
-use crate::model::sleeve::{self, SegmentLaw, SLIP_BACKWARD, SLIP_FORWARD, STICK};
-use crate::model::wrinkling::WrinkleState;
+use super::assemble::NONE;
+use super::Solver;
+use crate::model::sleeve::{self, Contact, SegmentLaw};
 use crate::model::Model;
 use nalgebra::{DMatrix, DVector};
 
-/// Iterations with stick/slip or wrinkle changes before the states are frozen.
-const FREEZE_AFTER: usize = 8;
-/// Times frozen states may turn out wrong at convergence before the increment is cut back.
-const MAX_UNFREEZE: usize = 3;
 /// Smallest fraction of its current unstretched length a sleeved segment may keep in one step.
 const KEEP_LENGTH: f64 = 0.1;
-/// Largest tie gap, relative to the shorter adjacent segment, before the log warns
-/// (MECHANICS.md §2.3: penetration below 1e-3 of the element size).
+/// Largest tie gap, relative to the shorter adjacent segment, before the log warns (the
+/// penetration bound of docs/mechanics.md, sleeves: below 1e-3 of the element size).
 pub const MAX_GAP: f64 = 1e-3;
-/// Backtracking halvings per Newton step.
-const LS_MAX_TRIES: usize = 6;
 
 /// One slip row: residual and its non-zero couplings.
-struct Row {
-    r: f64,
+pub(super) struct Row {
+    pub r: f64,
     /// (equation of a free displacement DOF, ∂r/∂x)
-    dx: Vec<(usize, f64)>,
+    pub dx: Vec<(usize, f64)>,
     /// (slip index, ∂r/∂s)
-    ds: Vec<(usize, f64)>,
+    pub ds: Vec<(usize, f64)>,
+    /// Size of the forces the row balances (N): its round-off scale.
+    pub magnitude: f64,
 }
 
 impl Solver {
-    /// Iterate to equilibrium at fixed `loads`; `u` holds displacements and slips, `states` the
-    /// stick/slip state of every sleeve point (in: last converged, out: this increment's).
-    pub(super) fn newton_sliding(
-        &mut self,
-        model: &Model,
-        loads: &[f64],
-        u: &mut [f64],
-        states: &mut [u8],
-        log: &mut Vec<String>,
-    ) -> Result<usize, (usize, String)> {
-        let n3 = model.dof_count();
-        let committed: Vec<f64> = u[n3..].to_vec();
-        let floor = 1e-12 * model.force_scale.max(f64::MIN_POSITIVE);
-        self.frozen = None;
-        // The prestress fade of `newton` is not used here: full artificial prestress.
-        self.prestress_factor = 1.0;
-        let mut previous: Vec<WrinkleState> = Vec::new();
-        let (mut frozen_slip, mut freeze_at, mut unfreezes) = (false, FREEZE_AFTER, 0);
-        for it in 0..=self.settings.max_iterations {
-            let info = self.assemble_at(model, loads, u);
-            let wrinkle: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
-            if self.frozen.is_none() && it >= freeze_at && wrinkle != previous {
-                push_log(
-                    log,
-                    "  wrinkle states still changing: frozen until convergence".into(),
-                );
-                self.frozen = Some(wrinkle.clone());
-            }
-            previous = wrinkle;
-            super::check_inversion(model, &info).map_err(|why| (it, why))?;
-            let changed = if frozen_slip {
-                0
-            } else {
-                return_map(model, u, &committed, states, 0.0)
-            };
-            if changed > 0 && it >= freeze_at {
-                push_log(log, format!("  stick/slip states still changing ({changed} points): frozen until convergence"));
-                frozen_slip = true;
-            }
-            let rows = slip_rows(model, &self.pattern.eq, u, &committed, states);
-            let (free, held) = self.norms();
-            let slip_res = rows.iter().fold(0.0f64, |a, r| a.max(r.r.abs()));
-            if !(free.is_finite() && slip_res.is_finite()) {
-                return Err((it, "the residual is not finite".into()));
-            }
-            let scale = info.external.max(held);
-            let limit = self.settings.tolerance * scale + floor;
-            if changed == 0 && free <= limit && slip_res <= limit {
-                let natural_ok = {
-                    let mut check = states.to_vec();
-                    return_map(model, u, &committed, &mut check, limit) == 0
-                };
-                let wrinkle_ok = match self.frozen.take() {
-                    None => true,
-                    Some(frozen) => {
-                        let (natural, natural_free) = self.natural_states(model, loads, u);
-                        natural == frozen || natural_free <= limit
-                    }
-                };
-                if natural_ok && wrinkle_ok {
-                    let gap = largest_gap(model, u);
-                    if gap > MAX_GAP {
-                        push_log(log, format!("  warning: a sleeve tie opened by {gap:.2e} of its segment length (more than {MAX_GAP:.0e}): the penalty is too soft for this load; set cables[].sleeve.penalty higher"));
-                    }
-                    push_log(log, format!("  converged: |R| = {free:.3e}, |r_slip| = {slip_res:.3e} (scale {scale:.3e})"));
-                    return Ok(it);
-                }
-                unfreezes += 1;
-                if unfreezes > MAX_UNFREEZE {
-                    return Err((
-                        it,
-                        "stick/slip or wrinkle states keep changing (chatter)".into(),
-                    ));
-                }
-                push_log(
-                    log,
-                    "  frozen states were wrong at convergence: iterating on".into(),
-                );
-                frozen_slip = false;
-                self.frozen = None;
-                freeze_at = it + FREEZE_AFTER;
-                continue;
-            }
-            if it == self.settings.max_iterations {
-                return Err((it, format!("no convergence in {it} iterations (|R| = {free:.3e}, |r_slip| = {slip_res:.3e}, scale {scale:.3e})")));
-            }
-            let (dx, ds) = self
-                .schur_solve(model, u, &rows)
-                .map_err(|why| (it + 1, why))?;
-            let alpha = self.damped_step(
-                model,
-                loads,
-                u,
-                &dx,
-                &ds,
-                states,
-                &committed,
-                free.max(slip_res),
-            );
-            push_log(log, format!("  iteration {}: |R| = {free:.3e}, |r_slip| = {slip_res:.3e} (scale {scale:.3e}), α = {alpha:.3}", it + 1));
-        }
-        let n = self.settings.max_iterations;
-        Err((
-            n,
-            format!("no convergence in {n} iterations (states changed at the end)"),
-        ))
-    }
-
-    /// Take the Newton step, backtracking (halving α from the fraction-to-boundary limit) while
-    /// the residual norm max(|R_x|∞, |r|∞) does not fall below `before`; the friction law has no
-    /// potential, so the residual norm is the merit function. Returns the α taken.
-    #[allow(clippy::too_many_arguments)]
-    fn damped_step(
-        &mut self,
-        model: &Model,
-        loads: &[f64],
-        u: &mut [f64],
-        dx: &[f64],
-        ds: &[f64],
-        states: &[u8],
-        committed: &[f64],
-        before: f64,
-    ) -> f64 {
-        let n3 = model.dof_count();
-        let start = u.to_vec();
-        let mut alpha = step_limit(model, u, ds);
-        for _ in 0..LS_MAX_TRIES {
-            u.copy_from_slice(&start);
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != NONE {
-                    u[d] += alpha * dx[e];
-                }
-            }
-            for (j, d) in ds.iter().enumerate() {
-                u[n3 + j] += alpha * d;
-            }
-            assemble_with(
-                model,
-                &self.pattern,
-                u,
-                loads,
-                &mut self.residual,
-                None,
-                Membranes {
-                    forced: self.frozen.as_deref(),
-                    out: None,
-                    held_step: None,
-                    prestress_factor: None,
-                },
-            );
-            let (free, _) = self.norms();
-            let rows = slip_rows(model, &self.pattern.eq, u, committed, states);
-            let slip = rows.iter().fold(0.0f64, |a, r| a.max(r.r.abs()));
-            let now = free.max(slip);
-            if now.is_finite() && now < before {
-                return alpha;
-            }
-            alpha *= 0.5;
-        }
-        alpha * 2.0
-    }
-
-    /// Newton direction (Δx on equations, Δs) by block elimination of the slip unknowns.
-    fn schur_solve(
+    /// Newton direction (Δx on equations, Δs per slip) of the damped system: the tangent's
+    /// values must be assembled; `damping` τ adds τ·D on the diagonal (D the reference
+    /// stiffness, `Solver::reference_diagonal`). Errs when the factorization fails or the
+    /// direction is not finite.
+    pub(super) fn direction(
         &mut self,
         model: &Model,
         u: &[f64],
         rows: &[Row],
+        damping: f64,
     ) -> Result<(Vec<f64>, Vec<f64>), String> {
         let n = self.pattern.n;
         let m = model.slips.len();
+        if damping > 0.0 {
+            let values = self.linear.values_mut();
+            for (j, &p) in self.diagonal_positions.iter().enumerate() {
+                values[p] += damping * self.reference_diagonal[j];
+            }
+        }
         self.linear.factor()?;
         let mut y0 = vec![0.0; n];
         for (d, &e) in self.pattern.eq.iter().enumerate() {
@@ -230,6 +72,13 @@ impl Solver {
             }
         }
         self.linear.solve(&mut y0)?;
+        if m == 0 {
+            return if y0.iter().all(|v| v.is_finite()) {
+                Ok((y0, Vec::new()))
+            } else {
+                Err("the Newton direction is not finite".into())
+            };
+        }
         let columns = slip_columns(model, &self.pattern.eq, u);
         let mut y = Vec::with_capacity(m);
         for col in &columns {
@@ -248,6 +97,7 @@ impl Solver {
             for &(j, d) in &row.ds {
                 schur[(i, j)] += d;
             }
+            schur[(i, i)] += damping * self.reference_diagonal[n + i];
             for (j, yj) in y.iter().enumerate() {
                 schur[(i, j)] -= row.dx.iter().map(|&(e, c)| c * yj[e]).sum::<f64>();
             }
@@ -285,7 +135,7 @@ pub(crate) fn return_map(
     model: &Model,
     u: &[f64],
     committed: &[f64],
-    states: &mut [u8],
+    states: &mut [Contact],
     tol_f: f64,
 ) -> usize {
     let n3 = model.dof_count();
@@ -300,29 +150,28 @@ pub(crate) fn return_map(
             tb,
         );
         let direction = if ft >= 0.0 {
-            SLIP_FORWARD
+            Contact::Forward
         } else {
-            SLIP_BACKWARD
+            Contact::Backward
         };
         let new = if ta + tb == 0.0 {
             // Slack on both sides: nothing drives or resists a slip; hold the material.
-            STICK
+            Contact::Stick
         } else if p.mu == 0.0 {
-            SLIP_FORWARD
-        } else if states[j] == STICK {
+            Contact::Forward
+        } else if states[j] == Contact::Stick {
             let tiny = 1e-12 * (ta + tb) + tol_f;
             if ft.abs() > p.mu * fnormal + tiny {
                 direction
             } else {
-                STICK
+                Contact::Stick
             }
         } else {
             // A slipping point stays slipping while its slip runs with σ (σ Δs ≤ 0).
-            let sigma = sleeve::sigma(states[j]);
-            let back = sigma * (u[n3 + j] - committed[j]);
+            let back = states[j].sigma() * (u[n3 + j] - committed[j]);
             let tiny = 1e-14 * model.length_scale;
             if back > tiny {
-                STICK
+                Contact::Stick
             } else {
                 states[j]
             }
@@ -341,7 +190,13 @@ fn tensions(model: &Model, u: &[f64], p: &sleeve::SlipPoint) -> (f64, f64) {
 }
 
 /// Slip rows: r = f_t − σμ f_n for slipping points, k_ref (s − s^n) for stuck ones.
-fn slip_rows(model: &Model, eq: &[usize], u: &[f64], committed: &[f64], states: &[u8]) -> Vec<Row> {
+pub(super) fn slip_rows(
+    model: &Model,
+    eq: &[usize],
+    u: &[f64],
+    committed: &[f64],
+    states: &[Contact],
+) -> Vec<Row> {
     let n3 = model.dof_count();
     model
         .slips
@@ -350,15 +205,18 @@ fn slip_rows(model: &Model, eq: &[usize], u: &[f64], committed: &[f64], states: 
         .map(|(j, p)| {
             let [a, b] = p.segments;
             let (sa, sb) = (&model.segments[a], &model.segments[b]);
-            if states[j] == STICK {
+            if states[j] == Contact::Stick {
                 let k_ref = sa.ea / sa.l0;
+                let r = k_ref * (u[n3 + j] - committed[j]);
                 return Row {
-                    r: k_ref * (u[n3 + j] - committed[j]),
+                    r,
                     dx: Vec::new(),
                     ds: vec![(j, k_ref)],
+                    magnitude: r.abs() + k_ref * committed[j].abs(),
                 };
             }
-            let sigma_mu = sleeve::sigma(states[j]) * p.mu;
+            let sigma_mu = states[j].sigma() * p.mu;
+            let magnitude = (1.0 + p.mu) * (model.segment_tension(u, a) + model.segment_tension(u, b));
             let (r, dxs, dl) = sleeve::slip_row(
                 SegmentLaw {
                     law: sa.law,
@@ -392,7 +250,12 @@ fn slip_rows(model: &Model, eq: &[usize], u: &[f64], committed: &[f64], states: 
             if let Some(i) = sb.slip[1] {
                 ds.push((i, dl[1]));
             }
-            Row { r, dx, ds }
+            Row {
+                r,
+                dx,
+                ds,
+                magnitude,
+            }
         })
         .collect()
 }
@@ -426,7 +289,7 @@ fn slip_columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(usize, f64)>
 }
 
 /// Largest tie gap |x_c − x_m| over the shorter adjacent segment length.
-fn largest_gap(model: &Model, u: &[f64]) -> f64 {
+pub(super) fn largest_gap(model: &Model, u: &[f64]) -> f64 {
     let length = |e: usize| {
         let s = &model.segments[e];
         (model.position(u, s.nodes[1]) - model.position(u, s.nodes[0])).norm()
@@ -444,7 +307,7 @@ fn largest_gap(model: &Model, u: &[f64]) -> f64 {
 
 /// Largest α ≤ 1 keeping every sleeved segment's unstretched length above KEEP_LENGTH of its
 /// current value.
-fn step_limit(model: &Model, u: &[f64], ds: &[f64]) -> f64 {
+pub(super) fn step_limit(model: &Model, u: &[f64], ds: &[f64]) -> f64 {
     let mut alpha = 1.0f64;
     for (e, s) in model.segments.iter().enumerate() {
         let d = |k: Option<usize>| k.map_or(0.0, |j| ds[j]);
@@ -468,7 +331,11 @@ pub fn slip_blocks(
 ) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
     let n = eq.iter().filter(|&&e| e != NONE).count();
     let m = model.slips.len();
-    let rows = slip_rows(model, eq, u, committed, states);
+    let states: Vec<Contact> = states
+        .iter()
+        .map(|&c| Contact::from_code(c).unwrap_or_default())
+        .collect();
+    let rows = slip_rows(model, eq, u, committed, &states);
     let (mut b, mut c, mut d) = (
         DMatrix::zeros(n, m),
         DMatrix::zeros(m, n),

@@ -1,0 +1,235 @@
+//! The one line search: backtracking along the Newton direction with the merit the problem
+//! has.
+//!
+//! ```text
+//! Potential   every load has a potential and there are no slip unknowns: non-monotone Armijo
+//!             on Π (Grippo, Lampariello & Lucidi 1986), Π(α) <= max(last 5 Π) + c α Δu·R,
+//!             quadratic interpolation between tries
+//! Slope       follower pressure (no potential), no slip unknowns: s(α) = Δu·R(u + αΔu); full
+//!             step unless it overshoots the minimum, then regula falsi between 0 and α
+//! Residual    slip unknowns (friction has no potential): non-monotone Armijo on ‖(R_x, r)‖₂,
+//!             ‖R(α)‖ <= (1 − c α) max(last 5 ‖R‖), halving; α starts at the largest step that
+//!             keeps every sleeved segment's unstretched length above a tenth of its value
+//! ```
+//! Every trial point whose membrane triangles invert is rejected (α shrinks). The search returns
+//! the step length and whether its condition was met (the globalisation reads that).
+//!
+//! # References
+//! Crisfield 1991, vol. 1, §9.3 (line search on the slope); Nocedal & Wright 2006, §3.1 and
+//! §3.5 (Armijo, interpolation); Grippo, Lampariello & Lucidi 1986, SIAM J. Numer. Anal.
+//! 23:707–716 (non-monotone).
+
+use super::assemble::{assemble_with, Membranes, NONE};
+use super::slip::{slip_rows, step_limit};
+use super::Solver;
+use crate::model::sleeve::Contact;
+use crate::model::Model;
+
+/// Armijo sufficient-decrease fraction.
+const ARMIJO: f64 = 1e-4;
+/// Slope line search: accept α when |s(α)| <= SLOPE_RATIO · |s(0)|.
+const SLOPE_RATIO: f64 = 0.5;
+
+/// The merit function of the current iteration and its reference value.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Merit {
+    /// Π at the current point and the largest Π of the recent iterates.
+    Potential { value: f64, reference: f64 },
+    Slope,
+    /// ‖R‖₂ reference (the largest of the recent iterates).
+    Residual { reference: f64 },
+}
+
+/// The Newton direction: displacement part on equations, slip part per sleeve point.
+pub(super) struct Direction<'a> {
+    pub dx: &'a [f64],
+    pub ds: &'a [f64],
+}
+
+/// Where the trial point's residual is taken.
+pub(super) struct Trial<'a> {
+    pub loads: &'a [f64],
+    pub committed: &'a [f64],
+    pub contact: &'a [Contact],
+}
+
+impl Solver {
+    /// Step length along `dir` from `u`, and whether the merit's condition was met.
+    pub(super) fn line_search(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        dir: &Direction,
+        at: &Trial,
+        merit: Merit,
+    ) -> (f64, bool) {
+        if !self.settings.line_search {
+            return (step_limit(model, u, dir.ds), true);
+        }
+        // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
+        let s0 = self.direction_dot_residual(dir.dx);
+        match merit {
+            Merit::Potential { value, reference } => {
+                // The potential resolves changes down to round-off of its own size; below a
+                // thousand times that, the slope (computed from forces) is the sharper measure.
+                let noise = 1e-13 * value.abs().max(f64::MIN_POSITIVE);
+                if s0 < 0.0 && -s0 > 1e3 * noise {
+                    self.armijo_potential(model, u, dir, at, (value, reference), s0)
+                } else {
+                    self.slope_search(model, u, dir, at, s0)
+                }
+            }
+            Merit::Slope => self.slope_search(model, u, dir, at, s0),
+            Merit::Residual { reference } => self.armijo_residual(model, u, dir, at, reference),
+        }
+    }
+
+    /// Residual at u + α dir into `self.residual`; returns (potential, slip rows' residuals,
+    /// inverted).
+    fn trial_point(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        dir: &Direction,
+        at: &Trial,
+        alpha: f64,
+    ) -> (f64, Vec<f64>, bool) {
+        self.trial.copy_from_slice(u);
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                self.trial[d] += alpha * dir.dx[e];
+            }
+        }
+        let n3 = model.dof_count();
+        for (j, d) in dir.ds.iter().enumerate() {
+            self.trial[n3 + j] += alpha * d;
+        }
+        let info = assemble_with(
+            model,
+            &self.pattern,
+            &self.trial,
+            at.loads,
+            &mut self.residual,
+            None,
+            Membranes {
+                forced: self.frozen.as_deref(),
+                ..Default::default()
+            },
+        );
+        let inverted = super::check_inversion(model, &info).is_err();
+        let rows: Vec<f64> = if model.slips.is_empty() {
+            Vec::new()
+        } else {
+            slip_rows(model, &self.pattern.eq, &self.trial, at.committed, at.contact)
+                .iter()
+                .map(|r| r.r)
+                .collect()
+        };
+        (info.potential, rows, inverted)
+    }
+
+    /// Δu·R: the displacement direction dotted with the residual on the free DOFs.
+    pub(super) fn direction_dot_residual(&self, dx: &[f64]) -> f64 {
+        self.pattern
+            .eq
+            .iter()
+            .enumerate()
+            .filter(|(_, &e)| e != NONE)
+            .map(|(d, &e)| dx[e] * self.residual[d])
+            .sum()
+    }
+
+    /// ‖(R_free, r)‖₂ of the last assembly and the given slip residuals.
+    pub(super) fn residual_norm(&self, slip: &[f64]) -> f64 {
+        let free: f64 = self
+            .pattern
+            .eq
+            .iter()
+            .zip(&self.residual)
+            .filter(|(&e, _)| e != NONE)
+            .map(|(_, r)| r * r)
+            .sum();
+        (free + slip.iter().map(|r| r * r).sum::<f64>()).sqrt()
+    }
+
+    /// Armijo backtracking on the potential Π with quadratic interpolation.
+    fn armijo_potential(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        dir: &Direction,
+        at: &Trial,
+        (p0, reference): (f64, f64),
+        s0: f64,
+    ) -> (f64, bool) {
+        let noise = 1e-13 * p0.abs().max(f64::MIN_POSITIVE);
+        let mut alpha = 1.0;
+        for _ in 0..self.settings.line_search_tries {
+            let (p, _, inverted) = self.trial_point(model, u, dir, at, alpha);
+            if inverted || !p.is_finite() {
+                alpha *= 0.25;
+                continue;
+            }
+            if p - reference <= ARMIJO * alpha * s0 + noise {
+                return (alpha, true);
+            }
+            // Minimum of the parabola through Π(0), Π'(0) = s0 and Π(α).
+            let a = -s0 * alpha * alpha / (2.0 * (p - p0 - s0 * alpha));
+            alpha = a.clamp(0.1 * alpha, 0.5 * alpha);
+        }
+        (alpha, false)
+    }
+
+    /// Full step unless the slope s(α) = Δu·R(u + αΔu) at it is positive and larger than half
+    /// the initial one; then regula falsi between 0 and the last overshooting α.
+    fn slope_search(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        dir: &Direction,
+        at: &Trial,
+        s0: f64,
+    ) -> (f64, bool) {
+        if !(s0 < 0.0) {
+            return (1.0, true);
+        }
+        let mut alpha = 1.0;
+        for _ in 0..self.settings.line_search_tries {
+            let (_, _, inverted) = self.trial_point(model, u, dir, at, alpha);
+            let s = self.direction_dot_residual(dir.dx);
+            if inverted || !s.is_finite() {
+                alpha *= 0.5;
+                continue;
+            }
+            if std::env::var("VDEBUG").is_ok() { eprintln!("slope a={alpha} s0={s0} s={s} inv={inverted}"); }
+            if s.abs() <= SLOPE_RATIO * s0.abs() || s < 0.0 {
+                // Close enough to the minimum, or still descending: take it.
+                return (alpha, true);
+            }
+            // Overshoot (s > 0): secant between (0, s0) and (α, s).
+            alpha = (alpha * s0 / (s0 - s)).max(0.05 * alpha);
+        }
+        (alpha, false)
+    }
+
+    /// Non-monotone Armijo on the residual norm, halving from the fraction-to-boundary limit.
+    fn armijo_residual(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        dir: &Direction,
+        at: &Trial,
+        reference: f64,
+    ) -> (f64, bool) {
+        let mut alpha = step_limit(model, u, dir.ds);
+        for _ in 0..self.settings.line_search_tries {
+            let (_, slip, inverted) = self.trial_point(model, u, dir, at, alpha);
+            let norm = self.residual_norm(&slip);
+            if !inverted && norm.is_finite() && norm <= (1.0 - ARMIJO * alpha) * reference {
+                return (alpha, true);
+            }
+            alpha *= 0.5;
+        }
+        (alpha, false)
+    }
+}

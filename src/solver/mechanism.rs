@@ -1,0 +1,100 @@
+//! True mechanisms: parts of a structure that can move as a rigid body because no support
+//! stops them. Such a part has no equilibrium under a load that does not balance on it, and no
+//! globalisation can find one; the step's failure then says which nodes are free.
+//!
+//! ```text
+//! part        a connected set of nodes (triangles, cable segments and sleeve ties connect)
+//! rigid modes v(x) = t + ω × (x − c): 6 columns per node, [I, −[(x − c)/L]×] (L: part size)
+//! free        rank of the modes over all the part's DOFs > rank over its held DOFs
+//!             (a rigid motion that moves the part but no held DOF)
+//! ```
+
+use crate::model::Model;
+use nalgebra::{Matrix3, Matrix6, SMatrix, Vector3};
+
+/// Longest list of node ids a message names.
+const NAMED_NODES: usize = 12;
+
+/// A sentence naming a part of the model that can move as a rigid body with no support to
+/// stop it, or None when every part is held.
+pub fn diagnose(model: &Model) -> Option<String> {
+    let n = model.reference.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let join = |p: &mut Vec<usize>, a: usize, b: usize| {
+        let (ra, rb) = (find(p, a), find(p, b));
+        if ra != rb {
+            p[ra] = rb;
+        }
+    };
+    let mut used = vec![false; n];
+    for t in &model.triangles {
+        join(&mut parent, t.nodes[0], t.nodes[1]);
+        join(&mut parent, t.nodes[0], t.nodes[2]);
+        t.nodes.iter().for_each(|&i| used[i] = true);
+    }
+    for s in &model.segments {
+        join(&mut parent, s.nodes[0], s.nodes[1]);
+        s.nodes.iter().for_each(|&i| used[i] = true);
+    }
+    for t in &model.ties {
+        join(&mut parent, t.nodes[0], t.nodes[1]);
+    }
+    let mut parts: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for i in (0..n).filter(|&i| used[i]) {
+        parts.entry(find(&mut parent, i)).or_default().push(i);
+    }
+    for nodes in parts.values() {
+        let count = nodes.len() as f64;
+        let c: Vector3<f64> = nodes.iter().map(|&i| model.reference[i]).sum::<Vector3<f64>>() / count;
+        let size = nodes
+            .iter()
+            .map(|&i| (model.reference[i] - c).norm())
+            .fold(0.0, f64::max)
+            .max(f64::MIN_POSITIVE);
+        let (mut all, mut held) = (Matrix6::<f64>::zeros(), Matrix6::<f64>::zeros());
+        for &i in nodes {
+            let r = (model.reference[i] - c) / size;
+            let mut m = SMatrix::<f64, 3, 6>::zeros();
+            m.fixed_view_mut::<3, 3>(0, 0).copy_from(&Matrix3::identity());
+            m.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-r.cross_matrix()));
+            for comp in 0..3 {
+                let row = m.row(comp).transpose();
+                let g = row * row.transpose();
+                all += g;
+                if model.held[3 * i + comp] {
+                    held += g;
+                }
+            }
+        }
+        let top = all.symmetric_eigenvalues().amax();
+        let free = rank(&all, top) - rank(&held, top);
+        if free > 0 {
+            let mut ids: Vec<String> = nodes.iter().take(NAMED_NODES).map(|i| i.to_string()).collect();
+            if nodes.len() > NAMED_NODES {
+                ids.push(format!("… ({} nodes)", nodes.len()));
+            }
+            return Some(format!(
+                "the structure is a mechanism: nodes {} form a part with {free} rigid-body motion{} that no support stops (fix more components of its nodes, or connect it to a supported part)",
+                ids.join(", "),
+                if free == 1 { "" } else { "s" }
+            ));
+        }
+    }
+    None
+}
+
+/// Numerical rank of a symmetric positive semi-definite 6x6 matrix, eigenvalues counted above
+/// 1e-10 of `top`.
+fn rank(g: &Matrix6<f64>, top: f64) -> usize {
+    g.symmetric_eigenvalues()
+        .iter()
+        .filter(|&&v| v > 1e-10 * top)
+        .count()
+}

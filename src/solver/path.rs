@@ -1,0 +1,239 @@
+//! Path following of one step: load increments with growth and cut-back, and the tangent
+//! predictor for prescribed displacements.
+//!
+//! ```text
+//! solve_step(from, to, u):  load(λ) = from + λ (to − from),  λ: 0 → 1 in increments Δλ
+//!   each increment: predictor (prescribed DOFs moved), then Newton from the last converged u;
+//!   on failure Δλ ← Δλ/4 (down to min_increment); on success Δλ ← 2 Δλ if N_iter <= N_target,
+//!   1.5 Δλ if N_iter <= 3/4 N_max, else Δλ
+//! ```
+
+use super::assemble::{self, Membranes, NONE};
+use super::newton::Increment;
+use super::{push_log, Outcome, Solver, StepReport};
+use crate::model::sleeve::Contact;
+use crate::model::{LoadModel, Model};
+
+impl Solver {
+    /// Apply the load change `from` → `to` starting from the equilibrium `u`. On convergence
+    /// `u` is the new equilibrium; otherwise `u` is unchanged.
+    pub fn solve_step(
+        &mut self,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        u: &mut Vec<f64>,
+    ) -> StepReport {
+        let mut states = vec![0; model.slips.len()];
+        self.solve_step_with(model, from, to, u, &mut states)
+    }
+
+    /// [`Solver::solve_step`] for a model with sleeves: `u` holds displacements then slips
+    /// (`Model::unknown_count`), `states` the stick/slip code of every sleeve point
+    /// (`model::sleeve`). The history (slips, states) advances only at converged increments;
+    /// on failure both are unchanged.
+    pub fn solve_step_with(
+        &mut self,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        u: &mut Vec<f64>,
+        states: &mut Vec<u8>,
+    ) -> StepReport {
+        let mut report = StepReport {
+            outcome: Outcome::Failed,
+            iterations: 0,
+            increments: 0,
+            cutbacks: 0,
+            reached: 0.0,
+            message: String::new(),
+            log: Vec::new(),
+        };
+        let s = self.settings.clone();
+        let step_change = load_change(model, from, to);
+        let moved = from != to;
+        let mut converged = u.clone();
+        let mut converged_states: Vec<Contact> = states
+            .iter()
+            .map(|&c| Contact::from_code(c).unwrap_or_default())
+            .collect();
+        let (mut lambda, mut dl) = (0.0, s.initial_increment);
+        while lambda < 1.0 {
+            if report.increments + report.cutbacks >= s.max_increments {
+                report.reached = lambda;
+                report.message = format!(
+                    "no equilibrium found beyond load fraction {lambda:.6} of the step ({} increments used)",
+                    s.max_increments
+                );
+                return report;
+            }
+            dl = dl.min(1.0 - lambda);
+            let target = if 1.0 - (lambda + dl) < 1e-12 {
+                1.0
+            } else {
+                lambda + dl
+            };
+            let loads: Vec<f64> = from
+                .iter()
+                .zip(to)
+                .map(|(a, b)| a + target * (b - a))
+                .collect();
+            let mut trial = converged.clone();
+            let predicted = self.predict(model, &loads, &mut trial);
+            let mut trial_states = converged_states.clone();
+            let increment = Increment {
+                loads: &loads,
+                change: (target - lambda) * step_change,
+                moved,
+            };
+            let result = self
+                .newton(model, &increment, &mut trial, &mut trial_states, &mut report.log)
+                .map(|i| i + predicted)
+                .map_err(|(i, why)| (i + predicted, why));
+            match result {
+                Ok(iters) => {
+                    report.iterations += iters;
+                    report.increments += 1;
+                    push_log(&mut report.log, format!("increment λ {lambda:.6} -> {target:.6}: converged in {iters} iterations"));
+                    converged = trial;
+                    converged_states = trial_states;
+                    lambda = target;
+                    dl *= growth(iters, s.target_iterations, s.max_iterations);
+                }
+                Err((iters, why)) => {
+                    report.iterations += iters;
+                    report.cutbacks += 1;
+                    push_log(
+                        &mut report.log,
+                        format!("increment λ {lambda:.6} -> {target:.6}: {why}; cutting back"),
+                    );
+                    dl *= 0.25;
+                    if dl < s.min_increment {
+                        report.reached = lambda;
+                        report.message = format!(
+                            "no equilibrium found beyond load fraction {lambda:.6} of the step (smallest increment {:.1e} failed: {why})",
+                            s.min_increment
+                        );
+                        if let Some(why) = super::mechanism::diagnose(model) {
+                            report.message.push_str(&format!("; {why}"));
+                        }
+                        return report;
+                    }
+                }
+            }
+        }
+        *u = converged;
+        *states = converged_states.iter().map(|c| c.code()).collect();
+        report.outcome = Outcome::Converged;
+        report.reached = 1.0;
+        report
+    }
+
+    /// Start an increment whose prescribed displacements change: one Newton step linearized at
+    /// the converged state `u`, with the prescribed change as a load on the free DOFs,
+    /// K_ff Δu_f = −(R_f + K_fp Δu_p). Moving only the prescribed DOFs would strain a single
+    /// layer of elements and spend the first iterations (and wrinkle-state switches) undoing
+    /// it. Returns the factorizations used (0 when nothing is prescribed to move, or 1);
+    /// `u` leaves with the prescribed values set in any case.
+    fn predict(&mut self, model: &Model, loads: &[f64], u: &mut [f64]) -> usize {
+        let mut du = vec![0.0; u.len()];
+        let mut target = u.to_vec();
+        prescribe(model, loads, &mut target);
+        let mut moved = false;
+        for (d, (a, b)) in u.iter().zip(&target).enumerate() {
+            if a != b {
+                du[d] = b - a;
+                moved = true;
+            }
+        }
+        if !moved {
+            return 0;
+        }
+        let mut coupling = vec![0.0; u.len()];
+        let membranes = Membranes {
+            held_step: Some((&du, &mut coupling)),
+            ..Default::default()
+        };
+        assemble::assemble_with(
+            model,
+            &self.pattern,
+            u,
+            loads,
+            &mut self.residual,
+            Some(self.linear.values_mut()),
+            membranes,
+        );
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                self.rhs[e] = -(self.residual[d] + coupling[d]);
+            }
+        }
+        let solved = self.linear.factor_solve(&mut self.rhs).is_ok();
+        u.copy_from_slice(&target);
+        if solved {
+            for (d, &e) in self.pattern.eq.iter().enumerate() {
+                if e != NONE {
+                    u[d] += self.rhs[e];
+                }
+            }
+        }
+        1
+    }
+}
+
+/// Increment growth after a converged increment. A state switch (wrinkled/slack/taut) costs a
+/// few Newton iterations whatever the increment size, so iteration counts above the target do
+/// not mean the increment is too large: grow 2x up to the target, 1.5x up to three quarters of
+/// the iteration limit, keep it otherwise. Failures cut it by 4.
+fn growth(iterations: usize, target: usize, max_iterations: usize) -> f64 {
+    if iterations <= target {
+        2.0
+    } else if 4 * iterations <= 3 * max_iterations {
+        1.5
+    } else {
+        1.0
+    }
+}
+
+/// |Δf_ext|∞ of the load change `from` → `to` (pressures on the reference areas): the part of
+/// the convergence test's force scale that makes a changed load count.
+fn load_change(model: &Model, from: &[f64], to: &[f64]) -> f64 {
+    let mut f = vec![0.0f64; model.dof_count()];
+    for ((load, a), b) in model.loads.iter().zip(from).zip(to) {
+        let delta = b - a;
+        if delta == 0.0 {
+            continue;
+        }
+        match load {
+            LoadModel::PointForce(dofs) => {
+                for &(d, unit) in dofs {
+                    f[d] += unit * delta;
+                }
+            }
+            LoadModel::Pressure { triangles, .. } => {
+                for &e in triangles {
+                    let t = &model.triangles[e];
+                    let share = (delta * t.reference.area / 3.0).abs();
+                    for &i in &t.nodes {
+                        for c in 0..3 {
+                            f[3 * i + c] += share * t.reference.normal[c].abs();
+                        }
+                    }
+                }
+            }
+            LoadModel::Displacement(_) => {}
+        }
+    }
+    f.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+/// Set prescribed DOFs to their load values.
+fn prescribe(model: &Model, loads: &[f64], u: &mut [f64]) {
+    for (load, &value) in model.loads.iter().zip(loads) {
+        if let LoadModel::Displacement(dofs) = load {
+            for &d in dofs {
+                u[d] = value;
+            }
+        }
+    }
+}
