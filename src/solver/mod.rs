@@ -56,8 +56,8 @@ pub struct Settings {
     /// Backtracking line search on every Newton correction. Default on.
     pub line_search: bool,
     /// Iterations with wrinkle or stick/slip state changes before the states are frozen until
-    /// convergence (chatter guard). Default 8: a state switch costs 2-4 iterations, and the
-    /// sleeve scenes settle their stick/slip states within 8.
+    /// convergence (chatter guard). Default 6: a state switch costs 2-4 iterations; states
+    /// still changing after 6 are chattering between neighbours of a border.
     pub freeze_after: usize,
     /// Times frozen states may turn out wrong at convergence before the increment is cut back.
     /// Default 3.
@@ -94,7 +94,7 @@ impl Default for Settings {
             line_search_tries: 8,
             max_increments: 400,
             roundoff_factor: 16.0,
-            damping_start: 0.0,
+            damping_start: 1e-3,
             damping_min: 1e-8,
             damping_max: 1e6,
         }

@@ -11,9 +11,8 @@
 //!           direction: (K + τ D) Δ = −R, slips eliminated by Schur    slip.rs
 //!           u ← u + α Δ, α from the line search                       line_search.rs
 //!           τ: 0 while Newton steps work; τ0 when the line search fails or cuts α below
-//!              1e-3, or below 1/4 twice in a row after the second iteration (short first
-//!              steps are normal from a flat start), ×4 on every further such step; ÷8 after
-//!              every full step (0 below τ_min)
+//!              1e-3 (the step was a thousand times too long: a mechanism), ×4 on every
+//!              further such step; ÷8 after every full step (0 below τ_min)
 //! ```
 //!
 //! # The convergence test
@@ -63,9 +62,6 @@ const RELAX_ROUNDS: usize = 20;
 const RELAX_SWEEPS: usize = 3;
 /// Iterates whose merit the non-monotone line search remembers.
 const NONMONOTONE_MEMORY: usize = 5;
-/// Steps shorter than this twice in a row (past the first two iterations, which a flat start
-/// may need for itself) switch the damping on or raise it.
-const SHORT_STEP: f64 = 0.25;
 /// A step shorter than this (or a failed search) switches the damping on or raises it at once:
 /// the Newton step was a thousand times too long, the mark of a mechanism.
 const TINY_STEP: f64 = 1e-3;
@@ -235,8 +231,7 @@ impl Solver {
                 },
                 merit,
             );
-            let short = alpha < SHORT_STEP;
-            let trouble = !ok || alpha < TINY_STEP || (short && last_alpha < SHORT_STEP && it >= 2);
+            let trouble = !ok || alpha < TINY_STEP;
             last_alpha = alpha;
             for (d, &e) in self.pattern.eq.iter().enumerate() {
                 if e != NONE {
