@@ -28,7 +28,7 @@ use crate::scene::{
 };
 use nalgebra::Vector3;
 
-/// Default artificial prestress of a flat membrane group, as a fraction of its E (3μ for
+/// Default artificial prestress of a membrane group, as a fraction of its E (3μ for
 /// neo-Hookean).
 pub const AUTO_PRESTRESS_FRACTION: f64 = 1e-4;
 
@@ -275,7 +275,7 @@ fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
     }
 }
 
-/// Membrane elements, group by group. A group is flat when all its reference normals agree.
+/// Membrane elements, group by group.
 fn build_triangles(
     scene: &Scene,
     mesh: &Mesh,
@@ -309,17 +309,14 @@ fn build_triangles(
                 prestress: 0.0,
             });
         }
-        let group = &mut out[first..];
-        let n0 = group[0].reference.normal;
-        let flat = group
-            .iter()
-            .all(|t| t.reference.normal.dot(&n0) > 1.0 - 1e-10);
-        let prestress = scene.solver.artificial_prestress.unwrap_or(if flat {
-            AUTO_PRESTRESS_FRACTION * material.modulus()
-        } else {
-            0.0
-        });
-        for t in group {
+        // Every group, flat or curved, gets the same tangent-only artificial prestress: each
+        // facet of a curved group (a cylinder of flat facets, a tube's flat cap) has the
+        // singular out-of-plane tangent of a flat sheet while it is unstressed.
+        let prestress = scene
+            .solver
+            .artificial_prestress
+            .unwrap_or(AUTO_PRESTRESS_FRACTION * material.modulus());
+        for t in &mut out[first..] {
             t.prestress = prestress;
         }
     }

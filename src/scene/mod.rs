@@ -488,10 +488,11 @@ pub struct SolverSettings {
     pub min_increment: f64,
     /// Increment growth aims at this many iterations per increment (6).
     pub target_iterations: usize,
-    /// Artificial isotropic prestress in Pa for flat, stress-free membranes. It enters the
-    /// tangent only (never the residual), so it changes the iteration path, not the equilibrium.
-    /// Absent: 1e-4 · E of each flat membrane group (about 1 % of the stress at qa/Eh = 1e-3);
-    /// 0 switches it off.
+    /// Artificial isotropic prestress in Pa for stress-free membranes, flat or curved. It enters
+    /// the tangent only (never the residual), out of the current plane and only as far as the
+    /// element lacks tension, and fades as the residual falls below 1 % of the force scale, so
+    /// it changes the iteration path, not the equilibrium. Absent: 1e-4 · E of each membrane
+    /// group (about 1 % of the stress at qa/Eh = 1e-3); 0 switches it off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub artificial_prestress: Option<f64>,
     /// Energy (slope) line search on every Newton correction.
