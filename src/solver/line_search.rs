@@ -11,8 +11,10 @@
 //!             ‖R(α)‖ <= (1 − c α) max(last 5 ‖R‖), halving; α starts at the largest step that
 //!             keeps every sleeved segment's unstretched length above a tenth of its value
 //! ```
-//! Every trial point whose membrane triangles invert is rejected (α shrinks). The search returns
-//! the step length and whether its condition was met (the globalisation reads that).
+//! Every trial point whose membrane triangles invert is rejected (α shrinks). With a potential,
+//! a direction along which Π rises (an indefinite or wrongly regularised tangent) is not taken
+//! at all. The search returns the step length and whether its condition was met (the
+//! globalisation reads that).
 //!
 //! # References
 //! Crisfield 1991, vol. 1, §9.3 (line search on the slope); Nocedal & Wright 2006, §3.1 and
@@ -73,6 +75,12 @@ impl Solver {
                 // The potential resolves changes down to round-off of its own size; below a
                 // thousand times that, the slope (computed from forces) is the sharper measure.
                 let noise = 1e-13 * value.abs().max(f64::MIN_POSITIVE);
+                if s0 > 1e3 * noise {
+                    // Not a descent direction: the tangent is indefinite along it (a zero
+                    // pivot regularised with the wrong sign). Take no step; the damping that
+                    // the failed search switches on makes the next tangent definite.
+                    return (0.0, false);
+                }
                 if s0 < 0.0 && -s0 > 1e3 * noise {
                     self.armijo_potential(model, u, dir, at, (value, reference), s0)
                 } else {
