@@ -20,9 +20,6 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 pub type Vec6 = SVector<f64, 6>;
 pub type Mat6 = SMatrix<f64, 6, 6>;
 
-/// Tangent-only stiffness fraction of a slack segment.
-pub const SLACK_STIFFNESS: f64 = 1e-6;
-
 /// Strain law (mirrors the scene's).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Law {
@@ -100,7 +97,9 @@ pub fn segment(
     let kbb = if t > 0.0 {
         eet * k + (Matrix3::identity() - eet) * (t / l)
     } else {
-        Matrix3::identity() * (SLACK_STIFFNESS * ea / l0)
+        // Slack: no force and no stiffness (the exact derivative). A node held only by slack
+        // cables is a mechanism until they tighten; the solver's damping handles that.
+        Matrix3::zeros()
     };
     let mut kk = Mat6::zeros();
     kk.fixed_view_mut::<3, 3>(0, 0).copy_from(&kbb);

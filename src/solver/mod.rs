@@ -74,7 +74,9 @@ pub struct Settings {
     /// Damping τ of the globalisation when it switches on (relative to the taut-structure
     /// diagonal). Default 1e-3: a mechanism then moves by 1000 elastic displacements per step.
     pub damping_start: f64,
-    /// Damping below which it switches off. Default 1e-8 (no effect on the Newton direction).
+    /// Damping below which it switches off. Default 1e-12: far below any effect on the Newton
+    /// direction, and low enough that a slack mechanism can travel 8^9 times its first damped
+    /// step before the damping would stop.
     pub damping_min: f64,
     /// Largest damping. Default 1e6.
     pub damping_max: f64,
@@ -95,7 +97,7 @@ impl Default for Settings {
             max_increments: 400,
             roundoff_factor: 16.0,
             damping_start: 1e-3,
-            damping_min: 1e-8,
+            damping_min: 1e-12,
             damping_max: 1e6,
         }
     }

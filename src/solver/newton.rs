@@ -3,8 +3,8 @@
 //! ```text
 //! iterate:  assemble R, K at u (wrinkle states from the mixed criterion, or frozen)
 //!           stick/slip states by the return map (or frozen)       active_set.rs
-//!           converged when every free DOF d and slip row j meets
-//!               |R_d| <= tol · F + ρ_d                              (the convergence test)
+//!           converged when every free DOF d and slip row j meets |R_d| <= tol · F, or meets
+//!               |R_d| <= tol · F + ρ_d and the Newton correction is below round-off
 //!           and no stick/slip state changed, and the re-check of frozen states accepts
 //!           stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
 //!               relax the nodes carrying the residual (relax.rs)
@@ -22,9 +22,11 @@
 //! magnitudes of every force meeting at d (its terms), K_dd the diagonal of the tangent, X the
 //! coordinate size (rounding a coordinate by εX moves the forces by about K_dd εX), c the
 //! settings' `roundoff_factor`. The floor is local, so a very stiff member raises it only at
-//! its own nodes, where it corresponds to a displacement of c·ε·X. In the first iteration of a
-//! step whose loads changed the floor does not count: a load change is never accepted unless
-//! it is below tol·F.
+//! its own nodes. A point inside the floors but not inside tol·F counts as converged only when
+//! the Newton correction from it is below c·ε·X at every unknown: the floors of a stiff
+//! member's two nodes could otherwise add up to a net force on a soft part it belongs to. In
+//! the first iteration of a step whose loads changed the floor does not count: a load change is
+//! never accepted unless it is below tol·F.
 //!
 //! # Globalisation
 //! Slack cables, slack or wrinkled membrane and frictionless sleeves leave directions with no
@@ -91,8 +93,10 @@ fn stalled(it: usize, free: f64, last_free: f64, last_alpha: f64) -> bool {
 /// The convergence test at one iterate.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Check {
-    /// Every row within its allowance.
-    pub converged: bool,
+    /// Every row within tolerance · F.
+    pub strict: bool,
+    /// Every row within tolerance · F plus its round-off floor.
+    pub within_floor: bool,
     /// |R|∞ over the free DOFs and over the slip rows.
     pub free: f64,
     pub slip: f64,
@@ -127,6 +131,9 @@ impl Solver {
         self.frozen = None;
         self.prestress_factor = 1.0;
         let mut damping = 0.0f64;
+        // The last non-zero damping: where the undamped tangent turns out singular again, the
+        // damping resumes from it rather than from the start value.
+        let mut last_damping = 0.0f64;
         let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
         let mut recent = std::collections::VecDeque::with_capacity(NONMONOTONE_MEMORY + 1);
         let max = self.settings.max_iterations;
@@ -146,7 +153,7 @@ impl Solver {
             let tolerance = self.settings.tolerance * check.scale;
             self.prestress_factor =
                 prestress_factor(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
-            if !check.converged && stalled(it, check.free, last_free, last_alpha) {
+            if !check.within_floor && stalled(it, check.free, last_free, last_alpha) {
                 let moved = self.relax(model, inc.loads, u, check.free, tolerance);
                 if moved > 0 {
                     let info = self.assemble_at(model, inc.loads, u);
@@ -158,7 +165,21 @@ impl Solver {
                     );
                 }
             }
-            if check.converged && changed == 0 {
+            // Within the round-off floor but not the tolerance: converged only when the Newton
+            // correction itself is below round-off of the coordinates (a floor reached at
+            // every DOF could still leave a net force on a soft part held by stiff members).
+            let mut pending = None;
+            let mut converged = check.strict;
+            if !converged && check.within_floor && changed == 0 {
+                if let Ok((dx, ds)) = self.direction(model, u, &rows, damping) {
+                    let limit = self.settings.roundoff_factor
+                        * f64::EPSILON
+                        * self.coordinate_size(model, u);
+                    converged = dx.iter().chain(&ds).all(|v| v.abs() <= limit);
+                    pending = Some((dx, ds));
+                }
+            }
+            if converged && changed == 0 {
                 let verdict = active.recheck(
                     it,
                     model,
@@ -204,9 +225,26 @@ impl Solver {
                     ),
                 ));
             }
-            let (dx, ds) = self
-                .direction(model, u, &rows, damping)
-                .map_err(|why| (it + 1, why))?;
+            let direction = match pending.take() {
+                Some(d) => Ok(d),
+                None => self.direction(model, u, &rows, damping),
+            };
+            let (dx, ds) = match direction {
+                Ok(d) => d,
+                Err(why) if damping == 0.0 && self.settings.damping_start > 0.0 => {
+                    // A tangent with no stiffness at all (every cable slack, nothing stressed):
+                    // the damped system is definite.
+                    push_log(log, format!("  {why}: damping switched on"));
+                    damping = if last_damping > 0.0 {
+                        last_damping
+                    } else {
+                        self.settings.damping_start
+                    };
+                    self.direction(model, u, &rows, damping)
+                        .map_err(|why| (it + 1, why))?
+                }
+                Err(why) => return Err((it + 1, why)),
+            };
             let merit = if !model.slips.is_empty() {
                 let slip: Vec<f64> = rows.iter().map(|r| r.r).collect();
                 Merit::Residual {
@@ -242,6 +280,9 @@ impl Solver {
                 u[n3 + j] += alpha * v;
             }
             let s = &self.settings;
+            if damping > 0.0 {
+                last_damping = damping;
+            }
             damping = if trouble {
                 if damping == 0.0 {
                     s.damping_start
@@ -314,32 +355,35 @@ impl Solver {
         let x = self.coordinate_size(model, u);
         let c = self.settings.roundoff_factor * f64::EPSILON;
         let values = self.linear.values();
-        let mut converged = free.is_finite() && slip.is_finite();
+        let finite = free.is_finite() && slip.is_finite();
+        let (mut strict, mut within_floor) = (finite, finite);
         for (d, &e) in self.pattern.eq.iter().enumerate() {
-            if e == NONE || !converged {
+            if e == NONE {
                 continue;
             }
+            let r = self.residual[d].abs();
+            strict &= r <= tolerance;
             let floor = if first_of_changed_step {
                 0.0
             } else {
                 c * (self.magnitude[d] + values[self.diagonal_positions[e]].abs() * x)
             };
-            converged = self.residual[d].abs() <= tolerance + floor;
+            within_floor &= r <= tolerance + floor;
         }
         for row in rows {
-            if !converged {
-                break;
-            }
+            let r = row.r.abs();
+            strict &= r <= tolerance;
             let own = row.ds.first().map_or(0.0, |&(_, v)| v.abs());
             let floor = if first_of_changed_step {
                 0.0
             } else {
                 c * (row.magnitude + own * x)
             };
-            converged = row.r.abs() <= tolerance + floor;
+            within_floor &= r <= tolerance + floor;
         }
         Check {
-            converged,
+            strict,
+            within_floor,
             free,
             slip,
             scale,
@@ -400,7 +444,8 @@ impl Solver {
             None,
             membranes,
         );
-        let met = self.check(model, &info, rows, u, inc, it).converged;
+        let check = self.check(model, &info, rows, u, inc, it);
+        let met = check.strict || check.within_floor;
         (self.evaluations.iter().map(|e| e.state).collect(), met)
     }
 
