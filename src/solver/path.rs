@@ -83,7 +83,7 @@ impl Solver {
             let mut trial_states = converged_states.clone();
             let increment = Increment {
                 loads: &loads,
-                change: (target - lambda) * step_change,
+                change: step_change,
                 moved,
             };
             let result = self
