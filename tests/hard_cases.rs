@@ -2,7 +2,7 @@
 //!       RIGHT answer (a closed form, exact statics, an exact symmetry or a hand bound) or, where
 //!       no equilibrium exists, the specific failure. No test accepts both convergence and
 //!       failure. On the solver of commit 79af9e6 (two Newton loops) 8 of the 19 passed; on the
-//!       one-loop solver 13 pass. The 6 that still fail are `#[ignore]`d with the reason and
+//!       one-loop solver 14 pass. The 5 that still fail are `#[ignore]`d with the reason and
 //!       the measured behaviour in the attribute: they are open work of issue 9, run them with
 //!       `cargo test --release --test hard_cases -- --ignored`.
 //!
@@ -812,7 +812,6 @@ const SHEAR_CENTRE: [usize; 2] = [494, 495];
 /// tension direction 0.31° off. Onset δ_c = 1.5649 ε0 H = 0.1565 mm, so step 1 (0.15 mm) is taut.
 /// Iterations per step (issue target median <= 8, max <= 40) are printed, not asserted.
 #[test]
-#[ignore = "open (issue 9): free-edge corner nodes on nearly stress-free wrinkled elements cap the step at α 0.05; steps 5-9 take 500-3000 iterations and step 9 fails (as before the solver rework: step 11)"]
 fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
     let separation = 1e-4;
     let mut e = engine(read_scene(&shipped("WrinkledShear")));
