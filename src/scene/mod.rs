@@ -474,8 +474,11 @@ pub enum ParameterVariability {
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverSettings {
-    /// Relative residual tolerance: converged when |R|∞ <= tolerance · (|f_ext|∞ + |reactions|∞)
-    /// and the last correction is below `tolerance` times the displacement scale. 1e-9 keeps
+    /// Relative residual tolerance: converged when every free DOF's residual is at most
+    /// tolerance · F, F the largest of |f_ext|∞, |reactions|∞, the largest nodal force of any
+    /// element and the step's load change (applied and carried forces, never a stiffness).
+    /// Where round-off keeps a residual above that, its floor 16 ε (Σ|f| + K_dd X) counts only
+    /// if the Newton correction is also below round-off (docs/solver.md). 1e-9 keeps
     /// verification at 1e-8 honest while quadratic convergence makes it cheap.
     pub tolerance: f64,
     /// Newton iterations per load increment before it is cut back. 25: quadratic convergence
