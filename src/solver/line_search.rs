@@ -27,8 +27,6 @@ use super::Solver;
 use crate::model::sleeve::Contact;
 use crate::model::Model;
 
-/// Armijo sufficient-decrease fraction.
-const ARMIJO: f64 = 1e-4;
 /// Slope line search: accept α when |s(α)| <= SLOPE_RATIO · |s(0)|.
 const SLOPE_RATIO: f64 = 0.5;
 
@@ -66,7 +64,7 @@ impl Solver {
         merit: Merit,
     ) -> (f64, bool) {
         if !self.settings.line_search {
-            return (step_limit(model, u, dir.ds), true);
+            return (step_limit(model, u, dir.ds, self.settings.keep_length), true);
         }
         // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
         let s0 = self.direction_dot_residual(dir.dx);
@@ -178,7 +176,7 @@ impl Solver {
                 alpha *= 0.25;
                 continue;
             }
-            if p - reference <= ARMIJO * alpha * s0 + noise {
+            if p - reference <= self.settings.armijo * alpha * s0 + noise {
                 return (alpha, true);
             }
             // Minimum of the parabola through Π(0), Π'(0) = s0 and Π(α).
@@ -229,11 +227,12 @@ impl Solver {
         at: &Trial,
         reference: f64,
     ) -> (f64, bool) {
-        let mut alpha = step_limit(model, u, dir.ds);
+        let mut alpha = step_limit(model, u, dir.ds, self.settings.keep_length);
         for _ in 0..self.settings.line_search_tries {
             let (_, slip, inverted) = self.trial_point(model, u, dir, at, alpha);
             let norm = self.residual_norm(&slip);
-            if !inverted && norm.is_finite() && norm <= (1.0 - ARMIJO * alpha) * reference {
+            let armijo = self.settings.armijo;
+            if !inverted && norm.is_finite() && norm <= (1.0 - armijo * alpha) * reference {
                 return (alpha, true);
             }
             alpha *= 0.5;

@@ -80,6 +80,35 @@ pub struct Settings {
     pub damping_min: f64,
     /// Largest damping. Default 1e6.
     pub damping_max: f64,
+    /// A step the line search cuts below this (or a failed search) switches the damping on or
+    /// raises it: the Newton step was 1e5 times too long, the mark of a mechanism. Default
+    /// 1e-5. Measured: 1e-3 also caught the occasional short step of the deeply wrinkled shear
+    /// film (0.1 mm separation), where the damping then cost 5 of 20 steps; 1e-5 keeps those
+    /// and still takes SlidingCable's sliding nodes (median 10, max 19 iterations per row).
+    pub damping_trigger: f64,
+    /// Iterates whose merit the non-monotone line search remembers (Grippo et al. 1986).
+    /// Default 5.
+    pub nonmonotone_memory: usize,
+    /// Armijo sufficient-decrease fraction. Default 1e-4 (Nocedal & Wright §3.1).
+    pub armijo: f64,
+    /// The artificial prestress fades with the relative residual below this level. Default
+    /// 1e-2: the over-stiff out-of-plane tangent it gives a nearly unstressed membrane (a flat
+    /// sheet unloaded) would otherwise make the last iterations converge only linearly.
+    pub prestress_fade: f64,
+    /// Nodal relaxation takes the nodes whose residual is at least this share of the largest.
+    /// Default 0.1.
+    pub relax_share: f64,
+    /// Relaxation is for local trouble: not when more than this share of the nodes qualify.
+    /// Default 0.1.
+    pub relax_max_share: f64,
+    /// Rounds of relaxation, each over the nodes that then carry the residual, while each round
+    /// lowers it by at least a tenth. Default 20.
+    pub relax_rounds: usize,
+    /// Gauss-Seidel sweeps over the nodes of one round. Default 3.
+    pub relax_sweeps: usize,
+    /// Smallest fraction of its current unstretched length a sleeved segment may keep in one
+    /// step (fraction to the boundary L > 0). Default 0.1.
+    pub keep_length: f64,
 }
 
 impl Default for Settings {
@@ -99,6 +128,15 @@ impl Default for Settings {
             damping_start: 1e-3,
             damping_min: 1e-12,
             damping_max: 1e6,
+            damping_trigger: 1e-5,
+            nonmonotone_memory: 5,
+            armijo: 1e-4,
+            prestress_fade: 1e-2,
+            relax_share: 0.1,
+            relax_max_share: 0.1,
+            relax_rounds: 20,
+            relax_sweeps: 3,
+            keep_length: 0.1,
         }
     }
 }

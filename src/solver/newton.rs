@@ -53,35 +53,11 @@ use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 
-/// Nodes whose residual is at least this share of the largest are relaxed when Newton stalls.
-const RELAX_SHARE: f64 = 0.1;
-/// Relaxation is for local trouble: not when more than this share of the nodes qualify.
-const RELAX_MAX_SHARE: f64 = 0.1;
-/// Rounds of relaxation, each over the nodes that then carry the residual, while each round
-/// lowers it by at least a tenth.
-const RELAX_ROUNDS: usize = 20;
-/// Gauss-Seidel sweeps over the nodes to relax.
-const RELAX_SWEEPS: usize = 3;
-/// Iterates whose merit the non-monotone line search remembers.
-const NONMONOTONE_MEMORY: usize = 5;
-/// A step shorter than this (or a failed search) switches the damping on or raises it: the
-/// Newton step was 1e5 times too long, the mark of a mechanism. Measured: 1e-3 also caught
-/// the occasional short step of the deeply wrinkled shear film (0.1 mm separation), where
-/// the damping then cost 5 of 20 steps; 1e-5 keeps those and still takes SlidingCable's
-/// sliding nodes (median 10, max 19 iterations per row; 11 and 206 undamped).
-const TINY_STEP: f64 = 1e-5;
-
-/// The artificial prestress fades with the relative residual below this level: the
-/// over-stiff out-of-plane tangent it gives a nearly unstressed membrane (the singular flat
-/// state, approached when a flat sheet is unloaded) would otherwise make the last iterations
-/// converge only linearly. Tangent only, so the equilibrium does not change.
-const PRESTRESS_FADE: f64 = 1e-2;
-
 /// Factor on the artificial prestress for the next tangent: 1 down to a relative residual of
-/// PRESTRESS_FADE, proportional to it below.
-fn prestress_factor(relative: f64) -> f64 {
+/// `fade` (`Settings::prestress_fade`), proportional to it below.
+fn prestress_factor(relative: f64, fade: f64) -> f64 {
     if relative.is_finite() {
-        (relative / PRESTRESS_FADE).min(1.0)
+        (relative / fade).min(1.0)
     } else {
         1.0
     }
@@ -138,7 +114,8 @@ impl Solver {
         // damping resumes from it rather than from the start value.
         let mut last_damping = 0.0f64;
         let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
-        let mut recent = std::collections::VecDeque::with_capacity(NONMONOTONE_MEMORY + 1);
+        let memory = self.settings.nonmonotone_memory;
+        let mut recent = std::collections::VecDeque::with_capacity(memory + 1);
         let max = self.settings.max_iterations;
         for it in 0..=max {
             self.frozen = active.wrinkle_frozen.clone();
@@ -154,8 +131,10 @@ impl Solver {
                 return Err((it, "the residual is not finite".into()));
             }
             let tolerance = self.settings.tolerance * check.scale;
-            self.prestress_factor =
-                prestress_factor(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
+            self.prestress_factor = prestress_factor(
+                check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE),
+                self.settings.prestress_fade,
+            );
             if !check.within_floor && stalled(it, check.free, last_free, last_alpha) {
                 let moved = self.relax(model, inc.loads, u, check.free, tolerance);
                 if moved > 0 {
@@ -251,12 +230,12 @@ impl Solver {
             let merit = if !model.slips.is_empty() {
                 let slip: Vec<f64> = rows.iter().map(|r| r.r).collect();
                 Merit::Residual {
-                    reference: remember(&mut recent, self.residual_norm(&slip)),
+                    reference: remember(&mut recent, memory, self.residual_norm(&slip)),
                 }
             } else if model.is_conservative() {
                 Merit::Potential {
                     value: info.potential,
-                    reference: remember(&mut recent, info.potential),
+                    reference: remember(&mut recent, memory, info.potential),
                 }
             } else {
                 Merit::Slope
@@ -272,7 +251,7 @@ impl Solver {
                 },
                 merit,
             );
-            let trouble = !ok || alpha < TINY_STEP;
+            let trouble = !ok || alpha < self.settings.damping_trigger;
             last_alpha = alpha;
             for (d, &e) in self.pattern.eq.iter().enumerate() {
                 if e != NONE {
@@ -453,8 +432,8 @@ impl Solver {
     }
 
     /// Relax, one at a time with all others held, the nodes with a free DOF whose residual is
-    /// at least RELAX_SHARE · |R|∞ (`free`), to `target`, when they are few (at most
-    /// RELAX_MAX_SHARE of the nodes); returns how many moved.
+    /// at least `relax_share` · |R|∞ (`free`), when they are few (at most `relax_max_share` of
+    /// the nodes); returns how many moved.
     fn relax(
         &mut self,
         model: &Model,
@@ -463,25 +442,26 @@ impl Solver {
         free: f64,
         tolerance: f64,
     ) -> usize {
+        let s = self.settings.clone();
         let (mut free, mut moved_total) = (free, 0);
         let mut patch = vec![false; model.reference.len()];
-        for _ in 0..RELAX_ROUNDS {
+        for _ in 0..s.relax_rounds {
             // The patch grows by the nodes that now carry the residual (the neighbours the last
             // round passed it on to) and is relaxed as a whole: block Gauss-Seidel on it.
             for (i, p) in patch.iter_mut().enumerate() {
                 *p |= (0..3).any(|c| {
                     let d = 3 * i + c;
-                    self.pattern.eq[d] != NONE && self.residual[d].abs() >= RELAX_SHARE * free
+                    self.pattern.eq[d] != NONE && self.residual[d].abs() >= s.relax_share * free
                 });
             }
             let nodes: Vec<usize> = (0..patch.len()).filter(|&i| patch[i]).collect();
-            if nodes.len() as f64 > RELAX_MAX_SHARE * model.reference.len() as f64 {
+            if nodes.len() as f64 > s.relax_max_share * model.reference.len() as f64 {
                 // The residual is spread over the mesh: a global, not a local, difficulty.
                 break;
             }
             let forced = self.frozen.as_deref();
             let mut moved = 0;
-            for _ in 0..RELAX_SWEEPS {
+            for _ in 0..s.relax_sweeps {
                 moved = moved.max(relax_nodes(
                     model,
                     &self.adjacency,
@@ -539,9 +519,9 @@ fn slip_note(check: &Check) -> String {
 }
 
 /// Push `value` into the non-monotone memory and return the largest remembered value.
-fn remember(recent: &mut std::collections::VecDeque<f64>, value: f64) -> f64 {
+fn remember(recent: &mut std::collections::VecDeque<f64>, memory: usize, value: f64) -> f64 {
     recent.push_back(value);
-    if recent.len() > NONMONOTONE_MEMORY {
+    if recent.len() > memory {
         recent.pop_front();
     }
     recent.iter().fold(f64::NEG_INFINITY, |m, &p| m.max(p))

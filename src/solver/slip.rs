@@ -27,8 +27,6 @@ use crate::model::sleeve::{self, Contact, SegmentLaw};
 use crate::model::Model;
 use nalgebra::{DMatrix, DVector};
 
-/// Smallest fraction of its current unstretched length a sleeved segment may keep in one step.
-const KEEP_LENGTH: f64 = 0.1;
 /// Largest tie gap, relative to the shorter adjacent segment, before the log warns (the
 /// penetration bound of docs/mechanics.md, sleeves: below 1e-3 of the element size).
 pub const MAX_GAP: f64 = 1e-3;
@@ -305,16 +303,16 @@ pub(super) fn largest_gap(model: &Model, u: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Largest α ≤ 1 keeping every sleeved segment's unstretched length above KEEP_LENGTH of its
+/// Largest α ≤ 1 keeping every sleeved segment's unstretched length above `keep` of its
 /// current value.
-pub(super) fn step_limit(model: &Model, u: &[f64], ds: &[f64]) -> f64 {
+pub(super) fn step_limit(model: &Model, u: &[f64], ds: &[f64], keep: f64) -> f64 {
     let mut alpha = 1.0f64;
     for (e, s) in model.segments.iter().enumerate() {
         let d = |k: Option<usize>| k.map_or(0.0, |j| ds[j]);
         let dl = d(s.slip[1]) - d(s.slip[0]);
         let l = model.segment_l0(u, e);
-        if l > 0.0 && dl < 0.0 && l + dl < KEEP_LENGTH * l {
-            alpha = alpha.min((1.0 - KEEP_LENGTH) * l / -dl);
+        if l > 0.0 && dl < 0.0 && l + dl < keep * l {
+            alpha = alpha.min((1.0 - keep) * l / -dl);
         }
     }
     alpha
