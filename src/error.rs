@@ -55,8 +55,10 @@ impl fmt::Display for Error {
                 value,
                 why,
             } => write!(f, "variable {name} (value reference {vr}) = {value} is out of range: {why}"),
-            Error::Io { path, message } => write!(f, "{path}: {message}"),
-            Error::State(m) => write!(f, "FMU state rejected: {m}"),
+            Error::Io { path, message } => {
+                write!(f, "{}", crate::scene::read::clip(&format!("{path}: {message}")))
+            }
+            Error::State(m) => write!(f, "FMU state rejected: {}", crate::scene::read::clip(m)),
         }
     }
 }
