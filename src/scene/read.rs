@@ -31,7 +31,7 @@ pub fn decode_text(bytes: &[u8]) -> Result<&str, String> {
         let at = e.valid_up_to();
         let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
         format!(
-            "not valid UTF-8: byte offset {at} (line {line}) starts an invalid sequence (byte 0x{:02X}); save the file as UTF-8",
+            "not valid UTF-8: byte offset {at} (line {line}) starts invalid UTF-8 (byte 0x{:02X}); save the file as UTF-8",
             bytes[at]
         )
     })
