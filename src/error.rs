@@ -56,7 +56,8 @@ impl fmt::Display for Error {
                 why,
             } => write!(f, "variable {name} (value reference {vr}) = {value} is out of range: {why}"),
             Error::Io { path, message } => {
-                write!(f, "{}", crate::scene::read::clip(&format!("{path}: {message}")))
+                // The file path is the user's own and shown whole; the message may echo values.
+                write!(f, "{path}: {}", crate::scene::read::clip(message))
             }
             Error::State(m) => write!(f, "FMU state rejected: {}", crate::scene::read::clip(m)),
         }
