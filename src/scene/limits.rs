@@ -299,3 +299,94 @@ fn address_space_left() -> Option<u64> {
         .unwrap_or(0);
     Some(soft.saturating_sub(mapped))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::generate::resolve;
+    use crate::scene::{DiagonalPattern, Geometry};
+    use faer::sparse::linalg::cholesky::{
+        factorize_symbolic_cholesky, CholeskySymbolicParams, SymmetricOrdering,
+    };
+    use faer::sparse::linalg::SupernodalThreshold;
+    use faer::sparse::SymbolicSparseColMat;
+
+    /// The factor entries of the full 3-DOF-per-node pattern (every DOF free, 3 x 3 blocks), as
+    /// the solver's symbolic analysis counts them: what the node-graph estimate stands for.
+    fn dof_factor_entries(mesh: &Mesh) -> u64 {
+        let n = mesh.nodes.len();
+        let mut cols: Vec<Vec<usize>> = vec![Vec::new(); 3 * n];
+        let mut pairs: Vec<(usize, usize)> = edges(mesh, &[])
+            .into_iter()
+            .map(|(i, j)| (i as usize, j as usize))
+            .collect();
+        pairs.extend((0..n).map(|i| (i, i)));
+        for (a, b) in pairs {
+            for p in 0..3 {
+                for q in 0..3 {
+                    let (r, c) = (3 * a + p, 3 * b + q);
+                    if r <= c {
+                        cols[c].push(r);
+                    }
+                    if a != b {
+                        let (r, c) = (3 * b + q, 3 * a + p);
+                        if r <= c {
+                            cols[c].push(r);
+                        }
+                    }
+                }
+            }
+        }
+        let mut col_ptr = vec![0usize];
+        let mut rows = Vec::new();
+        for c in &mut cols {
+            c.sort_unstable();
+            c.dedup();
+            rows.extend_from_slice(c);
+            col_ptr.push(rows.len());
+        }
+        let m = 3 * n;
+        let pattern = SymbolicSparseColMat::new_checked(m, m, col_ptr, None, rows);
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let s = factorize_symbolic_cholesky(
+            pattern.as_ref(),
+            faer::Side::Upper,
+            SymmetricOrdering::Amd,
+            params,
+        )
+        .unwrap();
+        s.len_val() as u64
+    }
+
+    /// The node-graph estimate bounds the DOF-level factor from above, within a factor 3
+    /// (measured here on discs and rectangles; printed with --nocapture).
+    #[test]
+    fn node_graph_estimate_bounds_the_dof_factor() {
+        let disc = |rings| Generator::Disc {
+            name: "d".into(),
+            center: [0.0; 3],
+            radius: 1.0,
+            rings,
+        };
+        let rect = |nx, ny| Generator::Rectangle {
+            name: "r".into(),
+            origin: [0.0; 3],
+            size: [1.0, 1.0],
+            divisions: [nx, ny],
+            pattern: DiagonalPattern::Crossed,
+        };
+        for g in [disc(10), disc(40), rect(30, 30), rect(2, 400)] {
+            let mesh = resolve(&Geometry {
+                generators: vec![g],
+                ..Default::default()
+            });
+            let estimate = factor_entries(&mesh, &[]).unwrap();
+            let actual = dof_factor_entries(&mesh);
+            println!("{} nodes: estimate {estimate}, DOF-level {actual}", mesh.nodes.len());
+            assert!(estimate >= actual && estimate <= 3 * actual, "{estimate} vs {actual}");
+        }
+    }
+}
