@@ -71,7 +71,7 @@ impl Engine {
             return Err(Error::Scene(problems));
         }
         let variables = variables::table(&scene);
-        let model = Model::build(&scene);
+        let model = Model::try_build(&scene).map_err(|p| Error::Scene(vec![p]))?;
         let solver = Solver::new(&model, settings(&scene));
         let state = initial_state(&scene, &variables, &model);
         let mut engine = Engine {
@@ -198,7 +198,11 @@ impl Engine {
         if self.model_stale {
             self.rebuild();
         }
-        let report = self.solver.solve_step_with(
+        let before = (
+            self.state.displacement.clone(),
+            self.state.slip_state.clone(),
+        );
+        let mut report = self.solver.solve_step_with(
             &self.model,
             &self.state.applied,
             &self.state.inputs,
@@ -206,11 +210,88 @@ impl Engine {
             &mut self.state.slip_state,
         );
         if report.converged() {
+            let previous = self.state.clone();
             self.state.applied = self.state.inputs.clone();
             self.state.last_iterations = report.iterations as u32;
             self.refresh_outputs();
+            // A converged answer is never returned non-finite: loads so large that a position,
+            // a length or a stress overflows are a failed step, and nothing is committed.
+            if let Some(what) = self.non_finite() {
+                self.state = previous;
+                (self.state.displacement, self.state.slip_state) = before;
+                self.refresh_outputs();
+                report.outcome = crate::solver::Outcome::Failed;
+                report.reached = 0.0;
+                report.message = format!("the equilibrium found is not finite ({what}); the loads overflow the model's numbers");
+            }
         }
         report
+    }
+
+    /// The first non-finite value of the committed state or outputs, named; None if all are
+    /// finite.
+    fn non_finite(&self) -> Option<String> {
+        if let Some(i) = self.state.displacement.iter().position(|x| !x.is_finite()) {
+            return Some(format!("displacement[{i}]"));
+        }
+        self.variables
+            .iter()
+            .filter(|v| v.causality == Causality::Output)
+            .find(|v| matches!(v.binding, Binding::Output(i) if !self.outputs[i].is_finite()))
+            .map(|v| format!("output {}", v.name))
+    }
+
+    /// Values of a state from outside (an FMU state set or deserialized): finite displacements
+    /// within the scene's magnitudes, valid state codes, inputs and parameters finite and within
+    /// their declared ranges. The first failed check is named.
+    pub fn check_state(&self, state: &EngineState) -> Result<(), Error> {
+        let bad = |m: String| Err(Error::State(m));
+        let max = crate::scene::validate::MAX_MAGNITUDE;
+        if let Some(i) = state.displacement.iter().position(|x| !(x.is_finite() && x.abs() <= max)) {
+            return bad(format!(
+                "displacement[{i}] = {} is not a finite displacement with |u| <= {max:e}",
+                state.displacement[i]
+            ));
+        }
+        if let Some(i) = state.slip_state.iter().position(|&c| c > 2) {
+            return bad(format!(
+                "slip_state[{i}] = {} is not a stick/slip code (0 stick, 1 and 2 slip)",
+                state.slip_state[i]
+            ));
+        }
+        if let Some(i) = state.wrinkle.iter().position(|&c| c > 2) {
+            return bad(format!(
+                "wrinkle[{i}] = {} is not a wrinkle code (0 taut, 1 wrinkled, 2 slack)",
+                state.wrinkle[i]
+            ));
+        }
+        if let Some(i) = state.tension_angle.iter().position(|x| !x.is_finite()) {
+            return bad(format!("tension_angle[{i}] = {} is not finite", state.tension_angle[i]));
+        }
+        for var in &self.variables {
+            let (field, value) = match var.binding {
+                Binding::Input(i) => {
+                    if !state.applied[i].is_finite() {
+                        return bad(format!("applied value of input {} = {} is not finite", var.name, state.applied[i]));
+                    }
+                    check_bounds(var, state.applied[i]).map_err(|e| Error::State(format!("applied value: {e}")))?;
+                    ("input", state.inputs[i])
+                }
+                Binding::Parameter(i) => ("parameter", state.parameters[i]),
+                Binding::Output(_) => continue,
+            };
+            if !value.is_finite() {
+                return bad(format!("{field} {} = {value} is not finite", var.name));
+            }
+            check_bounds(var, value).map_err(|e| Error::State(format!("{field}: {e}")))?;
+            if let Binding::Parameter(i) = var.binding {
+                if value != self.state.parameters[i] {
+                    check_parameter(&self.scene, var, i, value)
+                        .map_err(|e| Error::State(format!("parameter: {e}")))?;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The committed state.
@@ -239,13 +320,26 @@ impl Engine {
                 s.parameters.len()
             )));
         }
+        self.check_state(&state)?;
         let params_changed = state.parameters != s.parameters;
-        self.state = state;
+        let previous = std::mem::replace(&mut self.state, state);
         if params_changed {
             self.model_stale = true;
             self.rebuild();
         }
         self.refresh_outputs();
+        if let Some(what) = self.non_finite() {
+            // Leave the engine as it was.
+            self.state = previous;
+            if params_changed {
+                self.model_stale = true;
+                self.rebuild();
+            }
+            self.refresh_outputs();
+            return Err(Error::State(format!(
+                "the state gives a non-finite {what}; the instance is unchanged"
+            )));
+        }
         Ok(())
     }
 

@@ -55,8 +55,11 @@ impl fmt::Display for Error {
                 value,
                 why,
             } => write!(f, "variable {name} (value reference {vr}) = {value} is out of range: {why}"),
-            Error::Io { path, message } => write!(f, "{path}: {message}"),
-            Error::State(m) => write!(f, "FMU state rejected: {m}"),
+            Error::Io { path, message } => {
+                // The file path is the user's own and shown whole; the message may echo values.
+                write!(f, "{path}: {}", crate::scene::read::clip(message))
+            }
+            Error::State(m) => write!(f, "FMU state rejected: {}", crate::scene::read::clip(m)),
         }
     }
 }

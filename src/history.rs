@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! loads CSV   header  time,<input names...>   (any subset of the scene's inputs, any order)
-//!             rows    time and one value per named input; `#` lines and blank lines ignored
+//!             rows    time and one value per named input; blank lines and everything after
+//!                     a `#` are ignored; a UTF-8 byte-order mark is skipped
 //! result CSV  header  time,<output names...>  (every output, table order)
 //!             row k   the equilibrium under row k's inputs, reached from row k-1's
 //! ```
@@ -66,11 +67,13 @@ impl LoadTable {
             path: file.to_string(),
             message,
         };
+        // A byte-order mark is skipped; `#` starts a comment (whole line or after the cells).
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text
             .lines()
             .enumerate()
-            .map(|(i, l)| (i + 1, l.trim()))
-            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+            .map(|(i, l)| (i + 1, l.split('#').next().unwrap_or("").trim()))
+            .filter(|(_, l)| !l.is_empty());
         let (header_line, header) = lines
             .next()
             .ok_or_else(|| err("no header line; expected `time,<input names>`".into()))?;

@@ -148,13 +148,22 @@ impl Args {
     }
 }
 
-fn read_text(path: &str) -> Result<String, Stop> {
-    std::fs::read_to_string(path).map_err(|e| Stop::Failed(format!("{path}: cannot read: {e}")))
+fn read_bytes(path: &str) -> Result<Vec<u8>, Stop> {
+    std::fs::read(path).map_err(|e| Stop::Failed(format!("{path}: cannot read: {e}")))
 }
 
-/// Read and parse a scene; a syntax or type error names the file and the JSON path.
+/// A text file (a load table): a byte-order mark is skipped, invalid UTF-8 named by offset.
+fn read_text(path: &str) -> Result<String, Stop> {
+    let bytes = read_bytes(path)?;
+    velarium::scene::read::decode_text(&bytes)
+        .map(str::to_string)
+        .map_err(|m| Stop::Failed(format!("{path}: {m}")))
+}
+
+/// Read and parse a scene; every JSON-level problem names the file and its JSON path.
 fn read_scene(path: &str) -> Result<Scene, Stop> {
-    Scene::from_json(&read_text(path)?).map_err(|p| Stop::Failed(format!("{path}: {p}")))
+    Scene::parse(&read_bytes(path)?)
+        .map_err(|p| Stop::Failed(format!("{path}: {}", velarium::Error::Scene(p))))
 }
 
 /// Validate a scene and build its engine; problems name the file and every JSON path.
@@ -212,11 +221,17 @@ fn cmd_solve(args: &Args) -> Result<ExitCode, Stop> {
 
 fn cmd_check(args: &Args) -> Result<ExitCode, Stop> {
     let path = args.scene_path();
-    let scene = match Scene::from_json(&read_text(path)?) {
+    let scene = match velarium::scene::read::parse(&read_bytes(path)?) {
         Ok(scene) => scene,
-        Err(problem) => return Ok(report_problems(path, &[problem])),
+        Err((mut problems, recovered)) => {
+            // Only unknown fields: the rest of the scene is checked in the same run.
+            if let Some(scene) = recovered {
+                problems.extend(validate(&scene));
+            }
+            return Ok(report_problems(path, &problems));
+        }
     };
-    let problems = validate(&scene);
+    let (problems, size) = velarium::scene::validate::validate_sized(&scene);
     if !problems.is_empty() {
         return Ok(report_problems(path, &problems));
     }
@@ -228,9 +243,9 @@ fn cmd_check(args: &Args) -> Result<ExitCode, Stop> {
         (scene.outputs.len(), "output"),
         (scene.parameters.len(), "parameter"),
     ];
-    let engine =
-        Engine::try_new(scene.clone()).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
-    let model = engine.model();
+    // The model only (not the solver's workspace): check stays fast and small.
+    let model = velarium::model::Model::try_build(&scene)
+        .map_err(|p| Stop::Failed(format!("{path}: {p}")))?;
     // Free displacement DOFs plus one slip per sleeve point.
     let free = model.held.iter().filter(|held| !**held).count() + model.slips.len();
     let mut line = format!(
@@ -242,7 +257,12 @@ fn cmd_check(args: &Args) -> Result<ExitCode, Stop> {
     for (n, what) in counts {
         line.push_str(&format!(", {}", count(n, what)));
     }
-    println!("{line}, {} unknowns", free);
+    println!(
+        "{line}, {free} unknowns; estimated solve memory {:.3} GB (factor {} entries), limit {} GB",
+        size.memory_bytes as f64 / 1e9,
+        size.factor_entries,
+        scene.solver.limits.max_memory_gb
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -1061,3 +1061,112 @@ fn declared_categories_and_flags() {
     assert!(flags["canHandleVariableCommunicationStepSize"]);
     assert!(!flags["canInterpolateInputs"] && !flags["providesDirectionalDerivative"]);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Issue 11: hostile input never takes the host down (FMI side).
+
+/// Time rules of fmi2DoStep (README, FMU behaviour): time must move, end finite, and a step may
+/// end past stopTime by at most 1e-9 · max(|stopTime|, h).
+#[test]
+fn do_step_time_rules() {
+    let fx = Fixture::standard();
+    let log = Log::default();
+    // No stopTime: h = 1e308 from 0 is accepted once; a second one would reach +inf.
+    let fmu = fx.fmu(&log, true);
+    let no_stop = unsafe { fmi::fmi2SetupExperiment(fmu.c, 0, 0.0, 0.0, 0, 0.0) };
+    assert_eq!([no_stop, fmu.enter(), fmu.exit()], [OK, OK, OK]);
+    assert_eq!(fmu.step(0.0, 1e308), OK);
+    assert_eq!(fmu.step(1e308, 1e308), ERROR);
+    log.expect("non-finite time");
+    drop(fmu);
+    let fmu = fx.fmu(&log, true);
+    fmu.init(0.0, 1.0);
+    assert_eq!(fmu.step(0.0, 0.5), OK);
+    // t + h == t at t = 0.5: an error, and time stays.
+    assert_eq!(fmu.step(0.5, 1e-300), ERROR);
+    log.expect("t + h == t");
+    // Ending 0.5e-9 past stopTime (tolerance 1e-9 · max(1, h)) is accepted; 1e-7 is not.
+    drop(fmu);
+    let fmu = fx.fmu(&log, true);
+    fmu.init(0.0, 1.0);
+    assert_eq!(fmu.step(0.0, 1.0 + 0.5e-9), OK);
+    drop(fmu);
+    let fmu = fx.fmu(&log, true);
+    fmu.init(0.0, 1.0);
+    assert_eq!(fmu.step(0.0, 1.0 + 1e-7), ERROR);
+    log.expect("ends after stopTime");
+}
+
+/// A scene above the size limits: Instantiate returns NULL and the logger says why; so does a
+/// scene whose generated triangles have zero area.
+#[test]
+fn instantiate_refuses_a_scene_too_large_or_degenerate_with_a_message() {
+    let fx = Fixture::standard();
+    let disc = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/modelDescription/HenckyDisc/scene.json"
+    ))
+    .unwrap();
+    for (scene, needle) in [
+        (disc.replace("\"rings\": 16", "\"rings\": 100000"), "max_nodes"),
+        (
+            disc.replace("\"center\": [0, 0, 0]", "\"center\": [0, 1e19, 0]"),
+            "zero area in floating point",
+        ),
+    ] {
+        std::fs::write(fx.root.join("resources/scene.json"), scene).unwrap();
+        let log = Log::default();
+        let c = instantiate(&fx.guid, &fx.uri, &log, false);
+        assert!(c.is_null());
+        log.expect("fmi2Instantiate");
+        log.expect(needle);
+    }
+}
+
+/// Serialized states resealed after a value edit (checksum recomputed): NaN, inf and 1e308 in
+/// a displacement and a NaN parameter are fmi2Error naming the field, and the instance keeps
+/// its state and outputs.
+#[test]
+fn resealed_states_with_bad_values_are_rejected_and_change_nothing() {
+    let fx = Fixture::standard();
+    let log = Log::default();
+    let fmu = fx.fmu(&log, true);
+    fmu.init(0.0, 10.0);
+    assert_eq!(fmu.load_step(0), OK);
+    let bytes = fmu.serialize();
+    let before = fmu.outputs();
+    let guid_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let payload = 24 + guid_len;
+    let n_dofs = u64::from_le_bytes(bytes[payload..payload + 8].try_into().unwrap()) as usize;
+    // EngineState: displacement (u64 n + f64s), slip_state (u64 + u8s), applied, inputs,
+    // parameters (u64 + f64s each).
+    let slips = payload + 8 + 8 * n_dofs;
+    let n_slips = u64::from_le_bytes(bytes[slips..slips + 8].try_into().unwrap()) as usize;
+    let applied = slips + 8 + n_slips;
+    let n_in = u64::from_le_bytes(bytes[applied..applied + 8].try_into().unwrap()) as usize;
+    let params = applied + 2 * (8 + 8 * n_in);
+    let reseal = |at: usize, value: f64| {
+        let mut b = bytes.clone();
+        b[at..at + 8].copy_from_slice(&value.to_le_bytes());
+        let n = b.len();
+        let sum = b[..n - 8].iter().fold(0xcbf2_9ce4_8422_2325u64, |h, x| {
+            (h ^ u64::from(*x)).wrapping_mul(0x0000_0100_0000_01b3)
+        });
+        b[n - 8..].copy_from_slice(&sum.to_le_bytes());
+        b
+    };
+    let u = payload + 8 + 8 * 3; // displacement[3], node 1 x
+    for (at, value, needle) in [
+        (u, f64::NAN, "displacement[3]"),
+        (u, f64::INFINITY, "displacement[3]"),
+        (u, 1e308, "displacement[3]"),
+        (params + 8, f64::NAN, "parameter"),
+    ] {
+        log.clear();
+        assert_eq!(fmu.restore(&reseal(at, value)), ERROR, "{needle}");
+        log.expect(needle);
+        assert_eq!(fmu.outputs(), before);
+    }
+    // The untouched bytes still restore.
+    assert_eq!(fmu.restore(&reseal(u, f64::from_le_bytes(bytes[u..u + 8].try_into().unwrap()))), OK);
+}

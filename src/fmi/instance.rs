@@ -66,7 +66,7 @@ impl Instance {
     /// `fmi2Instantiate`: None (after logging why) when an argument, the scene or the GUID is
     /// wrong.
     pub fn instantiate(args: &InstantiateArgs, logger: Logger) -> Option<Instance> {
-        match build_engine(args) {
+        match build_engine_guarded(args) {
             Ok((engine, guid)) => {
                 let instance = Instance::new(engine, guid, logger);
                 instance.logger.log(
@@ -517,8 +517,13 @@ impl Instance {
         })
     }
 
-    /// The step must start where the last one ended (within round-off), be positive and end
-    /// by the stop time.
+    /// The time rules of a step (README, FMU behaviour):
+    /// - t and h finite, h > 0, and t + h finite;
+    /// - t is the instance's time within TIME_TOLERANCE · max(1, |t|);
+    /// - time must move: t + h > t in floating point (else the loads would change at a time
+    ///   that does not);
+    /// - the step may end after stopTime by at most TIME_TOLERANCE · max(|stopTime|, h)
+    ///   (relative: round-off of summed steps, not a way to step past the end).
     fn check_step(&self, t: f64, h: f64) -> Result<(), String> {
         if !(h.is_finite() && h > 0.0) {
             return Err(format!(
@@ -531,10 +536,21 @@ impl Instance {
                 self.time
             ));
         }
+        let end = t + h;
+        if !end.is_finite() {
+            return Err(format!(
+                "the step from {t} by {h} ends at a non-finite time ({end})"
+            ));
+        }
+        if end == t {
+            return Err(format!(
+                "communicationStepSize = {h} is below the resolution of time at {t}: t + h == t in floating point, so time would not move"
+            ));
+        }
         match self.experiment.stop_time {
-            Some(stop) if t + h > stop + TIME_TOLERANCE * stop.abs().max(1.0) => Err(format!(
-                "the step from {t} to {} ends after stopTime = {stop}",
-                t + h
+            Some(stop) if end > stop + TIME_TOLERANCE * stop.abs().max(h) => Err(format!(
+                "the step from {t} to {end} ends after stopTime = {stop} (allowed: {:e} past it, {TIME_TOLERANCE:e} of max(|stopTime|, h))",
+                TIME_TOLERANCE * stop.abs().max(h)
             )),
             _ => Ok(()),
         }
@@ -563,6 +579,24 @@ impl Instance {
         }
         self.logger.log_formatted(Category::StatusDiscard, &message);
     }
+}
+
+/// [`build_engine`] with a panic turned into a message for the logger (Instantiate then returns
+/// NULL with a reason instead of NULL alone).
+fn build_engine_guarded(args: &InstantiateArgs) -> Result<(Engine, String), String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| build_engine(args))).unwrap_or_else(
+        |payload| {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(format!(
+                "internal error while building the model ({}); no instance was created",
+                crate::scene::read::clip(&what)
+            ))
+        },
+    )
 }
 
 /// Check the instantiation arguments, read the scene, build the engine, compare the GUID.
@@ -598,8 +632,9 @@ fn load_engine(resource_location: &str) -> Result<Engine, String> {
         file_uri_to_path(resource_location).map_err(|e| format!("fmuResourceLocation: {e}"))?;
     let path = dir.join("scene.json");
     let shown = path.display();
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {shown}: {e}"))?;
-    let scene = Scene::from_json(&text).map_err(|p| format!("{shown}: {p}"))?;
+    let bytes = std::fs::read(&path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+    let scene = Scene::parse(&bytes)
+        .map_err(|p| format!("{shown}: {}", crate::error::Error::Scene(p)))?;
     Engine::try_new(scene).map_err(|e| format!("{shown}: {e}"))
 }
 

@@ -147,11 +147,17 @@ impl Model {
     /// Build from a scene that passed validation (validation guarantees every reference
     /// resolves; this function does not re-check).
     pub fn build(scene: &Scene) -> Model {
+        Model::try_build(scene).unwrap_or_else(|p| panic!("a validated scene builds: {p}"))
+    }
+
+    /// Build the model of a validated scene; a triangle whose reference frame cannot be formed
+    /// in floating point is a located problem (validation rejects these first).
+    pub fn try_build(scene: &Scene) -> Result<Model, crate::scene::Problem> {
         let mesh = resolve(&scene.geometry);
         let mut reference: Vec<Vector3<f64>> =
             mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
         let mut used = vec![false; reference.len()];
-        let triangles = build_triangles(scene, &mesh, &reference, &mut used);
+        let triangles = build_triangles(scene, &mesh, &reference, &mut used)?;
         let mut sleeves = Sleeves::default();
         let (segments, cables) = build_cables(
             scene,
@@ -199,7 +205,7 @@ impl Model {
             .chain(segments.iter().map(|s| s.ea))
             .fold(0.0, f64::max);
         let length_scale = bounding_diagonal(&reference, &used);
-        Model {
+        Ok(Model {
             reference,
             triangles,
             segments,
@@ -211,7 +217,7 @@ impl Model {
             held,
             force_scale,
             length_scale,
-        }
+        })
     }
 
     /// True when every load has a potential (no follower pressure).
@@ -281,7 +287,7 @@ fn build_triangles(
     mesh: &Mesh,
     x: &[Vector3<f64>],
     used: &mut [bool],
-) -> Vec<Triangle> {
+) -> Result<Vec<Triangle>, crate::scene::Problem> {
     let mut out = Vec::new();
     for m in &scene.membranes {
         let law = match m.material {
@@ -296,8 +302,12 @@ fn build_triangles(
         let first = out.len();
         for t in triangle_ids(mesh, &m.triangles) {
             let nodes = mesh.triangles[t];
-            let reference = membrane::triangle_ref(nodes.map(|i| x[i]))
-                .expect("validated: no zero-area triangle");
+            let Some(reference) = membrane::triangle_ref(nodes.map(|i| x[i])) else {
+                return Err(crate::scene::Problem {
+                    path: format!("membranes[{}].triangles", scene.membranes.iter().position(|g| std::ptr::eq(g, m)).unwrap_or(0)),
+                    message: format!("triangle {t} (nodes {nodes:?}) has zero area in floating point"),
+                });
+            };
             for &i in &nodes {
                 used[i] = true;
             }
@@ -320,7 +330,7 @@ fn build_triangles(
             t.prestress = prestress;
         }
     }
-    out
+    Ok(out)
 }
 
 /// Sleeve points and ties collected while the cables are built.

@@ -9,7 +9,7 @@
 //! ```
 //! Triangles are counter-clockwise seen from +z, so their normals point to +z.
 
-use super::{DiagonalPattern, Generator, Geometry};
+use super::{DiagonalPattern, Generator, Geometry, OneNode};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
@@ -27,7 +27,8 @@ pub struct Mesh {
 pub fn resolve(geometry: &Geometry) -> Mesh {
     let mut mesh = Mesh {
         nodes: geometry.nodes.clone(),
-        triangles: geometry.triangles.clone(),
+        // Explicit triangles come first; their nodes are resolved once every set exists.
+        triangles: vec![[usize::MAX; 3]; geometry.triangles.len()],
         node_sets: geometry.node_sets.clone(),
         triangle_sets: geometry.triangle_sets.clone(),
     };
@@ -64,7 +65,22 @@ pub fn resolve(geometry: &Geometry) -> Mesh {
             ),
         }
     }
+    for (k, t) in geometry.triangles.iter().enumerate() {
+        mesh.triangles[k] = [0, 1, 2].map(|c| node_id(&mesh, &t[c]));
+    }
     mesh
+}
+
+/// The global id of a triangle corner: an id, or the one node of a set (usize::MAX when the
+/// set does not exist or has not exactly one node; validation reports it).
+pub fn node_id(mesh: &Mesh, r: &OneNode) -> usize {
+    match r {
+        OneNode::Id(id) => *id,
+        OneNode::Set(name) => match mesh.node_sets.get(name).map(Vec::as_slice) {
+            Some([id]) => *id,
+            _ => usize::MAX,
+        },
+    }
 }
 
 impl Mesh {

@@ -19,6 +19,8 @@
 //! ```
 
 pub mod generate;
+pub mod limits;
+pub mod read;
 pub mod validate;
 
 use schemars::JsonSchema;
@@ -76,9 +78,12 @@ pub struct Geometry {
     /// Explicit node coordinates [x, y, z] in m; node ids are their positions (0-based).
     #[serde(default)]
     pub nodes: Vec<[f64; 3]>,
-    /// Explicit triangles as three node ids, counter-clockwise seen from the membrane's front.
+    /// Explicit triangles as three nodes, counter-clockwise seen from the membrane's front. A
+    /// node is a global node id (explicit nodes first, then every generator's nodes in
+    /// generator order, see `node_sets`) or the name of a one-node set such as
+    /// `"plate.corner_tr"`.
     #[serde(default)]
-    pub triangles: Vec<[usize; 3]>,
+    pub triangles: Vec<[OneNode; 3]>,
     /// Named, ordered node sets over node ids of the whole mesh: explicit nodes first, then the
     /// generated ones in generator order (a rectangle's node (i, j) is base + j (nx+1) + i).
     #[serde(default)]
@@ -500,6 +505,10 @@ pub struct SolverSettings {
     pub artificial_prestress: Option<f64>,
     /// Energy (slope) line search on every Newton correction.
     pub line_search: bool,
+    /// Size limits checked before anything that grows with the scene is allocated
+    /// (`limits.rs`): max_nodes, max_triangles, max_unknowns, max_memory_gb.
+    #[serde(skip_serializing_if = "limits::Limits::is_default")]
+    pub limits: limits::Limits,
 }
 
 impl Default for SolverSettings {
@@ -512,6 +521,7 @@ impl Default for SolverSettings {
             target_iterations: 6,
             artificial_prestress: None,
             line_search: true,
+            limits: limits::Limits::default(),
         }
     }
 }
@@ -587,27 +597,27 @@ pub struct Problem {
 }
 
 impl std::fmt::Display for Problem {
+    /// `path: message`, every echoed value cut to about 80 characters (`read::clip`).
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         if self.path.is_empty() {
-            write!(f, "{}", self.message)
+            write!(f, "{}", read::clip(&self.message))
         } else {
-            write!(f, "{}: {}", self.path, self.message)
+            write!(f, "{}", read::clip(&format!("{}: {}", self.path, self.message)))
         }
     }
 }
 
 impl Scene {
-    /// Parse a scene from JSON text. A syntax or type error is reported with its JSON path.
+    /// Parse a scene from JSON text; the first problem found (see [`Scene::parse`]).
     pub fn from_json(text: &str) -> Result<Scene, Problem> {
-        let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| {
-            let path = e.path().to_string();
-            let path = if path == "." { String::new() } else { path };
-            Problem {
-                path,
-                message: e.into_inner().to_string(),
-            }
-        })
+        Scene::parse(text.as_bytes()).map_err(|mut p| p.swap_remove(0))
+    }
+
+    /// Parse scene bytes (a UTF-8 byte-order mark is skipped). Every problem of the JSON layer
+    /// is listed with its path: syntax, invalid UTF-8 (by byte offset), keys given twice,
+    /// unknown fields and wrong types (see `read.rs`).
+    pub fn parse(bytes: &[u8]) -> Result<Scene, Vec<Problem>> {
+        read::parse(bytes).map_err(|(problems, _)| problems)
     }
 
     /// Pretty JSON text of the scene (what is stored in an FMU's resources).

@@ -2,6 +2,7 @@
 //! the JSON path of the field and a sentence a user can act on.
 
 use super::generate::{resolve, Mesh};
+use super::limits;
 use super::{
     Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
 };
@@ -10,6 +11,18 @@ use std::collections::{BTreeMap, BTreeSet};
 
 /// All problems of a scene; empty means valid.
 pub fn validate(scene: &Scene) -> Vec<Problem> {
+    validate_sized(scene).0
+}
+
+/// [`validate`], and the size estimate of `limits.rs` (as far as it got: the memory estimate
+/// is 0 when the counts or the mesh already failed).
+pub fn validate_sized(scene: &Scene) -> (Vec<Problem>, limits::Size) {
+    let mut size = limits::Size::default();
+    let problems = validate_into(scene, &mut size);
+    (problems, size)
+}
+
+fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     let mut v = Validator {
         problems: Vec::new(),
     };
@@ -20,8 +33,56 @@ pub fn validate(scene: &Scene) -> Vec<Problem> {
         // Without a sound mesh the references below cannot be checked meaningfully.
         return v.problems;
     }
+    // Size limits from the numbers alone, before the mesh is built.
+    let limits = &scene.solver.limits;
+    *size = limits::count(scene);
+    let mut too_big = limits::check_counts(size, limits);
+    if !too_big.is_empty() {
+        // Name the generator that makes the most nodes, and its size field.
+        let biggest = scene
+            .geometry
+            .generators
+            .iter()
+            .enumerate()
+            .max_by_key(|(_, g)| limits::generator_counts(g).0);
+        if let Some((k, g)) = biggest {
+            if limits::generator_counts(g).0 * 2 > size.nodes {
+                let field = match g {
+                    Generator::Rectangle { .. } => "divisions",
+                    _ => "rings",
+                };
+                too_big[0].path = format!("geometry.generators[{k}].{field}");
+            }
+        }
+        v.problems.extend(too_big);
+        return v.problems;
+    }
     let mesh = resolve(&scene.geometry);
     v.explicit_geometry(scene, &mesh);
+    v.generated_triangles(scene, &mesh);
+    if v.problems.len() == before {
+        let cables: Vec<Vec<usize>> = scene
+            .cables
+            .iter()
+            .filter_map(|c| cable_ids(&mesh, &c.nodes))
+            .collect();
+        let sleeve_points: usize = scene
+            .cables
+            .iter()
+            .filter(|c| c.sleeve.is_some())
+            .filter_map(|c| cable_ids(&mesh, &c.nodes))
+            .map(|ids| ids.len())
+            .sum();
+        size.unknowns = 3 * mesh.nodes.len() as u64 + 4 * sleeve_points as u64;
+        let mut too_big = limits::check_counts(size, limits);
+        if too_big.is_empty() {
+            too_big = limits::check_memory(size, &mesh, &cables, limits);
+        }
+        if !too_big.is_empty() {
+            v.problems.extend(too_big);
+            return v.problems;
+        }
+    }
     v.membranes(scene, &mesh);
     v.cables(scene, &mesh);
     let held = v.supports(scene, &mesh);
@@ -37,8 +98,24 @@ struct Validator {
     problems: Vec<Problem>,
 }
 
+/// Largest magnitude of a coordinate, length, modulus, stiffness or force in a scene, and the
+/// smallest positive one: products of a few such numbers (squares of lengths, E·t·area,
+/// EA·strain, residual norms) stay far from overflow and underflow.
+pub const MAX_MAGNITUDE: f64 = 1e30;
+pub const MIN_MAGNITUDE: f64 = 1e-30;
+/// Smallest initial strain T/EA a pretension may give: below it the unstretched length rounds
+/// to the stretched one (10^4 ulps of 1).
+pub const PRESTRAIN_FLOOR: f64 = 1e-12;
+const RANGE: &str = "(between 1e-30 and 1e30, so that squares and products in the mechanics cannot overflow)";
+
+/// A positive number within [MIN_MAGNITUDE, MAX_MAGNITUDE].
 fn positive(x: f64) -> bool {
-    x.is_finite() && x > 0.0
+    x.is_finite() && (MIN_MAGNITUDE..=MAX_MAGNITUDE).contains(&x)
+}
+
+/// A coordinate: finite with |x| <= MAX_MAGNITUDE.
+fn coordinate(x: f64) -> bool {
+    x.is_finite() && x.abs() <= MAX_MAGNITUDE
 }
 
 /// Node ids of a cable's node reference, if it resolves.
@@ -102,10 +179,10 @@ impl Validator {
 
     fn generators(&mut self, s: &Scene) {
         for (i, node) in s.geometry.nodes.iter().enumerate() {
-            if node.iter().any(|x| !x.is_finite()) {
+            if node.iter().any(|x| !coordinate(*x)) {
                 self.push(
                     format!("geometry.nodes[{i}]"),
-                    "coordinates must be finite numbers",
+                    "coordinates must be finite numbers with |x| <= 1e30 m (their squares are used in the mechanics)",
                 );
             }
         }
@@ -138,13 +215,13 @@ impl Validator {
                     divisions,
                     ..
                 } => {
-                    if origin.iter().any(|x| !x.is_finite()) {
-                        self.push(format!("{p}.origin"), "must be finite");
+                    if origin.iter().any(|x| !coordinate(*x)) {
+                        self.push(format!("{p}.origin"), "must be finite with |x| <= 1e30 m");
                     }
                     if !positive(size[0]) || !positive(size[1]) {
                         self.push(
                             format!("{p}.size"),
-                            "both sizes must be positive lengths in m",
+                            format!("both sizes must be positive lengths in m {RANGE}"),
                         );
                     }
                     if divisions[0] == 0 || divisions[1] == 0 {
@@ -160,11 +237,11 @@ impl Validator {
                     rings,
                     ..
                 } => {
-                    if center.iter().any(|x| !x.is_finite()) {
-                        self.push(format!("{p}.center"), "must be finite");
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(format!("{p}.center"), "must be finite with |x| <= 1e30 m");
                     }
                     if !positive(*radius) {
-                        self.push(format!("{p}.radius"), "must be a positive length in m");
+                        self.push(format!("{p}.radius"), format!("must be a positive length in m {RANGE}"));
                     }
                     if *rings == 0 {
                         self.push(format!("{p}.rings"), "needs at least one ring");
@@ -179,16 +256,16 @@ impl Validator {
                     grading,
                     ..
                 } => {
-                    if center.iter().any(|x| !x.is_finite()) {
-                        self.push(format!("{p}.center"), "must be finite");
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(format!("{p}.center"), "must be finite with |x| <= 1e30 m");
                     }
                     if !positive(*inner_radius)
                         || !(outer_radius > inner_radius)
-                        || !outer_radius.is_finite()
+                        || !positive(*outer_radius)
                     {
                         self.push(
                             format!("{p}.inner_radius"),
-                            "needs 0 < inner_radius < outer_radius",
+                            format!("needs 0 < inner_radius < outer_radius, both {RANGE}"),
                         );
                     }
                     if *rings == 0 {
@@ -205,23 +282,62 @@ impl Validator {
         }
     }
 
+    /// Generated triangles are checked like explicit ones: a triangle whose nodes coincide or
+    /// are collinear in floating point (cells too small for the coordinates' magnitude) is
+    /// reported once per generator, with the first such triangle.
+    fn generated_triangles(&mut self, s: &Scene, mesh: &Mesh) {
+        for (g, gen) in s.geometry.generators.iter().enumerate() {
+            let name = generator_name(gen);
+            let Some(ids) = mesh.triangle_sets.get(name) else {
+                continue;
+            };
+            let bad: Vec<usize> = ids
+                .iter()
+                .copied()
+                .filter(|&t| degenerate(mesh, &mesh.triangles[t]))
+                .collect();
+            if let Some(&first) = bad.first() {
+                let t = mesh.triangles[first];
+                let scale = t
+                    .iter()
+                    .flat_map(|&i| mesh.nodes[i])
+                    .fold(0.0f64, |m, x| m.max(x.abs()));
+                self.push(
+                    format!("geometry.generators[{g}]"),
+                    format!(
+                        "{} generated triangle(s) have zero area in floating point (first: triangle {first}, nodes {:?}, longest edge {:e} m at coordinates of magnitude {scale:e} m): the cells are too small for the coordinates' round-off; move the mesh nearer the origin or use larger cells",
+                        bad.len(),
+                        t,
+                        longest_edge2(mesh, &t).sqrt()
+                    ),
+                );
+            }
+        }
+    }
+
     fn explicit_geometry(&mut self, s: &Scene, mesh: &Mesh) {
-        let n = s.geometry.nodes.len();
-        for (i, t) in s.geometry.triangles.iter().enumerate() {
+        let n = mesh.nodes.len();
+        for (i, (given, t)) in s.geometry.triangles.iter().zip(&mesh.triangles).enumerate() {
             let mut ok = true;
             for (k, &id) in t.iter().enumerate() {
                 if id >= n {
-                    self.push(
-                        format!("geometry.triangles[{i}][{k}]"),
-                        format!(
-                            "unknown node {id}: geometry.nodes has {n} nodes (ids 0 to {})",
-                            n.saturating_sub(1)
+                    let path = format!("geometry.triangles[{i}][{k}]");
+                    match &given[k] {
+                        OneNode::Id(id) => self.push(
+                            path,
+                            format!(
+                                "unknown node {id}: the mesh has {n} nodes (ids 0 to {}: geometry.nodes first, then each generator's nodes in order)",
+                                n.saturating_sub(1)
+                            ),
                         ),
-                    );
+                        OneNode::Set(_) => {
+                            self.one_node(mesh, &given[k], &path);
+                        }
+                    }
                     ok = false;
                 }
             }
-            if ok && triangle_area(mesh, t) <= 1e-14 * longest_edge2(mesh, t) {
+            if ok && degenerate(mesh, t) {
                 self.push(
                     format!("geometry.triangles[{i}]"),
                     format!("zero-area triangle {i} (its three nodes are collinear or repeated)"),
@@ -358,7 +474,7 @@ impl Validator {
             if !positive(m.thickness) {
                 self.push(
                     format!("{p}.thickness"),
-                    format!("{} is not a positive thickness in m", m.thickness),
+                    format!("{} is not a positive thickness in m {RANGE}", m.thickness),
                 );
             }
             match m.material {
@@ -366,7 +482,7 @@ impl Validator {
                     if !positive(young) {
                         self.push(
                             format!("{p}.material.E"),
-                            format!("{young} is not a positive Young's modulus in Pa"),
+                            format!("{young} is not a positive Young's modulus in Pa {RANGE}"),
                         );
                     }
                     if !(nu.is_finite() && (0.0..0.5).contains(&nu)) {
@@ -382,7 +498,7 @@ impl Validator {
                     if !positive(mu) {
                         self.push(
                             format!("{p}.material.mu"),
-                            format!("{mu} is not a positive shear modulus in Pa"),
+                            format!("{mu} is not a positive shear modulus in Pa {RANGE}"),
                         );
                     }
                 }
@@ -421,7 +537,7 @@ impl Validator {
             if !positive(c.ea) {
                 self.push(
                     format!("{p}.EA"),
-                    format!("{} is not a positive axial stiffness in N", c.ea),
+                    format!("{} is not a positive axial stiffness in N {RANGE}", c.ea),
                 );
             }
             if c.pretension.is_some() && c.unstretched_length.is_some() {
@@ -431,10 +547,21 @@ impl Validator {
                 );
             }
             if let Some(t) = c.pretension {
-                if !(t.is_finite() && t >= 0.0) {
+                if !(t.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&t)) {
                     self.push(
                         format!("{p}.pretension"),
-                        format!("{t} is not a tension in N (>= 0)"),
+                        format!("{t} is not a tension in N (>= 0 and <= 1e30)"),
+                    );
+                } else if t > 0.0 && positive(c.ea) && t / c.ea < PRESTRAIN_FLOOR {
+                    // L0 = L / (1 + T/EA) would round to L: the pretension would vanish.
+                    self.push(
+                        format!("{p}.EA"),
+                        format!(
+                            "{} N is too stiff for the pretension {t} N: the initial strain {:e} is below round-off ({PRESTRAIN_FLOOR:e}), so the pretension would be lost; EA must be below {:e} N",
+                            c.ea,
+                            t / c.ea,
+                            t / PRESTRAIN_FLOOR
+                        ),
                     );
                 }
             }
@@ -442,7 +569,7 @@ impl Validator {
                 if !positive(l) {
                     self.push(
                         format!("{p}.unstretched_length"),
-                        format!("{l} is not a positive length in m"),
+                        format!("{l} is not a positive length in m {RANGE}"),
                     );
                 }
             }
@@ -463,7 +590,7 @@ impl Validator {
             if !positive(k) {
                 self.push(
                     format!("{p}.penalty"),
-                    format!("{k} is not a positive penalty stiffness in N/m"),
+                    format!("{k} is not a positive penalty stiffness in N/m {RANGE}"),
                 );
             }
         }
@@ -633,8 +760,8 @@ impl Validator {
                             );
                         }
                     }
-                    if center.iter().any(|x| !x.is_finite()) {
-                        self.push(format!("{p}.load.center"), "must be finite");
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(format!("{p}.load.center"), "must be finite with |x| <= 1e30 m");
                     }
                 }
             }
@@ -878,14 +1005,29 @@ impl Validator {
             self.push("solver.target_iterations", "must be at least 1");
         }
         if let Some(p) = st.artificial_prestress {
-            if !(p.is_finite() && p >= 0.0) {
+            if !(p.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&p)) {
                 self.push(
                     "solver.artificial_prestress",
-                    format!("{p} must be a stress >= 0 in Pa"),
+                    format!("{p} must be a stress >= 0 in Pa (at most 1e30)"),
                 );
             }
         }
     }
+}
+
+fn generator_name(g: &Generator) -> &str {
+    match g {
+        Generator::Rectangle { name, .. }
+        | Generator::Disc { name, .. }
+        | Generator::Annulus { name, .. } => name,
+    }
+}
+
+/// Zero area in floating point: relative to the longest edge (collinear or repeated nodes), or
+/// below what the model's reference frame can be formed from (twice the area <= 1e-300).
+fn degenerate(mesh: &Mesh, t: &[usize; 3]) -> bool {
+    let area = triangle_area(mesh, t);
+    !(area.is_finite() && 2.0 * area > 1e-300 && area > 1e-14 * longest_edge2(mesh, t))
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -32,6 +32,7 @@ impl Instance {
     pub fn set_fmu_state(&mut self, snapshot: Result<&Snapshot, String>) -> Status {
         self.call(Func::SetFmuState, String::new(), |s| {
             let snapshot = snapshot?;
+            s.check_snapshot(snapshot)?;
             s.heal()?;
             s.engine
                 .set_state(snapshot.engine.clone())
@@ -45,6 +46,34 @@ impl Instance {
             s.init_solved = false;
             Ok(Status::Ok)
         })
+    }
+
+    /// The values of a snapshot, before anything is changed: the engine's state (finite
+    /// displacements, valid codes, inputs and parameters in range), finite times and a sound
+    /// experiment. The first failed check is named.
+    fn check_snapshot(&self, snapshot: &Snapshot) -> Result<(), String> {
+        self.engine
+            .check_state(&snapshot.engine)
+            .map_err(|e| e.to_string())?;
+        for (field, t) in [
+            ("time", snapshot.time),
+            ("last_successful_time", snapshot.last_successful_time),
+            ("experiment.start_time", snapshot.experiment.start_time),
+        ] {
+            if !t.is_finite() {
+                return Err(format!("FMU state rejected: {field} = {t} is not finite"));
+            }
+        }
+        let e = &snapshot.experiment;
+        if e.stop_time.is_some_and(|stop| !(stop.is_finite() && stop >= e.start_time))
+            || e.tolerance.is_some_and(|tol| !(tol.is_finite() && tol > 0.0))
+        {
+            return Err(format!(
+                "FMU state rejected: experiment (startTime {}, stopTime {:?}, tolerance {:?}) is not a valid experiment",
+                e.start_time, e.stop_time, e.tolerance
+            ));
+        }
+        Ok(())
     }
 
     /// `fmi2FreeFMUstate`: `release` frees the master's handle.
