@@ -298,6 +298,8 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
 /// of its own once the run has taken `VELARIUM_PROGRESS_AFTER` seconds (default 1), so that a
 /// long load row still shows its elapsed time.
 struct Progress {
+    /// Seconds before the line appears.
+    after: f64,
     shared: Option<Arc<Mutex<ProgressState>>>,
     stop: Arc<AtomicBool>,
     thread: Option<std::thread::JoinHandle<()>>,
@@ -341,6 +343,7 @@ impl Progress {
         let stop = Arc::new(AtomicBool::new(false));
         if !enabled {
             return Progress {
+                after: f64::INFINITY,
                 shared: None,
                 stop,
                 thread: None,
@@ -380,6 +383,7 @@ impl Progress {
             })
         };
         Progress {
+            after,
             shared: Some(shared),
             stop,
             thread: Some(thread),
@@ -403,8 +407,8 @@ impl Progress {
         }
     }
 
-    /// Stop redrawing; end the progress line (if one was shown) so that what follows starts
-    /// on a line of its own.
+    /// Stop redrawing; leave the final progress line (for a run that took `after` seconds or
+    /// more) ended by a newline, so that what follows starts on a line of its own.
     fn finish(mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(thread) = self.thread.take() {
@@ -412,7 +416,7 @@ impl Progress {
         }
         if let Some(shared) = &self.shared {
             if let Ok(state) = shared.lock() {
-                if state.shown {
+                if state.shown || state.started.elapsed().as_secs_f64() >= self.after {
                     eprintln!("\r\x1b[2K{}", state.line());
                 }
             }

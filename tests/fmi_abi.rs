@@ -871,7 +871,7 @@ fn non_convergence_discards_and_terminates() {
         .find(|r| r.status == DISCARD)
         .expect("a message");
     assert_eq!(discard.category, "logStatusDiscard");
-    let reference = format!("#r{}#", fx.vr("P"));
+    let reference = format!("P (#r{}#) = ", fx.vr("P"));
     assert!(
         discard.message.contains("% of the load change"),
         "{}",
