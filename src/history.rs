@@ -10,7 +10,7 @@
 //! Row 0 is the initial equilibrium under the first row's inputs (inputs not in the table keep
 //! their start values): what an FMU gives right after initialization with those inputs. Row k
 //! is what the FMU gives after the `fmi2DoStep` that follows setting row k's inputs, i.e. the
-//! row fmpy records at t_{k+1} (FMI.md 1.2, the one-step lag). Numbers are written in Rust's
+//! row fmpy records at t_{k+1} (docs/fmu.md, "The one-step lag"). Numbers are written in Rust's
 //! shortest round-trip form, so a reader gets the exact f64 back.
 
 use crate::description::xs_double;

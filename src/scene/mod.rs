@@ -244,7 +244,7 @@ pub struct Cable {
     pub sleeve: Option<Sleeve>,
 }
 
-/// A sleeve: interior cable nodes the cable slides through (MECHANICS.md §2.3 option A). Each
+/// A sleeve: interior cable nodes the cable slides through (docs/mechanics.md §2.3 option A). Each
 /// sleeve node gets its own cable point, tied to the node by a penalty spring (the seed's contact
 /// element), and a slip unknown with the Coulomb law in the bisector frame.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
