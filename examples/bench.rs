@@ -1,17 +1,17 @@
 //! Speed against error, printed (not asserted): `cargo run --release --example bench`.
 //!
-//! For the Hencky disc (MECHANICS.md §4a, follower pressure, qa/(Eh) = 1e-3, reference
+//! For the Hencky disc (docs/mechanics.md §4a, follower pressure, qa/(Eh) = 1e-3, reference
 //! w0/a = 0.065404) at several mesh sizes: free DOF, relative error of the centre deflection,
 //! wall time of the whole solve (flat start to full load, one step), Newton iterations, time
 //! per iteration, and that time divided by the floor (one assembly + one numeric LDLT
 //! factorization and solve, measured at the solution). One core (faer runs `Par::Seq`).
 //!
-//! Then the wrinkled Lamé annulus (MECHANICS.md §4b, ρ = 4, τ = 3, reference L/a = 1.80566)
+//! Then the wrinkled Lamé annulus (docs/mechanics.md §4b, ρ = 4, τ = 3, reference L/a = 1.80566)
 //! at several meshes: DOF, wrinkled radius (midpoint between the outermost wrinkled and the
 //! innermost taut centroid beyond it) and its error in units of the radial element size, the
 //! largest hoop stress in the wrinkled zone relative to T_in, time and Newton iterations.
 //!
-//! Then the shipped WrinkledShear film (Wong & Pellegrino's shear test, MECHANICS.md §4c),
+//! Then the shipped WrinkledShear film (Wong & Pellegrino's shear test, docs/mechanics.md §4c),
 //! sheared 0 → 3 mm in 20 steps at three pretensions (edge separation 1 mm, the scene's start
 //! value, 0.5 mm and 0.1 mm): Newton iterations per step (median and largest), steps that
 //! needed cut-back, the relative error of the centre triangle's shear stress S12 against the

@@ -3,10 +3,14 @@
 # scene into build/fmus/, calibrate SleeveCable to the seed paper's Table 1 through the FMU, print
 # the Table 1 comparison and write build/plots/SleeveCable_*.png (`--model NAME` runs another
 # shipped scene's load ramp instead); then shear the pretensioned WrinkledShear film through
-# fmpy and plot its wrinkle states (harness/wrinkled_shear.py). Extra arguments go to
-# harness/run_main.py.
+# fmpy and plot its wrinkle states (harness/wrinkled_shear.py); finally run the shipped
+# LiftedMembrane through fmpy with its ParaView series and 3-D plot (build/runs/LiftedMembrane/)
+# and render the series headless with pyvista (build/plots/LiftedMembrane_pyvista.png).
+# Extra arguments go to harness/run_main.py.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash harness/setup.sh
 .venv/bin/python harness/run_main.py "$@"
 .venv/bin/python harness/wrinkled_shear.py
+.venv/bin/python harness/run_main.py --model LiftedMembrane
+.venv/bin/python harness/screenshot.py build/runs/LiftedMembrane/vtk/LiftedMembrane.pvd build/plots/LiftedMembrane_pyvista.png

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Build the release binary and library, and install the harness's Python environment in .venv
-# (fmpy, fmutool, pytest, numpy, matplotlib from harness/requirements.txt). Idempotent: pip runs
-# only when requirements.txt changed since the last install.
+# (fmpy, fmutool, pytest, numpy, scipy, matplotlib, meshio, pyvista/vtk, dask from
+# harness/requirements.txt). Idempotent: pip runs only when requirements.txt changed since the
+# last install; the system libraries VTK needs to render off screen (GL, EGL, X11 client
+# libraries; no X server) are installed from Debian only if one of them is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,4 +20,18 @@ fi
 if ! cmp -s harness/requirements.txt .venv/.requirements.installed; then
   .venv/bin/python -m pip install --quiet --disable-pip-version-check -r harness/requirements.txt
   cp harness/requirements.txt .venv/.requirements.installed
+fi
+
+# VTK's wheels load libGL/libEGL (Mesa's software renderer when there is no GPU or display)
+# and the X11 client libraries at run time; a minimal Debian image lacks some of them.
+missing=""
+for lib in libGL.so.1 libEGL.so.1 libX11.so.6 libXrender.so.1; do
+  ldconfig -p | grep -q "$lib" || missing="$missing $lib"
+done
+if [ -n "$missing" ] || ! ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1; then
+  echo "setup.sh: installing system libraries for off-screen rendering (missing:${missing:- the Mesa software driver})"
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && command -v sudo >/dev/null && SUDO=sudo
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq libgl1 libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6 libxrender1 >/dev/null
 fi

@@ -29,7 +29,7 @@ import velarium_run as vr
 
 FMU = vr.FMU_DIR / "SleeveCable.fmu"
 SCENE = vr.SCENES / "SleeveCable" / "scene.json"
-TABLE = Path(__file__).resolve().parent / "seed_table1.csv"  # a copy of shared/reference/seed_table1.csv
+TABLE = Path(__file__).resolve().parent / "seed_table1.csv"  # the seed paper's Table 1
 CALIBRATION = vr.ROOT / "build" / "sleeve_calibration.json"
 PLOTS = vr.ROOT / "build" / "plots"
 # The scene's constant pull on the cable's free end (its start value), N.

@@ -1,4 +1,4 @@
-"""FMI 2.0 conformance checklist (../shared/FMI.md section 8), items 13-31: the state machine,
+"""FMI 2.0 conformance checklist (docs/fmu.md, "The conformance checklist"), items 13-31: the state machine,
 initialization and start values, stepping semantics. One test per item, parametrised over
 every shipped FMU; an item that needs something a scene does not have (a fixed or tunable
 parameter, a display unit, friction) skips on that FMU saying why.
@@ -304,7 +304,7 @@ def test_item26_constant_load_independent_of_the_step(fmu, model_description):
 
 
 def cable_midspan_exact(P, EA=1e5, T0=100.0, half=1.0):
-    """MECHANICS.md 4g, engineering strain: 2 T w / l = P with l = sqrt(half^2 + w^2),
+    """docs/mechanics.md §4g, engineering strain: 2 T w / l = P with l = sqrt(half^2 + w^2),
     T = EA (l - L0) / L0, L0 = half * EA / (EA + T0). Bisection on w in [0, half]."""
     L0 = half * EA / (EA + T0)
     lo, hi = 0.0, half
@@ -322,7 +322,7 @@ def test_item27_ramp_lag(fmu, scene, model_description, velarium, tmp_path):
     """An input ramp through simulate_fmu: the row at t_{k+1} is the quasi-static equilibrium
     under u(t_k) (the documented one-step lag), the row at t_0 the one under u(t_0). Reference:
     `velarium solve` on the same table (its row k is the equilibrium under row k's loads) for
-    every FMU, and for PrestressedCable also the exact solution (MECHANICS.md 4g) to 1e-8 m."""
+    every FMU, and for PrestressedCable also the exact solution (docs/mechanics.md §4g) to 1e-8 m."""
     md = model_description
     table = vr.ramp_table(md, 4)
     rows = vr.simulate(fmu, table)

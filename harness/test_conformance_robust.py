@@ -1,4 +1,4 @@
-"""FMI 2.0 conformance checklist (../shared/FMI.md section 8), items 32-50: failure handling,
+"""FMI 2.0 conformance checklist (docs/fmu.md, "The conformance checklist"), items 32-50: failure handling,
 logging, FMU state, reset and reuse, a second importer. One test per item, parametrised over
 every shipped FMU.
 

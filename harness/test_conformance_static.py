@@ -1,4 +1,4 @@
-"""FMI 2.0 conformance checklist (../shared/FMI.md section 8), items 1-12: packaging, static
+"""FMI 2.0 conformance checklist (docs/fmu.md, "The conformance checklist"), items 1-12: packaging, static
 checks, loading and instantiation. One test per item, parametrised over every shipped FMU.
 
 Error paths use fmpy's low-level ``FMU2Slave`` with explicit cleanup (``fmi_support.slave``);

@@ -1,6 +1,6 @@
 """Every shipped FMU from outside, the way importers use it: the archive is what `velarium
 pack` makes today, and the FMU's numbers are `velarium solve`'s. The FMI conformance checklist
-(FMI.md section 8, items 1-50) is in test_conformance_*.py.
+(docs/fmu.md, "The conformance checklist", items 1-50) is in test_conformance_*.py.
 
 The central test, ``test_ramp_matches_velarium_solve``, runs an input ramp through
 ``fmpy.simulate_fmu`` and the same table through ``velarium solve`` and compares them row by

@@ -1,5 +1,5 @@
 """The WrinkledShear script of the main job (harness/wrinkled_shear.py) through fmpy: the film
-shears to 3 mm, wrinkles at the onset shear (MECHANICS.md 4c: 1.565 mm for 1 mm separation on a
+shears to 3 mm, wrinkles at the onset shear (docs/mechanics.md §4c: 1.565 mm for 1 mm separation on a
 128 mm wide film), and the plots are written."""
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ A load table is a NumPy structured array: field ``time`` first, then one float f
 input, exactly what ``fmpy.simulate_fmu(input=...)`` takes. The same table goes through
 ``velarium solve`` as CSV (``write_loads_csv``) so both runs see the same f64 values.
 
-Timing (FMI.md 1.2): fmpy sets ``u(t_k)`` before ``DoStep(t_k, h)`` and records after it, so its
+Timing (docs/fmu.md, "The one-step lag"): fmpy sets ``u(t_k)`` before ``DoStep(t_k, h)`` and records after it, so its
 row at ``t_{k+1}`` is the equilibrium under ``u(t_k)``, which is ``velarium solve``'s row ``k``;
 its row at ``t_0`` (read right after initialization) is solve's row 0 as well.
 """
@@ -25,7 +25,7 @@ FMU_DIR = ROOT / "build" / "fmus"
 VELARIUM = ROOT / "target" / "release" / "velarium"
 
 # Wall-clock limit of one simulate_fmu run in seconds: the guard against a master loop that
-# does not advance (FMI.md 1.5).
+# does not advance (docs/fmu.md).
 TIMEOUT = 300
 
 
@@ -132,3 +132,81 @@ def simulate(fmu: Path, table: np.ndarray | None = None, **kwargs) -> np.ndarray
 def fmu_member(fmu: Path, name: str) -> bytes:
     with zipfile.ZipFile(fmu) as z:
         return z.read(name)
+
+
+def extend_by_one_step(table: np.ndarray) -> np.ndarray:
+    """The table with one more row, one step after the last, holding the last row's loads.
+
+    The one-step lag of co-simulation (docs/fmu.md, "The one-step lag"): fmpy sets u(t_k)
+    before DoStep(t_k, h) and records the outputs at t_{k+1}, so the row recorded at t_{k+1}
+    is the equilibrium under u(t_k) and the last row of a table is never carried by any
+    recorded row. Run the extended table (stop time one step later) and the last recorded row
+    is the equilibrium under the last load of the original table: a ramp reaches its end.
+    The step is the table's last time step (its only step on fmpy's uniform grid).
+    """
+    if len(table) < 2:
+        raise ValueError("a load table needs at least two rows to know its step")
+    h = float(table["time"][-1] - table["time"][-2])
+    extra = table[-1:].copy()
+    extra["time"][0] = float(table["time"][-1]) + h
+    return np.concatenate([table, extra])
+
+
+def carried_loads(table: np.ndarray, name: str) -> np.ndarray:
+    """The load under which each row fmpy records is in equilibrium: u(t_0) at t_0, then
+    u(t_k) at t_{k+1} (the one-step lag)."""
+    u = table[name]
+    return np.concatenate([u[:1], u[:-1]])
+
+
+def fmu_for(path: Path, out_dir: Path = FMU_DIR, binary: Path = VELARIUM) -> Path:
+    """An FMU for ``path``: the file itself if it is an ``.fmu``, else the scene packed into
+    ``out_dir`` with ``velarium pack`` (its stderr raised if the scene is bad)."""
+    path = Path(path)
+    if path.suffix == ".fmu":
+        return path
+    out_dir.mkdir(parents=True, exist_ok=True)
+    run = subprocess.run([str(binary), "pack", str(path), "--out", str(out_dir)], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise RuntimeError(f"velarium pack {path} failed ({run.returncode}):\n{run.stderr}")
+    return Path(run.stdout.strip())
+
+
+def scene_of(path: Path, workdir: Path) -> Path:
+    """The scene file of a scene or of an FMU (its ``resources/scene.json``, copied into
+    ``workdir``)."""
+    path = Path(path)
+    if path.suffix != ".fmu":
+        return path
+    scene = workdir / f"{path.stem}.scene.json"
+    scene.write_bytes(fmu_member(path, "resources/scene.json"))
+    return scene
+
+
+def write_vtk_series(scene: Path, table: np.ndarray, directory: Path, binary: Path = VELARIUM) -> Path:
+    """Run the table through ``velarium solve --vtk`` and return the ``.pvd`` it wrote into
+    ``directory`` (one ``.vtu`` per row: row k is the equilibrium under row k's loads, which
+    is fmpy's row at t_{k+1}). Also writes ``solve.csv`` and ``elements.csv`` there."""
+    directory.mkdir(parents=True, exist_ok=True)
+    loads = directory / "loads.csv"
+    write_loads_csv(table, loads)
+    run = subprocess.run(
+        [str(binary), "solve", str(scene), "--loads", str(loads), "--out", str(directory / "solve.csv"),
+         "--elements", str(directory / "elements.csv"), "--vtk", str(directory), "--quiet"],
+        capture_output=True,
+        text=True,
+    )
+    if run.returncode != 0:
+        raise RuntimeError(f"velarium solve --vtk failed ({run.returncode}):\n{run.stderr}")
+    pvd = sorted(directory.glob("*.pvd"))
+    if len(pvd) != 1:
+        raise RuntimeError(f"expected one .pvd in {directory}, found {pvd}")
+    return pvd[0]
+
+
+def series_files(pvd: Path) -> list[tuple[float, Path]]:
+    """(time, .vtu path) of every data set of a .pvd collection, in file order."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(pvd).getroot()
+    return [(float(d.get("timestep")), pvd.parent / d.get("file")) for d in root.iter("DataSet")]

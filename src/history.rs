@@ -11,12 +11,13 @@
 //! Row 0 is the initial equilibrium under the first row's inputs (inputs not in the table keep
 //! their start values): what an FMU gives right after initialization with those inputs. Row k
 //! is what the FMU gives after the `fmi2DoStep` that follows setting row k's inputs, i.e. the
-//! row fmpy records at t_{k+1} (FMI.md 1.2, the one-step lag). Numbers are written in Rust's
+//! row fmpy records at t_{k+1} (docs/fmu.md, "The one-step lag"). Numbers are written in Rust's
 //! shortest round-trip form, so a reader gets the exact f64 back.
 
 use crate::description::xs_double;
 use crate::engine::Engine;
 use crate::error::Error;
+use crate::solver::StepReport;
 use crate::variables::{Causality, VarType};
 use std::fmt::Write;
 
@@ -192,6 +193,35 @@ pub fn run(engine: &mut Engine, table: &LoadTable) -> Result<History, Error> {
 /// [`run`], also recording every membrane triangle's state, tension direction and principal
 /// stresses after each row when `elements` is true (`History::elements`).
 pub fn run_with(engine: &mut Engine, table: &LoadTable, elements: bool) -> Result<History, Error> {
+    run_observed(engine, table, elements, &mut |_, _| Ok(()))
+}
+
+/// What [`run_observed`] tells its observer.
+pub enum Event<'a> {
+    /// Row `index` (of `total`) is about to be solved.
+    Start {
+        index: usize,
+        total: usize,
+        row: &'a LoadRow,
+    },
+    /// Row `index` was solved: converged (the engine holds its equilibrium) or not (the engine
+    /// kept the last converged one).
+    Done {
+        index: usize,
+        total: usize,
+        row: &'a LoadRow,
+        report: &'a StepReport,
+    },
+}
+
+/// [`run_with`], calling `observer` before and after every row (progress, ParaView output).
+/// An error of the observer stops the run and is returned.
+pub fn run_observed(
+    engine: &mut Engine,
+    table: &LoadTable,
+    elements: bool,
+    observer: &mut dyn FnMut(&Engine, Event) -> Result<(), Error>,
+) -> Result<History, Error> {
     let header = std::iter::once("time".to_string())
         .chain(engine.outputs().into_iter().map(|(name, _)| name))
         .collect();
@@ -204,12 +234,23 @@ pub fn run_with(engine: &mut Engine, table: &LoadTable, elements: bool) -> Resul
     if elements {
         history.elements.push_str(ELEMENT_HEADER);
     }
-    for row in &table.rows {
+    let total = table.rows.len();
+    for (index, row) in table.rows.iter().enumerate() {
         table.apply(engine, row).map_err(|message| Error::Io {
             path: table.file.clone(),
             message,
         })?;
+        observer(engine, Event::Start { index, total, row })?;
         let report = engine.solve();
+        observer(
+            engine,
+            Event::Done {
+                index,
+                total,
+                row,
+                report: &report,
+            },
+        )?;
         if !report.converged() {
             history.failure = Some(Failure {
                 time: row.time,
@@ -241,10 +282,7 @@ fn element_rows(engine: &Engine, time: f64, out: &mut String) {
     for (t, m) in model.triangles.iter().zip(engine.membranes()) {
         let x = t.nodes.map(|i| model.position(u, i));
         let centroid = (x[0] + x[1] + x[2]) / 3.0;
-        // Push the reference direction forward with the element's deformation gradient.
-        let d = crate::model::membrane::deformation_gradient(&t.reference, &x)
-            * nalgebra::Vector2::new(m.angle.cos(), m.angle.sin());
-        let d = if d.norm() > 0.0 { d.normalize() } else { d };
+        let d = crate::results::tension_direction(model, u, t, m);
         let state = crate::results::state_code(m.state);
         // Columns after the state: see ELEMENT_HEADER.
         let v = [

@@ -11,7 +11,8 @@
 //! results    outputs computed from model + state                    src/results.rs
 //! engine     model + state + solver workspace: the one facade       src/engine.rs
 //! fmi        thin C ABI adapter over the engine (the only unsafe)   src/fmi/
-//! description, pack, history   modelDescription.xml, FMU archives, load histories (CLI)
+//! description, pack, history, vtk   modelDescription.xml, FMU archives, load histories,
+//!                                  ParaView series (CLI)
 //! ```
 //! Units are SI throughout: m, N, Pa.
 
@@ -26,6 +27,7 @@ pub mod results;
 pub mod scene;
 pub mod solver;
 pub mod variables;
+pub mod vtk;
 
 pub use engine::{Engine, EngineState};
 pub use error::Error;

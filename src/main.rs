@@ -1,150 +1,201 @@
 //! The `velarium` command: pack scenes into FMUs, run load histories, check scenes.
 //!
 //! Exit codes: 0 success, 1 failure (bad scene, unreadable file, a step that did not
-//! converge), 2 usage error.
+//! converge), 2 usage error (clap's usage errors exit 2).
 
+use clap::{Parser, Subcommand};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 use velarium::description::model_description;
-use velarium::history::{self, LoadTable};
+use velarium::history::{self, Event, LoadTable};
 use velarium::pack::{find_library, pack, write_atomically};
 use velarium::scene::generate::resolve;
 use velarium::scene::validate::validate;
+use velarium::vtk;
 use velarium::{Engine, Scene};
 
-const USAGE: &str = "\
-usage:
-  velarium pack SCENE.json --out DIR [--lib PATH]
-        write DIR/<name>.fmu (FMI 2.0 co-simulation); the library is PATH, else
-        libvelarium.so next to this executable (built by `cargo build --release`)
-  velarium solve SCENE.json --loads LOADS.csv [--out OUT.csv] [--elements ELEMENTS.csv]
-        run a quasi-static load history (CSV header: time,<input names>) and write
-        time and every output per row as CSV (to stdout without --out)
-  velarium check SCENE.json
-        list every problem of a scene by JSON path; exit 1 if there is any
-  velarium describe SCENE.json
-        print the scene's modelDescription.xml
-  velarium schema
-        print the JSON Schema of the scene format
-  velarium --version";
+/// Nonlinear cable-reinforced membranes: pack scenes into FMI 2.0 co-simulation FMUs, run load
+/// histories, check scenes.
+#[derive(Parser)]
+#[command(
+    name = "velarium",
+    version,
+    arg_required_else_help = true,
+    after_help = "Exit codes: 0 success, 1 failure (a bad scene, an unreadable file, a step that did not converge), 2 wrong arguments.\n\nExamples:\n  velarium check examples/WindSquare.json\n  velarium solve examples/WindSquare.json --loads examples/WindSquare-loads.csv --vtk build/WindSquare\n  velarium pack modelDescription/HenckyDisc/scene.json --out build/fmus\n\n`velarium help COMMAND` or `velarium COMMAND --help` explains one command."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
 
-/// Why the command stopped.
+#[derive(Subcommand)]
+enum Command {
+    /// Write DIR/<name>.fmu (FMI 2.0 co-simulation) from a scene.
+    ///
+    /// The scene is validated first. The FMU holds modelDescription.xml,
+    /// binaries/linux64/<name>.so (a copy of the library) and resources/scene.json. The archive
+    /// is reproducible and written through a temporary file: a failed pack leaves nothing.
+    #[command(
+        after_help = "Examples:\n  velarium pack modelDescription/HenckyDisc/scene.json --out build/fmus\n  velarium pack my_scene.json --out . --lib target/release/libvelarium.so"
+    )]
+    Pack {
+        /// The scene (JSON).
+        #[arg(value_name = "SCENE.json")]
+        scene: String,
+        /// Directory to write <name>.fmu into (created if missing).
+        #[arg(long, value_name = "DIR")]
+        out: String,
+        /// The FMU library to ship; default: libvelarium.so next to this executable (built by
+        /// `cargo build --release`).
+        #[arg(long, value_name = "PATH")]
+        lib: Option<String>,
+    },
+    /// Run a quasi-static load history and write every output per load row as CSV.
+    ///
+    /// LOADS.csv has the header `time,<input names>` (any subset of the scene's inputs, any
+    /// order; the others keep their start values; `#` lines are comments). Row 0 of the result
+    /// is the equilibrium under the first row's loads, row k the equilibrium under row k's loads
+    /// reached from row k-1's. If a step does not converge, the rows before it are written and
+    /// the command exits 1 naming the row.
+    ///
+    /// A progress line (load row, load fraction and iterations of the last row, elapsed time)
+    /// is shown on stderr once a run takes longer than a second, only when stderr is a
+    /// terminal and --quiet is not given.
+    #[command(
+        after_help = "Examples:\n  velarium solve modelDescription/PrestressedCable/scene.json --loads loads.csv\n  velarium solve examples/WindSquare.json --loads examples/WindSquare-loads.csv --out build/WindSquare.csv --vtk build/WindSquare\n  velarium solve scene.json --loads loads.csv --elements elements.csv --quiet\n\nA load table (loads.csv):\n  time,P\n  0,0\n  0.5,5000\n  1,10000"
+    )]
+    Solve {
+        /// The scene (JSON).
+        #[arg(value_name = "SCENE.json")]
+        scene: String,
+        /// The load table (CSV, header `time,<input names>`).
+        #[arg(long, value_name = "LOADS.csv")]
+        loads: String,
+        /// Write the result CSV here instead of stdout.
+        #[arg(long, value_name = "OUT.csv")]
+        out: Option<String>,
+        /// Also write, per triangle and row, the wrinkle state, tension direction, centroid,
+        /// principal stresses and vertices (plot with harness/plot_elements.py).
+        #[arg(long, value_name = "ELEMENTS.csv")]
+        elements: Option<String>,
+        /// Write a ParaView series into DIR: <name>_NNNN.vtu per converged load row (deformed
+        /// mesh and cables; displacement, stresses, wrinkle state, tension direction, cable
+        /// tension, slip) and <name>.pvd ordering them in time. DIR is created if missing.
+        #[arg(long, value_name = "DIR")]
+        vtk: Option<String>,
+        /// No progress line on stderr.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// List every problem of a scene by JSON path; exit 1 if there is any.
+    #[command(
+        after_help = "Examples:\n  velarium check modelDescription/SleeveCable/scene.json\n  (prints `ok: SleeveCable, ... unknowns`, or one `path: message` line per problem)"
+    )]
+    Check {
+        /// The scene (JSON).
+        #[arg(value_name = "SCENE.json")]
+        scene: String,
+    },
+    /// Print the scene's modelDescription.xml.
+    #[command(
+        after_help = "Examples:\n  velarium describe modelDescription/HenckyDisc/scene.json > modelDescription.xml"
+    )]
+    Describe {
+        /// The scene (JSON).
+        #[arg(value_name = "SCENE.json")]
+        scene: String,
+    },
+    /// Print the JSON Schema of the scene format (every field, its unit and default).
+    #[command(after_help = "Examples:\n  velarium schema > scene.schema.json")]
+    Schema,
+    /// Print the version (as --version).
+    #[command(hide = true)]
+    Version,
+}
+
+/// The usage line of a subcommand (of the whole command if `name` is none of them).
+fn usage_of(name: Option<&str>) -> String {
+    use clap::CommandFactory;
+    let mut command = Cli::command();
+    command.build();
+    let usage = match name.and_then(|n| command.find_subcommand_mut(n)) {
+        Some(sub) => sub.render_usage(),
+        None => command.render_usage(),
+    };
+    usage.to_string().replacen("Usage:", "usage:", 1)
+}
+
+/// Why the command stopped (wrong arguments are clap's: exit 2).
 enum Stop {
-    /// Wrong arguments: exit 2 with the usage text.
-    Usage(String),
     /// The command could not do its job: exit 1.
     Failed(String),
 }
 
 fn main() -> ExitCode {
-    let args: Result<Vec<String>, _> = std::env::args_os()
-        .skip(1)
-        .map(|a| a.into_string())
-        .collect();
-    let result = match args {
-        Ok(args) => run(&args),
-        Err(bad) => Err(Stop::Usage(format!("argument {bad:?} is not valid UTF-8"))),
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            return match e.kind() {
+                ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+                    let _ = e.print();
+                    ExitCode::SUCCESS
+                }
+                ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+                    eprint!("{}", e.render().to_string().replacen("Usage:", "usage:", 1));
+                    ExitCode::from(2)
+                }
+                _ => {
+                    let text = e.render().to_string();
+                    let text = text.strip_prefix("error: ").unwrap_or(&text);
+                    let text = text.replacen("Usage:", "usage:", 1);
+                    eprint!("velarium: {text}");
+                    if !text.contains("usage:") {
+                        eprintln!("\n{}", usage_of(std::env::args().nth(1).as_deref()));
+                    }
+                    ExitCode::from(2)
+                }
+            };
+        }
+    };
+    let result = match cli.command {
+        Command::Pack { scene, out, lib } => cmd_pack(&scene, &out, lib.as_deref()),
+        Command::Solve {
+            scene,
+            loads,
+            out,
+            elements,
+            vtk,
+            quiet,
+        } => cmd_solve(&SolveArgs {
+            scene,
+            loads,
+            out,
+            elements,
+            vtk,
+            quiet,
+        }),
+        Command::Check { scene } => cmd_check(&scene),
+        Command::Describe { scene } => cmd_describe(&scene),
+        Command::Schema => {
+            println!("{}", Scene::json_schema());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Version => {
+            println!("velarium {}", env!("CARGO_PKG_VERSION"));
+            Ok(ExitCode::SUCCESS)
+        }
     };
     match result {
         Ok(code) => code,
-        Err(Stop::Usage(message)) => {
-            eprintln!("velarium: {message}\n\n{USAGE}");
-            ExitCode::from(2)
-        }
         Err(Stop::Failed(message)) => {
             eprintln!("velarium: {message}");
             ExitCode::from(1)
         }
-    }
-}
-
-fn run(args: &[String]) -> Result<ExitCode, Stop> {
-    let Some((command, rest)) = args.split_first() else {
-        return Err(Stop::Usage("no command given".into()));
-    };
-    match command.as_str() {
-        "pack" => cmd_pack(&Args::parse(rest, 1, &["--out", "--lib"])?),
-        "solve" => cmd_solve(&Args::parse(rest, 1, &["--loads", "--out", "--elements"])?),
-        "check" => cmd_check(&Args::parse(rest, 1, &[])?),
-        "describe" => cmd_describe(&Args::parse(rest, 1, &[])?),
-        "schema" => {
-            Args::parse(rest, 0, &[])?;
-            println!("{}", Scene::json_schema());
-            Ok(ExitCode::SUCCESS)
-        }
-        "--version" | "-V" | "version" => {
-            println!("velarium {}", env!("CARGO_PKG_VERSION"));
-            Ok(ExitCode::SUCCESS)
-        }
-        "--help" | "-h" | "help" => {
-            println!("{USAGE}");
-            Ok(ExitCode::SUCCESS)
-        }
-        other => Err(Stop::Usage(format!("unknown command {other:?}"))),
-    }
-}
-
-/// Positional arguments and `--name VALUE` (or `--name=VALUE`) options of one command.
-struct Args {
-    positional: Vec<String>,
-    options: Vec<(String, String)>,
-}
-
-impl Args {
-    fn parse(args: &[String], positional: usize, allowed: &[&str]) -> Result<Args, Stop> {
-        let mut parsed = Args {
-            positional: Vec::new(),
-            options: Vec::new(),
-        };
-        let mut iter = args.iter();
-        while let Some(arg) = iter.next() {
-            if !arg.starts_with("--") {
-                parsed.positional.push(arg.clone());
-                continue;
-            }
-            let (name, inline) = match arg.split_once('=') {
-                Some((n, v)) => (n, Some(v.to_string())),
-                None => (arg.as_str(), None),
-            };
-            if !allowed.contains(&name) {
-                return Err(Stop::Usage(format!("unknown option {name}")));
-            }
-            if parsed.options.iter().any(|(n, _)| n == name) {
-                return Err(Stop::Usage(format!("option {name} given twice")));
-            }
-            let value = match inline {
-                Some(v) => v,
-                None => iter
-                    .next()
-                    .cloned()
-                    .ok_or_else(|| Stop::Usage(format!("option {name} needs a value")))?,
-            };
-            parsed.options.push((name.to_string(), value));
-        }
-        if parsed.positional.len() != positional {
-            return Err(Stop::Usage(match positional {
-                0 => format!("unexpected argument {:?}", parsed.positional[0]),
-                _ if parsed.positional.is_empty() => "missing SCENE.json".into(),
-                _ => format!("unexpected argument {:?}", parsed.positional[positional]),
-            }));
-        }
-        Ok(parsed)
-    }
-
-    fn option(&self, name: &str) -> Option<&str> {
-        self.options
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v.as_str())
-    }
-
-    fn required(&self, name: &str) -> Result<&str, Stop> {
-        self.option(name)
-            .ok_or_else(|| Stop::Usage(format!("option {name} is required")))
-    }
-
-    fn scene_path(&self) -> &str {
-        &self.positional[0]
     }
 }
 
@@ -160,7 +211,6 @@ fn read_text(path: &str) -> Result<String, Stop> {
         .map_err(|m| Stop::Failed(format!("{path}: {m}")))
 }
 
-/// Read and parse a scene; every JSON-level problem names the file and its JSON path.
 fn read_scene(path: &str) -> Result<Scene, Stop> {
     Scene::parse(&read_bytes(path)?)
         .map_err(|p| Stop::Failed(format!("{path}: {}", velarium::Error::Scene(p))))
@@ -175,35 +225,68 @@ fn failed(e: velarium::Error) -> Stop {
     Stop::Failed(e.to_string())
 }
 
-fn cmd_pack(args: &Args) -> Result<ExitCode, Stop> {
-    let out = PathBuf::from(args.required("--out")?);
-    let scene = read_scene(args.scene_path())?;
+fn cmd_pack(scene_path: &str, out: &str, lib: Option<&str>) -> Result<ExitCode, Stop> {
+    let out = PathBuf::from(out);
+    let scene = read_scene(scene_path)?;
     let problems = validate(&scene);
     if !problems.is_empty() {
         return Err(Stop::Failed(format!(
             "{}: {}",
-            args.scene_path(),
+            scene_path,
             velarium::Error::Scene(problems)
         )));
     }
-    let library = find_library(args.option("--lib").map(Path::new)).map_err(failed)?;
-    let fmu = pack(&scene, &out, &library)
-        .map_err(|e| Stop::Failed(format!("{}: {e}", args.scene_path())))?;
+    let library = find_library(lib.map(Path::new)).map_err(failed)?;
+    let fmu =
+        pack(&scene, &out, &library).map_err(|e| Stop::Failed(format!("{scene_path}: {e}")))?;
     println!("{}", fmu.display());
     Ok(ExitCode::SUCCESS)
 }
 
-fn cmd_solve(args: &Args) -> Result<ExitCode, Stop> {
-    let loads = args.required("--loads")?;
-    let mut engine = engine_for(args.scene_path())?;
+struct SolveArgs {
+    scene: String,
+    loads: String,
+    out: Option<String>,
+    elements: Option<String>,
+    vtk: Option<String>,
+    quiet: bool,
+}
+
+fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
+    let loads = args.loads.as_str();
+    let mut engine = engine_for(&args.scene)?;
     let table = LoadTable::parse(&read_text(loads)?, loads, &mut engine).map_err(failed)?;
-    let elements = args.option("--elements");
-    let history = history::run_with(&mut engine, &table, elements.is_some()).map_err(failed)?;
-    if let Some(path) = elements {
+    let mut series = match &args.vtk {
+        Some(dir) => {
+            Some(vtk::Series::create(Path::new(dir), &engine.scene().name).map_err(failed)?)
+        }
+        None => None,
+    };
+    let progress = Progress::start(!args.quiet && std::io::stderr().is_terminal());
+    let result = history::run_observed(
+        &mut engine,
+        &table,
+        args.elements.is_some(),
+        &mut |engine, event| {
+            progress.update(&event);
+            match (&mut series, event) {
+                (Some(series), Event::Done { row, report, .. }) if report.converged() => {
+                    series.write_row(engine, row.time)
+                }
+                _ => Ok(()),
+            }
+        },
+    );
+    progress.finish();
+    let history = result.map_err(failed)?;
+    if let Some(series) = &series {
+        series.finish().map_err(failed)?;
+    }
+    if let Some(path) = &args.elements {
         write_atomically(Path::new(path), history.elements.as_bytes()).map_err(failed)?;
     }
     let csv = history.to_csv();
-    match args.option("--out") {
+    match &args.out {
         Some(out) => write_atomically(Path::new(out), csv.as_bytes()).map_err(failed)?,
         None => print!("{csv}"),
     }
@@ -219,8 +302,137 @@ fn cmd_solve(args: &Args) -> Result<ExitCode, Stop> {
     }
 }
 
-fn cmd_check(args: &Args) -> Result<ExitCode, Stop> {
-    let path = args.scene_path();
+/// The progress line of `velarium solve` on stderr: redrawn a few times a second by a thread
+/// of its own once the run has taken `VELARIUM_PROGRESS_AFTER` seconds (default 1), so that a
+/// long load row still shows its elapsed time.
+struct Progress {
+    /// Seconds before the line appears.
+    after: f64,
+    shared: Option<Arc<Mutex<ProgressState>>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+struct ProgressState {
+    started: Instant,
+    row: usize,
+    total: usize,
+    time: f64,
+    row_started: Instant,
+    /// Load fraction reached and Newton iterations of the last finished row.
+    last: Option<(f64, usize)>,
+    iterations: usize,
+    shown: bool,
+}
+
+impl ProgressState {
+    fn line(&self) -> String {
+        let now = Instant::now();
+        let last = match self.last {
+            Some((reached, iterations)) => {
+                format!("last row: load fraction {reached:.3}, {iterations} iterations; ")
+            }
+            None => String::new(),
+        };
+        format!(
+            "velarium: row {}/{} (time {}), {:.1} s on it; {last}{} iterations in all; elapsed {:.1} s",
+            self.row + 1,
+            self.total,
+            self.time,
+            (now - self.row_started).as_secs_f64(),
+            self.iterations,
+            (now - self.started).as_secs_f64()
+        )
+    }
+}
+
+impl Progress {
+    fn start(enabled: bool) -> Progress {
+        let stop = Arc::new(AtomicBool::new(false));
+        if !enabled {
+            return Progress {
+                after: f64::INFINITY,
+                shared: None,
+                stop,
+                thread: None,
+            };
+        }
+        let after = std::env::var("VELARIUM_PROGRESS_AFTER")
+            .ok()
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .unwrap_or(1.0);
+        let now = Instant::now();
+        let shared = Arc::new(Mutex::new(ProgressState {
+            started: now,
+            row: 0,
+            total: 0,
+            time: 0.0,
+            row_started: now,
+            last: None,
+            iterations: 0,
+            shown: false,
+        }));
+        let thread = {
+            let shared = Arc::clone(&shared);
+            let stop = Arc::clone(&stop);
+            std::thread::spawn(move || {
+                while !stop.load(Ordering::Relaxed) {
+                    std::thread::sleep(Duration::from_millis(100));
+                    let Ok(mut state) = shared.lock() else { return };
+                    if stop.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    if state.started.elapsed().as_secs_f64() >= after {
+                        eprint!("\r\x1b[2K{}", state.line());
+                        state.shown = true;
+                    }
+                }
+            })
+        };
+        Progress {
+            after,
+            shared: Some(shared),
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    fn update(&self, event: &Event) {
+        let Some(shared) = &self.shared else { return };
+        let Ok(mut state) = shared.lock() else { return };
+        match event {
+            Event::Start { index, total, row } => {
+                state.row = *index;
+                state.total = *total;
+                state.time = row.time;
+                state.row_started = Instant::now();
+            }
+            Event::Done { report, .. } => {
+                state.last = Some((report.reached, report.iterations));
+                state.iterations += report.iterations;
+            }
+        }
+    }
+
+    /// Stop redrawing; leave the final progress line (for a run that took `after` seconds or
+    /// more) ended by a newline, so that what follows starts on a line of its own.
+    fn finish(mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+        if let Some(shared) = &self.shared {
+            if let Ok(state) = shared.lock() {
+                if state.shown || state.started.elapsed().as_secs_f64() >= self.after {
+                    eprintln!("\r\x1b[2K{}", state.line());
+                }
+            }
+        }
+    }
+}
+
+fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
     let scene = match velarium::scene::read::parse(&read_bytes(path)?) {
         Ok(scene) => scene,
         Err((mut problems, recovered)) => {
@@ -279,7 +491,7 @@ fn count(n: usize, what: &str) -> String {
     format!("{n} {what}{}", if n == 1 { "" } else { "s" })
 }
 
-fn cmd_describe(args: &Args) -> Result<ExitCode, Stop> {
-    print!("{}", model_description(&engine_for(args.scene_path())?));
+fn cmd_describe(path: &str) -> Result<ExitCode, Stop> {
+    print!("{}", model_description(&engine_for(path)?));
     Ok(ExitCode::SUCCESS)
 }

@@ -141,6 +141,25 @@ pub fn segment_tensions(model: &Model, u: &[f64], cable: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Unit tension direction of a membrane triangle in the current configuration: the major
+/// principal direction of its evaluation (an angle in the element's reference frame) pushed
+/// forward by the deformation gradient (zero if the triangle has collapsed onto it).
+pub fn tension_direction(
+    model: &Model,
+    u: &[f64],
+    triangle: &crate::model::Triangle,
+    evaluation: &Evaluation,
+) -> nalgebra::Vector3<f64> {
+    let x = triangle.nodes.map(|i| model.position(u, i));
+    let d = crate::model::membrane::deformation_gradient(&triangle.reference, &x)
+        * nalgebra::Vector2::new(evaluation.angle.cos(), evaluation.angle.sin());
+    if d.norm() > 0.0 {
+        d.normalize()
+    } else {
+        d
+    }
+}
+
 /// Integer code of a wrinkle state: 0 taut, 1 wrinkled, 2 slack.
 pub fn state_code(state: WrinkleState) -> u8 {
     match state {

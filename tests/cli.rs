@@ -454,3 +454,107 @@ fn version_is_the_crate_version() {
         format!("velarium {}", env!("CARGO_PKG_VERSION"))
     );
 }
+
+/// `solve --vtk DIR`: one .vtu per converged row and a .pvd listing them with their times; a
+/// step that fails ends the series at the last converged row; no temporary file is left.
+#[test]
+fn solve_writes_a_paraview_series() {
+    let dir = scratch("vtk");
+    let scene = write(&dir, "tiny.json", TINY);
+    let loads = write(&dir, "loads.csv", "time,F\n0,0\n0.5,50\n1,100\n");
+    let out = dir.join("series");
+    let run = velarium(&["solve", s(&scene), "--loads", s(&loads), "--vtk", s(&out)]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(
+        listing(&out),
+        [
+            "TinyCable.pvd",
+            "TinyCable_0000.vtu",
+            "TinyCable_0001.vtu",
+            "TinyCable_0002.vtu"
+        ]
+    );
+    let pvd = std::fs::read_to_string(out.join("TinyCable.pvd")).unwrap();
+    for (t, k) in [("0", 0), ("0.5", 1), ("1", 2)] {
+        assert!(
+            pvd.contains(&format!(
+                "timestep=\"{t}\" group=\"\" part=\"0\" file=\"TinyCable_000{k}.vtu\""
+            )),
+            "{pvd}"
+        );
+    }
+    let vtu = std::fs::read_to_string(out.join("TinyCable_0002.vtu")).unwrap();
+    assert!(
+        vtu.contains("NumberOfPoints=\"3\" NumberOfCells=\"2\""),
+        "{vtu}"
+    );
+    for name in [
+        "displacement",
+        "cable_tension",
+        "wrinkle_state",
+        "slip",
+        "sigma_max",
+    ] {
+        assert!(vtu.contains(&format!("Name=\"{name}\"")), "{name}");
+    }
+
+    // One Newton iteration per increment and no room to cut back: the step to F = 50 fails.
+    let stiff = TINY.replace(
+        "\"experiment\"",
+        "\"solver\": {\"max_iterations\": 1, \"min_increment\": 0.5}, \"experiment\"",
+    );
+    let scene = write(&dir, "stiff.json", &stiff);
+    let out = dir.join("failed");
+    let run = velarium(&["solve", s(&scene), "--loads", s(&loads), "--vtk", s(&out)]);
+    assert_eq!(run.status.code(), Some(1), "{}", text(&run.stderr));
+    assert!(text(&run.stderr).contains("did not converge"));
+    assert_eq!(listing(&out), ["TinyCable.pvd", "TinyCable_0000.vtu"]);
+}
+
+/// The progress line appears on a terminal (here a pseudo-terminal from `script`) once the run
+/// is older than VELARIUM_PROGRESS_AFTER seconds, never with --quiet, never into a pipe.
+#[test]
+fn progress_only_on_a_terminal_and_not_with_quiet() {
+    let dir = scratch("progress");
+    let scene = write(&dir, "tiny.json", TINY);
+    let loads = write(&dir, "loads.csv", "time,F\n0,0\n0.5,50\n1,100\n");
+    let piped = Command::new(VELARIUM)
+        .args(["solve", s(&scene), "--loads", s(&loads)])
+        .env("VELARIUM_PROGRESS_AFTER", "0")
+        .output()
+        .unwrap();
+    assert!(piped.status.success());
+    assert_eq!(text(&piped.stderr), "", "no progress into a pipe");
+    if Command::new("script").arg("--version").output().is_err() {
+        eprintln!("skipped the terminal half: `script` (util-linux) is not installed");
+        return;
+    }
+    let on_terminal = |quiet: bool| {
+        // Sleep briefly between rows is not possible; a 0 s threshold and the 0.1 s redraw
+        // period need a run of at least 0.1 s: 200 rows of the tiny cable.
+        let mut table = String::from("time,F\n");
+        for k in 0..=200 {
+            table.push_str(&format!("{},{}\n", k as f64 / 200.0, k as f64 / 2.0));
+        }
+        let loads = write(&dir, "many.csv", &table);
+        let command = format!(
+            "VELARIUM_PROGRESS_AFTER=0 {VELARIUM} solve {} --loads {} --out {}{}",
+            s(&scene),
+            s(&loads),
+            s(&dir.join("out.csv")),
+            if quiet { " --quiet" } else { "" }
+        );
+        let out = Command::new("script")
+            .args(["-qec", &command, "/dev/null"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        text(&out.stdout)
+    };
+    let shown = on_terminal(false);
+    assert!(
+        shown.contains("velarium: row 201/201 (time 1)") && shown.contains("elapsed"),
+        "{shown:?}"
+    );
+    assert_eq!(on_terminal(true), "", "--quiet");
+}

@@ -1,5 +1,5 @@
 //! The FMI 2.0 Co-Simulation C ABI, tested from inside: the `extern "C"` functions called
-//! through the rlib exactly as a master calls them (FMI.md section 8; the fmpy tests drive the
+//! through the rlib exactly as a master calls them (docs/fmu.md, "The conformance checklist"; the fmpy tests drive the
 //! packaged FMU from outside).
 //!
 //! SCENE: `modelDescription/PrestressedCable/scene.json` when present, else an equivalent
@@ -871,7 +871,7 @@ fn non_convergence_discards_and_terminates() {
         .find(|r| r.status == DISCARD)
         .expect("a message");
     assert_eq!(discard.category, "logStatusDiscard");
-    let reference = format!("#r{}#", fx.vr("P"));
+    let reference = format!("P (#r{}#) = ", fx.vr("P"));
     assert!(
         discard.message.contains("% of the load change"),
         "{}",

@@ -70,7 +70,7 @@ fn timed<T>(what: &str, f: impl FnOnce() -> T) -> T {
 /// of the tie are clamped, so it carries nothing and the equilibrium is EXACTLY the disc's; it only
 /// raises the stiffest-member force scale (today's floor 1e-12 · 1e11 = 0.1 N exceeds every nodal
 /// load of 40 Pa · 2.5e-4 m², so the step "converged" at 0 iterations with center_uz = 0).
-/// REFERENCE: MECHANICS.md §4a exact-kinematics follower value w0/a = 0.065404 at qa/(Eh) = 1e-3;
+/// REFERENCE: docs/mechanics.md §4a exact-kinematics follower value w0/a = 0.065404 at qa/(Eh) = 1e-3;
 /// tolerance 0.2 % (16 rings reach 0.07 %, tests/verify_hencky_disc.rs header). Vertical
 /// equilibrium: rim reaction = q × projected area of the 96-gon, 1e-8 relative (what
 /// verify_hencky_disc measures without the tie). At least one Newton iteration (the load changed).
@@ -113,7 +113,7 @@ fn a_stiff_tie_does_not_hide_the_disc_load() {
 // (b) PrestressedCable with EA 1e16.
 // ---------------------------------------------------------------------------------------------
 
-/// Exact engineering-strain pretensioned cable (MECHANICS.md §4g), half-span 1 m: midspan sag w
+/// Exact engineering-strain pretensioned cable (docs/mechanics.md §4g), half-span 1 m: midspan sag w
 /// and tension T for EA, T0, P. Written to keep the tiny strains accurate: l − L = w²/(l + L),
 /// L − L0 = L (T0/EA)/(1 + T0/EA).
 fn pretensioned_cable(ea: f64, t0: f64, p: f64) -> (f64, f64) {
@@ -350,7 +350,7 @@ fn d_unloaded_sliding_nodes_drift_along_the_cable() {
     }
 }
 
-/// CASE (k), issue 9 / MECHANICS.md §5 item 4: a ring (one node) on a frictionless cable, the
+/// CASE (k), issue 9 / docs/solver.md (hard cases): a ring (one node) on a frictionless cable, the
 /// pulley, under load rows of varying direction, each row starting from the previous
 /// equilibrium. Cable A = (−1, 0) – ring – B = (1, 0); the ring starts off-centre at
 /// (−0.4, −0.6) with the cable pretensioned to 10 N in that V (so L0 = (l_a + l_b)/(1 + 10/EA)
@@ -522,7 +522,7 @@ fn e_membrane_held_only_by_a_frictionless_sleeve() {
 /// CASE (f1), issue 9: P = 1e-6 N at midspan of a straight cable with no pretension
 /// (PrestressedCable, half-span L = 1 m, EA = 1e5 N, SVK law). DERIVATION: with T0 = 0, L0 = L;
 /// SVK T = A S l/L0, S = E (l² − L²)/(2L²) = E w²/(2L²), so T = EA w² l/(2L³); vertical balance
-/// P = 2 T w/l = EA w³/L³, i.e. w = L (P/EA)^(1/3) exactly (MECHANICS.md §4g) = 2.1544e-4 m.
+/// P = 2 T w/l = EA w³/L³, i.e. w = L (P/EA)^(1/3) exactly (docs/mechanics.md §4g) = 2.1544e-4 m.
 /// Tolerances: w within 2e-6 relative (the criterion allows 1e-9 · T = 2.3e-12 N at the node;
 /// over the vertical stiffness 3P/w = 1.4e-2 N/m that is 1.6e-10 m = 7.5e-7 of w); the vertical
 /// reaction equals P within 1e-5 P (round-off of the internal force ε_mach · EA ≈ 1e-11 N).
@@ -822,7 +822,7 @@ const SHEAR_CENTRE: [usize; 2] = [494, 495];
 /// CASE (i), issue 9: the shipped WrinkledShear scene with the separation set to 0.1 mm
 /// (ε0 = 7.8e-4; today up to 2,572 iterations in one step and Discard at step 11), sheared
 /// 0 → 3 mm in 20 steps. Every step must converge.
-/// REFERENCE: as tests/verify_wrinkled_shear.rs (MECHANICS.md §4c): the centre deforms as the
+/// REFERENCE: as tests/verify_wrinkled_shear.rs (docs/mechanics.md §4c): the centre deforms as the
 /// homogeneous F = [[1, δ/H], [0, 1 + s/H]], its stress is the tension-field SVK law at that
 /// strain. State equal; tension direction within 0.5° (as there); S12 within 1 % (as there);
 /// S11 and S22 within 2 % once wrinkled (S22 only while taut: the Poisson contraction toward the
@@ -975,10 +975,10 @@ fn j_rubber_sheet_pulled_at_one_corner() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// (l) MECHANICS.md §5 list.
+// (l) docs/solver.md hard-case list.
 // ---------------------------------------------------------------------------------------------
 
-/// CASE (l1), MECHANICS.md §5 item 1: a flat, stress-free cable net loaded normal to its plane.
+/// CASE (l1), docs/solver.md (hard cases): a flat, stress-free cable net loaded normal to its plane.
 /// Two crossing cables (x and y axes, half-span L = 1 m, EA = 1e5 N, SVK law, no pretension)
 /// share the centre node; P = 10 N in −z there. DERIVATION: by symmetry the four segments carry
 /// one tension T = EA w² l/(2L³) (SVK, L0 = L, as in f1); vertical balance P = 4 T w/l gives
@@ -1020,7 +1020,7 @@ fn l1_flat_stress_free_cable_net_cubic_law() {
     );
 }
 
-/// CASE (l2), MECHANICS.md §5 item 2 (slack zones): a node between two collinear pretensioned
+/// CASE (l2), docs/solver.md (hard cases) (slack zones): a node between two collinear pretensioned
 /// segments A = (−1, 0, 0) – N – B = (1, 0, 0) (EA = 1e4 N, T0 = 100 N, engineering) pulled along
 /// the cable by F = 300 N > 2 T0 toward B: segment N–B goes slack (zero stiffness) and A–N alone
 /// carries F. REFERENCE: T_a = F, l_a = L0 (1 + F/EA), L0 = 1/(1 + T0/EA), so
@@ -1115,7 +1115,7 @@ fn octasphere(n: usize, r: f64) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
 
 const SPHERE_MU: f64 = 1e5;
 const SPHERE_H: f64 = 1e-3;
-/// p_max R/(μH) of the incompressible neo-Hookean thin sphere (MECHANICS.md §4i).
+/// p_max R/(μH) of the incompressible neo-Hookean thin sphere (docs/mechanics.md §4i).
 const SPHERE_PMAX: f64 = 1.239463;
 
 /// Neo-Hookean sphere (R = 1 m, H = 1 mm, μ = 100 kPa) under follower pressure, held by its mirror
@@ -1145,9 +1145,9 @@ fn mean_stretch(e: &Engine) -> f64 {
     (0..n).map(|k| pos(e, k).norm()).sum::<f64>() / n as f64
 }
 
-/// CASE (l3), MECHANICS.md §5 item 9 (follower pressure; inflation): the neo-Hookean sphere
+/// CASE (l3), docs/solver.md (hard cases) (follower pressure; inflation): the neo-Hookean sphere
 /// (`sphere`, octahedral mesh with 8 divisions per edge, 512 CST) inflated to p = 0.7 p_max.
-/// REFERENCE: MECHANICS.md §4i, p R/(μH) = 2(λ⁻¹ − λ⁻⁷) on the stable branch λ < 7^(1/6):
+/// REFERENCE: docs/mechanics.md §4i, p R/(μH) = 2(λ⁻¹ − λ⁻⁷) on the stable branch λ < 7^(1/6):
 /// λ = 1.116751 at 0.7 p_max (bisection here). Tolerance on the mean nodal stretch: 0.5 %, for
 /// the faceting error of a 512-triangle inscribed polyhedron (an O(h²/R²) effect; measured
 /// 1.114210, i.e. −0.23 %, on the solver of 79af9e6, which converges here in 6 iterations).
@@ -1170,9 +1170,9 @@ fn l3_follower_pressure_inflates_a_rubber_sphere() {
     assert!(rel(measured, lambda) < 5e-3, "λ = {measured} vs {lambda}");
 }
 
-/// CASE (l4), MECHANICS.md §5 item 7 (limit point under load control): the same sphere,
+/// CASE (l4), docs/solver.md (hard cases) (limit point under load control): the same sphere,
 /// equilibrated at 0.7 p_max, then asked for 1.2 p_max. Beyond p_max = 1.239463 μH/R the
-/// pressure-stretch curve of the sphere has no point (MECHANICS.md §4i; the discrete maximum is
+/// pressure-stretch curve of the sphere has no point (docs/mechanics.md §4i; the discrete maximum is
 /// within the faceting error of l3, 0.2 %, far below the 20 % asked for): no equilibrium exists under
 /// pressure control, so the step must FAIL, commit nothing (state and outputs as before) and say
 /// why (a non-empty message).
@@ -1250,7 +1250,7 @@ fn two_segment_string(ea: f64, la: f64, lb: f64, p: f64) -> [f64; 2] {
     [x, z]
 }
 
-/// CASE (l5), MECHANICS.md §5 item 10: an initially slack cable longer than its chord hangs under
+/// CASE (l5), docs/solver.md (hard cases): an initially slack cable longer than its chord hangs under
 /// a point load. A = (0, 0, 0), B = (2, 0, 0), the load node N starts on the chord at x = 0.7;
 /// the cable's unstretched length 2.4 m is shared in proportion to the initial lengths (0.84 m and
 /// 1.56 m), EA = 1e5 N (engineering), P = 100 N in −z at N. REFERENCE: statics of a two-segment
@@ -1282,7 +1282,7 @@ fn l5_slack_cable_longer_than_its_chord_hangs() {
     );
 }
 
-/// CASE (l6), MECHANICS.md §5 item 11 / issue 9 "Bad input": a true mechanism. A pretensioned
+/// CASE (l6), docs/solver.md (hard cases) / issue 9 "Bad input": a true mechanism. A pretensioned
 /// cable (nodes 0..=11, both ends fixed) and, unconnected to it and unsupported, a membrane square
 /// of two triangles (nodes 12..=15) loaded by 1 N in x: no support or load can stop its rigid-body
 /// motion, no equilibrium exists. REQUIRED: a failure (at scene check or at the solve) whose

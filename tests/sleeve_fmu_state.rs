@@ -5,7 +5,7 @@
 //! BOUNDARY CONDITIONS: as shipped.
 //! PARAMETERS: P through 60, 160, 100, 24, 120, 200 N (load, unload, reload: stick and slip
 //!       both occur); p = 20 N.
-//! REFERENCE: FMI 2.0.4 §2.1.8 (get/set/serialize FMU state); FMI.md 2.12 and MECHANICS.md §5
+//! REFERENCE: FMI 2.0.4 §2.1.8 (get/set/serialize FMU state); docs/fmu.md "State" and docs/mechanics.md §5
 //!       "FMI note": history variables must roll back with the state. Comparison: bit equality.
 
 #![cfg(unix)]

@@ -1,6 +1,6 @@
 //! GOAL: every tangent equals the central finite difference of its force vector.
 //! MESH: single elements in random deformed states; the assembled LiftedMembrane model.
-//! REFERENCE: MECHANICS.md §5 (verify every tangent against central differences, relative
+//! REFERENCE: docs/mechanics.md §5 (verify every tangent against central differences, relative
 //!            error < 1e-6). Step h = 1e-6 times the element size; central differences are
 //!            O(h²) accurate, so 1e-6 relative leaves room for round-off only.
 

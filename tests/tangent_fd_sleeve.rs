@@ -4,7 +4,7 @@
 //! MESH: one sleeve point with random neighbours (kinks from a few degrees to ~120°), both
 //!       strain laws, σμ ∈ {0, 0.3, −0.3}; the assembled blocks B, C, D of the shipped
 //!       SlidingCable model (μ = 0.3) in a deformed, slipped state.
-//! REFERENCE: MECHANICS.md §5 (every tangent against central differences, relative error
+//! REFERENCE: docs/mechanics.md §5 (every tangent against central differences, relative error
 //!            < 1e-6); step h = 1e-6 times the segment length.
 
 mod common;

@@ -3,7 +3,7 @@
 //! MESH: two 2-node cable segments, half-span L = 1 m (the shipped PrestressedCable scene).
 //! BOUNDARY CONDITIONS: both ends fixed in x, y, z; load P at midspan, downwards.
 //! PARAMETERS: EA, T0 (pretension in the straight state), P as in the table below.
-//! REFERENCE: MECHANICS.md §4g, "computed here" exact values of w and T for the engineering
+//! REFERENCE: docs/mechanics.md §4g, "computed here" exact values of w and T for the engineering
 //!            law T = EA (l − L0)/L0 and the SVK law T = A S l/L0; tolerance 1e-8 relative
 //!            (the table's 8 significant digits are its own precision).
 

@@ -8,7 +8,7 @@
 //!       pulled along the outgoing direction by P; z fixed at both ends.
 //! PARAMETERS: EA = 1e5 N, pretension T0 = 10 N, μ = 0.3; P raised from T0 to 60 N (beyond the
 //!       full-slip load T0 r^N, r^N ≤ 2.72).
-//! REFERENCE: MECHANICS.md §2.3 and §4f: at full slip every kink satisfies the bisector Coulomb
+//! REFERENCE: docs/mechanics.md §2.3 and §4f: at full slip every kink satisfies the bisector Coulomb
 //!       law T_b/T_a = (1 + μ tan(Δθ/2))/(1 − μ tan(Δθ/2)), so T_last/T_first is the product of
 //!       that ratio over the deformed kinks (tolerance 1e-6 relative); with Δθ = θ/N the product
 //!       is ((1+μ tan(θ/2N))/(1−μ tan(θ/2N)))^N → exp(μθ) = 2.566332 (§4f table: +5.84 % at N = 4,

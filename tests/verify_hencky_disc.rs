@@ -4,7 +4,7 @@
 //! MESH: disc generator, `rings` rings of near-equilateral CST triangles (ring k has 6k nodes).
 //! BOUNDARY CONDITIONS: rim clamped (x, y, z).
 //! PARAMETERS: a = 0.5 m, h = 0.1 mm, E = 200 MPa, ν = 0.3, q = 40 Pa, so qa/(Eh) = 1e-3.
-//! REFERENCE: MECHANICS.md §4a, exact-kinematics table (axisymmetric SVK membrane with finite
+//! REFERENCE: docs/mechanics.md §4a, exact-kinematics table (axisymmetric SVK membrane with finite
 //!            rotations, shooting): w0/a = 0.065338 (dead: load per reference area along z)
 //!            and 0.065404 (follower). Tolerance 1 % at 20 rings (the target).
 
@@ -74,7 +74,7 @@ fn rim_reaction_balances_the_pressure() {
 
 /// Unloading back towards the singular flat state: from q = 40 Pa to q = 0.04 Pa in one step,
 /// qa/(Eh) = 1e-6, where the deflection is the small-rotation Hencky value
-/// w0/a = 0.65343 (qa/Eh)^(1/3) (MECHANICS.md §4a, ν = 0.3, table row 1e-4: the coefficient no
+/// w0/a = 0.65343 (qa/Eh)^(1/3) (docs/mechanics.md §4a, ν = 0.3, table row 1e-4: the coefficient no
 /// longer depends on the load). Tolerance 1 % at the shipped 16 rings (0.07 % at qa/Eh = 1e-3).
 /// The step must also go through without internal cut-back: near the flat state the membrane
 /// stress is tiny, and the artificial prestress (fading with the residual) must not make the

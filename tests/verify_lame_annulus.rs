@@ -8,7 +8,7 @@
 //!       every node held in z; node (a, 0) held in y and node (0, a) in x (rigid in-plane
 //!       modes; their reactions vanish by symmetry).
 //! PARAMETERS: SVK E = 1 MPa, ν = 0.3, t = 1 mm, T_out = 1 kPa, τ = T_in/T_out.
-//! REFERENCE: MECHANICS.md §4b (Davidovitch et al. 2011; Taylor et al. 2015):
+//! REFERENCE: docs/mechanics.md §4b (Davidovitch et al. 2011; Taylor et al. 2015):
 //!            L/a = (ρ²/τ)(1 − sqrt(1 − τ²/ρ²)); for ρ = 4: τ = 2.5 → 1.40400, τ = 3.0 →
 //!            1.80566, τ = 3.5 → 2.35830; σ_θ = 0 and σ_r = T_in a/r for a < r < L.
 //!            Tolerances: wrinkled radius within one element (radial size 1/12 m); σ_r r within

@@ -5,7 +5,7 @@
 //!       edge cables along the long edges).
 //! BOUNDARY CONDITIONS: short edges clamped; centre node loaded by the lifting force.
 //! PARAMETERS: film E = 200 MPa, ν = 0.3, t = 0.1 mm; cables EA = 2e4 N, pretension 20 N.
-//! REFERENCE: seed paper (shared/seed) §4: prestress "influences only the iteration path".
+//! REFERENCE: seed paper §4 (docs/mechanics.md §0): prestress "influences only the iteration path".
 //!            The two equilibria must agree within the solver tolerance: the residual
 //!            criterion 1e-9 bounds the displacement difference by about 1e-9 relative times
 //!            the condition of the tangent; we require 1e-7 relative on every output.

@@ -4,10 +4,10 @@
 //! BOUNDARY CONDITIONS: every boundary node prescribed (x and y) to the homogeneous
 //!       deformation x = F X; every node held in z (in-plane problem).
 //! PARAMETERS: SVK E = 1 Pa, ν = 0.3, t = 1 m (so stresses read directly as S/E).
-//! REFERENCE: MECHANICS.md §4d (Wagner tension field / picture frame: S11 = S22 = S12 =
+//! REFERENCE: docs/mechanics.md §4d (Wagner tension field / picture frame: S11 = S22 = S12 =
 //!            E sin γ/4, tension at 45°; simple shear table; nominal traction P·e2 on the top
 //!            edge) — stresses and the top-edge reaction to 1e-9 relative (the field is
-//!            homogeneous, so any mesh must reproduce it to round-off); MECHANICS.md §4c onset
+//!            homogeneous, so any mesh must reproduce it to round-off); docs/mechanics.md §4c onset
 //!            γ_c = 2√ν ε0/(1 − ν) for pretension ε0 (small strain; checked at ±3 %).
 
 mod common;

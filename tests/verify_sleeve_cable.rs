@@ -7,10 +7,10 @@
 //!       cable end).
 //! PARAMETERS: the scene's start values (mu_rubber 3e5 Pa, mu_friction 0.3) and the calibrated
 //!       pair (1.09e5 Pa, README); 2P = 0, 1, 2, 4, 5 N in that order.
-//! REFERENCE: seed paper Table 1 (shared/reference/seed_table1.csv): monotone A_dx, B_dy and L_c,
+//! REFERENCE: seed paper Table 1 (harness/seed_table1.csv): monotone A_dx, B_dy and L_c,
 //!       L_c = 0.080 m unloaded (trends only: the paper publishes no constants; the fitted
 //!       numbers are compared by harness/calibrate_sleeve.py). Penetration: tie gap below 1e-3
-//!       of the segment length (MECHANICS.md §2.3).
+//!       of the segment length (docs/mechanics.md §2.3).
 
 mod common;
 use common::*;

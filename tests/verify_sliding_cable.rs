@@ -14,7 +14,7 @@
 //!       tension equality. (b) seed paper §4: "in the first case the nodes 7 and 9 converge to the
 //!       node 8" (frictionless); tension equality to 1e-6 relative; nodes 7 and 9 move toward
 //!       8; with μ = 0.3 they move less and the tensions differ (bisector Coulomb,
-//!       |T_b − T_a| cos(Δθ/2) ≤ μ (T_a + T_b) sin(Δθ/2) at every node, MECHANICS.md §2.3).
+//!       |T_b − T_a| cos(Δθ/2) ≤ μ (T_a + T_b) sin(Δθ/2) at every node, docs/mechanics.md §2.3).
 
 mod common;
 use common::*;

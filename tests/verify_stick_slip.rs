@@ -7,7 +7,7 @@
 //!       x, y and pulled along the outgoing direction by P.
 //! PARAMETERS: EA = 1e5 N, pretension T0 = 10 N, μ = 0.3; threshold case with a tie penalty of
 //!       1e10 N/m (the tie stretch then changes the kink by < 1e-7 rad).
-//! REFERENCE: bisector Coulomb law (MECHANICS.md §2.3; model/sleeve.rs): the point sticks while
+//! REFERENCE: bisector Coulomb law (docs/mechanics.md §2.3; model/sleeve.rs): the point sticks while
 //!       T_b/T_a ≤ r = (1 + μ tan(δ/2))/(1 − μ tan(δ/2)); with the anchor segment's tension T0
 //!       unchanged while stuck, slip starts at P* = r T0. Checked at P = (1 ∓ 1e-3) P*: exactly
 //!       zero slip below, positive slip with T_b/T_a = r (1e-6) above. Dissipation per step

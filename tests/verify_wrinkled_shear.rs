@@ -5,7 +5,7 @@
 //! BOUNDARY CONDITIONS: bottom edge clamped; top edge held in z and moved by the inputs
 //!       `separation` (y, 1 mm at start) and `shear` (x), ramped 0 → 3 mm in 20 steps.
 //! PARAMETERS: Kapton, SVK E = 3.5 GPa, ν = 0.3, t = 25 µm; H = 128 mm.
-//! REFERENCE: MECHANICS.md §4c: away from the free short edges the strip deforms
+//! REFERENCE: docs/mechanics.md §4c: away from the free short edges the strip deforms
 //!            homogeneously, F = [[1, δ/H], [0, 1 + s/H]]; its stress is the tension-field SVK
 //!            law at E = ½(FᵀF − I) (checked to round-off in verify_wrinkling_law.rs). At the
 //!            centre (1.5 H from either free edge) the end effects decay to well under 1 %:

@@ -3,10 +3,10 @@
 //! MESH: none (constitutive point tests).
 //! BOUNDARY CONDITIONS: none; strains are given.
 //! PARAMETERS: SVK E = 1, ν = 0.3 (the table's units); neo-Hookean μ = 1.
-//! REFERENCE: MECHANICS.md §4c constitutive table (8 strain states; checked to the table's
+//! REFERENCE: docs/mechanics.md §4c constitutive table (8 strain states; checked to the table's
 //!            5 printed digits, and to 1e-12 against the closed forms S = D E (taut),
-//!            S = E·E1 t⊗t (wrinkled), S = 0 (slack)); MECHANICS.md §1.2 consistent tangent
-//!            (central differences, 1e-6 relative); MECHANICS.md §6 neo-Hookean nominal
+//!            S = E·E1 t⊗t (wrinkled), S = 0 (slack)); docs/mechanics.md §1.2 consistent tangent
+//!            (central differences, 1e-6 relative); docs/mechanics.md §6 neo-Hookean nominal
 //!            stresses P = μ(λ − λ⁻²) uniaxial, μ(λ − λ⁻⁵) equibiaxial, μ(λ − λ⁻³) pure shear
 //!            (1e-12 relative).
 

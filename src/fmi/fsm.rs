@@ -1,4 +1,4 @@
-//! The FMI 2.0 co-simulation calling sequence (FMI.md 2.3) as one mask of legal states per
+//! The FMI 2.0 co-simulation calling sequence (docs/fmu.md, the conformance checklist) as one mask of legal states per
 //! function, after `modelica/Reference-FMUs` (`MASK_fmi2*`).
 //!
 //! ```text

@@ -447,7 +447,7 @@ impl Instance {
         })
     }
 
-    /// Whether the variable may be set now (FMI.md 2.7): outputs never; fixed parameters
+    /// Whether the variable may be set now (docs/fmu.md, failure policy): outputs never; fixed parameters
     /// before the end of initialization only; inputs and tunable parameters also at
     /// communication points (the state mask already excludes the other states).
     fn check_settable(&self, vr: u32, var_type: VarType) -> Result<(), String> {
@@ -556,7 +556,8 @@ impl Instance {
         }
     }
 
-    /// logStatusDiscard: how far the step got, why it stopped, and the inputs (`#r<vr>#`).
+    /// logStatusDiscard: how far the step got, why it stopped, and the inputs by name and
+    /// value reference (`P (#r1#) = 100`).
     fn log_discard(&self, t: f64, h: f64, report: &StepReport) {
         if !self.logger.enabled(Category::StatusDiscard) {
             return;
@@ -574,7 +575,13 @@ impl Instance {
             .filter(|v| v.causality == Causality::Input)
         {
             if let Ok(value) = self.engine.get_real(var.value_reference) {
-                message.push_str(&format!(" #r{}# = {value}", var.value_reference));
+                // Name and reference: fmpy's command-line logger prints `#r<vr>#` as it is,
+                // importers that resolve it show the name twice (FMI 2.0 §2.1.5).
+                message.push_str(&format!(
+                    " {} (#r{}#) = {value}",
+                    escape(&var.name),
+                    var.value_reference
+                ));
             }
         }
         self.logger.log_formatted(Category::StatusDiscard, &message);

@@ -6,7 +6,7 @@
 //! in thread-locals that have destructors. glibc keeps a shared library loaded while any thread
 //! still holds a TLS destructor registered from it (`__cxa_thread_atexit_impl`), so on the
 //! master's thread, which lives as long as the process, they would pin this `.so` in memory
-//! after every `dlclose`: one more copy per extracted FMU (FMI.md pitfall 4, the crash after
+//! after every `dlclose`: one more copy per extracted FMU (docs/fmu.md, threads and the binary; the crash after
 //! ~1000 runs). On the worker, the destructors run when it is joined, before
 //! `fmi2FreeInstance` returns. Keeping one worker per instance (rather than one thread per
 //! solve) keeps those buffers warm from step to step.

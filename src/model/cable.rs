@@ -13,7 +13,7 @@
 //! slack cables does not make the matrix singular; its force stays exactly zero.
 //!
 //! # References
-//! MECHANICS.md §4g and §6 (strain measures, pretension through the unstretched length).
+//! docs/mechanics.md §4g and §6 (strain measures, pretension through the unstretched length).
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 

@@ -1,7 +1,7 @@
 //! A cable sliding through a sleeve: slip unknowns at the sleeve points, the nodal Coulomb law in
 //! the bisector frame, and the penalty tie between a cable point and its membrane node.
 //!
-//! Formulation (MECHANICS.md §2.3 option A, with the seed's penalty contact element):
+//! Formulation (docs/mechanics.md §2.3 option A, with the seed's penalty contact element):
 //!
 //! ```text
 //! cable points   P_0 … P_n along the cable; the ends and unsleeved nodes are material points
@@ -31,11 +31,11 @@
 //! derivatives are written in [`slip_row`] and checked by finite differences.
 //!
 //! Over N equal kinks of a curve turning by θ the bisector law gives
-//! `T_out/T_in = ((1 + μ tan(θ/2N))/(1 − μ tan(θ/2N)))^N → exp(μθ)` (capstan), MECHANICS.md §4f.
+//! `T_out/T_in = ((1 + μ tan(θ/2N))/(1 − μ tan(θ/2N)))^N → exp(μθ)` (capstan), docs/mechanics.md §4f.
 //!
 //! Default penalty: `k_c = 100 × max(EA/ℓ_min, E t)` with ℓ_min the shortest reference segment of
 //! the cable and E t the largest membrane tensile stiffness (E = 3μ for neo-Hookean) at its
-//! sleeve nodes: the middle of the range 10…1000 of MECHANICS.md §2.3. The gap `|x_c − x_m|` is
+//! sleeve nodes: the middle of the range 10…1000 of docs/mechanics.md §2.3. The gap `|x_c − x_m|` is
 //! reported by the `contact_gap` probe relative to the adjacent segment length (keep it below 1e-3).
 //!
 //! ```text
@@ -48,7 +48,7 @@
 //! Wriggers, *Computational Contact Mechanics*, 2nd ed. 2006, §5.2 (penalty, Coulomb return
 //! mapping); Simo & Laursen 1992, Comput. Struct. 42:97–116; Aufaure 1993 and Chen et al. 2010
 //! (cables sliding through nodes); Bel Hadj Ali, Sychterz & Smith 2017, IJSS 126–127:240–251
-//! (nodal friction, Euler–Eytelwein); MECHANICS.md §2.3, §4f; seed paper eqs. (4)–(7).
+//! (nodal friction, Euler–Eytelwein); docs/mechanics.md §2.3, §4f; seed paper eqs. (4)–(7).
 
 use super::cable::{self, Law};
 use nalgebra::Vector3;

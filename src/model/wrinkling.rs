@@ -25,7 +25,7 @@
 //! tangent only: the stress, hence the equilibrium, does not depend on it.
 //!
 //! # References
-//! MECHANICS.md §1.2 (SVK tension-field stress and consistent tangent) and §6 (neo-Hookean);
+//! docs/mechanics.md §1.2 (SVK tension-field stress and consistent tangent) and §6 (neo-Hookean);
 //! Kang & Im 1997, J. Appl. Mech. 64:263-269 (mixed criterion); Pipkin 1986 and Skouras et
 //! al. 2014 (relaxed neo-Hookean energy); Stanuszek 2003 (the seed's "cable analogy").
 

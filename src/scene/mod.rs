@@ -249,7 +249,7 @@ pub struct Cable {
     pub sleeve: Option<Sleeve>,
 }
 
-/// A sleeve: interior cable nodes the cable slides through (MECHANICS.md §2.3 option A). Each
+/// A sleeve: interior cable nodes the cable slides through (docs/mechanics.md §2.3 option A). Each
 /// sleeve node gets its own cable point, tied to the node by a penalty spring (the seed's contact
 /// element), and a slip unknown with the Coulomb law in the bisector frame.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
@@ -320,40 +320,59 @@ pub struct Input {
     pub name: String,
     pub load: Load,
     /// Value the FMU uses until the master sets one; also the value of the initial equilibrium.
+    /// In the unit of the load kind (N, Pa, m or N/m; see `load`).
     #[serde(default)]
     pub start: f64,
+    /// Smallest value a master may set (the FMU variable's `min`), unit of the load kind.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min: Option<f64>,
+    /// Largest value a master may set (the FMU variable's `max`), unit of the load kind.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max: Option<f64>,
     #[serde(default)]
     pub description: String,
 }
 
-/// What an input does.
+/// What an input does. The input's value (and its `start`, `min`, `max`) is in the unit of its
+/// kind: N for `point_force`, Pa for `pressure`, m for `displacement`, N/m for
+/// `radial_edge_load`.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Load {
-    /// Total force in N along `direction` (normalised), split equally over the set's nodes.
-    /// Dead load: the direction does not follow the structure.
-    PointForce { nodes: NodeRef, direction: [f64; 3] },
-    /// Pressure in Pa on a membrane group. `follower: true`: normal to the deformed surface,
-    /// per deformed area (inflation). `follower: false`: dead, per reference area along the
-    /// reference normal.
+    /// Total force in N (the input's value) along `direction` (normalised; a negative value
+    /// pushes against it), split equally over the set's nodes. Dead load: the direction does
+    /// not follow the structure.
+    PointForce {
+        nodes: NodeRef,
+        /// Direction of a positive force (any length but zero; normalised).
+        direction: [f64; 3],
+    },
+    /// Pressure in Pa (the input's value) on every triangle of a membrane group. Sign: a
+    /// positive pressure pushes along the normal of the triangle's node order taken
+    /// counter-clockwise, n = (x2 − x1) × (x3 − x1) / |...| (right-hand rule); generated meshes
+    /// (`rectangle`, `disc`, `annulus`) are counter-clockwise seen from +z, so positive pushes
+    /// towards +z. A negative value pulls (suction). `follower: true` (default): along the
+    /// current normal, per current area (wind, inflation; with its load stiffness).
+    /// `follower: false`: dead, per reference area along the reference normal.
     Pressure {
+        /// Name of the membrane group loaded.
         membrane: String,
+        /// Follow the deformed surface (true, default) or stay dead (false).
         #[serde(default = "yes")]
         follower: bool,
     },
-    /// Prescribed displacement in m of one component of every node of the set.
+    /// Prescribed displacement in m (the input's value) of one component of every node of the
+    /// set, positive along the +axis of `component`. The component becomes held (not an
+    /// unknown); a `reaction` probe reads the force it needs.
     Displacement {
         nodes: NodeRef,
         component: Component,
     },
-    /// In-plane edge load in N/m (force per unit reference length of the edge polyline through
-    /// `nodes`, in order), directed radially away from `center` (negative: towards it). Each
-    /// edge segment gives half its load to each end node, along that node's radial direction.
-    /// Dead load. `closed`: the polyline returns from the last node to the first (a rim).
+    /// In-plane edge load in N/m (the input's value: force per unit reference length of the
+    /// edge polyline through `nodes`, in order), directed radially away from `center`
+    /// (positive: outward, negative: towards it). Each edge segment gives half its load to
+    /// each end node, along that node's radial direction. Dead load. `closed`: the polyline
+    /// returns from the last node to the first (a rim).
     RadialEdgeLoad {
         nodes: NodeRef,
         center: [f64; 3],

@@ -16,7 +16,7 @@
 //! # References
 //! Cai & Li 2011, *Inexact Newton methods with restricted additive Schwarz based nonlinear
 //! elimination*, SIAM J. Sci. Comput. 33:746-762; Brandt 1977 (nonlinear Gauss-Seidel
-//! smoothing); MECHANICS.md §1.4 (slack and wrinkled near-mechanisms).
+//! smoothing); docs/mechanics.md (slack and wrinkled near-mechanisms).
 
 use super::assemble::{pressure_contribution, segment_contribution, tie_contribution, triangle_contribution};
 use crate::model::membrane::Mat9;
