@@ -2,7 +2,7 @@
 //!       RIGHT answer (a closed form, exact statics, an exact symmetry or a hand bound) or, where
 //!       no equilibrium exists, the specific failure. No test accepts both convergence and
 //!       failure. On the solver of commit 79af9e6 (two Newton loops) 8 of the 19 passed; on the
-//!       one-loop solver 14 pass. The 5 that still fail are `#[ignore]`d with the reason and
+//!       one-loop solver 17 pass. The 3 that still fail are `#[ignore]`d with the reason and
 //!       the measured behaviour in the attribute: they are open work of issue 9, run them with
 //!       `cargo test --release --test hard_cases -- --ignored`.
 //!
@@ -565,7 +565,6 @@ fn hanging_string(ea: f64, l0: f64, p: f64) -> (f64, f64) {
 /// 1e-9 m (geometry; round-off 1e-16 of l), T within 1e-4 relative (strain 1.6e-11 carries a
 /// round-off of ε_mach/1.6e-11 ≈ 7e-6), vertical reaction = P within 1e-4 P (same floor).
 #[test]
-#[ignore = "open (issue 9): the damped steps reach the taut state after 9 iterations, then the kinked potential (slack -> taut) keeps the line search below α 0.1; Discard at load fraction 0"]
 fn f2_micro_load_on_a_slack_cable_longer_than_its_chord() {
     let mut scene = read_scene(&shipped("PrestressedCable"));
     scene.cables[0].pretension = None;
@@ -741,7 +740,6 @@ fn cushion(two_sheets: bool) -> Scene {
 ///     of the material line to an edge midpoint (Green strain <= σ1/E in a taut or wrinkled SVK
 ///     element, since ε2 >= −ν ε1 there); and the edge midpoints move inward (the rim contracts).
 #[test]
-#[ignore = "open (issue 9): the symmetric flat start wanders (residual up and down between 0.04 and 70 N over 25 iterations); Discard at load fraction 0"]
 fn h_two_sheet_cushion_inflated_from_flat() {
     let n = CUSHION_N;
     let mut e = engine(cushion(true));

@@ -115,7 +115,7 @@ impl Default for Settings {
     fn default() -> Settings {
         Settings {
             tolerance: 1e-9,
-            max_iterations: 25,
+            max_iterations: 50,
             initial_increment: 1.0,
             min_increment: 1e-4,
             target_iterations: 6,
