@@ -11,8 +11,10 @@
 //!           direction: (K + τ D) Δ = −R, slips eliminated by Schur    slip.rs
 //!           u ← u + α Δ, α from the line search                       line_search.rs
 //!           τ: 0 while Newton steps work; τ0 when the tangent is singular, the line search
-//!              fails or cuts α below 1e-5 (the step was far too long: a mechanism), ×4 on
-//!              every further such step; ÷8 after every full step (0 below τ_min)
+//!              fails or cuts α below 1e-5 (the step was far too long: a mechanism), or the
+//!              slips would take α below 1/4 to keep every sleeved segment (a sliding
+//!              mechanism), ×4 on every further such step; ÷8 after every full step (0 below
+//!              τ_min)
 //! ```
 //!
 //! # The convergence test
@@ -47,7 +49,7 @@ use super::active_set::{ActiveSet, Recheck};
 use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
 use super::line_search::{Direction, Merit, Trial};
 use super::relax::relax_nodes;
-use super::slip::{largest_gap, slip_rows, Row, MAX_GAP};
+use super::slip::{largest_gap, slip_rows, step_limit, Row, MAX_GAP};
 use super::{push_log, Solver};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
@@ -251,7 +253,12 @@ impl Solver {
                 },
                 merit,
             );
-            let trouble = !ok || alpha < self.settings.damping_trigger;
+            // A slip step that would shorten a sleeved segment by far more than its length is a
+            // sliding mechanism's step, like a line search cut to nothing.
+            let capped = !ds.is_empty()
+                && step_limit(model, u, &ds, self.settings.keep_length)
+                    < self.settings.damping_slip_cap;
+            let trouble = !ok || alpha < self.settings.damping_trigger || capped;
             last_alpha = alpha;
             for (d, &e) in self.pattern.eq.iter().enumerate() {
                 if e != NONE {
