@@ -57,7 +57,12 @@ impl ActiveSet {
 
     /// Record the wrinkle states of this iteration's assembly; freeze them when they still
     /// change at or after the freeze iteration.
-    pub fn observe_wrinkles(&mut self, it: usize, states: Vec<WrinkleState>, log: &mut Vec<String>) {
+    pub fn observe_wrinkles(
+        &mut self,
+        it: usize,
+        states: Vec<WrinkleState>,
+        log: &mut Vec<String>,
+    ) {
         if self.wrinkle_frozen.is_none() && it >= self.freeze_at && states != self.previous {
             let changed = states
                 .iter()
@@ -126,7 +131,10 @@ impl ActiveSet {
                 "wrinkle states keep changing (chatter)".into()
             });
         }
-        push_log(log, "  frozen states were wrong at convergence: iterating on".into());
+        push_log(
+            log,
+            "  frozen states were wrong at convergence: iterating on".into(),
+        );
         self.contact_frozen = false;
         self.wrinkle_frozen = None;
         self.freeze_at = it + self.freeze_after;

@@ -216,14 +216,22 @@ pub(super) fn triangle_contribution(
 
 /// One cable segment's internal force, tangent and energy at `u` (its unstretched length
 /// includes the slips at its sleeve ends).
-pub(super) fn segment_contribution(model: &Model, e: usize, u: &[f64]) -> (cable::Vec6, cable::Mat6, f64) {
+pub(super) fn segment_contribution(
+    model: &Model,
+    e: usize,
+    u: &[f64],
+) -> (cable::Vec6, cable::Mat6, f64) {
     let s = &model.segments[e];
     let x = gather(model, u, s.nodes);
     cable::segment(s.law, s.ea, model.segment_l0(u, e), &x[0], &x[1])
 }
 
 /// One sleeve tie's force (cable point, then membrane node), tangent and energy at `u`.
-pub(super) fn tie_contribution(model: &Model, e: usize, u: &[f64]) -> (cable::Vec6, cable::Mat6, f64) {
+pub(super) fn tie_contribution(
+    model: &Model,
+    e: usize,
+    u: &[f64],
+) -> (cable::Vec6, cable::Mat6, f64) {
     let t = &model.ties[e];
     let x = gather(model, u, t.nodes);
     let (f, w) = sleeve::tie_force(t.k, &x[0], &x[1]);
@@ -313,8 +321,15 @@ pub fn assemble_with(
         info.min_area_ratio = info.min_area_ratio.min(ratio);
     }
     let ns = model.segments.len();
-    let lines = (0..ns).map(|e| (e, segment_contribution(model, e, u), model.segments[e].nodes));
-    let ties = (0..model.ties.len()).map(|e| (ns + e, tie_contribution(model, e, u), model.ties[e].nodes));
+    let lines = (0..ns).map(|e| {
+        (
+            e,
+            segment_contribution(model, e, u),
+            model.segments[e].nodes,
+        )
+    });
+    let ties =
+        (0..model.ties.len()).map(|e| (ns + e, tie_contribution(model, e, u), model.ties[e].nodes));
     for (m, (f, ke, w), nodes) in lines.chain(ties) {
         add_force(r, &nodes, f.as_slice(), &mut extra.magnitude);
         info.carried = info.carried.max(largest(f.as_slice()));

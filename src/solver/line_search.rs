@@ -34,10 +34,15 @@ const SLOPE_RATIO: f64 = 0.5;
 #[derive(Clone, Copy, Debug)]
 pub(super) enum Merit {
     /// Π at the current point and the largest Π of the recent iterates.
-    Potential { value: f64, reference: f64 },
+    Potential {
+        value: f64,
+        reference: f64,
+    },
     Slope,
     /// ‖R‖₂ reference (the largest of the recent iterates).
-    Residual { reference: f64 },
+    Residual {
+        reference: f64,
+    },
 }
 
 /// The Newton direction: displacement part on equations, slip part per sleeve point.
@@ -64,7 +69,10 @@ impl Solver {
         merit: Merit,
     ) -> (f64, bool) {
         if !self.settings.line_search {
-            return (step_limit(model, u, dir.ds, self.settings.keep_length), true);
+            return (
+                step_limit(model, u, dir.ds, self.settings.keep_length),
+                true,
+            );
         }
         // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
         let s0 = self.direction_dot_residual(dir.dx);
@@ -126,10 +134,16 @@ impl Solver {
         let rows: Vec<f64> = if model.slips.is_empty() {
             Vec::new()
         } else {
-            slip_rows(model, &self.pattern.eq, &self.trial, at.committed, at.contact)
-                .iter()
-                .map(|r| r.r)
-                .collect()
+            slip_rows(
+                model,
+                &self.pattern.eq,
+                &self.trial,
+                at.committed,
+                at.contact,
+            )
+            .iter()
+            .map(|r| r.r)
+            .collect()
         };
         (info.potential, rows, inverted)
     }
@@ -207,7 +221,9 @@ impl Solver {
                 alpha *= 0.5;
                 continue;
             }
-            if std::env::var("VDEBUG").is_ok() { eprintln!("slope a={alpha} s0={s0} s={s} inv={inverted}"); }
+            if std::env::var("VDEBUG").is_ok() {
+                eprintln!("slope a={alpha} s0={s0} s={s} inv={inverted}");
+            }
             if s.abs() <= SLOPE_RATIO * s0.abs() || s < 0.0 {
                 // Close enough to the minimum, or still descending: take it.
                 return (alpha, true);

@@ -52,7 +52,11 @@ pub fn diagnose(model: &Model) -> Option<String> {
     }
     for nodes in parts.values() {
         let count = nodes.len() as f64;
-        let c: Vector3<f64> = nodes.iter().map(|&i| model.reference[i]).sum::<Vector3<f64>>() / count;
+        let c: Vector3<f64> = nodes
+            .iter()
+            .map(|&i| model.reference[i])
+            .sum::<Vector3<f64>>()
+            / count;
         let size = nodes
             .iter()
             .map(|&i| (model.reference[i] - c).norm())
@@ -62,8 +66,10 @@ pub fn diagnose(model: &Model) -> Option<String> {
         for &i in nodes {
             let r = (model.reference[i] - c) / size;
             let mut m = SMatrix::<f64, 3, 6>::zeros();
-            m.fixed_view_mut::<3, 3>(0, 0).copy_from(&Matrix3::identity());
-            m.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-r.cross_matrix()));
+            m.fixed_view_mut::<3, 3>(0, 0)
+                .copy_from(&Matrix3::identity());
+            m.fixed_view_mut::<3, 3>(0, 3)
+                .copy_from(&(-r.cross_matrix()));
             for comp in 0..3 {
                 let row = m.row(comp).transpose();
                 let g = row * row.transpose();
@@ -76,7 +82,11 @@ pub fn diagnose(model: &Model) -> Option<String> {
         let top = all.symmetric_eigenvalues().amax();
         let free = rank(&all, top) - rank(&held, top);
         if free > 0 {
-            let mut ids: Vec<String> = nodes.iter().take(NAMED_NODES).map(|i| i.to_string()).collect();
+            let mut ids: Vec<String> = nodes
+                .iter()
+                .take(NAMED_NODES)
+                .map(|i| i.to_string())
+                .collect();
             if nodes.len() > NAMED_NODES {
                 ids.push(format!("… ({} nodes)", nodes.len()));
             }

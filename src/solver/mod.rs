@@ -21,10 +21,10 @@
 //! Crisfield 1991, *Non-linear Finite Element Analysis of Solids and Structures*, vol. 1, §9.3
 //! (line search on the slope); Bonet & Wood 2008, §9.6; docs/mechanics.md (solver).
 
-pub mod assemble;
 mod active_set;
-pub mod linear;
+pub mod assemble;
 mod line_search;
+pub mod linear;
 pub mod mechanism;
 mod newton;
 mod path;
@@ -235,10 +235,7 @@ impl Solver {
         let trial_len = model.unknown_count();
         let diagonal_positions = (0..pattern.n).map(|j| pattern.col_ptr[j + 1] - 1).collect();
         let reference_diagonal = reference_diagonal(model, &pattern);
-        let reference_size = model
-            .reference
-            .iter()
-            .fold(0.0f64, |m, x| m.max(x.amax()));
+        let reference_size = model.reference.iter().fold(0.0f64, |m, x| m.max(x.amax()));
         Solver {
             settings,
             linear,

@@ -145,7 +145,10 @@ impl Solver {
                     check = self.check(model, &info, &rows, u, inc, it);
                     push_log(
                         log,
-                        format!("  stalled: relaxed {moved} nodes, |R| {before:.3e} -> {:.3e}", check.free),
+                        format!(
+                            "  stalled: relaxed {moved} nodes, |R| {before:.3e} -> {:.3e}",
+                            check.free
+                        ),
                     );
                 }
             }
@@ -334,11 +337,7 @@ impl Solver {
                 m.max(r.r.abs())
             }
         });
-        let scale = info
-            .external
-            .max(held)
-            .max(info.carried)
-            .max(inc.change);
+        let scale = info.external.max(held).max(info.carried).max(inc.change);
         let tolerance = self.settings.tolerance * scale;
         let first_of_changed_step = it == 0 && inc.moved;
         let x = self.coordinate_size(model, u);

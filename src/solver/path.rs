@@ -87,7 +87,13 @@ impl Solver {
                 moved,
             };
             let result = self
-                .newton(model, &increment, &mut trial, &mut trial_states, &mut report.log)
+                .newton(
+                    model,
+                    &increment,
+                    &mut trial,
+                    &mut trial_states,
+                    &mut report.log,
+                )
                 .map(|i| i + predicted)
                 .map_err(|(i, why)| (i + predicted, why));
             match result {

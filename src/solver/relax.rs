@@ -18,7 +18,9 @@
 //! elimination*, SIAM J. Sci. Comput. 33:746-762; Brandt 1977 (nonlinear Gauss-Seidel
 //! smoothing); docs/mechanics.md (slack and wrinkled near-mechanisms).
 
-use super::assemble::{pressure_contribution, segment_contribution, tie_contribution, triangle_contribution};
+use super::assemble::{
+    pressure_contribution, segment_contribution, tie_contribution, triangle_contribution,
+};
 use crate::model::membrane::Mat9;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{LoadModel, Model};
@@ -135,7 +137,11 @@ fn local(
     let lines = adj.segments[node]
         .iter()
         .map(|&(e, a)| (segment_contribution(model, e, u), a))
-        .chain(adj.ties[node].iter().map(|&(e, a)| (tie_contribution(model, e, u), a)));
+        .chain(
+            adj.ties[node]
+                .iter()
+                .map(|&(e, a)| (tie_contribution(model, e, u), a)),
+        );
     for ((f, k, w), a) in lines {
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += k.fixed_view::<3, 3>(3 * a, 3 * a);

@@ -214,7 +214,8 @@ pub(super) fn slip_rows(
                 };
             }
             let sigma_mu = states[j].sigma() * p.mu;
-            let magnitude = (1.0 + p.mu) * (model.segment_tension(u, a) + model.segment_tension(u, b));
+            let magnitude =
+                (1.0 + p.mu) * (model.segment_tension(u, a) + model.segment_tension(u, b));
             let (r, dxs, dl) = sleeve::slip_row(
                 SegmentLaw {
                     law: sa.law,
