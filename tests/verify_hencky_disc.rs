@@ -6,7 +6,12 @@
 //! PARAMETERS: a = 0.5 m, h = 0.1 mm, E = 200 MPa, ν = 0.3, q = 40 Pa, so qa/(Eh) = 1e-3.
 //! REFERENCE: docs/mechanics.md §4a, exact-kinematics table (axisymmetric SVK membrane with finite
 //!            rotations, shooting): w0/a = 0.065338 (dead: load per reference area along z)
-//!            and 0.065404 (follower). Tolerance 1 % at 20 rings (the target).
+//!            and 0.065404 (follower). The CST discretisation error is O(h²): measured
+//!            6.21e-3, 1.74e-3, 4.79e-4 at 5, 10, 20 rings (follower; ratios 3.6 per halving of
+//!            h) and 4.77e-4 at 20 rings (dead). Tolerance 1e-3 at 20 rings (about 2x the
+//!            measured error, which the solver tolerance 1e-9 does not move), and each halving
+//!            of h must cut the error by more than 3 (the O(h²) rate, 4, less round-off of
+//!            the reference's 5 digits).
 
 mod common;
 use common::*;
@@ -35,22 +40,24 @@ fn deflection(rings: usize, follower: bool) -> f64 {
 }
 
 #[test]
-fn follower_pressure_within_one_percent_and_converging() {
+fn follower_pressure_within_1e3_and_converging_as_h_squared() {
     let errors: Vec<f64> = [5, 10, 20]
         .iter()
         .map(|&n| rel(deflection(n, true), W_FOLLOWER))
         .collect();
-    assert!(errors[2] < 0.01, "20 rings: error {:.3e}", errors[2]);
+    println!("follower errors at 5, 10, 20 rings: {errors:?}");
+    assert!(errors[2] < 1e-3, "20 rings: error {:.3e}", errors[2]);
     assert!(
-        errors[0] > errors[1] && errors[1] > errors[2],
-        "error must fall with refinement: {errors:?}"
+        errors[0] > 3.0 * errors[1] && errors[1] > 3.0 * errors[2],
+        "error must fall as h² with refinement: {errors:?}"
     );
 }
 
 #[test]
-fn dead_pressure_within_one_percent() {
+fn dead_pressure_within_1e3() {
     let w = deflection(20, false);
-    assert!(rel(w, W_DEAD) < 0.01, "w0/a = {w} vs {W_DEAD}");
+    println!("dead 20 rings: error {:e}", rel(w, W_DEAD));
+    assert!(rel(w, W_DEAD) < 1e-3, "w0/a = {w} vs {W_DEAD}");
 }
 
 /// Vertical equilibrium: the rim reaction carries the whole load, q times the projected area
@@ -75,7 +82,8 @@ fn rim_reaction_balances_the_pressure() {
 /// Unloading back towards the singular flat state: from q = 40 Pa to q = 0.04 Pa in one step,
 /// qa/(Eh) = 1e-6, where the deflection is the small-rotation Hencky value
 /// w0/a = 0.65343 (qa/Eh)^(1/3) (docs/mechanics.md §4a, ν = 0.3, table row 1e-4: the coefficient no
-/// longer depends on the load). Tolerance 1 % at the shipped 16 rings (0.07 % at qa/Eh = 1e-3).
+/// longer depends on the load). Measured 7.5e-4 at the shipped 16 rings (the O(h²) mesh error,
+/// the same as at qa/Eh = 1e-3 on this mesh); tolerance 2e-3.
 /// The step must also go through without internal cut-back: near the flat state the membrane
 /// stress is tiny, and the artificial prestress (fading with the residual) must not make the
 /// last iterations crawl.
@@ -90,5 +98,6 @@ fn unloading_towards_the_flat_state_follows_hencky() {
     assert_eq!(report.increments, 1, "{}", report.log.join("\n"));
     let expected = 0.65343 * (1e-6f64).cbrt();
     let w = get(&e, "center_uz") / A;
-    assert!(rel(w, expected) < 1e-2, "w0/a = {w} vs {expected}");
+    println!("unloaded: w0/a {w} vs {expected}: {:e}", rel(w, expected));
+    assert!(rel(w, expected) < 2e-3, "w0/a = {w} vs {expected}");
 }

@@ -5,8 +5,9 @@
 //! MESH: annulus generator, a = 1 m, b = 4 m (ρ = 4), 36 rings x 96 sectors, uniform.
 //!       Ring k holds nodes k·SECTORS .. (k+1)·SECTORS − 1.
 //! BOUNDARY CONDITIONS: radial edge loads: inner rim −T_in t (inwards), outer rim +T_out t;
-//!       every node held in z; node (a, 0) held in y and node (0, a) in x (rigid in-plane
-//!       modes; their reactions vanish by symmetry).
+//!       every node held in z; node (a, 0) held in y and node (0, a) in x (the rigid in-plane
+//!       translations; a rotation about (a, a) is left free, but the radial loads do no work on
+//!       it, so it is harmless and the solver's mechanism check does not report it).
 //! PARAMETERS: SVK E = 1 MPa, ν = 0.3, t = 1 mm, T_out = 1 kPa, τ = T_in/T_out.
 //! REFERENCE: docs/mechanics.md §4b (Davidovitch et al. 2011; Taylor et al. 2015):
 //!            L/a = (ρ²/τ)(1 − sqrt(1 − τ²/ρ²)); for ρ = 4: τ = 2.5 → 1.40400, τ = 3.0 →

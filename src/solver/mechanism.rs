@@ -7,6 +7,9 @@
 //! rigid modes v(x) = t + ω × (x − c): 6 columns per node, [I, −[(x − c)/L]×] (L: part size)
 //! free        rank of the modes over all the part's DOFs > rank over its held DOFs
 //!             (a rigid motion that moves the part but no held DOF)
+//! loaded      the external load does work on a free motion: g = Σ_nodes f·v(x) ≠ 0
+//!             (a free motion the loads balance, e.g. a rotation of a symmetrically loaded
+//!             ring about a point no support holds, is harmless and not reported)
 //! ```
 
 use crate::model::Model;
@@ -16,8 +19,8 @@ use nalgebra::{Matrix3, Matrix6, SMatrix, Vector3};
 const NAMED_NODES: usize = 12;
 
 /// A sentence naming a part of the model that can move as a rigid body with no support to
-/// stop it, or None when every part is held.
-pub fn diagnose(model: &Model) -> Option<String> {
+/// stop it while the external forces `f_ext` (per DOF) do work on that motion, or None.
+pub fn diagnose(model: &Model, f_ext: &[f64]) -> Option<String> {
     let n = model.reference.len();
     let mut parent: Vec<usize> = (0..n).collect();
     fn find(p: &mut [usize], mut i: usize) -> usize {
@@ -63,6 +66,8 @@ pub fn diagnose(model: &Model) -> Option<String> {
             .fold(0.0, f64::max)
             .max(f64::MIN_POSITIVE);
         let (mut all, mut held) = (Matrix6::<f64>::zeros(), Matrix6::<f64>::zeros());
+        // Generalized load (work on each rigid mode) and the size of the loads on the part.
+        let (mut work, mut load) = (nalgebra::Vector6::<f64>::zeros(), 0.0f64);
         for &i in nodes {
             let r = (model.reference[i] - c) / size;
             let mut m = SMatrix::<f64, 3, 6>::zeros();
@@ -76,12 +81,23 @@ pub fn diagnose(model: &Model) -> Option<String> {
                 all += g;
                 if model.held[3 * i + comp] {
                     held += g;
+                } else {
+                    let f = f_ext.get(3 * i + comp).copied().unwrap_or(0.0);
+                    work += row * f;
+                    load += f.abs();
                 }
             }
         }
         let top = all.symmetric_eigenvalues().amax();
         let free = rank(&all, top) - rank(&held, top);
-        if free > 0 {
+        // The free motions: directions the held DOFs do not see but the part's nodes do.
+        let eig = held.symmetric_eigen();
+        let loaded = (0..6).any(|k| {
+            let v = eig.eigenvectors.column(k);
+            let moves = (all * v).norm() > 1e-10 * top;
+            eig.eigenvalues[k] <= 1e-10 * top && moves && v.dot(&work).abs() > 1e-9 * load
+        });
+        if free > 0 && loaded {
             let mut ids: Vec<String> = nodes
                 .iter()
                 .take(NAMED_NODES)
@@ -91,7 +107,7 @@ pub fn diagnose(model: &Model) -> Option<String> {
                 ids.push(format!("… ({} nodes)", nodes.len()));
             }
             return Some(format!(
-                "the structure is a mechanism: nodes {} form a part with {free} rigid-body motion{} that no support stops (fix more components of its nodes, or connect it to a supported part)",
+                "the structure is a mechanism: nodes {} form a part with {free} rigid-body motion{} that no support stops and the loads push along (fix more components of its nodes, or connect it to a supported part)",
                 ids.join(", "),
                 if free == 1 { "" } else { "s" }
             ));

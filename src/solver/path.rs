@@ -120,7 +120,13 @@ impl Solver {
                             "no equilibrium found beyond load fraction {lambda:.6} of the step (smallest increment {:.1e} failed: {why})",
                             s.min_increment
                         );
-                        if let Some(why) = super::mechanism::diagnose(model) {
+                        let reached: Vec<f64> = from
+                            .iter()
+                            .zip(to)
+                            .map(|(a, b)| a + target * (b - a))
+                            .collect();
+                        let f_ext = external_forces(model, &reached);
+                        if let Some(why) = super::mechanism::diagnose(model, &f_ext) {
                             report.message.push_str(&format!("; {why}"));
                         }
                         return report;
@@ -231,6 +237,34 @@ fn load_change(model: &Model, from: &[f64], to: &[f64]) -> f64 {
         }
     }
     f.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+/// External forces per DOF under `loads`, pressures on the reference geometry (the loads a
+/// mechanism diagnosis weighs against the rigid motions).
+fn external_forces(model: &Model, loads: &[f64]) -> Vec<f64> {
+    let mut f = vec![0.0f64; model.dof_count()];
+    for (load, &value) in model.loads.iter().zip(loads) {
+        match load {
+            LoadModel::PointForce(dofs) => {
+                for &(d, unit) in dofs {
+                    f[d] += unit * value;
+                }
+            }
+            LoadModel::Pressure { triangles, .. } => {
+                for &e in triangles {
+                    let t = &model.triangles[e];
+                    let share = t.reference.normal * (value * t.reference.area / 3.0);
+                    for &i in &t.nodes {
+                        for c in 0..3 {
+                            f[3 * i + c] += share[c];
+                        }
+                    }
+                }
+            }
+            LoadModel::Displacement(_) => {}
+        }
+    }
+    f
 }
 
 /// Set prescribed DOFs to their load values.
