@@ -10,13 +10,14 @@
 //!       full-slip load T0 r^N, r^N ≤ 2.72).
 //! REFERENCE: docs/mechanics.md §2.3 and §4f: at full slip every kink satisfies the bisector Coulomb
 //!       law T_b/T_a = (1 + μ tan(Δθ/2))/(1 − μ tan(Δθ/2)), so T_last/T_first is the product of
-//!       that ratio over the deformed kinks (tolerance 1e-6 relative); with Δθ = θ/N the product
+//!       that ratio over the deformed kinks (measured ≤ 2.5e-12, tolerance 1e-8: the force
+//!       tolerance allows 6e-9); with Δθ = θ/N the product
 //!       is ((1+μ tan(θ/2N))/(1−μ tan(θ/2N)))^N → exp(μθ) = 2.566332 (§4f table: +5.84 % at N = 4,
-//!       +0.08 % at N = 32; tolerance: within 1 % at N ≥ 32).
+//!       +0.08 % at N = 32, measured +0.083 % and +0.021 % at N = 32 and 64; tolerance 0.1 % at
+//!       N = 32 and 0.03 % at N = 64, the O(1/N²) discretisation error of the kinked sleeve).
 
 mod common;
 use common::*;
-use velarium::model::sleeve;
 use velarium::Scene;
 
 const MU: f64 = 0.3;
@@ -77,8 +78,9 @@ fn pull(n: usize) -> (f64, f64, f64, f64) {
                 model.position(u, p.node),
                 model.position(u, p.next),
             );
-            let kink = (xc - xp).angle(&(xq - xc));
-            sleeve::slip_ratio(MU, kink)
+            // The bisector law written out here, not taken from the code under test.
+            let t = ((xc - xp).angle(&(xq - xc)) / 2.0).tan();
+            (1.0 + MU * t) / (1.0 - MU * t)
         })
         .product();
     let ratio = get(&e, "T_last") / get(&e, "T_first");
@@ -106,15 +108,21 @@ fn full_slip_ratio_is_the_bisector_law_and_tends_to_capstan() {
             100.0 * (ratio / capstan - 1.0)
         );
         assert_eq!(slipping, n as f64, "every sleeve point slips at full slip");
-        assert!(rel(ratio, product) < 1e-6);
-        // The rigid sleeve deforms only through the ties: the deformed kinks are the nominal ones
-        // to the tie compliance (gap/ℓ ≤ 1e-3), so the §4f formula holds to well under 0.1 %.
-        assert!(rel(ratio, discrete) < 1e-3);
+        // Measured ≤ 2.5e-12; the residual criterion (1e-9 of forces up to 60 N, on tensions of
+        // at least 10 N) allows 6e-9.
+        assert!(rel(ratio, product) < 1e-8);
+        // The rigid sleeve deforms only through the ties: each kink differs from the nominal
+        // θ/N by about the tie gap over ℓ (≤ 4.3e-6 measured), so the §4f formula holds to
+        // ~μ·gap/ℓ per kink: measured ≤ 7e-7 (N = 4); tolerance 2e-6.
+        assert!(rel(ratio, discrete) < 2e-6);
         assert!(gap < 1e-3, "penetration {gap:e} of the segment length");
         assert!(err < last_error, "error falls with refinement");
         last_error = err;
-        if n >= 32 {
-            assert!(err < 0.01, "within 1 % of exp(μθ) at N = {n}");
+        if n == 32 {
+            assert!(err < 1e-3, "within 0.1 % of exp(μθ) at N = 32: {err:e}");
+        }
+        if n == 64 {
+            assert!(err < 3e-4, "within 0.03 % of exp(μθ) at N = 64: {err:e}");
         }
     }
 }

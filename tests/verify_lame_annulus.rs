@@ -13,7 +13,7 @@
 //!            L/a = (ρ²/τ)(1 − sqrt(1 − τ²/ρ²)); for ρ = 4: τ = 2.5 → 1.40400, τ = 3.0 →
 //!            1.80566, τ = 3.5 → 2.35830; σ_θ = 0 and σ_r = T_in a/r for a < r < L.
 //!            Tolerances: wrinkled radius within one element (radial size 1/12 m); σ_r r within
-//!            1 % of T_in a, measured as the radial membrane force per radian crossing each
+//!            1e-3 of T_in a (measured 2.3e-4, 3.5e-4, 5.1e-4 at τ = 2.5, 3, 3.5), measured as the radial membrane force per radian crossing each
 //!            ring of nodes in the wrinkled zone (the constant-strain stress at a centroid
 //!            carries an O(element width / r) error of 2-3 % on this mesh, so the pointwise value
 //!            is not the measure of the field); |σ_θ| below 1e-6 T_in in every wrinkled element
@@ -110,7 +110,7 @@ fn wrinkled_radius_hoop_and_radial_stress() {
             let flow = radial_force_per_radian(&e, k) / T;
             worst_rs = worst_rs.max((flow - t_in * A).abs() / (t_in * A));
         }
-        assert!(worst_rs < 0.01, "τ {tau}: σ_r r off by {worst_rs:.3e}");
+        assert!(worst_rs < 1e-3, "τ {tau}: σ_r r off by {worst_rs:.3e}");
         assert!(
             worst_hoop < 1e-6,
             "τ {tau}: hoop stress {worst_hoop:.3e} T_in in the wrinkled zone"
