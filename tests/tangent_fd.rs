@@ -48,6 +48,7 @@ fn fd_error<const N: usize>(
 #[test]
 fn membrane_tangent_matches_finite_differences() {
     let mut rng = Rng(0x9E3779B97F4A7C15);
+    let mut worst = 0.0f64;
     for _ in 0..200 {
         let reference = [
             Vector3::zeros(),
@@ -71,8 +72,12 @@ fn membrane_tangent_matches_finite_differences() {
             .map(|p| p * 1.05 + rng.vec3(0.15))
             .collect();
         let (_, k, _) = tri(&r, &mat, &x);
-        let err = fd_error(&x, &k, |y| tri(&r, &mat, y).0, 1e-6);
-        assert!(err < 1e-6, "membrane tangent error {err:e}");
+        // Entry by entry, with entries below 1e-3 of the elastic scale held to 1e-9 of it.
+        let k0 = tri(&r, &mat, &reference).1.abs().max();
+        let err = fd_error_entrywise(&x, &k, |y| tri(&r, &mat, y).0, 1e-6, 1e-3 * k0);
+        worst = worst.max(err);
+        // Measured worst 2.1e-8 over the 200 samples; tolerance 1e-7.
+        assert!(err < 1e-7, "membrane tangent error {err:e}");
         let (f_only, _) = membrane::triangle(&r, &mat, 0.0, &[x[0], x[1], x[2]], None, None);
         assert_eq!(
             f_only.as_slice(),
@@ -80,6 +85,7 @@ fn membrane_tangent_matches_finite_differences() {
             "residual-only path must agree bit for bit"
         );
     }
+    println!("plain SVK membrane: worst entry-wise error {worst:e}");
 }
 
 #[test]
@@ -243,4 +249,120 @@ fn assembled_tangent_matches_finite_differences() {
         }
         assert!(worst < 1e-6, "{name}: assembled tangent error {worst:e}");
     }
+}
+
+/// Worst entry-wise error of K against the central difference of `force`:
+/// max over (i, j) of |K_ij − FD_ij| / (|K_ij| + floor), each entry against its own size, with
+/// an absolute `floor` (N/m) for entries that vanish.
+fn fd_error_entrywise<const N: usize>(
+    x: &[Vector3<f64>],
+    k: &SMatrix<f64, N, N>,
+    force: impl Fn(&[Vector3<f64>]) -> Vec<f64>,
+    h: f64,
+    floor: f64,
+) -> f64 {
+    let mut worst = 0.0f64;
+    for j in 0..N {
+        let (node, c) = (j / 3, j % 3);
+        let mut xp = x.to_vec();
+        let mut xm = x.to_vec();
+        xp[node][c] += h;
+        xm[node][c] -= h;
+        let (fp, fm) = (force(&xp), force(&xm));
+        for i in 0..N {
+            let fd = (fp[i] - fm[i]) / (2.0 * h);
+            worst = worst.max((k[(i, j)] - fd).abs() / (k[(i, j)].abs() + floor));
+        }
+    }
+    worst
+}
+
+/// The wrinkling law's tangent (taut, wrinkled and slack states, SVK and neo-Hookean), entry by
+/// entry, at states away from the switch: a sample counts only when the state is the same at
+/// every point of a ±1e-4 box around it (a hundred times the difference step), so the central
+/// difference never straddles a state border. Step h = 1e-6 of the element size: the O(h²)
+/// truncation is ~1e-12 relative, round-off ~1e-10 of the entry; tolerance per entry 1e-7
+/// (taut; measured 3.3e-8) and 1e-6 (wrinkled, slack; measured 3.6e-7: the rotating tension
+/// direction makes the difference quotient noisier) plus an absolute floor in units of the element's elastic scale k0 (the largest entry of its
+/// tangent in the unstressed reference state): 1e-3 k0 for taut elements (entries below it
+/// are held to 1e-9 k0), and 3 k0 for wrinkled and slack ones, whose tangent carries the
+/// tangent-only regularisation ε·D0 (ε = wrinkling::REGULARIZATION = 1e-6, not in the
+/// forces): an entry may differ from the difference quotient by up to ε k0, held to 3e-6 k0.
+#[test]
+fn wrinkling_tangent_matches_finite_differences_entry_by_entry() {
+    use velarium::model::wrinkling::WrinkleState;
+    let mut rng = Rng(0x2545F4914F6CDD1D);
+    let mut counts = [0usize; 3];
+    let mut worst = [0.0f64; 3];
+    for sample in 0..600 {
+        let reference = [
+            Vector3::zeros(),
+            Vector3::new(1.0, 0.1, 0.0),
+            Vector3::new(0.3, 0.9, 0.0),
+        ]
+        .map(|p| p + rng.vec3(0.05).component_mul(&Vector3::new(1.0, 1.0, 0.0)));
+        let r = membrane::triangle_ref(reference).unwrap();
+        let law = if sample % 2 == 0 {
+            Law::Svk {
+                young: 2e8,
+                nu: 0.3,
+            }
+        } else {
+            Law::NeoHookean { mu: 1e5 }
+        };
+        let mat = membrane::Material {
+            law,
+            thickness: 1e-4,
+            wrinkling: true,
+        };
+        // Stretch in one direction, compress or stretch in the other, rotate out of plane:
+        // taut, wrinkled and slack states all occur.
+        let (s1, s2) = (1.0 + 0.2 * (rng.next() - 0.3), 1.0 + 0.2 * (rng.next() - 0.6));
+        let x: Vec<Vector3<f64>> = reference
+            .iter()
+            .map(|p| Vector3::new(p.x * s1, p.y * s2, 0.3 * p.x * p.y) + rng.vec3(0.02))
+            .collect();
+        let state = |y: &[Vector3<f64>]| {
+            membrane::triangle(&r, &mat, 0.0, &[y[0], y[1], y[2]], None, None)
+                .1
+                .state
+        };
+        let s0 = state(&x);
+        let stable = (0..9).all(|j| {
+            [-1e-4, 1e-4].iter().all(|&d| {
+                let mut y = x.clone();
+                y[j / 3][j % 3] += d;
+                state(&y) == s0
+            })
+        });
+        if !stable {
+            continue;
+        }
+        let (_, k, _) = tri(&r, &mat, &x);
+        let k0 = tri(&r, &mat, &reference).1.abs().max();
+        let floor = if s0 == WrinkleState::Taut {
+            1e-3 * k0
+        } else {
+            3.0 * velarium::model::wrinkling::REGULARIZATION / 1e-6 * k0
+        };
+        let err = fd_error_entrywise(&x, &k, |y| tri(&r, &mat, y).0, 1e-6, floor);
+        let which = match s0 {
+            WrinkleState::Taut => 0,
+            WrinkleState::Wrinkled => 1,
+            WrinkleState::Slack => 2,
+        };
+        counts[which] += 1;
+        worst[which] = worst[which].max(err);
+        // Measured worst: taut 3.3e-8, wrinkled 3.6e-7, slack 3.3e-7.
+        let tolerance = if s0 == WrinkleState::Taut { 1e-7 } else { 1e-6 };
+        assert!(
+            err < tolerance,
+            "{s0:?} tangent, entry-wise error {err:e} (sample {sample})"
+        );
+    }
+    println!("samples taut/wrinkled/slack {counts:?}, worst entry-wise error {worst:?}");
+    assert!(
+        counts.iter().all(|&c| c >= 20),
+        "every state sampled away from the switch: {counts:?}"
+    );
 }
