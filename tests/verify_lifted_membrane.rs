@@ -8,7 +8,8 @@
 //! REFERENCE: seed paper §4 (docs/mechanics.md §0): prestress "influences only the iteration path".
 //!            The two equilibria must agree within the solver tolerance: the residual
 //!            criterion 1e-9 bounds the displacement difference by about 1e-9 relative times
-//!            the condition of the tangent; we require 1e-7 relative on every output.
+//!            the condition of the tangent; measured 1.1e-10 of the largest displacement over
+//!            the whole field, required 1e-9 (and 1e-7 on every output).
 
 mod common;
 use common::*;
@@ -59,9 +60,10 @@ fn equilibrium_does_not_depend_on_the_artificial_prestress() {
     let b = lift_state(200.0, 50.0);
     assert!(a.converged && b.converged, "{} / {}", a.message, b.message);
     // The whole field, not a few outputs (one of which, the reaction, equals the load at any
-    // equilibrium): every displacement component within 1e-7 of the largest displacement.
+    // equilibrium): every displacement component within 1e-9 of the largest displacement
+    // (measured 1.1e-10: both points meet the residual tolerance 1e-9 of the forces).
     let d = field_difference(&a.displacement, &b.displacement);
-    assert!(d < 1e-7, "displacement fields differ by {d:e} of the largest displacement");
+    assert!(d < 1e-9, "displacement fields differ by {d:e} of the largest displacement");
     assert_eq!(a.wrinkle, b.wrinkle, "wrinkle state of every triangle");
     assert_ne!(
         a.iterations, b.iterations,
@@ -87,12 +89,13 @@ fn without_prestress_the_flat_start_reaches_the_same_equilibrium() {
     // With no artificial prestress the first tangent has no out-of-plane stiffness at all:
     // the LDLT regularises the zero pivots and the damped Newton (src/solver/newton.rs) takes
     // the iteration off the flat state. The equilibrium exists and is the one the prestressed
-    // runs find: the same displacement field within 1e-7 and the same wrinkle states.
+    // runs find: the same displacement field within 1e-9 (measured 7.6e-11) and the same
+    // wrinkle states.
     let none = lift_state(0.0, 50.0);
     assert!(none.converged, "{}", none.message);
     let reference = lift_state(200.0, 50.0);
     let d = field_difference(&reference.displacement, &none.displacement);
-    assert!(d < 1e-7, "displacement fields differ by {d:e}");
+    assert!(d < 1e-9, "displacement fields differ by {d:e}");
     assert_eq!(none.wrinkle, reference.wrinkle);
-    println!("no prestress: {} iterations", none.iterations);
+    println!("no prestress: {} iterations, field difference {d:.1e}", none.iterations);
 }
