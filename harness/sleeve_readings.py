@@ -23,6 +23,18 @@ import sleeve_table as st
 import velarium_run as vr
 
 OUT = vr.ROOT / "build" / "table1_readings.json"
+# The second reading is not a shipped scene yet (it does not converge past 2P = 0.19 N with the
+# current solver, docs/mechanics.md §7): kept in examples/ and packed here into build/fmus/.
+DRAWSTRING = vr.ROOT / "examples" / "SleeveDrawstring.json"
+
+
+def pack_drawstring() -> None:
+    import subprocess
+
+    vr.FMU_DIR.mkdir(parents=True, exist_ok=True)
+    run = subprocess.run([str(vr.VELARIUM), "pack", str(DRAWSTRING), "--out", str(vr.FMU_DIR)], capture_output=True, text=True)
+    if run.returncode != 0:
+        sys.exit(f"packing {DRAWSTRING} failed:\n{run.stderr}")
 # SleeveDrawstring's free constants: rubber shear modulus 3e4-1e6 Pa (a soft natural rubber to a
 # stiff plastic film, E = 3 mu = 0.09-3 MPa) and sleeve friction 0-1.5 (the bounds of the
 # SleeveCable fit); a coarse grid, each point one FMU run over Table 1 and one over 2P in 0.05 N
@@ -77,6 +89,7 @@ def stopped(scene: str, mu_r: float, mu_f: float, loads: np.ndarray) -> tuple[np
 
 
 def main() -> int:
+    pack_drawstring()
     for name in st.READINGS:
         if not (vr.FMU_DIR / f"{name}.fmu").is_file():
             sys.exit(f"{vr.FMU_DIR / name}.fmu is missing: run bash harness/main.sh")
