@@ -41,7 +41,8 @@ def residuals(x: np.ndarray, exp: np.ndarray, loads: np.ndarray) -> np.ndarray:
     except Exception as e:  # an error status: a bad point, not a crash of the fit
         DISCARDED.append((10.0 ** x[0], x[1], str(e)))
         return np.full(4 * (len(loads) - 1), FAILED)
-    if len(ours) < len(loads):  # the FMU discarded a step and stopped early
+    # The FMU discarded a step: fmpy stops (or records the last successful time once more).
+    if len(ours) < len(loads) or messages or np.any(np.diff(ours["time"]) <= 0):
         DISCARDED.append((10.0 ** x[0], x[1], messages[-1] if messages else "stopped early"))
         return np.full(4 * (len(loads) - 1), FAILED)
     return np.concatenate([1e3 * (ours[o][1:] - exp[c][1:]) for c, o in st.QUANTITIES])
@@ -78,10 +79,14 @@ def main() -> int:
     print(f"  mu_rubber   = {mu_rubber:.4g} Pa  (E = 3 mu = {3 * mu_rubber / 1e6:.3g} MPa, thickness 0.5 mm)")
     print(f"  mu_friction = {mu_friction:.4g}  (RMS changes by {spread:+.3f} mm for mu_friction ± 0.1)")
     print(f"  RMS error {rms:.2f} mm over 16 entries; per quantity: " + ", ".join(f"{k} {v:.2f} mm" for k, v in per.items()))
+    # Confidence: singular values of the residual Jacobian at the optimum (mm per unit of
+    # log10(mu_rubber / Pa) and of mu_friction); a small one is a direction Table 1 does not fix.
+    sv = [float(s) for s in np.linalg.svd(fit.jac, compute_uv=False)]
+    print("  singular values of the residual Jacobian at the optimum: " + ", ".join(f"{s:.3g}" for s in sv))
     st.CALIBRATION.parent.mkdir(parents=True, exist_ok=True)
     st.CALIBRATION.write_text(json.dumps({
         "mu_rubber": mu_rubber, "mu_friction": mu_friction, "rms_mm": rms, "rms_per_quantity_mm": per,
-        "rms_change_for_mu_friction_pm_0.1_mm": spread, "evaluations": evaluations,
+        "rms_change_for_mu_friction_pm_0.1_mm": spread, "jacobian_singular_values": sv, "evaluations": evaluations,
     }, indent=1))
     print(f"wrote {st.CALIBRATION.relative_to(st.vr.ROOT)}")
     return 0

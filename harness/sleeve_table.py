@@ -34,6 +34,12 @@ CALIBRATION = vr.ROOT / "build" / "sleeve_calibration.json"
 PLOTS = vr.ROOT / "build" / "plots"
 # The scene's constant pull on the cable's free end (its start value), N.
 PRELOAD = 0.3
+# The readings of Fig. 1 (docs/mechanics.md §7) and the constant cable-end pulls each keeps at its
+# start value during the Table 1 path, N.
+READINGS = {
+    "SleeveCable": {"cable_preload": PRELOAD},
+    "SleeveDrawstring": {"cable_preload_top": 0.15, "cable_preload_bottom": 0.15},
+}
 # Table 1 columns and our outputs, in m.
 QUANTITIES = [("node_A_dx_m", "A_dx"), ("node_A_dy_m", "A_dy"), ("node_B_dy_m", "B_dy"), ("cable_length_m", "L_c")]
 
@@ -43,17 +49,20 @@ def experiment() -> np.ndarray:
     return np.genfromtxt(lines, delimiter=",", names=True)
 
 
-def run(mu_rubber: float, mu_friction: float, loads: np.ndarray, logger=None) -> np.ndarray:
-    """One FMU run: step k carries loads[k] (fmpy records after DoStep, so row k+1 is the
-    equilibrium under loads[k]). `logger` replaces fmpy's printing of the FMU's messages
-    (fmpy's signature: component environment, instance name, status, category, message)."""
+def run(mu_rubber: float, mu_friction: float, loads: np.ndarray, logger=None, scene: str = "SleeveCable") -> np.ndarray:
+    """One FMU run of the reading `scene`: step k carries loads[k] (fmpy records after DoStep, so
+    row k+1 is the equilibrium under loads[k]). `logger` replaces fmpy's printing of the FMU's
+    messages (fmpy's signature: component environment, instance name, status, category,
+    message). A step the FMU discards ends the run: fewer rows than loads come back."""
     n = len(loads)
-    signal = np.zeros(n, dtype=[("time", np.float64), ("force_2P", np.float64), ("cable_preload", np.float64)])
+    preloads = READINGS[scene]
+    signal = np.zeros(n, dtype=[("time", np.float64), ("force_2P", np.float64)] + [(k, np.float64) for k in preloads])
     signal["time"] = np.arange(n, dtype=float)
     signal["force_2P"] = loads
-    signal["cable_preload"] = PRELOAD
+    for k, v in preloads.items():
+        signal[k] = v
     rows = fmpy.simulate_fmu(
-        str(FMU),
+        str(vr.FMU_DIR / f"{scene}.fmu"),
         start_time=0.0,
         stop_time=float(n),
         output_interval=1.0,
