@@ -7,16 +7,17 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use velarium::description::model_description;
 use velarium::history::{self, LoadTable};
-use velarium::pack::{find_library, pack, write_atomically};
+use velarium::pack::{find_library, pack_versions, write_atomically, FmiVersion};
 use velarium::scene::generate::resolve;
 use velarium::scene::validate::validate;
 use velarium::{Engine, Scene};
 
 const USAGE: &str = "\
 usage:
-  velarium pack SCENE.json --out DIR [--lib PATH]
-        write DIR/<name>.fmu (FMI 2.0 co-simulation); the library is PATH, else
-        libvelarium.so next to this executable (built by `cargo build --release`)
+  velarium pack SCENE.json --out DIR [--lib PATH] [--fmi 2|3]
+        write DIR/<name>.fmu (FMI 2.0 co-simulation) and DIR/<name>_fmi3.fmu (FMI 3.0),
+        or only the one --fmi names; the library is PATH, else libvelarium.so next to
+        this executable (built by `cargo build --release`)
   velarium solve SCENE.json --loads LOADS.csv [--out OUT.csv] [--elements ELEMENTS.csv]
         run a quasi-static load history (CSV header: time,<input names>) and write
         time and every output per row as CSV (to stdout without --out)
@@ -63,7 +64,7 @@ fn run(args: &[String]) -> Result<ExitCode, Stop> {
         return Err(Stop::Usage("no command given".into()));
     };
     match command.as_str() {
-        "pack" => cmd_pack(&Args::parse(rest, 1, &["--out", "--lib"])?),
+        "pack" => cmd_pack(&Args::parse(rest, 1, &["--out", "--lib", "--fmi"])?),
         "solve" => cmd_solve(&Args::parse(rest, 1, &["--loads", "--out", "--elements"])?),
         "check" => cmd_check(&Args::parse(rest, 1, &[])?),
         "describe" => cmd_describe(&Args::parse(rest, 1, &[])?),
@@ -168,6 +169,16 @@ fn failed(e: velarium::Error) -> Stop {
 
 fn cmd_pack(args: &Args) -> Result<ExitCode, Stop> {
     let out = PathBuf::from(args.required("--out")?);
+    let versions = match args.option("--fmi") {
+        None => vec![FmiVersion::Fmi2, FmiVersion::Fmi3],
+        Some("2") => vec![FmiVersion::Fmi2],
+        Some("3") => vec![FmiVersion::Fmi3],
+        Some(other) => {
+            return Err(Stop::Usage(format!(
+                "--fmi {other:?}: the FMI version is 2 or 3"
+            )))
+        }
+    };
     let scene = read_scene(args.scene_path())?;
     let problems = validate(&scene);
     if !problems.is_empty() {
@@ -178,9 +189,11 @@ fn cmd_pack(args: &Args) -> Result<ExitCode, Stop> {
         )));
     }
     let library = find_library(args.option("--lib").map(Path::new)).map_err(failed)?;
-    let fmu = pack(&scene, &out, &library)
+    let fmus = pack_versions(&scene, &out, &library, &versions)
         .map_err(|e| Stop::Failed(format!("{}: {e}", args.scene_path())))?;
-    println!("{}", fmu.display());
+    for fmu in fmus {
+        println!("{}", fmu.display());
+    }
     Ok(ExitCode::SUCCESS)
 }
 
