@@ -50,7 +50,7 @@ def pack_all(binary: Path) -> list[Path]:
         run = subprocess.run([str(binary), "pack", str(scene), "--out", str(vr.FMU_DIR)], capture_output=True, text=True)
         if run.returncode != 0:
             sys.exit(f"packing {scene} failed:\n{run.stderr}")
-        fmus.append(Path(run.stdout.strip()))
+        fmus.append(Path(run.stdout.splitlines()[0]))  # the FMI 2 archive (the FMI 3 one follows)
         print(f"packed {fmus[-1].relative_to(vr.ROOT)}")
     return fmus
 

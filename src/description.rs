@@ -24,7 +24,7 @@ use crate::variables::{Causality, VarType, Variability, Variable, UNITS};
 use std::fmt::Write;
 
 /// Stands where the GUID goes while the document is hashed.
-const GUID_PLACEHOLDER: &str = "{00000000-0000-0000-0000-000000000000}";
+pub(crate) const GUID_PLACEHOLDER: &str = "{00000000-0000-0000-0000-000000000000}";
 
 /// Display units offered per unit: (unit, display unit, factor from unit to display unit).
 const DISPLAY_UNITS: &[(&str, &str, f64)] = &[
@@ -112,7 +112,7 @@ fn co_simulation(x: &mut String, scene: &Scene) {
 }
 
 /// Units in `UNITS` order, only those some variable uses; absent when none is used.
-fn unit_definitions(x: &mut String, variables: &[Variable]) {
+pub(crate) fn unit_definitions(x: &mut String, variables: &[Variable]) {
     let used: Vec<&(&str, [i32; 3])> = UNITS
         .iter()
         .filter(|(name, _)| variables.iter().any(|v| v.unit == Some(*name)))
@@ -142,7 +142,7 @@ fn unit_definitions(x: &mut String, variables: &[Variable]) {
     x.push_str("  </UnitDefinitions>\n");
 }
 
-fn log_categories(x: &mut String) {
+pub(crate) fn log_categories(x: &mut String) {
     x.push_str("  <LogCategories>\n");
     for (name, description) in fmi::log_categories() {
         let _ = writeln!(
@@ -228,7 +228,7 @@ fn model_structure(x: &mut String, variables: &[Variable]) {
     x.push_str("  </ModelStructure>\n");
 }
 
-fn causality(c: Causality) -> &'static str {
+pub(crate) fn causality(c: Causality) -> &'static str {
     match c {
         Causality::Parameter => "parameter",
         Causality::Input => "input",
@@ -236,7 +236,7 @@ fn causality(c: Causality) -> &'static str {
     }
 }
 
-fn variability(v: Variability) -> &'static str {
+pub(crate) fn variability(v: Variability) -> &'static str {
     match v {
         Variability::Fixed => "fixed",
         Variability::Tunable => "tunable",
@@ -260,7 +260,7 @@ pub fn xs_double(value: f64) -> String {
 }
 
 /// Text for an XML attribute value in double quotes.
-fn escape(text: &str) -> String {
+pub(crate) fn escape(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
         match c {
@@ -281,7 +281,7 @@ fn escape(text: &str) -> String {
 
 /// A name under FMI 2's structured convention as far as our names can go (no quoted names, no
 /// `der(...)`): `B-name [indices] {"." B-name [indices]}`, indices `[1]` or `[1,2]`.
-fn is_structured_name(name: &str) -> bool {
+pub(crate) fn is_structured_name(name: &str) -> bool {
     name.split('.').all(|part| {
         let (base, indices) = match part.find('[') {
             Some(at) => (&part[..at], Some(&part[at..])),
@@ -303,7 +303,7 @@ fn is_structured_name(name: &str) -> bool {
 }
 
 /// 128-bit FNV-1a of the text, formatted `{8-4-4-4-12}`.
-fn guid_of(text: &str) -> String {
+pub(crate) fn guid_of(text: &str) -> String {
     const OFFSET: u128 = 0x6c62272e07bb014262b821756295c58d;
     const PRIME: u128 = 0x0000000001000000000000000000013b;
     let hash = text

@@ -17,6 +17,7 @@
 //! Units are SI throughout: m, N, Pa.
 
 pub mod description;
+pub mod description3;
 pub mod engine;
 pub mod error;
 pub mod fmi;

@@ -12,7 +12,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use velarium::description::model_description;
 use velarium::history::{self, Event, LoadTable};
-use velarium::pack::{find_library, pack, write_atomically};
+use velarium::pack::{find_library, pack_versions, write_atomically, FmiVersion};
 use velarium::scene::generate::resolve;
 use velarium::scene::validate::validate;
 use velarium::vtk;
@@ -34,13 +34,14 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Write DIR/<name>.fmu (FMI 2.0 co-simulation) from a scene.
+    /// Write DIR/<name>.fmu (FMI 2.0) and DIR/<name>_fmi3.fmu (FMI 3.0 co-simulation).
     ///
-    /// The scene is validated first. The FMU holds modelDescription.xml,
-    /// binaries/linux64/<name>.so (a copy of the library) and resources/scene.json. The archive
-    /// is reproducible and written through a temporary file: a failed pack leaves nothing.
+    /// The scene is validated first. Each FMU holds its modelDescription.xml, the library
+    /// (binaries/linux64/<name>.so for FMI 2, binaries/x86_64-linux/<name>.so for FMI 3; one
+    /// binary serves both) and resources/scene.json. The archives are reproducible and written
+    /// through temporary files: a failed pack leaves nothing.
     #[command(
-        after_help = "Examples:\n  velarium pack modelDescription/HenckyDisc/scene.json --out build/fmus\n  velarium pack my_scene.json --out . --lib target/release/libvelarium.so"
+        after_help = "Examples:\n  velarium pack modelDescription/HenckyDisc/scene.json --out build/fmus\n  velarium pack my_scene.json --out . --fmi 3\n  velarium pack my_scene.json --out . --lib target/release/libvelarium.so"
     )]
     Pack {
         /// The scene (JSON).
@@ -53,6 +54,9 @@ enum Command {
         /// `cargo build --release`).
         #[arg(long, value_name = "PATH")]
         lib: Option<String>,
+        /// Write only this FMI version's archive (2 or 3); default: both.
+        #[arg(long, value_name = "2|3", value_parser = ["2", "3"])]
+        fmi: Option<String>,
     },
     /// Run a quasi-static load history and write every output per load row as CSV.
     ///
@@ -163,7 +167,12 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        Command::Pack { scene, out, lib } => cmd_pack(&scene, &out, lib.as_deref()),
+        Command::Pack {
+            scene,
+            out,
+            lib,
+            fmi,
+        } => cmd_pack(&scene, &out, lib.as_deref(), fmi.as_deref()),
         Command::Solve {
             scene,
             loads,
@@ -225,7 +234,23 @@ fn failed(e: velarium::Error) -> Stop {
     Stop::Failed(e.to_string())
 }
 
-fn cmd_pack(scene_path: &str, out: &str, lib: Option<&str>) -> Result<ExitCode, Stop> {
+fn cmd_pack(
+    scene_path: &str,
+    out: &str,
+    lib: Option<&str>,
+    fmi: Option<&str>,
+) -> Result<ExitCode, Stop> {
+    let versions = match fmi {
+        None => vec![FmiVersion::Fmi2, FmiVersion::Fmi3],
+        Some("2") => vec![FmiVersion::Fmi2],
+        Some("3") => vec![FmiVersion::Fmi3],
+        Some(other) => {
+            // clap's value parser admits only 2 and 3.
+            return Err(Stop::Failed(format!(
+                "--fmi {other:?}: the FMI version is 2 or 3"
+            )));
+        }
+    };
     let out = PathBuf::from(out);
     let scene = read_scene(scene_path)?;
     let problems = validate(&scene);
@@ -237,9 +262,11 @@ fn cmd_pack(scene_path: &str, out: &str, lib: Option<&str>) -> Result<ExitCode, 
         )));
     }
     let library = find_library(lib.map(Path::new)).map_err(failed)?;
-    let fmu =
-        pack(&scene, &out, &library).map_err(|e| Stop::Failed(format!("{scene_path}: {e}")))?;
-    println!("{}", fmu.display());
+    let fmus = pack_versions(&scene, &out, &library, &versions)
+        .map_err(|e| Stop::Failed(format!("{scene_path}: {e}")))?;
+    for fmu in fmus {
+        println!("{}", fmu.display());
+    }
     Ok(ExitCode::SUCCESS)
 }
 

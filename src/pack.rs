@@ -1,17 +1,24 @@
-//! FMU archives: `velarium pack` writes `<out>/<Name>.fmu` for a scene.
+//! FMU archives: `velarium pack` writes `<out>/<Name>.fmu` (FMI 2.0) and
+//! `<out>/<Name>_fmi3.fmu` (FMI 3.0) for a scene; both hold the same library.
 //!
 //! ```text
 //! <Name>.fmu (ZIP, deflate only, forward slashes, every entry dated 1980-01-01 00:00:00)
 //!   modelDescription.xml            crate::description, generated from the variable table
 //!   binaries/linux64/<Name>.so      a copy of the built cdylib libvelarium.so
 //!   resources/scene.json            the scene, re-serialized with Scene::to_json
+//!
+//! <Name>_fmi3.fmu (same conventions)
+//!   modelDescription.xml            crate::description3 (fmiVersion 3.0)
+//!   binaries/x86_64-linux/<Name>.so the same library (it exports fmi2* and fmi3* functions)
+//!   resources/scene.json
 //! ```
 //!
-//! The same scene and library give byte-identical archives. The archive is written to a
-//! temporary file in the output directory and renamed at the end, so a failed pack never
-//! leaves a partial `.fmu` behind.
+//! One archive holds one modelDescription.xml, hence two archives. The same scene and library
+//! give byte-identical archives. Each archive is written to a temporary file in the output
+//! directory and renamed at the end, so a failed pack never leaves a partial `.fmu` behind.
 
 use crate::description::model_description;
+use crate::description3::model_description_fmi3;
 use crate::engine::Engine;
 use crate::error::Error;
 use crate::scene::Scene;
@@ -26,21 +33,67 @@ pub const SCENE_RESOURCE: &str = "scene.json";
 /// The file name cargo gives the cdylib.
 pub const LIBRARY_FILE: &str = "libvelarium.so";
 
-/// Write `<out_dir>/<scene.name>.fmu` and return its path. The scene is validated first (every
-/// problem is reported); `library` is the built `libvelarium.so`.
+/// The FMI version of an archive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FmiVersion {
+    Fmi2,
+    Fmi3,
+}
+
+impl FmiVersion {
+    /// The archive's file name for a scene.
+    pub fn file_name(self, scene: &Scene) -> String {
+        match self {
+            FmiVersion::Fmi2 => format!("{}.fmu", scene.name),
+            FmiVersion::Fmi3 => format!("{}_fmi3.fmu", scene.name),
+        }
+    }
+
+    /// The platform folder under `binaries/`.
+    pub fn platform(self) -> &'static str {
+        match self {
+            FmiVersion::Fmi2 => "linux64",
+            FmiVersion::Fmi3 => "x86_64-linux",
+        }
+    }
+}
+
+/// Write the FMI 2.0 archive `<out_dir>/<scene.name>.fmu` and return its path. The scene is
+/// validated first (every problem is reported); `library` is the built `libvelarium.so`.
 pub fn pack(scene: &Scene, out_dir: &Path, library: &Path) -> Result<PathBuf, Error> {
+    Ok(pack_versions(scene, out_dir, library, &[FmiVersion::Fmi2])?.remove(0))
+}
+
+/// Write one archive per version (in the order given) and return their paths. Nothing is
+/// written unless the scene is valid and the library readable; each archive is written
+/// atomically.
+pub fn pack_versions(
+    scene: &Scene,
+    out_dir: &Path,
+    library: &Path,
+    versions: &[FmiVersion],
+) -> Result<Vec<PathBuf>, Error> {
     let engine = Engine::try_new(scene.clone())?;
     let binary =
         std::fs::read(library).map_err(|e| io_error(library, "cannot read the FMU library", e))?;
-    let archive = archive(scene, &model_description(&engine), &binary).map_err(|e| Error::Io {
-        path: library.display().to_string(),
-        message: format!("cannot build the FMU archive: {e}"),
-    })?;
+    let mut archives = Vec::with_capacity(versions.len());
+    for &version in versions {
+        let description = match version {
+            FmiVersion::Fmi2 => model_description(&engine),
+            FmiVersion::Fmi3 => model_description_fmi3(&engine),
+        };
+        let bytes = archive(scene, version, &description, &binary).map_err(|e| Error::Io {
+            path: library.display().to_string(),
+            message: format!("cannot build the FMU archive: {e}"),
+        })?;
+        archives.push((out_dir.join(version.file_name(scene)), bytes));
+    }
     std::fs::create_dir_all(out_dir)
         .map_err(|e| io_error(out_dir, "cannot create the output directory", e))?;
-    let target = out_dir.join(format!("{}.fmu", scene.name));
-    write_atomically(&target, &archive)?;
-    Ok(target)
+    for (target, bytes) in &archives {
+        write_atomically(target, bytes)?;
+    }
+    Ok(archives.into_iter().map(|(path, _)| path).collect())
 }
 
 /// The library to ship: `explicit` if given (it must exist), else `libvelarium.so` next to the
@@ -92,7 +145,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
 }
 
 /// The archive bytes, entries in a fixed order with fixed metadata.
-fn archive(scene: &Scene, description: &str, binary: &[u8]) -> zip::result::ZipResult<Vec<u8>> {
+fn archive(
+    scene: &Scene,
+    version: FmiVersion,
+    description: &str,
+    binary: &[u8],
+) -> zip::result::ZipResult<Vec<u8>> {
     let options = SimpleFileOptions::default()
         .compression_method(CompressionMethod::Deflated)
         .last_modified_time(DateTime::default());
@@ -100,7 +158,11 @@ fn archive(scene: &Scene, description: &str, binary: &[u8]) -> zip::result::ZipR
     let mut zip = ZipWriter::new(std::io::Cursor::new(Vec::new()));
     let entries: [(String, &[u8], u32); 3] = [
         ("modelDescription.xml".into(), description.as_bytes(), 0o644),
-        (format!("binaries/linux64/{}.so", scene.name), binary, 0o755),
+        (
+            format!("binaries/{}/{}.so", version.platform(), scene.name),
+            binary,
+            0o755,
+        ),
         (
             format!("resources/{SCENE_RESOURCE}"),
             scene_json.as_bytes(),

@@ -189,18 +189,28 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
         assert!(out.status.success(), "{}", text(&out.stderr));
         assert_eq!(
             listing(&out_dir),
-            vec!["TinyCable.fmu".to_string()],
-            "no temporary file is left"
+            ["TinyCable.fmu", "TinyCable_fmi3.fmu"],
+            "both versions by default, and no temporary file is left"
         );
-        assert_eq!(text(&out.stdout).trim(), s(&out_dir.join("TinyCable.fmu")));
+        assert_eq!(
+            text(&out.stdout).trim(),
+            format!(
+                "{}\n{}",
+                s(&out_dir.join("TinyCable.fmu")),
+                s(&out_dir.join("TinyCable_fmi3.fmu"))
+            )
+        );
         archives.push(std::fs::read(out_dir.join("TinyCable.fmu")).unwrap());
+        archives.push(std::fs::read(out_dir.join("TinyCable_fmi3.fmu")).unwrap());
     }
     assert!(
-        archives[0] == archives[1],
+        archives[0] == archives[2] && archives[1] == archives[3],
         "two packs of the same inputs differ"
     );
+    let fmi3 = archives.pop().unwrap();
+    let fmi2 = archives.pop().unwrap();
 
-    let mut zip = zip::ZipArchive::new(std::io::Cursor::new(archives.pop().unwrap())).unwrap();
+    let mut zip = zip::ZipArchive::new(std::io::Cursor::new(fmi2)).unwrap();
     let names: Vec<String> = zip.file_names().map(str::to_owned).collect();
     assert_eq!(
         names,
@@ -237,6 +247,73 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
         text(&described.stdout),
         "the archive holds what `describe` prints"
     );
+
+    // The FMI 3 archive: the same library and scene under x86_64-linux, the FMI 3 description.
+    let mut zip = zip::ZipArchive::new(std::io::Cursor::new(fmi3)).unwrap();
+    let names: Vec<String> = zip.file_names().map(str::to_owned).collect();
+    assert_eq!(
+        names,
+        [
+            "modelDescription.xml",
+            "binaries/x86_64-linux/TinyCable.so",
+            "resources/scene.json"
+        ]
+    );
+    for i in 0..zip.len() {
+        let entry = zip.by_index(i).unwrap();
+        assert_eq!(entry.compression(), zip::CompressionMethod::Deflated);
+    }
+    assert_eq!(
+        read(&mut zip, "binaries/x86_64-linux/TinyCable.so"),
+        std::fs::read(&lib).unwrap()
+    );
+    let shipped = Scene::from_json(&text(&read(&mut zip, "resources/scene.json"))).unwrap();
+    assert_eq!(shipped, Scene::from_json(TINY).unwrap());
+    let engine = velarium::Engine::try_new(shipped).unwrap();
+    let xml = text(&read(&mut zip, "modelDescription.xml"));
+    assert_eq!(xml, velarium::description3::model_description_fmi3(&engine));
+    assert!(xml.contains("fmiVersion=\"3.0\""), "{xml}");
+}
+
+#[test]
+fn pack_writes_the_version_fmi_names_and_rejects_others() {
+    let dir = scratch("pack-fmi");
+    let scene = write(&dir, "tiny.json", TINY);
+    let lib = write(&dir, "libvelarium.so", "stand-in");
+    for (version, expected) in [("2", "TinyCable.fmu"), ("3", "TinyCable_fmi3.fmu")] {
+        let out_dir = dir.join(version);
+        let out = velarium(&[
+            "pack",
+            s(&scene),
+            "--out",
+            s(&out_dir),
+            "--lib",
+            s(&lib),
+            "--fmi",
+            version,
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        assert_eq!(listing(&out_dir), [expected]);
+        assert_eq!(text(&out.stdout).trim(), s(&out_dir.join(expected)));
+    }
+    let out_dir = dir.join("bad");
+    let out = velarium(&[
+        "pack",
+        s(&scene),
+        "--out",
+        s(&out_dir),
+        "--lib",
+        s(&lib),
+        "--fmi",
+        "2.0",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("--fmi") && err.contains("'2.0'") && err.contains("possible values: 2, 3"),
+        "{err}"
+    );
+    assert_eq!(listing(&out_dir), Vec::<String>::new());
 }
 
 #[test]

@@ -13,6 +13,7 @@
 //! An illegal call or argument changes nothing. Only an internal failure (a caught panic, an
 //! initial equilibrium that does not converge) moves the instance to the Error state.
 
+pub(crate) mod fmi3;
 mod fmu_state;
 mod status;
 
@@ -125,6 +126,18 @@ impl Instance {
         args: String,
         body: impl FnOnce(&mut Self) -> Outcome,
     ) -> Status {
+        self.call_as(func.name(), func, args, body)
+    }
+
+    /// [`Instance::call`] for a function named `name` that is legal where `func` is (FMI 3
+    /// functions without an FMI 2 counterpart of the same name).
+    fn call_as(
+        &mut self,
+        name: &str,
+        func: Func,
+        args: String,
+        body: impl FnOnce(&mut Self) -> Outcome,
+    ) -> Status {
         let outcome = if func.allowed_in(self.fsm) {
             body(self)
         } else {
@@ -133,17 +146,15 @@ impl Instance {
         let status = match outcome {
             Ok(status) => status,
             Err(message) => {
-                self.logger.log(
-                    Category::StatusError,
-                    &format!("{}: {message}", func.name()),
-                );
+                self.logger
+                    .log(Category::StatusError, &format!("{name}: {message}"));
                 Status::Error
             }
         };
         if self.logger.enabled(Category::Calls) {
             self.logger.log(
                 Category::Calls,
-                &format!("{}({args}) -> {}", func.name(), status.name()),
+                &format!("{name}({args}) -> {}", status.name()),
             );
         }
         status
@@ -637,6 +648,11 @@ fn build_engine(args: &InstantiateArgs) -> Result<(Engine, String), String> {
 fn load_engine(resource_location: &str) -> Result<Engine, String> {
     let dir =
         file_uri_to_path(resource_location).map_err(|e| format!("fmuResourceLocation: {e}"))?;
+    load_engine_from(&dir)
+}
+
+/// `<dir>/scene.json` -> scene -> engine; every error names the file.
+fn load_engine_from(dir: &std::path::Path) -> Result<Engine, String> {
     let path = dir.join("scene.json");
     let shown = path.display();
     let bytes = std::fs::read(&path).map_err(|e| format!("cannot read {shown}: {e}"))?;

@@ -18,6 +18,7 @@
 //! is written `##` (done by [`escape`]); no trailing newline; interior NUL bytes are dropped.
 
 use super::ffi::{self, LoggerFn};
+use super::fmi3_ffi::{self, Fmi3LoggerFn};
 use super::Status;
 use std::ffi::{c_void, CString};
 
@@ -88,10 +89,18 @@ pub fn escape(text: &str) -> String {
     text.replace('#', "##")
 }
 
+/// The master's logger: FMI 2's variadic one, or FMI 3's `fmi3LogMessageCallback` (no instance
+/// name, message already formatted; function names in the text are given their FMI 3 form).
+#[derive(Clone, Copy)]
+pub enum Callback {
+    Fmi2(LoggerFn),
+    Fmi3(Fmi3LoggerFn),
+}
+
 /// The logger of one instance: the master's callback, its environment pointer, the instance
 /// name and which categories are enabled.
 pub struct Logger {
-    callback: Option<LoggerFn>,
+    callback: Option<Callback>,
     environment: *mut c_void,
     instance_name: CString,
     enabled: [bool; CATEGORIES.len()],
@@ -101,6 +110,16 @@ impl Logger {
     /// `callback` None: nothing is ever logged. `on`: every category enabled.
     pub fn new(
         callback: Option<LoggerFn>,
+        environment: *mut c_void,
+        instance_name: &str,
+        on: bool,
+    ) -> Logger {
+        Logger::with_callback(callback.map(Callback::Fmi2), environment, instance_name, on)
+    }
+
+    /// A logger for either FMI version's callback.
+    pub fn with_callback(
+        callback: Option<Callback>,
         environment: *mut c_void,
         instance_name: &str,
         on: bool,
@@ -133,16 +152,25 @@ impl Logger {
         if !self.enabled(category) {
             return;
         }
-        let message = c_string(message.trim_end_matches(['\n', '\r']));
+        let message = message.trim_end_matches(['\n', '\r']);
         let category_name = c_string(category.name());
-        ffi::call_logger(
-            callback,
-            self.environment,
-            &self.instance_name,
-            category.status(),
-            &category_name,
-            &message,
-        );
+        match callback {
+            Callback::Fmi2(callback) => ffi::call_logger(
+                callback,
+                self.environment,
+                &self.instance_name,
+                category.status(),
+                &category_name,
+                &c_string(message),
+            ),
+            Callback::Fmi3(callback) => fmi3_ffi::call_logger(
+                callback,
+                self.environment,
+                category.status(),
+                &category_name,
+                &c_string(&fmi3_ffi::fmi3_names(message)),
+            ),
+        }
     }
 
     /// `fmi2SetDebugLogging`: no names sets every category; otherwise the named ones. An

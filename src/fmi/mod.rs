@@ -1,8 +1,10 @@
-//! FMI 2.0 Co-Simulation adapter: the C ABI over [`crate::Engine`]. This module tree is the only
-//! place in the crate with `unsafe` code, and that code sits in three files:
+//! FMI 2.0 and FMI 3.0 Co-Simulation adapter: the C ABI over [`crate::Engine`]. This module tree
+//! is the only place in the crate with `unsafe` code, and that code sits in five files:
 //!
 //! ```text
 //! abi.rs       the 34 exported fmi2* functions; each is a short shim
+//! fmi3.rs      the 75 exported fmi3* functions (FMI 3.0 Co-Simulation from the same library);
+//!              fmi3_ffi.rs holds the hand-written FMI 3 C types
 //! ffi.rs       the one panic boundary and the pointer helpers (NULL instance -> Error,
 //!              n == 0 -> empty slice before any array check, NULL array -> Error)
 //! worker.rs    each instance's solves run on a pthread of its own, joined when the instance
@@ -53,6 +55,8 @@
 mod abi;
 mod codec;
 mod ffi;
+mod fmi3;
+mod fmi3_ffi;
 mod fsm;
 mod instance;
 mod logging;
@@ -62,6 +66,8 @@ mod worker;
 
 pub use abi::*;
 pub use ffi::{CallbackFunctions, Component, FmuState, LoggerFn};
+pub use fmi3::*;
+pub use fmi3_ffi::{fmi3_names, Fmi3LoggerFn};
 pub use fsm::FsmState;
 pub use instance::Instance;
 pub use logging::Category;

@@ -1,0 +1,202 @@
+//! The FMI 3.0 Co-Simulation `modelDescription.xml` of a scene, from the same variable table as
+//! the FMI 2 one (`crate::description`) and the binary.
+//!
+//! ```text
+//! fmiModelDescription  fmiVersion 3.0, modelName = scene.name, instantiationToken = hash of
+//!                      this document (the binary compares it in fmi3InstantiateCoSimulation)
+//!   CoSimulation       modelIdentifier = scene.name, crate::fmi::capability_flags_fmi3()
+//!   UnitDefinitions    as in FMI 2 (only the units some variable uses)
+//!   LogCategories      as in FMI 2
+//!   DefaultExperiment  scene.experiment
+//!   ModelVariables     time (Float64, valueReference 0, causality independent), then the
+//!                      table: Real -> <Float64>, Integer -> <Int32 variability="discrete">;
+//!                      the value references are the FMI 2 ones
+//!   ModelStructure     <Output valueReference=.../> and <InitialUnknown valueReference=.../>
+//!                      for every output (all initial="calculated"), in table order
+//! ```
+//!
+//! The token is the FMI 2 GUID's construction applied to this document, so it differs from the
+//! FMI 2 GUID of the same scene: an FMU state serialized by one archive is rejected by the
+//! other (its bytes carry the GUID or token they were made with).
+
+use crate::description::{
+    causality, escape, guid_of, is_structured_name, log_categories, unit_definitions, variability,
+    xs_double, GUID_PLACEHOLDER,
+};
+use crate::engine::Engine;
+use crate::fmi;
+use crate::scene::Scene;
+use crate::variables::{Causality, VarType, Variable};
+use std::fmt::Write;
+
+/// The name of the independent variable (value reference [`fmi::TIME_VALUE_REFERENCE`]).
+pub const TIME_NAME: &str = "time";
+
+/// The complete FMI 3.0 modelDescription.xml of the engine's scene.
+pub fn model_description_fmi3(engine: &Engine) -> String {
+    let draft = render(engine.scene(), engine.variables(), GUID_PLACEHOLDER);
+    draft.replacen(GUID_PLACEHOLDER, &guid_of(&draft), 1)
+}
+
+/// The instantiation token of the engine's scene, `{8-4-4-4-12}` lowercase hex.
+pub fn instantiation_token(engine: &Engine) -> String {
+    guid_of(&render(
+        engine.scene(),
+        engine.variables(),
+        GUID_PLACEHOLDER,
+    ))
+}
+
+fn render(scene: &Scene, variables: &[Variable], token: &str) -> String {
+    let mut x = String::new();
+    x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    header(&mut x, scene, variables, token);
+    co_simulation(&mut x, scene);
+    unit_definitions(&mut x, variables);
+    log_categories(&mut x);
+    let e = &scene.experiment;
+    let _ = writeln!(
+        x,
+        "  <DefaultExperiment startTime=\"{}\" stopTime=\"{}\" stepSize=\"{}\"/>",
+        xs_double(e.start_time),
+        xs_double(e.stop_time),
+        xs_double(e.step_size)
+    );
+    model_variables(&mut x, variables);
+    model_structure(&mut x, variables);
+    x.push_str("</fmiModelDescription>\n");
+    x
+}
+
+fn header(x: &mut String, scene: &Scene, variables: &[Variable], token: &str) {
+    let structured = variables.iter().any(|v| v.name.contains(['.', '[']))
+        && variables.iter().all(|v| is_structured_name(&v.name));
+    x.push_str("<fmiModelDescription\n  fmiVersion=\"3.0\"\n");
+    let _ = writeln!(x, "  modelName=\"{}\"", escape(&scene.name));
+    let _ = writeln!(x, "  instantiationToken=\"{token}\"");
+    if !scene.description.is_empty() {
+        let _ = writeln!(x, "  description=\"{}\"", escape(&scene.description));
+    }
+    let _ = writeln!(
+        x,
+        "  generationTool=\"Velarium {}\"",
+        env!("CARGO_PKG_VERSION")
+    );
+    let convention = if structured { "structured" } else { "flat" };
+    let _ = writeln!(x, "  variableNamingConvention=\"{convention}\">");
+}
+
+fn co_simulation(x: &mut String, scene: &Scene) {
+    let _ = write!(
+        x,
+        "  <CoSimulation\n    modelIdentifier=\"{}\"",
+        escape(&scene.name)
+    );
+    for (flag, value) in fmi::capability_flags_fmi3() {
+        let _ = write!(x, "\n    {flag}=\"{value}\"");
+    }
+    let _ = writeln!(
+        x,
+        "\n    maxOutputDerivativeOrder=\"{}\"/>",
+        fmi::MAX_OUTPUT_DERIVATIVE_ORDER
+    );
+}
+
+fn model_variables(x: &mut String, variables: &[Variable]) {
+    x.push_str("  <ModelVariables>\n");
+    let _ = writeln!(
+        x,
+        "    <Float64 name=\"{TIME_NAME}\" valueReference=\"{}\" causality=\"independent\" variability=\"continuous\" description=\"Simulation time\"/>",
+        fmi::TIME_VALUE_REFERENCE
+    );
+    for v in variables {
+        variable(x, v);
+    }
+    x.push_str("  </ModelVariables>\n");
+}
+
+fn variable(x: &mut String, v: &Variable) {
+    let element = match v.var_type {
+        VarType::Real => "Float64",
+        VarType::Integer => "Int32",
+    };
+    let _ = write!(
+        x,
+        "    <{element}\n      name=\"{}\"\n      valueReference=\"{}\"",
+        escape(&v.name),
+        v.value_reference
+    );
+    if !v.description.is_empty() {
+        let _ = write!(x, "\n      description=\"{}\"", escape(&v.description));
+    }
+    let _ = write!(
+        x,
+        "\n      causality=\"{}\"\n      variability=\"{}\"",
+        causality(v.causality),
+        variability(v.variability)
+    );
+    if let Some(unit) = v.unit {
+        let _ = write!(x, "\n      unit=\"{}\"", escape(unit));
+    }
+    // Outputs are `initial="calculated"` (the default) and so carry no start value.
+    let start = if v.causality == Causality::Output {
+        None
+    } else {
+        v.start
+    };
+    for (name, value) in [("min", v.min), ("max", v.max), ("start", start)] {
+        if let Some(value) = value {
+            let text = match v.var_type {
+                VarType::Real => xs_double(value),
+                VarType::Integer => format!("{}", value.round() as i64),
+            };
+            let _ = write!(x, "\n      {name}=\"{text}\"");
+        }
+    }
+    x.push_str("/>\n");
+}
+
+/// Every output is listed in Outputs and in InitialUnknowns (all `initial="calculated"`; no
+/// calculated parameters), by value reference, in table order; no `dependencies` attribute
+/// (= depends on every input and parameter).
+fn model_structure(x: &mut String, variables: &[Variable]) {
+    x.push_str("  <ModelStructure>\n");
+    for element in ["Output", "InitialUnknown"] {
+        for v in variables
+            .iter()
+            .filter(|v| v.causality == Causality::Output)
+        {
+            let _ = writeln!(
+                x,
+                "    <{element} valueReference=\"{}\"/>",
+                v.value_reference
+            );
+        }
+    }
+    x.push_str("  </ModelStructure>\n");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn token_is_in_the_document_and_differs_from_the_fmi2_guid() {
+        let scene = crate::Scene::from_json(
+            r#"{"format": 1, "name": "c",
+            "geometry": {"nodes": [[0, 0, 0], [1, 0, 0], [2, 0, 0]]},
+            "cables": [{"name": "c", "nodes": [0, 1, 2], "EA": 1e5, "pretension": 100}],
+            "supports": [{"nodes": [0, 2], "fix": ["x", "y", "z"]}, {"nodes": [1], "fix": ["y"]}],
+            "outputs": [{"name": "t", "probe": {"kind": "cable_tension", "cable": "c"}}]}"#,
+        )
+        .unwrap();
+        let engine = Engine::try_new(scene).unwrap();
+        let xml = model_description_fmi3(&engine);
+        let token = instantiation_token(&engine);
+        assert!(xml.contains(&format!("instantiationToken=\"{token}\"")));
+        assert_ne!(token, crate::description::guid(&engine));
+        assert!(xml.contains("causality=\"independent\""));
+        assert!(xml.contains("<Output valueReference=\"1\"/>"));
+        assert!(xml.contains("<InitialUnknown valueReference=\"1\"/>"));
+    }
+}

@@ -1,0 +1,1186 @@
+//! The 75 exported FMI 3.0 functions (`fmi3Functions.h`), in the same shared library as the
+//! FMI 2 ones. Each is a short shim like those of `abi.rs`: [`with_instance`] (NULL instance
+//! -> fmi3Error, panic boundary), pointers turned into `Result`s by the helpers of `ffi.rs`,
+//! then one method of [`Instance`] (FMI 3 specifics in `instance/fmi3.rs`).
+//!
+//! What is supported (Co-Simulation, no event mode, no clocks, no arrays yet):
+//!
+//! ```text
+//! fmi3InstantiateCoSimulation, FreeInstance, EnterInitializationMode, ExitInitializationMode,
+//! Terminate, Reset, SetDebugLogging, GetVersion        as FMI 2 (one call for the experiment)
+//! fmi3Get/SetFloat64, fmi3Get/SetInt32                the variables (nValues checked; time = vr 0)
+//! fmi3DoStep                                          Discard leaves the state unchanged
+//! fmi3Get/Set/FreeFMUState, SerializedFMUStateSize, SerializeFMUState, DeserializeFMUState
+//! ```
+//!
+//! Every other function is exported (importers such as fmpy resolve all 75 at load time) and
+//! answers fmi3Error with a logged reason: the other variable types have no variables (an
+//! empty call is OK, any value reference is unknown); Model Exchange and Scheduled Execution
+//! instantiation return NULL; event mode, clocks, configuration mode, derivatives, variable
+//! dependencies and the Model Exchange functions are not supported.
+//!
+//! # Safety
+//! The contract is the FMI 3.0 standard's: `instance` is NULL or an instance from
+//! `fmi3InstantiateCoSimulation` not yet freed; an array argument with length `n > 0` is NULL
+//! (rejected) or holds `n` elements; strings are NUL-terminated; FMU states come from this FMU.
+//! Within that contract no call crashes or unwinds into the caller.
+
+#![allow(non_snake_case, clippy::missing_safety_doc, clippy::too_many_arguments)]
+
+use super::ffi::{
+    free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
+    store_new_state, store_state, text, texts, with_instance, write_out, Component, FmuState,
+};
+use super::fmi3_ffi::{
+    Fmi3ClockUpdateFn, Fmi3Enum, Fmi3IntermediateUpdateFn, Fmi3LoggerFn, Fmi3PreemptionFn,
+};
+use super::instance::fmi3::{DoStepOut, Instantiate3Args};
+use super::instance::Instance;
+use super::logging::{Callback, Category, Logger};
+use super::Status;
+use std::ffi::{c_char, c_void};
+use std::ptr::null_mut;
+
+pub use super::fmi3_ffi::TIME_VALUE_REFERENCE;
+
+/// FMI 3 `CoSimulation` capability flags (booleans), consistent with what the binary does, as
+/// (XML attribute, value) in the order of the FMI 3.0 schema. `maxOutputDerivativeOrder` is
+/// [`super::MAX_OUTPUT_DERIVATIVE_ORDER`].
+pub fn capability_flags_fmi3() -> &'static [(&'static str, bool)] {
+    &[
+        ("needsExecutionTool", super::NEEDS_EXECUTION_TOOL),
+        (
+            "canBeInstantiatedOnlyOncePerProcess",
+            super::CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS,
+        ),
+        ("canGetAndSetFMUState", super::CAN_GET_AND_SET_FMU_STATE),
+        ("canSerializeFMUState", super::CAN_SERIALIZE_FMU_STATE),
+        ("providesDirectionalDerivatives", false),
+        ("providesAdjointDerivatives", false),
+        ("providesPerElementDependencies", false),
+        (
+            "canHandleVariableCommunicationStepSize",
+            super::CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
+        ),
+        ("providesIntermediateUpdate", false),
+        ("mightReturnEarlyFromDoStep", false),
+        ("canReturnEarlyAfterIntermediateUpdate", false),
+        ("hasEventMode", false),
+        ("providesEvaluateDiscreteStates", false),
+    ]
+}
+
+const NO_EVENT_MODE: &str =
+    "this FMU has no event mode (hasEventMode=\"false\"); after fmi3ExitInitializationMode it is in Step Mode";
+const NO_CLOCKS: &str = "this FMU has no clocks";
+const CO_SIMULATION_ONLY: &str = "this is a Model Exchange function; the FMU is Co-Simulation only";
+const NO_DERIVATIVES: &str =
+    "providesDirectionalDerivatives and providesAdjointDerivatives are false";
+const NO_DEPENDENCIES: &str =
+    "providesPerElementDependencies is false; the modelDescription's ModelStructure lists the dependencies";
+const NO_CONFIGURATION: &str = "this FMU has no structural parameters to configure";
+
+/// The shim of a function this FMU does not support.
+unsafe fn unsupported(instance: Component, name: &'static str, why: &str) -> Status {
+    with_instance(instance, name, |i| i.unsupported_fmi3(name, why))
+}
+
+/// Instantiation of an interface type this FMU does not provide: log, return NULL.
+unsafe fn refuse_instantiation(
+    function: &str,
+    instance_name: *const c_char,
+    environment: *mut c_void,
+    log_message: Option<Fmi3LoggerFn>,
+) -> Component {
+    guard(null_mut(), || {
+        let name = text(instance_name);
+        let logger = Logger::with_callback(
+            log_message.map(Callback::Fmi3),
+            environment,
+            name.as_deref().unwrap_or_default(),
+            false,
+        );
+        logger.log(
+            Category::StatusError,
+            &format!(
+                "{function}: this FMU supports Co-Simulation only (fmi3InstantiateCoSimulation)"
+            ),
+        );
+        null_mut()
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inquire version numbers, set debug logging
+
+#[no_mangle]
+pub extern "C" fn fmi3GetVersion() -> *const c_char {
+    c"3.0".as_ptr()
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetDebugLogging(
+    instance: Component,
+    logging_on: bool,
+    n_categories: usize,
+    categories: *const *const c_char,
+) -> Status {
+    with_instance(instance, "fmi3SetDebugLogging", |i| {
+        i.set_debug_logging(logging_on, texts(categories, n_categories, "categories"))
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Creation and destruction of instances
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3InstantiateModelExchange(
+    instance_name: *const c_char,
+    _instantiation_token: *const c_char,
+    _resource_path: *const c_char,
+    _visible: bool,
+    _logging_on: bool,
+    instance_environment: *mut c_void,
+    log_message: Option<Fmi3LoggerFn>,
+) -> Component {
+    refuse_instantiation(
+        "fmi3InstantiateModelExchange",
+        instance_name,
+        instance_environment,
+        log_message,
+    )
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
+    instance_name: *const c_char,
+    instantiation_token: *const c_char,
+    resource_path: *const c_char,
+    _visible: bool,
+    logging_on: bool,
+    event_mode_used: bool,
+    early_return_allowed: bool,
+    _required_intermediate_variables: *const u32,
+    _n_required_intermediate_variables: usize,
+    instance_environment: *mut c_void,
+    log_message: Option<Fmi3LoggerFn>,
+    _intermediate_update: Option<Fmi3IntermediateUpdateFn>,
+) -> Component {
+    guard(null_mut(), || {
+        let (name, token, path) = (
+            text(instance_name),
+            text(instantiation_token),
+            text(resource_path),
+        );
+        let logger = Logger::with_callback(
+            log_message.map(Callback::Fmi3),
+            instance_environment,
+            name.as_deref().unwrap_or_default(),
+            logging_on,
+        );
+        let args = Instantiate3Args {
+            instance_name: name.as_deref(),
+            instantiation_token: token.as_deref(),
+            resource_path: path.as_deref(),
+            event_mode_used,
+            early_return_allowed,
+        };
+        Instance::instantiate_fmi3(&args, logger).map_or(null_mut(), into_component)
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3InstantiateScheduledExecution(
+    instance_name: *const c_char,
+    _instantiation_token: *const c_char,
+    _resource_path: *const c_char,
+    _visible: bool,
+    _logging_on: bool,
+    instance_environment: *mut c_void,
+    log_message: Option<Fmi3LoggerFn>,
+    _clock_update: Option<Fmi3ClockUpdateFn>,
+    _lock_preemption: Option<Fmi3PreemptionFn>,
+    _unlock_preemption: Option<Fmi3PreemptionFn>,
+) -> Component {
+    refuse_instantiation(
+        "fmi3InstantiateScheduledExecution",
+        instance_name,
+        instance_environment,
+        log_message,
+    )
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3FreeInstance(instance: Component) {
+    with_instance(instance, "fmi3FreeInstance", Instance::freeing);
+    free_component(instance);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Initialization, event mode, termination, reset
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3EnterInitializationMode(
+    instance: Component,
+    tolerance_defined: bool,
+    tolerance: f64,
+    start_time: f64,
+    stop_time_defined: bool,
+    stop_time: f64,
+) -> Status {
+    let tolerance = tolerance_defined.then_some(tolerance);
+    let stop_time = stop_time_defined.then_some(stop_time);
+    with_instance(instance, "fmi3EnterInitializationMode", |i| {
+        i.enter_initialization_mode_fmi3(tolerance, start_time, stop_time)
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3ExitInitializationMode(instance: Component) -> Status {
+    with_instance(
+        instance,
+        "fmi3ExitInitializationMode",
+        Instance::exit_initialization_mode,
+    )
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3EnterEventMode(instance: Component) -> Status {
+    unsupported(instance, "fmi3EnterEventMode", NO_EVENT_MODE)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3Terminate(instance: Component) -> Status {
+    with_instance(instance, "fmi3Terminate", Instance::terminate)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3Reset(instance: Component) -> Status {
+    with_instance(instance, "fmi3Reset", Instance::reset)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Getting and setting variable values: the types this FMU has
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetFloat64(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    values: *mut f64,
+    n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetFloat64", |i| {
+        i.get_float64(
+            slice_in(vr, n_vr, "valueReferences"),
+            slice_out(values, n_values, "values"),
+            n_values,
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetFloat64(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    values: *const f64,
+    n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetFloat64", |i| {
+        i.set_float64(
+            slice_in(vr, n_vr, "valueReferences"),
+            slice_in(values, n_values, "values"),
+            n_values,
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetInt32(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    values: *mut i32,
+    n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetInt32", |i| {
+        i.get_int32(
+            slice_in(vr, n_vr, "valueReferences"),
+            slice_out(values, n_values, "values"),
+            n_values,
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetInt32(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    values: *const i32,
+    n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetInt32", |i| {
+        i.set_int32(
+            slice_in(vr, n_vr, "valueReferences"),
+            slice_in(values, n_values, "values"),
+            n_values,
+        )
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Getting and setting variable values: types without variables (generated pattern)
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetFloat32(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut f32,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetFloat32", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetFloat32",
+            "Float32",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetFloat32(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const f32,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetFloat32", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetFloat32",
+            "Float32",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetInt8(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut i8,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetInt8", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetInt8",
+            "Int8",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetInt8(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const i8,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetInt8", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetInt8",
+            "Int8",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt8(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut u8,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetUInt8", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetUInt8",
+            "UInt8",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt8(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const u8,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetUInt8", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetUInt8",
+            "UInt8",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetInt16(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut i16,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetInt16", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetInt16",
+            "Int16",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetInt16(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const i16,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetInt16", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetInt16",
+            "Int16",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt16(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut u16,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetUInt16", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetUInt16",
+            "UInt16",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt16(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const u16,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetUInt16", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetUInt16",
+            "UInt16",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt32(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut u32,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetUInt32", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetUInt32",
+            "UInt32",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt32(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const u32,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetUInt32", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetUInt32",
+            "UInt32",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetInt64(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut i64,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetInt64", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetInt64",
+            "Int64",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetInt64(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const i64,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetInt64", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetInt64",
+            "Int64",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt64(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut u64,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetUInt64", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetUInt64",
+            "UInt64",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt64(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const u64,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetUInt64", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetUInt64",
+            "UInt64",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetBoolean(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut bool,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetBoolean", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetBoolean",
+            "Boolean",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetBoolean(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const bool,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetBoolean", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetBoolean",
+            "Boolean",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetString(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut *const c_char,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetString", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetString",
+            "String",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetString(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const *const c_char,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetString", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetString",
+            "String",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetBinary(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _value_sizes: *mut usize,
+    _values: *mut *const u8,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetBinary", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetBinary",
+            "Binary",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetBinary(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _value_sizes: *const usize,
+    _values: *const *const u8,
+    _n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetBinary", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetBinary",
+            "Binary",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetClock(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *mut bool,
+) -> Status {
+    with_instance(instance, "fmi3GetClock", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3GetClock",
+            "Clock",
+            true,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetClock(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const bool,
+) -> Status {
+    with_instance(instance, "fmi3SetClock", |i| {
+        i.no_such_variables_fmi3(
+            "fmi3SetClock",
+            "Clock",
+            false,
+            slice_in(vr, n_vr, "valueReferences"),
+        )
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Variable dependencies
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetNumberOfVariableDependencies(
+    instance: Component,
+    _vr: u32,
+    _n_dependencies: *mut usize,
+) -> Status {
+    unsupported(
+        instance,
+        "fmi3GetNumberOfVariableDependencies",
+        NO_DEPENDENCIES,
+    )
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetVariableDependencies(
+    instance: Component,
+    _dependent: u32,
+    _element_indices_of_dependent: *mut usize,
+    _independents: *mut u32,
+    _element_indices_of_independents: *mut usize,
+    _dependency_kinds: *mut Fmi3Enum,
+    _n_dependencies: usize,
+) -> Status {
+    unsupported(instance, "fmi3GetVariableDependencies", NO_DEPENDENCIES)
+}
+
+// ---------------------------------------------------------------------------------------------
+// FMU state
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetFMUState(instance: Component, state: *mut FmuState) -> Status {
+    with_instance(instance, "fmi3GetFMUState", |i| {
+        i.get_fmu_state(|s| store_state(state, s))
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetFMUState(instance: Component, state: FmuState) -> Status {
+    with_instance(instance, "fmi3SetFMUState", |i| {
+        i.set_fmu_state(state_mut(state).map(|s| &*s))
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3FreeFMUState(instance: Component, state: *mut FmuState) -> Status {
+    with_instance(instance, "fmi3FreeFMUState", |i| {
+        i.free_fmu_state(|| release_state(state))
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SerializedFMUStateSize(
+    instance: Component,
+    state: FmuState,
+    size: *mut usize,
+) -> Status {
+    with_instance(instance, "fmi3SerializedFMUStateSize", |i| {
+        i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| {
+            write_out(size, n, "size")
+        })
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SerializeFMUState(
+    instance: Component,
+    state: FmuState,
+    bytes: *mut u8,
+    size: usize,
+) -> Status {
+    with_instance(instance, "fmi3SerializeFMUState", |i| {
+        i.serialize_fmu_state(
+            state_mut(state).map(|s| &*s),
+            slice_out(bytes, size, "serializedState"),
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3DeserializeFMUState(
+    instance: Component,
+    bytes: *const u8,
+    size: usize,
+    state: *mut FmuState,
+) -> Status {
+    with_instance(instance, "fmi3DeserializeFMUState", |i| {
+        i.deserialize_fmu_state(slice_in(bytes, size, "serializedState"), |s| {
+            store_new_state(state, s)
+        })
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Partial derivatives
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
+    instance: Component,
+    _unknowns: *const u32,
+    _n_unknowns: usize,
+    _knowns: *const u32,
+    _n_knowns: usize,
+    _seed: *const f64,
+    _n_seed: usize,
+    _sensitivity: *mut f64,
+    _n_sensitivity: usize,
+) -> Status {
+    unsupported(instance, "fmi3GetDirectionalDerivative", NO_DERIVATIVES)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetAdjointDerivative(
+    instance: Component,
+    _unknowns: *const u32,
+    _n_unknowns: usize,
+    _knowns: *const u32,
+    _n_knowns: usize,
+    _seed: *const f64,
+    _n_seed: usize,
+    _sensitivity: *mut f64,
+    _n_sensitivity: usize,
+) -> Status {
+    unsupported(instance, "fmi3GetAdjointDerivative", NO_DERIVATIVES)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Configuration mode, clocks, discrete states
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3EnterConfigurationMode(instance: Component) -> Status {
+    unsupported(instance, "fmi3EnterConfigurationMode", NO_CONFIGURATION)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3ExitConfigurationMode(instance: Component) -> Status {
+    unsupported(instance, "fmi3ExitConfigurationMode", NO_CONFIGURATION)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetIntervalDecimal(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _intervals: *mut f64,
+    _qualifiers: *mut Fmi3Enum,
+) -> Status {
+    unsupported(instance, "fmi3GetIntervalDecimal", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetIntervalFraction(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _counters: *mut u64,
+    _resolutions: *mut u64,
+    _qualifiers: *mut Fmi3Enum,
+) -> Status {
+    unsupported(instance, "fmi3GetIntervalFraction", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetShiftDecimal(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _shifts: *mut f64,
+) -> Status {
+    unsupported(instance, "fmi3GetShiftDecimal", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetShiftFraction(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _counters: *mut u64,
+    _resolutions: *mut u64,
+) -> Status {
+    unsupported(instance, "fmi3GetShiftFraction", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetIntervalDecimal(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _intervals: *const f64,
+) -> Status {
+    unsupported(instance, "fmi3SetIntervalDecimal", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetIntervalFraction(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _counters: *const u64,
+    _resolutions: *const u64,
+) -> Status {
+    unsupported(instance, "fmi3SetIntervalFraction", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetShiftDecimal(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _shifts: *const f64,
+) -> Status {
+    unsupported(instance, "fmi3SetShiftDecimal", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetShiftFraction(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _counters: *const u64,
+    _resolutions: *const u64,
+) -> Status {
+    unsupported(instance, "fmi3SetShiftFraction", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3EvaluateDiscreteStates(instance: Component) -> Status {
+    unsupported(instance, "fmi3EvaluateDiscreteStates", NO_EVENT_MODE)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3UpdateDiscreteStates(
+    instance: Component,
+    _discrete_states_need_update: *mut bool,
+    _terminate_simulation: *mut bool,
+    _nominals_changed: *mut bool,
+    _values_changed: *mut bool,
+    _next_event_time_defined: *mut bool,
+    _next_event_time: *mut f64,
+) -> Status {
+    unsupported(instance, "fmi3UpdateDiscreteStates", NO_EVENT_MODE)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Model Exchange
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3EnterContinuousTimeMode(instance: Component) -> Status {
+    unsupported(instance, "fmi3EnterContinuousTimeMode", CO_SIMULATION_ONLY)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3CompletedIntegratorStep(
+    instance: Component,
+    _no_set_prior: bool,
+    _enter_event_mode: *mut bool,
+    _terminate_simulation: *mut bool,
+) -> Status {
+    unsupported(instance, "fmi3CompletedIntegratorStep", CO_SIMULATION_ONLY)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetTime(instance: Component, _time: f64) -> Status {
+    unsupported(instance, "fmi3SetTime", CO_SIMULATION_ONLY)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetContinuousStates(
+    instance: Component,
+    _states: *const f64,
+    _n: usize,
+) -> Status {
+    unsupported(instance, "fmi3SetContinuousStates", CO_SIMULATION_ONLY)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetContinuousStateDerivatives(
+    instance: Component,
+    _derivatives: *mut f64,
+    _n: usize,
+) -> Status {
+    unsupported(
+        instance,
+        "fmi3GetContinuousStateDerivatives",
+        CO_SIMULATION_ONLY,
+    )
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetEventIndicators(
+    instance: Component,
+    _indicators: *mut f64,
+    _n: usize,
+) -> Status {
+    unsupported(instance, "fmi3GetEventIndicators", CO_SIMULATION_ONLY)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetContinuousStates(
+    instance: Component,
+    _states: *mut f64,
+    _n: usize,
+) -> Status {
+    unsupported(instance, "fmi3GetContinuousStates", CO_SIMULATION_ONLY)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetNominalsOfContinuousStates(
+    instance: Component,
+    _nominals: *mut f64,
+    _n: usize,
+) -> Status {
+    unsupported(
+        instance,
+        "fmi3GetNominalsOfContinuousStates",
+        CO_SIMULATION_ONLY,
+    )
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetNumberOfEventIndicators(
+    instance: Component,
+    _n: *mut usize,
+) -> Status {
+    unsupported(
+        instance,
+        "fmi3GetNumberOfEventIndicators",
+        CO_SIMULATION_ONLY,
+    )
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetNumberOfContinuousStates(
+    instance: Component,
+    _n: *mut usize,
+) -> Status {
+    unsupported(
+        instance,
+        "fmi3GetNumberOfContinuousStates",
+        CO_SIMULATION_ONLY,
+    )
+}
+
+// ---------------------------------------------------------------------------------------------
+// Co-Simulation
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3EnterStepMode(instance: Component) -> Status {
+    unsupported(instance, "fmi3EnterStepMode", NO_EVENT_MODE)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetOutputDerivatives(
+    instance: Component,
+    _vr: *const u32,
+    _n_vr: usize,
+    _orders: *const i32,
+    _values: *mut f64,
+    _n_values: usize,
+) -> Status {
+    unsupported(
+        instance,
+        "fmi3GetOutputDerivatives",
+        "maxOutputDerivativeOrder is 0",
+    )
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3DoStep(
+    instance: Component,
+    current_communication_point: f64,
+    communication_step_size: f64,
+    no_set_fmu_state_prior_to_current_point: bool,
+    event_handling_needed: *mut bool,
+    terminate_simulation: *mut bool,
+    early_return: *mut bool,
+    last_successful_time: *mut f64,
+) -> Status {
+    with_instance(instance, "fmi3DoStep", |i| {
+        let out = match (
+            event_handling_needed.as_mut(),
+            terminate_simulation.as_mut(),
+            early_return.as_mut(),
+            last_successful_time.as_mut(),
+        ) {
+            (Some(e), Some(t), Some(r), Some(l)) => Ok(DoStepOut {
+                event_handling_needed: e,
+                terminate_simulation: t,
+                early_return: r,
+                last_successful_time: l,
+            }),
+            _ => Err("an out-argument (eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime) is NULL".to_string()),
+        };
+        i.do_step_fmi3(
+            current_communication_point,
+            communication_step_size,
+            no_set_fmu_state_prior_to_current_point,
+            out,
+        )
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scheduled Execution
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3ActivateModelPartition(
+    instance: Component,
+    _clock_reference: u32,
+    _activation_time: f64,
+) -> Status {
+    unsupported(
+        instance,
+        "fmi3ActivateModelPartition",
+        "this is a Scheduled Execution function; the FMU is Co-Simulation only",
+    )
+}

@@ -1,0 +1,336 @@
+//! The FMI 3.0 Co-Simulation side of an instance. The same [`Instance`] serves both versions:
+//! same engine, worker, state machine, FMU states, logging; what differs lives here.
+//!
+//! ```text
+//! FMI 3                                 here                      FMI 2 counterpart
+//! fmi3InstantiateCoSimulation           instantiate_fmi3          fmi2Instantiate (native
+//!                                                                 resource path, token)
+//! fmi3EnterInitializationMode(tol, t0,  enter_initialization_     fmi2SetupExperiment +
+//!   t1)                                   mode_fmi3               fmi2EnterInitializationMode
+//! fmi3GetFloat64 / SetFloat64           get_float64 / set_float64 fmi2GetReal / SetReal (+ nValues
+//!                                                                 check, `time` at vr 0)
+//! fmi3GetInt32 / SetInt32               get_int32 / set_int32     fmi2GetInteger / SetInteger
+//! fmi3DoStep(..., out flags)            do_step_fmi3              fmi2DoStep, but a step that
+//!                                                                 does not converge leaves the
+//!                                                                 state as it was (Discard)
+//! other types (Float32, Int8, UInt8..., no_such_variables_fmi3    "no <Type> variable has
+//!   Boolean, String, Binary)                                      value reference r"
+//! ME, SE, clock, event-mode functions   unsupported_fmi3          Error with the reason
+//! ```
+//!
+//! Messages of the shared methods name the FMI 2 function they implement; the FMI 3 logger
+//! (`fmi3_ffi::fmi3_names`) prints the FMI 3 names.
+
+use super::{check_experiment, load_engine_from, reached, shown, Instance};
+use crate::description3;
+use crate::fmi::fmi3_ffi::TIME_VALUE_REFERENCE;
+use crate::fmi::fsm::{FsmState, Func};
+use crate::fmi::logging::{Category, Logger};
+use crate::fmi::snapshot::Experiment;
+use crate::fmi::Status;
+use crate::variables::Causality;
+
+/// The arguments of `fmi3InstantiateCoSimulation` that matter, as Rust values.
+pub struct Instantiate3Args<'a> {
+    pub instance_name: Option<&'a str>,
+    pub instantiation_token: Option<&'a str>,
+    pub resource_path: Option<&'a str>,
+    pub event_mode_used: bool,
+    pub early_return_allowed: bool,
+}
+
+/// The out-arguments of `fmi3DoStep`.
+pub struct DoStepOut<'a> {
+    pub event_handling_needed: &'a mut bool,
+    pub terminate_simulation: &'a mut bool,
+    pub early_return: &'a mut bool,
+    pub last_successful_time: &'a mut f64,
+}
+
+/// A function legal in every state (for bodies that only report that they are unsupported).
+const ANY_STATE: Func = Func::CancelStep;
+
+impl Instance {
+    /// `fmi3InstantiateCoSimulation`: None (after logging why) when an argument, the scene or
+    /// the token is wrong, or when the master wants event mode (`hasEventMode="false"`).
+    pub fn instantiate_fmi3(args: &Instantiate3Args, logger: Logger) -> Option<Instance> {
+        match build_fmi3(args) {
+            Ok((engine, token)) => {
+                let instance = Instance::new(engine, token, logger);
+                instance.logger.log(
+                    Category::Calls,
+                    &format!(
+                        "fmi3InstantiateCoSimulation(instanceName={:?}, instantiationToken={:?}, resourcePath={:?}, eventModeUsed={}, earlyReturnAllowed={}) -> instance",
+                        args.instance_name.unwrap_or_default(),
+                        args.instantiation_token.unwrap_or_default(),
+                        args.resource_path.unwrap_or_default(),
+                        args.event_mode_used,
+                        args.early_return_allowed
+                    ),
+                );
+                Some(instance)
+            }
+            Err(message) => {
+                logger.log(
+                    Category::StatusError,
+                    &format!("fmi3InstantiateCoSimulation: {message}"),
+                );
+                None
+            }
+        }
+    }
+
+    /// `fmi3EnterInitializationMode`: the experiment (FMI 2's SetupExperiment) and the entry
+    /// into Initialization Mode in one call.
+    pub fn enter_initialization_mode_fmi3(
+        &mut self,
+        tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> Status {
+        let args = self.args(|| {
+            format!(
+                "tolerance={}, startTime={start_time}, stopTime={}",
+                shown(tolerance),
+                shown(stop_time)
+            )
+        });
+        self.call_as(
+            "fmi3EnterInitializationMode",
+            Func::EnterInitializationMode,
+            args,
+            |s| {
+                check_experiment(tolerance, start_time, stop_time)?;
+                s.experiment = Experiment {
+                    done: true,
+                    tolerance,
+                    start_time,
+                    stop_time,
+                };
+                s.fsm = FsmState::InitializationMode;
+                s.time = start_time;
+                s.init_base = Some(s.engine.state().clone());
+                s.init_solved = false;
+                Ok(Status::Ok)
+            },
+        )
+    }
+
+    /// `fmi3GetFloat64`: every variable is a scalar, so `nValues` must equal the number of value
+    /// references; value reference 0 is `time`.
+    pub fn get_float64(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&mut [f64], String>,
+        n_values: usize,
+    ) -> Status {
+        let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
+        self.call_as("fmi3GetFloat64", Func::GetReal, args, |s| {
+            let vr = vr?;
+            check_n_values(vr.len(), n_values)?;
+            let values = values?;
+            s.prepare_outputs(vr)?;
+            for (r, v) in vr.iter().zip(values.iter_mut()) {
+                *v = if *r == TIME_VALUE_REFERENCE {
+                    s.time
+                } else {
+                    s.engine.get_real(*r).map_err(|e| e.to_string())?
+                };
+            }
+            Ok(Status::Ok)
+        })
+    }
+
+    /// `fmi3SetFloat64`: the FMI 2 rules of `fmi2SetReal` (all or nothing), after the checks
+    /// FMI 3 adds (`nValues`, `time` is not settable).
+    pub fn set_float64(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&[f64], String>,
+        n_values: usize,
+    ) -> Status {
+        let problem = match &vr {
+            Ok(vr) => check_n_values(vr.len(), n_values).err().or_else(|| {
+                vr.contains(&TIME_VALUE_REFERENCE).then(|| {
+                    format!(
+                        "variable {} (value reference {TIME_VALUE_REFERENCE}) cannot be set: it is the independent variable (set by fmi3EnterInitializationMode and fmi3DoStep)",
+                        description3::TIME_NAME
+                    )
+                })
+            }),
+            Err(_) => None,
+        };
+        match problem {
+            Some(message) => self.call_as("fmi3SetFloat64", Func::SetReal, String::new(), |_| {
+                Err(message)
+            }),
+            None => self.set_real(vr, values),
+        }
+    }
+
+    /// `fmi3GetInt32`: FMI 2's `fmi2GetInteger` after the `nValues` check.
+    pub fn get_int32(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&mut [i32], String>,
+        n_values: usize,
+    ) -> Status {
+        match vr.as_ref().map(|vr| check_n_values(vr.len(), n_values)) {
+            Ok(Err(message)) => {
+                self.call_as("fmi3GetInt32", Func::GetInteger, String::new(), |_| {
+                    Err(message)
+                })
+            }
+            _ => self.get_integer(vr, values),
+        }
+    }
+
+    /// `fmi3SetInt32`: FMI 2's `fmi2SetInteger` after the `nValues` check.
+    pub fn set_int32(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&[i32], String>,
+        n_values: usize,
+    ) -> Status {
+        match vr.as_ref().map(|vr| check_n_values(vr.len(), n_values)) {
+            Ok(Err(message)) => {
+                self.call_as("fmi3SetInt32", Func::SetInteger, String::new(), |_| {
+                    Err(message)
+                })
+            }
+            _ => self.set_integer(vr, values),
+        }
+    }
+
+    /// Get or set a variable type this FMU has no variables of: any reference is unknown;
+    /// an empty call is OK. `getter` selects the state mask of a getter or a setter.
+    pub fn no_such_variables_fmi3(
+        &mut self,
+        name: &'static str,
+        kind: &str,
+        getter: bool,
+        vr: Result<&[u32], String>,
+    ) -> Status {
+        let legal = if getter { Func::GetReal } else { Func::SetReal };
+        let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
+        self.call_as(name, legal, args, |_| match vr?.first() {
+            Some(r) => Err(format!(
+                "no {kind} variable has value reference {r} (this FMU has Float64 and Int32 variables only)"
+            )),
+            None => Ok(Status::Ok),
+        })
+    }
+
+    /// An FMI 3 function this FMU does not support: log why, return fmi3Error.
+    pub fn unsupported_fmi3(&mut self, name: &'static str, why: &str) -> Status {
+        self.call_as(name, ANY_STATE, String::new(), |_| {
+            Err(format!("not supported: {why}"))
+        })
+    }
+
+    /// `fmi3DoStep`: reach the equilibrium under the inputs set before the call. Not
+    /// converged: the instance stays exactly as it was before the call (same equilibrium,
+    /// time, state-machine state) and the call returns fmi3Discard with
+    /// `lastSuccessfulTime = currentCommunicationPoint`; the master may change inputs and try
+    /// again, restore a state, or terminate. `earlyReturn` and `eventHandlingNeeded` are
+    /// always false (no early return, no event mode); `terminateSimulation` is false.
+    pub fn do_step_fmi3(
+        &mut self,
+        t: f64,
+        h: f64,
+        no_set_prior: bool,
+        out: Result<DoStepOut<'_>, String>,
+    ) -> Status {
+        let args = self.args(|| {
+            format!(
+                "currentCommunicationPoint={t}, communicationStepSize={h}, noSetFMUStatePriorToCurrentPoint={no_set_prior}"
+            )
+        });
+        self.call_as("fmi3DoStep", Func::DoStep, args, |s| {
+            let out = out?;
+            *out.event_handling_needed = false;
+            *out.terminate_simulation = false;
+            *out.early_return = false;
+            *out.last_successful_time = s.time;
+            s.check_step(t, h)?;
+            let report = match s.forced_failure(t + h) {
+                Some(report) => report,
+                None => s.solve()?,
+            };
+            if report.converged() {
+                s.time = t + h;
+                s.last_successful_time = s.time;
+                *out.last_successful_time = s.time;
+                return Ok(Status::Ok);
+            }
+            *out.last_successful_time = t;
+            s.log_discard_fmi3(t, h, &report);
+            Ok(Status::Discard)
+        })
+    }
+
+    /// logStatusDiscard for FMI 3: how far the step got, why, and the inputs by name.
+    fn log_discard_fmi3(&self, t: f64, h: f64, report: &crate::solver::StepReport) {
+        if !self.logger.enabled(Category::StatusDiscard) {
+            return;
+        }
+        let inputs: Vec<String> = self
+            .engine
+            .variables()
+            .iter()
+            .filter(|v| v.causality == Causality::Input)
+            .filter_map(|v| {
+                let value = self.engine.get_real(v.value_reference).ok()?;
+                Some(format!("{} = {value}", v.name))
+            })
+            .collect();
+        self.logger.log(
+            Category::StatusDiscard,
+            &format!(
+                "fmi3DoStep: the step from {t} to {} did not converge: {}; the FMU state is unchanged (t = {t}, the last equilibrium); inputs: {}",
+                t + h,
+                reached(report),
+                if inputs.is_empty() { "none".to_string() } else { inputs.join(", ") }
+            ),
+        );
+    }
+}
+
+fn check_n_values(n_refs: usize, n_values: usize) -> Result<(), String> {
+    if n_refs == n_values {
+        Ok(())
+    } else {
+        Err(format!(
+            "nValues = {n_values}, expected {n_refs}: every variable of this FMU is a scalar, so nValues must equal nValueReferences"
+        ))
+    }
+}
+
+/// Check the instantiation arguments, read the scene from the resource path, compare the
+/// token.
+fn build_fmi3(args: &Instantiate3Args) -> Result<(crate::Engine, String), String> {
+    match args.instance_name {
+        None => return Err("instanceName is NULL".into()),
+        Some("") => return Err("instanceName is empty".into()),
+        Some(_) => {}
+    }
+    if args.event_mode_used {
+        return Err(
+            "eventModeUsed = true, but this FMU has no event mode (hasEventMode=\"false\")".into(),
+        );
+    }
+    let given = args
+        .instantiation_token
+        .ok_or("instantiationToken is NULL")?;
+    let path = args
+        .resource_path
+        .ok_or("resourcePath is NULL; this FMU reads its scene from resources/scene.json")?;
+    let engine = load_engine_from(std::path::Path::new(path))?;
+    let token = description3::instantiation_token(&engine);
+    if given != token {
+        return Err(format!(
+            "instantiationToken mismatch: the importer passed {given}, but this binary and its resources have {token} (was the FMU repackaged with another modelDescription.xml?)"
+        ));
+    }
+    Ok((engine, token))
+}
