@@ -47,7 +47,7 @@ def pack_all(binary: Path) -> list[Path]:
     fmus = []
     for name in vr.shipped_models():
         scene = vr.SCENES / name / "scene.json"
-        run = subprocess.run([str(binary), "pack", str(scene), "--out", str(vr.FMU_DIR)], capture_output=True, text=True)
+        run = subprocess.run([str(binary), "pack", str(scene), "--out", str(vr.FMU_DIR), "--fmi", "2"], capture_output=True, text=True)
         if run.returncode != 0:
             sys.exit(f"packing {scene} failed:\n{run.stderr}")
         fmus.append(Path(run.stdout.splitlines()[0]))  # the FMI 2 archive (the FMI 3 one follows)

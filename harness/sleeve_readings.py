@@ -32,7 +32,7 @@ def pack_drawstring() -> None:
     import subprocess
 
     vr.FMU_DIR.mkdir(parents=True, exist_ok=True)
-    run = subprocess.run([str(vr.VELARIUM), "pack", str(DRAWSTRING), "--out", str(vr.FMU_DIR)], capture_output=True, text=True)
+    run = subprocess.run([str(vr.VELARIUM), "pack", str(DRAWSTRING), "--out", str(vr.FMU_DIR), "--fmi", "2"], capture_output=True, text=True)
     if run.returncode != 0:
         sys.exit(f"packing {DRAWSTRING} failed:\n{run.stderr}")
 # SleeveDrawstring's free constants: rubber shear modulus 3e4-1e6 Pa (a soft natural rubber to a

@@ -166,7 +166,7 @@ def fmu_for(path: Path, out_dir: Path = FMU_DIR, binary: Path = VELARIUM) -> Pat
     if path.suffix == ".fmu":
         return path
     out_dir.mkdir(parents=True, exist_ok=True)
-    run = subprocess.run([str(binary), "pack", str(path), "--out", str(out_dir)], capture_output=True, text=True)
+    run = subprocess.run([str(binary), "pack", str(path), "--out", str(out_dir), "--fmi", "2"], capture_output=True, text=True)
     if run.returncode != 0:
         raise RuntimeError(f"velarium pack {path} failed ({run.returncode}):\n{run.stderr}")
     return Path(run.stdout.strip())
