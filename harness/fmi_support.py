@@ -173,7 +173,7 @@ def debug_variant(model: str, directory: Path, velarium: Path, **debug: float) -
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / "scene.json"
     path.write_text(json.dumps(scene, indent=1))
-    run = subprocess.run([str(velarium), "pack", str(path), "--out", str(directory), "--fmi", "2"], capture_output=True, text=True)
+    run = subprocess.run([str(velarium), "pack", str(path), "--out", str(directory)], capture_output=True, text=True)
     if run.returncode != 0:
         raise RuntimeError(f"velarium pack failed:\n{run.stderr}")
     return directory / f"{scene['name']}.fmu"
