@@ -247,7 +247,11 @@ impl Engine {
     pub fn check_state(&self, state: &EngineState) -> Result<(), Error> {
         let bad = |m: String| Err(Error::State(m));
         let max = crate::scene::validate::MAX_MAGNITUDE;
-        if let Some(i) = state.displacement.iter().position(|x| !(x.is_finite() && x.abs() <= max)) {
+        if let Some(i) = state
+            .displacement
+            .iter()
+            .position(|x| !(x.is_finite() && x.abs() <= max))
+        {
             return bad(format!(
                 "displacement[{i}] = {} is not a finite displacement with |u| <= {max:e}",
                 state.displacement[i]
@@ -266,15 +270,22 @@ impl Engine {
             ));
         }
         if let Some(i) = state.tension_angle.iter().position(|x| !x.is_finite()) {
-            return bad(format!("tension_angle[{i}] = {} is not finite", state.tension_angle[i]));
+            return bad(format!(
+                "tension_angle[{i}] = {} is not finite",
+                state.tension_angle[i]
+            ));
         }
         for var in &self.variables {
             let (field, value) = match var.binding {
                 Binding::Input(i) => {
                     if !state.applied[i].is_finite() {
-                        return bad(format!("applied value of input {} = {} is not finite", var.name, state.applied[i]));
+                        return bad(format!(
+                            "applied value of input {} = {} is not finite",
+                            var.name, state.applied[i]
+                        ));
                     }
-                    check_bounds(var, state.applied[i]).map_err(|e| Error::State(format!("applied value: {e}")))?;
+                    check_bounds(var, state.applied[i])
+                        .map_err(|e| Error::State(format!("applied value: {e}")))?;
                     ("input", state.inputs[i])
                 }
                 Binding::Parameter(i) => ("parameter", state.parameters[i]),

@@ -1108,7 +1108,10 @@ fn instantiate_refuses_a_scene_too_large_or_degenerate_with_a_message() {
     ))
     .unwrap();
     for (scene, needle) in [
-        (disc.replace("\"rings\": 16", "\"rings\": 100000"), "max_nodes"),
+        (
+            disc.replace("\"rings\": 16", "\"rings\": 100000"),
+            "max_nodes",
+        ),
         (
             disc.replace("\"center\": [0, 0, 0]", "\"center\": [0, 1e19, 0]"),
             "zero area in floating point",
@@ -1168,5 +1171,11 @@ fn resealed_states_with_bad_values_are_rejected_and_change_nothing() {
         assert_eq!(fmu.outputs(), before);
     }
     // The untouched bytes still restore.
-    assert_eq!(fmu.restore(&reseal(u, f64::from_le_bytes(bytes[u..u + 8].try_into().unwrap()))), OK);
+    assert_eq!(
+        fmu.restore(&reseal(
+            u,
+            f64::from_le_bytes(bytes[u..u + 8].try_into().unwrap())
+        )),
+        OK
+    );
 }

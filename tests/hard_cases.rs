@@ -575,7 +575,10 @@ fn f2_micro_load_on_a_slack_cable_longer_than_its_chord() {
     let mut e = engine(scene);
     solve(&mut e);
     set(&mut e, "P", 1e-6);
-    let report = e.solve(); if std::env::var("VLOG").is_ok() { println!("{}", report.log.join("\n")); }
+    let report = e.solve();
+    if std::env::var("VLOG").is_ok() {
+        println!("{}", report.log.join("\n"));
+    }
     assert!(report.converged(), "{}", report.message);
     let (w_ref, t_ref) = hanging_string(1e5, 1.05, 1e-6);
     let (w, t, rz) = (

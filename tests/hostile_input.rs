@@ -47,7 +47,11 @@ fn run(args: &[&str]) -> Output {
         std::thread::sleep(Duration::from_millis(5));
     }
     let out = child.wait_with_output().unwrap();
-    println!("velarium {:?}: {:.3} s", args[0], start.elapsed().as_secs_f64());
+    println!(
+        "velarium {:?}: {:.3} s",
+        args[0],
+        start.elapsed().as_secs_f64()
+    );
     out
 }
 
@@ -141,7 +145,10 @@ fn a_long_strip_passes_with_its_estimate_and_a_lower_limit_stops_it() {
     let out = run(&["check", &scene]);
     let t = text(&out);
     if out.status.code() == Some(0) {
-        assert!(t.contains("600006 unknowns") || t.contains("estimated solve memory"), "{t}");
+        assert!(
+            t.contains("600006 unknowns") || t.contains("estimated solve memory"),
+            "{t}"
+        );
     } else {
         // Other scene rules (supports, probes) may object; never a size panic or abort.
         assert_eq!(out.status.code(), Some(1), "{t}");
@@ -150,7 +157,11 @@ fn a_long_strip_passes_with_its_estimate_and_a_lower_limit_stops_it() {
     let scene = write("strip_limited.json", v2.to_string().as_bytes());
     rejected(
         &["check", &scene],
-        &["geometry.generators[0].divisions", "600006 unknowns", "max_unknowns = 100000"],
+        &[
+            "geometry.generators[0].divisions",
+            "600006 unknowns",
+            "max_unknowns = 100000",
+        ],
     );
 }
 
@@ -166,7 +177,11 @@ fn generated_triangles_of_zero_area_are_located_errors_not_panics() {
     let far = hencky("16").replace("\"center\": [0, 0, 0]", "\"center\": [0, 1e19, 0]");
     let loads = write("p2.csv", b"time,pressure\n0,0\n1,10\n");
     for (name, scene, needle) in [
-        ("rect_far.json", rect.to_string(), "zero area in floating point"),
+        (
+            "rect_far.json",
+            rect.to_string(),
+            "zero area in floating point",
+        ),
         ("disc_small.json", small, "radius"),
         ("disc_far.json", far, "zero area in floating point"),
     ] {
@@ -177,7 +192,10 @@ fn generated_triangles_of_zero_area_are_located_errors_not_panics() {
             &["geometry.generators[0]"],
         );
         if name != "rect_far.json" {
-            rejected(&["solve", &path, "--loads", &loads], &["geometry.generators[0]"]);
+            rejected(
+                &["solve", &path, "--loads", &loads],
+                &["geometry.generators[0]"],
+            );
         }
     }
 }
@@ -185,13 +203,17 @@ fn generated_triangles_of_zero_area_are_located_errors_not_panics() {
 #[test]
 fn overflowing_coordinates_and_moduli_are_rejected_with_the_field() {
     let p = problems(&cable_with("[2, 0, 0]", "[2, 1e308, 0]"));
-    assert!(p.iter().any(|m| m.starts_with("geometry.nodes[2]")), "{p:?}");
+    assert!(
+        p.iter().any(|m| m.starts_with("geometry.nodes[2]")),
+        "{p:?}"
+    );
     let p = problems(&cable_with("\"EA\": 1e5", "\"EA\": 1e308"));
     assert!(p.iter().any(|m| m.starts_with("cables[0].EA")), "{p:?}");
     // Finite but too stiff for the pretension to survive round-off.
     let p = problems(&cable_with("\"EA\": 1e5", "\"EA\": 1e25"));
     assert!(
-        p.iter().any(|m| m.starts_with("cables[0].EA") && m.contains("pretension would be lost")),
+        p.iter()
+            .any(|m| m.starts_with("cables[0].EA") && m.contains("pretension would be lost")),
         "{p:?}"
     );
 }
@@ -269,8 +291,17 @@ fn slip_codes_out_of_range_are_rejected() {
 
 /// Words that must never reach a user: Rust and serde vocabulary.
 const SERDE_WORDS: &[&str] = &[
-    "usize", "u32", "f64", "untagged", "internally tagged", "NodeRef", "OneNode", "TriangleRef",
-    "enum ", "struct ", "sequence",
+    "usize",
+    "u32",
+    "f64",
+    "untagged",
+    "internally tagged",
+    "NodeRef",
+    "OneNode",
+    "TriangleRef",
+    "enum ",
+    "struct ",
+    "sequence",
 ];
 
 fn assert_scene_words(messages: &[String]) {
@@ -309,7 +340,10 @@ fn check_lists_unknown_fields_and_semantic_problems_in_one_run() {
         .replacen("\"EA\": 1e5", "\"EA\": -1, \"colour\": 1", 1)
         .replacen("\"format\": 1,", "\"format\": 1, \"autor\": \"x\",", 1);
     let path = write("two_typos.json", text.as_bytes());
-    let t = rejected(&["check", &path], &["cables[0].colour", "autor", "cables[0].EA: -1"]);
+    let t = rejected(
+        &["check", &path],
+        &["cables[0].colour", "autor", "cables[0].EA: -1"],
+    );
     assert!(t.contains("3 problems"), "{t}");
 }
 
@@ -337,7 +371,10 @@ fn invalid_utf8_names_the_byte_offset() {
     rejected(&["check", &path], &[&format!("byte offset {at}")]);
     let good = write("good.json", shipped_text("PrestressedCable").as_bytes());
     let loads = write("latin1.csv", b"time,P\n0,0\n1,5\xE9\n");
-    rejected(&["solve", &good, "--loads", &loads], &["byte offset 14 (line 3)"]);
+    rejected(
+        &["solve", &good, "--loads", &loads],
+        &["byte offset 14 (line 3)"],
+    );
 }
 
 #[test]
@@ -378,8 +415,18 @@ fn explicit_triangles_may_use_generated_nodes_by_id_or_set_name() {
     // Global numbering: explicit node 0, then the rectangle's (i, j) at 1 + 2 j + i.
     assert_eq!(mesh.triangles[0], [3, 4, 0]);
     assert_eq!(mesh.nodes[4], [1.0, 1.0, 0.0]);
-    let bad = text.replace("\"r.corner_tr\"", "\"r.edge_top\"").replace("[3,", "[9,");
+    let bad = text
+        .replace("\"r.corner_tr\"", "\"r.edge_top\"")
+        .replace("[3,", "[9,");
     let p = problems(&bad);
-    assert!(p.iter().any(|m| m.starts_with("geometry.triangles[0][0]: unknown node 9")), "{p:?}");
-    assert!(p.iter().any(|m| m.starts_with("geometry.triangles[0][1]") && m.contains("2 nodes")), "{p:?}");
+    assert!(
+        p.iter()
+            .any(|m| m.starts_with("geometry.triangles[0][0]: unknown node 9")),
+        "{p:?}"
+    );
+    assert!(
+        p.iter()
+            .any(|m| m.starts_with("geometry.triangles[0][1]") && m.contains("2 nodes")),
+        "{p:?}"
+    );
 }

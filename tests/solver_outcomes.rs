@@ -102,11 +102,26 @@ fn prescribed_displacements_start_from_the_tangent_predictor() {
     let log = report.log.join("\n");
     assert_eq!(report.iterations, 2, "{log}");
     // The first logged residual (after the predictor) relative to its force scale.
-    let first = report.log.iter().find(|l| l.contains("iteration 1:")).expect("one iteration");
+    let first = report
+        .log
+        .iter()
+        .find(|l| l.contains("iteration 1:"))
+        .expect("one iteration");
     let number = |key: &str| -> f64 {
-        first.split(key).nth(1).unwrap().split([' ', ')', ',']).next().unwrap().parse().unwrap()
+        first
+            .split(key)
+            .nth(1)
+            .unwrap()
+            .split([' ', ')', ','])
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
     };
     let relative = number("|R| = ") / number("(scale ");
-    assert!(relative < 1e-6, "residual after the predictor {relative:e} of the scale:\n{log}");
+    assert!(
+        relative < 1e-6,
+        "residual after the predictor {relative:e} of the scale:\n{log}"
+    );
     assert!(get(&e, "force") > 0.0);
 }

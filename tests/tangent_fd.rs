@@ -317,7 +317,10 @@ fn wrinkling_tangent_matches_finite_differences_entry_by_entry() {
         };
         // Stretch in one direction, compress or stretch in the other, rotate out of plane:
         // taut, wrinkled and slack states all occur.
-        let (s1, s2) = (1.0 + 0.2 * (rng.next() - 0.3), 1.0 + 0.2 * (rng.next() - 0.6));
+        let (s1, s2) = (
+            1.0 + 0.2 * (rng.next() - 0.3),
+            1.0 + 0.2 * (rng.next() - 0.6),
+        );
         let x: Vec<Vector3<f64>> = reference
             .iter()
             .map(|p| Vector3::new(p.x * s1, p.y * s2, 0.3 * p.x * p.y) + rng.vec3(0.02))

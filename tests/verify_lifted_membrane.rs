@@ -45,7 +45,10 @@ fn lift_state(prestress: f64, force: f64) -> Lifted {
 /// Largest displacement difference relative to the largest displacement.
 fn field_difference(a: &[f64], b: &[f64]) -> f64 {
     let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
 }
 
 fn lift(prestress: f64, force: f64) -> (Vec<(String, f64)>, usize) {
@@ -63,7 +66,10 @@ fn equilibrium_does_not_depend_on_the_artificial_prestress() {
     // equilibrium): every displacement component within 1e-9 of the largest displacement
     // (measured 1.1e-10: both points meet the residual tolerance 1e-9 of the forces).
     let d = field_difference(&a.displacement, &b.displacement);
-    assert!(d < 1e-9, "displacement fields differ by {d:e} of the largest displacement");
+    assert!(
+        d < 1e-9,
+        "displacement fields differ by {d:e} of the largest displacement"
+    );
     assert_eq!(a.wrinkle, b.wrinkle, "wrinkle state of every triangle");
     assert_ne!(
         a.iterations, b.iterations,
@@ -97,5 +103,8 @@ fn without_prestress_the_flat_start_reaches_the_same_equilibrium() {
     let d = field_difference(&reference.displacement, &none.displacement);
     assert!(d < 1e-9, "displacement fields differ by {d:e}");
     assert_eq!(none.wrinkle, reference.wrinkle);
-    println!("no prestress: {} iterations, field difference {d:.1e}", none.iterations);
+    println!(
+        "no prestress: {} iterations, field difference {d:.1e}",
+        none.iterations
+    );
 }

@@ -16,7 +16,10 @@
 mod common;
 use common::*;
 
-const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/SleeveDrawstring.json");
+const SCENE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/examples/SleeveDrawstring.json"
+);
 
 #[test]
 fn drawstring_gathers_the_sleeved_edge_symmetrically() {
@@ -64,6 +67,12 @@ fn drawstring_solves_table1_load_path() {
     for p in [0.0, 1.0, 2.0, 4.0, 5.0] {
         set(&mut e, "force_2P", p);
         solve(&mut e);
-        println!("2P {p}: A_dx {:.4e} A_dy {:.4e} B_dy {:.4e} L_c {:.5}", get(&e, "A_dx"), get(&e, "A_dy"), get(&e, "B_dy"), get(&e, "L_c"));
+        println!(
+            "2P {p}: A_dx {:.4e} A_dy {:.4e} B_dy {:.4e} L_c {:.5}",
+            get(&e, "A_dx"),
+            get(&e, "A_dy"),
+            get(&e, "B_dy"),
+            get(&e, "L_c")
+        );
     }
 }

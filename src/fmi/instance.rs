@@ -656,8 +656,8 @@ fn load_engine_from(dir: &std::path::Path) -> Result<Engine, String> {
     let path = dir.join("scene.json");
     let shown = path.display();
     let bytes = std::fs::read(&path).map_err(|e| format!("cannot read {shown}: {e}"))?;
-    let scene = Scene::parse(&bytes)
-        .map_err(|p| format!("{shown}: {}", crate::error::Error::Scene(p)))?;
+    let scene =
+        Scene::parse(&bytes).map_err(|p| format!("{shown}: {}", crate::error::Error::Scene(p)))?;
     Engine::try_new(scene).map_err(|e| format!("{shown}: {e}"))
 }
 

@@ -304,8 +304,17 @@ fn build_triangles(
             let nodes = mesh.triangles[t];
             let Some(reference) = membrane::triangle_ref(nodes.map(|i| x[i])) else {
                 return Err(crate::scene::Problem {
-                    path: format!("membranes[{}].triangles", scene.membranes.iter().position(|g| std::ptr::eq(g, m)).unwrap_or(0)),
-                    message: format!("triangle {t} (nodes {nodes:?}) has zero area in floating point"),
+                    path: format!(
+                        "membranes[{}].triangles",
+                        scene
+                            .membranes
+                            .iter()
+                            .position(|g| std::ptr::eq(g, m))
+                            .unwrap_or(0)
+                    ),
+                    message: format!(
+                        "triangle {t} (nodes {nodes:?}) has zero area in floating point"
+                    ),
                 });
             };
             for &i in &nodes {

@@ -89,7 +89,9 @@ pub fn count(scene: &Scene) -> Size {
     Size {
         nodes,
         triangles,
-        unknowns: nodes.saturating_mul(3).saturating_add(sleeve_points.saturating_mul(4)),
+        unknowns: nodes
+            .saturating_mul(3)
+            .saturating_add(sleeve_points.saturating_mul(4)),
         factor_entries: 0,
         memory_bytes: 0,
     }
@@ -128,8 +130,18 @@ pub fn check_counts(size: &Size, limits: &Limits) -> Vec<Problem> {
     let mut over = Vec::new();
     for (what, n, max, field) in [
         ("nodes", size.nodes, limits.max_nodes, "max_nodes"),
-        ("triangles", size.triangles, limits.max_triangles, "max_triangles"),
-        ("unknowns", size.unknowns, limits.max_unknowns, "max_unknowns"),
+        (
+            "triangles",
+            size.triangles,
+            limits.max_triangles,
+            "max_triangles",
+        ),
+        (
+            "unknowns",
+            size.unknowns,
+            limits.max_unknowns,
+            "max_unknowns",
+        ),
     ] {
         if n > max {
             over.push(format!("{n} {what} (limit solver.limits.{field} = {max})"));
@@ -211,9 +223,13 @@ pub fn factor_entries(mesh: &Mesh, cables: &[Vec<usize>]) -> Option<u64> {
         supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
         ..Default::default()
     };
-    let symbolic =
-        factorize_symbolic_cholesky(pattern.as_ref(), Side::Upper, SymmetricOrdering::Amd, params)
-            .ok()?;
+    let symbolic = factorize_symbolic_cholesky(
+        pattern.as_ref(),
+        Side::Upper,
+        SymmetricOrdering::Amd,
+        params,
+    )
+    .ok()?;
     Some(9 * symbolic.len_val() as u64)
 }
 
@@ -235,7 +251,12 @@ pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
 
 /// Step 2: the factor's entries from the symbolic analysis, the memory estimate, checked
 /// against `max_memory_gb` and what the process can get.
-pub fn check_memory(size: &mut Size, mesh: &Mesh, cables: &[Vec<usize>], limits: &Limits) -> Vec<Problem> {
+pub fn check_memory(
+    size: &mut Size,
+    mesh: &Mesh,
+    cables: &[Vec<usize>],
+    limits: &Limits,
+) -> Vec<Problem> {
     let entries = factor_entries(mesh, cables);
     let mut out = Vec::new();
     let Some(entries) = entries else {
@@ -290,7 +311,9 @@ pub fn available_bytes() -> Option<u64> {
 
 fn address_space_left() -> Option<u64> {
     let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
-    let line = limits.lines().find(|l| l.starts_with("Max address space"))?;
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
     let soft: u64 = line.split_whitespace().nth(3)?.parse().ok()?; // "unlimited" -> None
     let mapped = std::fs::read_to_string("/proc/self/statm")
         .ok()
@@ -385,8 +408,14 @@ mod tests {
             });
             let estimate = factor_entries(&mesh, &[]).unwrap();
             let actual = dof_factor_entries(&mesh);
-            println!("{} nodes: estimate {estimate}, DOF-level {actual}", mesh.nodes.len());
-            assert!(estimate >= actual && estimate <= 3 * actual, "{estimate} vs {actual}");
+            println!(
+                "{} nodes: estimate {estimate}, DOF-level {actual}",
+                mesh.nodes.len()
+            );
+            assert!(
+                estimate >= actual && estimate <= 3 * actual,
+                "{estimate} vs {actual}"
+            );
         }
     }
 }

@@ -624,7 +624,11 @@ impl std::fmt::Display for Problem {
         if self.path.is_empty() {
             write!(f, "{}", read::clip(&self.message))
         } else {
-            write!(f, "{}", read::clip(&format!("{}: {}", self.path, self.message)))
+            write!(
+                f,
+                "{}",
+                read::clip(&format!("{}: {}", self.path, self.message))
+            )
         }
     }
 }

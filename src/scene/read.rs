@@ -44,18 +44,17 @@ pub fn parse(bytes: &[u8]) -> Result<Scene, (Vec<Problem>, Option<Scene>)> {
     let text = decode_text(bytes).map_err(|m| (vec![problem("", m)], None))?;
     let mut value: Value = serde_json::from_str(text).map_err(|e| {
         let m = e.to_string();
-        (vec![problem("", format!("invalid JSON: {}", words(&m)))], None)
+        (
+            vec![problem("", format!("invalid JSON: {}", words(&m)))],
+            None,
+        )
     })?;
     let mut problems = duplicate_keys(text);
     let mut only_unknown = true;
     collect_scene(&mut value, &mut problems, &mut only_unknown);
     if problems.is_empty() {
-        return serde_json::from_value::<Scene>(value).map_err(|e| {
-            (
-                vec![problem("", words(&e.to_string()))],
-                None::<Scene>,
-            )
-        });
+        return serde_json::from_value::<Scene>(value)
+            .map_err(|e| (vec![problem("", words(&e.to_string()))], None::<Scene>));
     }
     let recovered = if only_unknown && !problems.iter().any(|p| p.message.contains("twice")) {
         serde_json::from_value::<Scene>(value).ok()
@@ -75,7 +74,10 @@ fn problem(path: impl Into<String>, message: impl Into<String>) -> Problem {
 /// The scene's top-level sections, each list element read on its own.
 fn collect_scene(v: &mut Value, out: &mut Vec<Problem>, only_unknown: &mut bool) {
     let Some(obj) = v.as_object_mut() else {
-        out.push(problem("", format!("a scene must be a JSON object, not {}", kind_of(v))));
+        out.push(problem(
+            "",
+            format!("a scene must be a JSON object, not {}", kind_of(v)),
+        ));
         *only_unknown = false;
         return;
     };
@@ -180,14 +182,24 @@ fn element<T: DeserializeOwned>(
         let at = locate(v, &inner, &raw);
         let full = join(path, &at);
         let unknown = raw.starts_with("unknown field");
-        if let Some(field) = raw.strip_prefix("missing field `").and_then(|r| r.split('`').next()) {
+        if let Some(field) = raw
+            .strip_prefix("missing field `")
+            .and_then(|r| r.split('`').next())
+        {
             // A field removed after its own problem is reported only once.
             let missing = join(&full, field);
-            if out.iter().any(|p| p.path == missing || p.path.starts_with(&format!("{missing}[")) || p.path.starts_with(&format!("{missing}."))) {
+            if out.iter().any(|p| {
+                p.path == missing
+                    || p.path.starts_with(&format!("{missing}["))
+                    || p.path.starts_with(&format!("{missing}."))
+            }) {
                 return;
             }
         }
-        if out.iter().any(|p| p.path == full && p.message == message(&raw, &full)) {
+        if out
+            .iter()
+            .any(|p| p.path == full && p.message == message(&raw, &full))
+        {
             return; // an element already checked on its own, met again inside its parent
         }
         let key = if unknown {
@@ -285,7 +297,8 @@ fn remove(v: &mut Value, path: &str) -> bool {
             },
         };
     }
-    cur.as_object_mut().is_some_and(|o| o.remove(&last).is_some())
+    cur.as_object_mut()
+        .is_some_and(|o| o.remove(&last).is_some())
 }
 
 /// The path (relative to the element) a message is about. serde_path_to_error stops at an
@@ -295,8 +308,7 @@ fn locate(v: &Value, inner: &str, raw: &str) -> String {
     let Some(here) = get(v, inner) else {
         return inner.to_string();
     };
-    if !here.is_object() || raw.starts_with("unknown field") || raw.starts_with("missing field")
-    {
+    if !here.is_object() || raw.starts_with("unknown field") || raw.starts_with("missing field") {
         return inner.to_string();
     }
     if here.get("kind").is_none() {
@@ -421,7 +433,10 @@ fn message(raw: &str, path: &str) -> String {
         let what = path.rsplit('.').next().unwrap_or(path);
         return format!(
             "must be an object with a \"kind\" field ({what} {})",
-            raw.split(", expected").next().unwrap_or(raw).replace("invalid type: ", "given: ")
+            raw.split(", expected")
+                .next()
+                .unwrap_or(raw)
+                .replace("invalid type: ", "given: ")
         );
     }
     words(raw)
@@ -440,7 +455,10 @@ pub fn words(raw: &str) -> String {
         ("expected a map", "expected an object"),
         ("expected a boolean", "expected true or false"),
         ("expected unit", "expected null"),
-        ("expected string or map", "expected one of the documented names"),
+        (
+            "expected string or map",
+            "expected one of the documented names",
+        ),
         ("expected variant identifier", "expected a kind name"),
         ("expected `kind`", "expected a \"kind\" field"),
         ("invalid type: sequence", "invalid type: a list"),
@@ -597,10 +615,17 @@ mod tests {
 
     #[test]
     fn duplicates_are_found_with_both_places() {
-        let p = duplicate_keys("{\"a\": {\"m\": [1], \"n\": 2,\n \"m\": [0]}, \"b\": [{\"x\": 1, \"x\": 2}]}");
+        let p = duplicate_keys(
+            "{\"a\": {\"m\": [1], \"n\": 2,\n \"m\": [0]}, \"b\": [{\"x\": 1, \"x\": 2}]}",
+        );
         assert_eq!(p.len(), 2, "{p:?}");
         assert_eq!(p[0].path, "a.m");
-        assert!(p[0].message.contains("line 1, column 8 and line 2, column 2"), "{}", p[0]);
+        assert!(
+            p[0].message
+                .contains("line 1, column 8 and line 2, column 2"),
+            "{}",
+            p[0]
+        );
         assert_eq!(p[1].path, "b[0].x");
         assert!(duplicate_keys(r#"{"a": "{\"a\": 1, \"a\": 2}", "b": {"a": 1}}"#).is_empty());
     }

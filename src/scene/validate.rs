@@ -106,7 +106,8 @@ pub const MIN_MAGNITUDE: f64 = 1e-30;
 /// Smallest initial strain T/EA a pretension may give: below it the unstretched length rounds
 /// to the stretched one (10^4 ulps of 1).
 pub const PRESTRAIN_FLOOR: f64 = 1e-12;
-const RANGE: &str = "(between 1e-30 and 1e30, so that squares and products in the mechanics cannot overflow)";
+const RANGE: &str =
+    "(between 1e-30 and 1e30, so that squares and products in the mechanics cannot overflow)";
 
 /// A positive number within [MIN_MAGNITUDE, MAX_MAGNITUDE].
 fn positive(x: f64) -> bool {
@@ -241,7 +242,10 @@ impl Validator {
                         self.push(format!("{p}.center"), "must be finite with |x| <= 1e30 m");
                     }
                     if !positive(*radius) {
-                        self.push(format!("{p}.radius"), format!("must be a positive length in m {RANGE}"));
+                        self.push(
+                            format!("{p}.radius"),
+                            format!("must be a positive length in m {RANGE}"),
+                        );
                     }
                     if *rings == 0 {
                         self.push(format!("{p}.rings"), "needs at least one ring");
@@ -761,7 +765,10 @@ impl Validator {
                         }
                     }
                     if center.iter().any(|x| !coordinate(*x)) {
-                        self.push(format!("{p}.load.center"), "must be finite with |x| <= 1e30 m");
+                        self.push(
+                            format!("{p}.load.center"),
+                            "must be finite with |x| <= 1e30 m",
+                        );
                     }
                 }
             }

@@ -65,8 +65,10 @@ impl Instance {
             }
         }
         let e = &snapshot.experiment;
-        if e.stop_time.is_some_and(|stop| !(stop.is_finite() && stop >= e.start_time))
-            || e.tolerance.is_some_and(|tol| !(tol.is_finite() && tol > 0.0))
+        if e.stop_time
+            .is_some_and(|stop| !(stop.is_finite() && stop >= e.start_time))
+            || e.tolerance
+                .is_some_and(|tol| !(tol.is_finite() && tol > 0.0))
         {
             return Err(format!(
                 "FMU state rejected: experiment (startTime {}, stopTime {:?}, tolerance {:?}) is not a valid experiment",
