@@ -167,7 +167,7 @@ fn largest(f: &[f64]) -> f64 {
 #[derive(Default)]
 pub struct Membranes<'a> {
     /// States frozen by the solver against chatter (None: the mixed criterion decides).
-    pub forced: Option<&'a [WrinkleState]>,
+    pub forced: Option<&'a [Option<WrinkleState>]>,
     /// Evaluation of every triangle (state, tension angle, stress), if wanted.
     pub out: Option<&'a mut Vec<Evaluation>>,
     /// Held-DOF coupling: given a displacement change on held DOFs (zero elsewhere), add
@@ -303,7 +303,7 @@ pub fn assemble_with(
     let factor = extra.prestress_factor.unwrap_or(1.0);
     let mut ke = membrane::Mat9::zeros();
     for (e, t) in model.triangles.iter().enumerate() {
-        let forced = extra.forced.map(|f| f[e]);
+        let forced = extra.forced.and_then(|f| f[e]);
         let (f, eval, ratio) =
             triangle_contribution(model, e, u, factor, forced, want_k.then_some(&mut ke));
         add_force(r, &t.nodes, f.as_slice(), &mut extra.magnitude);

@@ -62,9 +62,10 @@ pub struct Settings {
     pub target_iterations: usize,
     /// Backtracking line search on every Newton correction. Default on.
     pub line_search: bool,
-    /// Iterations with wrinkle or stick/slip state changes before the states are frozen until
-    /// convergence (chatter guard). Default 6: a state switch costs 2-4 iterations; states
-    /// still changing after 6 are chattering between neighbours of a border.
+    /// Iterations with wrinkle or stick/slip state changes before chattering states are frozen
+    /// until convergence (chatter guard; active_set.rs): from here on a triangle back in the
+    /// state it left two iterations ago is frozen, and from twice this on every triangle that
+    /// still changes. Default 6: a state switch costs 2-4 iterations.
     pub freeze_after: usize,
     /// Times frozen states may turn out wrong at convergence before the increment is cut back.
     /// Default 3.
@@ -227,7 +228,7 @@ pub struct Solver {
     /// Per-triangle evaluations of the last assembly.
     evaluations: Vec<Evaluation>,
     /// Wrinkle states frozen against chatter inside the current increment.
-    frozen: Option<Vec<WrinkleState>>,
+    frozen: Option<Vec<Option<WrinkleState>>>,
     /// Elements and loads at each node, for nodal relaxation.
     adjacency: relax::Adjacency,
     /// Factor on the artificial prestress in the tangent of the current Newton iteration.

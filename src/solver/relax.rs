@@ -107,7 +107,7 @@ fn local(
     u: &[f64],
     loads: &[f64],
     node: usize,
-    forced: Option<&[WrinkleState]>,
+    forced: Option<&[Option<WrinkleState>]>,
 ) -> Local {
     let mut out = Local {
         r: Vector3::zeros(),
@@ -117,7 +117,7 @@ fn local(
     };
     let mut ke = Mat9::zeros();
     for &(e, a) in &adj.triangles[node] {
-        let state = forced.map(|f| f[e]);
+        let state = forced.and_then(|f| f[e]);
         let (f, eval, ratio) = triangle_contribution(model, e, u, 1.0, state, Some(&mut ke));
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
@@ -166,7 +166,7 @@ pub fn relax_nodes(
     u: &mut [f64],
     loads: &[f64],
     nodes: &[usize],
-    forced: Option<&[WrinkleState]>,
+    forced: Option<&[Option<WrinkleState>]>,
     target: f64,
 ) -> usize {
     let mut moved = 0;
@@ -226,7 +226,7 @@ fn line_search(
     u: &mut [f64],
     loads: &[f64],
     node: usize,
-    forced: Option<&[WrinkleState]>,
+    forced: Option<&[Option<WrinkleState>]>,
     here: &Local,
     step: &Vector3<f64>,
     norm: f64,
