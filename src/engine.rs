@@ -29,7 +29,8 @@ pub struct EngineState {
     /// sleeve point (material coordinate change, m): `Model::unknown_count` values.
     pub displacement: Vec<f64>,
     /// Stick/slip state of every sleeve point at the last converged increment
-    /// (0 stick, 1 slip toward the cable's end, 2 toward its start).
+    /// (0 stick, 1 slip toward the cable's end, 2 toward its start, 3 merged into the previous
+    /// sleeve point).
     pub slip_state: Vec<u8>,
     /// Input values of the committed equilibrium (what the structure carries now).
     pub applied: Vec<f64>,
@@ -257,9 +258,9 @@ impl Engine {
                 state.displacement[i]
             ));
         }
-        if let Some(i) = state.slip_state.iter().position(|&c| c > 2) {
+        if let Some(i) = state.slip_state.iter().position(|&c| c > 3) {
             return bad(format!(
-                "slip_state[{i}] = {} is not a stick/slip code (0 stick, 1 and 2 slip)",
+                "slip_state[{i}] = {} is not a stick/slip code (0 stick, 1 and 2 slip, 3 merged)",
                 state.slip_state[i]
             ));
         }

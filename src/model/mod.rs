@@ -246,8 +246,31 @@ impl Model {
         s.l0 + slip(s.slip[1]) - slip(s.slip[0])
     }
 
-    /// Axial force (N) of segment `e` under `u` (displacements, then slips).
+    /// Whether segment `e` is closed: it joins two sleeve points of its cable that touch, and
+    /// its unstretched length is held at −`sleeve::CLOSED_OFFSET`·l0 (`solver::order`).
+    pub fn segment_closed(&self, u: &[f64], e: usize) -> bool {
+        let s = &self.segments[e];
+        s.slip[0].is_some() && s.slip[1].is_some() && self.segment_l0(u, e) < 0.0
+    }
+
+    /// Stiffness (N/m) of the link that holds the two cable points of a closed segment
+    /// together: `sleeve::LINK_FACTOR` times the stiffer of their ties.
+    pub fn link_stiffness(&self, e: usize) -> f64 {
+        let s = &self.segments[e];
+        let k = |j: Option<usize>| j.map_or(0.0, |j| self.ties[self.slips[j].tie].k);
+        sleeve::LINK_FACTOR * k(s.slip[0]).max(k(s.slip[1]))
+    }
+
+    /// Axial force (N) of segment `e` under `u` (displacements, then slips). A closed segment
+    /// (between touching sleeve points) has no length of its own; it reports the tension of the
+    /// cable entering its group (the last open segment before it).
     pub fn segment_tension(&self, u: &[f64], e: usize) -> f64 {
+        let mut e = e;
+        // A closed segment starts at a sleeve point, never at the cable's first point, so
+        // e − 1 is a segment of the same cable.
+        while e > 0 && self.segment_closed(u, e) {
+            e -= 1;
+        }
         let s = &self.segments[e];
         let l = (self.position(u, s.nodes[1]) - self.position(u, s.nodes[0])).norm();
         cable::tension(s.law, s.ea, self.segment_l0(u, e), l).0

@@ -117,6 +117,7 @@ impl Solver {
         let mut last_damping = 0.0f64;
         let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
         let memory = self.settings.nonmonotone_memory;
+        let mut reopened = 0;
         let mut recent = std::collections::VecDeque::with_capacity(memory + 1);
         let max = self.settings.max_iterations;
         for it in 0..=max {
@@ -164,6 +165,25 @@ impl Solver {
                         * self.coordinate_size(model, u);
                     converged = dx.iter().chain(&ds).all(|v| v.abs() <= limit);
                     pending = Some((dx, ds));
+                }
+            }
+            if converged && changed == 0 && !active.contact.is_empty() {
+                // Touching sleeve points whose contact force would pull part here (order.rs).
+                let parted = super::order::open_gaps(
+                    model,
+                    u,
+                    &mut active.contact,
+                    tolerance,
+                    self.settings.reopen_gap,
+                );
+                if parted > 0 {
+                    reopened += 1;
+                    if reopened > self.settings.max_unfreeze {
+                        return Err((it, "touching sleeve points keep parting (chatter)".into()));
+                    }
+                    push_log(log, format!("  {parted} touching sleeve points part"));
+                    last_free = f64::INFINITY;
+                    continue;
                 }
             }
             if converged && changed == 0 {
