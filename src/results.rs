@@ -8,7 +8,7 @@
 //! contact force  |k_c (x_c − x_m)| of a sleeve tie (largest over the listed ones)  N
 //! contact gap    largest |x_c − x_m| / min(l_a, l_b) over the sleeve (penetration check; open
 //!                segments only)
-//! slip count     sleeve points in the stick or slip state
+//! slip count     sleeve points in the stick or slip state (a merged point: its group's)
 //! cable tension  T of a segment, or the largest (a closed segment between touching sleeve
 //!                points: the tension entering its group)     N
 //! reaction       Σ R[dof] over held DOFs of the set, R = f_int − f_ext: the force the supports
@@ -92,7 +92,7 @@ pub fn evaluate(
             ProbeModel::SlipCount { slips, slipping } => slips
                 .iter()
                 .filter(|&&j| {
-                    let state = slip_states.get(j).copied().unwrap_or(sleeve::STICK);
+                    let state = group_state(model, slip_states, j);
                     (state != sleeve::STICK) == *slipping
                 })
                 .count() as f64,
@@ -120,6 +120,19 @@ pub fn evaluate(
             ProbeModel::ElementState(e) => state_code(membranes[*e].state) as f64,
         })
         .collect()
+}
+
+/// Stick/slip code of sleeve point `j`, a merged point taking its group's (the leader's).
+fn group_state(model: &Model, slip_states: &[u8], j: usize) -> u8 {
+    let code = |k: usize| slip_states.get(k).copied().unwrap_or(sleeve::STICK);
+    let mut k = j;
+    while code(k) == sleeve::MERGED {
+        match model.segments[model.slips[k].segments[0]].slip[0] {
+            Some(i) => k = i,
+            None => return sleeve::STICK,
+        }
+    }
+    code(k)
 }
 
 fn segment_length(model: &Model, u: &[f64], e: usize) -> f64 {
