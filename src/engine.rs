@@ -264,6 +264,28 @@ impl Engine {
                 state.slip_state[i]
             ));
         }
+        // Merged (3) only where the point follows another sleeve point, and then its segment
+        // must be closed (negative unstretched length, docs/mechanics.md §2.3), both ways.
+        let model = &self.model;
+        if state.slip_state.len() == model.slips.len()
+            && state.displacement.len() == model.unknown_count()
+        {
+            for (j, &c) in state.slip_state.iter().enumerate() {
+                let e = model.slips[j].segments[0];
+                let follows = model.segments[e].slip[0].is_some();
+                let closed = follows && model.segment_closed(&state.displacement, e);
+                if (c == crate::model::sleeve::MERGED) != closed {
+                    return bad(format!(
+                        "slip_state[{j}] = {c} does not match the slips: {}",
+                        if c == crate::model::sleeve::MERGED {
+                            "a merged point must follow a touching sleeve point (closed segment)"
+                        } else {
+                            "the segment before this point is closed, so its state must be 3 (merged)"
+                        }
+                    ));
+                }
+            }
+        }
         if let Some(i) = state.wrinkle.iter().position(|&c| c > 2) {
             return bad(format!(
                 "wrinkle[{i}] = {} is not a wrinkle code (0 taut, 1 wrinkled, 2 slack)",

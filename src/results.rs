@@ -118,6 +118,8 @@ pub fn evaluate(
                 .map(|e| membranes[*e].cauchy.1)
                 .fold(f64::INFINITY, f64::min),
             ProbeModel::ElementState(e) => state_code(membranes[*e].state) as f64,
+            ProbeModel::EnclosedVolume(tris) => model.enclosed_volume(u, tris),
+            ProbeModel::EnclosedPressure(k) => u[model.volume_unknown(*k)],
         })
         .collect()
 }

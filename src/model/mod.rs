@@ -77,6 +77,16 @@ pub enum LoadModel {
     },
     /// Prescribed DOFs.
     Displacement(Vec<usize>),
+    /// Prescribed enclosed volume V⁰ + value of a closed group (`Model::triangles` indices):
+    /// a follower pressure whose value is the unknown `u[Model::volume_unknown(unknown)]`,
+    /// with the constraint row `stiffness · (V(u) − V⁰ − value)` (N: `stiffness` = E t / A of
+    /// the group, so the row is a force and meets the same tolerance as the others).
+    Volume {
+        triangles: Vec<usize>,
+        unknown: usize,
+        reference: f64,
+        stiffness: f64,
+    },
 }
 
 /// What one output reads.
@@ -123,6 +133,10 @@ pub enum ProbeModel {
     MaxPrincipalStress(Vec<usize>),
     MinPrincipalStress(Vec<usize>),
     ElementState(usize),
+    /// Volume enclosed by these triangles (`Model::triangles` indices).
+    EnclosedVolume(Vec<usize>),
+    /// The pressure unknown of a volume input (index among the volume unknowns).
+    EnclosedPressure(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -141,6 +155,8 @@ pub struct Model {
     pub force_scale: f64,
     /// A length scale (m): the bounding-box diagonal of the used nodes.
     pub length_scale: f64,
+    /// Pressure unknowns of volume inputs (stored after the slips).
+    pub volumes: usize,
 }
 
 impl Model {
@@ -181,11 +197,18 @@ impl Model {
                 }
             }
         }
-        let loads: Vec<LoadModel> = scene
+        let mut loads: Vec<LoadModel> = scene
             .inputs
             .iter()
             .map(|i| build_load(scene, &mesh, &triangles, &i.load))
             .collect();
+        let mut volumes = 0;
+        for l in &mut loads {
+            if let LoadModel::Volume { unknown, .. } = l {
+                *unknown = volumes;
+                volumes += 1;
+            }
+        }
         for l in &loads {
             if let LoadModel::Displacement(dofs) = l {
                 for &d in dofs {
@@ -197,7 +220,7 @@ impl Model {
         let probes = scene
             .outputs
             .iter()
-            .map(|o| build_probe(&mesh, &cables, &sleeves.slips, &groups, &o.probe))
+            .map(|o| build_probe(scene, &mesh, &cables, &sleeves.slips, &groups, &o.probe))
             .collect();
         let force_scale = triangles
             .iter()
@@ -217,15 +240,18 @@ impl Model {
             held,
             force_scale,
             length_scale,
+            volumes,
         })
     }
 
     /// True when every load has a potential (no follower pressure).
     pub fn is_conservative(&self) -> bool {
-        !self
-            .loads
-            .iter()
-            .any(|l| matches!(l, LoadModel::Pressure { follower: true, .. }))
+        !self.loads.iter().any(|l| {
+            matches!(
+                l,
+                LoadModel::Pressure { follower: true, .. } | LoadModel::Volume { .. }
+            )
+        })
     }
 
     /// Displacement DOFs: 3 per node.
@@ -233,9 +259,34 @@ impl Model {
         3 * self.reference.len()
     }
 
-    /// Length of the unknown vector: the displacements, then one slip per sleeve point.
+    /// Length of the unknown vector: the displacements, then one slip per sleeve point, then
+    /// one pressure per volume input.
     pub fn unknown_count(&self) -> usize {
-        self.dof_count() + self.slips.len()
+        self.dof_count() + self.slips.len() + self.volumes
+    }
+
+    /// Index in the unknown vector of the pressure of volume input `k` (k-th volume input).
+    pub fn volume_unknown(&self, k: usize) -> usize {
+        self.dof_count() + self.slips.len() + k
+    }
+
+    /// The value load `l` applies under `u` and the input values `loads`: the input's value,
+    /// except for a volume input, whose load is the pressure unknown.
+    pub fn load_value(&self, l: usize, u: &[f64], loads: &[f64]) -> f64 {
+        match &self.loads[l] {
+            LoadModel::Volume { unknown, .. } => u[self.volume_unknown(*unknown)],
+            _ => loads[l],
+        }
+    }
+
+    /// Volume enclosed by triangles `tris` (`Model::triangles` indices) under `u`.
+    pub fn enclosed_volume(&self, u: &[f64], tris: &[usize]) -> f64 {
+        tris.iter()
+            .map(|&e| {
+                let x = self.triangles[e].nodes.map(|i| self.position(u, i));
+                pressure::enclosed_volume(&x)
+            })
+            .sum()
     }
 
     /// Current unstretched length of segment `e` (its reference one plus the material that
@@ -522,6 +573,32 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                 .map(|&i| 3 * i + component.index())
                 .collect(),
         ),
+        Load::Volume { membrane } => {
+            let range = group_ranges(scene, mesh)
+                .into_iter()
+                .find(|g| &g.0 == membrane)
+                .map(|g| g.1)
+                .expect("validated group");
+            let tris = &triangles[range.clone()];
+            let area: f64 = tris.iter().map(|t| t.reference.area).sum();
+            let et = tris
+                .iter()
+                .map(|t| t.material.modulus() * t.material.thickness)
+                .fold(0.0, f64::max);
+            let reference = tris
+                .iter()
+                .map(|t| {
+                    let x = t.nodes.map(|i| Vector3::from(mesh.nodes[i]));
+                    pressure::enclosed_volume(&x)
+                })
+                .sum();
+            LoadModel::Volume {
+                triangles: range.collect(),
+                unknown: 0,
+                reference,
+                stiffness: et / area,
+            }
+        }
         Load::RadialEdgeLoad {
             nodes,
             center,
@@ -567,6 +644,7 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
 type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
 
 fn build_probe(
+    scene: &Scene,
     mesh: &Mesh,
     cables: &[CableInfo],
     slips: &[sleeve::SlipPoint],
@@ -667,6 +745,18 @@ fn build_probe(
                 .collect(),
         },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
+        Probe::EnclosedVolume { membrane } => {
+            ProbeModel::EnclosedVolume(elements(&Some(membrane.clone())))
+        }
+        Probe::EnclosedPressure { input } => {
+            let unknown = scene
+                .inputs
+                .iter()
+                .filter(|i| matches!(i.load, Load::Volume { .. }))
+                .position(|i| &i.name == input)
+                .expect("validated: a volume input");
+            ProbeModel::EnclosedPressure(unknown)
+        }
         Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)),
         Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)),
         Probe::MaxPrincipalStress { membrane } => {

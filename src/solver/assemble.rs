@@ -350,20 +350,28 @@ pub fn assemble_with(
     }
     // External loads: R −= f_ext.
     let mut fext = vec![0.0; r.len()];
-    for (load, &value) in model.loads.iter().zip(loads) {
+    for (l, load) in model.loads.iter().enumerate() {
+        // A volume input's load is the follower pressure held in its unknown.
+        let value = model.load_value(l, u, loads);
+        let pressed = match load {
+            LoadModel::Pressure {
+                triangles,
+                follower,
+            } => Some((triangles, *follower)),
+            LoadModel::Volume { triangles, .. } => Some((triangles, true)),
+            _ => None,
+        };
         match load {
             LoadModel::PointForce(dofs) => {
                 for &(d, f) in dofs {
                     fext[d] += f * value;
                 }
             }
-            LoadModel::Pressure {
-                triangles,
-                follower,
-            } => {
+            LoadModel::Pressure { .. } | LoadModel::Volume { .. } => {
+                let (triangles, follower) = pressed.expect("a pressure load");
                 for &e in triangles {
                     let nodes = model.triangles[e].nodes;
-                    let (f, kp) = pressure_contribution(model, e, u, value, *follower, want_k);
+                    let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
                     for &i in &nodes {
                         for c in 0..3 {
                             fext[3 * i + c] += f[c];

@@ -10,6 +10,8 @@
 //!                 → line search → damping update
 //! active_set.rs   wrinkle-state freezing and stick/slip states, one chatter policy
 //! slip.rs         slip rows and columns, return map, Schur direction (m = 0: plain LDLT)
+//! volume.rs       volume control: pressure unknowns of closed groups, their rows and columns
+//!                 (eliminated with the slips)
 //! order.rs        sleeve points keep their order along a cable: touching points merge into
 //!                 one contact group and part when the contact force would pull
 //! line_search.rs  one backtracking search: potential, slope or residual merit
@@ -33,6 +35,7 @@ mod order;
 mod path;
 mod relax;
 pub mod slip;
+mod volume;
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;

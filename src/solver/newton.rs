@@ -128,7 +128,8 @@ impl Solver {
             self.frozen = active.wrinkle_frozen.clone();
             super::check_inversion(model, &info).map_err(|why| (it, why))?;
             let changed = active.update_contact(it, model, u, &committed, log);
-            let rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
+            let mut rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
+            rows.extend(super::volume::rows(model, &self.pattern.eq, u, inc.loads));
             let mut check = self.check(model, &info, &rows, u, inc, it);
             if !(check.free.is_finite() && check.slip.is_finite()) {
                 return Err((it, "the residual is not finite".into()));
@@ -252,7 +253,7 @@ impl Solver {
                 }
                 Err(why) => return Err((it + 1, why)),
             };
-            let merit = if !model.slips.is_empty() {
+            let merit = if !rows.is_empty() {
                 let slip: Vec<f64> = rows.iter().map(|r| r.r).collect();
                 Merit::Residual {
                     reference: remember(&mut recent, memory, self.residual_norm(&slip)),

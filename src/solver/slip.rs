@@ -58,7 +58,8 @@ impl Solver {
         damping: f64,
     ) -> Result<(Vec<f64>, Vec<f64>), String> {
         let n = self.pattern.n;
-        let m = model.slips.len();
+        // Slip rows, then volume rows (`volume.rs`): the same elimination serves both.
+        let m = rows.len();
         if damping > 0.0 {
             let values = self.linear.values_mut();
             for (j, &p) in self.diagonal_positions.iter().enumerate() {
@@ -80,7 +81,8 @@ impl Solver {
                 Err("the Newton direction is not finite".into())
             };
         }
-        let columns = slip_columns(model, &self.pattern.eq, u);
+        let mut columns = slip_columns(model, &self.pattern.eq, u);
+        columns.extend(super::volume::columns(model, &self.pattern.eq, u));
         let mut y = Vec::with_capacity(m);
         for col in &columns {
             let mut v = vec![0.0; n];
