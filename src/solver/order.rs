@@ -26,6 +26,12 @@
 //!                law, Δθ between the side's segment and the link); the group is treated as one
 //!                bead, the approximation this makes for chains of three or more points
 //! ```
+//! Only frictionless neighbours merge (both μ = 0): with friction an iteration that wanders can
+//! slide a point that should stick onto its neighbour and land in an admissible but wrong
+//! group (measured on SlidingCable, μ = 0.1 and 0.3), so frictional gaps stay open and a step
+//! that needs them closed fails (open work). The parting test below is written for friction
+//! too.
+//!
 //! A group of touching points acts on the cable as one sleeve point that carries the sum of
 //! their ties: the seed's "the nodes 7 and 9 converge to the node 8" (Fig. 6, frictionless).
 //!
@@ -114,6 +120,14 @@ pub(crate) fn close_gaps(
         let Some(i) = leader_side(model, j) else {
             continue;
         };
+        if model.slips[i].mu > 0.0 || model.slips[j].mu > 0.0 {
+            // Frictional points do not merge (yet): measured on SlidingCable with μ = 0.1 and
+            // 0.3, an iteration that wanders (stick/slip states flipping under long slip steps)
+            // can slide a point that should stick onto its neighbour, and the merged group is
+            // then an admissible friction equilibrium, but not the one the load path reaches.
+            // The gap stays open (fraction to the boundary) and such a step fails instead.
+            continue;
+        }
         let e = model.slips[j].segments[0];
         let reference = model.segments[e].l0;
         if model.segment_l0(u, e) > merge_gap * reference {
