@@ -247,3 +247,110 @@ fn seed_fig6_with_friction_a_distinct_equilibrium_held_by_contact_forces() {
     assert!((get(&f, "contact7") - 10.0).abs() < 1e-6);
     assert!((get(&f, "contact8") - 200.0).abs() < 1e-6);
 }
+
+/// Two frictionless sliding nodes that meet, then are pulled apart.
+/// MESH: cable A(−1, 0) – N1(−0.4, 0) – N2(0.3, 0) – B(1, 0), EA = 1e4 N, T0 = 100 N
+/// (engineering), μ = 0, default tie penalty k_c = 100 EA/ℓ (ℓ the shorter reference segment
+/// beside the node: 0.6 m at N1, 0.7 m at N2); nodes held in z.
+/// LOADING: row 1, 100 N down on each node: no equilibrium with the nodes apart (each runs to
+/// the kink), so they meet at x = 0 and hang as one group (P = 200 N on the V). Row 2: 60 N
+/// outward on each (−x on N1, +x on N2) besides the 100 N down: the contact would pull, so
+/// they part (docs/mechanics.md §2.3, sleeve points that meet) and slide out to x = ±0.9989,
+/// near the anchors.
+/// REFERENCE: row 1, the V of `v_sag` (a = 1, F = 200 N) below x = 0; row 2, statics of the
+/// symmetric three-segment cable with one tension T: N2 (cable point) at (x, y), N1 at (−x, y),
+/// T (1 − x)/l_b − T + 60 = 0, −T y/l_b = 100, l_b = √((1 − x)² + y²), T = EA (2x + 2 l_b −
+/// L0)/L0, L0 = 2/(1 + T0/EA) (Newton on (x, y) here); each node sits F/k_c beyond its cable
+/// point. Tolerances: row 1 as the Fig. 6 test (1e-6 of the span apart, y and T within 1e-5:
+/// the link's gap between the group's end points); row 2, 1e-8 m (the pulley's) on the node
+/// positions, 1e-6 relative on the tensions.
+#[test]
+fn frictionless_nodes_that_meet_part_when_pulled_apart() {
+    let json = serde_json::json!({
+        "format": 1, "name": "Pair",
+        "geometry": {"nodes": [[-1.0, 0.0, 0.0], [-0.4, 0.0, 0.0], [0.3, 0.0, 0.0], [1.0, 0.0, 0.0]],
+                     "node_sets": {"ends": [0, 3], "n1": [1], "n2": [2], "both": [1, 2]}},
+        "cables": [{"name": "cable", "nodes": [0, 1, 2, 3], "EA": 1e4, "pretension": 100.0,
+                    "sleeve": {"mu": 0.0}}],
+        "supports": [{"nodes": "ends", "fix": ["x", "y", "z"]}, {"nodes": "both", "fix": ["z"]}],
+        "inputs": [
+            {"name": "P", "load": {"kind": "point_force", "nodes": "both", "direction": [0.0, -1.0, 0.0]}},
+            {"name": "H1", "load": {"kind": "point_force", "nodes": "n1", "direction": [-1.0, 0.0, 0.0]}},
+            {"name": "H2", "load": {"kind": "point_force", "nodes": "n2", "direction": [1.0, 0.0, 0.0]}}
+        ],
+        "outputs": [
+            {"name": "x1", "probe": {"kind": "position", "node": "n1", "component": "x"}},
+            {"name": "y1", "probe": {"kind": "position", "node": "n1", "component": "y"}},
+            {"name": "x2", "probe": {"kind": "position", "node": "n2", "component": "x"}},
+            {"name": "y2", "probe": {"kind": "position", "node": "n2", "component": "y"}},
+            {"name": "T0", "probe": {"kind": "cable_tension", "cable": "cable", "segment": 0}},
+            {"name": "T1", "probe": {"kind": "cable_tension", "cable": "cable", "segment": 1}},
+            {"name": "T2", "probe": {"kind": "cable_tension", "cable": "cable", "segment": 2}}
+        ]
+    });
+    let mut e = engine(Scene::from_json(&json.to_string()).unwrap());
+    let (k_c, k_c2) = (100.0 * 1e4 / 0.6, 100.0 * 1e4 / 0.7);
+    let l0 = 2.0 / (1.0 + 100.0 / 1e4);
+    // Row 1: the nodes meet (P is the total over both: 100 N each).
+    set(&mut e, "P", 200.0);
+    let r1 = solve(&mut e);
+    let (w, t) = v_sag(1e4, l0, 1.0, 200.0);
+    let (x1, x2) = (get(&e, "x1"), get(&e, "x2"));
+    println!(
+        "row 1: x1 {x1:.3e} x2 {x2:.3e} y1 {:.10} vs {:.10}; T {:.9} vs {t:.9}; {} iterations",
+        get(&e, "y1"),
+        -w - 100.0 / k_c,
+        get(&e, "T0"),
+        r1.iterations
+    );
+    assert!((x1 - x2).abs() < 1e-6 * 2.0 && x1.abs() < 1e-6 * 2.0);
+    assert!((get(&e, "y1") - (-w - 100.0 / k_c)).abs() < 1e-5);
+    assert!(rel(get(&e, "T0"), t) < 1e-5);
+    // Row 2: pulled apart.
+    set(&mut e, "H1", 60.0);
+    set(&mut e, "H2", 60.0);
+    let r2 = solve(&mut e);
+    let ea = 1e4;
+    let balance = |x: f64, y: f64| {
+        let lb = ((1.0 - x).powi(2) + y * y).sqrt();
+        let t = ea * (2.0 * x + 2.0 * lb - l0) / l0;
+        ([t * (1.0 - x) / lb - t + 60.0, -t * y / lb - 100.0], t)
+    };
+    let (mut x, mut y) = (0.3, -0.3);
+    for _ in 0..100 {
+        let (f, _) = balance(x, y);
+        let h = 1e-7;
+        let (fx, _) = balance(x + h, y);
+        let (fy, _) = balance(x, y + h);
+        let j = [
+            [(fx[0] - f[0]) / h, (fy[0] - f[0]) / h],
+            [(fx[1] - f[1]) / h, (fy[1] - f[1]) / h],
+        ];
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        x -= (j[1][1] * f[0] - j[0][1] * f[1]) / det;
+        y -= (-j[1][0] * f[0] + j[0][0] * f[1]) / det;
+    }
+    let (residual, t) = balance(x, y);
+    assert!(
+        residual[0].abs() + residual[1].abs() < 1e-9,
+        "reference solved"
+    );
+    let got = [get(&e, "x1"), get(&e, "y1"), get(&e, "x2"), get(&e, "y2")];
+    let want = [
+        -x - 60.0 / k_c,
+        y - 100.0 / k_c,
+        x + 60.0 / k_c2,
+        y - 100.0 / k_c2,
+    ];
+    let tensions = [get(&e, "T0"), get(&e, "T1"), get(&e, "T2")];
+    println!(
+        "row 2: nodes {got:?} vs {want:?}; T {tensions:?} vs {t:.9}; {} iterations",
+        r2.iterations
+    );
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() < 1e-8, "{got:?} vs {want:?}");
+    }
+    for tk in tensions {
+        assert!(rel(tk, t) < 1e-6, "T {tk} vs {t}");
+    }
+}
