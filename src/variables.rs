@@ -102,7 +102,7 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
                 Load::Pressure { .. } => "Pa",
                 Load::Displacement { .. } => "m",
                 Load::RadialEdgeLoad { .. } => "N/m",
-                Load::Volume { .. } => "m3",
+                Load::Volume { .. } | Load::Gas { .. } => "m3",
             }),
             start: Some(input.start),
             min: input.min,

@@ -81,11 +81,15 @@ pub enum LoadModel {
     /// a follower pressure whose value is the unknown `u[Model::volume_unknown(unknown)]`,
     /// with the constraint row `stiffness · (V(u) − V⁰ − value)` (N: `stiffness` = E t / A of
     /// the group, so the row is a force and meets the same tolerance as the others).
+    ///
+    /// With `atmosphere` (a gas input) the row is the isothermal gas law instead,
+    /// `stiffness · ((p + p_atm) V(u)/p_atm − V⁰ − value)`.
     Volume {
         triangles: Vec<usize>,
         unknown: usize,
         reference: f64,
         stiffness: f64,
+        atmosphere: Option<f64>,
     },
 }
 
@@ -573,7 +577,7 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                 .map(|&i| 3 * i + component.index())
                 .collect(),
         ),
-        Load::Volume { membrane } => {
+        Load::Volume { membrane } | Load::Gas { membrane, .. } => {
             let range = group_ranges(scene, mesh)
                 .into_iter()
                 .find(|g| &g.0 == membrane)
@@ -597,6 +601,10 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                 unknown: 0,
                 reference,
                 stiffness: et / area,
+                atmosphere: match load {
+                    Load::Gas { atmosphere, .. } => Some(*atmosphere),
+                    _ => None,
+                },
             }
         }
         Load::RadialEdgeLoad {
@@ -752,7 +760,7 @@ fn build_probe(
             let unknown = scene
                 .inputs
                 .iter()
-                .filter(|i| matches!(i.load, Load::Volume { .. }))
+                .filter(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }))
                 .position(|i| &i.name == input)
                 .expect("validated: a volume input");
             ProbeModel::EnclosedPressure(unknown)

@@ -335,7 +335,7 @@ pub struct Input {
 
 /// What an input does. The input's value (and its `start`, `min`, `max`) is in the unit of its
 /// kind: N for `point_force`, Pa for `pressure`, m for `displacement`, N/m for
-/// `radial_edge_load`, m³ for `volume`.
+/// `radial_edge_load`, m³ for `volume` and `gas`.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Load {
@@ -392,6 +392,24 @@ pub enum Load {
         /// Name of the (closed) membrane group.
         membrane: String,
     },
+    /// Gas control: an isothermal ideal gas (p_abs V = const) fills a closed membrane group;
+    /// the input's value is the gas added since the reference state, as its volume ΔN in m³ at
+    /// the `atmosphere` pressure: (p + p_atm) V = p_atm (V⁰ + ΔN), p the (gauge) pressure on
+    /// the membrane, an unknown of the solve as for `volume` (read it with an
+    /// `enclosed_pressure` probe). `start` 0 is the reference state (p = 0, V = V⁰). A cushion
+    /// inflated by a gas amount; the gas stiffens the path past the membrane's limit pressure.
+    /// The group must be closed and outward, as for `volume`.
+    Gas {
+        /// Name of the (closed) membrane group.
+        membrane: String,
+        /// Absolute pressure of the atmosphere, Pa (default 101325).
+        #[serde(default = "atmosphere")]
+        atmosphere: f64,
+    },
+}
+
+fn atmosphere() -> f64 {
+    101_325.0
 }
 
 fn yes() -> bool {

@@ -820,6 +820,20 @@ impl Validator {
                 Load::Volume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.load.membrane"));
                 }
+                Load::Gas {
+                    membrane,
+                    atmosphere,
+                } => {
+                    self.closed_group(s, mesh, membrane, &format!("{p}.load.membrane"));
+                    if !positive(*atmosphere) {
+                        self.push(
+                            format!("{p}.load.atmosphere"),
+                            format!(
+                                "{atmosphere} is not a positive absolute pressure in Pa {RANGE}"
+                            ),
+                        );
+                    }
+                }
                 Load::Displacement { .. } => {} // checked with the supports
                 Load::RadialEdgeLoad { nodes, center, .. } => {
                     if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
@@ -935,21 +949,20 @@ impl Validator {
                     self.closed_group(s, mesh, membrane, &format!("{p}.membrane"));
                 }
                 Probe::EnclosedPressure { input } => {
-                    let volume = s
-                        .inputs
-                        .iter()
-                        .any(|i| &i.name == input && matches!(i.load, Load::Volume { .. }));
+                    let volume = s.inputs.iter().any(|i| {
+                        &i.name == input && matches!(i.load, Load::Volume { .. } | Load::Gas { .. })
+                    });
                     if !volume {
                         let names: Vec<&String> = s
                             .inputs
                             .iter()
-                            .filter(|i| matches!(i.load, Load::Volume { .. }))
+                            .filter(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }))
                             .map(|i| &i.name)
                             .collect();
                         self.push(
                             format!("{p}.input"),
                             format!(
-                                "no input of kind volume is named \"{input}\"{}",
+                                "no input of kind volume or gas is named \"{input}\"{}",
                                 suggest(input, names.into_iter())
                             ),
                         );

@@ -13,6 +13,10 @@
 //! solve      y0 = −K⁻¹ R,  y1 = K⁻¹ (−f_p)          two solves on one LDLT of K − p K_p
 //!            Δp = (−h − k_V gᵀ y0) / (−k_V gᵀ y1),  Δu = y0 − y1 Δp
 //! ```
+//! Gas control (an isothermal ideal gas, p_abs V = const: `gas` inputs) replaces the row by
+//! h = k_V ((p + p_atm) V/p_atm − V⁰ − ΔN), ΔN the added gas as its volume at p_atm; the border
+//! then has the diagonal entry k_V V/p_atm and the row k_V (p + p_atm)/p_atm gᵀ.
+//!
 //! The border goes through the same Schur elimination as the slip unknowns (`slip.rs`: these
 //! are its extra rows and columns). Under pressure control the sphere's tangent K − p K_p
 //! turns singular at the limit pressure and the step fails there; under volume control the
@@ -38,7 +42,8 @@ pub(super) fn rows(model: &Model, eq: &[usize], u: &[f64], loads: &[f64]) -> Vec
             triangles,
             reference,
             stiffness,
-            ..
+            unknown,
+            atmosphere,
         } = load
         else {
             continue;
@@ -56,17 +61,29 @@ pub(super) fn rows(model: &Model, eq: &[usize], u: &[f64], loads: &[f64]) -> Vec
             }
         }
         let target = reference + loads[l];
+        // Volume: h = k (V − target); gas: h = k ((p + p_atm) V/p_atm − target), whose
+        // derivatives are k (p + p_atm)/p_atm g and k V/p_atm (on its own pressure).
+        let (factor, own) = match atmosphere {
+            None => (1.0, None),
+            Some(atm) => {
+                let p = u[model.volume_unknown(*unknown)];
+                ((p + atm) / atm, Some(volume / atm))
+            }
+        };
         let dx = grad
             .iter()
             .enumerate()
             .filter(|&(d, g)| eq[d] != NONE && *g != 0.0)
-            .map(|(d, g)| (eq[d], stiffness * g))
+            .map(|(d, g)| (eq[d], stiffness * factor * g))
             .collect();
+        let ds = own
+            .map(|d| vec![(model.slips.len() + unknown, stiffness * d)])
+            .unwrap_or_default();
         out.push(Row {
-            r: stiffness * (volume - target),
+            r: stiffness * (factor * volume - target),
             dx,
-            ds: Vec::new(),
-            magnitude: stiffness * (volume.abs() + target.abs()),
+            ds,
+            magnitude: stiffness * ((factor * volume).abs() + target.abs()),
             damped: false,
         });
     }
