@@ -47,6 +47,7 @@ pub(super) struct ActiveSet {
     freeze_after: usize,
     unfreezes: usize,
     max_unfreeze: usize,
+    merge_gap: f64,
 }
 
 /// What the re-check at a converged point decided.
@@ -69,6 +70,7 @@ impl ActiveSet {
             freeze_after: settings.freeze_after,
             unfreezes: 0,
             max_unfreeze: settings.max_unfreeze,
+            merge_gap: settings.merge_gap,
         }
     }
 
@@ -120,19 +122,30 @@ impl ActiveSet {
         &mut self,
         it: usize,
         model: &Model,
-        u: &[f64],
+        u: &mut [f64],
         committed: &[f64],
         log: &mut Vec<String>,
     ) -> usize {
-        if self.contact_frozen || self.contact.is_empty() {
+        if self.contact.is_empty() {
             return 0;
+        }
+        // Sleeve points that reach their neighbour merge, frozen or not (`order.rs`).
+        let merged = super::order::close_gaps(model, u, &mut self.contact, self.merge_gap);
+        if merged > 0 {
+            push_log(
+                log,
+                format!("  {merged} sleeve points reached their neighbour: merged"),
+            );
+        }
+        if self.contact_frozen {
+            return merged;
         }
         let changed = return_map(model, u, committed, &mut self.contact, 0.0);
         if changed > 0 && it >= self.freeze_at {
             push_log(log, format!("  stick/slip states still changing ({changed} points): frozen until convergence"));
             self.contact_frozen = true;
         }
-        changed
+        changed + merged
     }
 
     /// At a point that meets the tolerance: are the states the laws' own? `natural_wrinkles`

@@ -83,6 +83,11 @@ impl Adjacency {
                         a.forces[d / 3].push((l, d % 3, f));
                     }
                 }
+                LoadModel::Volume { triangles, .. } => {
+                    for &e in triangles {
+                        a.pressures[e].push((l, true));
+                    }
+                }
                 LoadModel::Displacement(_) => {}
             }
         }
@@ -124,7 +129,8 @@ fn local(
         out.potential = out.potential.map(|p| p + eval.energy);
         out.inverted |= !(ratio > super::MIN_AREA_RATIO);
         for &(l, follower) in &adj.pressures[e] {
-            let (f, kp) = pressure_contribution(model, e, u, loads[l], follower, true);
+            let value = model.load_value(l, u, loads);
+            let (f, kp) = pressure_contribution(model, e, u, value, follower, true);
             out.r -= f;
             if let Some(kp) = kp {
                 out.k += kp.fixed_view::<3, 3>(3 * a, 3 * a);
