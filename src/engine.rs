@@ -462,6 +462,8 @@ fn settings(scene: &Scene) -> Settings {
         min_increment: s.min_increment,
         target_iterations: s.target_iterations,
         line_search: s.line_search,
+        arc_length_path: s.path == crate::scene::PathMethod::ArcLength,
+        arc_length: s.arc_length.unwrap_or(0.0),
         ..Settings::default()
     }
 }

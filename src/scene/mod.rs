@@ -529,6 +529,23 @@ pub enum ParameterVariability {
     Tunable,
 }
 
+/// How a step follows its load path (`solver.path`).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PathMethod {
+    /// Load increments with growth and cut-back.
+    #[default]
+    LoadControl,
+    /// Arc length (normal plane), the load factor an unknown.
+    ArcLength,
+}
+
+impl PathMethod {
+    fn is_default(&self) -> bool {
+        *self == PathMethod::LoadControl
+    }
+}
+
 /// Newton and path-following settings. Every default is chosen for the shipped scenes and
 /// explained on its field.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
@@ -564,6 +581,16 @@ pub struct SolverSettings {
     pub artificial_prestress: Option<f64>,
     /// Energy (slope) line search on every Newton correction.
     pub line_search: bool,
+    /// How a step follows its path: `load_control` (load increments, the default) or
+    /// `arc_length` (the load factor an unknown held by the normal-plane arc-length equation;
+    /// passes limit points inside a step; load control across wrinkle-state switches, for
+    /// sleeves, volume inputs and prescribed displacements; docs/solver.md).
+    #[serde(skip_serializing_if = "PathMethod::is_default")]
+    pub path: PathMethod,
+    /// First arc length of a step under `path: arc_length`: RMS displacement of the free DOFs
+    /// in metres. Absent: set by a first load-controlled increment of `initial_increment`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arc_length: Option<f64>,
     /// Size limits checked before anything that grows with the scene is allocated
     /// (`limits.rs`): max_nodes, max_triangles, max_unknowns, max_memory_gb.
     #[serde(skip_serializing_if = "limits::Limits::is_default")]
@@ -580,6 +607,8 @@ impl Default for SolverSettings {
             target_iterations: 6,
             artificial_prestress: None,
             line_search: true,
+            path: PathMethod::LoadControl,
+            arc_length: None,
             limits: limits::Limits::default(),
         }
     }

@@ -1114,6 +1114,14 @@ impl Validator {
         if st.target_iterations == 0 {
             self.push("solver.target_iterations", "must be at least 1");
         }
+        if let Some(a) = st.arc_length {
+            if !(positive(a) && a <= MAX_MAGNITUDE) {
+                self.push(
+                    "solver.arc_length",
+                    format!("{a} must be a positive length in m (at most 1e30)"),
+                );
+            }
+        }
         if let Some(p) = st.artificial_prestress {
             if !(p.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&p)) {
                 self.push(

@@ -26,6 +26,7 @@
 //! (line search on the slope); Bonet & Wood 2008, §9.6; docs/mechanics.md (solver).
 
 mod active_set;
+pub mod arc;
 pub mod assemble;
 mod line_search;
 pub mod linear;
@@ -137,6 +138,13 @@ pub struct Settings {
     /// unstretched length between the points. Default 1e-2 (ten times `merge_gap`, so the pair
     /// does not close again at once).
     pub reopen_gap: f64,
+    /// Follow each step's path by arc length (`arc.rs`) instead of load increments. Default
+    /// off (the scene's `solver.path`).
+    pub arc_length_path: bool,
+    /// First arc length of a step, RMS displacement of the free DOFs in metres; 0: set by a
+    /// first load-controlled increment of `initial_increment` (the scene's
+    /// `solver.arc_length`). Default 0.
+    pub arc_length: f64,
 }
 
 impl Default for Settings {
@@ -169,6 +177,8 @@ impl Default for Settings {
             keep_length: 0.1,
             merge_gap: 1e-3,
             reopen_gap: 1e-2,
+            arc_length_path: false,
+            arc_length: 0.0,
         }
     }
 }

@@ -423,7 +423,7 @@ impl Solver {
 
     /// Largest coordinate magnitude of the current positions, at least the model's length
     /// scale: the X of the round-off floor.
-    fn coordinate_size(&self, model: &Model, u: &[f64]) -> f64 {
+    pub(super) fn coordinate_size(&self, model: &Model, u: &[f64]) -> f64 {
         let n3 = model.dof_count();
         let moved = u[..n3].iter().fold(0.0f64, |m, v| m.max(v.abs()));
         (self.reference_size + moved).max(model.length_scale)

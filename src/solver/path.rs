@@ -40,6 +40,11 @@ impl Solver {
         u: &mut Vec<f64>,
         states: &mut Vec<u8>,
     ) -> StepReport {
+        if self.settings.arc_length_path && states.is_empty() {
+            if let Some(report) = self.solve_step_arc(model, from, to, u) {
+                return report;
+            }
+        }
         let mut report = StepReport {
             outcome: Outcome::Failed,
             iterations: 0,
@@ -209,7 +214,7 @@ fn growth(iterations: usize, target: usize, max_iterations: usize) -> f64 {
 
 /// |Δf_ext|∞ of the load change `from` → `to` (pressures on the reference areas): the part of
 /// the convergence test's force scale that makes a changed load count.
-fn load_change(model: &Model, from: &[f64], to: &[f64]) -> f64 {
+pub(super) fn load_change(model: &Model, from: &[f64], to: &[f64]) -> f64 {
     let mut f = vec![0.0f64; model.dof_count()];
     for ((load, a), b) in model.loads.iter().zip(from).zip(to) {
         let delta = b - a;
