@@ -292,3 +292,79 @@ fn a_volume_input_on_an_open_or_inward_group_is_rejected() {
         "{err}"
     );
 }
+
+/// GOAL: arc length (`solver.path: arc_length`, `src/solver/arc.rs`) traces the same balloon
+///       through its limit point under plain (follower) pressure control, where load control
+///       stops at the limit (issue 10 item 3, second way).
+/// MESH, BOUNDARY CONDITIONS, MATERIAL: as the volume-control test above (2048 CST, μ = 100 kPa,
+///       H = 1 mm, R = 1 m, symmetry planes).
+/// LOADING: input `p` of kind `pressure` (follower), the step 0 → p_ref = 2 p_max; the path is
+///       followed by 30 arc-length increments of RMS length 0.025 m (`Solver::trace_arc_length`,
+///       fixed size, no load control anywhere), from the unstressed sphere to λ ≈ 2.
+/// REFERENCE: docs/mechanics.md §4i as above: p R/(μH) = 2 (λ⁻¹ − λ⁻⁷), λ the volume stretch
+///       (V/V⁰)^(1/3) computed here from the nodes, p = λ_load p_ref. (1) Every converged point
+///       within 0.5 % of the smooth sphere (the issue's target; the faceting gives +0.27 %)
+///       and within 1e-4 of the faceted balloon (R_eff = 3V⁰/A⁰) on both sides of the limit;
+///       (2) the largest load of the trace within 0.5 % of p_max; (3) points on both sides:
+///       some below λ = 1.3 and some above 1.6; (4) at most 10 Newton iterations per
+///       increment (the issue's target).
+#[test]
+fn arc_length_traces_the_sphere_through_its_limit_point_under_pressure() {
+    use velarium::model::Model;
+    use velarium::solver::{Settings, Solver};
+    let divisions = 16;
+    let (nodes, triangles) = octasphere(divisions, 1.0);
+    let (v0, a0) = volume_and_area(&nodes, &triangles);
+    let r_eff = 3.0 * v0 / a0;
+    let mut scene = balloon_with(
+        divisions,
+        json!({"kind": "pressure", "membrane": "rubber", "follower": true}),
+    );
+    scene.outputs.retain(|o| o.name != "p"); // enclosed_pressure reads a volume input
+    let model = Model::build(&scene);
+    let mut solver = Solver::new(&model, Settings::default());
+    let p_ref = 2.0 * PMAX * MU * H;
+    let u0 = vec![0.0; model.unknown_count()];
+    let points = solver
+        .trace_arc_length(&model, &[0.0], &[p_ref], &u0, 0.025, 30)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let all: Vec<usize> = (0..triangles.len()).collect();
+    let (mut worst, mut worst_eff, mut largest) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut below, mut above) = (false, false);
+    let mut iterations = Vec::new();
+    for pt in &points {
+        let v = model.enclosed_volume(&pt.u, &all);
+        let lambda = (v / v0).cbrt();
+        let p = pt.lambda * p_ref / (MU * H);
+        let reference = closed_form(lambda);
+        let faceted = reference / r_eff;
+        println!(
+            "λ = {lambda:.6}: p R/(μH) = {p:.6} vs sphere {reference:.6} ({:+.3} %), vs polyhedron ({:+.2e}), {} iterations",
+            100.0 * (p - reference) / reference,
+            (p - faceted) / faceted,
+            pt.iterations
+        );
+        worst = worst.max((p - reference).abs() / reference);
+        worst_eff = worst_eff.max((p - faceted).abs() / faceted);
+        largest = largest.max(p);
+        below |= lambda < 1.3;
+        above |= lambda > 1.6;
+        iterations.push(pt.iterations);
+    }
+    println!(
+        "largest p R/(μH) {largest:.6} vs p_max {PMAX} ({:+.3} %); worst {:.3} % (sphere), {worst_eff:.2e} (polyhedron); iterations {iterations:?}",
+        100.0 * (largest - PMAX) / PMAX,
+        100.0 * worst
+    );
+    assert!(below && above, "the trace covers both sides of the limit");
+    assert!(worst < 5e-3, "worst error against the sphere {worst}");
+    assert!(
+        worst_eff < 1e-4,
+        "worst error against the polyhedron {worst_eff}"
+    );
+    assert!((largest - PMAX).abs() / PMAX < 5e-3);
+    assert!(
+        iterations.iter().all(|&i| i <= 10),
+        "iterations {iterations:?}"
+    );
+}
