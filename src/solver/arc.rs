@@ -135,7 +135,9 @@ impl Solver {
         previous: Option<&[f64]>,
     ) -> Result<(Vec<f64>, f64), String> {
         self.frozen = None;
-        self.prestress_factor = 0.0;
+        // The artificial prestress (tangent only, where an element lacks tension) keeps the
+        // predictor of a stress-free start regular; it does not change the equilibrium.
+        self.prestress_factor = 1.0;
         let loads = loads_at(from, to, lambda);
         self.assemble_at(model, &loads, u);
         let mut v = self.load_direction(model, from, to, u);
@@ -179,9 +181,9 @@ impl Solver {
         }
         let mut lambda = lambda_n + ds * dlds;
         self.frozen = None;
+        self.prestress_factor = 1.0;
         for it in 0..=self.settings.max_iterations {
             let loads = loads_at(from, to, lambda);
-            self.prestress_factor = 0.0;
             let info = self.assemble_at(model, &loads, &u);
             super::check_inversion(model, &info).map_err(|why| (it, why))?;
             let inc = Increment {
@@ -193,6 +195,10 @@ impl Solver {
             if !check.free.is_finite() {
                 return Err((it, "the residual is not finite".into()));
             }
+            self.prestress_factor = super::newton::prestress_factor(
+                check.free / check.scale.max(f64::MIN_POSITIVE),
+                self.settings.prestress_fade,
+            );
             let mut h = -length;
             for (d, &e) in self.pattern.eq.iter().enumerate() {
                 if e != NONE {

@@ -58,7 +58,7 @@ use crate::model::Model;
 
 /// Factor on the artificial prestress for the next tangent: 1 down to a relative residual of
 /// `fade` (`Settings::prestress_fade`), proportional to it below.
-fn prestress_factor(relative: f64, fade: f64) -> f64 {
+pub(super) fn prestress_factor(relative: f64, fade: f64) -> f64 {
     if relative.is_finite() {
         (relative / fade).min(1.0)
     } else {
