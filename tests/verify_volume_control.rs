@@ -368,3 +368,49 @@ fn arc_length_traces_the_sphere_through_its_limit_point_under_pressure() {
         "iterations {iterations:?}"
     );
 }
+
+/// GOAL: an FMU step by arc length whose target lies beyond the limit load fails cleanly and
+///       names the limit (docs/solver.md, arc length: a step ends at its target).
+/// SETUP: the balloon above (8 divisions per edge, 512 CST) under follower pressure with
+///       `solver.path: arc_length`; one step 0 → 1.1 p_max.
+/// REFERENCE: no equilibrium exists at 1.1 p_max (§4i): the step must not converge, the state
+///       must be kept, and the largest load fraction it reports must be that of the faceted
+///       balloon's limit load, p_max/R_eff/(1.1 p_max), within 1 % (the path is sampled by
+///       increments, so the largest sampled load lies at or just below the limit).
+#[test]
+fn arc_length_step_beyond_the_limit_load_fails_naming_it() {
+    let divisions = 8;
+    let (nodes, triangles) = octasphere(divisions, 1.0);
+    let (v0, a0) = volume_and_area(&nodes, &triangles);
+    let r_eff = 3.0 * v0 / a0;
+    let mut scene = balloon_with(
+        divisions,
+        json!({"kind": "pressure", "membrane": "rubber", "follower": true}),
+    );
+    scene.outputs.retain(|o| o.name != "p");
+    scene.inputs[0].name = "p".into();
+    scene.solver.path = velarium::scene::PathMethod::ArcLength;
+    let mut e = engine(scene);
+    solve(&mut e);
+    set(&mut e, "p", 1.1 * PMAX * MU * H);
+    let report = e.solve();
+    assert!(!report.converged(), "no equilibrium at 1.1 p_max");
+    assert!((get(&e, "V") - v0).abs() < 1e-12 * v0, "state kept");
+    let tail = report
+        .message
+        .split("largest load fraction reached ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("message names the limit: {}", report.message));
+    let reached: f64 = tail
+        .trim_end_matches(')')
+        .parse()
+        .unwrap_or_else(|_| panic!("{}", report.message));
+    let expected = 1.0 / (1.1 * r_eff);
+    println!(
+        "{}\nlargest load fraction {reached:.6} vs limit {expected:.6} ({:+.3} %), {} increments",
+        report.message,
+        100.0 * (reached - expected) / expected,
+        report.increments
+    );
+    assert!((reached - expected).abs() < 0.01 * expected);
+}

@@ -386,9 +386,9 @@ impl Solver {
         let mut smallest = f64::INFINITY;
         loop {
             if report.increments + report.cutbacks >= s.max_increments {
-                report.reached = lambda_n;
+                report.reached = lambda_max;
                 report.message = format!(
-                    "no equilibrium found beyond load fraction {lambda_n:.6} of the step by arc length ({} increments used; largest load fraction reached {lambda_max:.6})",
+                    "no equilibrium found at the step's target by arc length ({} increments used, now at load fraction {lambda_n:.6}; largest load fraction reached {lambda_max:.6})",
                     s.max_increments
                 );
                 return Some(report);
@@ -503,6 +503,11 @@ impl Solver {
                         u_n = u_new;
                         lambda_n = lambda;
                         lambda_max = lambda_max.max(lambda);
+                        if lambda < 0.0 && lambda_max > 0.0 {
+                            report.reached = lambda_max;
+                            report.message = format!("no equilibrium found at the step's target by arc length: the path passed a limit point and its load fell back below the step's start (largest load fraction reached {lambda_max:.6})");
+                            return Some(report);
+                        }
                         ds *= if iters <= s.target_iterations {
                             1.5
                         } else if 4 * iters > 3 * s.max_iterations {
