@@ -14,6 +14,7 @@
 //! ```
 
 use crate::error::Error;
+use crate::memory;
 use crate::model::membrane::Evaluation;
 use crate::model::Model;
 use crate::results;
@@ -66,14 +67,17 @@ impl Engine {
     /// the state is the undeformed configuration (call [`Engine::solve`] for the equilibrium
     /// under the start values).
     pub fn try_new(scene: Scene) -> Result<Engine, Error> {
-        let problems = validate::validate(&scene);
+        let (problems, size) = validate::validate_sized(&scene);
         if !problems.is_empty() {
             return Err(Error::Scene(problems));
         }
+        // The whole build (model, pattern, factor, vectors) at once, before any of it: a
+        // shortage is found here, not in the middle (`crate::memory`).
+        crate::memory::probe(size.memory_bytes, "the model and the solver")?;
         let variables = variables::table(&scene);
-        let model = Model::try_build(&scene).map_err(|p| Error::Scene(vec![p]))?;
-        let solver = Solver::new(&model, settings(&scene));
-        let state = initial_state(&scene, &variables, &model);
+        let model = Model::try_build(&scene)?;
+        let solver = Solver::try_new(&model, settings(&scene))?;
+        let state = initial_state(&scene, &variables, &model)?;
         let mut engine = Engine {
             scene,
             variables,
@@ -196,7 +200,21 @@ impl Engine {
     /// state is unchanged and the report says how far the increments got.
     pub fn solve(&mut self) -> StepReport {
         if self.model_stale {
-            self.rebuild();
+            if let Err(e) = self.rebuild() {
+                return failed(e.to_string());
+            }
+        }
+        // The step's working memory and the copies kept to undo it, probed before it starts:
+        // an allocation failure inside a step would abort the host.
+        let state_bytes = 8 * (self.state.displacement.len() + self.state.slip_state.len()) as u64
+            + 9 * self.state.wrinkle.len() as u64;
+        if let Err(e) = crate::memory::probe(
+            self.solver
+                .step_bytes(&self.model)
+                .saturating_add(2 * state_bytes),
+            "the step's working memory",
+        ) {
+            return failed(e.to_string());
         }
         let before = (
             self.state.displacement.clone(),
@@ -336,15 +354,21 @@ impl Engine {
         let previous = std::mem::replace(&mut self.state, state);
         if params_changed {
             self.model_stale = true;
-            self.rebuild();
+            if let Err(e) = self.rebuild() {
+                // The model and solver are untouched: back to the previous state.
+                self.state = previous;
+                self.model_stale = false;
+                return Err(e);
+            }
         }
         self.refresh_outputs();
         if let Some(what) = self.non_finite() {
-            // Leave the engine as it was.
+            // Leave the engine as it was (a rebuild that fails leaves the model stale: the
+            // next solve builds it again).
             self.state = previous;
             if params_changed {
                 self.model_stale = true;
-                self.rebuild();
+                let _ = self.rebuild();
             }
             self.refresh_outputs();
             return Err(Error::State(format!(
@@ -355,16 +379,19 @@ impl Engine {
     }
 
     /// Back to the start values and the undeformed configuration.
-    pub fn reset(&mut self) {
-        let fresh = initial_state(&self.scene, &self.variables, &self.model);
-        if fresh.parameters != self.state.parameters {
+    /// Memory that cannot be had is an [`Error::Memory`] and leaves the engine as it was.
+    pub fn reset(&mut self) -> Result<(), Error> {
+        let fresh = initial_state(&self.scene, &self.variables, &self.model)?;
+        let previous = std::mem::replace(&mut self.state, fresh);
+        if previous.parameters != self.state.parameters || self.model_stale {
             self.model_stale = true;
-        }
-        self.state = fresh;
-        if self.model_stale {
-            self.rebuild();
+            if let Err(e) = self.rebuild() {
+                self.state = previous;
+                return Err(e);
+            }
         }
         self.refresh_outputs();
+        Ok(())
     }
 
     /// Evaluation (state, tension angle, stresses) of every membrane triangle in the committed
@@ -418,14 +445,33 @@ impl Engine {
     }
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.
-    fn rebuild(&mut self) {
+    /// The old ones are dropped first (a rebuild must not need twice the memory); if the
+    /// memory for the new ones cannot be had, the error is returned and the model stays stale
+    /// (the next solve tries again).
+    fn rebuild(&mut self) -> Result<(), Error> {
         let mut scene = self.scene.clone();
         for (p, value) in scene.parameters.clone().iter().zip(&self.state.parameters) {
             variables::set_parameter_value(&mut scene, &p.target, *value);
         }
-        self.model = Model::build(&scene);
-        self.solver = Solver::new(&self.model, settings(&scene));
+        let model = Model::try_build(&scene)?;
+        let solver = Solver::try_new(&model, settings(&scene))?;
+        self.model = model;
+        self.solver = solver;
         self.model_stale = false;
+        Ok(())
+    }
+}
+
+/// A step that did not start (its memory could not be had): nothing was changed.
+fn failed(message: String) -> StepReport {
+    StepReport {
+        outcome: crate::solver::Outcome::Failed,
+        iterations: 0,
+        increments: 0,
+        cutbacks: 0,
+        reached: 0.0,
+        message,
+        log: Vec::new(),
     }
 }
 
@@ -450,7 +496,7 @@ fn type_name(t: VarType) -> &'static str {
     }
 }
 
-fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> EngineState {
+fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> Result<EngineState, Error> {
     let start = |b: fn(Binding) -> bool| -> Vec<f64> {
         vars.iter()
             .filter(|v| b(v.binding))
@@ -460,16 +506,17 @@ fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> EngineState
     let inputs = start(|b| matches!(b, Binding::Input(_)));
     let parameters = start(|b| matches!(b, Binding::Parameter(_)));
     debug_assert_eq!(inputs.len(), scene.inputs.len());
-    EngineState {
-        displacement: vec![0.0; model.unknown_count()],
-        slip_state: vec![0; model.slips.len()],
+    const WHAT: &str = "the state";
+    Ok(EngineState {
+        displacement: memory::zeros(model.unknown_count(), WHAT)?,
+        slip_state: memory::zeros(model.slips.len(), WHAT)?,
         applied: vec![0.0; inputs.len()],
         inputs,
         parameters,
         last_iterations: 0,
-        wrinkle: vec![0; model.triangles.len()],
-        tension_angle: vec![0.0; model.triangles.len()],
-    }
+        wrinkle: memory::zeros(model.triangles.len(), WHAT)?,
+        tension_angle: memory::zeros(model.triangles.len(), WHAT)?,
+    })
 }
 
 fn check_bounds(var: &Variable, value: f64) -> Result<(), Error> {

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use velarium::description::model_description;
 use velarium::history::{self, Event, LoadTable};
 use velarium::pack::{find_library, pack_versions, write_atomically, FmiVersion};
-use velarium::scene::generate::resolve;
+use velarium::scene::generate::try_resolve;
 use velarium::scene::validate::validate;
 use velarium::vtk;
 use velarium::{Engine, Scene};
@@ -474,7 +474,7 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
     if !problems.is_empty() {
         return Ok(report_problems(path, &problems));
     }
-    let mesh = resolve(&scene.geometry);
+    let mesh = try_resolve(&scene.geometry).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
     let counts = [
         (scene.membranes.len(), "membrane group"),
         (scene.cables.len(), "cable"),
