@@ -73,7 +73,9 @@ impl Engine {
         }
         // The whole build (model, pattern, factor, vectors) at once, before any of it: a
         // shortage is found here, not in the middle (`crate::memory`).
-        crate::memory::probe(size.memory_bytes, "the model and the solver")?;
+        if !scene.debug.skip_memory_probes {
+            memory::probe(size.memory_bytes, "the model and the solver")?;
+        }
         let variables = variables::table(&scene);
         let model = Model::try_build(&scene)?;
         let solver = Solver::try_new(&model, settings(&scene))?;
@@ -88,7 +90,7 @@ impl Engine {
             outputs: Vec::new(),
             membranes: Vec::new(),
         };
-        engine.refresh_outputs();
+        engine.refresh_outputs()?;
         Ok(engine)
     }
 
@@ -208,13 +210,14 @@ impl Engine {
         // an allocation failure inside a step would abort the host.
         let state_bytes = 8 * (self.state.displacement.len() + self.state.slip_state.len()) as u64
             + 9 * self.state.wrinkle.len() as u64;
-        if let Err(e) = crate::memory::probe(
-            self.solver
-                .step_bytes(&self.model)
-                .saturating_add(2 * state_bytes),
-            "the step's working memory",
-        ) {
-            return failed(e.to_string());
+        let step_bytes = self
+            .solver
+            .step_bytes(&self.model)
+            .saturating_add(2 * state_bytes);
+        if !self.scene.debug.skip_memory_probes {
+            if let Err(e) = memory::probe(step_bytes, "the step's working memory") {
+                return failed(e.to_string());
+            }
         }
         let before = (
             self.state.displacement.clone(),
@@ -231,13 +234,19 @@ impl Engine {
             let previous = self.state.clone();
             self.state.applied = self.state.inputs.clone();
             self.state.last_iterations = report.iterations as u32;
-            self.refresh_outputs();
+            if let Err(e) = self.refresh_outputs() {
+                // Nothing of the outputs was changed: back to the state they belong to.
+                self.state = previous;
+                (self.state.displacement, self.state.slip_state) = before;
+                return failed(e.to_string());
+            }
             // A converged answer is never returned non-finite: loads so large that a position,
             // a length or a stress overflows are a failed step, and nothing is committed.
             if let Some(what) = self.non_finite() {
                 self.state = previous;
                 (self.state.displacement, self.state.slip_state) = before;
-                self.refresh_outputs();
+                // The memory of the refresh just made is there again.
+                let _ = self.refresh_outputs();
                 report.outcome = crate::solver::Outcome::Failed;
                 report.reached = 0.0;
                 report.message = format!("the equilibrium found is not finite ({what}); the loads overflow the model's numbers");
@@ -361,16 +370,21 @@ impl Engine {
                 return Err(e);
             }
         }
-        self.refresh_outputs();
-        if let Some(what) = self.non_finite() {
+        let refreshed = self.refresh_outputs();
+        let what = match refreshed {
+            Err(e) => Err(e),
+            Ok(()) => Ok(self.non_finite()),
+        };
+        if !matches!(what, Ok(None)) {
             // Leave the engine as it was (a rebuild that fails leaves the model stale: the
-            // next solve builds it again).
+            // next solve builds it again; a refresh that failed changed nothing).
             self.state = previous;
             if params_changed {
                 self.model_stale = true;
                 let _ = self.rebuild();
             }
-            self.refresh_outputs();
+            let what = what?.unwrap_or_default();
+            let _ = self.refresh_outputs();
             return Err(Error::State(format!(
                 "the state gives a non-finite {what}; the instance is unchanged"
             )));
@@ -390,7 +404,10 @@ impl Engine {
                 return Err(e);
             }
         }
-        self.refresh_outputs();
+        if let Err(e) = self.refresh_outputs() {
+            self.state = previous;
+            return Err(e);
+        }
         Ok(())
     }
 
@@ -422,7 +439,17 @@ impl Engine {
         )
     }
 
-    fn refresh_outputs(&mut self) {
+    /// Outputs, membrane evaluations, wrinkle codes and tension angles of the committed state.
+    /// Its working memory (element evaluations, residual and load vectors) is probed first
+    /// (always, also with `debug.skip_memory_probes`); on failure nothing is changed.
+    fn refresh_outputs(&mut self) -> Result<(), Error> {
+        let dofs = self.model.dof_count() as u64;
+        let triangles = self.model.triangles.len() as u64;
+        let evaluation = std::mem::size_of::<Evaluation>() as u64;
+        memory::probe(
+            (4 * 8 * dofs).saturating_add(triangles.saturating_mul(2 * evaluation + 16)),
+            "the outputs",
+        )?;
         let s = &self.state;
         let membranes = self
             .solver
@@ -442,6 +469,7 @@ impl Engine {
             .collect();
         self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
         self.membranes = membranes;
+        Ok(())
     }
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.

@@ -259,7 +259,7 @@ impl Solver {
             reference_size,
             evaluations: memory::with_capacity(model.triangles.len(), "the element evaluations")?,
             frozen: None,
-            adjacency: relax::Adjacency::new(model),
+            adjacency: relax::Adjacency::try_new(model)?,
             prestress_factor: 1.0,
             pattern,
         })
