@@ -8,8 +8,7 @@
 //! What is asserted here, on smaller analogues (no timing):
 //! - fill: the factor entries and flops of the size estimate grow linearly along the strip
 //!   (4 times the length: 3.98-4.02 times the entries and flops, measured 4.001 and 4.002; a
-//!   quadratic fill would give
-//!   16);
+//!   quadratic fill would give 16);
 //! - the failing step's iterations stay within what `check` announces (7 increments of 40 on
 //!   the SleeveCable strip; measured exactly 280), and `check` announces it.
 
