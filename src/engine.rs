@@ -47,6 +47,18 @@ pub struct EngineState {
     pub tension_angle: Vec<f64>,
 }
 
+impl EngineState {
+    /// Bytes of its vectors (what a copy of it allocates).
+    pub fn bytes(&self) -> u64 {
+        let floats = self.displacement.len()
+            + self.applied.len()
+            + self.inputs.len()
+            + self.parameters.len()
+            + self.tension_angle.len();
+        8 * floats as u64 + (self.slip_state.len() + self.wrinkle.len()) as u64
+    }
+}
+
 pub struct Engine {
     /// The scene as given (parameter values are applied on top of it when the model is built).
     scene: Scene,
