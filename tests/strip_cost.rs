@@ -2,15 +2,16 @@
 //! solved for minutes. Measured (docs/solver.md, cost): nothing in our code is quadratic and the
 //! ordering's fill is linear; the time is a step that does not converge on the SleeveCable
 //! strip: 7 cut-back increments of 40 Newton iterations (280, the same at N = 300, 1000 and
-//! 3000), each iteration one factorization and 14-17 assemblies' worth of element evaluations
-//! (line search and nodal relaxation), all linear in N. `velarium check` now states that cost.
+//! 3000; 296 since an increment may run on while its residual still halves), each iteration
+//! one factorization and 14-17 assemblies' worth of element evaluations (line search and nodal
+//! relaxation), all linear in N. `velarium check` now states that cost.
 //!
 //! What is asserted here, on smaller analogues (no timing):
 //! - fill: the factor entries and flops of the size estimate grow linearly along the strip
 //!   (4 times the length: 3.98-4.02 times the entries and flops, measured 4.001 and 4.002; a
 //!   quadratic fill would give 16);
-//! - the failing step's iterations stay within what `check` announces (7 increments of 40 on
-//!   the SleeveCable strip; measured exactly 280), and `check` announces it.
+//! - the failing step's iterations stay within what `check` announces (7 increments of 40 to
+//!   200 on the SleeveCable strip: 280 to 1400; measured 296), and `check` announces it.
 
 use std::process::Command;
 use velarium::scene::validate::validate_sized;
@@ -63,8 +64,9 @@ fn a_failing_strip_gives_up_within_the_iterations_check_announces() {
     assert!(!report.converged());
     // From initial_increment 1 down to min_increment 1e-4 by quarters: 7 increments.
     assert_eq!(report.cutbacks, 7);
+    // Each of max_iterations, or up to 200 while the residual still halves every 10.
     assert!(
-        report.iterations <= 7 * max_iterations,
+        (7 * max_iterations..=7 * 200).contains(&report.iterations),
         "{}",
         report.iterations
     );
@@ -80,7 +82,7 @@ fn a_failing_strip_gives_up_within_the_iterations_check_announces() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{stdout}");
     assert!(
-        stdout.contains("gives up after 280 iterations (7 increments of 40)"),
+        stdout.contains("gives up after 280 to 1400 iterations (7 increments of 40, up to 200"),
         "{stdout}"
     );
 }
