@@ -17,6 +17,7 @@
 
 pub mod cable;
 pub mod membrane;
+pub mod orthotropic;
 pub mod pressure;
 pub mod sleeve;
 pub mod wrinkling;
