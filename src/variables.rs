@@ -188,6 +188,10 @@ pub fn parameter_value(scene: &Scene, target: &str) -> Option<f64> {
                 ("E", Material::Svk { young, .. }) => Some(*young),
                 ("nu", Material::Svk { nu, .. }) => Some(*nu),
                 ("mu", Material::NeoHookean { mu }) => Some(*mu),
+                ("E_warp", Material::Orthotropic { e_warp, .. }) => Some(*e_warp),
+                ("E_fill", Material::Orthotropic { e_fill, .. }) => Some(*e_fill),
+                ("nu_wf", Material::Orthotropic { nu_wf, .. }) => Some(*nu_wf),
+                ("G", Material::Orthotropic { g, .. }) => Some(*g),
                 ("thickness", _) => Some(m.thickness),
                 _ => None,
             }
@@ -224,6 +228,10 @@ pub fn set_parameter_value(scene: &mut Scene, target: &str, value: f64) -> bool 
                 ("E", Material::Svk { young, .. }) => *young = value,
                 ("nu", Material::Svk { nu, .. }) => *nu = value,
                 ("mu", Material::NeoHookean { mu }) => *mu = value,
+                ("E_warp", Material::Orthotropic { e_warp, .. }) => *e_warp = value,
+                ("E_fill", Material::Orthotropic { e_fill, .. }) => *e_fill = value,
+                ("nu_wf", Material::Orthotropic { nu_wf, .. }) => *nu_wf = value,
+                ("G", Material::Orthotropic { g, .. }) => *g = value,
                 ("thickness", _) => m.thickness = value,
                 _ => return false,
             }

@@ -294,6 +294,16 @@ fn build_triangles(
         let law = match m.material {
             Material::Svk { young, nu } => wrinkling::Law::Svk { young, nu },
             Material::NeoHookean { mu } => wrinkling::Law::NeoHookean { mu },
+            // The warp angle is set per triangle below.
+            Material::Orthotropic {
+                e_warp,
+                e_fill,
+                nu_wf,
+                g,
+                ..
+            } => wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
+                e_warp, e_fill, nu_wf, g, 0.0,
+            )),
         };
         let material = membrane::Material {
             law,
@@ -320,6 +330,16 @@ fn build_triangles(
             };
             for &i in &nodes {
                 used[i] = true;
+            }
+            let mut material = material;
+            if let (wrinkling::Law::Orthotropic(o), Material::Orthotropic { warp, .. }) =
+                (material.law, &m.material)
+            {
+                let w = Vector3::from(*warp);
+                let angle = w.dot(&reference.frame[1]).atan2(w.dot(&reference.frame[0]));
+                material.law = wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
+                    o.e_warp, o.e_fill, o.nu_wf, o.g, angle,
+                ));
             }
             out.push(Triangle {
                 id: t,

@@ -211,6 +211,23 @@ pub enum Material {
     /// Incompressible neo-Hookean plane stress, W = μ/2 (tr C + 1/det C − 3): rubber at large
     /// strain. `mu` is the shear modulus in Pa (small-strain E = 3μ).
     NeoHookean { mu: f64 },
+    /// Orthotropic (warp/fill) St Venant-Kirchhoff for coated fabrics: plane-stress compliance
+    /// [[1/E_warp, −nu_wf/E_warp, 0], [−nu_wf/E_warp, 1/E_fill, 0], [0, 0, 1/G]] in the warp/fill
+    /// axes. Moduli in Pa (> 0); `nu_wf` (fill contraction under warp tension) in
+    /// [0, √(E_warp/E_fill)) so the law is positive definite. `warp`: the warp direction as a
+    /// vector, projected onto each triangle's plane (it must not be normal to any triangle).
+    /// With wrinkling on, the tension-field law solves for the wrinkle direction
+    /// (docs/mechanics.md §1.3).
+    Orthotropic {
+        #[serde(rename = "E_warp")]
+        e_warp: f64,
+        #[serde(rename = "E_fill")]
+        e_fill: f64,
+        nu_wf: f64,
+        #[serde(rename = "G")]
+        g: f64,
+        warp: [f64; 3],
+    },
 }
 
 /// Strain law of a cable.
@@ -472,7 +489,8 @@ pub enum Probe {
 pub struct Parameter {
     /// Variable name.
     pub name: String,
-    /// What it sets: `membranes.<name>.E`, `.nu` (SVK), `.mu` (neo-Hookean), `.thickness`,
+    /// What it sets: `membranes.<name>.E`, `.nu` (SVK), `.mu` (neo-Hookean), `.E_warp`,
+    /// `.E_fill`, `.nu_wf`, `.G` (orthotropic), `.thickness`,
     /// `cables.<name>.EA`, `cables.<name>.pretension`, `solver.artificial_prestress`,
     /// `debug.fail_after_time`, `debug.panic_after_time` (test variants only).
     pub target: String,

@@ -506,6 +506,57 @@ impl Validator {
                         );
                     }
                 }
+                Material::Orthotropic {
+                    e_warp,
+                    e_fill,
+                    nu_wf,
+                    g,
+                    warp,
+                } => {
+                    for (name, v, what) in [
+                        ("E_warp", e_warp, "Young's modulus"),
+                        ("E_fill", e_fill, "Young's modulus"),
+                        ("G", g, "shear modulus"),
+                    ] {
+                        if !positive(v) {
+                            self.push(
+                                format!("{p}.material.{name}"),
+                                format!("{v} is not a positive {what} in Pa {RANGE}"),
+                            );
+                        }
+                    }
+                    if positive(e_warp) && positive(e_fill) {
+                        let bound = (e_warp / e_fill).sqrt();
+                        if !(nu_wf.is_finite() && nu_wf >= 0.0 && nu_wf < bound) {
+                            self.push(
+                                format!("{p}.material.nu_wf"),
+                                format!("{nu_wf}: nu_wf must be in [0, sqrt(E_warp/E_fill)) = [0, {bound:.6}) for a positive-definite orthotropic law"),
+                            );
+                        }
+                    }
+                    let length = warp.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    if !positive(length) || warp.iter().any(|x| !coordinate(*x)) {
+                        self.push(
+                            format!("{p}.material.warp"),
+                            "must be a non-zero finite vector (the warp direction)",
+                        );
+                    } else if let Some(ids) = group_triangles(mesh, &m.triangles) {
+                        let w = warp.map(|x| x / length);
+                        for t in ids {
+                            let Some(n) = unit_normal(mesh, &mesh.triangles[t]) else {
+                                continue;
+                            };
+                            let along = (w[0] * n[0] + w[1] * n[1] + w[2] * n[2]).abs();
+                            if (1.0 - along * along).max(0.0).sqrt() < WARP_IN_PLANE {
+                                self.push(
+                                    format!("{p}.material.warp"),
+                                    format!("{warp:?} is (nearly) normal to triangle {t}: its projection onto the triangle gives no warp direction"),
+                                );
+                                break;
+                            }
+                        }
+                    }
+                }
             }
         }
     }
@@ -921,7 +972,7 @@ impl Validator {
         for (i, p) in s.parameters.iter().enumerate() {
             let path = format!("parameters[{i}].target");
             match variables::parameter_value(s, &p.target) {
-                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
+                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|E_warp|E_fill|nu_wf|G|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
                 Some(v) if !v.is_finite() => self.push(path, format!("{} must be given a value in the scene to be exposed as a parameter", p.target)),
                 Some(_) => {}
             }
@@ -1032,6 +1083,36 @@ fn generator_name(g: &Generator) -> &str {
 
 /// Zero area in floating point: relative to the longest edge (collinear or repeated nodes), or
 /// below what the model's reference frame can be formed from (twice the area <= 1e-300).
+/// Smallest in-plane part (sine of the angle to the normal) of an orthotropic group's warp
+/// vector on any of its triangles: below this the projected direction is round-off.
+const WARP_IN_PLANE: f64 = 1e-3;
+
+/// Triangle ids of a group's reference, if it resolves.
+fn group_triangles(mesh: &Mesh, r: &TriangleRef) -> Option<Vec<usize>> {
+    match r {
+        TriangleRef::Set(name) => mesh.triangle_sets.get(name).cloned(),
+        TriangleRef::Ids(ids) => ids
+            .iter()
+            .all(|&i| i < mesh.triangles.len())
+            .then(|| ids.clone()),
+    }
+}
+
+/// Unit normal of a mesh triangle (None if degenerate or a node id is out of range).
+fn unit_normal(mesh: &Mesh, t: &[usize; 3]) -> Option<[f64; 3]> {
+    let p = |i: usize| mesh.nodes.get(t[i]).copied();
+    let (a, b, c) = (p(0)?, p(1)?, p(2)?);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let n = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    (l > 0.0 && l.is_finite()).then(|| n.map(|x| x / l))
+}
+
 fn degenerate(mesh: &Mesh, t: &[usize; 3]) -> bool {
     let area = triangle_area(mesh, t);
     !(area.is_finite() && 2.0 * area > 1e-300 && area > 1e-14 * longest_edge2(mesh, t))
