@@ -54,12 +54,14 @@ pub struct Variable {
     pub binding: Binding,
 }
 
-/// Every unit a variable may carry, with its SI base-unit exponents (kg, m, s).
-pub const UNITS: &[(&str, [i32; 3])] = &[
-    ("m", [0, 1, 0]),
-    ("N", [1, 1, -2]),
-    ("Pa", [1, -1, -2]),
-    ("N/m", [1, 0, -2]),
+/// Every unit a variable may carry, with its SI base-unit exponents (kg, m, s, rad).
+pub const UNITS: &[(&str, [i32; 4])] = &[
+    ("m", [0, 1, 0, 0]),
+    ("N", [1, 1, -2, 0]),
+    ("Pa", [1, -1, -2, 0]),
+    ("N/m", [1, 0, -2, 0]),
+    ("N.m", [1, 2, -2, 0]),
+    ("rad", [0, 0, 0, 1]),
 ];
 
 /// Build the table of a (validated) scene. Parameter start values are read from the scene.
@@ -99,7 +101,8 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
             unit: Some(match input.load {
                 Load::PointForce { .. } => "N",
                 Load::Pressure { .. } => "Pa",
-                Load::Displacement { .. } => "m",
+                Load::Displacement { .. } | Load::PolarDisplacement { .. } => "m",
+                Load::Rotation { .. } => "rad",
                 Load::RadialEdgeLoad { .. } => "N/m",
             }),
             start: Some(input.start),
@@ -125,9 +128,11 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
             | Probe::CableLength { .. }
             | Probe::CableSlip { .. }
             | Probe::CableEndSlip { .. } => (VarType::Real, Variability::Continuous, Some("m")),
-            Probe::CableTension { .. } | Probe::Reaction { .. } | Probe::ContactForce { .. } => {
-                (VarType::Real, Variability::Continuous, Some("N"))
-            }
+            Probe::CableTension { .. }
+            | Probe::Reaction { .. }
+            | Probe::ReactionResultant { .. }
+            | Probe::ContactForce { .. } => (VarType::Real, Variability::Continuous, Some("N")),
+            Probe::ReactionMoment { .. } => (VarType::Real, Variability::Continuous, Some("N.m")),
         };
         vars.push(Variable {
             name: out.name.clone(),

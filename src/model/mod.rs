@@ -24,7 +24,7 @@ pub mod wrinkling;
 
 use crate::scene::generate::{resolve, Mesh};
 use crate::scene::{
-    CableEnd, Load, Material, NodeRef, OneNode, Probe, Scene, SlipState, StrainLaw,
+    CableEnd, Load, Material, NodeRef, OneNode, PolarComponent, Probe, Scene, SlipState, StrainLaw,
     TriangleRef as TriSel,
 };
 use nalgebra::Vector3;
@@ -76,8 +76,59 @@ pub enum LoadModel {
         triangles: Vec<usize>,
         follower: bool,
     },
-    /// Prescribed DOFs.
-    Displacement(Vec<usize>),
+    /// Prescribed DOFs and how the input's value moves them.
+    Displacement(Prescribed),
+}
+
+/// DOFs an input prescribes. Where several inputs prescribe one DOF their displacements add
+/// (`Prescribed::add`): a rotation plus a translation, a radial plus a tangential component.
+#[derive(Clone, Debug)]
+pub struct Prescribed {
+    pub dofs: Vec<usize>,
+    pub motion: Motion,
+}
+
+/// The displacement a prescribing input gives per value.
+#[derive(Clone, Debug)]
+pub enum Motion {
+    /// u[dof] = value (a `displacement` input: one global component).
+    Component,
+    /// Rigid rotation by the value (rad) about the unit `axis` through `point`.
+    Rotation {
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    },
+    /// value × e (m) with e the node's unit radial or tangential direction (per DOF: its
+    /// component of e).
+    Along(Vec<f64>),
+}
+
+impl Prescribed {
+    /// Add this input's displacement at `value` to the prescribed DOFs of `u`.
+    pub fn add(&self, reference: &[Vector3<f64>], value: f64, u: &mut [f64]) {
+        match &self.motion {
+            Motion::Component => {
+                for &d in &self.dofs {
+                    u[d] += value;
+                }
+            }
+            Motion::Along(unit) => {
+                for (&d, e) in self.dofs.iter().zip(unit) {
+                    u[d] += value * e;
+                }
+            }
+            Motion::Rotation { point, axis } => {
+                let rotation = nalgebra::Rotation3::from_axis_angle(
+                    &nalgebra::Unit::new_unchecked(*axis),
+                    value,
+                );
+                for &d in &self.dofs {
+                    let r = reference[d / 3] - point;
+                    u[d] += (rotation * r - r)[d % 3];
+                }
+            }
+        }
+    }
 }
 
 /// What one output reads.
@@ -115,6 +166,16 @@ pub enum ProbeModel {
     },
     Reaction {
         dofs: Vec<usize>,
+    },
+    /// Moment of the reactions at `nodes` about the unit `axis` through `point`.
+    ReactionMoment {
+        nodes: Vec<usize>,
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    },
+    /// |Σ R| over the held DOFs of `nodes`.
+    ReactionResultant {
+        nodes: Vec<usize>,
     },
     NewtonIterations,
     /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
@@ -188,8 +249,8 @@ impl Model {
             .map(|i| build_load(scene, &mesh, &triangles, &i.load))
             .collect();
         for l in &loads {
-            if let LoadModel::Displacement(dofs) = l {
-                for &d in dofs {
+            if let LoadModel::Displacement(p) = l {
+                for &d in &p.dofs {
                     held[d] = true;
                 }
             }
@@ -514,12 +575,50 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                 follower: *follower,
             }
         }
-        Load::Displacement { nodes, component } => LoadModel::Displacement(
-            node_ids(mesh, nodes)
+        Load::Displacement { nodes, component } => LoadModel::Displacement(Prescribed {
+            dofs: node_ids(mesh, nodes)
                 .iter()
                 .map(|&i| 3 * i + component.index())
                 .collect(),
-        ),
+            motion: Motion::Component,
+        }),
+        Load::Rotation { nodes, point, axis } => LoadModel::Displacement(Prescribed {
+            dofs: node_ids(mesh, nodes)
+                .iter()
+                .flat_map(|&i| (0..3).map(move |c| 3 * i + c))
+                .collect(),
+            motion: Motion::Rotation {
+                point: Vector3::from(*point),
+                axis: Vector3::from(*axis).normalize(),
+            },
+        }),
+        Load::PolarDisplacement {
+            nodes,
+            center,
+            axis,
+            component,
+        } => {
+            let k = axis.index();
+            let mut a = Vector3::zeros();
+            a[k] = 1.0;
+            let (mut dofs, mut unit) = (Vec::new(), Vec::new());
+            for i in node_ids(mesh, nodes) {
+                let r = Vector3::from(mesh.nodes[i]) - Vector3::from(*center);
+                let radial = (r - a * r[k]).normalize();
+                let e = match component {
+                    PolarComponent::Radial => radial,
+                    PolarComponent::Tangential => a.cross(&radial),
+                };
+                for c in (0..3).filter(|&c| c != k) {
+                    dofs.push(3 * i + c);
+                    unit.push(e[c]);
+                }
+            }
+            LoadModel::Displacement(Prescribed {
+                dofs,
+                motion: Motion::Along(unit),
+            })
+        }
         Load::RadialEdgeLoad {
             nodes,
             center,
@@ -663,6 +762,14 @@ fn build_probe(
                 .iter()
                 .map(|&i| 3 * i + component.index())
                 .collect(),
+        },
+        Probe::ReactionMoment { nodes, point, axis } => ProbeModel::ReactionMoment {
+            nodes: node_ids(mesh, nodes),
+            point: Vector3::from(*point),
+            axis: Vector3::from(*axis).normalize(),
+        },
+        Probe::ReactionResultant { nodes } => ProbeModel::ReactionResultant {
+            nodes: node_ids(mesh, nodes),
         },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
         Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)),

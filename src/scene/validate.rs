@@ -416,6 +416,38 @@ impl Validator {
         }
     }
 
+    /// A finite point and a non-zero finite axis at `{path}.point`, `{path}.axis`.
+    fn point_and_axis(&mut self, point: &[f64; 3], axis: &[f64; 3], path: &str) {
+        if point.iter().any(|x| !coordinate(*x)) {
+            self.push(format!("{path}.point"), "must be finite with |x| <= 1e30 m");
+        }
+        let n = axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !positive(n) {
+            self.push(format!("{path}.axis"), "must be a non-zero finite vector");
+        }
+    }
+
+    /// A node set of which at least one node is held in some component.
+    fn reaction_nodes(
+        &mut self,
+        mesh: &Mesh,
+        nodes: &NodeRef,
+        held: &BTreeSet<(usize, usize)>,
+        path: &str,
+    ) {
+        if let Some(ids) = self.nodes(mesh, nodes, &format!("{path}.nodes")) {
+            if !ids
+                .iter()
+                .any(|&id| (0..3).any(|c| held.contains(&(id, c))))
+            {
+                self.push(
+                    format!("{path}.nodes"),
+                    "no node of this set is held, so there is no reaction to report",
+                );
+            }
+        }
+    }
+
     fn one_node(&mut self, mesh: &Mesh, r: &OneNode, path: &str) -> Option<usize> {
         let ids = match r {
             OneNode::Id(id) if *id >= mesh.nodes.len() => {
@@ -751,22 +783,46 @@ impl Validator {
                 }
             }
         }
-        let mut prescribed = BTreeSet::new();
+        // Inputs that hold components; two of the same kind on one component are an error,
+        // different kinds add (a rotation and a translation, radial and tangential).
+        let mut prescribed: BTreeMap<(usize, usize), Vec<String>> = BTreeMap::new();
+        const AXES: [&str; 3] = ["x", "y", "z"];
         for (i, input) in s.inputs.iter().enumerate() {
-            if let Load::Displacement { nodes, component } = &input.load {
-                let p = format!("inputs[{i}].load.nodes");
-                if let Some(ids) = self.nodes(mesh, nodes, &p) {
-                    for id in ids {
-                        let key = (id, component.index());
-                        if held.contains(&key) && !prescribed.contains(&key) {
-                            self.push(&p, format!("node {id} is already fixed in {component:?} by a support; a prescribed displacement cannot move it"));
-                        } else if !prescribed.insert(key) {
-                            self.push(
-                                &p,
-                                format!(
-                                    "node {id} component {component:?} is prescribed by two inputs"
-                                ),
-                            );
+            let (nodes, components, kind): (&NodeRef, Vec<usize>, String) = match &input.load {
+                Load::Displacement { nodes, component } => {
+                    (nodes, vec![component.index()], "displacement".to_string())
+                }
+                Load::Rotation { nodes, .. } => (nodes, vec![0, 1, 2], "rotation".to_string()),
+                Load::PolarDisplacement {
+                    nodes,
+                    axis,
+                    component,
+                    ..
+                } => (
+                    nodes,
+                    (0..3).filter(|&c| c != axis.index()).collect(),
+                    format!("{component:?}").to_lowercase() + " displacement",
+                ),
+                _ => continue,
+            };
+            let p = format!("inputs[{i}].load.nodes");
+            if let Some(ids) = self.nodes(mesh, nodes, &p) {
+                for id in ids {
+                    for &c in &components {
+                        let key = (id, c);
+                        let axis = AXES[c];
+                        if held.contains(&key) && !prescribed.contains_key(&key) {
+                            self.push(&p, format!("node {id} is already fixed in {axis} by a support; a prescribed {kind} cannot move it"));
+                        } else {
+                            let kinds = prescribed.entry(key).or_default();
+                            if kinds.contains(&kind) {
+                                self.push(
+                                    &p,
+                                    format!("node {id} component {axis} is prescribed by two {kind} inputs"),
+                                );
+                            } else {
+                                kinds.push(kind.clone());
+                            }
                         }
                         held.insert(key);
                     }
@@ -806,6 +862,39 @@ impl Validator {
                     }
                 }
                 Load::Displacement { .. } => {} // checked with the supports
+                Load::Rotation { point, axis, .. } => {
+                    self.point_and_axis(point, axis, &format!("{p}.load"));
+                }
+                Load::PolarDisplacement {
+                    nodes,
+                    center,
+                    axis,
+                    ..
+                } => {
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(
+                            format!("{p}.load.center"),
+                            "must be finite with |x| <= 1e30 m",
+                        );
+                    } else if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
+                        let k = axis.index();
+                        for id in ids {
+                            let x = mesh.nodes[id];
+                            let (mut off, mut size) = (0.0f64, 0.0f64);
+                            for c in (0..3).filter(|&c| c != k) {
+                                off += (x[c] - center[c]).powi(2);
+                                size = size.max(x[c].abs()).max(center[c].abs());
+                            }
+                            if off.sqrt() <= 1e-12 * size.max(1e-300) {
+                                self.push(
+                                    format!("{p}.load.nodes"),
+                                    format!("node {id} lies on the axis: it has no radial or tangential direction"),
+                                );
+                                break;
+                            }
+                        }
+                    }
+                }
                 Load::RadialEdgeLoad { nodes, center, .. } => {
                     if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
                         if ids.len() < 2 {
@@ -914,6 +1003,13 @@ impl Validator {
                             self.push(format!("{p}.nodes"), format!("no node of this set is held in {component:?}, so there is no reaction to report"));
                         }
                     }
+                }
+                Probe::ReactionMoment { nodes, point, axis } => {
+                    self.point_and_axis(point, axis, &p);
+                    self.reaction_nodes(mesh, nodes, held, &p);
+                }
+                Probe::ReactionResultant { nodes } => {
+                    self.reaction_nodes(mesh, nodes, held, &p);
                 }
                 Probe::NewtonIterations => {}
                 Probe::WrinkledFraction { membrane }
