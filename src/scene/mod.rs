@@ -569,7 +569,8 @@ pub struct SolverSettings {
     /// tolerance · F, F the largest of |f_ext|∞, |reactions|∞, the largest nodal force of any
     /// element and the step's load change (applied and carried forces, never a stiffness).
     /// Where round-off keeps a residual above that, its floor 16 ε (Σ|f| + K_dd X) counts only
-    /// if the Newton correction is also below round-off (docs/solver.md). 1e-9 keeps
+    /// if the Newton correction is also within tolerance · X at every unknown, X the size of
+    /// the coordinates (docs/solver.md). 1e-9 keeps
     /// verification at 1e-8 honest while quadratic convergence makes it cheap.
     pub tolerance: f64,
     /// Newton iterations per load increment before it is cut back. 50: quadratic convergence

@@ -45,8 +45,15 @@ pub struct Settings {
     /// residual within tolerance · F (F the applied and carried force scale) plus its
     /// round-off floor. Default 1e-9.
     pub tolerance: f64,
-    /// Newton iterations per increment before it is cut back. Default 25.
+    /// Newton iterations per increment before it is cut back. Default 50 (the scene's
+    /// `solver.max_iterations`).
     pub max_iterations: usize,
+    /// Iterations an increment may continue past `max_iterations` while its residual still
+    /// halves every 10 iterations (steady linear convergence, e.g. a flat membrane unloaded to
+    /// exactly zero load, where the tangent is singular at the solution and each Newton step
+    /// goes a third of the way). Cutting such an increment back only repeats the same ending.
+    /// Default 200.
+    pub max_iterations_progressing: usize,
     /// First increment as a fraction of the step's load change. Default 1.
     pub initial_increment: f64,
     /// Smallest increment before the step fails. Default 1e-4.
@@ -121,6 +128,7 @@ impl Default for Settings {
         Settings {
             tolerance: 1e-9,
             max_iterations: 50,
+            max_iterations_progressing: 200,
             initial_increment: 1.0,
             min_increment: 1e-4,
             target_iterations: 6,

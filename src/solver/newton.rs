@@ -4,7 +4,7 @@
 //! iterate:  assemble R, K at u (wrinkle states from the mixed criterion, or frozen)
 //!           stick/slip states by the return map (or frozen)       active_set.rs
 //!           converged when every free DOF d and slip row j meets |R_d| <= tol · F, or meets
-//!               |R_d| <= tol · F + ρ_d and the Newton correction is below round-off
+//!               |R_d| <= tol · F + ρ_d and the Newton correction is within tol · X
 //!           and no stick/slip state changed, and the re-check of frozen states accepts
 //!           stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
 //!               relax the nodes carrying the residual (relax.rs)
@@ -25,7 +25,8 @@
 //! coordinate size (rounding a coordinate by εX moves the forces by about K_dd εX), c the
 //! settings' `roundoff_factor`. The floor is local, so a very stiff member raises it only at
 //! its own nodes. A point inside the floors but not inside tol·F counts as converged only when
-//! the Newton correction from it is below c·ε·X at every unknown: the floors of a stiff
+//! the Newton correction from it is within tol·X at every unknown (the coordinates are then
+//! accurate to the tolerance although the forces cannot be resolved further): the floors of a stiff
 //! member's two nodes could otherwise add up to a net force on a soft part it belongs to. In
 //! the first iteration of a step whose loads changed the floor does not count: a load change is
 //! never accepted unless it is below tol·F.
@@ -69,6 +70,25 @@ fn prestress_factor(relative: f64, fade: f64) -> f64 {
 /// residual fell by less than a factor 4 (quadratic convergence falls much faster).
 fn stalled(it: usize, free: f64, last_free: f64, last_alpha: f64) -> bool {
     it >= 2 && (last_alpha < 1.0 || free > 0.25 * last_free)
+}
+
+/// Iterations compared by [`progressing`].
+const PROGRESS_WINDOW: usize = 10;
+
+/// Whether the residual still falls steadily: the smallest of the last `PROGRESS_WINDOW`
+/// residuals is below half the smallest of the window before. Linear convergence that keeps
+/// this pace (a root where the tangent is singular, such as a flat membrane unloaded to
+/// exactly zero: w³ ∝ q, each Newton step goes a third of the way) is allowed past
+/// `max_iterations`; stagnation or chatter is not.
+fn progressing(history: &[f64]) -> bool {
+    let n = history.len();
+    if n < 2 * PROGRESS_WINDOW {
+        return false;
+    }
+    let least = |w: &[f64]| w.iter().copied().fold(f64::INFINITY, f64::min);
+    let recent = least(&history[n - PROGRESS_WINDOW..]);
+    let before = least(&history[n - 2 * PROGRESS_WINDOW..n - PROGRESS_WINDOW]);
+    recent < 0.5 * before
 }
 
 /// The convergence test at one iterate.
@@ -119,7 +139,9 @@ impl Solver {
         let memory = self.settings.nonmonotone_memory;
         let mut recent = std::collections::VecDeque::with_capacity(memory + 1);
         let max = self.settings.max_iterations;
-        for it in 0..=max {
+        let hard_max = max.max(self.settings.max_iterations_progressing);
+        let mut history: Vec<f64> = Vec::new();
+        for it in 0..=hard_max {
             self.frozen = active.wrinkle_frozen.clone();
             let info = self.assemble_at(model, inc.loads, u);
             let states: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
@@ -153,15 +175,14 @@ impl Solver {
                 }
             }
             // Within the round-off floor but not the tolerance: converged only when the Newton
-            // correction itself is below round-off of the coordinates (a floor reached at
-            // every DOF could still leave a net force on a soft part held by stiff members).
+            // correction from here is within the tolerance of the coordinates, tol · X at every
+            // unknown (a floor reached at every DOF could still leave a net force on a soft part
+            // held by stiff members; that part's correction is then large and real).
             let mut pending = None;
             let mut converged = check.strict;
             if !converged && check.within_floor && changed == 0 {
                 if let Ok((dx, ds)) = self.direction(model, u, &rows, damping) {
-                    let limit = self.settings.roundoff_factor
-                        * f64::EPSILON
-                        * self.coordinate_size(model, u);
+                    let limit = self.settings.tolerance * self.coordinate_size(model, u);
                     converged = dx.iter().chain(&ds).all(|v| v.abs() <= limit);
                     pending = Some((dx, ds));
                 }
@@ -203,7 +224,8 @@ impl Solver {
                 }
             }
             last_free = check.free;
-            if it == max {
+            history.push(check.free.max(check.slip));
+            if it >= max && !(it < hard_max && progressing(&history)) {
                 return Err((
                     it,
                     format!(
@@ -304,8 +326,8 @@ impl Solver {
         }
         // Reached only when frozen states were found wrong at the last allowed iteration.
         Err((
-            max,
-            format!("no convergence in {max} iterations (states changed at the end)"),
+            hard_max,
+            format!("no convergence in {hard_max} iterations (states changed at the end)"),
         ))
     }
 
