@@ -183,7 +183,7 @@ fn real_input(engine: &Engine, name: &str) -> Result<u32, String> {
 fn parse_combination(text: &str, engine: &Engine, known: &[Column]) -> Result<Column, String> {
     let cells: Vec<&str> = text.split(',').map(str::trim).collect();
     let usage = "expected `combination,<name>,<input>,<factor>[,<input>,<factor>...]`";
-    if cells.len() < 4 || cells.len() % 2 != 0 {
+    if cells.len() < 4 || !cells.len().is_multiple_of(2) {
         return Err(format!("{usage}; got {} cells", cells.len()));
     }
     let name = cells[1];

@@ -24,6 +24,9 @@
 //! Wrinkled and slack points add `ε D0` (ε = 1e-6, D0 the small-strain elasticity) to the
 //! tangent only: the stress, hence the equilibrium, does not depend on it.
 //!
+//! The orthotropic (warp/fill) law, whose wrinkle direction must be solved for, lives in
+//! `super::orthotropic`; `Law::Orthotropic` dispatches to it.
+//!
 //! # References
 //! docs/mechanics.md §1.2 (SVK tension-field stress and consistent tangent) and §6 (neo-Hookean);
 //! Kang & Im 1997, J. Appl. Mech. 64:263-269 (mixed criterion); Pipkin 1986 and Skouras et
