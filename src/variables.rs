@@ -60,6 +60,7 @@ pub const UNITS: &[(&str, [i32; 4])] = &[
     ("N", [1, 1, -2, 0]),
     ("Pa", [1, -1, -2, 0]),
     ("N/m", [1, 0, -2, 0]),
+    ("m3", [0, 3, 0, 0]),
     ("N.m", [1, 2, -2, 0]),
     ("rad", [0, 0, 0, 1]),
 ];
@@ -104,6 +105,7 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
                 Load::Displacement { .. } | Load::PolarDisplacement { .. } => "m",
                 Load::Rotation { .. } => "rad",
                 Load::RadialEdgeLoad { .. } => "N/m",
+                Load::Volume { .. } | Load::Gas { .. } => "m3",
             }),
             start: Some(input.start),
             min: input.min,
@@ -133,6 +135,8 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
             | Probe::ReactionResultant { .. }
             | Probe::ContactForce { .. } => (VarType::Real, Variability::Continuous, Some("N")),
             Probe::ReactionMoment { .. } => (VarType::Real, Variability::Continuous, Some("N.m")),
+            Probe::EnclosedVolume { .. } => (VarType::Real, Variability::Continuous, Some("m3")),
+            Probe::EnclosedPressure { .. } => (VarType::Real, Variability::Continuous, Some("Pa")),
         };
         vars.push(Variable {
             name: out.name.clone(),

@@ -137,6 +137,7 @@ impl Solver {
         let mut last_damping = 0.0f64;
         let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
         let memory = self.settings.nonmonotone_memory;
+        let mut reopened = 0;
         let mut recent = std::collections::VecDeque::with_capacity(memory + 1);
         let max = self.settings.max_iterations;
         let hard_max = max.max(self.settings.max_iterations_progressing);
@@ -149,7 +150,8 @@ impl Solver {
             self.frozen = active.wrinkle_frozen.clone();
             super::check_inversion(model, &info).map_err(|why| (it, why))?;
             let changed = active.update_contact(it, model, u, &committed, log);
-            let rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
+            let mut rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
+            rows.extend(super::volume::rows(model, &self.pattern.eq, u, inc.loads));
             let mut check = self.check(model, &info, &rows, u, inc, it);
             if !(check.free.is_finite() && check.slip.is_finite()) {
                 return Err((it, "the residual is not finite".into()));
@@ -185,6 +187,25 @@ impl Solver {
                     let limit = self.settings.tolerance * self.coordinate_size(model, u);
                     converged = dx.iter().chain(&ds).all(|v| v.abs() <= limit);
                     pending = Some((dx, ds));
+                }
+            }
+            if converged && changed == 0 && !active.contact.is_empty() {
+                // Touching sleeve points whose contact force would pull part here (order.rs).
+                let parted = super::order::open_gaps(
+                    model,
+                    u,
+                    &mut active.contact,
+                    tolerance,
+                    self.settings.reopen_gap,
+                );
+                if parted > 0 {
+                    reopened += 1;
+                    if reopened > self.settings.max_unfreeze {
+                        return Err((it, "touching sleeve points keep parting (chatter)".into()));
+                    }
+                    push_log(log, format!("  {parted} touching sleeve points part"));
+                    last_free = f64::INFINITY;
+                    continue;
                 }
             }
             if converged && changed == 0 {
@@ -254,7 +275,7 @@ impl Solver {
                 }
                 Err(why) => return Err((it + 1, why)),
             };
-            let merit = if !model.slips.is_empty() {
+            let merit = if !rows.is_empty() {
                 let slip: Vec<f64> = rows.iter().map(|r| r.r).collect();
                 Merit::Residual {
                     reference: remember(&mut recent, memory, self.residual_norm(&slip)),
