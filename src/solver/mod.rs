@@ -55,8 +55,9 @@ pub struct Settings {
     /// Newton iterations per increment before it is cut back. Default 50 (the scene's
     /// `solver.max_iterations`).
     pub max_iterations: usize,
-    /// Iterations an increment may continue past `max_iterations` while its residual still
-    /// halves every 10 iterations (steady linear convergence, e.g. a flat membrane unloaded to
+    /// Iterations an increment may continue past `max_iterations` while its residual, already
+    /// below 1e-4 of the force scale, still halves every 10 iterations (steady linear
+    /// convergence near the solution, e.g. a flat membrane unloaded to
     /// exactly zero load, where the tangent is singular at the solution and each Newton step
     /// goes a third of the way). Cutting such an increment back only repeats the same ending.
     /// Default 200.
