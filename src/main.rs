@@ -524,7 +524,8 @@ const FAILING_ASSEMBLIES_PER_ITERATION: f64 = 17.0;
 /// What one Newton iteration costs at least (one factorization and one assembly), and what a
 /// step whose first increment fails spends before it gives up: every cut-back from
 /// initial_increment down to min_increment, each of max_iterations, or up to the solver's
-/// max_iterations_progressing (200) while the residual still halves every 10 iterations.
+/// max_iterations_progressing (200) while the residual, already below 1e-4 of the force
+/// scale, still halves every 10 iterations.
 fn cost_line(
     scene: &velarium::Scene,
     size: &velarium::scene::limits::Size,
@@ -541,7 +542,7 @@ fn cost_line(
     let most = tries * s.max_iterations.max(progressing);
     let seconds = |n: usize| n as f64 * (factor + FAILING_ASSEMBLIES_PER_ITERATION * assembly);
     format!(
-        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a step whose first increment does not converge gives up after {least} to {most} iterations ({tries} increments of {}, up to {} while the residual still halves): about {:.0} to {:.0} s",
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a step whose first increment does not converge gives up after {least} to {most} iterations ({tries} increments of {}, up to {} near the solution while the residual still halves): about {:.0} to {:.0} s",
         size.factor_flops / 1e9,
         factor + assembly,
         s.max_iterations,
