@@ -4,6 +4,7 @@
 //! Data flows one way (each module imports only those above it):
 //!
 //! ```text
+//! memory     fallible allocation of what grows with the input       src/memory.rs
 //! scene      validated plain data (serde), mesh generators          src/scene/
 //! variables  the FMU variable table derived from a scene            src/variables.rs
 //! model      mesh, DOFs, element kernels, loads, probes             src/model/
@@ -22,6 +23,7 @@ pub mod engine;
 pub mod error;
 pub mod fmi;
 pub mod history;
+pub mod memory;
 pub mod model;
 pub mod pack;
 pub mod results;

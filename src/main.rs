@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use velarium::description::model_description;
 use velarium::history::{self, Event, LoadTable};
 use velarium::pack::{find_library, pack_versions, write_atomically, FmiVersion};
-use velarium::scene::generate::resolve;
+use velarium::scene::generate::try_resolve;
 use velarium::scene::validate::validate;
 use velarium::vtk;
 use velarium::{Engine, Scene};
@@ -477,7 +477,7 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
     if !problems.is_empty() {
         return Ok(report_problems(path, &problems));
     }
-    let mesh = resolve(&scene.geometry);
+    let mesh = try_resolve(&scene.geometry).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
     let counts = [
         (scene.membranes.len(), "membrane group"),
         (scene.cables.len(), "cable"),
@@ -505,7 +505,51 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
         size.factor_entries,
         scene.solver.limits.max_memory_gb
     );
+    println!("{}", cost_line(&scene, &size, model.triangles.len()));
     Ok(ExitCode::SUCCESS)
+}
+
+/// Cost model of one Newton iteration on the reference machine (one core of the 2-core CI
+/// kind; docs/solver.md, cost), fitted to `examples/bench.rs`-style floors measured at the
+/// committed state: a 150-ring disc (201,153 unknowns, 11.2 GFlop, 32.5 M factor entries:
+/// factorization and solve 0.75 s, assembly of 135,000 elements 0.058 s) and a [1, 100000]
+/// strip (599,994 unknowns, 0.60 GFlop, 32.4 M entries: 0.22 s, 200,000 elements 0.117 s).
+const FACTOR_FLOPS_PER_SECOND: f64 = 20e9;
+const FACTOR_SECONDS_PER_ENTRY: f64 = 6e-9;
+const ELEMENT_SECONDS: f64 = 0.6e-6;
+/// Assemblies (global, and their equivalent in nodal relaxation) per Newton iteration of a step
+/// that fails: measured 14-17 on the [1, N] strips of SleeveCable (N = 300 to 3000).
+const FAILING_ASSEMBLIES_PER_ITERATION: f64 = 17.0;
+
+/// What one Newton iteration costs at least (one factorization and one assembly), and what a
+/// step whose first increment fails spends before it gives up: every cut-back from
+/// initial_increment down to min_increment, each of max_iterations, or up to the solver's
+/// max_iterations_progressing (200) while the residual, already below 1e-4 of the force
+/// scale, still halves every 10 iterations.
+fn cost_line(
+    scene: &velarium::Scene,
+    size: &velarium::scene::limits::Size,
+    triangles: usize,
+) -> String {
+    let s = &scene.solver;
+    let factor = size.factor_flops / FACTOR_FLOPS_PER_SECOND
+        + size.factor_entries as f64 * FACTOR_SECONDS_PER_ENTRY;
+    let assembly = triangles as f64 * ELEMENT_SECONDS;
+    let ratio = s.initial_increment / s.min_increment;
+    let tries = (ratio.ln() / 4f64.ln()).floor().max(0.0) as usize + 1;
+    let progressing = velarium::solver::Settings::default().max_iterations_progressing;
+    let least = tries * s.max_iterations;
+    let most = tries * s.max_iterations.max(progressing);
+    let seconds = |n: usize| n as f64 * (factor + FAILING_ASSEMBLIES_PER_ITERATION * assembly);
+    format!(
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a step whose first increment does not converge gives up after {least} to {most} iterations ({tries} increments of {}, up to {} near the solution while the residual still halves): about {:.0} to {:.0} s",
+        size.factor_flops / 1e9,
+        factor + assembly,
+        s.max_iterations,
+        s.max_iterations.max(progressing),
+        seconds(least),
+        seconds(most)
+    )
 }
 
 /// Print each problem as `path: message` on stdout and a summary naming the file on stderr.

@@ -203,7 +203,7 @@ fn assembled_tangent_matches_finite_differences() {
             *rings = 3;
         }
         let model = velarium::model::Model::build(&scene);
-        let pattern = Pattern::new(&model);
+        let pattern = Pattern::try_new(&model).unwrap();
         let mut rng = Rng(11);
         let mut u: Vec<f64> = (0..model.dof_count())
             .map(|d| {

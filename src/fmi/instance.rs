@@ -315,7 +315,7 @@ impl Instance {
     pub fn reset(&mut self) -> Status {
         self.call(Func::Reset, String::new(), |s| {
             if !s.heal()? {
-                s.engine.reset();
+                s.engine.reset().map_err(|e| e.to_string())?;
             }
             s.fsm = FsmState::Instantiated;
             s.experiment = Experiment::default();

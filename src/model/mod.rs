@@ -22,7 +22,9 @@ pub mod pressure;
 pub mod sleeve;
 pub mod wrinkling;
 
-use crate::scene::generate::{resolve, Mesh};
+use crate::error::Error;
+use crate::memory;
+use crate::scene::generate::{try_resolve, Mesh};
 use crate::scene::{
     CableEnd, Load, Material, NodeRef, OneNode, PolarComponent, Probe, Scene, SlipState, StrainLaw,
     TriangleRef as TriSel,
@@ -227,18 +229,36 @@ pub struct Model {
 
 impl Model {
     /// Build from a scene that passed validation (validation guarantees every reference
-    /// resolves; this function does not re-check).
+    /// resolves; this function does not re-check). For tools and tests: panics where
+    /// [`Model::try_build`] errs.
     pub fn build(scene: &Scene) -> Model {
-        Model::try_build(scene).unwrap_or_else(|p| panic!("a validated scene builds: {p}"))
+        Model::try_build(scene).unwrap_or_else(|e| panic!("a validated scene builds: {e}"))
     }
 
     /// Build the model of a validated scene; a triangle whose reference frame cannot be formed
-    /// in floating point is a located problem (validation rejects these first).
-    pub fn try_build(scene: &Scene) -> Result<Model, crate::scene::Problem> {
-        let mesh = resolve(&scene.geometry);
-        let mut reference: Vec<Vector3<f64>> =
-            mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
-        let mut used = vec![false; reference.len()];
+    /// in floating point is a located problem (validation rejects these first), and memory
+    /// that cannot be had is [`Error::Memory`]: the mesh and the model's arrays are reserved
+    /// fallibly after a probe of the whole build (`crate::memory`).
+    pub fn try_build(scene: &Scene) -> Result<Model, Error> {
+        let mesh = try_resolve(&scene.geometry)?;
+        let (nodes, triangles) = (mesh.nodes.len() as u64, mesh.triangles.len() as u64);
+        // The arrays below, the per-group triangle lists and the loads' and probes' lists: at
+        // most a few indices per node and per triangle besides the elements themselves.
+        let probe = |bytes, what| match scene.debug.skip_memory_probes {
+            true => Ok(()),
+            false => memory::probe(bytes, what),
+        };
+        probe(
+            triangles
+                .saturating_mul(std::mem::size_of::<Triangle>() as u64 + 64)
+                .saturating_add(nodes.saturating_mul(24 + 3 + 1 + 64)),
+            "the model",
+        )?;
+        let mut reference: Vec<Vector3<f64>> = memory::collect(
+            mesh.nodes.iter().map(|p| Vector3::from(*p)),
+            "the model's nodes",
+        )?;
+        let mut used = memory::filled(reference.len(), false, "the model's nodes")?;
         let triangles = build_triangles(scene, &mesh, &reference, &mut used)?;
         let mut sleeves = Sleeves::default();
         let (segments, cables) = build_cables(
@@ -250,7 +270,7 @@ impl Model {
             &mut sleeves,
         );
         let n = reference.len();
-        let mut held = vec![false; 3 * n];
+        let mut held = memory::filled(3 * n, false, "the model's DOFs")?;
         for (node, u) in used.iter().enumerate() {
             if !u {
                 held[3 * node..3 * node + 3].fill(true);
@@ -427,8 +447,16 @@ fn build_triangles(
     mesh: &Mesh,
     x: &[Vector3<f64>],
     used: &mut [bool],
-) -> Result<Vec<Triangle>, crate::scene::Problem> {
-    let mut out = Vec::new();
+) -> Result<Vec<Triangle>, Error> {
+    let total = scene
+        .membranes
+        .iter()
+        .map(|m| match &m.triangles {
+            TriSel::Ids(ids) => ids.len(),
+            TriSel::Set(name) => mesh.triangle_sets.get(name).map_or(0, Vec::len),
+        })
+        .sum();
+    let mut out = memory::with_capacity(total, "the model's membrane elements")?;
     for m in &scene.membranes {
         let law = match m.material {
             Material::Svk { young, nu } => wrinkling::Law::Svk { young, nu },
@@ -453,7 +481,7 @@ fn build_triangles(
         for t in triangle_ids(mesh, &m.triangles) {
             let nodes = mesh.triangles[t];
             let Some(reference) = membrane::triangle_ref(nodes.map(|i| x[i])) else {
-                return Err(crate::scene::Problem {
+                return Err(Error::Scene(vec![crate::scene::Problem {
                     path: format!(
                         "membranes[{}].triangles",
                         scene
@@ -465,7 +493,7 @@ fn build_triangles(
                     message: format!(
                         "triangle {t} (nodes {nodes:?}) has zero area in floating point"
                     ),
-                });
+                }]));
             };
             for &i in &nodes {
                 used[i] = true;

@@ -64,7 +64,7 @@ pub struct Scene {
     #[serde(default)]
     pub experiment: Experiment,
     /// Debug-only switches that force the FMU's failure paths (a step that does not converge,
-    /// an internal panic) so that an importer's handling of them can be tested. Shipped scenes
+    /// an internal panic, an allocation that fails) so that their handling can be tested. Shipped scenes
     /// leave this out; test variants add it (and may expose its fields as parameters).
     #[serde(default, skip_serializing_if = "DebugSettings::is_off")]
     pub debug: DebugSettings,
@@ -652,9 +652,10 @@ impl Default for SolverSettings {
     }
 }
 
-/// Debug-only switches, honoured by the FMU's `fmi2DoStep` (not by `velarium solve`). Each may
-/// be exposed as a parameter (targets `debug.fail_after_time`, `debug.panic_after_time`), which
-/// then needs a value here as its start value.
+/// Debug-only switches. The two time switches are honoured by the FMU's `fmi2DoStep` (not by
+/// `velarium solve`) and may be exposed as parameters (targets `debug.fail_after_time`,
+/// `debug.panic_after_time`), which then need a value here as their start value;
+/// `skip_memory_probes` is honoured everywhere.
 #[derive(Clone, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct DebugSettings {
@@ -667,12 +668,19 @@ pub struct DebugSettings {
     /// `fmi2Error` and the instance goes to the Error state.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub panic_after_time: Option<f64>,
+    /// Skip the memory probes that run before the model is built and before every step
+    /// (`src/memory.rs`), so that a test with a lowered memory limit reaches the fallible
+    /// allocations themselves. Honoured everywhere (library, FMU and CLI); not a parameter.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub skip_memory_probes: bool,
 }
 
 impl DebugSettings {
     /// No switch set (the section is then left out of the serialized scene).
     pub fn is_off(&self) -> bool {
-        self.fail_after_time.is_none() && self.panic_after_time.is_none()
+        self.fail_after_time.is_none()
+            && self.panic_after_time.is_none()
+            && !self.skip_memory_probes
     }
 
     /// Set the field a `debug.<field>` parameter targets. False: no such field.

@@ -1,7 +1,7 @@
 //! Semantic checks of a parsed scene. Every problem is reported (not only the first), each with
 //! the JSON path of the field and a sentence a user can act on.
 
-use super::generate::{resolve, Mesh};
+use super::generate::{try_resolve, Mesh};
 use super::limits;
 use super::{
     Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
@@ -57,7 +57,16 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
         v.problems.extend(too_big);
         return v.problems;
     }
-    let mesh = resolve(&scene.geometry);
+    let mesh = match try_resolve(&scene.geometry) {
+        Ok(mesh) => mesh,
+        Err(e) => {
+            v.problems.push(Problem {
+                path: "geometry".into(),
+                message: e.to_string(),
+            });
+            return v.problems;
+        }
+    };
     v.explicit_geometry(scene, &mesh);
     v.generated_triangles(scene, &mesh);
     if v.problems.len() == before {
@@ -74,6 +83,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
             .map(|ids| ids.len())
             .sum();
         size.unknowns = 3 * mesh.nodes.len() as u64 + 4 * sleeve_points as u64;
+        size.sleeve_points = sleeve_points as u64;
         let mut too_big = limits::check_counts(size, limits);
         if too_big.is_empty() {
             too_big = limits::check_memory(size, &mesh, &cables, limits);
