@@ -142,6 +142,31 @@ enum Stop {
     Failed(String),
 }
 
+/// Write to standard output. A reader that closed the pipe (`velarium check x.json | head -1`)
+/// ends the command quietly with success, as the usual Unix tools do, instead of a panic.
+fn emit(text: &str) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    if let Err(e) = stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("velarium: cannot write to standard output: {e}");
+        std::process::exit(1);
+    }
+}
+
+macro_rules! out {
+    ($($arg:tt)*) => { emit(&format!($($arg)*)) };
+}
+
+macro_rules! outln {
+    ($($arg:tt)*) => { emit(&format!("{}\n", format!($($arg)*))) };
+}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -194,11 +219,11 @@ fn main() -> ExitCode {
         Command::Check { scene } => cmd_check(&scene),
         Command::Describe { scene } => cmd_describe(&scene),
         Command::Schema => {
-            println!("{}", Scene::json_schema());
+            outln!("{}", Scene::json_schema());
             Ok(ExitCode::SUCCESS)
         }
         Command::Version => {
-            println!("velarium {}", env!("CARGO_PKG_VERSION"));
+            outln!("velarium {}", env!("CARGO_PKG_VERSION"));
             Ok(ExitCode::SUCCESS)
         }
     };
@@ -268,7 +293,7 @@ fn cmd_pack(
     let fmus = pack_versions(&scene, &out, &library, &versions)
         .map_err(|e| Stop::Failed(format!("{scene_path}: {e}")))?;
     for fmu in fmus {
-        println!("{}", fmu.display());
+        outln!("{}", fmu.display());
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -318,7 +343,7 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
     let csv = history.to_csv();
     match &args.out {
         Some(out) => write_atomically(Path::new(out), csv.as_bytes()).map_err(failed)?,
-        None => print!("{csv}"),
+        None => out!("{csv}"),
     }
     match history.failure {
         None => Ok(ExitCode::SUCCESS),
@@ -499,13 +524,13 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
     for (n, what) in counts {
         line.push_str(&format!(", {}", count(n, what)));
     }
-    println!(
+    outln!(
         "{line}, {free} unknowns; estimated solve memory {:.3} GB (factor {} entries), limit {} GB",
         size.memory_bytes as f64 / 1e9,
         size.factor_entries,
         scene.solver.limits.max_memory_gb
     );
-    println!("{}", cost_line(&scene, &size, model.triangles.len()));
+    outln!("{}", cost_line(&scene, &size, model.triangles.len()));
     Ok(ExitCode::SUCCESS)
 }
 
@@ -555,7 +580,7 @@ fn cost_line(
 /// Print each problem as `path: message` on stdout and a summary naming the file on stderr.
 fn report_problems(path: &str, problems: &[velarium::scene::Problem]) -> ExitCode {
     for p in problems {
-        println!("{p}");
+        outln!("{p}");
     }
     eprintln!("velarium: {path}: {}", count(problems.len(), "problem"));
     ExitCode::FAILURE
@@ -566,6 +591,6 @@ fn count(n: usize, what: &str) -> String {
 }
 
 fn cmd_describe(path: &str) -> Result<ExitCode, Stop> {
-    print!("{}", model_description(&engine_for(path)?));
+    out!("{}", model_description(&engine_for(path)?));
     Ok(ExitCode::SUCCESS)
 }

@@ -711,3 +711,25 @@ fn solve_applies_load_combinations() {
         assert!(!dir.join("out.csv").exists());
     }
 }
+
+/// A reader that closes the pipe early (`velarium schema | head -1`) ends the command quietly
+/// with exit 0, not with a panic (exit 101) on the broken pipe.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    use std::process::Stdio;
+    let mut child = Command::new(VELARIUM)
+        .arg("schema")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("velarium runs");
+    // Close the read end at once: the schema (52 KB) then meets a closed pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("velarium ends");
+    assert_eq!(out.status.code(), Some(0), "stderr: {}", text(&out.stderr));
+    assert!(
+        !text(&out.stderr).contains("panicked"),
+        "{}",
+        text(&out.stderr)
+    );
+}
