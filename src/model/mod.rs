@@ -304,14 +304,7 @@ fn build_triangles(
             let nodes = mesh.triangles[t];
             let Some(reference) = membrane::triangle_ref(nodes.map(|i| x[i])) else {
                 return Err(crate::scene::Problem {
-                    path: format!(
-                        "membranes[{}].triangles",
-                        scene
-                            .membranes
-                            .iter()
-                            .position(|g| std::ptr::eq(g, m))
-                            .unwrap_or(0)
-                    ),
+                    path: format!("membranes[{}].triangles", group_index(scene, m)),
                     message: format!(
                         "triangle {t} (nodes {nodes:?}) has zero area in floating point"
                     ),
@@ -319,6 +312,14 @@ fn build_triangles(
             };
             for &i in &nodes {
                 used[i] = true;
+            }
+            let mut reference = reference;
+            if let Some(pre) = &m.prestress {
+                reference.initial_strain = prestress_strain(scene, m, &material, pre, &reference)
+                    .map_err(|message| crate::scene::Problem {
+                        path: format!("membranes[{}].prestress", group_index(scene, m)),
+                        message: format!("triangle {t}: {message}"),
+                    })?;
             }
             out.push(Triangle {
                 id: t,
@@ -340,6 +341,30 @@ fn build_triangles(
         }
     }
     Ok(out)
+}
+
+fn group_index(scene: &Scene, m: &crate::scene::Membrane) -> usize {
+    scene
+        .membranes
+        .iter()
+        .position(|g| std::ptr::eq(g, m))
+        .unwrap_or(0)
+}
+
+/// Equivalent initial strain of a group's prestress on one triangle (`membrane::initial_strain`).
+fn prestress_strain(
+    _scene: &Scene,
+    m: &crate::scene::Membrane,
+    material: &membrane::Material,
+    pre: &crate::scene::Prestress,
+    r: &membrane::TriangleRef,
+) -> Result<Vector3<f64>, String> {
+    let (warp, fill, dir) = pre.components();
+    let s0 = membrane::initial_stress(r, warp, fill, &Vector3::from(dir), m.thickness)
+        .ok_or_else(|| format!("the warp direction {dir:?} is normal to its plane"))?;
+    membrane::initial_strain(material, &s0).ok_or_else(|| {
+        format!("the material cannot carry the initial stress {s0:?} Pa (PK2, element frame)")
+    })
 }
 
 /// Sleeve points and ties collected while the cables are built.

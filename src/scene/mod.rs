@@ -195,6 +195,42 @@ pub struct Membrane {
     /// sheet that carries compression.
     #[serde(default = "yes")]
     pub wrinkling: bool,
+    /// Initial stress state of the group in the scene geometry (membrane forces in N/m): part
+    /// of the equilibrium (residual and tangent), unlike `solver.artificial_prestress`. The
+    /// geometry with no load is in equilibrium only if this prestress balances there (a
+    /// form-found shape, a flat sheet with every edge held). Absent: stress-free.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prestress: Option<Prestress>,
+}
+
+/// A membrane prestress in N/m (force per unit length of cut = stress × thickness).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Prestress {
+    /// The same membrane force `n` (N/m, > 0) in every in-plane direction.
+    Isotropic { n: f64 },
+    /// Membrane forces `warp` and `fill` (N/m, >= 0, not both 0) along the warp direction and
+    /// its in-plane perpendicular. `warp_direction` is a global vector, projected on each
+    /// triangle's plane (it must not be normal to any triangle of the group).
+    WarpFill {
+        warp: f64,
+        fill: f64,
+        warp_direction: [f64; 3],
+    },
+}
+
+impl Prestress {
+    /// (warp, fill, warp direction) in N/m; isotropic: (n, n, x).
+    pub fn components(&self) -> (f64, f64, [f64; 3]) {
+        match *self {
+            Prestress::Isotropic { n } => (n, n, [1.0, 0.0, 0.0]),
+            Prestress::WarpFill {
+                warp,
+                fill,
+                warp_direction,
+            } => (warp, fill, warp_direction),
+        }
+    }
 }
 
 /// Membrane material (plane stress, total Lagrangian).

@@ -507,6 +507,60 @@ impl Validator {
                     }
                 }
             }
+            if let Some(pre) = &m.prestress {
+                self.prestress(m, pre, &format!("{p}.prestress"));
+            }
+        }
+    }
+
+    fn prestress(&mut self, m: &super::Membrane, pre: &super::Prestress, p: &str) {
+        let (warp, fill, dir) = pre.components();
+        let force = |x: f64| x.is_finite() && (0.0..=1e12).contains(&x);
+        match pre {
+            super::Prestress::Isotropic { n } => {
+                if !(force(*n) && *n > 0.0) {
+                    self.push(
+                        format!("{p}.n"),
+                        format!("{n} is not a positive membrane force in N/m {RANGE}"),
+                    );
+                }
+            }
+            super::Prestress::WarpFill { .. } => {
+                for (name, v) in [("warp", warp), ("fill", fill)] {
+                    if !force(v) {
+                        self.push(
+                            format!("{p}.{name}"),
+                            format!("{v} is not a membrane force in N/m >= 0 {RANGE}"),
+                        );
+                    }
+                }
+                if warp == 0.0 && fill == 0.0 {
+                    self.push(
+                        format!("{p}.warp"),
+                        "warp and fill are both 0: leave the prestress out for a stress-free sheet",
+                    );
+                }
+                let len = dir.iter().map(|c| c * c).sum::<f64>().sqrt();
+                if !(len.is_finite() && len > 0.0) {
+                    self.push(
+                        format!("{p}.warp_direction"),
+                        format!("{dir:?} is not a direction (finite, not zero)"),
+                    );
+                }
+            }
+        }
+        // The neo-Hookean sheet carries a principal PK2 stress below μ only (S_i = μ (1 −
+        // 1/(λ_i det C)) < μ); beyond half of it the equivalent stretch exceeds 26 %.
+        if let Material::NeoHookean { mu } = m.material {
+            let s = warp.max(fill) / m.thickness;
+            if positive(mu) && positive(m.thickness) && s.is_finite() && s >= 0.5 * mu {
+                self.push(
+                    p.to_string(),
+                    format!(
+                        "{s:e} Pa (the largest prestress / thickness) is at least half the neo-Hookean shear modulus {mu:e} Pa: the sheet cannot carry it at moderate stretch"
+                    ),
+                );
+            }
         }
     }
 
