@@ -274,7 +274,7 @@ fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
     }
 }
 
-fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
+pub fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
     match r {
         TriSel::Ids(ids) => ids.clone(),
         TriSel::Set(name) => mesh.triangle_sets[name].clone(),

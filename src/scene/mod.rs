@@ -59,6 +59,11 @@ pub struct Scene {
     pub parameters: Vec<Parameter>,
     #[serde(default)]
     pub solver: SolverSettings,
+    /// Form finding before the first step: the geometry is replaced by the equilibrium shape of
+    /// the membranes' `prestress` and the cables' `pretension` between the supports (Updated
+    /// Reference Strategy, `crate::formfind`). Absent: the geometry is taken as given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub form_finding: Option<FormFinding>,
     /// The FMU's DefaultExperiment (pseudo-time: one unit of time is one load history step
     /// as the master chooses it).
     #[serde(default)]
@@ -527,6 +532,53 @@ pub enum ParameterVariability {
     Fixed,
     /// May also change at communication points; takes effect from the next step.
     Tunable,
+}
+
+/// Form finding settings (docs/mechanics.md §10). Every membrane group needs a `prestress`
+/// and every cable a `pretension`: these are the prescribed stress state whose equilibrium
+/// shape is sought. Supported components stay where `place` (or the geometry) puts them.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FormFinding {
+    /// Iterations before form finding gives up. Default 50.
+    #[serde(default = "form_finding_iterations")]
+    pub max_iterations: usize,
+    /// Converged when no node moves more than `tolerance` times the span (the bounding-box
+    /// diagonal) in one iteration. Default 1e-11: the found shape then holds its prestress to
+    /// better than 1e-9 of the span under the analysis that follows.
+    #[serde(default = "form_finding_tolerance")]
+    pub tolerance: f64,
+    /// Start positions of nodes (mast tops, rings): each listed node is moved to `position`
+    /// before form finding; with its components supported it stays there.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub place: Vec<Placement>,
+}
+
+impl Default for FormFinding {
+    fn default() -> Self {
+        FormFinding {
+            max_iterations: form_finding_iterations(),
+            tolerance: form_finding_tolerance(),
+            place: Vec::new(),
+        }
+    }
+}
+
+fn form_finding_iterations() -> usize {
+    50
+}
+
+fn form_finding_tolerance() -> f64 {
+    1e-11
+}
+
+/// A node moved to a position before form finding.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Placement {
+    pub node: OneNode,
+    /// [x, y, z] in m.
+    pub position: [f64; 3],
 }
 
 /// Newton and path-following settings. Every default is chosen for the shipped scenes and

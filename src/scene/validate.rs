@@ -91,6 +91,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     v.parameters(scene);
     v.names(scene);
     v.solver(scene);
+    v.form_finding(scene, &mesh);
     v.problems
 }
 
@@ -1038,6 +1039,62 @@ impl Validator {
                         format!("\"{n}\" is used twice"),
                     );
                 }
+            }
+        }
+    }
+
+    fn form_finding(&mut self, s: &Scene, mesh: &Mesh) {
+        let Some(ff) = &s.form_finding else {
+            return;
+        };
+        if ff.max_iterations == 0 || ff.max_iterations > 10_000 {
+            self.push(
+                "form_finding.max_iterations",
+                format!("{} is not in 1..=10000", ff.max_iterations),
+            );
+        }
+        if !(ff.tolerance.is_finite() && ff.tolerance > 1e-15 && ff.tolerance < 1.0) {
+            self.push(
+                "form_finding.tolerance",
+                format!("{} is not a relative tolerance in (1e-15, 1)", ff.tolerance),
+            );
+        }
+        for (k, pl) in ff.place.iter().enumerate() {
+            let p = format!("form_finding.place[{k}]");
+            self.one_node(mesh, &pl.node, &format!("{p}.node"));
+            if !pl.position.iter().all(|&c| coordinate(c)) {
+                self.push(
+                    format!("{p}.position"),
+                    format!("{:?} is not a position in m {RANGE}", pl.position),
+                );
+            }
+        }
+        if s.membranes.is_empty() && s.cables.is_empty() {
+            self.push(
+                "form_finding",
+                "there is nothing to form-find: give membranes with a prestress or cables with a pretension",
+            );
+        }
+        for (i, m) in s.membranes.iter().enumerate() {
+            if m.prestress.is_none() {
+                self.push(
+                    format!("membranes[{i}].prestress"),
+                    "form finding needs a prestress on every membrane group (the stress whose equilibrium shape is sought)",
+                );
+            }
+        }
+        for (i, c) in s.cables.iter().enumerate() {
+            if !c.pretension.is_some_and(|t| t > 0.0) {
+                self.push(
+                    format!("cables[{i}].pretension"),
+                    "form finding needs a positive pretension on every cable (its prescribed force)",
+                );
+            }
+            if c.sleeve.is_some() {
+                self.push(
+                    format!("cables[{i}].sleeve"),
+                    "form finding does not take sleeved cables; form-find without the sleeve, then add it to the found scene",
+                );
             }
         }
     }

@@ -1,0 +1,330 @@
+//! Form finding: the equilibrium shape of a prescribed prestress (membranes) and prescribed
+//! forces (cables) between the supports, by the Updated Reference Strategy.
+//!
+//! ```text
+//! X_k          the reference configuration of iteration k (X_0: the scene geometry, with
+//!              `form_finding.place` applied)
+//! S0           prescribed PK2 stress of each triangle in X_k: the group's prestress (N/m) / t,
+//!              isotropic, or warp/fill along the warp direction projected on the triangle
+//! q_e = T/L_e  force density of each cable segment (T the prescribed force, L_e its length in X_k)
+//! solve        Σ_e A_e t (∇N_a·S0 ∇N_b) x_b + Σ_segments q_e (x_b − x_a) = 0   at free DOFs
+//!              (supported DOFs stay at X_k), x → X_{k+1}
+//! converged    max |X_{k+1} − X_k| <= tolerance · span
+//! ```
+//! The stress is prescribed as a PK2 stress in the reference of the iteration, so the internal
+//! force `f_a = A t F S0 ∇N_a` is linear in the new positions x and each iteration is one
+//! sparse symmetric solve (the URS with homotopy factor λ = 0; with cables only it is the force
+//! density method of Schek 1974 with force densities updated to T/L, and its first iteration
+//! is that method's starting guess). At the fixed point X_{k+1} = X_k, F is the identity in
+//! the plane of each triangle, so the Cauchy stress of the found shape equals the prescribed
+//! one and every cable carries T: the found shape is an equilibrium of exactly the prescribed
+//! stress state (for an isotropic prestress a discrete minimal surface; an edge cable between
+//! membrane of prestress n is an arc of radius T/n).
+//!
+//! The found scene keeps the membranes' `prestress` and the cables' `pretension` as their
+//! initial stress state (a membrane's PK2 stress in its own geometry is its Cauchy stress), so
+//! the analysis that follows starts in equilibrium.
+//!
+//! A prestress with no equilibrium between the supports (a soap film between two rings set
+//! further apart than 1.3255 times their radius) makes the iterates contract without end: a
+//! triangle whose area falls below `COLLAPSE` of its start area stops the iteration with a
+//! message, as does reaching `max_iterations`.
+//!
+//! # References
+//! Bletzinger & Ramm 1999, *A general finite element approach to the form finding of tensile
+//! structures by the updated reference strategy*, Int. J. Space Structures 14(2):131-145;
+//! Wüchner & Bletzinger 2005, *Stress-adapted numerical form finding of pre-stressed surfaces by
+//! the updated reference strategy*, IJNME 64:143-166 (the homotopy factor λ, λ = 0 used here);
+//! Linhard, Wüchner & Bletzinger 2009 (URS for membranes with cables); Schek 1974, *The force
+//! density method for form finding and computation of general networks*, CMAME 3:115-134.
+
+use crate::model::{membrane, node_ids, triangle_ids, Model};
+use crate::scene::generate::resolve;
+use crate::scene::{FormFinding, Geometry, OneNode, Problem, Scene};
+use crate::solver::assemble::{Pattern, NONE};
+use crate::solver::linear::Ldlt;
+use nalgebra::Vector3;
+
+/// A triangle whose area falls below this fraction of its start area has collapsed: the
+/// prestress has no equilibrium between the supports.
+pub const COLLAPSE: f64 = 1e-3;
+
+/// What form finding did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Report {
+    /// The scene with the found geometry (explicit nodes, triangles and sets; no generators,
+    /// no `form_finding` section). Present when converged.
+    pub scene: Option<Scene>,
+    /// Iterations (linear solves) done.
+    pub iterations: usize,
+    /// Largest node move of the last iteration, relative to the span.
+    pub last_move: f64,
+    /// Wall time, s.
+    pub seconds: f64,
+    /// One line per iteration.
+    pub log: Vec<String>,
+    /// Why it failed (empty when converged).
+    pub message: String,
+}
+
+impl Report {
+    pub fn converged(&self) -> bool {
+        self.scene.is_some()
+    }
+}
+
+/// Prescribed stress of one triangle: group prestress (warp, fill in N/m, warp direction) and
+/// thickness.
+struct TriangleStress {
+    nodes: [usize; 3],
+    warp: f64,
+    fill: f64,
+    direction: Vector3<f64>,
+    thickness: f64,
+    group: usize,
+}
+
+/// Form-find a validated scene that has a `form_finding` section (or use `settings`). Err for a
+/// scene problem found on the way (a degenerate start triangle, a warp direction normal to a
+/// triangle); non-convergence is a report with a message, not an error.
+pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Problem> {
+    let start = std::time::Instant::now();
+    let mesh = resolve(&scene.geometry);
+    let mut start_scene = scene.clone();
+    start_scene.form_finding = None;
+    // Held DOFs and the element lists come from the model of the scene; the reference data of
+    // each iteration is formed here.
+    let model = Model::try_build(&start_scene)?;
+    let mut x: Vec<Vector3<f64>> = mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
+    for pl in &settings.place {
+        let id = match &pl.node {
+            OneNode::Id(id) => *id,
+            OneNode::Set(name) => mesh.node_sets[name][0],
+        };
+        x[id] = Vector3::from(pl.position);
+    }
+    let mut tris = Vec::new();
+    for (g, m) in scene.membranes.iter().enumerate() {
+        let (warp, fill, dir) = m
+            .prestress
+            .as_ref()
+            .map(|p| p.components())
+            .unwrap_or((0.0, 0.0, [1.0, 0.0, 0.0]));
+        for t in triangle_ids(&mesh, &m.triangles) {
+            tris.push(TriangleStress {
+                nodes: mesh.triangles[t],
+                warp,
+                fill,
+                direction: Vector3::from(dir),
+                thickness: m.thickness,
+                group: g,
+            });
+        }
+    }
+    let mut segments = Vec::new();
+    for c in &scene.cables {
+        let ids = node_ids(&mesh, &c.nodes);
+        let t = c.pretension.unwrap_or(0.0);
+        for w in ids.windows(2) {
+            segments.push((w[0], w[1], t));
+        }
+    }
+    let pattern = Pattern::new(&model);
+    let mut linear = Ldlt::new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone());
+    let position = |i: usize, j: usize| -> usize {
+        let col = &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]];
+        pattern.col_ptr[j] + col.binary_search(&i).expect("pattern holds every element pair")
+    };
+    let mut used = vec![false; x.len()];
+    for t in &tris {
+        t.nodes.iter().for_each(|&i| used[i] = true);
+    }
+    for &(a, b, _) in &segments {
+        used[a] = true;
+        used[b] = true;
+    }
+    let span = span(&x, &used);
+    let start_area: Vec<f64> = tris
+        .iter()
+        .map(|t| area(&x, t.nodes))
+        .collect::<Vec<_>>();
+    let mut report = Report {
+        scene: None,
+        iterations: 0,
+        last_move: f64::INFINITY,
+        seconds: 0.0,
+        log: Vec::new(),
+        message: String::new(),
+    };
+    let n_dof = 3 * x.len();
+    let mut r = vec![0.0; n_dof];
+    let mut rhs = vec![0.0; pattern.n];
+    for k in 1..=settings.max_iterations {
+        // K(X_k) and the residual R = K X_k of the current positions.
+        let values = linear.values_mut();
+        values.fill(0.0);
+        r.fill(0.0);
+        for (e, t) in tris.iter().enumerate() {
+            let Some(reference) = membrane::triangle_ref(t.nodes.map(|i| x[i])) else {
+                report.message = format!(
+                    "iteration {k}: triangle {e} (nodes {:?}) has collapsed to zero area; the prestress has no equilibrium between these supports",
+                    t.nodes
+                );
+                return Ok(finish(report, start));
+            };
+            let ratio = reference.area / start_area[e];
+            if ratio < COLLAPSE {
+                report.message = format!(
+                    "iteration {k}: triangle {e} (nodes {:?}) shrank to {ratio:.1e} of its start area and keeps contracting: the prestress has no equilibrium between these supports (a soap film between rings too far apart pinches off)",
+                    t.nodes
+                );
+                return Ok(finish(report, start));
+            }
+            let Some(s0) =
+                membrane::initial_stress(&reference, t.warp, t.fill, &t.direction, t.thickness)
+            else {
+                return Err(Problem {
+                    path: format!("membranes[{}].prestress.warp_direction", t.group),
+                    message: format!(
+                        "is normal to triangle {e} (nodes {:?}) of the iterate {k}",
+                        t.nodes
+                    ),
+                });
+            };
+            let smat = nalgebra::Matrix2::new(s0[0], s0[2], s0[2], s0[1]);
+            let vol = reference.area * t.thickness;
+            for a in 0..3 {
+                for b in 0..3 {
+                    let kab = reference.grad[a].dot(&(smat * reference.grad[b])) * vol;
+                    add_block(&pattern, values, &position, t.nodes[a], t.nodes[b], kab);
+                    for c in 0..3 {
+                        r[3 * t.nodes[a] + c] += kab * x[t.nodes[b]][c];
+                    }
+                }
+            }
+        }
+        for &(a, b, t) in &segments {
+            let l = (x[b] - x[a]).norm();
+            if !(l > 0.0) {
+                report.message = format!(
+                    "iteration {k}: cable segment between nodes {a} and {b} has zero length"
+                );
+                return Ok(finish(report, start));
+            }
+            let q = t / l;
+            for (i, j, s) in [(a, a, q), (b, b, q), (a, b, -q), (b, a, -q)] {
+                add_block(&pattern, values, &position, i, j, s);
+                for c in 0..3 {
+                    r[3 * i + c] += s * x[j][c];
+                }
+            }
+        }
+        let mut unbalanced = 0.0f64;
+        for (d, &e) in pattern.eq.iter().enumerate() {
+            if e != NONE {
+                rhs[e] = -r[d];
+                unbalanced = unbalanced.max(r[d].abs());
+            }
+        }
+        report.log.push(format!("iteration {k}: residual {:.3e} N", unbalanced));
+        if let Err(why) = linear.factor_solve(&mut rhs) {
+            report.message = format!("iteration {k}: {why}");
+            return Ok(finish(report, start));
+        }
+        let mut moved = 0.0f64;
+        for (d, &e) in pattern.eq.iter().enumerate() {
+            if e != NONE {
+                x[d / 3][d % 3] += rhs[e];
+                moved = moved.max(rhs[e].abs());
+            }
+        }
+        report.iterations = k;
+        report.last_move = moved / span;
+        report
+            .log
+            .push(format!("iteration {k}: largest move {:.3e} of the span", moved / span));
+        if moved <= settings.tolerance * span {
+            report.scene = Some(found_scene(scene, &mesh, &x));
+            return Ok(finish(report, start));
+        }
+    }
+    report.message = format!(
+        "form finding did not converge in {} iterations (last move {:.2e} of the span, tolerance {:.0e}); raise form_finding.max_iterations or check that the prestress can be in equilibrium between the supports",
+        settings.max_iterations, report.last_move, settings.tolerance
+    );
+    Ok(finish(report, start))
+}
+
+/// Validate `scene` and form-find it with its `form_finding` settings (defaults when the
+/// section is absent). Scene problems are errors; non-convergence is a report with a message.
+pub fn run(scene: &Scene) -> Result<Report, crate::Error> {
+    let mut asked = scene.clone();
+    let settings = asked.form_finding.get_or_insert_with(FormFinding::default).clone();
+    let problems = crate::scene::validate::validate(&asked);
+    if !problems.is_empty() {
+        return Err(crate::Error::Scene(problems));
+    }
+    form_find(&asked, &settings).map_err(|p| crate::Error::Scene(vec![p]))
+}
+
+fn finish(mut report: Report, start: std::time::Instant) -> Report {
+    report.seconds = start.elapsed().as_secs_f64();
+    report
+}
+
+/// Add s·I (3x3) to the block (node i, node j) of the upper-triangular free-free matrix.
+fn add_block(
+    pattern: &Pattern,
+    values: &mut [f64],
+    position: &impl Fn(usize, usize) -> usize,
+    i: usize,
+    j: usize,
+    s: f64,
+) {
+    for c in 0..3 {
+        let (ei, ej) = (pattern.eq[3 * i + c], pattern.eq[3 * j + c]);
+        if ei != NONE && ej != NONE && ei <= ej {
+            values[position(ei, ej)] += s;
+        }
+    }
+}
+
+fn area(x: &[Vector3<f64>], t: [usize; 3]) -> f64 {
+    0.5 * (x[t[1]] - x[t[0]]).cross(&(x[t[2]] - x[t[0]])).norm()
+}
+
+/// Bounding-box diagonal of the nodes the elements use.
+fn span(x: &[Vector3<f64>], used: &[bool]) -> f64 {
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for (p, _) in x.iter().zip(used).filter(|(_, u)| **u) {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let d = (hi - lo).norm();
+    if d.is_finite() && d > 0.0 {
+        d
+    } else {
+        1.0
+    }
+}
+
+/// The scene with the found positions as explicit geometry: every node and triangle of the
+/// resolved mesh, every named set (generated ones keep their names), no generators, no form
+/// finding section. Ids do not change, so every reference of the scene still holds.
+fn found_scene(scene: &Scene, mesh: &crate::scene::generate::Mesh, x: &[Vector3<f64>]) -> Scene {
+    let mut found = scene.clone();
+    found.form_finding = None;
+    found.geometry = Geometry {
+        nodes: x.iter().map(|p| [p.x, p.y, p.z]).collect(),
+        triangles: mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(OneNode::Id))
+            .collect(),
+        node_sets: mesh.node_sets.clone(),
+        triangle_sets: mesh.triangle_sets.clone(),
+        generators: Vec::new(),
+    };
+    found
+}
