@@ -40,7 +40,7 @@
 
 use crate::model::{membrane, node_ids, triangle_ids, Model};
 use crate::scene::generate::resolve;
-use crate::scene::{FormFinding, Geometry, OneNode, Problem, Scene};
+use crate::scene::{FormFinding, Geometry, OneNode, Prestress, Problem, Scene};
 use crate::solver::assemble::{Pattern, NONE};
 use crate::solver::linear::Ldlt;
 use nalgebra::Vector3;
@@ -59,6 +59,10 @@ pub struct Report {
     pub iterations: usize,
     /// Largest node move of the last iteration, relative to the span.
     pub last_move: f64,
+    /// Largest relative deviation of the stress state that balances the found shape from the
+    /// prescribed one (membrane force components over the group's largest prescribed force;
+    /// cable forces over their prescribed force).
+    pub deviation: f64,
     /// Wall time, s.
     pub seconds: f64,
     /// One line per iteration.
@@ -152,6 +156,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
         scene: None,
         iterations: 0,
         last_move: f64::INFINITY,
+        deviation: f64::INFINITY,
         seconds: 0.0,
         log: Vec::new(),
         message: String::new(),
@@ -159,6 +164,14 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
     let n_dof = 3 * x.len();
     let mut r = vec![0.0; n_dof];
     let mut rhs = vec![0.0; pattern.n];
+    let mut stage: Vec<(membrane::TriangleRef, nalgebra::Matrix2<f64>)> = Vec::with_capacity(tris.len());
+    if let Some(r0) = tris
+        .first()
+        .and_then(|t| membrane::triangle_ref(t.nodes.map(|i| x[i])))
+    {
+        stage.resize(tris.len(), (r0, nalgebra::Matrix2::zeros()));
+    }
+    let mut lengths = vec![0.0; segments.len()];
     for k in 1..=settings.max_iterations {
         // K(X_k) and the residual R = K X_k of the current positions.
         let values = linear.values_mut();
@@ -192,6 +205,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
                 });
             };
             let smat = nalgebra::Matrix2::new(s0[0], s0[2], s0[2], s0[1]);
+            stage[e] = (reference.clone(), smat);
             let vol = reference.area * t.thickness;
             for a in 0..3 {
                 for b in 0..3 {
@@ -203,7 +217,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
                 }
             }
         }
-        for &(a, b, t) in &segments {
+        for (si, &(a, b, t)) in segments.iter().enumerate() {
             let l = (x[b] - x[a]).norm();
             if !(l > 0.0) {
                 report.message = format!(
@@ -211,6 +225,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
                 );
                 return Ok(finish(report, start));
             }
+            lengths[si] = l;
             let q = t / l;
             for (i, j, s) in [(a, a, q), (b, b, q), (a, b, -q), (b, a, -q)] {
                 add_block(&pattern, values, &position, i, j, s);
@@ -240,17 +255,41 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
         }
         report.iterations = k;
         report.last_move = moved / span;
-        report
-            .log
-            .push(format!("iteration {k}: largest move {:.3e} of the span", moved / span));
-        if moved <= settings.tolerance * span {
-            report.scene = Some(found_scene(scene, &mesh, &x));
+        // The stress that balances X_{k+1} exactly: each S0 pushed forward from X_k, each cable
+        // force T L_{k+1}/L_k; and its largest deviation from the prescribed state.
+        let Some(field) = pushed_forward(&tris, &stage, &x) else {
+            report.message = format!("iteration {k}: a triangle collapsed to zero area");
+            return Ok(finish(report, start));
+        };
+        let forces: Vec<f64> = segments
+            .iter()
+            .zip(&lengths)
+            .map(|(&(a, b, t), l)| t * (x[b] - x[a]).norm() / l)
+            .collect();
+        let deviation = field
+            .iter()
+            .map(|f| f.1)
+            .chain(
+                forces
+                    .iter()
+                    .zip(&segments)
+                    .map(|(f, s)| (f - s.2).abs() / s.2),
+            )
+            .fold(0.0f64, f64::max);
+        report.deviation = deviation;
+        report.log.push(format!(
+            "iteration {k}: largest move {:.3e} of the span, stress deviation {deviation:.3e}",
+            moved / span
+        ));
+        if deviation <= settings.tolerance {
+            let tensors: Vec<[f64; 6]> = field.iter().map(|f| f.0).collect();
+            report.scene = Some(found_scene(scene, &mesh, &x, &tensors, &forces));
             return Ok(finish(report, start));
         }
     }
     report.message = format!(
-        "form finding did not converge in {} iterations (last move {:.2e} of the span, tolerance {:.0e}); raise form_finding.max_iterations or check that the prestress can be in equilibrium between the supports",
-        settings.max_iterations, report.last_move, settings.tolerance
+        "form finding did not converge in {} iterations (stress deviation {:.2e}, tolerance {:.0e}); raise form_finding.max_iterations or check that the prestress can be in equilibrium between the supports",
+        settings.max_iterations, report.deviation, settings.tolerance
     );
     Ok(finish(report, start))
 }
@@ -270,6 +309,45 @@ pub fn run(scene: &Scene) -> Result<Report, crate::Error> {
 fn finish(mut report: Report, start: std::time::Instant) -> Report {
     report.seconds = start.elapsed().as_secs_f64();
     report
+}
+
+/// Per triangle: the membrane force tensor (global [xx, yy, zz, xy, yz, xz], N/m) on the new
+/// positions `x` of the PK2 stress S0 prescribed on the reference of the iteration
+/// (N = t (A_k/A_{k+1}) F S0 Fᵀ), and its largest deviation from the prescribed tensor on the
+/// new triangle, relative to the largest prescribed force. None if a triangle has no area.
+fn pushed_forward(
+    tris: &[TriangleStress],
+    stage: &[(membrane::TriangleRef, nalgebra::Matrix2<f64>)],
+    x: &[Vector3<f64>],
+) -> Option<Vec<([f64; 6], f64)>> {
+    tris.iter()
+        .zip(stage)
+        .map(|(t, (r, s0))| {
+            let xs = t.nodes.map(|i| x[i]);
+            let f = membrane::deformation_gradient(r, &xs);
+            let now = membrane::triangle_ref(xs)?;
+            let n = f * s0 * f.transpose() * (t.thickness * r.area / now.area);
+            let wanted = membrane::initial_stress(&now, t.warp, t.fill, &t.direction, 1.0)?;
+            let [e1, e2] = now.frame;
+            let local = Vector3::new(
+                e1.dot(&(n * e1)),
+                e2.dot(&(n * e2)),
+                e1.dot(&(n * e2)),
+            );
+            let deviation = (local - wanted).amax() / t.warp.max(t.fill);
+            Some((
+                [
+                    n[(0, 0)],
+                    n[(1, 1)],
+                    n[(2, 2)],
+                    n[(0, 1)],
+                    n[(1, 2)],
+                    n[(0, 2)],
+                ],
+                deviation,
+            ))
+        })
+        .collect()
 }
 
 /// Add s·I (3x3) to the block (node i, node j) of the upper-triangular free-free matrix.
@@ -312,9 +390,28 @@ fn span(x: &[Vector3<f64>], used: &[bool]) -> f64 {
 /// The scene with the found positions as explicit geometry: every node and triangle of the
 /// resolved mesh, every named set (generated ones keep their names), no generators, no form
 /// finding section. Ids do not change, so every reference of the scene still holds.
-fn found_scene(scene: &Scene, mesh: &crate::scene::generate::Mesh, x: &[Vector3<f64>]) -> Scene {
+fn found_scene(
+    scene: &Scene,
+    mesh: &crate::scene::generate::Mesh,
+    x: &[Vector3<f64>],
+    tensors: &[[f64; 6]],
+    forces: &[f64],
+) -> Scene {
     let mut found = scene.clone();
     found.form_finding = None;
+    let mut next = tensors.iter();
+    for m in &mut found.membranes {
+        let count = triangle_ids(mesh, &m.triangles).len();
+        m.prestress = Some(Prestress::Field {
+            n: next.by_ref().take(count).copied().collect(),
+        });
+    }
+    let mut next = forces.iter();
+    for c in &mut found.cables {
+        let count = node_ids(mesh, &c.nodes).len() - 1;
+        c.pretension = None;
+        c.pretensions = Some(next.by_ref().take(count).copied().collect());
+    }
     found.geometry = Geometry {
         nodes: x.iter().map(|p| [p.x, p.y, p.z]).collect(),
         triangles: mesh

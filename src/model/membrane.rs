@@ -281,6 +281,18 @@ pub fn initial_stress(
     ))
 }
 
+/// Initial PK2 stress (Pa, Voigt, element frame) of a membrane force tensor given in global
+/// components [n_xx, n_yy, n_zz, n_xy, n_yz, n_xz] (N/m): its in-plane part over the thickness.
+pub fn field_stress(r: &TriangleRef, n: &[f64; 6], thickness: f64) -> Vector3<f64> {
+    let t = Matrix3::new(n[0], n[3], n[5], n[3], n[1], n[4], n[5], n[4], n[2]);
+    let [e1, e2] = r.frame;
+    Vector3::new(
+        e1.dot(&(t * e1)),
+        e2.dot(&(t * e2)),
+        e1.dot(&(t * e2)),
+    ) / thickness
+}
+
 /// The strain E0 at which the material's elastic law gives the stress `s0`: the equivalent
 /// initial strain of a prestress (exact in one step for SVK, where E0 = D⁻¹ S0; Newton on
 /// S(E0) = S0 for neo-Hookean). None when the law cannot carry `s0` (a neo-Hookean principal

@@ -300,7 +300,7 @@ fn build_triangles(
             wrinkling: m.wrinkling,
         };
         let first = out.len();
-        for t in triangle_ids(mesh, &m.triangles) {
+        for (k, t) in triangle_ids(mesh, &m.triangles).into_iter().enumerate() {
             let nodes = mesh.triangles[t];
             let Some(reference) = membrane::triangle_ref(nodes.map(|i| x[i])) else {
                 return Err(crate::scene::Problem {
@@ -315,7 +315,7 @@ fn build_triangles(
             }
             let mut reference = reference;
             if let Some(pre) = &m.prestress {
-                reference.initial_strain = prestress_strain(scene, m, &material, pre, &reference)
+                reference.initial_strain = prestress_strain(k, m, &material, pre, &reference)
                     .map_err(|message| crate::scene::Problem {
                     path: format!("membranes[{}].prestress", group_index(scene, m)),
                     message: format!("triangle {t}: {message}"),
@@ -353,15 +353,19 @@ fn group_index(scene: &Scene, m: &crate::scene::Membrane) -> usize {
 
 /// Equivalent initial strain of a group's prestress on one triangle (`membrane::initial_strain`).
 fn prestress_strain(
-    _scene: &Scene,
+    k: usize,
     m: &crate::scene::Membrane,
     material: &membrane::Material,
     pre: &crate::scene::Prestress,
     r: &membrane::TriangleRef,
 ) -> Result<Vector3<f64>, String> {
-    let (warp, fill, dir) = pre.components();
-    let s0 = membrane::initial_stress(r, warp, fill, &Vector3::from(dir), m.thickness)
-        .ok_or_else(|| format!("the warp direction {dir:?} is normal to its plane"))?;
+    let s0 = if let crate::scene::Prestress::Field { n } = pre {
+        membrane::field_stress(r, &n[k], m.thickness)
+    } else {
+        let (warp, fill, dir) = pre.components();
+        membrane::initial_stress(r, warp, fill, &Vector3::from(dir), m.thickness)
+            .ok_or_else(|| format!("the warp direction {dir:?} is normal to its plane"))?
+    };
     membrane::initial_strain(material, &s0).ok_or_else(|| {
         format!("the material cannot carry the initial stress {s0:?} Pa (PK2, element frame)")
     })
@@ -445,9 +449,10 @@ fn build_cables(
         let start = segments.len();
         for (k, w) in points.windows(2).enumerate() {
             let l = lengths[k];
-            let l0 = match (c.pretension, c.unstretched_length) {
-                (_, Some(l0_total)) => l0_total * l / total,
-                (t0, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
+            let l0 = match (c.pretension, c.unstretched_length, &c.pretensions) {
+                (_, Some(l0_total), _) => l0_total * l / total,
+                (_, None, Some(t)) => cable::unstretched_length(law, c.ea, l, t[k]),
+                (t0, None, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
             };
             used[w[0]] = true;
             used[w[1]] = true;

@@ -509,12 +509,18 @@ impl Validator {
                 }
             }
             if let Some(pre) = &m.prestress {
-                self.prestress(m, pre, &format!("{p}.prestress"));
+                self.prestress(m, pre, &format!("{p}.prestress"), mesh);
             }
         }
     }
 
-    fn prestress(&mut self, m: &super::Membrane, pre: &super::Prestress, p: &str) {
+    fn prestress(
+        &mut self,
+        m: &super::Membrane,
+        pre: &super::Prestress,
+        p: &str,
+        mesh: &Mesh,
+    ) {
         let (warp, fill, dir) = pre.components();
         let force = |x: f64| x.is_finite() && (0.0..=1e12).contains(&x);
         match pre {
@@ -546,6 +552,27 @@ impl Validator {
                     self.push(
                         format!("{p}.warp_direction"),
                         format!("{dir:?} is not a direction (finite, not zero)"),
+                    );
+                }
+            }
+            super::Prestress::Field { n } => {
+                let count = match &m.triangles {
+                    TriangleRef::Ids(ids) => ids.len(),
+                    TriangleRef::Set(name) => mesh.triangle_sets.get(name).map_or(0, |t| t.len()),
+                };
+                if n.len() != count {
+                    self.push(
+                        format!("{p}.n"),
+                        format!("lists {} tensors for the group's {count} triangles", n.len()),
+                    );
+                }
+                if let Some(k) = n
+                    .iter()
+                    .position(|t| !t.iter().all(|v| v.is_finite() && v.abs() <= 1e12))
+                {
+                    self.push(
+                        format!("{p}.n[{k}]"),
+                        format!("{:?} is not a membrane force tensor in N/m {RANGE}", n[k]),
                     );
                 }
             }
@@ -622,6 +649,34 @@ impl Validator {
                             t / PRESTRAIN_FLOOR
                         ),
                     );
+                }
+            }
+            if let Some(ts) = &c.pretensions {
+                if c.pretension.is_some() || c.unstretched_length.is_some() {
+                    self.push(
+                        format!("{p}.pretensions"),
+                        "give one of pretension, pretensions and unstretched_length",
+                    );
+                }
+                let segments = cable_ids(mesh, &c.nodes).map_or(0, |ids| ids.len().saturating_sub(1));
+                if ts.len() != segments {
+                    self.push(
+                        format!("{p}.pretensions"),
+                        format!("lists {} tensions for {segments} segments", ts.len()),
+                    );
+                }
+                for (k, &t) in ts.iter().enumerate() {
+                    if !(t.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&t)) {
+                        self.push(
+                            format!("{p}.pretensions[{k}]"),
+                            format!("{t} is not a tension in N (>= 0 and <= 1e30)"),
+                        );
+                    } else if t > 0.0 && positive(c.ea) && t / c.ea < PRESTRAIN_FLOOR {
+                        self.push(
+                            format!("{p}.pretensions[{k}]"),
+                            format!("{t} N is below round-off for EA = {} N (initial strain below {PRESTRAIN_FLOOR:e})", c.ea),
+                        );
+                    }
                 }
             }
             if let Some(l) = c.unstretched_length {
@@ -1053,10 +1108,10 @@ impl Validator {
                 format!("{} is not in 1..=10000", ff.max_iterations),
             );
         }
-        if !(ff.tolerance.is_finite() && ff.tolerance > 1e-15 && ff.tolerance < 1.0) {
+        if !(ff.tolerance.is_finite() && ff.tolerance >= 1e-12 && ff.tolerance < 0.1) {
             self.push(
                 "form_finding.tolerance",
-                format!("{} is not a relative tolerance in (1e-15, 1)", ff.tolerance),
+                format!("{} is not a relative tolerance in [1e-12, 0.1)", ff.tolerance),
             );
         }
         for (k, pl) in ff.place.iter().enumerate() {
@@ -1076,6 +1131,12 @@ impl Validator {
             );
         }
         for (i, m) in s.membranes.iter().enumerate() {
+            if matches!(m.prestress, Some(super::Prestress::Field { .. })) {
+                self.push(
+                    format!("membranes[{i}].prestress"),
+                    "form finding takes an isotropic or warp_fill prestress (the stress prescribed on the unknown shape), not a field",
+                );
+            }
             if m.prestress.is_none() {
                 self.push(
                     format!("membranes[{i}].prestress"),
