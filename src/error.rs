@@ -27,6 +27,9 @@ pub enum Error {
     Io { path: String, message: String },
     /// Saved state bytes that do not belong to this model or are damaged.
     State(String),
+    /// The scene asks for form finding and no equilibrium shape was found (the message says
+    /// after how many iterations and why).
+    FormFinding(String),
 }
 
 impl fmt::Display for Error {
@@ -60,6 +63,7 @@ impl fmt::Display for Error {
                 write!(f, "{path}: {}", crate::scene::read::clip(message))
             }
             Error::State(m) => write!(f, "FMU state rejected: {}", crate::scene::read::clip(m)),
+            Error::FormFinding(m) => write!(f, "form finding failed: {m}"),
         }
     }
 }

@@ -561,15 +561,21 @@ pub struct FormFinding {
     /// Iterations before form finding gives up. Default 50.
     #[serde(default = "form_finding_iterations")]
     pub max_iterations: usize,
-    /// Converged when the stress state that balances the iterate exactly differs from the
-    /// prescribed one by at most `tolerance` (relative: membrane force components over the
-    /// group's largest prescribed force, cable forces over their own). Default 1e-4: the
-    /// shape normal to the surface converges geometrically (about 0.4 per iteration), while
-    /// an isotropic prestress leaves the mesh free to creep within the surface at about 1e-5
-    /// per iteration, which no tolerance much below that can outlast. The found scene carries
-    /// the balancing state, so its analysis starts in equilibrium whatever the tolerance.
+    /// Converged when the shape moves at most `tolerance` times the span (bounding-box
+    /// diagonal) in one iteration, and so does the distance left estimated from the rate of
+    /// the last two moves: membrane nodes along the surface normal, cable nodes wholly.
+    /// Default 1e-6. The found scene carries the stress state that balances the found
+    /// shape exactly, so its analysis starts in equilibrium whatever the tolerance.
     #[serde(default = "form_finding_tolerance")]
     pub tolerance: f64,
+    /// Homotopy factor λ of the Updated Reference Strategy for isotropic prestress, in
+    /// [0, 1): each iteration's matrix is the reference-stress stiffness plus λ times the
+    /// material part of the true (surface-tension) tangent. 0 is the plain URS (each step the
+    /// equilibrium of the prestress as PK2 stress in the last shape); larger λ lets the mesh
+    /// settle within the surface faster (1/(1 − λ) per iteration) at the price of a less
+    /// stable step. Default 0.5.
+    #[serde(default = "form_finding_homotopy")]
+    pub homotopy: f64,
     /// Start positions of nodes (mast tops, rings): each listed node is moved to `position`
     /// before form finding; with its components supported it stays there.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -581,6 +587,7 @@ impl Default for FormFinding {
         FormFinding {
             max_iterations: form_finding_iterations(),
             tolerance: form_finding_tolerance(),
+            homotopy: form_finding_homotopy(),
             place: Vec::new(),
         }
     }
@@ -590,8 +597,12 @@ fn form_finding_iterations() -> usize {
     50
 }
 
+fn form_finding_homotopy() -> f64 {
+    0.5
+}
+
 fn form_finding_tolerance() -> f64 {
-    1e-4
+    1e-6
 }
 
 /// A node moved to a position before form finding.

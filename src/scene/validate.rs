@@ -1114,6 +1114,12 @@ impl Validator {
                 format!("{} is not a relative tolerance in [1e-12, 0.1)", ff.tolerance),
             );
         }
+        if !(ff.homotopy.is_finite() && (0.0..1.0).contains(&ff.homotopy)) {
+            self.push(
+                "form_finding.homotopy",
+                format!("{} is not a homotopy factor in [0, 1)", ff.homotopy),
+            );
+        }
         for (k, pl) in ff.place.iter().enumerate() {
             let p = format!("form_finding.place[{k}]");
             self.one_node(mesh, &pl.node, &format!("{p}.node"));
