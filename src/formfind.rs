@@ -11,7 +11,8 @@
 //!              (supported DOFs stay at X_k), x → X_{k+1}
 //! converged    the shape moves at most tolerance · span, and so does the distance left to the
 //!              fixed point estimated from the rate ρ of the last two moves, move·ρ/(1 − ρ):
-//!              at membrane nodes the move along the node normal, at cable nodes the whole move
+//!              at membrane nodes the move along the node normal, at cable nodes the move
+//!              across the cable
 //! found stress N = t (A_k/A_{k+1}) F S0 Fᵀ on each triangle, T L_{k+1}/L_k on each segment:
 //!              the stress state that balances X_{k+1} exactly (the last solve's equations)
 //! ```
@@ -291,7 +292,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
             }
         }
         // The shape's move: along the surface normal at membrane nodes (a move within the
-        // surface changes the mesh, not the shape), the whole move at cable nodes (an edge
+        // surface changes the mesh, not the shape), across the cable at cable nodes (an edge
         // cable's shape is its move within the surface).
         let mut normal = vec![Vector3::zeros(); x.len()];
         for t in &tris {
@@ -299,9 +300,25 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
             let n = (b - a).cross(&(c - a));
             t.nodes.iter().for_each(|&i| normal[i] += n);
         }
+        // Along a cable of constant force its nodes are free to slide too: a cable node's
+        // move counts without its component along the cable.
+        let mut tangent = vec![Vector3::zeros(); x.len()];
+        for &(a, b, _) in &segments {
+            let d = (x[b] - x[a]).normalize();
+            tangent[a] += d;
+            tangent[b] += d;
+        }
         let moved = (0..x.len())
             .map(|i| {
-                if on_cable[i] || normal[i].norm() == 0.0 {
+                if on_cable[i] {
+                    let t = tangent[i];
+                    if t.norm() > 0.0 {
+                        let t = t.normalize();
+                        (step[i] - t * step[i].dot(&t)).norm()
+                    } else {
+                        step[i].norm()
+                    }
+                } else if normal[i].norm() == 0.0 {
                     step[i].norm()
                 } else {
                     step[i].dot(&normal[i].normalize()).abs()
