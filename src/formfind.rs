@@ -59,6 +59,10 @@ use nalgebra::{Matrix3, Vector3};
 /// prestress has no equilibrium between the supports.
 pub const COLLAPSE: f64 = 1e-3;
 
+/// A shape move ratio between iterations above this marks the mesh creeping within the surface
+/// (the shape itself converges at about 0.4 per iteration): the mesh control switches on.
+pub const CREEP_RATE: f64 = 0.7;
+
 /// What form finding did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Report {
@@ -189,7 +193,9 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
     }
     let mut lengths = vec![0.0; segments.len()];
     let mut previous_move = 0.0f64;
-    for k in 1..=settings.max_iterations {
+    let mut finishing = false;
+    let mut projecting = false;
+    for k in 1..=settings.max_iterations + 1 {
         // K(X_k) and the residual R = K X_k of the current positions.
         let values = linear.values_mut();
         values.fill(0.0);
@@ -287,9 +293,46 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
         let mut step = vec![Vector3::zeros(); x.len()];
         for (d, &e) in pattern.eq.iter().enumerate() {
             if e != NONE {
-                x[d / 3][d % 3] += rhs[e];
                 step[d / 3][d % 3] = rhs[e];
             }
+        }
+        // Mesh control: once the shape converges slowly (the mesh creeping within the surface
+        // dominates), a free node (all three components free) moves along its surface normal
+        // only, a free cable node across its cable only, until the shape has converged; the
+        // last iteration is the plain one, whose equations the found stress state balances
+        // exactly.
+        if projecting && !finishing {
+            let mut normal_k = vec![Vector3::zeros(); x.len()];
+            for t in &tris {
+                let [a, b, c] = t.nodes.map(|i| x[i]);
+                let n = (b - a).cross(&(c - a));
+                t.nodes.iter().for_each(|&i| normal_k[i] += n);
+            }
+            let mut tangent_k = vec![Vector3::zeros(); x.len()];
+            for &(a, b, _) in &segments {
+                let d = (x[b] - x[a]).normalize();
+                tangent_k[a] += d;
+                tangent_k[b] += d;
+            }
+            for i in 0..x.len() {
+                let free = (0..3).all(|c| pattern.eq[3 * i + c] != NONE);
+                if !free {
+                    continue;
+                }
+                if on_cable[i] {
+                    if tangent_k[i].norm() > 0.0 {
+                        let t = tangent_k[i].normalize();
+                        let along = t * step[i].dot(&t);
+                        step[i] -= along;
+                    }
+                } else if normal_k[i].norm() > 0.0 {
+                    let n = normal_k[i].normalize();
+                    step[i] = n * step[i].dot(&n);
+                }
+            }
+        }
+        for (p, d) in x.iter_mut().zip(&step) {
+            *p += d;
         }
         // The shape's move: along the surface normal at membrane nodes (a move within the
         // surface changes the mesh, not the shape), across the cable at cable nodes (an edge
@@ -308,7 +351,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
             tangent[a] += d;
             tangent[b] += d;
         }
-        let moved = (0..x.len())
+        let movedv: Vec<f64> = (0..x.len())
             .map(|i| {
                 if on_cable[i] {
                     let t = tangent[i];
@@ -324,7 +367,12 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
                     step[i].dot(&normal[i].normalize()).abs()
                 }
             })
-            .fold(0.0f64, f64::max);
+            .collect();
+        let moved = movedv.iter().fold(0.0f64, |m, v| m.max(*v));
+        if std::env::var("FF_DEBUG").is_ok() {
+            let i = movedv.iter().position(|v| *v == moved).unwrap_or(0);
+            eprintln!("k {k} node {i} cable {} proj {projecting} x {:?}", on_cable[i], x[i]);
+        }
         report.iterations = k;
         report.last_move = moved / span;
         // The stress that balances X_{k+1} exactly: each S0 pushed forward from X_k, each cable
@@ -361,6 +409,9 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
             1.0
         };
         previous_move = moved;
+        if k >= 3 && rate > CREEP_RATE {
+            projecting = true;
+        }
         if moved > span {
             report.message = format!(
                 "iteration {k}: the shape moved {:.1e} times the span in one iteration: the iteration diverges (lower form_finding.homotopy)",
@@ -373,7 +424,12 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
         } else {
             f64::INFINITY
         };
-        if moved <= settings.tolerance * span && left <= settings.tolerance * span {
+        if !finishing && moved <= settings.tolerance * span && left <= settings.tolerance * span
+        {
+            finishing = true;
+            continue;
+        }
+        if finishing {
             let tensors: Vec<[f64; 6]> = field.iter().map(|f| f.0).collect();
             report.scene = Some(found_scene(scene, &mesh, &x, &tensors, &forces));
             return Ok(finish(report, start));
