@@ -63,6 +63,12 @@ pub const COLLAPSE: f64 = 1e-3;
 /// (the shape itself converges at about 0.4 per iteration): the mesh control switches on.
 pub const CREEP_RATE: f64 = 0.7;
 
+/// Stiffness of the mesh-control springs relative to a node's own stiffness.
+pub const MESH_SPRING: f64 = 100.0;
+
+/// Iterative refinement solves of the last step.
+const REFINEMENTS: usize = 3;
+
 /// What form finding did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Report {
@@ -124,11 +130,11 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
     }
     let mut tris = Vec::new();
     for (g, m) in scene.membranes.iter().enumerate() {
-        let (warp, fill, dir) = m
-            .prestress
-            .as_ref()
-            .map(|p| p.components())
-            .unwrap_or((0.0, 0.0, [1.0, 0.0, 0.0]));
+        let (warp, fill, dir) =
+            m.prestress
+                .as_ref()
+                .map(|p| p.components())
+                .unwrap_or((0.0, 0.0, [1.0, 0.0, 0.0]));
         for t in triangle_ids(&mesh, &m.triangles) {
             tris.push(TriangleStress {
                 nodes: mesh.triangles[t],
@@ -152,7 +158,10 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
     let mut linear = Ldlt::new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone());
     let position = |i: usize, j: usize| -> usize {
         let col = &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]];
-        pattern.col_ptr[j] + col.binary_search(&i).expect("pattern holds every element pair")
+        pattern.col_ptr[j]
+            + col
+                .binary_search(&i)
+                .expect("pattern holds every element pair")
     };
     let mut used = vec![false; x.len()];
     for t in &tris {
@@ -168,10 +177,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
         on_cable[a] = true;
         on_cable[b] = true;
     }
-    let start_area: Vec<f64> = tris
-        .iter()
-        .map(|t| area(&x, t.nodes))
-        .collect::<Vec<_>>();
+    let start_area: Vec<f64> = tris.iter().map(|t| area(&x, t.nodes)).collect::<Vec<_>>();
     let mut report = Report {
         scene: None,
         iterations: 0,
@@ -184,7 +190,8 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
     let n_dof = 3 * x.len();
     let mut r = vec![0.0; n_dof];
     let mut rhs = vec![0.0; pattern.n];
-    let mut stage: Vec<(membrane::TriangleRef, nalgebra::Matrix2<f64>)> = Vec::with_capacity(tris.len());
+    let mut stage: Vec<(membrane::TriangleRef, nalgebra::Matrix2<f64>)> =
+        Vec::with_capacity(tris.len());
     if let Some(r0) = tris
         .first()
         .and_then(|t| membrane::triangle_ref(t.nodes.map(|i| x[i])))
@@ -233,7 +240,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
             // Isotropic groups: λ times the material part of the surface-tension tangent at
             // the reference (C = I): D = (n/t) (1⊗1 − 2 I_sym), Voigt [[-1, 1, 0], [1, -1, 0],
             // [0, 0, -1]]; it does not enter the residual.
-            let material = (t.warp == t.fill && settings.homotopy > 0.0).then(|| {
+            let material = (t.warp == t.fill && settings.homotopy > 0.0 && !finishing).then(|| {
                 let [e1, e2] = reference.frame;
                 let b: [Matrix3<f64>; 3] = [0, 1, 2].map(|a| {
                     let (n1, n2) = (reference.grad[a].x, reference.grad[a].y);
@@ -278,14 +285,53 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
                 }
             }
         }
+        // Mesh control (once the mesh creeps, until the shape has converged): the residual
+        // keeps only its shape part at free nodes (along the surface normal; across the cable
+        // at cable nodes) and a stiff spring (MESH_SPRING times the node's own stiffness)
+        // holds the other directions, so the fixed point is the equilibrium of the shape and
+        // the mesh stays put within the surface.
+        let mut g = r.clone();
+        if projecting && !finishing {
+            let (normal_k, tangent_k) = directions(&tris, &segments, &x);
+            let values = linear.values_mut();
+            for i in 0..x.len() {
+                if !(0..3).all(|c| pattern.eq[3 * i + c] != NONE) {
+                    continue;
+                }
+                let shape = if on_cable[i] {
+                    let t = tangent_k[i];
+                    (t.norm() > 0.0).then(|| {
+                        let t = t.normalize();
+                        Matrix3::identity() - t * t.transpose()
+                    })
+                } else {
+                    let n = normal_k[i];
+                    (n.norm() > 0.0).then(|| {
+                        let n = n.normalize();
+                        n * n.transpose()
+                    })
+                };
+                let Some(shape) = shape else { continue };
+                let own = (0..3)
+                    .map(|c| values[position(pattern.eq[3 * i + c], pattern.eq[3 * i + c])])
+                    .sum::<f64>()
+                    / 3.0;
+                let spring = (Matrix3::identity() - shape) * (MESH_SPRING * own);
+                add_full_block(&pattern, values, &position, i, i, &spring);
+                let gi = shape * Vector3::new(r[3 * i], r[3 * i + 1], r[3 * i + 2]);
+                g[3 * i..3 * i + 3].copy_from_slice(gi.as_slice());
+            }
+        }
         let mut unbalanced = 0.0f64;
         for (d, &e) in pattern.eq.iter().enumerate() {
             if e != NONE {
-                rhs[e] = -r[d];
+                rhs[e] = -g[d];
                 unbalanced = unbalanced.max(r[d].abs());
             }
         }
-        report.log.push(format!("iteration {k}: residual {:.3e} N", unbalanced));
+        report
+            .log
+            .push(format!("iteration {k}: residual {:.3e} N", unbalanced));
         if let Err(why) = linear.factor_solve(&mut rhs) {
             report.message = format!("iteration {k}: {why}");
             return Ok(finish(report, start));
@@ -296,38 +342,25 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
                 step[d / 3][d % 3] = rhs[e];
             }
         }
-        // Mesh control: once the shape converges slowly (the mesh creeping within the surface
-        // dominates), a free node (all three components free) moves along its surface normal
-        // only, a free cable node across its cable only, until the shape has converged; the
-        // last iteration is the plain one, whose equations the found stress state balances
-        // exactly.
-        if projecting && !finishing {
-            let mut normal_k = vec![Vector3::zeros(); x.len()];
-            for t in &tris {
-                let [a, b, c] = t.nodes.map(|i| x[i]);
-                let n = (b - a).cross(&(c - a));
-                t.nodes.iter().for_each(|&i| normal_k[i] += n);
-            }
-            let mut tangent_k = vec![Vector3::zeros(); x.len()];
-            for &(a, b, _) in &segments {
-                let d = (x[b] - x[a]).normalize();
-                tangent_k[a] += d;
-                tangent_k[b] += d;
-            }
-            for i in 0..x.len() {
-                let free = (0..3).all(|c| pattern.eq[3 * i + c] != NONE);
-                if !free {
-                    continue;
-                }
-                if on_cable[i] {
-                    if tangent_k[i].norm() > 0.0 {
-                        let t = tangent_k[i].normalize();
-                        let along = t * step[i].dot(&t);
-                        step[i] -= along;
+        if finishing {
+            // The last step solves the plain equations L_k x = 0 (no homotopy, no springs);
+            // iterative refinement takes its residual to round-off so that the found stress
+            // state balances the found shape.
+            for _ in 0..REFINEMENTS {
+                let moved_to: Vec<Vector3<f64>> = x.iter().zip(&step).map(|(p, d)| p + d).collect();
+                let rr = plain_residual(&tris, &stage, &segments, &lengths, &moved_to);
+                for (d, &e) in pattern.eq.iter().enumerate() {
+                    if e != NONE {
+                        rhs[e] = -rr[d];
                     }
-                } else if normal_k[i].norm() > 0.0 {
-                    let n = normal_k[i].normalize();
-                    step[i] = n * step[i].dot(&n);
+                }
+                if linear.solve(&mut rhs).is_err() {
+                    break;
+                }
+                for (d, &e) in pattern.eq.iter().enumerate() {
+                    if e != NONE {
+                        step[d / 3][d % 3] += rhs[e];
+                    }
                 }
             }
         }
@@ -351,7 +384,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
             tangent[a] += d;
             tangent[b] += d;
         }
-        let movedv: Vec<f64> = (0..x.len())
+        let moved = (0..x.len())
             .map(|i| {
                 if on_cable[i] {
                     let t = tangent[i];
@@ -367,12 +400,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
                     step[i].dot(&normal[i].normalize()).abs()
                 }
             })
-            .collect();
-        let moved = movedv.iter().fold(0.0f64, |m, v| m.max(*v));
-        if std::env::var("FF_DEBUG").is_ok() {
-            let i = movedv.iter().position(|v| *v == moved).unwrap_or(0);
-            eprintln!("k {k} node {i} cable {} proj {projecting} x {:?}", on_cable[i], x[i]);
-        }
+            .fold(0.0f64, f64::max);
         report.iterations = k;
         report.last_move = moved / span;
         // The stress that balances X_{k+1} exactly: each S0 pushed forward from X_k, each cable
@@ -424,8 +452,7 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
         } else {
             f64::INFINITY
         };
-        if !finishing && moved <= settings.tolerance * span && left <= settings.tolerance * span
-        {
+        if !finishing && moved <= settings.tolerance * span && left <= settings.tolerance * span {
             finishing = true;
             continue;
         }
@@ -446,7 +473,10 @@ pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, Proble
 /// section is absent). Scene problems are errors; non-convergence is a report with a message.
 pub fn run(scene: &Scene) -> Result<Report, crate::Error> {
     let mut asked = scene.clone();
-    let settings = asked.form_finding.get_or_insert_with(FormFinding::default).clone();
+    let settings = asked
+        .form_finding
+        .get_or_insert_with(FormFinding::default)
+        .clone();
     let problems = crate::scene::validate::validate(&asked);
     if !problems.is_empty() {
         return Err(crate::Error::Scene(problems));
@@ -457,6 +487,61 @@ pub fn run(scene: &Scene) -> Result<Report, crate::Error> {
 fn finish(mut report: Report, start: std::time::Instant) -> Report {
     report.seconds = start.elapsed().as_secs_f64();
     report
+}
+
+/// Area-weighted node normals of the membranes and summed unit tangents of the cables at `x`.
+fn directions(
+    tris: &[TriangleStress],
+    segments: &[(usize, usize, f64)],
+    x: &[Vector3<f64>],
+) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    let mut normal = vec![Vector3::zeros(); x.len()];
+    for t in tris {
+        let [a, b, c] = t.nodes.map(|i| x[i]);
+        let n = (b - a).cross(&(c - a));
+        t.nodes.iter().for_each(|&i| normal[i] += n);
+    }
+    let mut tangent = vec![Vector3::zeros(); x.len()];
+    for &(a, b, _) in segments {
+        let d = x[b] - x[a];
+        if d.norm() > 0.0 {
+            tangent[a] += d.normalize();
+            tangent[b] += d.normalize();
+        }
+    }
+    (normal, tangent)
+}
+
+/// The plain URS residual L_k x at positions `x` (reference data and stresses of iteration
+/// k in `stage`, cable force densities T/L_k).
+fn plain_residual(
+    tris: &[TriangleStress],
+    stage: &[(membrane::TriangleRef, nalgebra::Matrix2<f64>)],
+    segments: &[(usize, usize, f64)],
+    lengths: &[f64],
+    x: &[Vector3<f64>],
+) -> Vec<f64> {
+    let mut r = vec![0.0; 3 * x.len()];
+    for (t, (reference, smat)) in tris.iter().zip(stage) {
+        let vol = reference.area * t.thickness;
+        for a in 0..3 {
+            for b in 0..3 {
+                let kab = reference.grad[a].dot(&(smat * reference.grad[b])) * vol;
+                for c in 0..3 {
+                    r[3 * t.nodes[a] + c] += kab * x[t.nodes[b]][c];
+                }
+            }
+        }
+    }
+    for (&(a, b, t), l) in segments.iter().zip(lengths) {
+        let q = t / l;
+        for c in 0..3 {
+            let f = q * (x[b][c] - x[a][c]);
+            r[3 * a + c] -= f;
+            r[3 * b + c] += f;
+        }
+    }
+    r
 }
 
 /// Per triangle: the membrane force tensor (global [xx, yy, zz, xy, yz, xz], N/m) on the new
@@ -477,11 +562,7 @@ fn pushed_forward(
             let n = f * s0 * f.transpose() * (t.thickness * r.area / now.area);
             let wanted = membrane::initial_stress(&now, t.warp, t.fill, &t.direction, 1.0)?;
             let [e1, e2] = now.frame;
-            let local = Vector3::new(
-                e1.dot(&(n * e1)),
-                e2.dot(&(n * e2)),
-                e1.dot(&(n * e2)),
-            );
+            let local = Vector3::new(e1.dot(&(n * e1)), e2.dot(&(n * e2)), e1.dot(&(n * e2)));
             let deviation = (local - wanted).amax() / t.warp.max(t.fill);
             Some((
                 [
@@ -581,11 +662,7 @@ fn found_scene(
     }
     found.geometry = Geometry {
         nodes: x.iter().map(|p| [p.x, p.y, p.z]).collect(),
-        triangles: mesh
-            .triangles
-            .iter()
-            .map(|t| t.map(OneNode::Id))
-            .collect(),
+        triangles: mesh.triangles.iter().map(|t| t.map(OneNode::Id)).collect(),
         node_sets: mesh.node_sets.clone(),
         triangle_sets: mesh.triangle_sets.clone(),
         generators: Vec::new(),

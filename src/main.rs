@@ -260,7 +260,8 @@ fn failed(e: velarium::Error) -> Stop {
 
 fn cmd_formfind(path: &str, out: &str, quiet: bool) -> Result<ExitCode, Stop> {
     let scene = read_scene(path)?;
-    let report = velarium::formfind::run(&scene).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
+    let report =
+        velarium::formfind::run(&scene).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
     if !quiet {
         for line in &report.log {
             println!("{line}");

@@ -286,11 +286,7 @@ pub fn initial_stress(
 pub fn field_stress(r: &TriangleRef, n: &[f64; 6], thickness: f64) -> Vector3<f64> {
     let t = Matrix3::new(n[0], n[3], n[5], n[3], n[1], n[4], n[5], n[4], n[2]);
     let [e1, e2] = r.frame;
-    Vector3::new(
-        e1.dot(&(t * e1)),
-        e2.dot(&(t * e2)),
-        e1.dot(&(t * e2)),
-    ) / thickness
+    Vector3::new(e1.dot(&(t * e1)), e2.dot(&(t * e2)), e1.dot(&(t * e2))) / thickness
 }
 
 /// The strain E0 at which the material's elastic law gives the stress `s0`: the equivalent

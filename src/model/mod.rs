@@ -317,9 +317,9 @@ fn build_triangles(
             if let Some(pre) = &m.prestress {
                 reference.initial_strain = prestress_strain(k, m, &material, pre, &reference)
                     .map_err(|message| crate::scene::Problem {
-                    path: format!("membranes[{}].prestress", group_index(scene, m)),
-                    message: format!("triangle {t}: {message}"),
-                })?;
+                        path: format!("membranes[{}].prestress", group_index(scene, m)),
+                        message: format!("triangle {t}: {message}"),
+                    })?;
             }
             out.push(Triangle {
                 id: t,

@@ -514,13 +514,7 @@ impl Validator {
         }
     }
 
-    fn prestress(
-        &mut self,
-        m: &super::Membrane,
-        pre: &super::Prestress,
-        p: &str,
-        mesh: &Mesh,
-    ) {
+    fn prestress(&mut self, m: &super::Membrane, pre: &super::Prestress, p: &str, mesh: &Mesh) {
         let (warp, fill, dir) = pre.components();
         let force = |x: f64| x.is_finite() && (0.0..=1e12).contains(&x);
         match pre {
@@ -563,7 +557,10 @@ impl Validator {
                 if n.len() != count {
                     self.push(
                         format!("{p}.n"),
-                        format!("lists {} tensors for the group's {count} triangles", n.len()),
+                        format!(
+                            "lists {} tensors for the group's {count} triangles",
+                            n.len()
+                        ),
                     );
                 }
                 if let Some(k) = n
@@ -658,7 +655,8 @@ impl Validator {
                         "give one of pretension, pretensions and unstretched_length",
                     );
                 }
-                let segments = cable_ids(mesh, &c.nodes).map_or(0, |ids| ids.len().saturating_sub(1));
+                let segments =
+                    cable_ids(mesh, &c.nodes).map_or(0, |ids| ids.len().saturating_sub(1));
                 if ts.len() != segments {
                     self.push(
                         format!("{p}.pretensions"),
@@ -1111,7 +1109,10 @@ impl Validator {
         if !(ff.tolerance.is_finite() && ff.tolerance >= 1e-12 && ff.tolerance < 0.1) {
             self.push(
                 "form_finding.tolerance",
-                format!("{} is not a relative tolerance in [1e-12, 0.1)", ff.tolerance),
+                format!(
+                    "{} is not a relative tolerance in [1e-12, 0.1)",
+                    ff.tolerance
+                ),
             );
         }
         if !(ff.homotopy.is_finite() && (0.0..1.0).contains(&ff.homotopy)) {
