@@ -267,7 +267,8 @@ pub fn initial_stress(
     } else {
         let d = warp_direction.normalize();
         let (c, s) = (d.dot(&r.frame[0]), d.dot(&r.frame[1]));
-        let in_plane = c.hypot(s);
+        // Not f64::hypot: it needs glibc 2.35, above the FMU baseline.
+        let in_plane = (c * c + s * s).sqrt();
         if !(in_plane > 1e-2) {
             return None;
         }
