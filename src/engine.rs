@@ -4,7 +4,7 @@
 //! through this type:
 //!
 //! ```text
-//! Engine::try_new(scene)          validate, build the model, start values
+//! Engine::try_new(scene)          validate, form-find if asked, build the model, start values
 //! set_real / get_real / get_integer   by value reference (the variable table)
 //! solve()                         equilibrium under the current inputs, reached by load
 //!                                 increments from the last committed equilibrium; committed
@@ -84,6 +84,24 @@ impl Engine {
         if !problems.is_empty() {
             return Err(Error::Scene(problems));
         }
+        // A scene that asks for form finding is replaced by the found one before anything
+        // else: its geometry is the found shape, its prestress the balancing stress state.
+        let scene = if scene.form_finding.is_some() {
+            let report = crate::formfind::run(&scene)?;
+            let found = report.scene.ok_or_else(|| {
+                Error::FormFinding(format!(
+                    "after {} iterations: {}",
+                    report.iterations, report.message
+                ))
+            })?;
+            let problems = validate::validate(&found);
+            if !problems.is_empty() {
+                return Err(Error::Scene(problems));
+            }
+            found
+        } else {
+            scene
+        };
         // The whole build (model, pattern, factor, vectors) at once, before any of it: a
         // shortage is found here, not in the middle (`crate::memory`).
         if !scene.debug.skip_memory_probes {

@@ -30,6 +30,9 @@ pub enum Error {
     /// An allocation that grows with the scene failed (the size limits passed, the process
     /// could not get the memory); nothing was changed.
     Memory(crate::memory::OutOfMemory),
+    /// The scene asks for form finding and no equilibrium shape was found (the message says
+    /// after how many iterations and why).
+    FormFinding(String),
 }
 
 impl From<crate::memory::OutOfMemory> for Error {
@@ -70,6 +73,7 @@ impl fmt::Display for Error {
             }
             Error::State(m) => write!(f, "FMU state rejected: {}", crate::scene::read::clip(m)),
             Error::Memory(e) => write!(f, "{e}"),
+            Error::FormFinding(m) => write!(f, "form finding failed: {m}"),
         }
     }
 }

@@ -107,6 +107,29 @@ enum Command {
         #[arg(value_name = "SCENE.json")]
         scene: String,
     },
+    /// Find the equilibrium shape of the scene's prestress and write it as a new scene.
+    ///
+    /// Every membrane group needs a `prestress` and every cable a `pretension`; supported
+    /// components stay where the geometry (or `form_finding.place`) puts them. The iteration is
+    /// the Updated Reference Strategy (docs/mechanics.md §10), with the scene's `form_finding`
+    /// settings or their defaults. FOUND.json has the found positions as explicit geometry (all
+    /// node and triangle sets kept) and the same prestress as its initial stress state, so its
+    /// analysis starts in equilibrium. Prints the iterations and the time; exits 1 if the shape
+    /// is not found (nothing is written then).
+    #[command(
+        after_help = "Examples:\n  velarium formfind modelDescription/FourPointSail/form.json --out sail.json\n  velarium formfind catenoid.json --out found.json --quiet"
+    )]
+    Formfind {
+        /// The scene (JSON).
+        #[arg(value_name = "SCENE.json")]
+        scene: String,
+        /// Where to write the found scene (JSON).
+        #[arg(long, value_name = "FOUND.json")]
+        out: String,
+        /// Print only the summary line, not one line per iteration.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Print the scene's modelDescription.xml.
     #[command(
         after_help = "Examples:\n  velarium describe modelDescription/HenckyDisc/scene.json > modelDescription.xml"
@@ -217,6 +240,7 @@ fn main() -> ExitCode {
             quiet,
         }),
         Command::Check { scene } => cmd_check(&scene),
+        Command::Formfind { scene, out, quiet } => cmd_formfind(&scene, &out, quiet),
         Command::Describe { scene } => cmd_describe(&scene),
         Command::Schema => {
             outln!("{}", Scene::json_schema());
@@ -260,6 +284,31 @@ fn engine_for(path: &str) -> Result<Engine, Stop> {
 
 fn failed(e: velarium::Error) -> Stop {
     Stop::Failed(e.to_string())
+}
+
+fn cmd_formfind(path: &str, out: &str, quiet: bool) -> Result<ExitCode, Stop> {
+    let scene = read_scene(path)?;
+    let report =
+        velarium::formfind::run(&scene).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
+    if !quiet {
+        for line in &report.log {
+            println!("{line}");
+        }
+    }
+    let Some(found) = report.scene else {
+        return Err(Stop::Failed(format!(
+            "{path}: form finding failed after {} iterations: {}",
+            report.iterations, report.message
+        )));
+    };
+    let mut text = found.to_json();
+    text.push('\n');
+    write_atomically(Path::new(out), text.as_bytes()).map_err(failed)?;
+    println!(
+        "form finding converged: {} iterations, {:.3} s, last move {:.1e} of the span; wrote {out}",
+        report.iterations, report.seconds, report.last_move
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn cmd_pack(

@@ -307,7 +307,7 @@ impl Model {
             .outputs
             .iter()
             .map(|o| build_probe(scene, &mesh, &cables, &sleeves.slips, &groups, &o.probe))
-            .collect();
+            .collect::<Result<Vec<_>, _>>()?;
         let force_scale = triangles
             .iter()
             .map(|t| t.material.modulus() * t.material.thickness * t.reference.area.sqrt())
@@ -434,10 +434,10 @@ fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
     }
 }
 
-fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
+pub fn triangle_ids<'a>(mesh: &'a Mesh, r: &'a TriSel) -> &'a [usize] {
     match r {
-        TriSel::Ids(ids) => ids.clone(),
-        TriSel::Set(name) => mesh.triangle_sets[name].clone(),
+        TriSel::Ids(ids) => ids,
+        TriSel::Set(name) => &mesh.triangle_sets[name],
     }
 }
 
@@ -478,18 +478,11 @@ fn build_triangles(
             wrinkling: m.wrinkling,
         };
         let first = out.len();
-        for t in triangle_ids(mesh, &m.triangles) {
+        for (k, &t) in triangle_ids(mesh, &m.triangles).iter().enumerate() {
             let nodes = mesh.triangles[t];
             let Some(reference) = membrane::triangle_ref(nodes.map(|i| x[i])) else {
                 return Err(Error::Scene(vec![crate::scene::Problem {
-                    path: format!(
-                        "membranes[{}].triangles",
-                        scene
-                            .membranes
-                            .iter()
-                            .position(|g| std::ptr::eq(g, m))
-                            .unwrap_or(0)
-                    ),
+                    path: format!("membranes[{}].triangles", group_index(scene, m)),
                     message: format!(
                         "triangle {t} (nodes {nodes:?}) has zero area in floating point"
                     ),
@@ -507,6 +500,16 @@ fn build_triangles(
                 material.law = wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
                     o.e_warp, o.e_fill, o.nu_wf, o.g, angle,
                 ));
+            }
+            let mut reference = reference;
+            if let Some(pre) = &m.prestress {
+                reference.initial_strain = prestress_strain(k, m, &material, pre, &reference)
+                    .map_err(|message| {
+                        Error::Scene(vec![crate::scene::Problem {
+                            path: format!("membranes[{}].prestress", group_index(scene, m)),
+                            message: format!("triangle {t}: {message}"),
+                        }])
+                    })?;
             }
             out.push(Triangle {
                 id: t,
@@ -528,6 +531,34 @@ fn build_triangles(
         }
     }
     Ok(out)
+}
+
+fn group_index(scene: &Scene, m: &crate::scene::Membrane) -> usize {
+    scene
+        .membranes
+        .iter()
+        .position(|g| std::ptr::eq(g, m))
+        .unwrap_or(0)
+}
+
+/// Equivalent initial strain of a group's prestress on one triangle (`membrane::initial_strain`).
+fn prestress_strain(
+    k: usize,
+    m: &crate::scene::Membrane,
+    material: &membrane::Material,
+    pre: &crate::scene::Prestress,
+    r: &membrane::TriangleRef,
+) -> Result<Vector3<f64>, String> {
+    let s0 = if let crate::scene::Prestress::Field { n } = pre {
+        membrane::field_stress(r, &n[k], m.thickness)
+    } else {
+        let (warp, fill, dir) = pre.components();
+        membrane::initial_stress(r, warp, fill, &Vector3::from(dir), m.thickness)
+            .ok_or_else(|| format!("the warp direction {dir:?} is normal to its plane"))?
+    };
+    membrane::initial_strain(material, &s0).ok_or_else(|| {
+        format!("the material cannot carry the initial stress {s0:?} Pa (PK2, element frame)")
+    })
 }
 
 /// Sleeve points and ties collected while the cables are built.
@@ -608,9 +639,10 @@ fn build_cables(
         let start = segments.len();
         for (k, w) in points.windows(2).enumerate() {
             let l = lengths[k];
-            let l0 = match (c.pretension, c.unstretched_length) {
-                (_, Some(l0_total)) => l0_total * l / total,
-                (t0, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
+            let l0 = match (c.pretension, c.unstretched_length, &c.pretensions) {
+                (_, Some(l0_total), _) => l0_total * l / total,
+                (_, None, Some(t)) => cable::unstretched_length(law, c.ea, l, t[k]),
+                (t0, None, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
             };
             used[w[0]] = true;
             used[w[1]] = true;
@@ -643,7 +675,10 @@ fn default_penalty(ea: f64, segment: f64, node: usize, triangles: &[Triangle]) -
 }
 
 /// (group name, range of `Model::triangles` indices, mesh triangle ids) per membrane group.
-fn group_ranges(scene: &Scene, mesh: &Mesh) -> Vec<(String, std::ops::Range<usize>, Vec<usize>)> {
+fn group_ranges<'a>(
+    scene: &'a Scene,
+    mesh: &'a Mesh,
+) -> Vec<(String, std::ops::Range<usize>, &'a [usize])> {
     let mut first = 0;
     scene
         .membranes
@@ -797,22 +832,27 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
     LoadModel::PointForce(forces)
 }
 
-type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
+type Groups<'a> = [(String, std::ops::Range<usize>, &'a [usize])];
 
 fn build_probe(
     scene: &Scene,
     mesh: &Mesh,
     cables: &[CableInfo],
     slips: &[sleeve::SlipPoint],
-    groups: &Groups,
+    groups: &Groups<'_>,
     probe: &Probe,
-) -> ProbeModel {
-    let elements = |name: &Option<String>| -> Vec<usize> {
-        groups
-            .iter()
-            .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
-            .flat_map(|g| g.1.clone())
-            .collect()
+) -> Result<ProbeModel, crate::memory::OutOfMemory> {
+    // A probe over a membrane group lists its triangles: as long as the mesh, so fallible.
+    let elements = |name: &Option<String>| -> Result<Vec<usize>, crate::memory::OutOfMemory> {
+        let chosen = || {
+            groups
+                .iter()
+                .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
+        };
+        let total = chosen().map(|g| g.1.len()).sum();
+        let mut list = crate::memory::with_capacity(total, "a probe's triangle list")?;
+        list.extend(chosen().flat_map(|g| g.1.clone()));
+        Ok(list)
     };
     let cable_index = |name: &str| {
         cables
@@ -820,7 +860,7 @@ fn build_probe(
             .position(|c| c.name == name)
             .expect("validated cable name")
     };
-    match probe {
+    Ok(match probe {
         Probe::Displacement { node, component } => ProbeModel::Displacement {
             dof: 3 * one_node(mesh, node) + component.index(),
         },
@@ -910,7 +950,7 @@ fn build_probe(
         },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
         Probe::EnclosedVolume { membrane } => {
-            ProbeModel::EnclosedVolume(elements(&Some(membrane.clone())))
+            ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)
         }
         Probe::EnclosedPressure { input } => {
             let unknown = scene
@@ -921,13 +961,13 @@ fn build_probe(
                 .expect("validated: a volume input");
             ProbeModel::EnclosedPressure(unknown)
         }
-        Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)),
-        Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)),
+        Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)?),
+        Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)?),
         Probe::MaxPrincipalStress { membrane } => {
-            ProbeModel::MaxPrincipalStress(elements(membrane))
+            ProbeModel::MaxPrincipalStress(elements(membrane)?)
         }
         Probe::MinPrincipalStress { membrane } => {
-            ProbeModel::MinPrincipalStress(elements(membrane))
+            ProbeModel::MinPrincipalStress(elements(membrane)?)
         }
         Probe::ElementState { triangle } => {
             let index = groups
@@ -940,7 +980,7 @@ fn build_probe(
                 .expect("validated: the triangle belongs to a membrane group");
             ProbeModel::ElementState(index)
         }
-    }
+    })
 }
 
 fn bounding_diagonal(x: &[Vector3<f64>], used: &[bool]) -> f64 {

@@ -47,13 +47,16 @@ pub fn try_resolve(geometry: &Geometry) -> Result<Mesh, OutOfMemory> {
     };
     let n = usize::try_from(n).map_err(|_| too_many("the mesh's nodes"))?;
     let t = usize::try_from(t).map_err(|_| too_many("the mesh's triangles"))?;
-    // Sets: every generator's "all" and triangle set, its edges (at most the nodes again).
+    // The sets (every generator's "all" and triangle set, its edges: at most the nodes again)
+    // are built while the nodes and triangles are held, so the probe asks for all of it at
+    // once: 24 bytes per node and per triangle, 8 per set entry.
+    let sets = (n as u64).saturating_mul(2).saturating_add(t as u64);
     memory::probe(
         (n as u64)
-            .saturating_mul(2)
             .saturating_add(t as u64)
-            .saturating_mul(8),
-        "the mesh's node and triangle sets",
+            .saturating_mul(24)
+            .saturating_add(sets.saturating_mul(8)),
+        "the mesh with its node and triangle sets",
     )?;
     let mut nodes = memory::with_capacity(n, "the mesh's nodes")?;
     nodes.extend_from_slice(&geometry.nodes);

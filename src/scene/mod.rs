@@ -59,6 +59,11 @@ pub struct Scene {
     pub parameters: Vec<Parameter>,
     #[serde(default)]
     pub solver: SolverSettings,
+    /// Form finding before the first step: the geometry is replaced by the equilibrium shape of
+    /// the membranes' `prestress` and the cables' `pretension` between the supports (Updated
+    /// Reference Strategy, `crate::formfind`). Absent: the geometry is taken as given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub form_finding: Option<FormFinding>,
     /// The FMU's DefaultExperiment (pseudo-time: one unit of time is one load history step
     /// as the master chooses it).
     #[serde(default)]
@@ -195,6 +200,55 @@ pub struct Membrane {
     /// sheet that carries compression.
     #[serde(default = "yes")]
     pub wrinkling: bool,
+    /// Initial stress state of the group in the scene geometry (membrane forces in N/m): part
+    /// of the equilibrium (residual and tangent), unlike `solver.artificial_prestress`. The
+    /// geometry with no load is in equilibrium only if this prestress balances there (a
+    /// form-found shape, a flat sheet with every edge held). Absent: stress-free.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prestress: Option<Prestress>,
+}
+
+/// A membrane prestress in N/m (force per unit length of cut = stress × thickness).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Prestress {
+    /// The same membrane force `n` (N/m, > 0) in every in-plane direction.
+    Isotropic { n: f64 },
+    /// Membrane forces `warp` and `fill` (N/m, >= 0, not both 0) along the warp direction and
+    /// its in-plane perpendicular. `warp_direction` is a global vector, projected on each
+    /// triangle's plane (it must not be normal to any triangle of the group).
+    WarpFill {
+        warp: f64,
+        fill: f64,
+        warp_direction: [f64; 3],
+    },
+    /// One membrane force tensor per triangle of the group (in the group's triangle order), in
+    /// global components [n_xx, n_yy, n_zz, n_xy, n_yz, n_xz] (N/m); each triangle takes its
+    /// in-plane part. What form finding writes: the stress field that balances the found shape
+    /// exactly (within round-off of the prescribed one, see docs/mechanics.md §10).
+    Field { n: Vec<[f64; 6]> },
+}
+
+impl Prestress {
+    /// (warp, fill, warp direction) in N/m; isotropic: (n, n, x); a field: its largest
+    /// component as both (a force scale only).
+    pub fn components(&self) -> (f64, f64, [f64; 3]) {
+        match self {
+            Prestress::Isotropic { n } => (*n, *n, [1.0, 0.0, 0.0]),
+            Prestress::WarpFill {
+                warp,
+                fill,
+                warp_direction,
+            } => (*warp, *fill, *warp_direction),
+            Prestress::Field { n } => {
+                let m = n
+                    .iter()
+                    .flat_map(|t| t.iter())
+                    .fold(0.0f64, |m, v| m.max(v.abs()));
+                (m, m, [1.0, 0.0, 0.0])
+            }
+        }
+    }
 }
 
 /// Membrane material (plane stress, total Lagrangian).
@@ -257,6 +311,11 @@ pub struct Cable {
     /// segment. Give at most one of `pretension` and `unstretched_length`; neither = 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pretension: Option<f64>,
+    /// Tension in N of each segment in the initial geometry (one per segment, in order): what
+    /// form finding writes (the forces that balance the found shape exactly). Give at most one
+    /// of `pretension`, `pretensions` and `unstretched_length`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pretensions: Option<Vec<f64>>,
     /// Total unstretched length in m, shared among the segments in proportion to their
     /// initial lengths.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -594,6 +653,68 @@ pub enum ParameterVariability {
     Fixed,
     /// May also change at communication points; takes effect from the next step.
     Tunable,
+}
+
+/// Form finding settings (docs/mechanics.md §10). Every membrane group needs a `prestress`
+/// and every cable a `pretension`: these are the prescribed stress state whose equilibrium
+/// shape is sought. Supported components stay where `place` (or the geometry) puts them.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FormFinding {
+    /// Iterations before form finding gives up. Default 50.
+    #[serde(default = "form_finding_iterations")]
+    pub max_iterations: usize,
+    /// Converged when the shape moves at most `tolerance` times the span (bounding-box
+    /// diagonal) in one iteration, and so does the distance left estimated from the rate of
+    /// the last two moves: membrane nodes along the surface normal, cable nodes wholly.
+    /// Default 1e-6. The found scene carries the stress state that balances the found
+    /// shape exactly, so its analysis starts in equilibrium whatever the tolerance.
+    #[serde(default = "form_finding_tolerance")]
+    pub tolerance: f64,
+    /// Homotopy factor λ of the Updated Reference Strategy for isotropic prestress, in
+    /// [0, 1): each iteration's matrix is the reference-stress stiffness plus λ times the
+    /// material part of the true (surface-tension) tangent. 0 is the plain URS (each step the
+    /// equilibrium of the prestress as PK2 stress in the last shape); larger λ lets the mesh
+    /// settle within the surface faster (1/(1 − λ) per iteration) at the price of a less
+    /// stable step. Default 0.5.
+    #[serde(default = "form_finding_homotopy")]
+    pub homotopy: f64,
+    /// Start positions of nodes (mast tops, rings): each listed node is moved to `position`
+    /// before form finding; with its components supported it stays there.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub place: Vec<Placement>,
+}
+
+impl Default for FormFinding {
+    fn default() -> Self {
+        FormFinding {
+            max_iterations: form_finding_iterations(),
+            tolerance: form_finding_tolerance(),
+            homotopy: form_finding_homotopy(),
+            place: Vec::new(),
+        }
+    }
+}
+
+fn form_finding_iterations() -> usize {
+    50
+}
+
+fn form_finding_homotopy() -> f64 {
+    0.5
+}
+
+fn form_finding_tolerance() -> f64 {
+    1e-6
+}
+
+/// A node moved to a position before form finding.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Placement {
+    pub node: OneNode,
+    /// [x, y, z] in m.
+    pub position: [f64; 3],
 }
 
 /// Newton and path-following settings. Every default is chosen for the shipped scenes and
