@@ -635,3 +635,151 @@ fn progress_only_on_a_terminal_and_not_with_quiet() {
     );
     assert_eq!(on_terminal(true), "", "--quiet");
 }
+
+/// `formfind` writes the found scene (which `check` accepts and whose geometry moved), exits 1
+/// without writing anything when the prestress has no equilibrium, and names the field of a
+/// scene that cannot be form-found.
+#[test]
+fn formfind_writes_the_found_scene_or_nothing() {
+    let dir = scratch("formfind");
+    let sail = format!(
+        "{}/modelDescription/FourPointSail/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let out = dir.join("found.json");
+    let run = velarium(&["formfind", &sail, "--out", out.to_str().unwrap(), "--quiet"]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(stdout.contains("form finding converged"), "{stdout}");
+    let check = velarium(&["check", out.to_str().unwrap()]);
+    assert!(
+        check.status.success(),
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    let found = std::fs::read_to_string(&out).unwrap();
+    assert!(found.contains("\"field\"") && found.contains("\"pretensions\""));
+    assert!(!found.contains("form_finding"));
+    // A membrane without prestress cannot be form-found: the field is named, nothing written.
+    let bad = write(
+        &dir,
+        "bad.json",
+        r#"{"format": 1, "name": "Bad",
+  "geometry": {"generators": [{"kind": "rectangle", "name": "sq", "origin": [0, 0, 0], "size": [1, 1], "divisions": [2, 2]}]},
+  "membranes": [{"name": "m", "triangles": "sq", "thickness": 1e-3, "material": {"kind": "svk", "E": 1e6, "nu": 0.3}}],
+  "supports": [{"nodes": "sq.boundary", "fix": ["x", "y", "z"]}]}"#,
+    );
+    let none = dir.join("none.json");
+    let run = velarium(&[
+        "formfind",
+        bad.to_str().unwrap(),
+        "--out",
+        none.to_str().unwrap(),
+    ]);
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("membranes[0].prestress"), "{stderr}");
+    assert!(!none.exists());
+}
+
+/// Two point forces on the tiny cable's middle (down and sideways), for load combinations.
+const TWO_LOADS: &str = r#"{
+  "format": 1,
+  "name": "TwoLoads",
+  "geometry": {"nodes": [[0, 0, 0], [1, 0, 0], [2, 0, 0]], "node_sets": {"ends": [0, 2], "middle": [1]}},
+  "cables": [{"name": "c", "nodes": [0, 1, 2], "EA": 100000.0, "pretension": 100.0}],
+  "supports": [{"nodes": "ends", "fix": ["x", "y", "z"]}],
+  "inputs": [{"name": "G", "load": {"kind": "point_force", "nodes": "middle", "direction": [0, 0, -1]}, "max": 10.0},
+             {"name": "W", "load": {"kind": "point_force", "nodes": "middle", "direction": [0, 1, 0]}}],
+  "outputs": [{"name": "w", "probe": {"kind": "displacement", "node": "middle", "component": "z"}},
+              {"name": "v", "probe": {"kind": "displacement", "node": "middle", "component": "y"}}]
+}"#;
+
+/// A load combination column sets each of its inputs to factor × value, and an input named
+/// directly and by a combination gets the sum: the result CSV is byte for byte the one of the
+/// table with those input values written out (the same inputs give the same run).
+#[test]
+fn solve_applies_load_combinations() {
+    let dir = scratch("solve-combination");
+    let scene = write(&dir, "two.json", TWO_LOADS);
+    let run = |name: &str, csv: &str| {
+        let loads = write(&dir, name, csv);
+        let out = velarium(&["solve", s(&scene), "--loads", s(&loads), "--quiet"]);
+        assert_eq!(out.status.code(), Some(0), "{csv}: {}", text(&out.stderr));
+        text(&out.stdout).to_string()
+    };
+    let combined = run(
+        "combined.csv",
+        "combination,ULS,G,1.35,W,1.5\ntime,ULS,W\n0,0,0\n1,2,0\n2,4,1\n",
+    );
+    let direct = run("direct.csv", "time,G,W\n0,0,0\n1,2.7,3\n2,5.4,7\n");
+    assert_eq!(combined, direct);
+    assert_eq!(combined.lines().count(), 4);
+    // Errors name the line and what is wrong; nothing is written.
+    let cases = [
+        (
+            "combination,ULS,G,1.35,X,1.5\ntime,ULS\n0,1\n",
+            "line 1: combination ULS: input (\"X\") is not an input",
+        ),
+        (
+            "combination,ULS,G,abc\ntime,ULS\n0,1\n",
+            "factor \"abc\" of G is not a finite number",
+        ),
+        (
+            "combination,ULS,G\ntime,ULS\n0,1\n",
+            "expected `combination,<name>,<input>,<factor>",
+        ),
+        (
+            "combination,G,W,1\ntime,G\n0,1\n",
+            "combination G has the name of a variable",
+        ),
+        (
+            "combination,ULS,G,1.35,W,1.5\ntime,ULS\n0,1\n1,10\n",
+            "line 4, input G = 13.5 (from column 2 (ULS)): variable G (value reference 1) = 13.5 is out of range",
+        ),
+    ];
+    for (csv, expected) in cases {
+        let loads = write(&dir, "bad.csv", csv);
+        let out = velarium(&[
+            "solve",
+            s(&scene),
+            "--loads",
+            s(&loads),
+            "--out",
+            s(&dir.join("out.csv")),
+        ]);
+        assert_eq!(out.status.code(), Some(1), "{csv}");
+        let stderr = text(&out.stderr);
+        assert!(
+            stderr.contains(expected),
+            "{csv:?}: expected {expected:?} in {stderr}"
+        );
+        assert!(!dir.join("out.csv").exists());
+    }
+}
+
+/// A reader that closes the pipe early (`velarium schema | head -1`) ends the command quietly
+/// with exit 0, not with a panic (exit 101) on the broken pipe.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    use std::process::Stdio;
+    let mut child = Command::new(VELARIUM)
+        .arg("schema")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("velarium runs");
+    // Close the read end at once: the schema (52 KB) then meets a closed pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("velarium ends");
+    assert_eq!(out.status.code(), Some(0), "stderr: {}", text(&out.stderr));
+    assert!(
+        !text(&out.stderr).contains("panicked"),
+        "{}",
+        text(&out.stderr)
+    );
+}

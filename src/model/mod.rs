@@ -17,13 +17,16 @@
 
 pub mod cable;
 pub mod membrane;
+pub mod orthotropic;
 pub mod pressure;
 pub mod sleeve;
 pub mod wrinkling;
 
-use crate::scene::generate::{resolve, Mesh};
+use crate::error::Error;
+use crate::memory;
+use crate::scene::generate::{try_resolve, Mesh};
 use crate::scene::{
-    CableEnd, Load, Material, NodeRef, OneNode, Probe, Scene, SlipState, StrainLaw,
+    CableEnd, Load, Material, NodeRef, OneNode, PolarComponent, Probe, Scene, SlipState, StrainLaw,
     TriangleRef as TriSel,
 };
 use nalgebra::Vector3;
@@ -75,8 +78,8 @@ pub enum LoadModel {
         triangles: Vec<usize>,
         follower: bool,
     },
-    /// Prescribed DOFs.
-    Displacement(Vec<usize>),
+    /// Prescribed DOFs and how the input's value moves them.
+    Displacement(Prescribed),
     /// Prescribed enclosed volume V⁰ + value of a closed group (`Model::triangles` indices):
     /// a follower pressure whose value is the unknown `u[Model::volume_unknown(unknown)]`,
     /// with the constraint row `stiffness · (V(u) − V⁰ − value)` (N: `stiffness` = E t / A of
@@ -91,6 +94,57 @@ pub enum LoadModel {
         stiffness: f64,
         atmosphere: Option<f64>,
     },
+}
+
+/// DOFs an input prescribes. Where several inputs prescribe one DOF their displacements add
+/// (`Prescribed::add`): a rotation plus a translation, a radial plus a tangential component.
+#[derive(Clone, Debug)]
+pub struct Prescribed {
+    pub dofs: Vec<usize>,
+    pub motion: Motion,
+}
+
+/// The displacement a prescribing input gives per value.
+#[derive(Clone, Debug)]
+pub enum Motion {
+    /// u[dof] = value (a `displacement` input: one global component).
+    Component,
+    /// Rigid rotation by the value (rad) about the unit `axis` through `point`.
+    Rotation {
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    },
+    /// value × e (m) with e the node's unit radial or tangential direction (per DOF: its
+    /// component of e).
+    Along(Vec<f64>),
+}
+
+impl Prescribed {
+    /// Add this input's displacement at `value` to the prescribed DOFs of `u`.
+    pub fn add(&self, reference: &[Vector3<f64>], value: f64, u: &mut [f64]) {
+        match &self.motion {
+            Motion::Component => {
+                for &d in &self.dofs {
+                    u[d] += value;
+                }
+            }
+            Motion::Along(unit) => {
+                for (&d, e) in self.dofs.iter().zip(unit) {
+                    u[d] += value * e;
+                }
+            }
+            Motion::Rotation { point, axis } => {
+                let rotation = nalgebra::Rotation3::from_axis_angle(
+                    &nalgebra::Unit::new_unchecked(*axis),
+                    value,
+                );
+                for &d in &self.dofs {
+                    let r = reference[d / 3] - point;
+                    u[d] += (rotation * r - r)[d % 3];
+                }
+            }
+        }
+    }
 }
 
 /// What one output reads.
@@ -129,6 +183,16 @@ pub enum ProbeModel {
     Reaction {
         dofs: Vec<usize>,
     },
+    /// Moment of the reactions at `nodes` about the unit `axis` through `point`.
+    ReactionMoment {
+        nodes: Vec<usize>,
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    },
+    /// |Σ R| over the held DOFs of `nodes`.
+    ReactionResultant {
+        nodes: Vec<usize>,
+    },
     NewtonIterations,
     /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
     /// indices).
@@ -165,18 +229,36 @@ pub struct Model {
 
 impl Model {
     /// Build from a scene that passed validation (validation guarantees every reference
-    /// resolves; this function does not re-check).
+    /// resolves; this function does not re-check). For tools and tests: panics where
+    /// [`Model::try_build`] errs.
     pub fn build(scene: &Scene) -> Model {
-        Model::try_build(scene).unwrap_or_else(|p| panic!("a validated scene builds: {p}"))
+        Model::try_build(scene).unwrap_or_else(|e| panic!("a validated scene builds: {e}"))
     }
 
     /// Build the model of a validated scene; a triangle whose reference frame cannot be formed
-    /// in floating point is a located problem (validation rejects these first).
-    pub fn try_build(scene: &Scene) -> Result<Model, crate::scene::Problem> {
-        let mesh = resolve(&scene.geometry);
-        let mut reference: Vec<Vector3<f64>> =
-            mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
-        let mut used = vec![false; reference.len()];
+    /// in floating point is a located problem (validation rejects these first), and memory
+    /// that cannot be had is [`Error::Memory`]: the mesh and the model's arrays are reserved
+    /// fallibly after a probe of the whole build (`crate::memory`).
+    pub fn try_build(scene: &Scene) -> Result<Model, Error> {
+        let mesh = try_resolve(&scene.geometry)?;
+        let (nodes, triangles) = (mesh.nodes.len() as u64, mesh.triangles.len() as u64);
+        // The arrays below, the per-group triangle lists and the loads' and probes' lists: at
+        // most a few indices per node and per triangle besides the elements themselves.
+        let probe = |bytes, what| match scene.debug.skip_memory_probes {
+            true => Ok(()),
+            false => memory::probe(bytes, what),
+        };
+        probe(
+            triangles
+                .saturating_mul(std::mem::size_of::<Triangle>() as u64 + 64)
+                .saturating_add(nodes.saturating_mul(24 + 3 + 1 + 64)),
+            "the model",
+        )?;
+        let mut reference: Vec<Vector3<f64>> = memory::collect(
+            mesh.nodes.iter().map(|p| Vector3::from(*p)),
+            "the model's nodes",
+        )?;
+        let mut used = memory::filled(reference.len(), false, "the model's nodes")?;
         let triangles = build_triangles(scene, &mesh, &reference, &mut used)?;
         let mut sleeves = Sleeves::default();
         let (segments, cables) = build_cables(
@@ -188,7 +270,7 @@ impl Model {
             &mut sleeves,
         );
         let n = reference.len();
-        let mut held = vec![false; 3 * n];
+        let mut held = memory::filled(3 * n, false, "the model's DOFs")?;
         for (node, u) in used.iter().enumerate() {
             if !u {
                 held[3 * node..3 * node + 3].fill(true);
@@ -214,8 +296,8 @@ impl Model {
             }
         }
         for l in &loads {
-            if let LoadModel::Displacement(dofs) = l {
-                for &d in dofs {
+            if let LoadModel::Displacement(p) = l {
+                for &d in &p.dofs {
                     held[d] = true;
                 }
             }
@@ -225,7 +307,7 @@ impl Model {
             .outputs
             .iter()
             .map(|o| build_probe(scene, &mesh, &cables, &sleeves.slips, &groups, &o.probe))
-            .collect();
+            .collect::<Result<Vec<_>, _>>()?;
         let force_scale = triangles
             .iter()
             .map(|t| t.material.modulus() * t.material.thickness * t.reference.area.sqrt())
@@ -352,10 +434,10 @@ fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
     }
 }
 
-fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
+pub fn triangle_ids<'a>(mesh: &'a Mesh, r: &'a TriSel) -> &'a [usize] {
     match r {
-        TriSel::Ids(ids) => ids.clone(),
-        TriSel::Set(name) => mesh.triangle_sets[name].clone(),
+        TriSel::Ids(ids) => ids,
+        TriSel::Set(name) => &mesh.triangle_sets[name],
     }
 }
 
@@ -365,12 +447,30 @@ fn build_triangles(
     mesh: &Mesh,
     x: &[Vector3<f64>],
     used: &mut [bool],
-) -> Result<Vec<Triangle>, crate::scene::Problem> {
-    let mut out = Vec::new();
+) -> Result<Vec<Triangle>, Error> {
+    let total = scene
+        .membranes
+        .iter()
+        .map(|m| match &m.triangles {
+            TriSel::Ids(ids) => ids.len(),
+            TriSel::Set(name) => mesh.triangle_sets.get(name).map_or(0, Vec::len),
+        })
+        .sum();
+    let mut out = memory::with_capacity(total, "the model's membrane elements")?;
     for m in &scene.membranes {
         let law = match m.material {
             Material::Svk { young, nu } => wrinkling::Law::Svk { young, nu },
             Material::NeoHookean { mu } => wrinkling::Law::NeoHookean { mu },
+            // The warp angle is set per triangle below.
+            Material::Orthotropic {
+                e_warp,
+                e_fill,
+                nu_wf,
+                g,
+                ..
+            } => wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
+                e_warp, e_fill, nu_wf, g, 0.0,
+            )),
         };
         let material = membrane::Material {
             law,
@@ -378,25 +478,38 @@ fn build_triangles(
             wrinkling: m.wrinkling,
         };
         let first = out.len();
-        for t in triangle_ids(mesh, &m.triangles) {
+        for (k, &t) in triangle_ids(mesh, &m.triangles).iter().enumerate() {
             let nodes = mesh.triangles[t];
             let Some(reference) = membrane::triangle_ref(nodes.map(|i| x[i])) else {
-                return Err(crate::scene::Problem {
-                    path: format!(
-                        "membranes[{}].triangles",
-                        scene
-                            .membranes
-                            .iter()
-                            .position(|g| std::ptr::eq(g, m))
-                            .unwrap_or(0)
-                    ),
+                return Err(Error::Scene(vec![crate::scene::Problem {
+                    path: format!("membranes[{}].triangles", group_index(scene, m)),
                     message: format!(
                         "triangle {t} (nodes {nodes:?}) has zero area in floating point"
                     ),
-                });
+                }]));
             };
             for &i in &nodes {
                 used[i] = true;
+            }
+            let mut material = material;
+            if let (wrinkling::Law::Orthotropic(o), Material::Orthotropic { warp, .. }) =
+                (material.law, &m.material)
+            {
+                let w = Vector3::from(*warp);
+                let angle = w.dot(&reference.frame[1]).atan2(w.dot(&reference.frame[0]));
+                material.law = wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
+                    o.e_warp, o.e_fill, o.nu_wf, o.g, angle,
+                ));
+            }
+            let mut reference = reference;
+            if let Some(pre) = &m.prestress {
+                reference.initial_strain = prestress_strain(k, m, &material, pre, &reference)
+                    .map_err(|message| {
+                        Error::Scene(vec![crate::scene::Problem {
+                            path: format!("membranes[{}].prestress", group_index(scene, m)),
+                            message: format!("triangle {t}: {message}"),
+                        }])
+                    })?;
             }
             out.push(Triangle {
                 id: t,
@@ -418,6 +531,34 @@ fn build_triangles(
         }
     }
     Ok(out)
+}
+
+fn group_index(scene: &Scene, m: &crate::scene::Membrane) -> usize {
+    scene
+        .membranes
+        .iter()
+        .position(|g| std::ptr::eq(g, m))
+        .unwrap_or(0)
+}
+
+/// Equivalent initial strain of a group's prestress on one triangle (`membrane::initial_strain`).
+fn prestress_strain(
+    k: usize,
+    m: &crate::scene::Membrane,
+    material: &membrane::Material,
+    pre: &crate::scene::Prestress,
+    r: &membrane::TriangleRef,
+) -> Result<Vector3<f64>, String> {
+    let s0 = if let crate::scene::Prestress::Field { n } = pre {
+        membrane::field_stress(r, &n[k], m.thickness)
+    } else {
+        let (warp, fill, dir) = pre.components();
+        membrane::initial_stress(r, warp, fill, &Vector3::from(dir), m.thickness)
+            .ok_or_else(|| format!("the warp direction {dir:?} is normal to its plane"))?
+    };
+    membrane::initial_strain(material, &s0).ok_or_else(|| {
+        format!("the material cannot carry the initial stress {s0:?} Pa (PK2, element frame)")
+    })
 }
 
 /// Sleeve points and ties collected while the cables are built.
@@ -498,9 +639,10 @@ fn build_cables(
         let start = segments.len();
         for (k, w) in points.windows(2).enumerate() {
             let l = lengths[k];
-            let l0 = match (c.pretension, c.unstretched_length) {
-                (_, Some(l0_total)) => l0_total * l / total,
-                (t0, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
+            let l0 = match (c.pretension, c.unstretched_length, &c.pretensions) {
+                (_, Some(l0_total), _) => l0_total * l / total,
+                (_, None, Some(t)) => cable::unstretched_length(law, c.ea, l, t[k]),
+                (t0, None, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
             };
             used[w[0]] = true;
             used[w[1]] = true;
@@ -533,7 +675,10 @@ fn default_penalty(ea: f64, segment: f64, node: usize, triangles: &[Triangle]) -
 }
 
 /// (group name, range of `Model::triangles` indices, mesh triangle ids) per membrane group.
-fn group_ranges(scene: &Scene, mesh: &Mesh) -> Vec<(String, std::ops::Range<usize>, Vec<usize>)> {
+fn group_ranges<'a>(
+    scene: &'a Scene,
+    mesh: &'a Mesh,
+) -> Vec<(String, std::ops::Range<usize>, &'a [usize])> {
     let mut first = 0;
     scene
         .membranes
@@ -571,12 +716,50 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                 follower: *follower,
             }
         }
-        Load::Displacement { nodes, component } => LoadModel::Displacement(
-            node_ids(mesh, nodes)
+        Load::Displacement { nodes, component } => LoadModel::Displacement(Prescribed {
+            dofs: node_ids(mesh, nodes)
                 .iter()
                 .map(|&i| 3 * i + component.index())
                 .collect(),
-        ),
+            motion: Motion::Component,
+        }),
+        Load::Rotation { nodes, point, axis } => LoadModel::Displacement(Prescribed {
+            dofs: node_ids(mesh, nodes)
+                .iter()
+                .flat_map(|&i| (0..3).map(move |c| 3 * i + c))
+                .collect(),
+            motion: Motion::Rotation {
+                point: Vector3::from(*point),
+                axis: Vector3::from(*axis).normalize(),
+            },
+        }),
+        Load::PolarDisplacement {
+            nodes,
+            center,
+            axis,
+            component,
+        } => {
+            let k = axis.index();
+            let mut a = Vector3::zeros();
+            a[k] = 1.0;
+            let (mut dofs, mut unit) = (Vec::new(), Vec::new());
+            for i in node_ids(mesh, nodes) {
+                let r = Vector3::from(mesh.nodes[i]) - Vector3::from(*center);
+                let radial = (r - a * r[k]).normalize();
+                let e = match component {
+                    PolarComponent::Radial => radial,
+                    PolarComponent::Tangential => a.cross(&radial),
+                };
+                for c in (0..3).filter(|&c| c != k) {
+                    dofs.push(3 * i + c);
+                    unit.push(e[c]);
+                }
+            }
+            LoadModel::Displacement(Prescribed {
+                dofs,
+                motion: Motion::Along(unit),
+            })
+        }
         Load::Volume { membrane } | Load::Gas { membrane, .. } => {
             let range = group_ranges(scene, mesh)
                 .into_iter()
@@ -649,22 +832,27 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
     LoadModel::PointForce(forces)
 }
 
-type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
+type Groups<'a> = [(String, std::ops::Range<usize>, &'a [usize])];
 
 fn build_probe(
     scene: &Scene,
     mesh: &Mesh,
     cables: &[CableInfo],
     slips: &[sleeve::SlipPoint],
-    groups: &Groups,
+    groups: &Groups<'_>,
     probe: &Probe,
-) -> ProbeModel {
-    let elements = |name: &Option<String>| -> Vec<usize> {
-        groups
-            .iter()
-            .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
-            .flat_map(|g| g.1.clone())
-            .collect()
+) -> Result<ProbeModel, crate::memory::OutOfMemory> {
+    // A probe over a membrane group lists its triangles: as long as the mesh, so fallible.
+    let elements = |name: &Option<String>| -> Result<Vec<usize>, crate::memory::OutOfMemory> {
+        let chosen = || {
+            groups
+                .iter()
+                .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
+        };
+        let total = chosen().map(|g| g.1.len()).sum();
+        let mut list = crate::memory::with_capacity(total, "a probe's triangle list")?;
+        list.extend(chosen().flat_map(|g| g.1.clone()));
+        Ok(list)
     };
     let cable_index = |name: &str| {
         cables
@@ -672,7 +860,7 @@ fn build_probe(
             .position(|c| c.name == name)
             .expect("validated cable name")
     };
-    match probe {
+    Ok(match probe {
         Probe::Displacement { node, component } => ProbeModel::Displacement {
             dof: 3 * one_node(mesh, node) + component.index(),
         },
@@ -752,9 +940,17 @@ fn build_probe(
                 .map(|&i| 3 * i + component.index())
                 .collect(),
         },
+        Probe::ReactionMoment { nodes, point, axis } => ProbeModel::ReactionMoment {
+            nodes: node_ids(mesh, nodes),
+            point: Vector3::from(*point),
+            axis: Vector3::from(*axis).normalize(),
+        },
+        Probe::ReactionResultant { nodes } => ProbeModel::ReactionResultant {
+            nodes: node_ids(mesh, nodes),
+        },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
         Probe::EnclosedVolume { membrane } => {
-            ProbeModel::EnclosedVolume(elements(&Some(membrane.clone())))
+            ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)
         }
         Probe::EnclosedPressure { input } => {
             let unknown = scene
@@ -765,13 +961,13 @@ fn build_probe(
                 .expect("validated: a volume input");
             ProbeModel::EnclosedPressure(unknown)
         }
-        Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)),
-        Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)),
+        Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)?),
+        Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)?),
         Probe::MaxPrincipalStress { membrane } => {
-            ProbeModel::MaxPrincipalStress(elements(membrane))
+            ProbeModel::MaxPrincipalStress(elements(membrane)?)
         }
         Probe::MinPrincipalStress { membrane } => {
-            ProbeModel::MinPrincipalStress(elements(membrane))
+            ProbeModel::MinPrincipalStress(elements(membrane)?)
         }
         Probe::ElementState { triangle } => {
             let index = groups
@@ -784,7 +980,7 @@ fn build_probe(
                 .expect("validated: the triangle belongs to a membrane group");
             ProbeModel::ElementState(index)
         }
-    }
+    })
 }
 
 fn bounding_diagonal(x: &[Vector3<f64>], used: &[bool]) -> f64 {

@@ -59,12 +59,17 @@ pub struct Scene {
     pub parameters: Vec<Parameter>,
     #[serde(default)]
     pub solver: SolverSettings,
+    /// Form finding before the first step: the geometry is replaced by the equilibrium shape of
+    /// the membranes' `prestress` and the cables' `pretension` between the supports (Updated
+    /// Reference Strategy, `crate::formfind`). Absent: the geometry is taken as given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub form_finding: Option<FormFinding>,
     /// The FMU's DefaultExperiment (pseudo-time: one unit of time is one load history step
     /// as the master chooses it).
     #[serde(default)]
     pub experiment: Experiment,
     /// Debug-only switches that force the FMU's failure paths (a step that does not converge,
-    /// an internal panic) so that an importer's handling of them can be tested. Shipped scenes
+    /// an internal panic, an allocation that fails) so that their handling can be tested. Shipped scenes
     /// leave this out; test variants add it (and may expose its fields as parameters).
     #[serde(default, skip_serializing_if = "DebugSettings::is_off")]
     pub debug: DebugSettings,
@@ -195,6 +200,55 @@ pub struct Membrane {
     /// sheet that carries compression.
     #[serde(default = "yes")]
     pub wrinkling: bool,
+    /// Initial stress state of the group in the scene geometry (membrane forces in N/m): part
+    /// of the equilibrium (residual and tangent), unlike `solver.artificial_prestress`. The
+    /// geometry with no load is in equilibrium only if this prestress balances there (a
+    /// form-found shape, a flat sheet with every edge held). Absent: stress-free.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prestress: Option<Prestress>,
+}
+
+/// A membrane prestress in N/m (force per unit length of cut = stress × thickness).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Prestress {
+    /// The same membrane force `n` (N/m, > 0) in every in-plane direction.
+    Isotropic { n: f64 },
+    /// Membrane forces `warp` and `fill` (N/m, >= 0, not both 0) along the warp direction and
+    /// its in-plane perpendicular. `warp_direction` is a global vector, projected on each
+    /// triangle's plane (it must not be normal to any triangle of the group).
+    WarpFill {
+        warp: f64,
+        fill: f64,
+        warp_direction: [f64; 3],
+    },
+    /// One membrane force tensor per triangle of the group (in the group's triangle order), in
+    /// global components [n_xx, n_yy, n_zz, n_xy, n_yz, n_xz] (N/m); each triangle takes its
+    /// in-plane part. What form finding writes: the stress field that balances the found shape
+    /// exactly (within round-off of the prescribed one, see docs/mechanics.md §10).
+    Field { n: Vec<[f64; 6]> },
+}
+
+impl Prestress {
+    /// (warp, fill, warp direction) in N/m; isotropic: (n, n, x); a field: its largest
+    /// component as both (a force scale only).
+    pub fn components(&self) -> (f64, f64, [f64; 3]) {
+        match self {
+            Prestress::Isotropic { n } => (*n, *n, [1.0, 0.0, 0.0]),
+            Prestress::WarpFill {
+                warp,
+                fill,
+                warp_direction,
+            } => (*warp, *fill, *warp_direction),
+            Prestress::Field { n } => {
+                let m = n
+                    .iter()
+                    .flat_map(|t| t.iter())
+                    .fold(0.0f64, |m, v| m.max(v.abs()));
+                (m, m, [1.0, 0.0, 0.0])
+            }
+        }
+    }
 }
 
 /// Membrane material (plane stress, total Lagrangian).
@@ -211,6 +265,23 @@ pub enum Material {
     /// Incompressible neo-Hookean plane stress, W = μ/2 (tr C + 1/det C − 3): rubber at large
     /// strain. `mu` is the shear modulus in Pa (small-strain E = 3μ).
     NeoHookean { mu: f64 },
+    /// Orthotropic (warp/fill) St Venant-Kirchhoff for coated fabrics: plane-stress compliance
+    /// [[1/E_warp, −nu_wf/E_warp, 0], [−nu_wf/E_warp, 1/E_fill, 0], [0, 0, 1/G]] in the warp/fill
+    /// axes. Moduli in Pa (> 0); `nu_wf` (fill contraction under warp tension) in
+    /// [0, √(E_warp/E_fill)) so the law is positive definite. `warp`: the warp direction as a
+    /// vector, projected onto each triangle's plane (it must not be normal to any triangle).
+    /// With wrinkling on, the tension-field law solves for the wrinkle direction
+    /// (docs/mechanics.md §1.3).
+    Orthotropic {
+        #[serde(rename = "E_warp")]
+        e_warp: f64,
+        #[serde(rename = "E_fill")]
+        e_fill: f64,
+        nu_wf: f64,
+        #[serde(rename = "G")]
+        g: f64,
+        warp: [f64; 3],
+    },
 }
 
 /// Strain law of a cable.
@@ -240,6 +311,11 @@ pub struct Cable {
     /// segment. Give at most one of `pretension` and `unstretched_length`; neither = 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pretension: Option<f64>,
+    /// Tension in N of each segment in the initial geometry (one per segment, in order): what
+    /// form finding writes (the forces that balance the found shape exactly). Give at most one
+    /// of `pretension`, `pretensions` and `unstretched_length`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pretensions: Option<Vec<f64>>,
     /// Total unstretched length in m, shared among the segments in proportion to their
     /// initial lengths.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -334,8 +410,11 @@ pub struct Input {
 }
 
 /// What an input does. The input's value (and its `start`, `min`, `max`) is in the unit of its
-/// kind: N for `point_force`, Pa for `pressure`, m for `displacement`, N/m for
-/// `radial_edge_load`, m³ for `volume` and `gas`.
+/// kind: N for `point_force`, Pa for `pressure`, m for `displacement` and
+/// `polar_displacement`, rad for `rotation`, N/m for `radial_edge_load`, m³ for `volume` and
+/// `gas`. Where several displacement-like inputs hold the same component of a node (a rotation
+/// and a translation, a radial and a tangential displacement) their displacements add; two
+/// inputs of the same kind on the same component are an error.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Load {
@@ -367,6 +446,32 @@ pub enum Load {
     Displacement {
         nodes: NodeRef,
         component: Component,
+    },
+    /// Rotation in rad (the input's value) of every node of the set as one rigid body about the
+    /// axis through `point` along `axis` (right-hand rule: positive turns counter-clockwise
+    /// seen from the axis tip), exact for any angle: u = R(θ)(X − p) − (X − p). Every component
+    /// of every node becomes held; a `reaction_moment` probe reads the torque it needs.
+    /// `displacement` inputs on the same nodes add their translation (rotation, then
+    /// translation: a general rigid motion).
+    Rotation {
+        nodes: NodeRef,
+        /// A point on the axis, m.
+        point: [f64; 3],
+        /// Axis direction (any length but zero; normalised).
+        axis: [f64; 3],
+    },
+    /// Displacement in m (the input's value) of every node of the set along its radial
+    /// (`component: radial`, away from the axis) or tangential (`tangential`: axis × radial,
+    /// counter-clockwise seen from the axis tip) direction about the coordinate axis `axis`
+    /// through `center`, both in the reference configuration. The node's two components
+    /// perpendicular to the axis become held (the one along the axis stays free unless a
+    /// support holds it); a radial and a tangential input on the same nodes add, otherwise the
+    /// component the node is not given is zero. No node may lie on the axis.
+    PolarDisplacement {
+        nodes: NodeRef,
+        center: [f64; 3],
+        axis: Component,
+        component: PolarComponent,
     },
     /// In-plane edge load in N/m (the input's value: force per unit reference length of the
     /// edge polyline through `nodes`, in order), directed radially away from `center`
@@ -410,6 +515,14 @@ pub enum Load {
 
 fn atmosphere() -> f64 {
     101_325.0
+}
+
+/// A displacement component about an axis.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PolarComponent {
+    Radial,
+    Tangential,
 }
 
 fn yes() -> bool {
@@ -471,6 +584,18 @@ pub enum Probe {
         nodes: NodeRef,
         component: Component,
     },
+    /// Moment (N·m) about the axis through `point` along `axis` (normalised) of the reaction
+    /// forces at the set's constrained nodes, applied at their current positions:
+    /// Σ ((x_i − p) × R_i)·a, R_i the force supports and prescribed motions exert there (its
+    /// held components). The torque a hub turned by a `rotation` input needs.
+    ReactionMoment {
+        nodes: NodeRef,
+        point: [f64; 3],
+        axis: [f64; 3],
+    },
+    /// Magnitude (N) of the resultant of the reaction forces at the set's constrained nodes,
+    /// |Σ R_i| (`reaction` gives one component of the same sum).
+    ReactionResultant { nodes: NodeRef },
     /// Newton iterations used by the last step (all internal increments), Integer.
     NewtonIterations,
     /// Fraction (0..1) of the reference area that is wrinkled, of one membrane group or of all.
@@ -508,7 +633,8 @@ pub enum Probe {
 pub struct Parameter {
     /// Variable name.
     pub name: String,
-    /// What it sets: `membranes.<name>.E`, `.nu` (SVK), `.mu` (neo-Hookean), `.thickness`,
+    /// What it sets: `membranes.<name>.E`, `.nu` (SVK), `.mu` (neo-Hookean), `.E_warp`,
+    /// `.E_fill`, `.nu_wf`, `.G` (orthotropic), `.thickness`,
     /// `cables.<name>.EA`, `cables.<name>.pretension`, `solver.artificial_prestress`,
     /// `debug.fail_after_time`, `debug.panic_after_time` (test variants only).
     pub target: String,
@@ -544,6 +670,68 @@ impl PathMethod {
     fn is_default(&self) -> bool {
         *self == PathMethod::LoadControl
     }
+}
+
+/// Form finding settings (docs/mechanics.md §10). Every membrane group needs a `prestress`
+/// and every cable a `pretension`: these are the prescribed stress state whose equilibrium
+/// shape is sought. Supported components stay where `place` (or the geometry) puts them.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FormFinding {
+    /// Iterations before form finding gives up. Default 50.
+    #[serde(default = "form_finding_iterations")]
+    pub max_iterations: usize,
+    /// Converged when the shape moves at most `tolerance` times the span (bounding-box
+    /// diagonal) in one iteration, and so does the distance left estimated from the rate of
+    /// the last two moves: membrane nodes along the surface normal, cable nodes wholly.
+    /// Default 1e-6. The found scene carries the stress state that balances the found
+    /// shape exactly, so its analysis starts in equilibrium whatever the tolerance.
+    #[serde(default = "form_finding_tolerance")]
+    pub tolerance: f64,
+    /// Homotopy factor λ of the Updated Reference Strategy for isotropic prestress, in
+    /// [0, 1): each iteration's matrix is the reference-stress stiffness plus λ times the
+    /// material part of the true (surface-tension) tangent. 0 is the plain URS (each step the
+    /// equilibrium of the prestress as PK2 stress in the last shape); larger λ lets the mesh
+    /// settle within the surface faster (1/(1 − λ) per iteration) at the price of a less
+    /// stable step. Default 0.5.
+    #[serde(default = "form_finding_homotopy")]
+    pub homotopy: f64,
+    /// Start positions of nodes (mast tops, rings): each listed node is moved to `position`
+    /// before form finding; with its components supported it stays there.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub place: Vec<Placement>,
+}
+
+impl Default for FormFinding {
+    fn default() -> Self {
+        FormFinding {
+            max_iterations: form_finding_iterations(),
+            tolerance: form_finding_tolerance(),
+            homotopy: form_finding_homotopy(),
+            place: Vec::new(),
+        }
+    }
+}
+
+fn form_finding_iterations() -> usize {
+    50
+}
+
+fn form_finding_homotopy() -> f64 {
+    0.5
+}
+
+fn form_finding_tolerance() -> f64 {
+    1e-6
+}
+
+/// A node moved to a position before form finding.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Placement {
+    pub node: OneNode,
+    /// [x, y, z] in m.
+    pub position: [f64; 3],
 }
 
 /// Newton and path-following settings. Every default is chosen for the shipped scenes and
@@ -614,9 +802,10 @@ impl Default for SolverSettings {
     }
 }
 
-/// Debug-only switches, honoured by the FMU's `fmi2DoStep` (not by `velarium solve`). Each may
-/// be exposed as a parameter (targets `debug.fail_after_time`, `debug.panic_after_time`), which
-/// then needs a value here as its start value.
+/// Debug-only switches. The two time switches are honoured by the FMU's `fmi2DoStep` (not by
+/// `velarium solve`) and may be exposed as parameters (targets `debug.fail_after_time`,
+/// `debug.panic_after_time`), which then need a value here as their start value;
+/// `skip_memory_probes` is honoured everywhere.
 #[derive(Clone, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct DebugSettings {
@@ -629,12 +818,19 @@ pub struct DebugSettings {
     /// `fmi2Error` and the instance goes to the Error state.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub panic_after_time: Option<f64>,
+    /// Skip the memory probes that run before the model is built and before every step
+    /// (`src/memory.rs`), so that a test with a lowered memory limit reaches the fallible
+    /// allocations themselves. Honoured everywhere (library, FMU and CLI); not a parameter.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub skip_memory_probes: bool,
 }
 
 impl DebugSettings {
     /// No switch set (the section is then left out of the serialized scene).
     pub fn is_off(&self) -> bool {
-        self.fail_after_time.is_none() && self.panic_after_time.is_none()
+        self.fail_after_time.is_none()
+            && self.panic_after_time.is_none()
+            && !self.skip_memory_probes
     }
 
     /// Set the field a `debug.<field>` parameter targets. False: no such field.

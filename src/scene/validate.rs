@@ -1,7 +1,7 @@
 //! Semantic checks of a parsed scene. Every problem is reported (not only the first), each with
 //! the JSON path of the field and a sentence a user can act on.
 
-use super::generate::{resolve, Mesh};
+use super::generate::{try_resolve, Mesh};
 use super::limits;
 use super::{
     Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
@@ -57,7 +57,16 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
         v.problems.extend(too_big);
         return v.problems;
     }
-    let mesh = resolve(&scene.geometry);
+    let mesh = match try_resolve(&scene.geometry) {
+        Ok(mesh) => mesh,
+        Err(e) => {
+            v.problems.push(Problem {
+                path: "geometry".into(),
+                message: e.to_string(),
+            });
+            return v.problems;
+        }
+    };
     v.explicit_geometry(scene, &mesh);
     v.generated_triangles(scene, &mesh);
     if v.problems.len() == before {
@@ -74,6 +83,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
             .map(|ids| ids.len())
             .sum();
         size.unknowns = 3 * mesh.nodes.len() as u64 + 4 * sleeve_points as u64;
+        size.sleeve_points = sleeve_points as u64;
         let mut too_big = limits::check_counts(size, limits);
         if too_big.is_empty() {
             too_big = limits::check_memory(size, &mesh, &cables, limits);
@@ -91,6 +101,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     v.parameters(scene);
     v.names(scene);
     v.solver(scene);
+    v.form_finding(scene, &mesh);
     v.problems
 }
 
@@ -416,6 +427,38 @@ impl Validator {
         }
     }
 
+    /// A finite point and a non-zero finite axis at `{path}.point`, `{path}.axis`.
+    fn point_and_axis(&mut self, point: &[f64; 3], axis: &[f64; 3], path: &str) {
+        if point.iter().any(|x| !coordinate(*x)) {
+            self.push(format!("{path}.point"), "must be finite with |x| <= 1e30 m");
+        }
+        let n = axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !positive(n) {
+            self.push(format!("{path}.axis"), "must be a non-zero finite vector");
+        }
+    }
+
+    /// A node set of which at least one node is held in some component.
+    fn reaction_nodes(
+        &mut self,
+        mesh: &Mesh,
+        nodes: &NodeRef,
+        held: &BTreeSet<(usize, usize)>,
+        path: &str,
+    ) {
+        if let Some(ids) = self.nodes(mesh, nodes, &format!("{path}.nodes")) {
+            if !ids
+                .iter()
+                .any(|&id| (0..3).any(|c| held.contains(&(id, c))))
+            {
+                self.push(
+                    format!("{path}.nodes"),
+                    "no node of this set is held, so there is no reaction to report",
+                );
+            }
+        }
+    }
+
     fn one_node(&mut self, mesh: &Mesh, r: &OneNode, path: &str) -> Option<usize> {
         let ids = match r {
             OneNode::Id(id) if *id >= mesh.nodes.len() => {
@@ -569,6 +612,135 @@ impl Validator {
                         );
                     }
                 }
+                Material::Orthotropic {
+                    e_warp,
+                    e_fill,
+                    nu_wf,
+                    g,
+                    warp,
+                } => {
+                    for (name, v, what) in [
+                        ("E_warp", e_warp, "Young's modulus"),
+                        ("E_fill", e_fill, "Young's modulus"),
+                        ("G", g, "shear modulus"),
+                    ] {
+                        if !positive(v) {
+                            self.push(
+                                format!("{p}.material.{name}"),
+                                format!("{v} is not a positive {what} in Pa {RANGE}"),
+                            );
+                        }
+                    }
+                    if positive(e_warp) && positive(e_fill) {
+                        let bound = (e_warp / e_fill).sqrt();
+                        if !(nu_wf.is_finite() && nu_wf >= 0.0 && nu_wf < bound) {
+                            self.push(
+                                format!("{p}.material.nu_wf"),
+                                format!("{nu_wf}: nu_wf must be in [0, sqrt(E_warp/E_fill)) = [0, {bound:.6}) for a positive-definite orthotropic law"),
+                            );
+                        }
+                    }
+                    let length = warp.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    if !positive(length) || warp.iter().any(|x| !coordinate(*x)) {
+                        self.push(
+                            format!("{p}.material.warp"),
+                            "must be a non-zero finite vector (the warp direction)",
+                        );
+                    } else if let Some(ids) = group_triangles(mesh, &m.triangles) {
+                        let w = warp.map(|x| x / length);
+                        for t in ids {
+                            let Some(n) = unit_normal(mesh, &mesh.triangles[t]) else {
+                                continue;
+                            };
+                            let along = (w[0] * n[0] + w[1] * n[1] + w[2] * n[2]).abs();
+                            if (1.0 - along * along).max(0.0).sqrt() < WARP_IN_PLANE {
+                                self.push(
+                                    format!("{p}.material.warp"),
+                                    format!("{warp:?} is (nearly) normal to triangle {t}: its projection onto the triangle gives no warp direction"),
+                                );
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+            if let Some(pre) = &m.prestress {
+                self.prestress(m, pre, &format!("{p}.prestress"), mesh);
+            }
+        }
+    }
+
+    fn prestress(&mut self, m: &super::Membrane, pre: &super::Prestress, p: &str, mesh: &Mesh) {
+        let (warp, fill, dir) = pre.components();
+        let force = |x: f64| x.is_finite() && (0.0..=1e12).contains(&x);
+        match pre {
+            super::Prestress::Isotropic { n } => {
+                if !(force(*n) && *n > 0.0) {
+                    self.push(
+                        format!("{p}.n"),
+                        format!("{n} is not a positive membrane force in N/m {RANGE}"),
+                    );
+                }
+            }
+            super::Prestress::WarpFill { .. } => {
+                for (name, v) in [("warp", warp), ("fill", fill)] {
+                    if !force(v) {
+                        self.push(
+                            format!("{p}.{name}"),
+                            format!("{v} is not a membrane force in N/m >= 0 {RANGE}"),
+                        );
+                    }
+                }
+                if warp == 0.0 && fill == 0.0 {
+                    self.push(
+                        format!("{p}.warp"),
+                        "warp and fill are both 0: leave the prestress out for a stress-free sheet",
+                    );
+                }
+                let len = dir.iter().map(|c| c * c).sum::<f64>().sqrt();
+                if !(len.is_finite() && len > 0.0) {
+                    self.push(
+                        format!("{p}.warp_direction"),
+                        format!("{dir:?} is not a direction (finite, not zero)"),
+                    );
+                }
+            }
+            super::Prestress::Field { n } => {
+                let count = match &m.triangles {
+                    TriangleRef::Ids(ids) => ids.len(),
+                    TriangleRef::Set(name) => mesh.triangle_sets.get(name).map_or(0, |t| t.len()),
+                };
+                if n.len() != count {
+                    self.push(
+                        format!("{p}.n"),
+                        format!(
+                            "lists {} tensors for the group's {count} triangles",
+                            n.len()
+                        ),
+                    );
+                }
+                if let Some(k) = n
+                    .iter()
+                    .position(|t| !t.iter().all(|v| v.is_finite() && v.abs() <= 1e12))
+                {
+                    self.push(
+                        format!("{p}.n[{k}]"),
+                        format!("{:?} is not a membrane force tensor in N/m {RANGE}", n[k]),
+                    );
+                }
+            }
+        }
+        // The neo-Hookean sheet carries a principal PK2 stress below μ only (S_i = μ (1 −
+        // 1/(λ_i det C)) < μ); beyond half of it the equivalent stretch exceeds 26 %.
+        if let Material::NeoHookean { mu } = m.material {
+            let s = warp.max(fill) / m.thickness;
+            if positive(mu) && positive(m.thickness) && s.is_finite() && s >= 0.5 * mu {
+                self.push(
+                    p.to_string(),
+                    format!(
+                        "{s:e} Pa (the largest prestress / thickness) is at least half the neo-Hookean shear modulus {mu:e} Pa: the sheet cannot carry it at moderate stretch"
+                    ),
+                );
             }
         }
     }
@@ -630,6 +802,35 @@ impl Validator {
                             t / PRESTRAIN_FLOOR
                         ),
                     );
+                }
+            }
+            if let Some(ts) = &c.pretensions {
+                if c.pretension.is_some() || c.unstretched_length.is_some() {
+                    self.push(
+                        format!("{p}.pretensions"),
+                        "give one of pretension, pretensions and unstretched_length",
+                    );
+                }
+                let segments =
+                    cable_ids(mesh, &c.nodes).map_or(0, |ids| ids.len().saturating_sub(1));
+                if ts.len() != segments {
+                    self.push(
+                        format!("{p}.pretensions"),
+                        format!("lists {} tensions for {segments} segments", ts.len()),
+                    );
+                }
+                for (k, &t) in ts.iter().enumerate() {
+                    if !(t.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&t)) {
+                        self.push(
+                            format!("{p}.pretensions[{k}]"),
+                            format!("{t} is not a tension in N (>= 0 and <= 1e30)"),
+                        );
+                    } else if t > 0.0 && positive(c.ea) && t / c.ea < PRESTRAIN_FLOOR {
+                        self.push(
+                            format!("{p}.pretensions[{k}]"),
+                            format!("{t} N is below round-off for EA = {} N (initial strain below {PRESTRAIN_FLOOR:e})", c.ea),
+                        );
+                    }
                 }
             }
             if let Some(l) = c.unstretched_length {
@@ -763,22 +964,46 @@ impl Validator {
                 }
             }
         }
-        let mut prescribed = BTreeSet::new();
+        // Inputs that hold components; two of the same kind on one component are an error,
+        // different kinds add (a rotation and a translation, radial and tangential).
+        let mut prescribed: BTreeMap<(usize, usize), Vec<String>> = BTreeMap::new();
+        const AXES: [&str; 3] = ["x", "y", "z"];
         for (i, input) in s.inputs.iter().enumerate() {
-            if let Load::Displacement { nodes, component } = &input.load {
-                let p = format!("inputs[{i}].load.nodes");
-                if let Some(ids) = self.nodes(mesh, nodes, &p) {
-                    for id in ids {
-                        let key = (id, component.index());
-                        if held.contains(&key) && !prescribed.contains(&key) {
-                            self.push(&p, format!("node {id} is already fixed in {component:?} by a support; a prescribed displacement cannot move it"));
-                        } else if !prescribed.insert(key) {
-                            self.push(
-                                &p,
-                                format!(
-                                    "node {id} component {component:?} is prescribed by two inputs"
-                                ),
-                            );
+            let (nodes, components, kind): (&NodeRef, Vec<usize>, String) = match &input.load {
+                Load::Displacement { nodes, component } => {
+                    (nodes, vec![component.index()], "displacement".to_string())
+                }
+                Load::Rotation { nodes, .. } => (nodes, vec![0, 1, 2], "rotation".to_string()),
+                Load::PolarDisplacement {
+                    nodes,
+                    axis,
+                    component,
+                    ..
+                } => (
+                    nodes,
+                    (0..3).filter(|&c| c != axis.index()).collect(),
+                    format!("{component:?}").to_lowercase() + " displacement",
+                ),
+                _ => continue,
+            };
+            let p = format!("inputs[{i}].load.nodes");
+            if let Some(ids) = self.nodes(mesh, nodes, &p) {
+                for id in ids {
+                    for &c in &components {
+                        let key = (id, c);
+                        let axis = AXES[c];
+                        if held.contains(&key) && !prescribed.contains_key(&key) {
+                            self.push(&p, format!("node {id} is already fixed in {axis} by a support; a prescribed {kind} cannot move it"));
+                        } else {
+                            let kinds = prescribed.entry(key).or_default();
+                            if kinds.contains(&kind) {
+                                self.push(
+                                    &p,
+                                    format!("node {id} component {axis} is prescribed by two {kind} inputs"),
+                                );
+                            } else {
+                                kinds.push(kind.clone());
+                            }
                         }
                         held.insert(key);
                     }
@@ -835,6 +1060,39 @@ impl Validator {
                     }
                 }
                 Load::Displacement { .. } => {} // checked with the supports
+                Load::Rotation { point, axis, .. } => {
+                    self.point_and_axis(point, axis, &format!("{p}.load"));
+                }
+                Load::PolarDisplacement {
+                    nodes,
+                    center,
+                    axis,
+                    ..
+                } => {
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(
+                            format!("{p}.load.center"),
+                            "must be finite with |x| <= 1e30 m",
+                        );
+                    } else if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
+                        let k = axis.index();
+                        for id in ids {
+                            let x = mesh.nodes[id];
+                            let (mut off, mut size) = (0.0f64, 0.0f64);
+                            for c in (0..3).filter(|&c| c != k) {
+                                off += (x[c] - center[c]).powi(2);
+                                size = size.max(x[c].abs()).max(center[c].abs());
+                            }
+                            if off.sqrt() <= 1e-12 * size.max(1e-300) {
+                                self.push(
+                                    format!("{p}.load.nodes"),
+                                    format!("node {id} lies on the axis: it has no radial or tangential direction"),
+                                );
+                                break;
+                            }
+                        }
+                    }
+                }
                 Load::RadialEdgeLoad { nodes, center, .. } => {
                     if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
                         if ids.len() < 2 {
@@ -944,6 +1202,13 @@ impl Validator {
                         }
                     }
                 }
+                Probe::ReactionMoment { nodes, point, axis } => {
+                    self.point_and_axis(point, axis, &p);
+                    self.reaction_nodes(mesh, nodes, held, &p);
+                }
+                Probe::ReactionResultant { nodes } => {
+                    self.reaction_nodes(mesh, nodes, held, &p);
+                }
                 Probe::NewtonIterations => {}
                 Probe::EnclosedVolume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.membrane"));
@@ -1024,7 +1289,7 @@ impl Validator {
         for (i, p) in s.parameters.iter().enumerate() {
             let path = format!("parameters[{i}].target");
             match variables::parameter_value(s, &p.target) {
-                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
+                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|E_warp|E_fill|nu_wf|G|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
                 Some(v) if !v.is_finite() => self.push(path, format!("{} must be given a value in the scene to be exposed as a parameter", p.target)),
                 Some(_) => {}
             }
@@ -1091,6 +1356,77 @@ impl Validator {
         }
     }
 
+    fn form_finding(&mut self, s: &Scene, mesh: &Mesh) {
+        let Some(ff) = &s.form_finding else {
+            return;
+        };
+        if ff.max_iterations == 0 || ff.max_iterations > 10_000 {
+            self.push(
+                "form_finding.max_iterations",
+                format!("{} is not in 1..=10000", ff.max_iterations),
+            );
+        }
+        if !(ff.tolerance.is_finite() && ff.tolerance >= 1e-12 && ff.tolerance < 0.1) {
+            self.push(
+                "form_finding.tolerance",
+                format!(
+                    "{} is not a relative tolerance in [1e-12, 0.1)",
+                    ff.tolerance
+                ),
+            );
+        }
+        if !(ff.homotopy.is_finite() && (0.0..1.0).contains(&ff.homotopy)) {
+            self.push(
+                "form_finding.homotopy",
+                format!("{} is not a homotopy factor in [0, 1)", ff.homotopy),
+            );
+        }
+        for (k, pl) in ff.place.iter().enumerate() {
+            let p = format!("form_finding.place[{k}]");
+            self.one_node(mesh, &pl.node, &format!("{p}.node"));
+            if !pl.position.iter().all(|&c| coordinate(c)) {
+                self.push(
+                    format!("{p}.position"),
+                    format!("{:?} is not a position in m {RANGE}", pl.position),
+                );
+            }
+        }
+        if s.membranes.is_empty() && s.cables.is_empty() {
+            self.push(
+                "form_finding",
+                "there is nothing to form-find: give membranes with a prestress or cables with a pretension",
+            );
+        }
+        for (i, m) in s.membranes.iter().enumerate() {
+            if matches!(m.prestress, Some(super::Prestress::Field { .. })) {
+                self.push(
+                    format!("membranes[{i}].prestress"),
+                    "form finding takes an isotropic or warp_fill prestress (the stress prescribed on the unknown shape), not a field",
+                );
+            }
+            if m.prestress.is_none() {
+                self.push(
+                    format!("membranes[{i}].prestress"),
+                    "form finding needs a prestress on every membrane group (the stress whose equilibrium shape is sought)",
+                );
+            }
+        }
+        for (i, c) in s.cables.iter().enumerate() {
+            if !c.pretension.is_some_and(|t| t > 0.0) {
+                self.push(
+                    format!("cables[{i}].pretension"),
+                    "form finding needs a positive pretension on every cable (its prescribed force)",
+                );
+            }
+            if c.sleeve.is_some() {
+                self.push(
+                    format!("cables[{i}].sleeve"),
+                    "form finding does not take sleeved cables; form-find without the sleeve, then add it to the found scene",
+                );
+            }
+        }
+    }
+
     fn solver(&mut self, s: &Scene) {
         let st = &s.solver;
         if !(positive(st.tolerance) && st.tolerance < 1e-2) {
@@ -1143,6 +1479,36 @@ fn generator_name(g: &Generator) -> &str {
 
 /// Zero area in floating point: relative to the longest edge (collinear or repeated nodes), or
 /// below what the model's reference frame can be formed from (twice the area <= 1e-300).
+/// Smallest in-plane part (sine of the angle to the normal) of an orthotropic group's warp
+/// vector on any of its triangles: below this the projected direction is round-off.
+const WARP_IN_PLANE: f64 = 1e-3;
+
+/// Triangle ids of a group's reference, if it resolves.
+fn group_triangles(mesh: &Mesh, r: &TriangleRef) -> Option<Vec<usize>> {
+    match r {
+        TriangleRef::Set(name) => mesh.triangle_sets.get(name).cloned(),
+        TriangleRef::Ids(ids) => ids
+            .iter()
+            .all(|&i| i < mesh.triangles.len())
+            .then(|| ids.clone()),
+    }
+}
+
+/// Unit normal of a mesh triangle (None if degenerate or a node id is out of range).
+fn unit_normal(mesh: &Mesh, t: &[usize; 3]) -> Option<[f64; 3]> {
+    let p = |i: usize| mesh.nodes.get(t[i]).copied();
+    let (a, b, c) = (p(0)?, p(1)?, p(2)?);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let n = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    (l > 0.0 && l.is_finite()).then(|| n.map(|x| x / l))
+}
+
 fn degenerate(mesh: &Mesh, t: &[usize; 3]) -> bool {
     let area = triangle_area(mesh, t);
     !(area.is_finite() && 2.0 * area > 1e-300 && area > 1e-14 * longest_edge2(mesh, t))

@@ -75,11 +75,16 @@ fn stalled(it: usize, free: f64, last_free: f64, last_alpha: f64) -> bool {
 /// Iterations compared by [`progressing`].
 const PROGRESS_WINDOW: usize = 10;
 
-/// Whether the residual still falls steadily: the smallest of the last `PROGRESS_WINDOW`
-/// residuals is below half the smallest of the window before. Linear convergence that keeps
-/// this pace (a root where the tangent is singular, such as a flat membrane unloaded to
-/// exactly zero: w³ ∝ q, each Newton step goes a third of the way) is allowed past
-/// `max_iterations`; stagnation or chatter is not.
+/// Relative residual below which a steadily falling residual may continue past
+/// `max_iterations`: the iteration is then close, not crawling from afar.
+const PROGRESS_NEAR: f64 = 1e-4;
+
+/// Whether the relative residual (|R|/F per iteration in `history`) still falls steadily and is
+/// near: the smallest of the last `PROGRESS_WINDOW` is below half the smallest of the window
+/// before, and below `PROGRESS_NEAR`. Linear convergence that keeps this pace (a root where the
+/// tangent is singular, such as a flat membrane unloaded to exactly zero: w³ ∝ q, each Newton
+/// step goes a third of the way) is allowed past `max_iterations`; stagnation, chatter and a
+/// slow crawl from far away are not (they are cut back as before).
 fn progressing(history: &[f64]) -> bool {
     let n = history.len();
     if n < 2 * PROGRESS_WINDOW {
@@ -88,7 +93,7 @@ fn progressing(history: &[f64]) -> bool {
     let least = |w: &[f64]| w.iter().copied().fold(f64::INFINITY, f64::min);
     let recent = least(&history[n - PROGRESS_WINDOW..]);
     let before = least(&history[n - 2 * PROGRESS_WINDOW..n - PROGRESS_WINDOW]);
-    recent < 0.5 * before
+    recent < 0.5 * before && recent < PROGRESS_NEAR
 }
 
 /// The convergence test at one iterate.
@@ -245,7 +250,7 @@ impl Solver {
                 }
             }
             last_free = check.free;
-            history.push(check.free.max(check.slip));
+            history.push(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
             if it >= max && !(it < hard_max && progressing(&history)) {
                 return Err((
                     it,
