@@ -322,7 +322,7 @@ fn arc_length_traces_the_sphere_through_its_limit_point_under_pressure() {
     );
     scene.outputs.retain(|o| o.name != "p"); // enclosed_pressure reads a volume input
     let model = Model::build(&scene);
-    let mut solver = Solver::new(&model, Settings::default());
+    let mut solver = Solver::try_new(&model, Settings::default()).expect("memory");
     let p_ref = 2.0 * PMAX * MU * H;
     let u0 = vec![0.0; model.unknown_count()];
     let points = solver
