@@ -124,6 +124,7 @@ impl ActiveSet {
         model: &Model,
         u: &mut [f64],
         committed: &[f64],
+        settled: bool,
         log: &mut Vec<String>,
     ) -> usize {
         if self.contact.is_empty() {
@@ -137,7 +138,7 @@ impl ActiveSet {
                 format!("  {merged} sleeve points reached their neighbour: merged"),
             );
         }
-        if self.contact_frozen {
+        if self.contact_frozen || !settled {
             return merged;
         }
         let changed = return_map(model, u, committed, &mut self.contact, 0.0);

@@ -144,6 +144,9 @@ pub struct Settings {
     /// Follow each step's path by arc length (`arc.rs`) instead of load increments. Default
     /// off (the scene's `solver.path`).
     pub arc_length_path: bool,
+    /// The stick/slip return map runs inside an increment only once the relative residual of
+    /// the last iterate is at most this (and always at a converged point). Default 1e-3.
+    pub contact_settle: f64,
     /// First arc length of a step, RMS displacement of the free DOFs in metres; 0: set by a
     /// first load-controlled increment of `initial_increment` (the scene's
     /// `solver.arc_length`). Default 0.
@@ -181,6 +184,7 @@ impl Default for Settings {
             merge_gap: 1e-3,
             reopen_gap: 1e-2,
             arc_length_path: false,
+            contact_settle: 1e-3,
             arc_length: 0.0,
         }
     }

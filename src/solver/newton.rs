@@ -141,6 +141,8 @@ impl Solver {
         // damping resumes from it rather than from the start value.
         let mut last_damping = 0.0f64;
         let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
+        // Relative residual of the last iterate (the converged one after a re-check).
+        let mut last_relative = f64::INFINITY;
         let memory = self.settings.nonmonotone_memory;
         let mut reopened = 0;
         let mut recent = std::collections::VecDeque::with_capacity(memory + 1);
@@ -154,7 +156,11 @@ impl Solver {
             active.observe_wrinkles(it, states, log);
             self.frozen = active.wrinkle_frozen.clone();
             super::check_inversion(model, &info).map_err(|why| (it, why))?;
-            let changed = active.update_contact(it, model, u, &committed, log);
+            // The return map runs only once the iterate is near equilibrium (`contact_settle`):
+            // the cone test at a far iterate (a linear step that overshoots the kinks) flips
+            // sticking points to slip and sends Newton wandering (active_set.rs).
+            let settled = last_relative <= self.settings.contact_settle;
+            let changed = active.update_contact(it, model, u, &committed, settled, log);
             let mut rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
             rows.extend(super::volume::rows(model, &self.pattern.eq, u, inc.loads));
             let mut check = self.check(model, &info, &rows, u, inc, it);
@@ -250,6 +256,7 @@ impl Solver {
                 }
             }
             last_free = check.free;
+            last_relative = check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE);
             history.push(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
             if it >= max && !(it < hard_max && progressing(&history)) {
                 return Err((
