@@ -123,7 +123,7 @@ impl ActiveSet {
         it: usize,
         model: &Model,
         u: &mut [f64],
-        committed: &[f64],
+        committed: &mut [f64],
         settled: bool,
         log: &mut Vec<String>,
     ) -> usize {
@@ -131,7 +131,8 @@ impl ActiveSet {
             return 0;
         }
         // Sleeve points that reach their neighbour merge, frozen or not (`order.rs`).
-        let merged = super::order::close_gaps(model, u, &mut self.contact, self.merge_gap);
+        let merged =
+            super::order::close_gaps(model, u, &mut self.contact, committed, self.merge_gap);
         if merged > 0 {
             push_log(
                 log,

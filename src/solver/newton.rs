@@ -132,7 +132,9 @@ impl Solver {
         log: &mut Vec<String>,
     ) -> Result<usize, (usize, String)> {
         let n3 = model.dof_count();
-        let committed: Vec<f64> = u[n3..].to_vec();
+        // The stick anchors: the last converged slips, except where points met in this
+        // increment (a merged frictional group sticks from where it met, order.rs).
+        let mut committed: Vec<f64> = u[n3..].to_vec();
         let mut active = ActiveSet::new(contact.clone(), &self.settings);
         self.frozen = None;
         self.prestress_factor = 1.0;
@@ -160,7 +162,7 @@ impl Solver {
             // the cone test at a far iterate (a linear step that overshoots the kinks) flips
             // sticking points to slip and sends Newton wandering (active_set.rs).
             let settled = last_relative <= self.settings.contact_settle;
-            let changed = active.update_contact(it, model, u, &committed, settled, log);
+            let changed = active.update_contact(it, model, u, &mut committed, settled, log);
             let mut rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
             rows.extend(super::volume::rows(model, &self.pattern.eq, u, inc.loads));
             let mut check = self.check(model, &info, &rows, u, inc, it);

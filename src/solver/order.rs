@@ -109,6 +109,7 @@ pub(crate) fn close_gaps(
     model: &Model,
     u: &mut [f64],
     states: &mut [Contact],
+    anchor: &mut [f64],
     merge_gap: f64,
 ) -> usize {
     let n3 = model.dof_count();
@@ -120,26 +121,40 @@ pub(crate) fn close_gaps(
         let Some(i) = leader_side(model, j) else {
             continue;
         };
-        if model.slips[i].mu > 0.0 || model.slips[j].mu > 0.0 {
-            // Frictional points do not merge (yet): measured on SlidingCable with μ = 0.1 and
-            // 0.3, an iteration that wanders (stick/slip states flipping under long slip steps)
-            // can slide a point that should stick onto its neighbour, and the merged group is
-            // then an admissible friction equilibrium, but not the one the load path reaches.
-            // The gap stays open (fraction to the boundary) and such a step fails instead.
-            continue;
-        }
         let e = model.slips[j].segments[0];
         let reference = model.segments[e].l0;
         if model.segment_l0(u, e) > merge_gap * reference {
             continue;
         }
         // L_e = l0 + s_j − s_i  →  −δ l0.
-        let target = u[n3 + i] - reference - sleeve::CLOSED_OFFSET * reference;
-        let ds = target - u[n3 + j];
-        let dx = model.position(u, model.slips[i].node) - model.position(u, model.slips[j].node);
-        shift_group(model, u, states, j, ds, dx);
+        let mut leader = i;
+        while states[leader] == Contact::Merged {
+            leader = leader_side(model, leader).expect("a merged point follows a sleeve point");
+        }
+        let frictional = model.slips[i].mu > 0.0 || model.slips[j].mu > 0.0;
+        let xi = model.position(u, model.slips[i].node);
+        let xj = model.position(u, model.slips[j].node);
+        if frictional && states[leader] != Contact::Stick && states[j] == Contact::Stick {
+            // With friction the point that slid onto a sticking neighbour takes the last
+            // step of the closure (its group moves onto j), so the sticking point stays where
+            // friction holds it: L_e = l0 + s_j − s_i → −δ l0 by s_i.
+            let target = u[n3 + j] + reference + sleeve::CLOSED_OFFSET * reference;
+            shift_group(model, u, states, leader, target - u[n3 + i], xj - xi);
+        } else {
+            let target = u[n3 + i] - reference - sleeve::CLOSED_OFFSET * reference;
+            shift_group(model, u, states, j, target - u[n3 + j], xi - xj);
+        }
         states[j] = Contact::Merged;
         closed += 1;
+        if frictional {
+            // The points met: the slide that closed the gap ends here. The group starts
+            // sticking where it stands (its stick anchor the leader's present slip), and the
+            // return map decides at a settled iterate whether the group as a whole slips.
+            // Inheriting the leader's slip state would make the group slide on with full
+            // friction the way the leader came: an admissible but wrong equilibrium.
+            states[leader] = Contact::Stick;
+            anchor[leader] = u[n3 + leader];
+        }
     }
     closed
 }
