@@ -26,11 +26,12 @@
 //!                law, Δθ between the side's segment and the link); the group is treated as one
 //!                bead, the approximation this makes for chains of three or more points
 //! ```
-//! Only frictionless neighbours merge (both μ = 0): with friction an iteration that wanders can
-//! slide a point that should stick onto its neighbour and land in an admissible but wrong
-//! group (measured on SlidingCable, μ = 0.1 and 0.3), so frictional gaps stay open and a step
-//! that needs them closed fails (open work). The parting test below is written for friction
-//! too.
+//! With friction the point that slid onto a sticking neighbour takes the closure step (the
+//! sticking point stays where friction holds it), and the new group sticks from where the
+//! points met (stick anchor reset to the leader's present slip) until the return map, at a
+//! settled iterate, finds it slipping: inheriting the slider's slip state made the group slide
+//! on with full friction to an admissible but wrong equilibrium (SlidingCable, μ = 0.15-0.2).
+//! The parting test below is written for friction too.
 //!
 //! A group of touching points acts on the cable as one sleeve point that carries the sum of
 //! their ties: the seed's "the nodes 7 and 9 converge to the node 8" (Fig. 6, frictionless).
