@@ -170,6 +170,8 @@ impl Solver {
                 return Err((it, "the residual is not finite".into()));
             }
             let tolerance = self.settings.tolerance * check.scale;
+            // Also for the iterations that restart at this point (a re-check, a parting).
+            last_relative = check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE);
             self.prestress_factor = prestress_factor(
                 check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE),
                 self.settings.prestress_fade,
@@ -258,7 +260,6 @@ impl Solver {
                 }
             }
             last_free = check.free;
-            last_relative = check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE);
             history.push(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
             if it >= max && !(it < hard_max && progressing(&history)) {
                 return Err((
