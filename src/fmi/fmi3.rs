@@ -331,367 +331,60 @@ pub unsafe extern "C" fn fmi3SetInt32(
 }
 
 // ---------------------------------------------------------------------------------------------
-// Getting and setting variable values: types without variables (generated pattern)
+// Getting and setting variable values: types without variables
 
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetFloat32(
+/// The getter and setter of a type this FMU has no variables of: any value reference is
+/// unknown (fmi3Error with the reference), an empty call is OK.
+macro_rules! no_variables {
+    ($get:ident, $set:ident, $kind:literal, $value:ty) => {
+        #[no_mangle]
+        pub unsafe extern "C" fn $get(
+            instance: Component,
+            vr: *const u32,
+            n_vr: usize,
+            _values: *mut $value,
+            _n_values: usize,
+        ) -> Status {
+            no_such_variables(instance, stringify!($get), $kind, true, vr, n_vr)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn $set(
+            instance: Component,
+            vr: *const u32,
+            n_vr: usize,
+            _values: *const $value,
+            _n_values: usize,
+        ) -> Status {
+            no_such_variables(instance, stringify!($set), $kind, false, vr, n_vr)
+        }
+    };
+}
+
+/// The shim of a getter or setter of a type without variables.
+unsafe fn no_such_variables(
     instance: Component,
+    name: &'static str,
+    kind: &'static str,
+    getter: bool,
     vr: *const u32,
     n_vr: usize,
-    _values: *mut f32,
-    _n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetFloat32", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetFloat32",
-            "Float32",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
+    with_instance(instance, name, |i| {
+        i.no_such_variables_fmi3(name, kind, getter, slice_in(vr, n_vr, "valueReferences"))
     })
 }
 
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetFloat32(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const f32,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetFloat32", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetFloat32",
-            "Float32",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetInt8(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut i8,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetInt8", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetInt8",
-            "Int8",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetInt8(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const i8,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetInt8", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetInt8",
-            "Int8",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetUInt8(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut u8,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetUInt8", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetUInt8",
-            "UInt8",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetUInt8(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const u8,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetUInt8", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetUInt8",
-            "UInt8",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetInt16(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut i16,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetInt16", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetInt16",
-            "Int16",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetInt16(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const i16,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetInt16", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetInt16",
-            "Int16",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetUInt16(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut u16,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetUInt16", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetUInt16",
-            "UInt16",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetUInt16(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const u16,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetUInt16", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetUInt16",
-            "UInt16",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetUInt32(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut u32,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetUInt32", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetUInt32",
-            "UInt32",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetUInt32(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const u32,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetUInt32", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetUInt32",
-            "UInt32",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetInt64(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut i64,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetInt64", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetInt64",
-            "Int64",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetInt64(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const i64,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetInt64", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetInt64",
-            "Int64",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetUInt64(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut u64,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetUInt64", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetUInt64",
-            "UInt64",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetUInt64(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const u64,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetUInt64", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetUInt64",
-            "UInt64",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetBoolean(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut bool,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetBoolean", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetBoolean",
-            "Boolean",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetBoolean(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const bool,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetBoolean", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetBoolean",
-            "Boolean",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetString(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut *const c_char,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetString", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetString",
-            "String",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetString(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const *const c_char,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetString", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetString",
-            "String",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
+no_variables!(fmi3GetFloat32, fmi3SetFloat32, "Float32", f32);
+no_variables!(fmi3GetInt8, fmi3SetInt8, "Int8", i8);
+no_variables!(fmi3GetUInt8, fmi3SetUInt8, "UInt8", u8);
+no_variables!(fmi3GetInt16, fmi3SetInt16, "Int16", i16);
+no_variables!(fmi3GetUInt16, fmi3SetUInt16, "UInt16", u16);
+no_variables!(fmi3GetUInt32, fmi3SetUInt32, "UInt32", u32);
+no_variables!(fmi3GetInt64, fmi3SetInt64, "Int64", i64);
+no_variables!(fmi3GetUInt64, fmi3SetUInt64, "UInt64", u64);
+no_variables!(fmi3GetBoolean, fmi3SetBoolean, "Boolean", bool);
+no_variables!(fmi3GetString, fmi3SetString, "String", *const c_char);
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetBinary(
@@ -702,14 +395,7 @@ pub unsafe extern "C" fn fmi3GetBinary(
     _values: *mut *const u8,
     _n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetBinary", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetBinary",
-            "Binary",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
+    no_such_variables(instance, "fmi3GetBinary", "Binary", true, vr, n_vr)
 }
 
 #[no_mangle]
@@ -721,14 +407,7 @@ pub unsafe extern "C" fn fmi3SetBinary(
     _values: *const *const u8,
     _n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3SetBinary", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetBinary",
-            "Binary",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
+    no_such_variables(instance, "fmi3SetBinary", "Binary", false, vr, n_vr)
 }
 
 #[no_mangle]
@@ -738,14 +417,7 @@ pub unsafe extern "C" fn fmi3GetClock(
     n_vr: usize,
     _values: *mut bool,
 ) -> Status {
-    with_instance(instance, "fmi3GetClock", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetClock",
-            "Clock",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
+    no_such_variables(instance, "fmi3GetClock", "Clock", true, vr, n_vr)
 }
 
 #[no_mangle]
@@ -755,14 +427,7 @@ pub unsafe extern "C" fn fmi3SetClock(
     n_vr: usize,
     _values: *const bool,
 ) -> Status {
-    with_instance(instance, "fmi3SetClock", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetClock",
-            "Clock",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
+    no_such_variables(instance, "fmi3SetClock", "Clock", false, vr, n_vr)
 }
 
 // ---------------------------------------------------------------------------------------------

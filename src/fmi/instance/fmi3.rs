@@ -21,12 +21,11 @@
 //! Messages of the shared methods name the FMI 2 function they implement; the FMI 3 logger
 //! (`fmi3_ffi::fmi3_names`) prints the FMI 3 names.
 
-use super::{check_experiment, load_engine_from, reached, shown, Instance};
+use super::{load_engine_from, reached, shown, Instance};
 use crate::description3;
 use crate::fmi::fmi3_ffi::TIME_VALUE_REFERENCE;
-use crate::fmi::fsm::{FsmState, Func};
+use crate::fmi::fsm::Func;
 use crate::fmi::logging::{Category, Logger};
-use crate::fmi::snapshot::Experiment;
 use crate::fmi::Status;
 use crate::variables::Causality;
 
@@ -100,17 +99,9 @@ impl Instance {
             Func::EnterInitializationMode,
             args,
             |s| {
-                check_experiment(tolerance, start_time, stop_time)?;
-                s.experiment = Experiment {
-                    done: true,
-                    tolerance,
-                    start_time,
-                    stop_time,
-                };
-                s.fsm = FsmState::InitializationMode;
+                s.set_experiment(tolerance, start_time, stop_time)?;
+                s.begin_initialization();
                 s.time = start_time;
-                s.init_base = Some(s.engine.state().clone());
-                s.init_solved = false;
                 Ok(Status::Ok)
             },
         )
@@ -252,14 +243,8 @@ impl Instance {
             *out.terminate_simulation = false;
             *out.early_return = false;
             *out.last_successful_time = s.time;
-            s.check_step(t, h)?;
-            let report = match s.forced_failure(t + h) {
-                Some(report) => report,
-                None => s.solve()?,
-            };
+            let report = s.step(t, h)?;
             if report.converged() {
-                s.time = t + h;
-                s.last_successful_time = s.time;
                 *out.last_successful_time = s.time;
                 return Ok(Status::Ok);
             }
