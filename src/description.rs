@@ -67,6 +67,14 @@ impl Version {
         }
     }
 
+    /// FMI 2 declares arrays as scalars, FMI 3 as arrays.
+    fn variables(self, engine: &Engine) -> &[Variable] {
+        match self {
+            Version::Fmi2 => engine.variables(),
+            Version::Fmi3 => engine.arrays(),
+        }
+    }
+
     fn capability_flags(self) -> &'static [(&'static str, bool)] {
         match self {
             Version::Fmi2 => fmi::capability_flags(),
@@ -77,13 +85,13 @@ impl Version {
 
 /// The document of `version` with its hash filled in.
 pub(crate) fn document(engine: &Engine, version: Version) -> String {
-    let draft = render(engine.scene(), engine.variables(), version);
+    let draft = render(engine.scene(), version.variables(engine), version);
     draft.replacen(GUID_PLACEHOLDER, &guid_of(&draft), 1)
 }
 
 /// The hash of the document of `version` (the GUID or the instantiation token).
 pub(crate) fn token(engine: &Engine, version: Version) -> String {
-    guid_of(&render(engine.scene(), engine.variables(), version))
+    guid_of(&render(engine.scene(), version.variables(engine), version))
 }
 
 /// The document with [`GUID_PLACEHOLDER`] where its hash goes.
@@ -229,7 +237,7 @@ fn scalar_variable(x: &mut String, v: &Variable) {
     );
     let (element, mut attributes) = match v.var_type {
         VarType::Real => ("Real", String::new()),
-        VarType::Integer => ("Integer", String::new()),
+        VarType::Integer | VarType::UInt8 => ("Integer", String::new()),
     };
     if let Some(unit) = v.unit {
         let _ = write!(attributes, " unit=\"{}\"", escape(unit));
@@ -244,7 +252,7 @@ fn scalar_variable(x: &mut String, v: &Variable) {
         if let Some(value) = value {
             let text = match v.var_type {
                 VarType::Real => xs_double(value),
-                VarType::Integer => format!("{}", value.round() as i64),
+                VarType::Integer | VarType::UInt8 => format!("{}", value.round() as i64),
             };
             let _ = write!(attributes, " {name}=\"{text}\"");
         }

@@ -56,6 +56,7 @@ fn variable(x: &mut String, v: &Variable) {
     let element = match v.var_type {
         VarType::Real => "Float64",
         VarType::Integer => "Int32",
+        VarType::UInt8 => "UInt8",
     };
     let _ = write!(
         x,
@@ -85,12 +86,26 @@ fn variable(x: &mut String, v: &Variable) {
         if let Some(value) = value {
             let text = match v.var_type {
                 VarType::Real => xs_double(value),
-                VarType::Integer => format!("{}", value.round() as i64),
+                VarType::Integer | VarType::UInt8 => format!("{}", value.round() as i64),
+            };
+            // An array's start lists every element (row-major).
+            let text = if name == "start" && v.is_array() {
+                vec![text; v.len()].join(" ")
+            } else {
+                text
             };
             let _ = write!(x, "\n      {name}=\"{text}\"");
         }
     }
-    x.push_str("/>\n");
+    if v.is_array() {
+        x.push_str(">\n");
+        for n in &v.dims {
+            let _ = writeln!(x, "      <Dimension start=\"{n}\"/>");
+        }
+        let _ = writeln!(x, "    </{element}>");
+    } else {
+        x.push_str("/>\n");
+    }
 }
 
 /// Every output is listed in Outputs and in InitialUnknowns (all `initial="calculated"`; no

@@ -49,7 +49,10 @@ pub struct EngineState {
 pub struct Engine {
     /// The scene as given (parameter values are applied on top of it when the model is built).
     scene: Scene,
+    /// The variable table as FMI 2 sees it: arrays as scalars `name[i]` ([`variables::scalars`]).
     variables: Vec<Variable>,
+    /// The variable table with arrays (what FMI 3 declares); same value references.
+    arrays: Vec<Variable>,
     model: Model,
     solver: Solver,
     state: EngineState,
@@ -70,13 +73,27 @@ impl Engine {
         if !problems.is_empty() {
             return Err(Error::Scene(problems));
         }
-        let variables = variables::table(&scene);
+        let arrays = variables::table(&scene);
+        let variables = variables::scalars(&arrays);
         let model = Model::try_build(&scene).map_err(|p| Error::Scene(vec![p]))?;
+        let count = |c: Causality| variables.iter().filter(|v| v.causality == c).count();
+        if count(Causality::Input) != model.loads.len()
+            || count(Causality::Output) != model.probes.len()
+        {
+            return Err(Error::State(format!(
+                "internal: the variable table has {} input and {} output scalars, the model {} load channels and {} probes",
+                count(Causality::Input),
+                count(Causality::Output),
+                model.loads.len(),
+                model.probes.len()
+            )));
+        }
         let solver = Solver::new(&model, settings(&scene));
-        let state = initial_state(&scene, &variables, &model);
+        let state = initial_state(&variables, &model);
         let mut engine = Engine {
             scene,
             variables,
+            arrays,
             model,
             solver,
             state,
@@ -112,15 +129,42 @@ impl Engine {
         &self.variables
     }
 
-    /// Find a variable by value reference and type.
+    /// The variable table with arrays (FMI 3); the same value references as
+    /// [`Engine::variables`], an array's being that of its first element.
+    pub fn arrays(&self) -> &[Variable] {
+        &self.arrays
+    }
+
+    /// Find a scalar (an array element counts as one) by value reference and FMI 2 type (a
+    /// UInt8 is read as an Integer).
     pub fn variable(&self, vr: u32, var_type: VarType) -> Result<&Variable, Error> {
         self.variables
+            .iter()
+            .find(|v| v.value_reference == vr && v.var_type.fmi2() == var_type.fmi2())
+            .ok_or(Error::UnknownValueReference {
+                vr,
+                kind: type_name(var_type),
+            })
+    }
+
+    /// Find a variable of the array table (FMI 3) by its value reference and exact type.
+    pub fn array_variable(&self, vr: u32, var_type: VarType) -> Result<&Variable, Error> {
+        self.arrays
             .iter()
             .find(|v| v.value_reference == vr && v.var_type == var_type)
             .ok_or(Error::UnknownValueReference {
                 vr,
                 kind: type_name(var_type),
             })
+    }
+
+    /// All element values of a variable of the array table (a scalar: one), as f64.
+    pub fn values(&self, var: &Variable) -> &[f64] {
+        match var.binding {
+            Binding::Input(k) => &self.state.inputs[k..k + var.len()],
+            Binding::Parameter(i) => std::slice::from_ref(&self.state.parameters[i]),
+            Binding::Output(k) => &self.outputs[k..k + var.len()],
+        }
     }
 
     /// Set an input or a parameter. Rejects outputs, unknown references and non-finite values
@@ -356,7 +400,7 @@ impl Engine {
 
     /// Back to the start values and the undeformed configuration.
     pub fn reset(&mut self) {
-        let fresh = initial_state(&self.scene, &self.variables, &self.model);
+        let fresh = initial_state(&self.variables, &self.model);
         if fresh.parameters != self.state.parameters {
             self.model_stale = true;
         }
@@ -447,10 +491,11 @@ fn type_name(t: VarType) -> &'static str {
     match t {
         VarType::Real => "Real",
         VarType::Integer => "Integer",
+        VarType::UInt8 => "UInt8",
     }
 }
 
-fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> EngineState {
+fn initial_state(vars: &[Variable], model: &Model) -> EngineState {
     let start = |b: fn(Binding) -> bool| -> Vec<f64> {
         vars.iter()
             .filter(|v| b(v.binding))
@@ -459,7 +504,7 @@ fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> EngineState
     };
     let inputs = start(|b| matches!(b, Binding::Input(_)));
     let parameters = start(|b| matches!(b, Binding::Parameter(_)));
-    debug_assert_eq!(inputs.len(), scene.inputs.len());
+    debug_assert_eq!(inputs.len(), model.loads.len());
     EngineState {
         displacement: vec![0.0; model.unknown_count()],
         slip_state: vec![0; model.slips.len()],

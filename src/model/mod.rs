@@ -22,10 +22,7 @@ pub mod sleeve;
 pub mod wrinkling;
 
 use crate::scene::generate::{resolve, Mesh};
-use crate::scene::{
-    CableEnd, Load, Material, NodeRef, OneNode, Probe, Scene, SlipState, StrainLaw,
-    TriangleRef as TriSel,
-};
+use crate::scene::{CableEnd, Load, Material, OneNode, Probe, Scene, SlipState, StrainLaw};
 use nalgebra::Vector3;
 
 /// Default artificial prestress of a membrane group, as a fraction of its E (3μ for
@@ -184,7 +181,7 @@ impl Model {
         let loads: Vec<LoadModel> = scene
             .inputs
             .iter()
-            .map(|i| build_load(scene, &mesh, &triangles, &i.load))
+            .flat_map(|i| build_loads(scene, &mesh, &triangles, &i.load))
             .collect();
         for l in &loads {
             if let LoadModel::Displacement(dofs) = l {
@@ -197,7 +194,7 @@ impl Model {
         let probes = scene
             .outputs
             .iter()
-            .map(|o| build_probe(&mesh, &cables, &sleeves.slips, &groups, &o.probe))
+            .flat_map(|o| build_probes(&mesh, &cables, &sleeves.slips, &groups, &o.probe))
             .collect();
         let force_scale = triangles
             .iter()
@@ -259,13 +256,7 @@ impl Model {
     }
 }
 
-/// Node ids of a (validated) reference.
-pub fn node_ids(mesh: &Mesh, r: &NodeRef) -> Vec<usize> {
-    match r {
-        NodeRef::Ids(ids) => ids.clone(),
-        NodeRef::Set(name) => mesh.node_sets[name].clone(),
-    }
-}
+pub use crate::scene::shape::node_ids;
 
 fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
     match r {
@@ -274,12 +265,7 @@ fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
     }
 }
 
-fn triangle_ids(mesh: &Mesh, r: &TriSel) -> Vec<usize> {
-    match r {
-        TriSel::Ids(ids) => ids.clone(),
-        TriSel::Set(name) => mesh.triangle_sets[name].clone(),
-    }
-}
+use crate::scene::shape::{self, triangle_ids};
 
 /// Membrane elements, group by group.
 fn build_triangles(
@@ -469,7 +455,48 @@ fn group_ranges(scene: &Scene, mesh: &Mesh) -> Vec<(String, std::ops::Range<usiz
         .collect()
 }
 
-fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> LoadModel {
+/// The load channels of one input: one for a scalar input, one per element (row-major) for
+/// an array input (`scene::shape`).
+fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> Vec<LoadModel> {
+    let pressure = |membrane: &str, zone: Option<&str>, follower: bool| {
+        let range = group_ranges(scene, mesh)
+            .into_iter()
+            .find(|g| g.0 == membrane)
+            .map(|g| g.1)
+            .expect("validated group");
+        debug_assert!(range.end <= triangles.len());
+        LoadModel::Pressure {
+            triangles: shape::zone_positions(scene, mesh, membrane, zone)
+                .into_iter()
+                .map(|k| range.start + k)
+                .collect(),
+            follower,
+        }
+    };
+    match load {
+        Load::Pressure {
+            membrane,
+            zone,
+            follower,
+        } => vec![pressure(membrane, zone.as_deref(), *follower)],
+        Load::ZonePressure {
+            membrane,
+            zones,
+            follower,
+        } => zones
+            .iter()
+            .map(|z| pressure(membrane, Some(z), *follower))
+            .collect(),
+        Load::SupportDisplacement { nodes } => node_ids(mesh, nodes)
+            .iter()
+            .flat_map(|&i| (0..3).map(move |c| LoadModel::Displacement(vec![3 * i + c])))
+            .collect(),
+        _ => vec![build_load(mesh, load)],
+    }
+}
+
+/// The one load channel of a scalar input other than a pressure.
+fn build_load(mesh: &Mesh, load: &Load) -> LoadModel {
     match load {
         Load::PointForce { nodes, direction } => {
             let ids = node_ids(mesh, nodes);
@@ -480,18 +507,6 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                     .filter(|(_, f)| *f != 0.0)
                     .collect(),
             )
-        }
-        Load::Pressure { membrane, follower } => {
-            let range = group_ranges(scene, mesh)
-                .into_iter()
-                .find(|g| &g.0 == membrane)
-                .map(|g| g.1)
-                .expect("validated group");
-            debug_assert!(range.end <= triangles.len());
-            LoadModel::Pressure {
-                triangles: range.collect(),
-                follower: *follower,
-            }
         }
         Load::Displacement { nodes, component } => LoadModel::Displacement(
             node_ids(mesh, nodes)
@@ -509,6 +524,9 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
             Vector3::from(*center),
             *closed,
         ),
+        Load::Pressure { .. } | Load::ZonePressure { .. } | Load::SupportDisplacement { .. } => {
+            unreachable!("built by build_loads")
+        }
     }
 }
 
@@ -543,6 +561,74 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
 
 type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
 
+/// The probes of one output: one for a scalar output, one per element (row-major) for an
+/// array output (`scene::shape`).
+fn build_probes(
+    mesh: &Mesh,
+    cables: &[CableInfo],
+    slips: &[sleeve::SlipPoint],
+    groups: &Groups,
+    probe: &Probe,
+) -> Vec<ProbeModel> {
+    let elements = |name: &Option<String>| -> Vec<usize> {
+        groups
+            .iter()
+            .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
+            .flat_map(|g| g.1.clone())
+            .collect()
+    };
+    let cable = |name: &str| {
+        cables
+            .iter()
+            .position(|c| c.name == name)
+            .expect("validated cable name")
+    };
+    match probe {
+        Probe::DisplacementField { nodes } => shape::field_nodes(mesh, nodes)
+            .into_iter()
+            .flat_map(|i| (0..3).map(move |c| ProbeModel::Displacement { dof: 3 * i + c }))
+            .collect(),
+        Probe::PositionField { nodes } => shape::field_nodes(mesh, nodes)
+            .into_iter()
+            .flat_map(|i| {
+                (0..3).map(move |c| ProbeModel::Position {
+                    dof: 3 * i + c,
+                    reference: mesh.nodes[i][c],
+                })
+            })
+            .collect(),
+        Probe::CableTensions { cable: name } => {
+            let k = cable(name);
+            (0..cables[k].segments.len())
+                .map(|s| ProbeModel::CableTension {
+                    cable: k,
+                    segment: Some(s),
+                })
+                .collect()
+        }
+        Probe::PrincipalStresses { membrane } => elements(membrane)
+            .into_iter()
+            .flat_map(|e| {
+                [
+                    ProbeModel::MaxPrincipalStress(vec![e]),
+                    ProbeModel::MinPrincipalStress(vec![e]),
+                ]
+            })
+            .collect(),
+        Probe::WrinkleStates { membrane } => elements(membrane)
+            .into_iter()
+            .map(ProbeModel::ElementState)
+            .collect(),
+        Probe::SleeveSlips { cable: name } => cables[cable(name)]
+            .slips
+            .iter()
+            .map(|&slip| ProbeModel::CableSlip { slip })
+            .collect(),
+        _ => vec![build_probe(mesh, cables, slips, groups, probe)],
+    }
+}
+
+/// The one probe of a scalar output.
 fn build_probe(
     mesh: &Mesh,
     cables: &[CableInfo],
@@ -663,6 +749,12 @@ fn build_probe(
                 .expect("validated: the triangle belongs to a membrane group");
             ProbeModel::ElementState(index)
         }
+        Probe::DisplacementField { .. }
+        | Probe::PositionField { .. }
+        | Probe::CableTensions { .. }
+        | Probe::PrincipalStresses { .. }
+        | Probe::WrinkleStates { .. }
+        | Probe::SleeveSlips { .. } => unreachable!("built by build_probes"),
     }
 }
 

@@ -4,7 +4,8 @@
 use super::generate::{resolve, Mesh};
 use super::limits;
 use super::{
-    Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
+    Component, Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef,
+    FORMAT_VERSION,
 };
 use crate::variables;
 use std::collections::{BTreeMap, BTreeSet};
@@ -702,10 +703,17 @@ impl Validator {
         }
         let mut prescribed = BTreeSet::new();
         for (i, input) in s.inputs.iter().enumerate() {
-            if let Load::Displacement { nodes, component } = &input.load {
-                let p = format!("inputs[{i}].load.nodes");
-                if let Some(ids) = self.nodes(mesh, nodes, &p) {
-                    for id in ids {
+            let (nodes, components) = match &input.load {
+                Load::Displacement { nodes, component } => (nodes, vec![*component]),
+                Load::SupportDisplacement { nodes } => {
+                    (nodes, vec![Component::X, Component::Y, Component::Z])
+                }
+                _ => continue,
+            };
+            let p = format!("inputs[{i}].load.nodes");
+            if let Some(ids) = self.nodes(mesh, nodes, &p) {
+                for id in ids {
+                    for component in &components {
                         let key = (id, component.index());
                         if held.contains(&key) && !prescribed.contains(&key) {
                             self.push(&p, format!("node {id} is already fixed in {component:?} by a support; a prescribed displacement cannot move it"));
@@ -742,19 +750,27 @@ impl Validator {
                         );
                     }
                 }
-                Load::Pressure { membrane, .. } => {
-                    if !s.membranes.iter().any(|m| &m.name == membrane) {
-                        let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
-                        self.push(
-                            format!("{p}.load.membrane"),
-                            format!(
-                                "no membrane group is named \"{membrane}\"{}",
-                                suggest(membrane, names.into_iter())
-                            ),
-                        );
+                Load::Pressure { membrane, zone, .. } => {
+                    if self.membrane_name(s, membrane, &format!("{p}.load.membrane")) {
+                        if let Some(zone) = zone {
+                            self.zone(s, mesh, membrane, zone, &format!("{p}.load.zone"));
+                        }
                     }
                 }
-                Load::Displacement { .. } => {} // checked with the supports
+                Load::ZonePressure {
+                    membrane, zones, ..
+                } => {
+                    if zones.is_empty() {
+                        self.push(format!("{p}.load.zones"), "lists no zone");
+                    }
+                    if self.membrane_name(s, membrane, &format!("{p}.load.membrane")) {
+                        for (k, zone) in zones.iter().enumerate() {
+                            self.zone(s, mesh, membrane, zone, &format!("{p}.load.zones[{k}]"));
+                        }
+                    }
+                }
+                // Checked with the supports.
+                Load::Displacement { .. } | Load::SupportDisplacement { .. } => {}
                 Load::RadialEdgeLoad { nodes, center, .. } => {
                     if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
                         if ids.len() < 2 {
@@ -885,6 +901,25 @@ impl Validator {
                         }
                     }
                 }
+                Probe::DisplacementField { nodes } | Probe::PositionField { nodes } => {
+                    if let Some(nodes) = nodes {
+                        self.nodes(mesh, nodes, &format!("{p}.nodes"));
+                    }
+                }
+                Probe::CableTensions { cable } => {
+                    self.cable_name(s, cable, &format!("{p}.cable"));
+                }
+                Probe::SleeveSlips { cable } => {
+                    self.sleeve_probe(s, mesh, cable, None, &p);
+                }
+                Probe::PrincipalStresses { membrane } | Probe::WrinkleStates { membrane } => {
+                    if s.membranes.is_empty() {
+                        self.push(format!("{p}.kind"), "the scene has no membrane to measure");
+                    }
+                    if let Some(name) = membrane {
+                        self.membrane_name(s, name, &format!("{p}.membrane"));
+                    }
+                }
                 Probe::ElementState { triangle } => {
                     let in_group = s.membranes.iter().any(|m| match &m.triangles {
                         TriangleRef::Ids(ids) => ids.contains(triangle),
@@ -901,6 +936,40 @@ impl Validator {
                     }
                 }
             }
+        }
+    }
+
+    /// Whether a membrane group of that name exists (reported when not).
+    fn membrane_name(&mut self, s: &Scene, membrane: &str, path: &str) -> bool {
+        if s.membranes.iter().any(|m| m.name == membrane) {
+            return true;
+        }
+        let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
+        self.push(
+            path,
+            format!(
+                "no membrane group is named \"{membrane}\"{}",
+                suggest(membrane, names.into_iter())
+            ),
+        );
+        false
+    }
+
+    /// A pressure zone: a triangle set that shares at least one triangle with the group.
+    fn zone(&mut self, s: &Scene, mesh: &Mesh, membrane: &str, zone: &str, path: &str) {
+        if !mesh.triangle_sets.contains_key(zone) {
+            self.push(
+                path,
+                format!(
+                    "no triangle set is named \"{zone}\"{}",
+                    suggest(zone, mesh.triangle_sets.keys())
+                ),
+            );
+        } else if super::shape::zone_positions(s, mesh, membrane, Some(zone)).is_empty() {
+            self.push(
+                path,
+                format!("zone \"{zone}\" has no triangle of membrane group \"{membrane}\""),
+            );
         }
     }
 
@@ -961,6 +1030,34 @@ impl Validator {
                 self.push(&path, format!("\"{name}\" is already used by {first}"));
             } else {
                 seen.insert(name, path);
+            }
+        }
+        // An array's FMI 2 scalars are `name[i]`: its name has no brackets, and no other
+        // variable is named like one of its elements.
+        let mesh = super::generate::resolve(&s.geometry);
+        let arrays: Vec<(&String, String)> = s
+            .inputs
+            .iter()
+            .enumerate()
+            .filter(|(_, i)| !super::shape::input_shape(&mesh, &i.load).is_empty())
+            .map(|(k, i)| (&i.name, format!("inputs[{k}].name")))
+            .chain(
+                s.outputs
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, o)| !super::shape::output_shape(s, &mesh, &o.probe).is_empty())
+                    .map(|(k, o)| (&o.name, format!("outputs[{k}].name"))),
+            )
+            .collect();
+        for (name, path) in &arrays {
+            if name.contains(['[', ']']) {
+                self.push(path, format!("\"{name}\" names an array: no [ ] in it (FMI 2 names its elements {name}[1], {name}[2], ...)"));
+            }
+            let prefix = format!("{name}[");
+            for (other, first) in &seen {
+                if other.starts_with(&prefix) {
+                    self.push(path, format!("the elements of array \"{name}\" would clash with {first} (\"{other}\")"));
+                }
             }
         }
         for (list, names) in [
