@@ -38,6 +38,7 @@ use super::instance::fmi3::{DoStepOut, Instantiate3Args};
 use super::instance::Instance;
 use super::logging::{Callback, Category, Logger};
 use super::Status;
+use crate::variables::VarType;
 use std::ffi::{c_char, c_void};
 use std::ptr::null_mut;
 
@@ -318,13 +319,49 @@ pub unsafe extern "C" fn fmi3SetInt32(
     instance: Component,
     vr: *const u32,
     n_vr: usize,
-    values: *const i32,
+    _values: *const i32,
     n_values: usize,
 ) -> Status {
     with_instance(instance, "fmi3SetInt32", |i| {
-        i.set_int32(
+        i.set_integer_fmi3(
+            "fmi3SetInt32",
+            VarType::Integer,
             slice_in(vr, n_vr, "valueReferences"),
-            slice_in(values, n_values, "values"),
+            n_values,
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt8(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    values: *mut u8,
+    n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3GetUInt8", |i| {
+        i.get_uint8(
+            slice_in(vr, n_vr, "valueReferences"),
+            slice_out(values, n_values, "values"),
+            n_values,
+        )
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt8(
+    instance: Component,
+    vr: *const u32,
+    n_vr: usize,
+    _values: *const u8,
+    n_values: usize,
+) -> Status {
+    with_instance(instance, "fmi3SetUInt8", |i| {
+        i.set_integer_fmi3(
+            "fmi3SetUInt8",
+            VarType::UInt8,
+            slice_in(vr, n_vr, "valueReferences"),
             n_values,
         )
     })
@@ -377,7 +414,6 @@ unsafe fn no_such_variables(
 
 no_variables!(fmi3GetFloat32, fmi3SetFloat32, "Float32", f32);
 no_variables!(fmi3GetInt8, fmi3SetInt8, "Int8", i8);
-no_variables!(fmi3GetUInt8, fmi3SetUInt8, "UInt8", u8);
 no_variables!(fmi3GetInt16, fmi3SetInt16, "Int16", i16);
 no_variables!(fmi3GetUInt16, fmi3SetUInt16, "UInt16", u16);
 no_variables!(fmi3GetUInt32, fmi3SetUInt32, "UInt32", u32);
