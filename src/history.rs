@@ -119,7 +119,8 @@ impl LoadTable {
 }
 
 fn parse_header(header: &str, engine: &Engine) -> Result<Vec<(String, u32)>, String> {
-    let mut cells = header.split(',').map(str::trim);
+    let cells = header_cells(header);
+    let mut cells = cells.iter().map(|c| c.as_str());
     if cells.next() != Some("time") {
         return Err("the first column must be `time`".into());
     }
@@ -145,6 +146,35 @@ fn parse_header(header: &str, engine: &Engine) -> Result<Vec<(String, u32)>, Str
         columns.push((name.to_string(), var.value_reference));
     }
     Ok(columns)
+}
+
+/// The cells of a header line: separated by commas, a cell in double quotes may hold commas
+/// (the FMI 2 names of 2-D array elements, `"corners[1,3]"`), `""` inside quotes is a quote.
+fn header_cells(line: &str) -> Vec<String> {
+    let mut cells = vec![String::new()];
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                chars.next();
+                cells.last_mut().unwrap().push('"');
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => cells.push(String::new()),
+            c => cells.last_mut().unwrap().push(c),
+        }
+    }
+    cells.iter().map(|c| c.trim().to_string()).collect()
+}
+
+/// A header cell: quoted when the name holds a comma or a quote.
+pub fn csv_name(name: &str) -> String {
+    if name.contains([',', '"']) {
+        format!("\"{}\"", name.replace('"', "\"\""))
+    } else {
+        name.to_string()
+    }
 }
 
 fn input_names(engine: &Engine) -> impl Iterator<Item = &str> {
@@ -299,7 +329,12 @@ fn element_rows(engine: &Engine, time: f64, out: &mut String) {
 impl History {
     /// CSV text: the header, then one line per row, numbers in shortest round-trip form.
     pub fn to_csv(&self) -> String {
-        let mut out = self.header.join(",");
+        let mut out = self
+            .header
+            .iter()
+            .map(|n| csv_name(n))
+            .collect::<Vec<_>>()
+            .join(",");
         out.push('\n');
         for row in &self.rows {
             for (i, x) in row.iter().enumerate() {
