@@ -29,6 +29,7 @@ pub mod mechanism;
 mod newton;
 mod path;
 mod relax;
+pub mod sensitivity;
 pub mod slip;
 
 use crate::model::membrane::Evaluation;
