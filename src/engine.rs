@@ -22,6 +22,9 @@ use crate::solver::{Settings, Solver, StepReport};
 use crate::variables::{self, Binding, Causality, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 
+mod derivatives;
+pub use derivatives::Known;
+
 /// Everything needed to continue a run: plain data, `Clone + Serialize`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EngineState {
@@ -62,6 +65,9 @@ pub struct Engine {
     outputs: Vec<f64>,
     /// Evaluation of every membrane triangle in the committed state.
     membranes: Vec<Evaluation>,
+    /// The tangent factored at the committed state for derivatives (None: not yet, or the
+    /// state or the solver's factorization changed since).
+    tangent: Option<crate::solver::sensitivity::Tangent>,
 }
 
 impl Engine {
@@ -100,6 +106,7 @@ impl Engine {
             model_stale: false,
             outputs: Vec::new(),
             membranes: Vec::new(),
+            tangent: None,
         };
         engine.refresh_outputs();
         Ok(engine)
@@ -239,6 +246,7 @@ impl Engine {
     /// with cut-back. On convergence the new equilibrium is committed; otherwise the committed
     /// state is unchanged and the report says how far the increments got.
     pub fn solve(&mut self) -> StepReport {
+        self.tangent = None;
         if self.model_stale {
             self.rebuild();
         }
@@ -431,6 +439,7 @@ impl Engine {
     /// Seconds of one assembly and of one numeric factorization + solve at the committed
     /// state (best of `repeats`): the per-iteration floor the benchmark compares against.
     pub fn time_floor(&mut self, repeats: usize) -> (f64, f64) {
+        self.tangent = None;
         self.solver.time_floor(
             &self.model,
             &self.state.displacement,
@@ -440,6 +449,7 @@ impl Engine {
     }
 
     fn refresh_outputs(&mut self) {
+        self.tangent = None;
         let s = &self.state;
         let membranes = self
             .solver
@@ -463,6 +473,7 @@ impl Engine {
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.
     fn rebuild(&mut self) {
+        self.tangent = None;
         let mut scene = self.scene.clone();
         for (p, value) in scene.parameters.clone().iter().zip(&self.state.parameters) {
             variables::set_parameter_value(&mut scene, &p.target, *value);

@@ -130,7 +130,12 @@ impl Solver {
     }
 
     /// z ← J₀⁻¹ (g − N z) (transposed: N → Nᵀ = −N) until a round changes nothing.
-    fn fixed_point(&mut self, t: &Tangent, g: &[f64], transposed: bool) -> Result<Vec<f64>, String> {
+    fn fixed_point(
+        &mut self,
+        t: &Tangent,
+        g: &[f64],
+        transposed: bool,
+    ) -> Result<Vec<f64>, String> {
         let mut z = self.symmetric_solve(t, g, transposed)?;
         if t.skew.is_empty() {
             return Ok(z);
@@ -155,7 +160,12 @@ impl Solver {
     }
 
     /// Solve with J₀ (or J₀ᵀ) by the Schur path.
-    fn symmetric_solve(&mut self, t: &Tangent, g: &[f64], transposed: bool) -> Result<Vec<f64>, String> {
+    fn symmetric_solve(
+        &mut self,
+        t: &Tangent,
+        g: &[f64],
+        transposed: bool,
+    ) -> Result<Vec<f64>, String> {
         let n3 = t.eq.len();
         let mut x = vec![0.0; t.n];
         for (d, &e) in t.eq.iter().enumerate() {
@@ -242,7 +252,8 @@ impl Solver {
                 follower,
             } => {
                 for &e in triangles {
-                    let (f, _) = assemble::pressure_contribution(model, e, u, 1.0, *follower, false);
+                    let (f, _) =
+                        assemble::pressure_contribution(model, e, u, 1.0, *follower, false);
                     for &i in &model.triangles[e].nodes {
                         for c in 0..3 {
                             g[3 * i + c] += f[c];
@@ -391,5 +402,20 @@ fn slip_rows_derivative(
     plus.iter()
         .zip(&minus)
         .map(|(a, b)| (a.r - b.r) / (2.0 * h))
+        .collect()
+}
+
+/// The slip residuals r at `u` with the stick/slip states given and the committed slips the
+/// state's own (a stuck point's row is then 0).
+pub fn slip_residuals(model: &Model, u: &[f64], slip_states: &[u8]) -> Vec<f64> {
+    let n3 = model.dof_count();
+    let states: Vec<Contact> = slip_states
+        .iter()
+        .map(|&c| Contact::from_code(c).unwrap_or_default())
+        .collect();
+    let eq = vec![NONE; n3];
+    slip_rows(model, &eq, u, &u[n3..], &states)
+        .iter()
+        .map(|r| r.r)
         .collect()
 }
