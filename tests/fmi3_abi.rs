@@ -740,14 +740,6 @@ fn unsupported_functions_are_errors_with_a_reason() {
                 fmi::fmi3GetNumberOfContinuousStates(c, &mut n),
             ),
             (
-                "fmi3GetDirectionalDerivative",
-                fmi::fmi3GetDirectionalDerivative(c, &vr, 1, &vr, 1, &1.0, 1, &mut f, 1),
-            ),
-            (
-                "fmi3GetAdjointDerivative",
-                fmi::fmi3GetAdjointDerivative(c, &vr, 1, &vr, 1, &1.0, 1, &mut f, 1),
-            ),
-            (
                 "fmi3GetNumberOfVariableDependencies",
                 fmi::fmi3GetNumberOfVariableDependencies(c, vr, &mut n),
             ),
@@ -981,5 +973,105 @@ fn fmi2_state_bytes(fx: &Fixture) -> Vec<u8> {
         assert_eq!(fmi::fmi2FreeFMUstate(c, &mut state), OK);
         fmi::fmi2FreeInstance(c);
         bytes
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Directional and adjoint derivatives (issue 12 item 3): the C functions give the engine's
+// numbers, check their counts and arguments.
+
+#[test]
+fn derivatives_through_the_c_functions_are_the_engines() {
+    let fx = Fixture::standard();
+    let log = Log::default();
+    let fmu = fx.fmu(&log, false);
+    let c = fmu.c;
+    assert_eq!(fmu.enter(0.0, 1.0), OK);
+    assert_eq!(fmu.set("P", 1000.0), OK);
+    assert_eq!(fmu.exit(), OK);
+    let (w, p, t) = (fx.vr("midspan_uz"), fx.vr("P"), fx.vr("tension"));
+    let unknowns = [w, t];
+    let mut forward = [0.0f64; 2];
+    let mut adjoint = [0.0f64];
+    unsafe {
+        assert_eq!(
+            fmi::fmi3GetDirectionalDerivative(
+                c,
+                unknowns.as_ptr(),
+                2,
+                &p,
+                1,
+                &1.0,
+                1,
+                forward.as_mut_ptr(),
+                2
+            ),
+            OK
+        );
+        let seed = [1.0, 0.0];
+        assert_eq!(
+            fmi::fmi3GetAdjointDerivative(
+                c,
+                unknowns.as_ptr(),
+                2,
+                &p,
+                1,
+                seed.as_ptr(),
+                2,
+                adjoint.as_mut_ptr(),
+                1
+            ),
+            OK
+        );
+    }
+    // The engine on the same scene and load.
+    let mut engine = Engine::try_new(Scene::from_json(&scene_text()).unwrap()).unwrap();
+    engine.set_real(p, 1000.0).unwrap();
+    assert!(engine.solve().converged());
+    let slot = |vr: u32| match engine
+        .variables()
+        .iter()
+        .find(|v| v.value_reference == vr)
+        .unwrap()
+        .binding
+    {
+        velarium::variables::Binding::Output(k) | velarium::variables::Binding::Input(k) => k,
+        _ => panic!(),
+    };
+    let (sw, st, sp) = (slot(w), slot(t), slot(p));
+    let expected = engine
+        .directional_derivative(&[velarium::engine::Known::Input(sp)], &[1.0], &[sw, st])
+        .unwrap();
+    assert_eq!(forward.to_vec(), expected);
+    assert!(forward[0] < 0.0 && forward[1] > 0.0, "{forward:?}");
+    assert!((adjoint[0] - forward[0]).abs() <= 1e-15 * forward[0].abs());
+    // Counts and kinds are checked.
+    unsafe {
+        let mut out = [0.0f64; 2];
+        assert_eq!(
+            fmi::fmi3GetDirectionalDerivative(
+                c,
+                unknowns.as_ptr(),
+                2,
+                &p,
+                1,
+                &1.0,
+                1,
+                out.as_mut_ptr(),
+                1
+            ),
+            ERROR
+        );
+        log.expect("sensitivity has 1 values, expected 2");
+        assert_eq!(
+            fmi::fmi3GetDirectionalDerivative(c, &p, 1, &w, 1, &1.0, 1, out.as_mut_ptr(), 1),
+            ERROR
+        );
+        log.expect("is not a continuous Real output");
+        assert_eq!(
+            fmi::fmi3GetDirectionalDerivative(c, &w, 1, &t, 1, &1.0, 1, out.as_mut_ptr(), 1),
+            ERROR
+        );
+        log.expect("knowns are inputs and parameters");
     }
 }

@@ -56,8 +56,14 @@ pub fn capability_flags_fmi3() -> &'static [(&'static str, bool)] {
         ),
         ("canGetAndSetFMUState", super::CAN_GET_AND_SET_FMU_STATE),
         ("canSerializeFMUState", super::CAN_SERIALIZE_FMU_STATE),
-        ("providesDirectionalDerivatives", false),
-        ("providesAdjointDerivatives", false),
+        (
+            "providesDirectionalDerivatives",
+            super::PROVIDES_DIRECTIONAL_DERIVATIVE,
+        ),
+        (
+            "providesAdjointDerivatives",
+            super::PROVIDES_DIRECTIONAL_DERIVATIVE,
+        ),
         ("providesPerElementDependencies", false),
         (
             "canHandleVariableCommunicationStepSize",
@@ -75,8 +81,6 @@ const NO_EVENT_MODE: &str =
     "this FMU has no event mode (hasEventMode=\"false\"); after fmi3ExitInitializationMode it is in Step Mode";
 const NO_CLOCKS: &str = "this FMU has no clocks";
 const CO_SIMULATION_ONLY: &str = "this is a Model Exchange function; the FMU is Co-Simulation only";
-const NO_DERIVATIVES: &str =
-    "providesDirectionalDerivatives and providesAdjointDerivatives are false";
 const NO_DEPENDENCIES: &str =
     "providesPerElementDependencies is false; the modelDescription's ModelStructure lists the dependencies";
 const NO_CONFIGURATION: &str = "this FMU has no structural parameters to configure";
@@ -567,31 +571,47 @@ pub unsafe extern "C" fn fmi3DeserializeFMUState(
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
     instance: Component,
-    _unknowns: *const u32,
-    _n_unknowns: usize,
-    _knowns: *const u32,
-    _n_knowns: usize,
-    _seed: *const f64,
-    _n_seed: usize,
-    _sensitivity: *mut f64,
-    _n_sensitivity: usize,
+    unknowns: *const u32,
+    n_unknowns: usize,
+    knowns: *const u32,
+    n_knowns: usize,
+    seed: *const f64,
+    n_seed: usize,
+    sensitivity: *mut f64,
+    n_sensitivity: usize,
 ) -> Status {
-    unsupported(instance, "fmi3GetDirectionalDerivative", NO_DERIVATIVES)
+    with_instance(instance, "fmi3GetDirectionalDerivative", |i| {
+        i.derivative_fmi3(
+            false,
+            slice_in(unknowns, n_unknowns, "unknowns"),
+            slice_in(knowns, n_knowns, "knowns"),
+            slice_in(seed, n_seed, "seed"),
+            slice_out(sensitivity, n_sensitivity, "sensitivity"),
+        )
+    })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetAdjointDerivative(
     instance: Component,
-    _unknowns: *const u32,
-    _n_unknowns: usize,
-    _knowns: *const u32,
-    _n_knowns: usize,
-    _seed: *const f64,
-    _n_seed: usize,
-    _sensitivity: *mut f64,
-    _n_sensitivity: usize,
+    unknowns: *const u32,
+    n_unknowns: usize,
+    knowns: *const u32,
+    n_knowns: usize,
+    seed: *const f64,
+    n_seed: usize,
+    sensitivity: *mut f64,
+    n_sensitivity: usize,
 ) -> Status {
-    unsupported(instance, "fmi3GetAdjointDerivative", NO_DERIVATIVES)
+    with_instance(instance, "fmi3GetAdjointDerivative", |i| {
+        i.derivative_fmi3(
+            true,
+            slice_in(unknowns, n_unknowns, "unknowns"),
+            slice_in(knowns, n_knowns, "knowns"),
+            slice_in(seed, n_seed, "seed"),
+            slice_out(sensitivity, n_sensitivity, "sensitivity"),
+        )
+    })
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -13,6 +13,7 @@
 //! An illegal call or argument changes nothing. Only an internal failure (a caught panic, an
 //! initial equilibrium that does not converge) moves the instance to the Error state.
 
+mod derivatives;
 pub(crate) mod fmi3;
 mod fmu_state;
 mod status;
