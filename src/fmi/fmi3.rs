@@ -3,12 +3,14 @@
 //! -> fmi3Error, panic boundary), pointers turned into `Result`s by the helpers of `ffi.rs`,
 //! then one method of [`Instance`] (FMI 3 specifics in `instance/fmi3.rs`).
 //!
-//! What is supported (Co-Simulation, no event mode, no clocks, no arrays yet):
+//! What is supported (Co-Simulation, no event mode, no clocks):
 //!
 //! ```text
 //! fmi3InstantiateCoSimulation, FreeInstance, EnterInitializationMode, ExitInitializationMode,
 //! Terminate, Reset, SetDebugLogging, GetVersion        as FMI 2 (one call for the experiment)
-//! fmi3Get/SetFloat64, fmi3Get/SetInt32                the variables (nValues checked; time = vr 0)
+//! fmi3Get/SetFloat64, fmi3Get/SetInt32, fmi3GetUInt8  the variables, arrays row-major (nValues =
+//!                                                     their element count; time = vr 0)
+//! fmi3GetDirectionalDerivative, GetAdjointDerivative  at the current equilibrium
 //! fmi3DoStep                                          Discard leaves the state unchanged
 //! fmi3Get/Set/FreeFMUState, SerializedFMUStateSize, SerializeFMUState, DeserializeFMUState
 //! ```
@@ -16,7 +18,7 @@
 //! Every other function is exported (importers such as fmpy resolve all 75 at load time) and
 //! answers fmi3Error with a logged reason: the other variable types have no variables (an
 //! empty call is OK, any value reference is unknown); Model Exchange and Scheduled Execution
-//! instantiation return NULL; event mode, clocks, configuration mode, derivatives, variable
+//! instantiation return NULL; event mode, clocks, configuration mode, variable
 //! dependencies and the Model Exchange functions are not supported.
 //!
 //! # Safety
