@@ -115,9 +115,10 @@ def test_capability_flags_and_model_structure(fmu3):
     cs = root.find("CoSimulation").attrib
     assert cs["canGetAndSetFMUState"] == cs["canSerializeFMUState"] == "true"
     assert cs["canHandleVariableCommunicationStepSize"] == "true"
-    for flag in ("hasEventMode", "mightReturnEarlyFromDoStep", "providesIntermediateUpdate",
-                 "canBeInstantiatedOnlyOncePerProcess"):
+    for flag in ("hasEventMode", "canBeInstantiatedOnlyOncePerProcess"):
         assert cs[flag] == "false", flag
+    assert cs["providesIntermediateUpdate"] == cs["mightReturnEarlyFromDoStep"] == "true"
+    assert cs["canReturnEarlyAfterIntermediateUpdate"] == "true"
     assert cs["providesDirectionalDerivatives"] == cs["providesAdjointDerivatives"] == "true"
     variables = list(root.find("ModelVariables"))
     outputs = [int(v.get("valueReference")) for v in variables if v.get("causality") == "output"]

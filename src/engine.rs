@@ -23,7 +23,9 @@ use crate::variables::{self, Binding, Causality, VarType, Variability, Variable}
 use serde::{Deserialize, Serialize};
 
 mod derivatives;
+mod stepping;
 pub use derivatives::Known;
+pub use stepping::{Increment, Step};
 
 /// Everything needed to continue a run: plain data, `Clone + Serialize`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

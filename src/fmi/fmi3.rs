@@ -35,6 +35,7 @@ use super::ffi::{
 };
 use super::fmi3_ffi::{
     Fmi3ClockUpdateFn, Fmi3Enum, Fmi3IntermediateUpdateFn, Fmi3LoggerFn, Fmi3PreemptionFn,
+    IntermediateUpdate,
 };
 use super::instance::fmi3::{DoStepOut, Instantiate3Args};
 use super::instance::Instance;
@@ -71,9 +72,9 @@ pub fn capability_flags_fmi3() -> &'static [(&'static str, bool)] {
             "canHandleVariableCommunicationStepSize",
             super::CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
         ),
-        ("providesIntermediateUpdate", false),
-        ("mightReturnEarlyFromDoStep", false),
-        ("canReturnEarlyAfterIntermediateUpdate", false),
+        ("providesIntermediateUpdate", true),
+        ("mightReturnEarlyFromDoStep", true),
+        ("canReturnEarlyAfterIntermediateUpdate", true),
         ("hasEventMode", false),
         ("providesEvaluateDiscreteStates", false),
     ]
@@ -171,7 +172,7 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
     _n_required_intermediate_variables: usize,
     instance_environment: *mut c_void,
     log_message: Option<Fmi3LoggerFn>,
-    _intermediate_update: Option<Fmi3IntermediateUpdateFn>,
+    intermediate_update: Option<Fmi3IntermediateUpdateFn>,
 ) -> Component {
     guard(null_mut(), || {
         let (name, token, path) = (
@@ -191,6 +192,7 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
             resource_path: path.as_deref(),
             event_mode_used,
             early_return_allowed,
+            intermediate_update: IntermediateUpdate::new(intermediate_update, instance_environment),
         };
         Instance::instantiate_fmi3(&args, logger).map_or(null_mut(), into_component)
     })

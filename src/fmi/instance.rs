@@ -62,6 +62,10 @@ pub struct Instance {
     init_solved: bool,
     /// The thread the solves run on (joined when the instance is dropped; see `worker.rs`).
     worker: Worker,
+    /// FMI 3: the master's intermediate-update callback (steps then report every load
+    /// increment) and whether it allows an early return.
+    intermediate: Option<super::fmi3_ffi::IntermediateUpdate>,
+    early_return_allowed: bool,
 }
 
 impl Instance {
@@ -101,6 +105,8 @@ impl Instance {
             init_base: None,
             init_solved: false,
             worker: Worker::new(),
+            intermediate: None,
+            early_return_allowed: false,
         }
     }
 

@@ -255,6 +255,12 @@ impl Solver {
         }
     }
 
+    /// The settings, to change for the next solves (the engine's increment-by-increment
+    /// driver, `engine/stepping.rs`, runs one increment per solve).
+    pub fn settings_mut(&mut self) -> &mut Settings {
+        &mut self.settings
+    }
+
     /// Number of unknowns (free DOFs).
     pub fn free_dofs(&self) -> usize {
         self.pattern.n

@@ -23,7 +23,7 @@
 
 use super::{load_engine_from, reached, shown, Instance};
 use crate::description3;
-use crate::fmi::fmi3_ffi::TIME_VALUE_REFERENCE;
+use crate::fmi::fmi3_ffi::{IntermediateUpdate, TIME_VALUE_REFERENCE};
 use crate::fmi::fsm::Func;
 use crate::fmi::logging::{Category, Logger};
 use crate::fmi::Status;
@@ -36,6 +36,7 @@ pub struct Instantiate3Args<'a> {
     pub resource_path: Option<&'a str>,
     pub event_mode_used: bool,
     pub early_return_allowed: bool,
+    pub intermediate_update: Option<IntermediateUpdate>,
 }
 
 /// The out-arguments of `fmi3DoStep`.
@@ -55,7 +56,9 @@ impl Instance {
     pub fn instantiate_fmi3(args: &Instantiate3Args, logger: Logger) -> Option<Instance> {
         match build_fmi3(args) {
             Ok((engine, token)) => {
-                let instance = Instance::new(engine, token, logger);
+                let mut instance = Instance::new(engine, token, logger);
+                instance.intermediate = args.intermediate_update;
+                instance.early_return_allowed = args.early_return_allowed;
                 instance.logger.log(
                     Category::Calls,
                     &format!(
@@ -303,8 +306,9 @@ impl Instance {
     /// converged: the instance stays exactly as it was before the call (same equilibrium,
     /// time, state-machine state) and the call returns fmi3Discard with
     /// `lastSuccessfulTime = currentCommunicationPoint`; the master may change inputs and try
-    /// again, restore a state, or terminate. `earlyReturn` and `eventHandlingNeeded` are
-    /// always false (no early return, no event mode); `terminateSimulation` is false.
+    /// again, restore a state, or terminate. `eventHandlingNeeded` and `terminateSimulation` are
+    /// false (no event mode); `earlyReturn` is true only when the master asked for it through
+    /// its intermediate-update callback and allowed it at instantiation ([`Instance::step_reported`]).
     pub fn do_step_fmi3(
         &mut self,
         t: f64,
@@ -323,15 +327,73 @@ impl Instance {
             *out.terminate_simulation = false;
             *out.early_return = false;
             *out.last_successful_time = s.time;
-            let report = s.step(t, h)?;
+            let (report, early) = match s.intermediate {
+                Some(callback) => s.step_reported(t, h, callback)?,
+                None => (s.step(t, h)?, false),
+            };
             if report.converged() {
                 *out.last_successful_time = s.time;
+                *out.early_return = early;
                 return Ok(Status::Ok);
             }
             *out.last_successful_time = t;
             s.log_discard_fmi3(t, h, &report);
             Ok(Status::Discard)
         })
+    }
+
+    /// [`Instance::step`] one load increment at a time, each reported to the master's
+    /// intermediate-update callback at its pseudo-time t + λ h (λ the load fraction of the step
+    /// reached; `intermediateStepFinished` true for a converged increment, false for a
+    /// cut-back). When early return is allowed and the master asks for it after a converged
+    /// increment short of the end, the step stops there: the equilibrium at λ is committed and
+    /// the instance's time is t + λ h (the next DoStep starts there and applies the rest).
+    /// Returns the report and whether the step returned early.
+    fn step_reported(
+        &mut self,
+        t: f64,
+        h: f64,
+        callback: IntermediateUpdate,
+    ) -> Result<(crate::solver::StepReport, bool), String> {
+        self.check_step(t, h)?;
+        if let Some(report) = self.forced_failure(t + h) {
+            return Ok((report, false));
+        }
+        if self.poisoned {
+            return Err("the engine is unusable after an internal error; call fmi3Reset".into());
+        }
+        let engine = &mut self.engine;
+        let mut step = self.worker.run(|| engine.begin_step());
+        let mut early = false;
+        loop {
+            let engine = &mut self.engine;
+            let Some(increment) = self.worker.run(|| engine.advance(&mut step)) else {
+                break;
+            };
+            let can_return_early =
+                self.early_return_allowed && increment.converged && increment.lambda < 1.0;
+            let requested = callback.call(
+                t + increment.lambda * h,
+                increment.converged,
+                can_return_early,
+            );
+            if requested && can_return_early {
+                early = true;
+                break;
+            }
+        }
+        let engine = &mut self.engine;
+        let report = self.worker.run(|| engine.end_step(step));
+        if self.logger.enabled(Category::Solver) {
+            for line in &report.log {
+                self.logger.log(Category::Solver, line);
+            }
+        }
+        if report.converged() {
+            self.time = if early { t + report.reached * h } else { t + h };
+            self.last_successful_time = self.time;
+        }
+        Ok((report, early))
     }
 
     /// logStatusDiscard for FMI 3: how far the step got, why, and the inputs by name.
