@@ -2,7 +2,10 @@
 # The main job on a fresh machine: build, install the Python environment, pack every shipped
 # scene into build/fmus/, calibrate SleeveCable to the seed paper's Table 1 through the FMU, print
 # the Table 1 comparison and write build/plots/SleeveCable_*.png, then both readings of Fig. 1 side
-# by side (harness/sleeve_readings.py, build/plots/Table1_readings.png) (`--model NAME` runs another
+# by side (harness/sleeve_readings.py, build/plots/Table1_readings.png), then the seed paper's three
+# experiments in one summary table (harness/seed_experiments.py: Fig. 4-5 iteration histories,
+# Fig. 6 node paths, Table 1 per reading; build/plots/seed_fig5_iterations.png,
+# seed_fig6_paths.png) (`--model NAME` runs another
 # shipped scene's load ramp instead); then shear the pretensioned WrinkledShear film through
 # fmpy and plot its wrinkle states (harness/wrinkled_shear.py); finally run the shipped
 # LiftedMembrane through fmpy with its ParaView series and 3-D plot (build/runs/LiftedMembrane/)
@@ -13,6 +16,7 @@ cd "$(dirname "$0")/.."
 bash harness/setup.sh
 .venv/bin/python harness/run_main.py "$@"
 .venv/bin/python harness/sleeve_readings.py
+.venv/bin/python harness/seed_experiments.py
 .venv/bin/python harness/wrinkled_shear.py
 .venv/bin/python harness/run_main.py --model LiftedMembrane
 .venv/bin/python harness/screenshot.py build/runs/LiftedMembrane/vtk/LiftedMembrane.pvd build/plots/LiftedMembrane_pyvista.png

@@ -34,7 +34,8 @@ pub struct EngineState {
     /// sleeve point (material coordinate change, m): `Model::unknown_count` values.
     pub displacement: Vec<f64>,
     /// Stick/slip state of every sleeve point at the last converged increment
-    /// (0 stick, 1 slip toward the cable's end, 2 toward its start).
+    /// (0 stick, 1 slip toward the cable's end, 2 toward its start, 3 merged into the previous
+    /// sleeve point).
     pub slip_state: Vec<u8>,
     /// Input values of the committed equilibrium (what the structure carries now).
     pub applied: Vec<f64>,
@@ -311,11 +312,33 @@ impl Engine {
                 state.displacement[i]
             ));
         }
-        if let Some(i) = state.slip_state.iter().position(|&c| c > 2) {
+        if let Some(i) = state.slip_state.iter().position(|&c| c > 3) {
             return bad(format!(
-                "slip_state[{i}] = {} is not a stick/slip code (0 stick, 1 and 2 slip)",
+                "slip_state[{i}] = {} is not a stick/slip code (0 stick, 1 and 2 slip, 3 merged)",
                 state.slip_state[i]
             ));
+        }
+        // Merged (3) only where the point follows another sleeve point, and then its segment
+        // must be closed (negative unstretched length, docs/mechanics.md §2.3), both ways.
+        let model = &self.model;
+        if state.slip_state.len() == model.slips.len()
+            && state.displacement.len() == model.unknown_count()
+        {
+            for (j, &c) in state.slip_state.iter().enumerate() {
+                let e = model.slips[j].segments[0];
+                let follows = model.segments[e].slip[0].is_some();
+                let closed = follows && model.segment_closed(&state.displacement, e);
+                if (c == crate::model::sleeve::MERGED) != closed {
+                    return bad(format!(
+                        "slip_state[{j}] = {c} does not match the slips: {}",
+                        if c == crate::model::sleeve::MERGED {
+                            "a merged point must follow a touching sleeve point (closed segment)"
+                        } else {
+                            "the segment before this point is closed, so its state must be 3 (merged)"
+                        }
+                    ));
+                }
+            }
         }
         if let Some(i) = state.wrinkle.iter().position(|&c| c > 2) {
             return bad(format!(

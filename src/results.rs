@@ -6,9 +6,11 @@
 //! cable length   Σ |x_b − x_a| over the segments of the cable or span      m
 //! cable slip     −s_j: unstretched cable that passed the sleeve point toward the cable's end  m
 //! contact force  |k_c (x_c − x_m)| of a sleeve tie (largest over the listed ones)  N
-//! contact gap    largest |x_c − x_m| / min(l_a, l_b) over the sleeve (penetration check)
-//! slip count     sleeve points in the stick or slip state
-//! cable tension  T of a segment, or the largest     N
+//! contact gap    largest |x_c − x_m| / min(l_a, l_b) over the sleeve (penetration check; open
+//!                segments only)
+//! slip count     sleeve points in the stick or slip state (a merged point: its group's)
+//! cable tension  T of a segment, or the largest (a closed segment between touching sleeve
+//!                points: the tension entering its group)     N
 //! reaction       Σ R[dof] over held DOFs of the set, R = f_int − f_ext: the force the supports
 //!                and prescribed displacements exert on the structure        N
 //! iterations     Newton iterations of the last step
@@ -16,7 +18,7 @@
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
-use crate::model::{cable, sleeve, Model, ProbeModel};
+use crate::model::{sleeve, Model, ProbeModel};
 use crate::solver::Solver;
 
 /// Every output of the model, in probe order. `u` displacement, `applied` input values it
@@ -70,15 +72,27 @@ pub fn evaluate(
             ProbeModel::ContactGap { slips } => slips
                 .iter()
                 .map(|&j| {
+                    // A closed segment (touching sleeve points) has no length of its own.
+                    let open = |e: usize| {
+                        if model.segment_closed(u, e) {
+                            f64::INFINITY
+                        } else {
+                            segment_length(model, u, e)
+                        }
+                    };
                     let [a, b] = model.slips[j].segments;
-                    tie_gap(model, u, j)
-                        / segment_length(model, u, a).min(segment_length(model, u, b))
+                    let shorter = open(a).min(open(b));
+                    if shorter.is_finite() {
+                        tie_gap(model, u, j) / shorter
+                    } else {
+                        0.0
+                    }
                 })
                 .fold(0.0, f64::max),
             ProbeModel::SlipCount { slips, slipping } => slips
                 .iter()
                 .filter(|&&j| {
-                    let state = slip_states.get(j).copied().unwrap_or(sleeve::STICK);
+                    let state = group_state(model, slip_states, j);
                     (state != sleeve::STICK) == *slipping
                 })
                 .count() as f64,
@@ -104,8 +118,23 @@ pub fn evaluate(
                 .map(|e| membranes[*e].cauchy.1)
                 .fold(f64::INFINITY, f64::min),
             ProbeModel::ElementState(e) => state_code(membranes[*e].state) as f64,
+            ProbeModel::EnclosedVolume(tris) => model.enclosed_volume(u, tris),
+            ProbeModel::EnclosedPressure(k) => u[model.volume_unknown(*k)],
         })
         .collect()
+}
+
+/// Stick/slip code of sleeve point `j`, a merged point taking its group's (the leader's).
+fn group_state(model: &Model, slip_states: &[u8], j: usize) -> u8 {
+    let code = |k: usize| slip_states.get(k).copied().unwrap_or(sleeve::STICK);
+    let mut k = j;
+    while code(k) == sleeve::MERGED {
+        match model.segments[model.slips[k].segments[0]].slip[0] {
+            Some(i) => k = i,
+            None => return sleeve::STICK,
+        }
+    }
+    code(k)
 }
 
 fn segment_length(model: &Model, u: &[f64], e: usize) -> f64 {
@@ -119,25 +148,13 @@ fn tie_gap(model: &Model, u: &[f64], j: usize) -> f64 {
     (model.position(u, c) - model.position(u, m)).norm()
 }
 
-fn segment_lengths(model: &Model, u: &[f64], cable: usize) -> Vec<f64> {
-    model.cables[cable]
-        .segments
-        .clone()
-        .map(|e| segment_length(model, u, e))
-        .collect()
-}
-
-/// Axial force of every segment of a cable.
+/// Axial force of every segment of a cable (a closed segment: the tension entering its group,
+/// `Model::segment_tension`).
 pub fn segment_tensions(model: &Model, u: &[f64], cable: usize) -> Vec<f64> {
-    let lengths = segment_lengths(model, u, cable);
     model.cables[cable]
         .segments
         .clone()
-        .zip(lengths)
-        .map(|(s, l)| {
-            let seg = &model.segments[s];
-            cable::tension(seg.law, seg.ea, model.segment_l0(u, s), l).0
-        })
+        .map(|s| model.segment_tension(u, s))
         .collect()
 }
 

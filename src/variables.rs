@@ -97,6 +97,7 @@ pub const UNITS: &[(&str, [i32; 3])] = &[
     ("N", [1, 1, -2]),
     ("Pa", [1, -1, -2]),
     ("N/m", [1, 0, -2]),
+    ("m3", [0, 3, 0]),
 ];
 
 /// Build the table of a (validated) scene. Parameter start values are read from the scene.
@@ -143,6 +144,7 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
                 Load::Pressure { .. } | Load::ZonePressure { .. } => "Pa",
                 Load::Displacement { .. } | Load::SupportDisplacement { .. } => "m",
                 Load::RadialEdgeLoad { .. } => "N/m",
+                Load::Volume { .. } | Load::Gas { .. } => "m3",
             }),
             start: Some(input.start),
             min: input.min,
@@ -180,6 +182,8 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
             Probe::CableTension { .. } | Probe::Reaction { .. } | Probe::ContactForce { .. } => {
                 (VarType::Real, Variability::Continuous, Some("N"))
             }
+            Probe::EnclosedVolume { .. } => (VarType::Real, Variability::Continuous, Some("m3")),
+            Probe::EnclosedPressure { .. } => (VarType::Real, Variability::Continuous, Some("Pa")),
         };
         vars.push(Variable {
             name: out.name.clone(),

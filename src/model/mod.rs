@@ -74,6 +74,20 @@ pub enum LoadModel {
     },
     /// Prescribed DOFs.
     Displacement(Vec<usize>),
+    /// Prescribed enclosed volume V⁰ + value of a closed group (`Model::triangles` indices):
+    /// a follower pressure whose value is the unknown `u[Model::volume_unknown(unknown)]`,
+    /// with the constraint row `stiffness · (V(u) − V⁰ − value)` (N: `stiffness` = E t / A of
+    /// the group, so the row is a force and meets the same tolerance as the others).
+    ///
+    /// With `atmosphere` (a gas input) the row is the isothermal gas law instead,
+    /// `stiffness · ((p + p_atm) V(u)/p_atm − V⁰ − value)`.
+    Volume {
+        triangles: Vec<usize>,
+        unknown: usize,
+        reference: f64,
+        stiffness: f64,
+        atmosphere: Option<f64>,
+    },
 }
 
 /// What one output reads.
@@ -120,6 +134,10 @@ pub enum ProbeModel {
     MaxPrincipalStress(Vec<usize>),
     MinPrincipalStress(Vec<usize>),
     ElementState(usize),
+    /// Volume enclosed by these triangles (`Model::triangles` indices).
+    EnclosedVolume(Vec<usize>),
+    /// The pressure unknown of a volume input (index among the volume unknowns).
+    EnclosedPressure(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -138,6 +156,8 @@ pub struct Model {
     pub force_scale: f64,
     /// A length scale (m): the bounding-box diagonal of the used nodes.
     pub length_scale: f64,
+    /// Pressure unknowns of volume inputs (stored after the slips).
+    pub volumes: usize,
 }
 
 impl Model {
@@ -178,11 +198,18 @@ impl Model {
                 }
             }
         }
-        let loads: Vec<LoadModel> = scene
+        let mut loads: Vec<LoadModel> = scene
             .inputs
             .iter()
             .flat_map(|i| build_loads(scene, &mesh, &triangles, &i.load))
             .collect();
+        let mut volumes = 0;
+        for l in &mut loads {
+            if let LoadModel::Volume { unknown, .. } = l {
+                *unknown = volumes;
+                volumes += 1;
+            }
+        }
         for l in &loads {
             if let LoadModel::Displacement(dofs) = l {
                 for &d in dofs {
@@ -194,7 +221,7 @@ impl Model {
         let probes = scene
             .outputs
             .iter()
-            .flat_map(|o| build_probes(&mesh, &cables, &sleeves.slips, &groups, &o.probe))
+            .flat_map(|o| build_probes(scene, &mesh, &cables, &sleeves.slips, &groups, &o.probe))
             .collect();
         let force_scale = triangles
             .iter()
@@ -214,15 +241,18 @@ impl Model {
             held,
             force_scale,
             length_scale,
+            volumes,
         })
     }
 
     /// True when every load has a potential (no follower pressure).
     pub fn is_conservative(&self) -> bool {
-        !self
-            .loads
-            .iter()
-            .any(|l| matches!(l, LoadModel::Pressure { follower: true, .. }))
+        !self.loads.iter().any(|l| {
+            matches!(
+                l,
+                LoadModel::Pressure { follower: true, .. } | LoadModel::Volume { .. }
+            )
+        })
     }
 
     /// Displacement DOFs: 3 per node.
@@ -230,9 +260,34 @@ impl Model {
         3 * self.reference.len()
     }
 
-    /// Length of the unknown vector: the displacements, then one slip per sleeve point.
+    /// Length of the unknown vector: the displacements, then one slip per sleeve point, then
+    /// one pressure per volume input.
     pub fn unknown_count(&self) -> usize {
-        self.dof_count() + self.slips.len()
+        self.dof_count() + self.slips.len() + self.volumes
+    }
+
+    /// Index in the unknown vector of the pressure of volume input `k` (k-th volume input).
+    pub fn volume_unknown(&self, k: usize) -> usize {
+        self.dof_count() + self.slips.len() + k
+    }
+
+    /// The value load `l` applies under `u` and the input values `loads`: the input's value,
+    /// except for a volume input, whose load is the pressure unknown.
+    pub fn load_value(&self, l: usize, u: &[f64], loads: &[f64]) -> f64 {
+        match &self.loads[l] {
+            LoadModel::Volume { unknown, .. } => u[self.volume_unknown(*unknown)],
+            _ => loads[l],
+        }
+    }
+
+    /// Volume enclosed by triangles `tris` (`Model::triangles` indices) under `u`.
+    pub fn enclosed_volume(&self, u: &[f64], tris: &[usize]) -> f64 {
+        tris.iter()
+            .map(|&e| {
+                let x = self.triangles[e].nodes.map(|i| self.position(u, i));
+                pressure::enclosed_volume(&x)
+            })
+            .sum()
     }
 
     /// Current unstretched length of segment `e` (its reference one plus the material that
@@ -243,8 +298,31 @@ impl Model {
         s.l0 + slip(s.slip[1]) - slip(s.slip[0])
     }
 
-    /// Axial force (N) of segment `e` under `u` (displacements, then slips).
+    /// Whether segment `e` is closed: it joins two sleeve points of its cable that touch, and
+    /// its unstretched length is held at −`sleeve::CLOSED_OFFSET`·l0 (`solver::order`).
+    pub fn segment_closed(&self, u: &[f64], e: usize) -> bool {
+        let s = &self.segments[e];
+        s.slip[0].is_some() && s.slip[1].is_some() && self.segment_l0(u, e) < 0.0
+    }
+
+    /// Stiffness (N/m) of the link that holds the two cable points of a closed segment
+    /// together: `sleeve::LINK_FACTOR` times the stiffer of their ties.
+    pub fn link_stiffness(&self, e: usize) -> f64 {
+        let s = &self.segments[e];
+        let k = |j: Option<usize>| j.map_or(0.0, |j| self.ties[self.slips[j].tie].k);
+        sleeve::LINK_FACTOR * k(s.slip[0]).max(k(s.slip[1]))
+    }
+
+    /// Axial force (N) of segment `e` under `u` (displacements, then slips). A closed segment
+    /// (between touching sleeve points) has no length of its own; it reports the tension of the
+    /// cable entering its group (the last open segment before it).
     pub fn segment_tension(&self, u: &[f64], e: usize) -> f64 {
+        let mut e = e;
+        // A closed segment starts at a sleeve point, never at the cable's first point, so
+        // e − 1 is a segment of the same cable.
+        while e > 0 && self.segment_closed(u, e) {
+            e -= 1;
+        }
         let s = &self.segments[e];
         let l = (self.position(u, s.nodes[1]) - self.position(u, s.nodes[0])).norm();
         cable::tension(s.law, s.ea, self.segment_l0(u, e), l).0
@@ -491,12 +569,12 @@ fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) 
             .iter()
             .flat_map(|&i| (0..3).map(move |c| LoadModel::Displacement(vec![3 * i + c])))
             .collect(),
-        _ => vec![build_load(mesh, load)],
+        _ => vec![build_load(scene, mesh, triangles, load)],
     }
 }
 
 /// The one load channel of a scalar input other than a pressure.
-fn build_load(mesh: &Mesh, load: &Load) -> LoadModel {
+fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> LoadModel {
     match load {
         Load::PointForce { nodes, direction } => {
             let ids = node_ids(mesh, nodes);
@@ -514,6 +592,36 @@ fn build_load(mesh: &Mesh, load: &Load) -> LoadModel {
                 .map(|&i| 3 * i + component.index())
                 .collect(),
         ),
+        Load::Volume { membrane } | Load::Gas { membrane, .. } => {
+            let range = group_ranges(scene, mesh)
+                .into_iter()
+                .find(|g| &g.0 == membrane)
+                .map(|g| g.1)
+                .expect("validated group");
+            let tris = &triangles[range.clone()];
+            let area: f64 = tris.iter().map(|t| t.reference.area).sum();
+            let et = tris
+                .iter()
+                .map(|t| t.material.modulus() * t.material.thickness)
+                .fold(0.0, f64::max);
+            let reference = tris
+                .iter()
+                .map(|t| {
+                    let x = t.nodes.map(|i| Vector3::from(mesh.nodes[i]));
+                    pressure::enclosed_volume(&x)
+                })
+                .sum();
+            LoadModel::Volume {
+                triangles: range.collect(),
+                unknown: 0,
+                reference,
+                stiffness: et / area,
+                atmosphere: match load {
+                    Load::Gas { atmosphere, .. } => Some(*atmosphere),
+                    _ => None,
+                },
+            }
+        }
         Load::RadialEdgeLoad {
             nodes,
             center,
@@ -564,6 +672,7 @@ type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
 /// The probes of one output: one for a scalar output, one per element (row-major) for an
 /// array output (`scene::shape`).
 fn build_probes(
+    scene: &Scene,
     mesh: &Mesh,
     cables: &[CableInfo],
     slips: &[sleeve::SlipPoint],
@@ -624,12 +733,13 @@ fn build_probes(
             .iter()
             .map(|&slip| ProbeModel::CableSlip { slip })
             .collect(),
-        _ => vec![build_probe(mesh, cables, slips, groups, probe)],
+        _ => vec![build_probe(scene, mesh, cables, slips, groups, probe)],
     }
 }
 
 /// The one probe of a scalar output.
 fn build_probe(
+    scene: &Scene,
     mesh: &Mesh,
     cables: &[CableInfo],
     slips: &[sleeve::SlipPoint],
@@ -730,6 +840,18 @@ fn build_probe(
                 .collect(),
         },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
+        Probe::EnclosedVolume { membrane } => {
+            ProbeModel::EnclosedVolume(elements(&Some(membrane.clone())))
+        }
+        Probe::EnclosedPressure { input } => {
+            let unknown = scene
+                .inputs
+                .iter()
+                .filter(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }))
+                .position(|i| &i.name == input)
+                .expect("validated: a volume input");
+            ProbeModel::EnclosedPressure(unknown)
+        }
         Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)),
         Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)),
         Probe::MaxPrincipalStress { membrane } => {

@@ -92,6 +92,19 @@ pub struct Tie {
 pub const STICK: u8 = 0;
 pub const SLIP_FORWARD: u8 = 1;
 pub const SLIP_BACKWARD: u8 = 2;
+/// The sleeve point touches the previous sleeve point of its cable: the segment between them is
+/// closed (zero unstretched length) and the point follows the group's leader (`solver::order`).
+pub const MERGED: u8 = 3;
+
+/// Default stiffness of the link that holds the cable points of a closed segment together, as
+/// a multiple of the stiffer of the two ties: the points then coincide to |F|/k_link, three
+/// orders below the tie gap |F|/k_c.
+pub const LINK_FACTOR: f64 = 1e3;
+
+/// A closed segment keeps the unstretched length −CLOSED_OFFSET·L_ref (L_ref its reference
+/// unstretched length), not 0: the sign of L then tells every routine that the segment is closed,
+/// whatever the round-off in l0 + s_end − s_start.
+pub const CLOSED_OFFSET: f64 = 1e-9;
 
 /// Stick/slip state of a sleeve point (the solver's typed view of the state codes above).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -102,6 +115,10 @@ pub enum Contact {
     Forward,
     /// Slipping toward the cable's start (σ = −1).
     Backward,
+    /// Touching the previous sleeve point of the cable (closed segment between them): the
+    /// point moves with its group, whose leader (first point) carries the group's stick/slip
+    /// state.
+    Merged,
 }
 
 impl Contact {
@@ -111,6 +128,7 @@ impl Contact {
             Contact::Stick => STICK,
             Contact::Forward => SLIP_FORWARD,
             Contact::Backward => SLIP_BACKWARD,
+            Contact::Merged => MERGED,
         }
     }
 
@@ -120,6 +138,7 @@ impl Contact {
             STICK => Some(Contact::Stick),
             SLIP_FORWARD => Some(Contact::Forward),
             SLIP_BACKWARD => Some(Contact::Backward),
+            MERGED => Some(Contact::Merged),
             _ => None,
         }
     }
@@ -162,6 +181,24 @@ pub fn contact_forces(
     ((tb - ta) * c, (ta + tb) * s)
 }
 
+/// [`contact_forces`] at a group of coincident sleeve points: segment a ends at `xca` (the
+/// group's first point), segment b starts at `xcb` (its last).
+pub fn group_contact_forces(
+    xp: &Vector3<f64>,
+    xca: &Vector3<f64>,
+    xcb: &Vector3<f64>,
+    xq: &Vector3<f64>,
+    ta: f64,
+    tb: f64,
+) -> (f64, f64) {
+    let ea = (xca - xp).normalize();
+    let eb = (xq - xcb).normalize();
+    let g = ea.dot(&eb).clamp(-1.0, 1.0);
+    let c = ((1.0 + g) / 2.0).sqrt();
+    let s = ((1.0 - g) / 2.0).sqrt();
+    ((tb - ta) * c, (ta + tb) * s)
+}
+
 /// Ratio T_b/T_a at slip (σ = +1) of the bisector law at a kink Δθ.
 pub fn slip_ratio(mu: f64, kink: f64) -> f64 {
     let t = (kink / 2.0).tan();
@@ -182,7 +219,27 @@ pub fn slip_row(
     xq: &Vector3<f64>,
     sigma_mu: f64,
 ) -> (f64, [Vector3<f64>; 3], [f64; 2]) {
-    let (da, db) = (xc - xp, xq - xc);
+    let (r, [dp, dca, dcb, dq], dl) = group_slip_row(a, b, la0, lb0, xp, xc, xc, xq, sigma_mu);
+    (r, [dp, dca + dcb, dq], dl)
+}
+
+/// [`slip_row`] of a group of coincident sleeve points (one closed segment or more between
+/// them): segment a ends at `xca` (the group's first point) and segment b starts at `xcb` (its
+/// last); the derivatives are with respect to x_p, x_ca, x_cb, x_q. With `xca == xcb` this is
+/// the single point's row.
+#[allow(clippy::too_many_arguments)]
+pub fn group_slip_row(
+    a: SegmentLaw,
+    b: SegmentLaw,
+    la0: f64,
+    lb0: f64,
+    xp: &Vector3<f64>,
+    xca: &Vector3<f64>,
+    xcb: &Vector3<f64>,
+    xq: &Vector3<f64>,
+    sigma_mu: f64,
+) -> (f64, [Vector3<f64>; 4], [f64; 2]) {
+    let (da, db) = (xca - xp, xq - xcb);
     let (la, lb) = (da.norm(), db.norm());
     let (ea, eb) = (da / la, db / lb);
     let (ta, ka) = cable::tension(a.law, a.ea, la0, la);
@@ -208,9 +265,10 @@ pub fn slip_row(
     let ha = (eb - ea * ea.dot(&eb)) / la;
     let hb = (ea - eb * eb.dot(&ea)) / lb;
     let dp = -ea * (dr_ta * ka) - ha * dr_g;
-    let dc = ea * (dr_ta * ka) - eb * (dr_tb * kb) + (ha - hb) * dr_g;
+    let dca = ea * (dr_ta * ka) + ha * dr_g;
+    let dcb = -eb * (dr_tb * kb) - hb * dr_g;
     let dq = eb * (dr_tb * kb) + hb * dr_g;
-    (r, [dp, dc, dq], [dr_ta * ma, dr_tb * mb])
+    (r, [dp, dca, dcb, dq], [dr_ta * ma, dr_tb * mb])
 }
 
 /// Tie force on the cable point (the membrane node gets its negative) and energy.

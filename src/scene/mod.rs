@@ -336,7 +336,7 @@ pub struct Input {
 
 /// What an input does. The input's value (and its `start`, `min`, `max`) is in the unit of its
 /// kind: N for `point_force`, Pa for `pressure`, m for `displacement`, N/m for
-/// `radial_edge_load`.
+/// `radial_edge_load`, m³ for `volume` and `gas`.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Load {
@@ -399,6 +399,37 @@ pub enum Load {
         #[serde(default)]
         closed: bool,
     },
+    /// Volume control: the volume enclosed by a closed membrane group, prescribed as the change
+    /// ΔV in m³ (the input's value) from its reference volume (so `start` 0 is the unloaded
+    /// state). The pressure that holds the volume (a follower pressure on the group, sign as for
+    /// `pressure`: positive along the triangles' normals, which must face outward) is an
+    /// unknown of the solve: read it with an `enclosed_pressure` probe. Unlike a pressure
+    /// input, it traces the whole pressure-volume curve of an inflated balloon or cushion,
+    /// through and past the pressure's limit point (docs/solver.md, paths past limit points).
+    /// The group must be closed (every edge shared by exactly two of its triangles, in
+    /// opposite directions); held symmetry planes may cut it only if the group is still closed.
+    Volume {
+        /// Name of the (closed) membrane group.
+        membrane: String,
+    },
+    /// Gas control: an isothermal ideal gas (p_abs V = const) fills a closed membrane group;
+    /// the input's value is the gas added since the reference state, as its volume ΔN in m³ at
+    /// the `atmosphere` pressure: (p + p_atm) V = p_atm (V⁰ + ΔN), p the (gauge) pressure on
+    /// the membrane, an unknown of the solve as for `volume` (read it with an
+    /// `enclosed_pressure` probe). `start` 0 is the reference state (p = 0, V = V⁰). A cushion
+    /// inflated by a gas amount; the gas stiffens the path past the membrane's limit pressure.
+    /// The group must be closed and outward, as for `volume`.
+    Gas {
+        /// Name of the (closed) membrane group.
+        membrane: String,
+        /// Absolute pressure of the atmosphere, Pa (default 101325).
+        #[serde(default = "atmosphere")]
+        atmosphere: f64,
+    },
+}
+
+fn atmosphere() -> f64 {
+    101_325.0
 }
 
 fn yes() -> bool {
@@ -513,6 +544,11 @@ pub enum Probe {
     /// Array [sleeve points]: slip (m, as `cable_slip`) at every sleeve point of a cable, in
     /// order along it.
     SleeveSlips { cable: String },
+    /// Volume (m³) enclosed by a closed membrane group (the signed volume of its triangles
+    /// seen from the origin: positive when their normals face outward).
+    EnclosedVolume { membrane: String },
+    /// Pressure (Pa) that holds the prescribed volume of a `volume` input (the input's name).
+    EnclosedPressure { input: String },
 }
 
 /// A scene value exposed as an FMU parameter.
@@ -551,7 +587,8 @@ pub struct SolverSettings {
     /// tolerance · F, F the largest of |f_ext|∞, |reactions|∞, the largest nodal force of any
     /// element and the step's load change (applied and carried forces, never a stiffness).
     /// Where round-off keeps a residual above that, its floor 16 ε (Σ|f| + K_dd X) counts only
-    /// if the Newton correction is also below round-off (docs/solver.md). 1e-9 keeps
+    /// if the Newton correction is also within tolerance · X at every unknown, X the size of
+    /// the coordinates (docs/solver.md). 1e-9 keeps
     /// verification at 1e-8 honest while quadratic convergence makes it cheap.
     pub tolerance: f64,
     /// Newton iterations per load increment before it is cut back. 50: quadratic convergence

@@ -439,6 +439,69 @@ impl Validator {
         Some(ids[0])
     }
 
+    /// A membrane group that encloses a volume: it exists, it is closed (every edge shared by
+    /// exactly two of its triangles, in opposite directions) and its triangles face outward
+    /// (positive enclosed volume).
+    fn closed_group(&mut self, s: &Scene, mesh: &Mesh, membrane: &str, path: &str) {
+        let Some(group) = s.membranes.iter().find(|m| m.name == membrane) else {
+            let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
+            self.push(
+                path,
+                format!(
+                    "no membrane group is named \"{membrane}\"{}",
+                    suggest(membrane, names.into_iter())
+                ),
+            );
+            return;
+        };
+        let ids: Vec<usize> = match &group.triangles {
+            TriangleRef::Set(name) => match mesh.triangle_sets.get(name) {
+                Some(ids) => ids.clone(),
+                None => return, // reported with the membrane group
+            },
+            TriangleRef::Ids(ids) => ids.clone(),
+        };
+        if ids.iter().any(|&t| t >= mesh.triangles.len()) {
+            return; // reported with the membrane group
+        }
+        let mut edges: BTreeMap<(usize, usize), usize> = BTreeMap::new();
+        for &t in &ids {
+            let [a, b, c] = mesh.triangles[t];
+            for e in [(a, b), (b, c), (c, a)] {
+                *edges.entry(e).or_default() += 1;
+            }
+        }
+        if let Some((&(a, b), _)) = edges
+            .iter()
+            .find(|(&(a, b), &n)| n != 1 || edges.get(&(b, a)) != Some(&1))
+        {
+            self.push(
+                path,
+                format!("membrane group \"{membrane}\" is not closed: its edge between nodes {a} and {b} is not shared by exactly two of its triangles in opposite directions (a volume needs a closed, consistently oriented surface)"),
+            );
+            return;
+        }
+        let x = |i: usize| mesh.nodes[i];
+        let volume: f64 = ids
+            .iter()
+            .map(|&t| {
+                let [a, b, c] = mesh.triangles[t].map(x);
+                let cross = [
+                    b[1] * c[2] - b[2] * c[1],
+                    b[2] * c[0] - b[0] * c[2],
+                    b[0] * c[1] - b[1] * c[0],
+                ];
+                (a[0] * cross[0] + a[1] * cross[1] + a[2] * cross[2]) / 6.0
+            })
+            .sum();
+        if !(volume > 0.0) {
+            self.push(
+                path,
+                format!("membrane group \"{membrane}\" encloses the volume {volume:e} m³: its triangles must face outward (counter-clockwise seen from outside) and enclose a positive volume"),
+            );
+        }
+    }
+
     fn membranes(&mut self, s: &Scene, mesh: &Mesh) {
         for (i, m) in s.membranes.iter().enumerate() {
             let p = format!("membranes[{i}]");
@@ -757,6 +820,23 @@ impl Validator {
                         }
                     }
                 }
+                Load::Volume { membrane } => {
+                    self.closed_group(s, mesh, membrane, &format!("{p}.load.membrane"));
+                }
+                Load::Gas {
+                    membrane,
+                    atmosphere,
+                } => {
+                    self.closed_group(s, mesh, membrane, &format!("{p}.load.membrane"));
+                    if !positive(*atmosphere) {
+                        self.push(
+                            format!("{p}.load.atmosphere"),
+                            format!(
+                                "{atmosphere} is not a positive absolute pressure in Pa {RANGE}"
+                            ),
+                        );
+                    }
+                }
                 Load::ZonePressure {
                     membrane, zones, ..
                 } => {
@@ -881,6 +961,29 @@ impl Validator {
                     }
                 }
                 Probe::NewtonIterations => {}
+                Probe::EnclosedVolume { membrane } => {
+                    self.closed_group(s, mesh, membrane, &format!("{p}.membrane"));
+                }
+                Probe::EnclosedPressure { input } => {
+                    let volume = s.inputs.iter().any(|i| {
+                        &i.name == input && matches!(i.load, Load::Volume { .. } | Load::Gas { .. })
+                    });
+                    if !volume {
+                        let names: Vec<&String> = s
+                            .inputs
+                            .iter()
+                            .filter(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }))
+                            .map(|i| &i.name)
+                            .collect();
+                        self.push(
+                            format!("{p}.input"),
+                            format!(
+                                "no input of kind volume or gas is named \"{input}\"{}",
+                                suggest(input, names.into_iter())
+                            ),
+                        );
+                    }
+                }
                 Probe::WrinkledFraction { membrane }
                 | Probe::SlackFraction { membrane }
                 | Probe::MaxPrincipalStress { membrane }

@@ -167,7 +167,7 @@ fn largest(f: &[f64]) -> f64 {
 #[derive(Default)]
 pub struct Membranes<'a> {
     /// States frozen by the solver against chatter (None: the mixed criterion decides).
-    pub forced: Option<&'a [WrinkleState]>,
+    pub forced: Option<&'a [Option<WrinkleState>]>,
     /// Evaluation of every triangle (state, tension angle, stress), if wanted.
     pub out: Option<&'a mut Vec<Evaluation>>,
     /// Held-DOF coupling: given a displacement change on held DOFs (zero elsewhere), add
@@ -215,7 +215,7 @@ pub(super) fn triangle_contribution(
 }
 
 /// One cable segment's internal force, tangent and energy at `u` (its unstretched length
-/// includes the slips at its sleeve ends).
+/// includes the slips at its sleeve ends; a closed segment is the link of its touching points).
 pub(super) fn segment_contribution(
     model: &Model,
     e: usize,
@@ -223,6 +223,13 @@ pub(super) fn segment_contribution(
 ) -> (cable::Vec6, cable::Mat6, f64) {
     let s = &model.segments[e];
     let x = gather(model, u, s.nodes);
+    if model.segment_closed(u, e) {
+        // Two touching sleeve points: a zero-length link (`solver::order`), no 1/l anywhere.
+        let k = model.link_stiffness(e);
+        let (f, w) = sleeve::tie_force(k, &x[0], &x[1]);
+        let f = cable::Vec6::from_column_slice(&[f.x, f.y, f.z, -f.x, -f.y, -f.z]);
+        return (f, sleeve::tie_stiffness(k), w);
+    }
     cable::segment(s.law, s.ea, model.segment_l0(u, e), &x[0], &x[1])
 }
 
@@ -303,7 +310,7 @@ pub fn assemble_with(
     let factor = extra.prestress_factor.unwrap_or(1.0);
     let mut ke = membrane::Mat9::zeros();
     for (e, t) in model.triangles.iter().enumerate() {
-        let forced = extra.forced.map(|f| f[e]);
+        let forced = extra.forced.and_then(|f| f[e]);
         let (f, eval, ratio) =
             triangle_contribution(model, e, u, factor, forced, want_k.then_some(&mut ke));
         add_force(r, &t.nodes, f.as_slice(), &mut extra.magnitude);
@@ -343,20 +350,28 @@ pub fn assemble_with(
     }
     // External loads: R −= f_ext.
     let mut fext = vec![0.0; r.len()];
-    for (load, &value) in model.loads.iter().zip(loads) {
+    for (l, load) in model.loads.iter().enumerate() {
+        // A volume input's load is the follower pressure held in its unknown.
+        let value = model.load_value(l, u, loads);
+        let pressed = match load {
+            LoadModel::Pressure {
+                triangles,
+                follower,
+            } => Some((triangles, *follower)),
+            LoadModel::Volume { triangles, .. } => Some((triangles, true)),
+            _ => None,
+        };
         match load {
             LoadModel::PointForce(dofs) => {
                 for &(d, f) in dofs {
                     fext[d] += f * value;
                 }
             }
-            LoadModel::Pressure {
-                triangles,
-                follower,
-            } => {
+            LoadModel::Pressure { .. } | LoadModel::Volume { .. } => {
+                let (triangles, follower) = pressed.expect("a pressure load");
                 for &e in triangles {
                     let nodes = model.triangles[e].nodes;
-                    let (f, kp) = pressure_contribution(model, e, u, value, *follower, want_k);
+                    let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
                     for &i in &nodes {
                         for c in 0..3 {
                             fext[3 * i + c] += f[c];

@@ -131,7 +131,7 @@ impl Solver {
             },
         );
         let inverted = super::check_inversion(model, &info).is_err();
-        let rows: Vec<f64> = if model.slips.is_empty() {
+        let mut rows: Vec<f64> = if model.slips.is_empty() {
             Vec::new()
         } else {
             slip_rows(
@@ -145,6 +145,11 @@ impl Solver {
             .map(|r| r.r)
             .collect()
         };
+        rows.extend(
+            super::volume::rows(model, &self.pattern.eq, &self.trial, at.loads)
+                .iter()
+                .map(|r| r.r),
+        );
         (info.potential, rows, inverted)
     }
 

@@ -10,6 +10,10 @@
 //!                 → line search → damping update
 //! active_set.rs   wrinkle-state freezing and stick/slip states, one chatter policy
 //! slip.rs         slip rows and columns, return map, Schur direction (m = 0: plain LDLT)
+//! volume.rs       volume control: pressure unknowns of closed groups, their rows and columns
+//!                 (eliminated with the slips)
+//! order.rs        sleeve points keep their order along a cable: touching points merge into
+//!                 one contact group and part when the contact force would pull
 //! line_search.rs  one backtracking search: potential, slope or residual merit
 //! relax.rs        nodal relaxation of the few nodes that carry a stalled residual
 //! ```
@@ -27,10 +31,12 @@ mod line_search;
 pub mod linear;
 pub mod mechanism;
 mod newton;
+mod order;
 mod path;
 mod relax;
 pub mod sensitivity;
 pub mod slip;
+mod volume;
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
@@ -46,8 +52,16 @@ pub struct Settings {
     /// residual within tolerance · F (F the applied and carried force scale) plus its
     /// round-off floor. Default 1e-9.
     pub tolerance: f64,
-    /// Newton iterations per increment before it is cut back. Default 25.
+    /// Newton iterations per increment before it is cut back. Default 50 (the scene's
+    /// `solver.max_iterations`).
     pub max_iterations: usize,
+    /// Iterations an increment may continue past `max_iterations` while its residual, already
+    /// below 1e-4 of the force scale, still halves every 10 iterations (steady linear
+    /// convergence near the solution, e.g. a flat membrane unloaded to
+    /// exactly zero load, where the tangent is singular at the solution and each Newton step
+    /// goes a third of the way). Cutting such an increment back only repeats the same ending.
+    /// Default 200.
+    pub max_iterations_progressing: usize,
     /// First increment as a fraction of the step's load change. Default 1.
     pub initial_increment: f64,
     /// Smallest increment before the step fails. Default 1e-4.
@@ -56,9 +70,10 @@ pub struct Settings {
     pub target_iterations: usize,
     /// Backtracking line search on every Newton correction. Default on.
     pub line_search: bool,
-    /// Iterations with wrinkle or stick/slip state changes before the states are frozen until
-    /// convergence (chatter guard). Default 6: a state switch costs 2-4 iterations; states
-    /// still changing after 6 are chattering between neighbours of a border.
+    /// Iterations with wrinkle or stick/slip state changes before chattering states are frozen
+    /// until convergence (chatter guard; active_set.rs): from here on a triangle back in the
+    /// state it left two iterations ago is frozen, and from twice this on every triangle that
+    /// still changes. Default 6: a state switch costs 2-4 iterations.
     pub freeze_after: usize,
     /// Times frozen states may turn out wrong at convergence before the increment is cut back.
     /// Default 3.
@@ -115,6 +130,15 @@ pub struct Settings {
     /// Smallest fraction of its current unstretched length a sleeved segment may keep in one
     /// step (fraction to the boundary L > 0). Default 0.1.
     pub keep_length: f64,
+    /// Two neighbouring sleeve points of a cable touch (their segment closes, `order.rs`) when
+    /// the unstretched cable between them falls to this fraction of its reference length.
+    /// Default 1e-3: three fraction-to-boundary steps from a full segment, and a jump of a
+    /// thousandth of a segment when the points are put together.
+    pub merge_gap: f64,
+    /// A touching pair that parts starts with this fraction of its segment's reference
+    /// unstretched length between the points. Default 1e-2 (ten times `merge_gap`, so the pair
+    /// does not close again at once).
+    pub reopen_gap: f64,
 }
 
 impl Default for Settings {
@@ -122,6 +146,7 @@ impl Default for Settings {
         Settings {
             tolerance: 1e-9,
             max_iterations: 50,
+            max_iterations_progressing: 200,
             initial_increment: 1.0,
             min_increment: 1e-4,
             target_iterations: 6,
@@ -144,6 +169,8 @@ impl Default for Settings {
             relax_rounds: 20,
             relax_sweeps: 3,
             keep_length: 0.1,
+            merge_gap: 1e-3,
+            reopen_gap: 1e-2,
         }
     }
 }
@@ -220,7 +247,7 @@ pub struct Solver {
     /// Per-triangle evaluations of the last assembly.
     evaluations: Vec<Evaluation>,
     /// Wrinkle states frozen against chatter inside the current increment.
-    frozen: Option<Vec<WrinkleState>>,
+    frozen: Option<Vec<Option<WrinkleState>>>,
     /// Elements and loads at each node, for nodal relaxation.
     adjacency: relax::Adjacency,
     /// Factor on the artificial prestress in the tangent of the current Newton iteration.

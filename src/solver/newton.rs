@@ -4,7 +4,7 @@
 //! iterate:  assemble R, K at u (wrinkle states from the mixed criterion, or frozen)
 //!           stick/slip states by the return map (or frozen)       active_set.rs
 //!           converged when every free DOF d and slip row j meets |R_d| <= tol · F, or meets
-//!               |R_d| <= tol · F + ρ_d and the Newton correction is below round-off
+//!               |R_d| <= tol · F + ρ_d and the Newton correction is within tol · X
 //!           and no stick/slip state changed, and the re-check of frozen states accepts
 //!           stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
 //!               relax the nodes carrying the residual (relax.rs)
@@ -25,7 +25,8 @@
 //! coordinate size (rounding a coordinate by εX moves the forces by about K_dd εX), c the
 //! settings' `roundoff_factor`. The floor is local, so a very stiff member raises it only at
 //! its own nodes. A point inside the floors but not inside tol·F counts as converged only when
-//! the Newton correction from it is below c·ε·X at every unknown: the floors of a stiff
+//! the Newton correction from it is within tol·X at every unknown (the coordinates are then
+//! accurate to the tolerance although the forces cannot be resolved further): the floors of a stiff
 //! member's two nodes could otherwise add up to a net force on a soft part it belongs to. In
 //! the first iteration of a step whose loads changed the floor does not count: a load change is
 //! never accepted unless it is below tol·F.
@@ -69,6 +70,30 @@ fn prestress_factor(relative: f64, fade: f64) -> f64 {
 /// residual fell by less than a factor 4 (quadratic convergence falls much faster).
 fn stalled(it: usize, free: f64, last_free: f64, last_alpha: f64) -> bool {
     it >= 2 && (last_alpha < 1.0 || free > 0.25 * last_free)
+}
+
+/// Iterations compared by [`progressing`].
+const PROGRESS_WINDOW: usize = 10;
+
+/// Relative residual below which a steadily falling residual may continue past
+/// `max_iterations`: the iteration is then close, not crawling from afar.
+const PROGRESS_NEAR: f64 = 1e-4;
+
+/// Whether the relative residual (|R|/F per iteration in `history`) still falls steadily and is
+/// near: the smallest of the last `PROGRESS_WINDOW` is below half the smallest of the window
+/// before, and below `PROGRESS_NEAR`. Linear convergence that keeps this pace (a root where the
+/// tangent is singular, such as a flat membrane unloaded to exactly zero: w³ ∝ q, each Newton
+/// step goes a third of the way) is allowed past `max_iterations`; stagnation, chatter and a
+/// slow crawl from far away are not (they are cut back as before).
+fn progressing(history: &[f64]) -> bool {
+    let n = history.len();
+    if n < 2 * PROGRESS_WINDOW {
+        return false;
+    }
+    let least = |w: &[f64]| w.iter().copied().fold(f64::INFINITY, f64::min);
+    let recent = least(&history[n - PROGRESS_WINDOW..]);
+    let before = least(&history[n - 2 * PROGRESS_WINDOW..n - PROGRESS_WINDOW]);
+    recent < 0.5 * before && recent < PROGRESS_NEAR
 }
 
 /// The convergence test at one iterate.
@@ -117,9 +142,12 @@ impl Solver {
         let mut last_damping = 0.0f64;
         let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
         let memory = self.settings.nonmonotone_memory;
+        let mut reopened = 0;
         let mut recent = std::collections::VecDeque::with_capacity(memory + 1);
         let max = self.settings.max_iterations;
-        for it in 0..=max {
+        let hard_max = max.max(self.settings.max_iterations_progressing);
+        let mut history: Vec<f64> = Vec::new();
+        for it in 0..=hard_max {
             self.frozen = active.wrinkle_frozen.clone();
             let info = self.assemble_at(model, inc.loads, u);
             let states: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
@@ -127,7 +155,8 @@ impl Solver {
             self.frozen = active.wrinkle_frozen.clone();
             super::check_inversion(model, &info).map_err(|why| (it, why))?;
             let changed = active.update_contact(it, model, u, &committed, log);
-            let rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
+            let mut rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
+            rows.extend(super::volume::rows(model, &self.pattern.eq, u, inc.loads));
             let mut check = self.check(model, &info, &rows, u, inc, it);
             if !(check.free.is_finite() && check.slip.is_finite()) {
                 return Err((it, "the residual is not finite".into()));
@@ -153,17 +182,35 @@ impl Solver {
                 }
             }
             // Within the round-off floor but not the tolerance: converged only when the Newton
-            // correction itself is below round-off of the coordinates (a floor reached at
-            // every DOF could still leave a net force on a soft part held by stiff members).
+            // correction from here is within the tolerance of the coordinates, tol · X at every
+            // unknown (a floor reached at every DOF could still leave a net force on a soft part
+            // held by stiff members; that part's correction is then large and real).
             let mut pending = None;
             let mut converged = check.strict;
             if !converged && check.within_floor && changed == 0 {
                 if let Ok((dx, ds)) = self.direction(model, u, &rows, damping) {
-                    let limit = self.settings.roundoff_factor
-                        * f64::EPSILON
-                        * self.coordinate_size(model, u);
+                    let limit = self.settings.tolerance * self.coordinate_size(model, u);
                     converged = dx.iter().chain(&ds).all(|v| v.abs() <= limit);
                     pending = Some((dx, ds));
+                }
+            }
+            if converged && changed == 0 && !active.contact.is_empty() {
+                // Touching sleeve points whose contact force would pull part here (order.rs).
+                let parted = super::order::open_gaps(
+                    model,
+                    u,
+                    &mut active.contact,
+                    tolerance,
+                    self.settings.reopen_gap,
+                );
+                if parted > 0 {
+                    reopened += 1;
+                    if reopened > self.settings.max_unfreeze {
+                        return Err((it, "touching sleeve points keep parting (chatter)".into()));
+                    }
+                    push_log(log, format!("  {parted} touching sleeve points part"));
+                    last_free = f64::INFINITY;
+                    continue;
                 }
             }
             if converged && changed == 0 {
@@ -203,7 +250,8 @@ impl Solver {
                 }
             }
             last_free = check.free;
-            if it == max {
+            history.push(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
+            if it >= max && !(it < hard_max && progressing(&history)) {
                 return Err((
                     it,
                     format!(
@@ -232,7 +280,7 @@ impl Solver {
                 }
                 Err(why) => return Err((it + 1, why)),
             };
-            let merit = if !model.slips.is_empty() {
+            let merit = if !rows.is_empty() {
                 let slip: Vec<f64> = rows.iter().map(|r| r.r).collect();
                 Merit::Residual {
                     reference: remember(&mut recent, memory, self.residual_norm(&slip)),
@@ -304,8 +352,8 @@ impl Solver {
         }
         // Reached only when frozen states were found wrong at the last allowed iteration.
         Err((
-            max,
-            format!("no convergence in {max} iterations (states changed at the end)"),
+            hard_max,
+            format!("no convergence in {hard_max} iterations (states changed at the end)"),
         ))
     }
 

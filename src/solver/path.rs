@@ -233,7 +233,8 @@ fn load_change(model: &Model, from: &[f64], to: &[f64]) -> f64 {
                     }
                 }
             }
-            LoadModel::Displacement(_) => {}
+            // A volume's pressure is an unknown: its forces count once assembled (|f_ext|∞).
+            LoadModel::Displacement(_) | LoadModel::Volume { .. } => {}
         }
     }
     f.iter().fold(0.0, |m, v| m.max(v.abs()))
@@ -261,7 +262,7 @@ fn external_forces(model: &Model, loads: &[f64]) -> Vec<f64> {
                     }
                 }
             }
-            LoadModel::Displacement(_) => {}
+            LoadModel::Displacement(_) | LoadModel::Volume { .. } => {}
         }
     }
     f

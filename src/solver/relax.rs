@@ -83,6 +83,11 @@ impl Adjacency {
                         a.forces[d / 3].push((l, d % 3, f));
                     }
                 }
+                LoadModel::Volume { triangles, .. } => {
+                    for &e in triangles {
+                        a.pressures[e].push((l, true));
+                    }
+                }
                 LoadModel::Displacement(_) => {}
             }
         }
@@ -107,7 +112,7 @@ fn local(
     u: &[f64],
     loads: &[f64],
     node: usize,
-    forced: Option<&[WrinkleState]>,
+    forced: Option<&[Option<WrinkleState>]>,
 ) -> Local {
     let mut out = Local {
         r: Vector3::zeros(),
@@ -117,14 +122,15 @@ fn local(
     };
     let mut ke = Mat9::zeros();
     for &(e, a) in &adj.triangles[node] {
-        let state = forced.map(|f| f[e]);
+        let state = forced.and_then(|f| f[e]);
         let (f, eval, ratio) = triangle_contribution(model, e, u, 1.0, state, Some(&mut ke));
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
         out.potential = out.potential.map(|p| p + eval.energy);
         out.inverted |= !(ratio > super::MIN_AREA_RATIO);
         for &(l, follower) in &adj.pressures[e] {
-            let (f, kp) = pressure_contribution(model, e, u, loads[l], follower, true);
+            let value = model.load_value(l, u, loads);
+            let (f, kp) = pressure_contribution(model, e, u, value, follower, true);
             out.r -= f;
             if let Some(kp) = kp {
                 out.k += kp.fixed_view::<3, 3>(3 * a, 3 * a);
@@ -166,7 +172,7 @@ pub fn relax_nodes(
     u: &mut [f64],
     loads: &[f64],
     nodes: &[usize],
-    forced: Option<&[WrinkleState]>,
+    forced: Option<&[Option<WrinkleState>]>,
     target: f64,
 ) -> usize {
     let mut moved = 0;
@@ -226,7 +232,7 @@ fn line_search(
     u: &mut [f64],
     loads: &[f64],
     node: usize,
-    forced: Option<&[WrinkleState]>,
+    forced: Option<&[Option<WrinkleState>]>,
     here: &Local,
     step: &Vector3<f64>,
     norm: f64,

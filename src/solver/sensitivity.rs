@@ -70,8 +70,12 @@ impl Solver {
         wrinkle: &[WrinkleState],
         slip_states: &[u8],
     ) -> Result<Tangent, String> {
+        if model.volumes > 0 {
+            return Err("derivatives are not available for scenes with volume or gas inputs (their pressure unknowns are not in the sensitivity's border yet)".into());
+        }
+        let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
         let membranes = Membranes {
-            forced: Some(wrinkle),
+            forced: Some(&forced),
             prestress_factor: Some(0.0),
             ..Default::default()
         };
@@ -271,13 +275,16 @@ impl Solver {
                     }
                 }
             }
+            // Refused by factor_tangent: no tangent exists for these.
+            LoadModel::Volume { .. } => {}
             LoadModel::Displacement(dofs) => {
                 for &d in dofs {
                     held[d] = 1.0;
                 }
                 let mut coupling = vec![0.0; n3];
+                let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
                 let membranes = Membranes {
-                    forced: Some(wrinkle),
+                    forced: Some(&forced),
                     prestress_factor: Some(0.0),
                     held_step: Some((&held, &mut coupling)),
                     ..Default::default()

@@ -40,6 +40,9 @@ pub(super) struct Row {
     pub ds: Vec<(usize, f64)>,
     /// Size of the forces the row balances (N): its round-off scale.
     pub magnitude: f64,
+    /// Whether the globalisation's damping applies (not to a closure row, which is linear and
+    /// must hold its segment closed exactly).
+    pub damped: bool,
 }
 
 impl Solver {
@@ -55,7 +58,8 @@ impl Solver {
         damping: f64,
     ) -> Result<(Vec<f64>, Vec<f64>), String> {
         let n = self.pattern.n;
-        let m = model.slips.len();
+        // Slip rows, then volume rows (`volume.rs`): the same elimination serves both.
+        let m = rows.len();
         if damping > 0.0 {
             let values = self.linear.values_mut();
             for (j, &p) in self.diagonal_positions.iter().enumerate() {
@@ -77,7 +81,8 @@ impl Solver {
                 Err("the Newton direction is not finite".into())
             };
         }
-        let columns = slip_columns(model, &self.pattern.eq, u);
+        let mut columns = slip_columns(model, &self.pattern.eq, u);
+        columns.extend(super::volume::columns(model, &self.pattern.eq, u));
         let mut y = Vec::with_capacity(m);
         for col in &columns {
             let mut v = vec![0.0; n];
@@ -95,7 +100,9 @@ impl Solver {
             for &(j, d) in &row.ds {
                 schur[(i, j)] += d;
             }
-            schur[(i, i)] += damping * self.reference_diagonal[n + i];
+            if row.damped {
+                schur[(i, i)] += damping * self.reference_diagonal[n + i];
+            }
             for (j, yj) in y.iter().enumerate() {
                 schur[(i, j)] -= row.dx.iter().map(|&(e, c)| c * yj[e]).sum::<f64>();
             }
@@ -139,11 +146,20 @@ pub(crate) fn return_map(
     let n3 = model.dof_count();
     let mut changed = 0;
     for (j, p) in model.slips.iter().enumerate() {
-        let (ta, tb) = tensions(model, u, p);
-        let (ft, fnormal) = sleeve::contact_forces(
-            &model.position(u, p.prev),
-            &model.position(u, p.node),
-            &model.position(u, p.next),
+        if states[j] == Contact::Merged {
+            // Moves with its group; only a converged point's contact check parts it.
+            continue;
+        }
+        let g = Group::of(model, states, j);
+        let (ta, tb) = (
+            model.segment_tension(u, g.segments[0]),
+            model.segment_tension(u, g.segments[1]),
+        );
+        let (ft, fnormal) = sleeve::group_contact_forces(
+            &model.position(u, g.nodes[0]),
+            &model.position(u, g.nodes[1]),
+            &model.position(u, g.nodes[2]),
+            &model.position(u, g.nodes[3]),
             ta,
             tb,
         );
@@ -182,12 +198,31 @@ pub(crate) fn return_map(
     changed
 }
 
-fn tensions(model: &Model, u: &[f64], p: &sleeve::SlipPoint) -> (f64, f64) {
-    let [a, b] = p.segments;
-    (model.segment_tension(u, a), model.segment_tension(u, b))
+/// A sleeve point and the points merged into it (`super::order`), as the cable sees it.
+struct Group {
+    /// Segment entering the group and segment leaving it.
+    segments: [usize; 2],
+    /// Previous cable point, the group's first and last cable points, the next cable point.
+    nodes: [usize; 4],
+    /// Slip indices of the group's first and last points.
+    slips: [usize; 2],
 }
 
-/// Slip rows: r = f_t − σμ f_n for slipping points, k_ref (s − s^n) for stuck ones.
+impl Group {
+    fn of(model: &Model, states: &[Contact], j: usize) -> Group {
+        let last = super::order::group_last(model, states, j);
+        let (p, q) = (&model.slips[j], &model.slips[last]);
+        Group {
+            segments: [p.segments[0], q.segments[1]],
+            nodes: [p.prev, p.node, q.node, q.next],
+            slips: [j, last],
+        }
+    }
+}
+
+/// Slip rows: r = f_t − σμ f_n for slipping points (a group's first point: of the whole group),
+/// k_ref (s − s^n) for stuck ones, k_ref (L_e + δ L⁰_e) for a point merged into the previous one
+/// (the closure of the segment e between them, `super::order`).
 pub(super) fn slip_rows(
     model: &Model,
     eq: &[usize],
@@ -201,7 +236,22 @@ pub(super) fn slip_rows(
         .iter()
         .enumerate()
         .map(|(j, p)| {
-            let [a, b] = p.segments;
+            if states[j] == Contact::Merged {
+                let e = p.segments[0];
+                let seg = &model.segments[e];
+                let k_ref = seg.ea / seg.l0;
+                let i = seg.slip[0].expect("a merged point follows a sleeve point");
+                let r = k_ref * (model.segment_l0(u, e) + sleeve::CLOSED_OFFSET * seg.l0);
+                return Row {
+                    r,
+                    dx: Vec::new(),
+                    ds: vec![(j, k_ref), (i, -k_ref)],
+                    magnitude: r.abs() + k_ref * (seg.l0 + u[n3 + j].abs() + u[n3 + i].abs()),
+                    damped: false,
+                };
+            }
+            let g = Group::of(model, states, j);
+            let [a, b] = g.segments;
             let (sa, sb) = (&model.segments[a], &model.segments[b]);
             if states[j] == Contact::Stick {
                 let k_ref = sa.ea / sa.l0;
@@ -211,12 +261,13 @@ pub(super) fn slip_rows(
                     dx: Vec::new(),
                     ds: vec![(j, k_ref)],
                     magnitude: r.abs() + k_ref * committed[j].abs(),
+                    damped: true,
                 };
             }
             let sigma_mu = states[j].sigma() * p.mu;
             let magnitude =
                 (1.0 + p.mu) * (model.segment_tension(u, a) + model.segment_tension(u, b));
-            let (r, dxs, dl) = sleeve::slip_row(
+            let (r, dxs, dl) = sleeve::group_slip_row(
                 SegmentLaw {
                     law: sa.law,
                     ea: sa.ea,
@@ -227,22 +278,23 @@ pub(super) fn slip_rows(
                 },
                 model.segment_l0(u, a),
                 model.segment_l0(u, b),
-                &model.position(u, p.prev),
-                &model.position(u, p.node),
-                &model.position(u, p.next),
+                &model.position(u, g.nodes[0]),
+                &model.position(u, g.nodes[1]),
+                &model.position(u, g.nodes[2]),
+                &model.position(u, g.nodes[3]),
                 sigma_mu,
             );
             let mut dx = Vec::new();
-            for (node, g) in [p.prev, p.node, p.next].iter().zip(&dxs) {
+            for (node, d) in g.nodes.iter().zip(&dxs) {
                 for c in 0..3 {
                     let e = eq[3 * node + c];
                     if e != NONE {
-                        dx.push((e, g[c]));
+                        dx.push((e, d[c]));
                     }
                 }
             }
-            // L_a = l0_a + s_j − s_prev,  L_b = l0_b + s_next − s_j.
-            let mut ds = vec![(j, dl[0] - dl[1])];
+            // L_a = l0_a + s_first − s_prev,  L_b = l0_b + s_next − s_last.
+            let mut ds = vec![(g.slips[0], dl[0]), (g.slips[1], -dl[1])];
             if let Some(i) = sa.slip[0] {
                 ds.push((i, -dl[0]));
             }
@@ -254,6 +306,7 @@ pub(super) fn slip_rows(
                 dx,
                 ds,
                 magnitude,
+                damped: true,
             }
         })
         .collect()
@@ -263,7 +316,8 @@ pub(super) fn slip_rows(
 pub(super) fn slip_columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(usize, f64)>> {
     let mut cols = vec![Vec::new(); model.slips.len()];
     for (e, s) in model.segments.iter().enumerate() {
-        if s.slip == [None, None] {
+        if s.slip == [None, None] || model.segment_closed(u, e) {
+            // A closed segment's link force does not depend on the slips.
             continue;
         }
         let (xa, xb) = (model.position(u, s.nodes[0]), model.position(u, s.nodes[1]));
@@ -287,10 +341,14 @@ pub(super) fn slip_columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(u
     cols
 }
 
-/// Largest tie gap |x_c − x_m| over the shorter adjacent segment length.
+/// Largest tie gap |x_c − x_m| over the shorter adjacent open segment length (a closed
+/// segment has no length: the gap is measured against the open ones beside its group).
 pub(super) fn largest_gap(model: &Model, u: &[f64]) -> f64 {
     let length = |e: usize| {
         let s = &model.segments[e];
+        if model.segment_closed(u, e) {
+            return f64::INFINITY;
+        }
         (model.position(u, s.nodes[1]) - model.position(u, s.nodes[0])).norm()
     };
     model
@@ -299,7 +357,12 @@ pub(super) fn largest_gap(model: &Model, u: &[f64]) -> f64 {
         .map(|p| {
             let [c, m] = model.ties[p.tie].nodes;
             let gap = (model.position(u, c) - model.position(u, m)).norm();
-            gap / length(p.segments[0]).min(length(p.segments[1]))
+            let shorter = length(p.segments[0]).min(length(p.segments[1]));
+            if shorter.is_finite() {
+                gap / shorter
+            } else {
+                0.0
+            }
         })
         .fold(0.0, f64::max)
 }

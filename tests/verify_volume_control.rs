@@ -1,0 +1,294 @@
+//! GOAL: volume control traces the whole pressure-stretch curve of an inflated rubber balloon,
+//!       through and past the limit pressure that stops pressure control (issue 10 item 3).
+//! MESH: the closed octahedral sphere of tests/hard_cases.rs with 16 divisions per edge (2048 CST
+//!       triangles, outward), radius R = 1 m.
+//! BOUNDARY CONDITIONS: held by its mirror symmetry planes only (nodes on x = 0 held in x, on
+//!       y = 0 in y, on z = 0 in z).
+//! MATERIAL: incompressible neo-Hookean, μ = 100 kPa, H = 1 mm.
+//! LOADING: input `dV` of kind `volume` (the enclosed volume's change from the reference),
+//!       increased in rows to stretches 1.05, 1.10, …, 2.00 and 7^(1/6), each row from the last.
+//! REFERENCE: docs/mechanics.md §4i (thin incompressible neo-Hookean sphere): p R/(μH) =
+//!       2 (λ⁻¹ − λ⁻⁷), with a maximum p_max = 1.239463 μH/R at λ = 7^(1/6) = 1.383. Our λ is
+//!       the volume stretch (V/V⁰)^(1/3), V⁰ the polyhedron's reference volume computed here from
+//!       the nodes; p is the `enclosed_pressure` output. (1) Against the smooth sphere: within
+//!       0.5 % at every row on both sides of the limit (the issue's target; measured +0.27 %, the
+//!       faceting of the inscribed polyhedron) and the largest p of the trace within 0.5 % of
+//!       p_max (+0.27 %). (2) Against the polyhedron inflated homothetically (the same energy
+//!       argument with R replaced by R_eff = 3V⁰/A⁰, V⁰ and A⁰ computed here from the mesh):
+//!       within 1e-4 (measured 1.7e-5: what is left is the mesh's departure from homothety).
+//!       The volume is held to 1e-9 in λ. Newton iterations per row must stay <= 10 (the
+//!       issue's target; measured 3-5).
+mod common;
+use common::*;
+use nalgebra::Vector3;
+use serde_json::json;
+use velarium::Scene;
+
+/// An octahedron subdivided `n` times per edge and projected on the sphere of radius `r`:
+/// nodes and outward (counter-clockwise seen from outside) triangles. Mirror-symmetric about
+/// the three coordinate planes, with nodes on each of them.
+fn octasphere(n: usize, r: f64) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let axes = [
+        Vector3::x(),
+        -Vector3::x(),
+        Vector3::y(),
+        -Vector3::y(),
+        Vector3::z(),
+        -Vector3::z(),
+    ];
+    let mut nodes: Vec<Vector3<f64>> = Vec::new();
+    let mut index = |p: Vector3<f64>| -> usize {
+        let p = p.normalize() * r;
+        match nodes.iter().position(|q| (q - p).norm() < 1e-9) {
+            Some(k) => k,
+            None => {
+                nodes.push(p);
+                nodes.len() - 1
+            }
+        }
+    };
+    let mut triangles = Vec::new();
+    for &a in &axes[0..2] {
+        for &b in &axes[2..4] {
+            for &c in &axes[4..6] {
+                let at = |i: usize, j: usize| {
+                    a + (b - a) * (i as f64 / n as f64) + (c - a) * (j as f64 / n as f64)
+                };
+                for i in 0..n {
+                    for j in 0..n - i {
+                        let mut tris = vec![[at(i, j), at(i + 1, j), at(i, j + 1)]];
+                        if i + j + 1 < n {
+                            tris.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+                        }
+                        for [p, q, s] in tris {
+                            let (ip, iq, is) = (index(p), index(q), index(s));
+                            triangles.push([ip, iq, is]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let nodes: Vec<[f64; 3]> = nodes.iter().map(|p| [p.x, p.y, p.z]).collect();
+    for t in &mut triangles {
+        let [p, q, s] = t.map(|k| Vector3::from(nodes[k]));
+        if (q - p).cross(&(s - p)).dot(&(p + q + s)) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+    (nodes, triangles)
+}
+
+const MU: f64 = 1e5;
+const H: f64 = 1e-3;
+const PMAX: f64 = 1.239463;
+
+/// Reference volume V⁰ and area A⁰ of the mesh (computed here from the node coordinates).
+fn volume_and_area(nodes: &[[f64; 3]], triangles: &[[usize; 3]]) -> (f64, f64) {
+    let mut v = 0.0;
+    let mut a = 0.0;
+    for t in triangles {
+        let [p, q, r] = t.map(|k| Vector3::from(nodes[k]));
+        v += p.dot(&q.cross(&r)) / 6.0;
+        a += 0.5 * (q - p).cross(&(r - p)).norm();
+    }
+    (v, a)
+}
+
+fn balloon(divisions: usize) -> Scene {
+    balloon_with(divisions, json!({"kind": "volume", "membrane": "rubber"}))
+}
+
+fn balloon_with(divisions: usize, load: serde_json::Value) -> Scene {
+    let (nodes, triangles) = octasphere(divisions, 1.0);
+    let on = |c: usize| -> Vec<usize> {
+        (0..nodes.len())
+            .filter(|&k| nodes[k][c].abs() < 1e-12)
+            .collect()
+    };
+    let json = json!({
+        "format": 1, "name": "VolumeBalloon",
+        "geometry": {"nodes": nodes, "triangles": triangles,
+                     "node_sets": {"px": on(0), "py": on(1), "pz": on(2)},
+                     "triangle_sets": {"all": (0..triangles.len()).collect::<Vec<_>>()}},
+        "membranes": [{"name": "rubber", "triangles": "all", "thickness": H,
+                       "material": {"kind": "neo_hookean", "mu": MU}}],
+        "supports": [{"nodes": "px", "fix": ["x"]}, {"nodes": "py", "fix": ["y"]}, {"nodes": "pz", "fix": ["z"]}],
+        "inputs": [{"name": "dV", "load": load}],
+        "outputs": [
+            {"name": "p", "probe": {"kind": "enclosed_pressure", "input": "dV"}},
+            {"name": "V", "probe": {"kind": "enclosed_volume", "membrane": "rubber"}}
+        ]
+    });
+    Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{p}"))
+}
+
+/// p R/(μH) of the thin neo-Hookean sphere at stretch λ.
+fn closed_form(lambda: f64) -> f64 {
+    2.0 * (1.0 / lambda - lambda.powi(-7))
+}
+
+#[test]
+fn volume_control_traces_the_sphere_through_its_limit_point() {
+    let divisions = 16;
+    let (nodes, triangles) = octasphere(divisions, 1.0);
+    let (v0, a0) = volume_and_area(&nodes, &triangles);
+    // The polyhedron inflated homothetically: p = (A⁰/3V⁰) μH 2(λ⁻¹ − λ⁻⁷), i.e. R replaced by
+    // R_eff = 3V⁰/A⁰ (the smooth sphere: 3V/A = R).
+    let r_eff = 3.0 * v0 / a0;
+    let mut e = engine(balloon(divisions));
+    assert!((get(&e, "V") - v0).abs() < 1e-12 * v0);
+    let mut worst_eff: f64 = 0.0;
+    let mut worst: f64 = 0.0;
+    let mut largest: f64 = 0.0;
+    let mut iterations = Vec::new();
+    let mut stretches: Vec<f64> = (1..=20).map(|k| 1.0 + 0.05 * k as f64).collect();
+    stretches.push(7f64.powf(1.0 / 6.0)); // the limit point itself
+    stretches.sort_by(f64::total_cmp);
+    for &target in &stretches {
+        set(&mut e, "dV", (target.powi(3) - 1.0) * v0);
+        let report = solve(&mut e);
+        iterations.push(report.iterations);
+        let (p, v) = (get(&e, "p") / (MU * H), get(&e, "V"));
+        let lambda = (v / v0).cbrt();
+        let reference = closed_form(lambda);
+        let error = (p - reference).abs() / reference;
+        let faceted = closed_form(lambda) / r_eff;
+        worst_eff = worst_eff.max((p - faceted).abs() / faceted);
+        println!(
+            "λ = {lambda:.6} (target {target:.2}): p R/(μH) = {p:.6} vs sphere {reference:.6} ({:+.3} %), vs polyhedron {faceted:.6} ({:+.2e}), {} iterations",
+            100.0 * (p - reference) / reference,
+            (p - faceted) / faceted,
+            report.iterations
+        );
+        assert!(
+            (lambda - target).abs() < 1e-9,
+            "volume held: λ {lambda} vs {target}"
+        );
+        worst = worst.max(error);
+        largest = largest.max(p);
+    }
+    println!(
+        "largest p R/(μH) {largest:.6} vs p_max {PMAX} ({:+.3} %); worst error {:.3} % (sphere), {worst_eff:.2e} (polyhedron, R_eff = {r_eff:.6}); iterations per row {iterations:?}",
+        100.0 * (largest - PMAX) / PMAX,
+        100.0 * worst
+    );
+    assert!(worst < 5e-3, "worst error against the sphere {worst}");
+    assert!(
+        worst_eff < 1e-4,
+        "worst error against the polyhedron {worst_eff}"
+    );
+    assert!((largest - PMAX).abs() / PMAX < 5e-3);
+    assert!(
+        stretches.iter().any(|&l| l > 1.6),
+        "the trace goes well past the limit λ = 1.383"
+    );
+    assert!(
+        iterations.iter().all(|&i| i <= 10),
+        "iterations per row {iterations:?}"
+    );
+}
+
+/// GOAL: gas control (an isothermal ideal gas, `gas` input) traces the same balloon past its
+/// limit pressure.
+/// LOADING: the added gas ΔN (m³ at the atmosphere's pressure, here a soft 1000 Pa so that the
+/// gas law matters: p changes the gas volume by up to 12 %) for the stretches 1.1 … 2.0 and
+/// 7^(1/6): ΔN = (p(λ) + p_atm) V⁰ λ³/p_atm − V⁰ with p(λ) the faceted balloon's closed form.
+/// REFERENCE: (1) the gas law (p + p_atm) V = p_atm (V⁰ + ΔN) on the outputs, within 1e-9
+/// relative (measured 1e-14: the row is solved to the tolerance); (2) p against the faceted
+/// balloon's closed form at the stretch reached, within 1e-4 (as the volume test; measured
+/// 9e-6); (3) the stretch reached within 2e-6 of the one ΔN was computed for (measured 2e-7, the
+/// p error through the gas law). Newton iterations per row <= 10 (measured 3-6).
+#[test]
+fn gas_control_traces_the_sphere_through_its_limit_point() {
+    let divisions = 16;
+    let (nodes, triangles) = octasphere(divisions, 1.0);
+    let (v0, a0) = volume_and_area(&nodes, &triangles);
+    let r_eff = 3.0 * v0 / a0;
+    let atm = 1000.0;
+    let mut e = engine(balloon_with(
+        divisions,
+        json!({"kind": "gas", "membrane": "rubber", "atmosphere": atm}),
+    ));
+    let mut targets: Vec<f64> = (1..=10).map(|k| 1.0 + 0.1 * k as f64).collect();
+    targets.push(7f64.powf(1.0 / 6.0));
+    targets.sort_by(f64::total_cmp);
+    let mut iterations = Vec::new();
+    for &target in &targets {
+        let p_target = MU * H * closed_form(target) / r_eff;
+        let added = (p_target + atm) * v0 * target.powi(3) / atm - v0;
+        set(&mut e, "dV", added);
+        let report = solve(&mut e);
+        iterations.push(report.iterations);
+        let (p, v) = (get(&e, "p"), get(&e, "V"));
+        let lambda = (v / v0).cbrt();
+        let faceted = MU * H * closed_form(lambda) / r_eff;
+        let gas = ((p + atm) * v - atm * (v0 + added)) / (atm * (v0 + added));
+        println!(
+            "λ = {lambda:.6} (for {target:.4}, {:+.1e}): p = {p:.6} Pa vs {faceted:.6} ({:+.2e}); gas law {gas:.1e}; {} iterations",
+            lambda - target,
+            (p - faceted) / faceted,
+            report.iterations
+        );
+        assert!(gas.abs() < 1e-9, "gas law off by {gas}");
+        assert!((p - faceted).abs() < 1e-4 * faceted, "p {p} vs {faceted}");
+        assert!((lambda - target).abs() < 2e-6, "λ {lambda} vs {target}");
+    }
+    println!("gas: iterations per row {iterations:?}");
+    assert!(
+        iterations.iter().all(|&i| i <= 10),
+        "iterations per row {iterations:?}"
+    );
+}
+
+/// Bad input: a volume needs a closed, outward group; an `enclosed_pressure` probe needs a
+/// volume input. Each error names its JSON path.
+#[test]
+fn a_volume_input_on_an_open_or_inward_group_is_rejected() {
+    let open = json!({
+        "format": 1, "name": "Flat",
+        "geometry": {"generators": [{"kind": "rectangle", "name": "sheet", "origin": [0.0, 0.0, 0.0], "size": [1.0, 1.0], "divisions": [2, 2]}]},
+        "membranes": [{"name": "film", "triangles": "sheet", "thickness": 1e-3,
+                       "material": {"kind": "neo_hookean", "mu": 1e5}}],
+        "supports": [{"nodes": "sheet.edge_bottom", "fix": ["x", "y", "z"]}],
+        "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "film"}}],
+        "outputs": [{"name": "p", "probe": {"kind": "enclosed_pressure", "input": "dv"}}]
+    });
+    let scene = Scene::from_json(&open.to_string()).unwrap();
+    let err = velarium::Engine::try_new(scene)
+        .err()
+        .expect("rejected")
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("inputs[0].load.membrane") && err.contains("is not closed"),
+        "{err}"
+    );
+    assert!(
+        err.contains("outputs[0].probe.input") && err.contains("dV"),
+        "{err}"
+    );
+    let (nodes, mut triangles) = octasphere(2, 1.0);
+    for t in &mut triangles {
+        t.swap(1, 2);
+    }
+    let inward = json!({
+        "format": 1, "name": "Inward",
+        "geometry": {"nodes": nodes, "triangles": triangles,
+                     "triangle_sets": {"all": (0..triangles.len()).collect::<Vec<_>>()}},
+        "membranes": [{"name": "rubber", "triangles": "all", "thickness": H,
+                       "material": {"kind": "neo_hookean", "mu": MU}}],
+        "supports": [{"nodes": [0], "fix": ["x", "y", "z"]}],
+        "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "rubber"}}]
+    });
+    let scene = Scene::from_json(&inward.to_string()).unwrap();
+    let err = velarium::Engine::try_new(scene)
+        .err()
+        .expect("rejected")
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("inputs[0].load.membrane") && err.contains("face outward"),
+        "{err}"
+    );
+}
