@@ -32,6 +32,8 @@ const DISPLAY_UNITS: &[(&str, &str, f64)] = &[
     ("N", "kN", 1e-3),
     ("Pa", "MPa", 1e-6),
     ("Pa", "GPa", 1e-9),
+    ("N.m", "kN.m", 1e-3),
+    ("rad", "deg", 57.29577951308232),
 ];
 
 /// The complete modelDescription.xml of the engine's scene.
@@ -168,7 +170,7 @@ fn co_simulation(x: &mut String, scene: &Scene, version: Version) {
 
 /// Units in `UNITS` order, only those some variable uses; absent when none is used.
 pub(crate) fn unit_definitions(x: &mut String, variables: &[Variable]) {
-    let used: Vec<&(&str, [i32; 3])> = UNITS
+    let used: Vec<&(&str, [i32; 4])> = UNITS
         .iter()
         .filter(|(name, _)| variables.iter().any(|v| v.unit == Some(*name)))
         .collect();
@@ -179,7 +181,7 @@ pub(crate) fn unit_definitions(x: &mut String, variables: &[Variable]) {
     for (name, exponents) in used {
         let _ = writeln!(x, "    <Unit name=\"{}\">", escape(name));
         x.push_str("      <BaseUnit");
-        for (base, exponent) in ["kg", "m", "s"].iter().zip(exponents) {
+        for (base, exponent) in ["kg", "m", "s", "rad"].iter().zip(exponents) {
             if *exponent != 0 {
                 let _ = write!(x, " {base}=\"{exponent}\"");
             }

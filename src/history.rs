@@ -21,14 +21,22 @@ use crate::solver::StepReport;
 use crate::variables::{Causality, VarType};
 use std::fmt::Write;
 
-/// A parsed load table whose columns are inputs of one engine.
+/// A parsed load table whose columns are inputs of one engine or combinations of them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoadTable {
     /// The file it was read from (named in errors).
     pub file: String,
-    /// Input name and value reference of each value column.
-    pub columns: Vec<(String, u32)>,
+    /// The value columns, in header order.
+    pub columns: Vec<Column>,
     pub rows: Vec<LoadRow>,
+}
+
+/// One value column: an input (one term, factor 1) or a named load combination.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Column {
+    pub name: String,
+    /// (input name, value reference, factor): the column's value v sets factor × v.
+    pub terms: Vec<(String, u32, f64)>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -75,11 +83,20 @@ impl LoadTable {
             .enumerate()
             .map(|(i, l)| (i + 1, l.split('#').next().unwrap_or("").trim()))
             .filter(|(_, l)| !l.is_empty());
-        let (header_line, header) = lines
-            .next()
-            .ok_or_else(|| err("no header line; expected `time,<input names>`".into()))?;
-        let columns =
-            parse_header(header, engine).map_err(|m| err(format!("line {header_line}: {m}")))?;
+        let mut combinations: Vec<Column> = Vec::new();
+        let (header_line, header) = loop {
+            let (line, text) = lines
+                .next()
+                .ok_or_else(|| err("no header line; expected `time,<input names>`".into()))?;
+            if text.split(',').next().map(str::trim) != Some("combination") {
+                break (line, text);
+            }
+            let c = parse_combination(text, engine, &combinations)
+                .map_err(|m| err(format!("line {line}: {m}")))?;
+            combinations.push(c);
+        };
+        let columns = parse_header(header, engine, &combinations)
+            .map_err(|m| err(format!("line {header_line}: {m}")))?;
         let mut rows: Vec<LoadRow> = Vec::new();
         for (line, text) in lines {
             let row = parse_row(line, text, &columns).map_err(&err)?;
@@ -107,43 +124,140 @@ impl LoadTable {
         Ok(table)
     }
 
-    /// Set a row's inputs on the engine.
+    /// Set a row's inputs on the engine: each input named by a column gets the sum of
+    /// factor × value over the columns that name it.
     fn apply(&self, engine: &mut Engine, row: &LoadRow) -> Result<(), String> {
-        for (c, ((name, vr), value)) in self.columns.iter().zip(&row.values).enumerate() {
-            engine
-                .set_real(*vr, *value)
-                .map_err(|e| format!("line {}, column {} ({name}): {e}", row.line, c + 2))?;
+        // (input, value reference, value, the columns that set it)
+        let mut inputs: Vec<(&str, u32, f64, Vec<usize>)> = Vec::new();
+        for (c, (column, value)) in self.columns.iter().zip(&row.values).enumerate() {
+            for (name, vr, factor) in &column.terms {
+                match inputs.iter_mut().find(|i| i.1 == *vr) {
+                    Some(i) => {
+                        i.2 += factor * value;
+                        i.3.push(c);
+                    }
+                    None => inputs.push((name, *vr, factor * value, vec![c])),
+                }
+            }
+        }
+        for (name, vr, value, from) in inputs {
+            engine.set_real(vr, value).map_err(|e| {
+                let columns: Vec<String> = from
+                    .iter()
+                    .map(|&c| format!("{} ({})", c + 2, self.columns[c].name))
+                    .collect();
+                if from.len() == 1 && self.columns[from[0]].name == name {
+                    format!("line {}, column {}: {e}", row.line, columns[0])
+                } else {
+                    format!(
+                        "line {}, input {name} = {value} (from column {}): {e}",
+                        row.line,
+                        columns.join(" and ")
+                    )
+                }
+            })?;
         }
         Ok(())
     }
 }
 
-fn parse_header(header: &str, engine: &Engine) -> Result<Vec<(String, u32)>, String> {
+/// The value reference of the Real input `name`; otherwise what is wrong, as
+/// `({name}) is not an input ...` (the name in quotes when no variable has it).
+fn real_input(engine: &Engine, name: &str) -> Result<u32, String> {
+    let Some(var) = engine.variables().iter().find(|v| v.name == name) else {
+        let inputs: Vec<&str> = input_names(engine).collect();
+        return Err(format!(
+            "({name:?}) is not an input of this scene; its inputs are: {}",
+            inputs.join(", ")
+        ));
+    };
+    if var.causality != Causality::Input || var.var_type != VarType::Real {
+        return Err(format!(
+            "({name}) is not an input (loads can only set inputs)"
+        ));
+    }
+    Ok(var.value_reference)
+}
+
+/// `combination,<name>,<input>,<factor>[,<input>,<factor>...]`.
+fn parse_combination(text: &str, engine: &Engine, known: &[Column]) -> Result<Column, String> {
+    let cells = header_cells(text);
+    let cells: Vec<&str> = cells.iter().map(String::as_str).collect();
+    let usage = "expected `combination,<name>,<input>,<factor>[,<input>,<factor>...]`";
+    if cells.len() < 4 || !cells.len().is_multiple_of(2) {
+        return Err(format!("{usage}; got {} cells", cells.len()));
+    }
+    let name = cells[1];
+    if name.is_empty() || name == "time" {
+        return Err(format!("combination name {name:?}: {usage}"));
+    }
+    if engine.variables().iter().any(|v| v.name == name) {
+        return Err(format!(
+            "combination {name} has the name of a variable of this scene; choose another"
+        ));
+    }
+    if known.iter().any(|c| c.name == name) {
+        return Err(format!("combination {name} is defined twice"));
+    }
+    let mut terms: Vec<(String, u32, f64)> = Vec::new();
+    for pair in cells[2..].chunks(2) {
+        let vr =
+            real_input(engine, pair[0]).map_err(|m| format!("combination {name}: input {m}"))?;
+        let factor = match pair[1].parse::<f64>() {
+            Ok(f) if f.is_finite() => f,
+            _ => {
+                return Err(format!(
+                    "combination {name}: factor {:?} of {} is not a finite number",
+                    pair[1], pair[0]
+                ))
+            }
+        };
+        if terms.iter().any(|t| t.1 == vr) {
+            return Err(format!("combination {name} names {} twice", pair[0]));
+        }
+        terms.push((pair[0].to_string(), vr, factor));
+    }
+    Ok(Column {
+        name: name.to_string(),
+        terms,
+    })
+}
+
+fn parse_header(
+    header: &str,
+    engine: &Engine,
+    combinations: &[Column],
+) -> Result<Vec<Column>, String> {
     let cells = header_cells(header);
     let mut cells = cells.iter().map(|c| c.as_str());
     if cells.next() != Some("time") {
         return Err("the first column must be `time`".into());
     }
-    let mut columns: Vec<(String, u32)> = Vec::new();
+    let mut columns: Vec<Column> = Vec::new();
     for (c, name) in cells.enumerate() {
-        let Some(var) = engine.variables().iter().find(|v| v.name == name) else {
-            let inputs: Vec<&str> = input_names(engine).collect();
-            return Err(format!(
-                "column {} ({name:?}) is not an input of this scene; its inputs are: {}",
-                c + 2,
-                inputs.join(", ")
-            ));
+        let column = match combinations.iter().find(|k| k.name == name) {
+            Some(k) => k.clone(),
+            None => {
+                let vr = real_input(engine, name).map_err(|m| {
+                    let m = if combinations.is_empty() {
+                        m
+                    } else {
+                        let names: Vec<&str> =
+                            combinations.iter().map(|k| k.name.as_str()).collect();
+                        format!("{m}; combinations: {}", names.join(", "))
+                    };
+                    format!("column {} {m}", c + 2)
+                })?;
+                Column {
+                    name: name.to_string(),
+                    terms: vec![(name.to_string(), vr, 1.0)],
+                }
+            }
         };
-        if var.causality != Causality::Input || var.var_type != VarType::Real {
-            return Err(format!(
-                "column {} ({name}) is not an input (loads can only set inputs)",
-                c + 2
-            ));
-        }
-        if columns.iter().any(|(n, _)| n == name) {
+        if columns.iter().any(|k| k.name == name) {
             return Err(format!("column {} ({name}) appears twice", c + 2));
         }
-        columns.push((name.to_string(), var.value_reference));
+        columns.push(column);
     }
     Ok(columns)
 }
@@ -185,7 +299,7 @@ fn input_names(engine: &Engine) -> impl Iterator<Item = &str> {
         .map(|v| v.name.as_str())
 }
 
-fn parse_row(line: usize, text: &str, columns: &[(String, u32)]) -> Result<LoadRow, String> {
+fn parse_row(line: usize, text: &str, columns: &[Column]) -> Result<LoadRow, String> {
     let cells: Vec<&str> = text.split(',').map(str::trim).collect();
     if cells.len() != columns.len() + 1 {
         return Err(format!(
@@ -194,7 +308,7 @@ fn parse_row(line: usize, text: &str, columns: &[(String, u32)]) -> Result<LoadR
             columns.len() + 1
         ));
     }
-    let names = std::iter::once("time").chain(columns.iter().map(|(n, _)| n.as_str()));
+    let names = std::iter::once("time").chain(columns.iter().map(|k| k.name.as_str()));
     let mut numbers = Vec::with_capacity(cells.len());
     for (c, (cell, name)) in cells.iter().zip(names).enumerate() {
         match cell.parse::<f64>() {

@@ -61,7 +61,10 @@ enum Command {
     /// Run a quasi-static load history and write every output per load row as CSV.
     ///
     /// LOADS.csv has the header `time,<input names>` (any subset of the scene's inputs, any
-    /// order; the others keep their start values; `#` lines are comments). Row 0 of the result
+    /// order; the others keep their start values; `#` lines are comments). Lines
+    /// `combination,<name>,<input>,<factor>,...` before the header define load combinations
+    /// that the header may name like inputs: the column's value times each factor goes to each
+    /// input, and an input named by several columns gets the sum. Row 0 of the result
     /// is the equilibrium under the first row's loads, row k the equilibrium under row k's loads
     /// reached from row k-1's. If a step does not converge, the rows before it are written and
     /// the command exits 1 naming the row.
@@ -70,7 +73,7 @@ enum Command {
     /// is shown on stderr once a run takes longer than a second, only when stderr is a
     /// terminal and --quiet is not given.
     #[command(
-        after_help = "Examples:\n  velarium solve modelDescription/PrestressedCable/scene.json --loads loads.csv\n  velarium solve examples/WindSquare.json --loads examples/WindSquare-loads.csv --out build/WindSquare.csv --vtk build/WindSquare\n  velarium solve scene.json --loads loads.csv --elements elements.csv --quiet\n\nA load table (loads.csv):\n  time,P\n  0,0\n  0.5,5000\n  1,10000"
+        after_help = "Examples:\n  velarium solve modelDescription/PrestressedCable/scene.json --loads loads.csv\n  velarium solve examples/WindSquare.json --loads examples/WindSquare-loads.csv --out build/WindSquare.csv --vtk build/WindSquare\n  velarium solve scene.json --loads loads.csv --elements elements.csv --quiet\n\nA load table (loads.csv):\n  time,P\n  0,0\n  0.5,5000\n  1,10000\n\nWith a load combination (1.35 dead + 1.5 wind):\n  combination,ULS,dead,1.35,wind,1.5\n  time,ULS\n  0,0\n  1,1"
     )]
     Solve {
         /// The scene (JSON).

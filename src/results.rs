@@ -13,6 +13,8 @@
 //!                points: the tension entering its group)     N
 //! reaction       Σ R[dof] over held DOFs of the set, R = f_int − f_ext: the force the supports
 //!                and prescribed displacements exert on the structure        N
+//! moment         Σ ((x_i − p) × R_i)·a over the set's nodes (R_i: held components)  N·m
+//! resultant      |Σ R_i| over the set's nodes (held components)              N
 //! iterations     Newton iterations of the last step
 //! ```
 
@@ -32,10 +34,14 @@ pub fn evaluate(
     membranes: &[Evaluation],
     slip_states: &[u8],
 ) -> Vec<f64> {
-    let needs_reactions = model
-        .probes
-        .iter()
-        .any(|p| matches!(p, ProbeModel::Reaction { .. }));
+    let needs_reactions = model.probes.iter().any(|p| {
+        matches!(
+            p,
+            ProbeModel::Reaction { .. }
+                | ProbeModel::ReactionMoment { .. }
+                | ProbeModel::ReactionResultant { .. }
+        )
+    });
     let r = if needs_reactions {
         solver.residual(model, u, applied)
     } else {
@@ -106,6 +112,18 @@ pub fn evaluate(
             ProbeModel::Reaction { dofs } => {
                 dofs.iter().filter(|&&d| model.held[d]).map(|&d| r[d]).sum()
             }
+            ProbeModel::ReactionMoment { nodes, point, axis } => nodes
+                .iter()
+                .map(|&i| {
+                    let arm = model.position(u, i) - point;
+                    arm.cross(&held_force(model, &r, i)).dot(axis)
+                })
+                .sum(),
+            ProbeModel::ReactionResultant { nodes } => nodes
+                .iter()
+                .map(|&i| held_force(model, &r, i))
+                .sum::<nalgebra::Vector3<f64>>()
+                .norm(),
             ProbeModel::NewtonIterations => iterations as f64,
             ProbeModel::WrinkledFraction(tris) => fraction(tris, WrinkleState::Wrinkled),
             ProbeModel::SlackFraction(tris) => fraction(tris, WrinkleState::Slack),
@@ -122,6 +140,17 @@ pub fn evaluate(
             ProbeModel::EnclosedPressure(k) => u[model.volume_unknown(*k)],
         })
         .collect()
+}
+
+/// The reaction force at node `i`: its held components of the residual (zero elsewhere).
+fn held_force(model: &Model, r: &[f64], i: usize) -> nalgebra::Vector3<f64> {
+    nalgebra::Vector3::from_fn(|c, _| {
+        if model.held[3 * i + c] {
+            r[3 * i + c]
+        } else {
+            0.0
+        }
+    })
 }
 
 /// Stick/slip code of sleeve point `j`, a merged point taking its group's (the leader's).

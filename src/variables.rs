@@ -91,13 +91,15 @@ impl Variable {
     }
 }
 
-/// Every unit a variable may carry, with its SI base-unit exponents (kg, m, s).
-pub const UNITS: &[(&str, [i32; 3])] = &[
-    ("m", [0, 1, 0]),
-    ("N", [1, 1, -2]),
-    ("Pa", [1, -1, -2]),
-    ("N/m", [1, 0, -2]),
-    ("m3", [0, 3, 0]),
+/// Every unit a variable may carry, with its SI base-unit exponents (kg, m, s, rad).
+pub const UNITS: &[(&str, [i32; 4])] = &[
+    ("m", [0, 1, 0, 0]),
+    ("N", [1, 1, -2, 0]),
+    ("Pa", [1, -1, -2, 0]),
+    ("N/m", [1, 0, -2, 0]),
+    ("m3", [0, 3, 0, 0]),
+    ("N.m", [1, 2, -2, 0]),
+    ("rad", [0, 0, 0, 1]),
 ];
 
 /// Build the table of a (validated) scene. Parameter start values are read from the scene.
@@ -142,7 +144,10 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
             unit: Some(match input.load {
                 Load::PointForce { .. } => "N",
                 Load::Pressure { .. } | Load::ZonePressure { .. } => "Pa",
-                Load::Displacement { .. } | Load::SupportDisplacement { .. } => "m",
+                Load::Displacement { .. }
+                | Load::PolarDisplacement { .. }
+                | Load::SupportDisplacement { .. } => "m",
+                Load::Rotation { .. } => "rad",
                 Load::RadialEdgeLoad { .. } => "N/m",
                 Load::Volume { .. } | Load::Gas { .. } => "m3",
             }),
@@ -179,9 +184,11 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
             | Probe::CableLength { .. }
             | Probe::CableSlip { .. }
             | Probe::CableEndSlip { .. } => (VarType::Real, Variability::Continuous, Some("m")),
-            Probe::CableTension { .. } | Probe::Reaction { .. } | Probe::ContactForce { .. } => {
-                (VarType::Real, Variability::Continuous, Some("N"))
-            }
+            Probe::CableTension { .. }
+            | Probe::Reaction { .. }
+            | Probe::ReactionResultant { .. }
+            | Probe::ContactForce { .. } => (VarType::Real, Variability::Continuous, Some("N")),
+            Probe::ReactionMoment { .. } => (VarType::Real, Variability::Continuous, Some("N.m")),
             Probe::EnclosedVolume { .. } => (VarType::Real, Variability::Continuous, Some("m3")),
             Probe::EnclosedPressure { .. } => (VarType::Real, Variability::Continuous, Some("Pa")),
         };
@@ -290,6 +297,10 @@ pub fn parameter_value(scene: &Scene, target: &str) -> Option<f64> {
                 ("E", Material::Svk { young, .. }) => Some(*young),
                 ("nu", Material::Svk { nu, .. }) => Some(*nu),
                 ("mu", Material::NeoHookean { mu }) => Some(*mu),
+                ("E_warp", Material::Orthotropic { e_warp, .. }) => Some(*e_warp),
+                ("E_fill", Material::Orthotropic { e_fill, .. }) => Some(*e_fill),
+                ("nu_wf", Material::Orthotropic { nu_wf, .. }) => Some(*nu_wf),
+                ("G", Material::Orthotropic { g, .. }) => Some(*g),
                 ("thickness", _) => Some(m.thickness),
                 _ => None,
             }
@@ -326,6 +337,10 @@ pub fn set_parameter_value(scene: &mut Scene, target: &str, value: f64) -> bool 
                 ("E", Material::Svk { young, .. }) => *young = value,
                 ("nu", Material::Svk { nu, .. }) => *nu = value,
                 ("mu", Material::NeoHookean { mu }) => *mu = value,
+                ("E_warp", Material::Orthotropic { e_warp, .. }) => *e_warp = value,
+                ("E_fill", Material::Orthotropic { e_fill, .. }) => *e_fill = value,
+                ("nu_wf", Material::Orthotropic { nu_wf, .. }) => *nu_wf = value,
+                ("G", Material::Orthotropic { g, .. }) => *g = value,
                 ("thickness", _) => m.thickness = value,
                 _ => return false,
             }

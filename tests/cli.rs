@@ -635,3 +635,79 @@ fn progress_only_on_a_terminal_and_not_with_quiet() {
     );
     assert_eq!(on_terminal(true), "", "--quiet");
 }
+
+/// Two point forces on the tiny cable's middle (down and sideways), for load combinations.
+const TWO_LOADS: &str = r#"{
+  "format": 1,
+  "name": "TwoLoads",
+  "geometry": {"nodes": [[0, 0, 0], [1, 0, 0], [2, 0, 0]], "node_sets": {"ends": [0, 2], "middle": [1]}},
+  "cables": [{"name": "c", "nodes": [0, 1, 2], "EA": 100000.0, "pretension": 100.0}],
+  "supports": [{"nodes": "ends", "fix": ["x", "y", "z"]}],
+  "inputs": [{"name": "G", "load": {"kind": "point_force", "nodes": "middle", "direction": [0, 0, -1]}, "max": 10.0},
+             {"name": "W", "load": {"kind": "point_force", "nodes": "middle", "direction": [0, 1, 0]}}],
+  "outputs": [{"name": "w", "probe": {"kind": "displacement", "node": "middle", "component": "z"}},
+              {"name": "v", "probe": {"kind": "displacement", "node": "middle", "component": "y"}}]
+}"#;
+
+/// A load combination column sets each of its inputs to factor × value, and an input named
+/// directly and by a combination gets the sum: the result CSV is byte for byte the one of the
+/// table with those input values written out (the same inputs give the same run).
+#[test]
+fn solve_applies_load_combinations() {
+    let dir = scratch("solve-combination");
+    let scene = write(&dir, "two.json", TWO_LOADS);
+    let run = |name: &str, csv: &str| {
+        let loads = write(&dir, name, csv);
+        let out = velarium(&["solve", s(&scene), "--loads", s(&loads), "--quiet"]);
+        assert_eq!(out.status.code(), Some(0), "{csv}: {}", text(&out.stderr));
+        text(&out.stdout).to_string()
+    };
+    let combined = run(
+        "combined.csv",
+        "combination,ULS,G,1.35,W,1.5\ntime,ULS,W\n0,0,0\n1,2,0\n2,4,1\n",
+    );
+    let direct = run("direct.csv", "time,G,W\n0,0,0\n1,2.7,3\n2,5.4,7\n");
+    assert_eq!(combined, direct);
+    assert_eq!(combined.lines().count(), 4);
+    // Errors name the line and what is wrong; nothing is written.
+    let cases = [
+        (
+            "combination,ULS,G,1.35,X,1.5\ntime,ULS\n0,1\n",
+            "line 1: combination ULS: input (\"X\") is not an input",
+        ),
+        (
+            "combination,ULS,G,abc\ntime,ULS\n0,1\n",
+            "factor \"abc\" of G is not a finite number",
+        ),
+        (
+            "combination,ULS,G\ntime,ULS\n0,1\n",
+            "expected `combination,<name>,<input>,<factor>",
+        ),
+        (
+            "combination,G,W,1\ntime,G\n0,1\n",
+            "combination G has the name of a variable",
+        ),
+        (
+            "combination,ULS,G,1.35,W,1.5\ntime,ULS\n0,1\n1,10\n",
+            "line 4, input G = 13.5 (from column 2 (ULS)): variable G (value reference 1) = 13.5 is out of range",
+        ),
+    ];
+    for (csv, expected) in cases {
+        let loads = write(&dir, "bad.csv", csv);
+        let out = velarium(&[
+            "solve",
+            s(&scene),
+            "--loads",
+            s(&loads),
+            "--out",
+            s(&dir.join("out.csv")),
+        ]);
+        assert_eq!(out.status.code(), Some(1), "{csv}");
+        let stderr = text(&out.stderr);
+        assert!(
+            stderr.contains(expected),
+            "{csv:?}: expected {expected:?} in {stderr}"
+        );
+        assert!(!dir.join("out.csv").exists());
+    }
+}

@@ -97,3 +97,45 @@ fn the_schema_is_json_and_covers_the_format() {
         assert!(text.contains(key), "schema lacks {key}");
     }
 }
+
+/// The orthotropic material, rotations, polar displacements and the reaction moment and
+/// resultant: each bad value is named by its path.
+#[test]
+fn orthotropic_and_support_motion_problems_are_located() {
+    let text = r#"{
+      "format": 1, "name": "Bad",
+      "geometry": {"nodes": [[0,0,0],[1,0,0],[0,1,0],[1,1,0]], "triangles": [[0,1,2],[1,3,2]],
+                   "node_sets": {"a": [0], "b": [1, 3]}},
+      "membranes": [{"name": "m", "triangles": [0], "thickness": 1e-3,
+                     "material": {"kind": "orthotropic", "E_warp": 1e6, "E_fill": 4e6, "nu_wf": 0.6, "G": 0, "warp": [0, 0, 1]}},
+                    {"name": "n", "triangles": [1], "thickness": 1e-3,
+                     "material": {"kind": "orthotropic", "E_warp": 1e6, "E_fill": 1e6, "nu_wf": 0.3, "G": 1e5, "warp": [0, 0, 0]}}],
+      "supports": [{"nodes": "a", "fix": ["z"]}],
+      "inputs": [{"name": "turn", "load": {"kind": "rotation", "nodes": "a", "point": [0, 0, 0], "axis": [0, 0, 0]}},
+                 {"name": "turn2", "load": {"kind": "rotation", "nodes": "b", "point": [0, 0, 0], "axis": [0, 0, 1]}},
+                 {"name": "turn3", "load": {"kind": "rotation", "nodes": "b", "point": [0, 0, 0], "axis": [0, 1, 0]}},
+                 {"name": "r", "load": {"kind": "polar_displacement", "nodes": [2], "center": [0, 1, 5], "axis": "z", "component": "radial"}}],
+      "outputs": [{"name": "M", "probe": {"kind": "reaction_moment", "nodes": [2], "point": [0, 0, 0], "axis": [0, 0, 0]}},
+                  {"name": "F", "probe": {"kind": "reaction_resultant", "nodes": [0, 57]}}]
+    }"#;
+    let p = problems(text);
+    let expect = [
+        "membranes[0].material.G: 0 is not a positive shear modulus",
+        "membranes[0].material.nu_wf: 0.6: nu_wf must be in [0, sqrt(E_warp/E_fill)) = [0, 0.500000)",
+        "membranes[0].material.warp: [0.0, 0.0, 1.0] is (nearly) normal to triangle 0",
+        "membranes[1].material.warp: must be a non-zero finite vector",
+        "inputs[0].load.nodes: node 0 is already fixed in z by a support; a prescribed rotation cannot move it",
+        "inputs[2].load.nodes: node 1 component x is prescribed by two rotation inputs",
+        "inputs[0].load.axis: must be a non-zero finite vector",
+        "inputs[3].load.nodes: node 2 lies on the axis",
+        "outputs[0].probe.axis: must be a non-zero finite vector",
+        "outputs[1].probe.nodes",
+    ];
+    for e in expect {
+        assert!(
+            p.iter().any(|m| m.starts_with(e)),
+            "missing {e:?} in:\n{}",
+            p.join("\n")
+        );
+    }
+}

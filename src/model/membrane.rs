@@ -90,6 +90,7 @@ impl Material {
         match self.law {
             Law::Svk { young, .. } => young,
             Law::NeoHookean { mu } => 3.0 * mu,
+            Law::Orthotropic(o) => o.e_warp.max(o.e_fill),
         }
     }
 }
@@ -220,7 +221,7 @@ pub fn triangle(
     let C = F.transpose() * F;
     let area_ratio = C.determinant().max(0.0).sqrt();
     let j = match mat.law {
-        Law::Svk { .. } => area_ratio.max(f64::MIN_POSITIVE),
+        Law::Svk { .. } | Law::Orthotropic(_) => area_ratio.max(f64::MIN_POSITIVE),
         Law::NeoHookean { .. } => 1.0,
     };
     let M = Smat * C;

@@ -17,12 +17,15 @@
 
 pub mod cable;
 pub mod membrane;
+pub mod orthotropic;
 pub mod pressure;
 pub mod sleeve;
 pub mod wrinkling;
 
 use crate::scene::generate::{resolve, Mesh};
-use crate::scene::{CableEnd, Load, Material, OneNode, Probe, Scene, SlipState, StrainLaw};
+use crate::scene::{
+    CableEnd, Load, Material, OneNode, PolarComponent, Probe, Scene, SlipState, StrainLaw,
+};
 use nalgebra::Vector3;
 
 /// Default artificial prestress of a membrane group, as a fraction of its E (3μ for
@@ -72,8 +75,8 @@ pub enum LoadModel {
         triangles: Vec<usize>,
         follower: bool,
     },
-    /// Prescribed DOFs.
-    Displacement(Vec<usize>),
+    /// Prescribed DOFs and how the input's value moves them.
+    Displacement(Prescribed),
     /// Prescribed enclosed volume V⁰ + value of a closed group (`Model::triangles` indices):
     /// a follower pressure whose value is the unknown `u[Model::volume_unknown(unknown)]`,
     /// with the constraint row `stiffness · (V(u) − V⁰ − value)` (N: `stiffness` = E t / A of
@@ -88,6 +91,57 @@ pub enum LoadModel {
         stiffness: f64,
         atmosphere: Option<f64>,
     },
+}
+
+/// DOFs an input prescribes. Where several inputs prescribe one DOF their displacements add
+/// (`Prescribed::add`): a rotation plus a translation, a radial plus a tangential component.
+#[derive(Clone, Debug)]
+pub struct Prescribed {
+    pub dofs: Vec<usize>,
+    pub motion: Motion,
+}
+
+/// The displacement a prescribing input gives per value.
+#[derive(Clone, Debug)]
+pub enum Motion {
+    /// u[dof] = value (a `displacement` input: one global component).
+    Component,
+    /// Rigid rotation by the value (rad) about the unit `axis` through `point`.
+    Rotation {
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    },
+    /// value × e (m) with e the node's unit radial or tangential direction (per DOF: its
+    /// component of e).
+    Along(Vec<f64>),
+}
+
+impl Prescribed {
+    /// Add this input's displacement at `value` to the prescribed DOFs of `u`.
+    pub fn add(&self, reference: &[Vector3<f64>], value: f64, u: &mut [f64]) {
+        match &self.motion {
+            Motion::Component => {
+                for &d in &self.dofs {
+                    u[d] += value;
+                }
+            }
+            Motion::Along(unit) => {
+                for (&d, e) in self.dofs.iter().zip(unit) {
+                    u[d] += value * e;
+                }
+            }
+            Motion::Rotation { point, axis } => {
+                let rotation = nalgebra::Rotation3::from_axis_angle(
+                    &nalgebra::Unit::new_unchecked(*axis),
+                    value,
+                );
+                for &d in &self.dofs {
+                    let r = reference[d / 3] - point;
+                    u[d] += (rotation * r - r)[d % 3];
+                }
+            }
+        }
+    }
 }
 
 /// What one output reads.
@@ -125,6 +179,16 @@ pub enum ProbeModel {
     },
     Reaction {
         dofs: Vec<usize>,
+    },
+    /// Moment of the reactions at `nodes` about the unit `axis` through `point`.
+    ReactionMoment {
+        nodes: Vec<usize>,
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    },
+    /// |Σ R| over the held DOFs of `nodes`.
+    ReactionResultant {
+        nodes: Vec<usize>,
     },
     NewtonIterations,
     /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
@@ -211,8 +275,8 @@ impl Model {
             }
         }
         for l in &loads {
-            if let LoadModel::Displacement(dofs) = l {
-                for &d in dofs {
+            if let LoadModel::Displacement(p) = l {
+                for &d in &p.dofs {
                     held[d] = true;
                 }
             }
@@ -357,6 +421,16 @@ fn build_triangles(
         let law = match m.material {
             Material::Svk { young, nu } => wrinkling::Law::Svk { young, nu },
             Material::NeoHookean { mu } => wrinkling::Law::NeoHookean { mu },
+            // The warp angle is set per triangle below.
+            Material::Orthotropic {
+                e_warp,
+                e_fill,
+                nu_wf,
+                g,
+                ..
+            } => wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
+                e_warp, e_fill, nu_wf, g, 0.0,
+            )),
         };
         let material = membrane::Material {
             law,
@@ -383,6 +457,16 @@ fn build_triangles(
             };
             for &i in &nodes {
                 used[i] = true;
+            }
+            let mut material = material;
+            if let (wrinkling::Law::Orthotropic(o), Material::Orthotropic { warp, .. }) =
+                (material.law, &m.material)
+            {
+                let w = Vector3::from(*warp);
+                let angle = w.dot(&reference.frame[1]).atan2(w.dot(&reference.frame[0]));
+                material.law = wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
+                    o.e_warp, o.e_fill, o.nu_wf, o.g, angle,
+                ));
             }
             out.push(Triangle {
                 id: t,
@@ -567,7 +651,14 @@ fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) 
             .collect(),
         Load::SupportDisplacement { nodes } => node_ids(mesh, nodes)
             .iter()
-            .flat_map(|&i| (0..3).map(move |c| LoadModel::Displacement(vec![3 * i + c])))
+            .flat_map(|&i| {
+                (0..3).map(move |c| {
+                    LoadModel::Displacement(Prescribed {
+                        dofs: vec![3 * i + c],
+                        motion: Motion::Component,
+                    })
+                })
+            })
             .collect(),
         _ => vec![build_load(scene, mesh, triangles, load)],
     }
@@ -586,12 +677,50 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                     .collect(),
             )
         }
-        Load::Displacement { nodes, component } => LoadModel::Displacement(
-            node_ids(mesh, nodes)
+        Load::Displacement { nodes, component } => LoadModel::Displacement(Prescribed {
+            dofs: node_ids(mesh, nodes)
                 .iter()
                 .map(|&i| 3 * i + component.index())
                 .collect(),
-        ),
+            motion: Motion::Component,
+        }),
+        Load::Rotation { nodes, point, axis } => LoadModel::Displacement(Prescribed {
+            dofs: node_ids(mesh, nodes)
+                .iter()
+                .flat_map(|&i| (0..3).map(move |c| 3 * i + c))
+                .collect(),
+            motion: Motion::Rotation {
+                point: Vector3::from(*point),
+                axis: Vector3::from(*axis).normalize(),
+            },
+        }),
+        Load::PolarDisplacement {
+            nodes,
+            center,
+            axis,
+            component,
+        } => {
+            let k = axis.index();
+            let mut a = Vector3::zeros();
+            a[k] = 1.0;
+            let (mut dofs, mut unit) = (Vec::new(), Vec::new());
+            for i in node_ids(mesh, nodes) {
+                let r = Vector3::from(mesh.nodes[i]) - Vector3::from(*center);
+                let radial = (r - a * r[k]).normalize();
+                let e = match component {
+                    PolarComponent::Radial => radial,
+                    PolarComponent::Tangential => a.cross(&radial),
+                };
+                for c in (0..3).filter(|&c| c != k) {
+                    dofs.push(3 * i + c);
+                    unit.push(e[c]);
+                }
+            }
+            LoadModel::Displacement(Prescribed {
+                dofs,
+                motion: Motion::Along(unit),
+            })
+        }
         Load::Volume { membrane } | Load::Gas { membrane, .. } => {
             let range = group_ranges(scene, mesh)
                 .into_iter()
@@ -838,6 +967,14 @@ fn build_probe(
                 .iter()
                 .map(|&i| 3 * i + component.index())
                 .collect(),
+        },
+        Probe::ReactionMoment { nodes, point, axis } => ProbeModel::ReactionMoment {
+            nodes: node_ids(mesh, nodes),
+            point: Vector3::from(*point),
+            axis: Vector3::from(*axis).normalize(),
+        },
+        Probe::ReactionResultant { nodes } => ProbeModel::ReactionResultant {
+            nodes: node_ids(mesh, nodes),
         },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
         Probe::EnclosedVolume { membrane } => {

@@ -24,11 +24,15 @@
 //! Wrinkled and slack points add `ε D0` (ε = 1e-6, D0 the small-strain elasticity) to the
 //! tangent only: the stress, hence the equilibrium, does not depend on it.
 //!
+//! The orthotropic (warp/fill) law, whose wrinkle direction must be solved for, lives in
+//! `super::orthotropic`; `Law::Orthotropic` dispatches to it.
+//!
 //! # References
 //! docs/mechanics.md §1.2 (SVK tension-field stress and consistent tangent) and §6 (neo-Hookean);
 //! Kang & Im 1997, J. Appl. Mech. 64:263-269 (mixed criterion); Pipkin 1986 and Skouras et
 //! al. 2014 (relaxed neo-Hookean energy); Stanuszek 2003 (the seed's "cable analogy").
 
+use super::orthotropic::Orthotropic;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -51,8 +55,15 @@ pub enum WrinkleState {
 /// A membrane material law.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Law {
-    Svk { young: f64, nu: f64 },
-    NeoHookean { mu: f64 },
+    Svk {
+        young: f64,
+        nu: f64,
+    },
+    NeoHookean {
+        mu: f64,
+    },
+    /// Warp/fill SVK with the generalised tension-field law (`super::orthotropic`).
+    Orthotropic(Orthotropic),
 }
 
 /// Stress, tangent and energy density (per reference volume) at one strain.
@@ -92,6 +103,7 @@ impl Law {
         let (e, nu) = match *self {
             Law::Svk { young, nu } => (young, nu),
             Law::NeoHookean { mu } => (3.0 * mu, 0.5),
+            Law::Orthotropic(o) => return o.d,
         };
         let c = e / (1.0 - nu * nu);
         Matrix3::new(
@@ -114,6 +126,9 @@ impl Law {
     /// the round-off of an undeformed element and count as unstrained: otherwise a sheet at
     /// rest would report random wrinkled and slack elements and start from a random tangent.
     pub fn classify(&self, strain: &Vector3<f64>) -> WrinkleState {
+        if let Law::Orthotropic(o) = self {
+            return o.classify(strain);
+        }
         let (e1, e2, _) = principal(strain);
         if e1.abs().max(e2.abs()) <= UNSTRAINED {
             return WrinkleState::Taut;
@@ -124,6 +139,7 @@ impl Law {
                 let (l1, l2) = (1.0 + 2.0 * e1, 1.0 + 2.0 * e2);
                 l2 > 0.0 && l2 * l2 * l1 >= 1.0
             }
+            Law::Orthotropic(_) => unreachable!("classified above"),
         };
         if taut {
             WrinkleState::Taut
@@ -137,6 +153,9 @@ impl Law {
     /// Response with wrinkling: the state from the mixed criterion, or `forced` (a state frozen
     /// by the solver against chatter).
     pub fn response(&self, strain: &Vector3<f64>, forced: Option<WrinkleState>) -> Response {
+        if let Law::Orthotropic(o) = self {
+            return o.response(strain, forced);
+        }
         let state = forced.unwrap_or_else(|| self.classify(strain));
         let (e1, e2, angle) = principal(strain);
         let reg = self.small_strain() * REGULARIZATION;
@@ -165,6 +184,7 @@ impl Law {
                             0.5 * mu * (l1 + 2.0 / l1.sqrt() - 3.0),
                         )
                     }
+                    Law::Orthotropic(_) => unreachable!("answered above"),
                 }
             }
         };
@@ -181,6 +201,7 @@ impl Law {
     #[allow(non_snake_case)]
     pub fn elastic(&self, strain: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>, f64) {
         match *self {
+            Law::Orthotropic(o) => o.elastic(strain),
             Law::Svk { .. } => {
                 let D = self.small_strain();
                 let S = D * strain;

@@ -212,6 +212,23 @@ pub enum Material {
     /// Incompressible neo-Hookean plane stress, W = μ/2 (tr C + 1/det C − 3): rubber at large
     /// strain. `mu` is the shear modulus in Pa (small-strain E = 3μ).
     NeoHookean { mu: f64 },
+    /// Orthotropic (warp/fill) St Venant-Kirchhoff for coated fabrics: plane-stress compliance
+    /// [[1/E_warp, −nu_wf/E_warp, 0], [−nu_wf/E_warp, 1/E_fill, 0], [0, 0, 1/G]] in the warp/fill
+    /// axes. Moduli in Pa (> 0); `nu_wf` (fill contraction under warp tension) in
+    /// [0, √(E_warp/E_fill)) so the law is positive definite. `warp`: the warp direction as a
+    /// vector, projected onto each triangle's plane (it must not be normal to any triangle).
+    /// With wrinkling on, the tension-field law solves for the wrinkle direction
+    /// (docs/mechanics.md §1.3).
+    Orthotropic {
+        #[serde(rename = "E_warp")]
+        e_warp: f64,
+        #[serde(rename = "E_fill")]
+        e_fill: f64,
+        nu_wf: f64,
+        #[serde(rename = "G")]
+        g: f64,
+        warp: [f64; 3],
+    },
 }
 
 /// Strain law of a cable.
@@ -335,8 +352,11 @@ pub struct Input {
 }
 
 /// What an input does. The input's value (and its `start`, `min`, `max`) is in the unit of its
-/// kind: N for `point_force`, Pa for `pressure`, m for `displacement`, N/m for
-/// `radial_edge_load`, m³ for `volume` and `gas`.
+/// kind: N for `point_force`, Pa for `pressure`, m for `displacement` and
+/// `polar_displacement`, rad for `rotation`, N/m for `radial_edge_load`, m³ for `volume` and
+/// `gas`. Where several displacement-like inputs hold the same component of a node (a rotation
+/// and a translation, a radial and a tangential displacement) their displacements add; two
+/// inputs of the same kind on the same component are an error.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Load {
@@ -388,6 +408,32 @@ pub enum Load {
         nodes: NodeRef,
         component: Component,
     },
+    /// Rotation in rad (the input's value) of every node of the set as one rigid body about the
+    /// axis through `point` along `axis` (right-hand rule: positive turns counter-clockwise
+    /// seen from the axis tip), exact for any angle: u = R(θ)(X − p) − (X − p). Every component
+    /// of every node becomes held; a `reaction_moment` probe reads the torque it needs.
+    /// `displacement` inputs on the same nodes add their translation (rotation, then
+    /// translation: a general rigid motion).
+    Rotation {
+        nodes: NodeRef,
+        /// A point on the axis, m.
+        point: [f64; 3],
+        /// Axis direction (any length but zero; normalised).
+        axis: [f64; 3],
+    },
+    /// Displacement in m (the input's value) of every node of the set along its radial
+    /// (`component: radial`, away from the axis) or tangential (`tangential`: axis × radial,
+    /// counter-clockwise seen from the axis tip) direction about the coordinate axis `axis`
+    /// through `center`, both in the reference configuration. The node's two components
+    /// perpendicular to the axis become held (the one along the axis stays free unless a
+    /// support holds it); a radial and a tangential input on the same nodes add, otherwise the
+    /// component the node is not given is zero. No node may lie on the axis.
+    PolarDisplacement {
+        nodes: NodeRef,
+        center: [f64; 3],
+        axis: Component,
+        component: PolarComponent,
+    },
     /// In-plane edge load in N/m (the input's value: force per unit reference length of the
     /// edge polyline through `nodes`, in order), directed radially away from `center`
     /// (positive: outward, negative: towards it). Each edge segment gives half its load to
@@ -430,6 +476,14 @@ pub enum Load {
 
 fn atmosphere() -> f64 {
     101_325.0
+}
+
+/// A displacement component about an axis.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PolarComponent {
+    Radial,
+    Tangential,
 }
 
 fn yes() -> bool {
@@ -491,6 +545,18 @@ pub enum Probe {
         nodes: NodeRef,
         component: Component,
     },
+    /// Moment (N·m) about the axis through `point` along `axis` (normalised) of the reaction
+    /// forces at the set's constrained nodes, applied at their current positions:
+    /// Σ ((x_i − p) × R_i)·a, R_i the force supports and prescribed motions exert there (its
+    /// held components). The torque a hub turned by a `rotation` input needs.
+    ReactionMoment {
+        nodes: NodeRef,
+        point: [f64; 3],
+        axis: [f64; 3],
+    },
+    /// Magnitude (N) of the resultant of the reaction forces at the set's constrained nodes,
+    /// |Σ R_i| (`reaction` gives one component of the same sum).
+    ReactionResultant { nodes: NodeRef },
     /// Newton iterations used by the last step (all internal increments), Integer.
     NewtonIterations,
     /// Fraction (0..1) of the reference area that is wrinkled, of one membrane group or of all.
@@ -557,7 +623,8 @@ pub enum Probe {
 pub struct Parameter {
     /// Variable name.
     pub name: String,
-    /// What it sets: `membranes.<name>.E`, `.nu` (SVK), `.mu` (neo-Hookean), `.thickness`,
+    /// What it sets: `membranes.<name>.E`, `.nu` (SVK), `.mu` (neo-Hookean), `.E_warp`,
+    /// `.E_fill`, `.nu_wf`, `.G` (orthotropic), `.thickness`,
     /// `cables.<name>.EA`, `cables.<name>.pretension`, `solver.artificial_prestress`,
     /// `debug.fail_after_time`, `debug.panic_after_time` (test variants only).
     pub target: String,

@@ -4,8 +4,7 @@
 use super::generate::{resolve, Mesh};
 use super::limits;
 use super::{
-    Component, Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef,
-    FORMAT_VERSION,
+    Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
 };
 use crate::variables;
 use std::collections::{BTreeMap, BTreeSet};
@@ -417,6 +416,38 @@ impl Validator {
         }
     }
 
+    /// A finite point and a non-zero finite axis at `{path}.point`, `{path}.axis`.
+    fn point_and_axis(&mut self, point: &[f64; 3], axis: &[f64; 3], path: &str) {
+        if point.iter().any(|x| !coordinate(*x)) {
+            self.push(format!("{path}.point"), "must be finite with |x| <= 1e30 m");
+        }
+        let n = axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !positive(n) {
+            self.push(format!("{path}.axis"), "must be a non-zero finite vector");
+        }
+    }
+
+    /// A node set of which at least one node is held in some component.
+    fn reaction_nodes(
+        &mut self,
+        mesh: &Mesh,
+        nodes: &NodeRef,
+        held: &BTreeSet<(usize, usize)>,
+        path: &str,
+    ) {
+        if let Some(ids) = self.nodes(mesh, nodes, &format!("{path}.nodes")) {
+            if !ids
+                .iter()
+                .any(|&id| (0..3).any(|c| held.contains(&(id, c))))
+            {
+                self.push(
+                    format!("{path}.nodes"),
+                    "no node of this set is held, so there is no reaction to report",
+                );
+            }
+        }
+    }
+
     fn one_node(&mut self, mesh: &Mesh, r: &OneNode, path: &str) -> Option<usize> {
         let ids = match r {
             OneNode::Id(id) if *id >= mesh.nodes.len() => {
@@ -568,6 +599,57 @@ impl Validator {
                             format!("{p}.material.mu"),
                             format!("{mu} is not a positive shear modulus in Pa {RANGE}"),
                         );
+                    }
+                }
+                Material::Orthotropic {
+                    e_warp,
+                    e_fill,
+                    nu_wf,
+                    g,
+                    warp,
+                } => {
+                    for (name, v, what) in [
+                        ("E_warp", e_warp, "Young's modulus"),
+                        ("E_fill", e_fill, "Young's modulus"),
+                        ("G", g, "shear modulus"),
+                    ] {
+                        if !positive(v) {
+                            self.push(
+                                format!("{p}.material.{name}"),
+                                format!("{v} is not a positive {what} in Pa {RANGE}"),
+                            );
+                        }
+                    }
+                    if positive(e_warp) && positive(e_fill) {
+                        let bound = (e_warp / e_fill).sqrt();
+                        if !(nu_wf.is_finite() && nu_wf >= 0.0 && nu_wf < bound) {
+                            self.push(
+                                format!("{p}.material.nu_wf"),
+                                format!("{nu_wf}: nu_wf must be in [0, sqrt(E_warp/E_fill)) = [0, {bound:.6}) for a positive-definite orthotropic law"),
+                            );
+                        }
+                    }
+                    let length = warp.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    if !positive(length) || warp.iter().any(|x| !coordinate(*x)) {
+                        self.push(
+                            format!("{p}.material.warp"),
+                            "must be a non-zero finite vector (the warp direction)",
+                        );
+                    } else if let Some(ids) = group_triangles(mesh, &m.triangles) {
+                        let w = warp.map(|x| x / length);
+                        for t in ids {
+                            let Some(n) = unit_normal(mesh, &mesh.triangles[t]) else {
+                                continue;
+                            };
+                            let along = (w[0] * n[0] + w[1] * n[1] + w[2] * n[2]).abs();
+                            if (1.0 - along * along).max(0.0).sqrt() < WARP_IN_PLANE {
+                                self.push(
+                                    format!("{p}.material.warp"),
+                                    format!("{warp:?} is (nearly) normal to triangle {t}: its projection onto the triangle gives no warp direction"),
+                                );
+                                break;
+                            }
+                        }
                     }
                 }
             }
@@ -764,29 +846,49 @@ impl Validator {
                 }
             }
         }
-        let mut prescribed = BTreeSet::new();
+        // Inputs that hold components; two of the same kind on one component are an error,
+        // different kinds add (a rotation and a translation, radial and tangential).
+        let mut prescribed: BTreeMap<(usize, usize), Vec<String>> = BTreeMap::new();
+        const AXES: [&str; 3] = ["x", "y", "z"];
         for (i, input) in s.inputs.iter().enumerate() {
-            let (nodes, components) = match &input.load {
-                Load::Displacement { nodes, component } => (nodes, vec![*component]),
+            let (nodes, components, kind): (&NodeRef, Vec<usize>, String) = match &input.load {
+                Load::Displacement { nodes, component } => {
+                    (nodes, vec![component.index()], "displacement".to_string())
+                }
+                Load::Rotation { nodes, .. } => (nodes, vec![0, 1, 2], "rotation".to_string()),
+                Load::PolarDisplacement {
+                    nodes,
+                    axis,
+                    component,
+                    ..
+                } => (
+                    nodes,
+                    (0..3).filter(|&c| c != axis.index()).collect(),
+                    format!("{component:?}").to_lowercase() + " displacement",
+                ),
                 Load::SupportDisplacement { nodes } => {
-                    (nodes, vec![Component::X, Component::Y, Component::Z])
+                    (nodes, vec![0, 1, 2], "support displacement".to_string())
                 }
                 _ => continue,
             };
             let p = format!("inputs[{i}].load.nodes");
             if let Some(ids) = self.nodes(mesh, nodes, &p) {
                 for id in ids {
-                    for component in &components {
-                        let key = (id, component.index());
-                        if held.contains(&key) && !prescribed.contains(&key) {
-                            self.push(&p, format!("node {id} is already fixed in {component:?} by a support; a prescribed displacement cannot move it"));
-                        } else if !prescribed.insert(key) {
-                            self.push(
-                                &p,
-                                format!(
-                                    "node {id} component {component:?} is prescribed by two inputs"
-                                ),
-                            );
+                    for &c in &components {
+                        let key = (id, c);
+                        let axis = AXES[c];
+                        if held.contains(&key) && !prescribed.contains_key(&key) {
+                            self.push(&p, format!("node {id} is already fixed in {axis} by a support; a prescribed {kind} cannot move it"));
+                        } else {
+                            let kinds = prescribed.entry(key).or_default();
+                            if kinds.contains(&kind) {
+                                self.push(
+                                    &p,
+                                    format!("node {id} component {axis} is prescribed by two {kind} inputs"),
+                                );
+                            } else {
+                                kinds.push(kind.clone());
+                            }
                         }
                         held.insert(key);
                     }
@@ -850,7 +952,41 @@ impl Validator {
                     }
                 }
                 // Checked with the supports.
-                Load::Displacement { .. } | Load::SupportDisplacement { .. } => {}
+                Load::SupportDisplacement { .. } => {}
+                Load::Displacement { .. } => {} // checked with the supports
+                Load::Rotation { point, axis, .. } => {
+                    self.point_and_axis(point, axis, &format!("{p}.load"));
+                }
+                Load::PolarDisplacement {
+                    nodes,
+                    center,
+                    axis,
+                    ..
+                } => {
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(
+                            format!("{p}.load.center"),
+                            "must be finite with |x| <= 1e30 m",
+                        );
+                    } else if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
+                        let k = axis.index();
+                        for id in ids {
+                            let x = mesh.nodes[id];
+                            let (mut off, mut size) = (0.0f64, 0.0f64);
+                            for c in (0..3).filter(|&c| c != k) {
+                                off += (x[c] - center[c]).powi(2);
+                                size = size.max(x[c].abs()).max(center[c].abs());
+                            }
+                            if off.sqrt() <= 1e-12 * size.max(1e-300) {
+                                self.push(
+                                    format!("{p}.load.nodes"),
+                                    format!("node {id} lies on the axis: it has no radial or tangential direction"),
+                                );
+                                break;
+                            }
+                        }
+                    }
+                }
                 Load::RadialEdgeLoad { nodes, center, .. } => {
                     if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
                         if ids.len() < 2 {
@@ -959,6 +1095,13 @@ impl Validator {
                             self.push(format!("{p}.nodes"), format!("no node of this set is held in {component:?}, so there is no reaction to report"));
                         }
                     }
+                }
+                Probe::ReactionMoment { nodes, point, axis } => {
+                    self.point_and_axis(point, axis, &p);
+                    self.reaction_nodes(mesh, nodes, held, &p);
+                }
+                Probe::ReactionResultant { nodes } => {
+                    self.reaction_nodes(mesh, nodes, held, &p);
                 }
                 Probe::NewtonIterations => {}
                 Probe::EnclosedVolume { membrane } => {
@@ -1093,7 +1236,7 @@ impl Validator {
         for (i, p) in s.parameters.iter().enumerate() {
             let path = format!("parameters[{i}].target");
             match variables::parameter_value(s, &p.target) {
-                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
+                None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|E_warp|E_fill|nu_wf|G|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
                 Some(v) if !v.is_finite() => self.push(path, format!("{} must be given a value in the scene to be exposed as a parameter", p.target)),
                 Some(_) => {}
             }
@@ -1232,6 +1375,36 @@ fn generator_name(g: &Generator) -> &str {
 
 /// Zero area in floating point: relative to the longest edge (collinear or repeated nodes), or
 /// below what the model's reference frame can be formed from (twice the area <= 1e-300).
+/// Smallest in-plane part (sine of the angle to the normal) of an orthotropic group's warp
+/// vector on any of its triangles: below this the projected direction is round-off.
+const WARP_IN_PLANE: f64 = 1e-3;
+
+/// Triangle ids of a group's reference, if it resolves.
+fn group_triangles(mesh: &Mesh, r: &TriangleRef) -> Option<Vec<usize>> {
+    match r {
+        TriangleRef::Set(name) => mesh.triangle_sets.get(name).cloned(),
+        TriangleRef::Ids(ids) => ids
+            .iter()
+            .all(|&i| i < mesh.triangles.len())
+            .then(|| ids.clone()),
+    }
+}
+
+/// Unit normal of a mesh triangle (None if degenerate or a node id is out of range).
+fn unit_normal(mesh: &Mesh, t: &[usize; 3]) -> Option<[f64; 3]> {
+    let p = |i: usize| mesh.nodes.get(t[i]).copied();
+    let (a, b, c) = (p(0)?, p(1)?, p(2)?);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let n = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    (l > 0.0 && l.is_finite()).then(|| n.map(|x| x / l))
+}
+
 fn degenerate(mesh: &Mesh, t: &[usize; 3]) -> bool {
     let area = triangle_area(mesh, t);
     !(area.is_finite() && 2.0 * area > 1e-300 && area > 1e-14 * longest_edge2(mesh, t))

@@ -268,13 +268,19 @@ fn external_forces(model: &Model, loads: &[f64]) -> Vec<f64> {
     f
 }
 
-/// Set prescribed DOFs to their load values.
+/// Set prescribed DOFs to their load values: the sum of what every input prescribing the DOF
+/// gives it (a rotation plus a translation, a radial plus a tangential component).
 fn prescribe(model: &Model, loads: &[f64], u: &mut [f64]) {
-    for (load, &value) in model.loads.iter().zip(loads) {
-        if let LoadModel::Displacement(dofs) = load {
-            for &d in dofs {
-                u[d] = value;
+    for load in &model.loads {
+        if let LoadModel::Displacement(p) = load {
+            for &d in &p.dofs {
+                u[d] = 0.0;
             }
+        }
+    }
+    for (load, &value) in model.loads.iter().zip(loads) {
+        if let LoadModel::Displacement(p) = load {
+            p.add(&model.reference, value, u);
         }
     }
 }

@@ -277,9 +277,16 @@ impl Solver {
             }
             // Refused by factor_tangent: no tangent exists for these.
             LoadModel::Volume { .. } => {}
-            LoadModel::Displacement(dofs) => {
-                for &d in dofs {
-                    held[d] = 1.0;
+            LoadModel::Displacement(prescribed) => {
+                // d(prescribed displacement)/d(value): exact for a component or a direction
+                // (linear in the value), a central difference for a rotation (smooth).
+                let value = loads[k];
+                let h = 1e-6 * value.abs().max(1.0);
+                let (mut plus, mut minus) = (vec![0.0; n3], vec![0.0; n3]);
+                prescribed.add(&model.reference, value + h, &mut plus);
+                prescribed.add(&model.reference, value - h, &mut minus);
+                for &d in &prescribed.dofs {
+                    held[d] = (plus[d] - minus[d]) / (2.0 * h);
                 }
                 let mut coupling = vec![0.0; n3];
                 let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();

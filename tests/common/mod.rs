@@ -73,3 +73,34 @@ impl Rng {
         Vector3::new(self.next(), self.next(), self.next()) * scale
     }
 }
+
+/// Replace every SVK membrane material of `scene` by the orthotropic law with equal warp and
+/// fill moduli (E_warp = E_fill = E, nu_wf = ν, G = E/(2(1+ν))) and warp direction `warp`:
+/// the same material, described by the orthotropic code path. Parameters that target the SVK
+/// constants (`membranes.<name>.E`, `.nu`) go: they have no orthotropic counterpart.
+pub fn equal_warp_and_fill(scene: &mut Scene, warp: [f64; 3]) {
+    use velarium::scene::Material;
+    scene
+        .parameters
+        .retain(|p| !(p.target.ends_with(".E") || p.target.ends_with(".nu")));
+    for m in &mut scene.membranes {
+        if let Material::Svk { young, nu } = m.material {
+            m.material = Material::Orthotropic {
+                e_warp: young,
+                e_fill: young,
+                nu_wf: nu,
+                g: young / (2.0 * (1.0 + nu)),
+                warp,
+            };
+        }
+    }
+}
+
+/// Largest |a − b| over two displacement vectors, relative to the largest |a|.
+pub fn field_difference(a: &[f64], b: &[f64]) -> f64 {
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
