@@ -12,8 +12,9 @@ Operating point: the inputs ramped half way from their start to their ramp targe
   inputs moved by δ and 2δ, one DoStep each, state restored; each input alone, or with friction
   along the ramp only), on the scene packed with a residual tolerance of 1e-12 so that the
   difference measures the derivative: 1e-5 of the largest derivative among the outputs of the
-  same unit, δ = 1e-5 of the ramp (1e-3 with friction), as tests/derivatives.rs does for the
-  engine. Measured worst per scene: printed (``-s``).
+  same unit (1e-4 on scenes with wrinkling on: the wrinkled tangent's ε·D0), δ = 1e-5 of the
+  ramp (1e-3 with friction), as tests/derivatives.rs does for the engine. Measured worst per
+  scene: printed (``-s``).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import fmi3_support as f3
 import velarium_run as vr
 
 TOLERANCE = 1e-5
+WRINKLED_TOLERANCE = 1e-4
 ADJOINT_TOLERANCE = 1e-10
 
 
@@ -144,6 +146,8 @@ def test_derivatives_match_differences_of_the_fmus_equilibria(tight):
         s.freeFMUState(state)
     print(f"{md.modelName}: worst {worst:.2e} over {len(outputs)} outputs x {len(seeds)} seeds, "
           f"adjoint {adjoint_error:.1e}")
-    assert worst <= TOLERANCE
+    # A tension field (wrinkling on) puts the tangent-only ε·D0 into J (docs/fmu.md).
+    wrinkling = any(m.get("wrinkling", True) for m in scene.get("membranes", []))
+    assert worst <= (WRINKLED_TOLERANCE if wrinkling else TOLERANCE)
     # FMI 2: the same numbers.
     assert np.array_equal(fmi2_jacobian(fmu), jacobian)

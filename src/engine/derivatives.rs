@@ -330,6 +330,28 @@ impl Engine {
                 vec![(*dof, 1.0)]
             }
             ProbeModel::CableSlip { slip } => vec![(n3 + slip, -1.0)],
+            // A closed segment (sleeve points merged into one contact group, length 0) has no
+            // direction: its probes go by differences.
+            ProbeModel::CableLength { segments }
+                if segments.clone().any(|e| closed(model, u, e)) =>
+            {
+                return None
+            }
+            ProbeModel::CableTension { cable, .. }
+                if model.cables[*cable]
+                    .segments
+                    .clone()
+                    .any(|e| closed(model, u, e)) =>
+            {
+                return None
+            }
+            ProbeModel::ContactGap { slips }
+                if slips
+                    .iter()
+                    .any(|&j| model.slips[j].segments.iter().any(|&e| closed(model, u, e))) =>
+            {
+                return None
+            }
             ProbeModel::CableLength { segments } => {
                 let mut g = Vec::new();
                 for e in segments.clone() {
@@ -378,6 +400,12 @@ impl Engine {
             _ => return None,
         })
     }
+}
+
+/// Whether segment `e` is closed: shorter than 1e-6 of the model's length scale (merged sleeve
+/// points meet to within about 1e-7 of the span, `solver/order.rs`).
+fn closed(model: &Model, u: &[f64], e: usize) -> bool {
+    segment_length(model, u, e) < 1e-6 * model.length_scale
 }
 
 fn argmax(v: &[f64]) -> usize {
