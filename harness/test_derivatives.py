@@ -61,7 +61,7 @@ def ramp(s, md, setter) -> float:
 
 def real_outputs(md) -> list:
     return [v for v in md.modelVariables if v.causality == "output" and v.type in ("Real", "Float64")
-            and "fraction" not in v.name]
+            and "fraction" not in v.name and v.name != "contact_gap"]
 
 
 @pytest.fixture
@@ -119,7 +119,14 @@ def test_derivatives_match_differences_of_the_fmus_equilibria(tight):
         adjoint_error = float(np.max(np.abs(adjoint - expected) / np.maximum(size, 1e-300)))
         assert adjoint_error <= ADJOINT_TOLERANCE, (adjoint, expected)
         # Differences of equilibria, per input (with friction: along the ramp only).
-        seeds = [direction] if friction else [np.eye(len(inputs))[i] * (d if d != 0 else 1.0)
+        def inward(v) -> float:
+            """The input's range, towards the inside of [min, max] (for an input already at its
+            operating value: AnnulusTorsion's displacements start at their max)."""
+            lo, hi = float(v.min) if v.min is not None else 0.0, float(v.max) if v.max is not None else 1.0
+            size = hi - lo if hi > lo else 1.0
+            return -size if float(v.start) + 0.1 * size > hi else size
+
+        seeds = [direction] if friction else [np.eye(len(inputs))[i] * (d if d != 0 else inward(inputs[i]))
                                               for i, d in enumerate(direction)]
         state = s.getFMUState()
         base_inputs = np.array(s.getFloat64(in_refs))
@@ -138,7 +145,13 @@ def test_derivatives_match_differences_of_the_fmus_equilibria(tight):
             analytic = seed @ jacobian
             f1, f2 = at(delta * seed), at(2 * delta * seed)
             difference = (-3 * base + 4 * f1 - f2) / (2 * delta)
+            largest = float(np.max(np.abs(difference)))
             for k, unit in enumerate(units):
+                # An output that does not move (0 by symmetry: AnnulusTorsion's hub force
+                # resultant, analytic 1e-11 N) is compared at the noise of the differences,
+                # 1e-6 of the largest derivative of any output.
+                if abs(analytic[k]) <= 1e-9 * largest and abs(difference[k]) <= 1e-6 * largest:
+                    continue
                 scale = max(abs(difference[j]) for j, u in enumerate(units) if u == unit)
                 err = abs(analytic[k] - difference[k]) / scale if scale > 0 else abs(analytic[k])
                 worst = max(worst, err)
