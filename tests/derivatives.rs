@@ -37,7 +37,8 @@ use velarium::engine::Known;
 use velarium::variables::{Binding, Causality, VarType, Variable};
 use velarium::Engine;
 
-fn output_slot(e: &Engine, name: &str) -> usize {
+/// The slot of an input or output (its index in the engine's flat vector).
+fn slot(e: &Engine, name: &str) -> usize {
     match e
         .variables()
         .iter()
@@ -45,21 +46,8 @@ fn output_slot(e: &Engine, name: &str) -> usize {
         .unwrap()
         .binding
     {
-        Binding::Output(k) => k,
-        _ => panic!("{name} is not an output"),
-    }
-}
-
-fn input_slot(e: &Engine, name: &str) -> usize {
-    match e
-        .variables()
-        .iter()
-        .find(|v| v.name == name)
-        .unwrap()
-        .binding
-    {
-        Binding::Input(k) => k,
-        _ => panic!("{name} is not an input"),
+        Binding::Output(k) | Binding::Input(k) => k,
+        Binding::Parameter(_) => panic!("{name} is a parameter"),
     }
 }
 
@@ -97,9 +85,8 @@ fn prestressed_cable_compliance_is_the_closed_form() {
             rel(-get(&e, "midspan_uz"), w) < 1e-9,
             "the equilibrium itself"
         );
-        let unknowns =
-            ["midspan_uz", "tension", "reaction_z", "cable_length"].map(|n| output_slot(&e, n));
-        let known = [Known::Input(input_slot(&e, "P"))];
+        let unknowns = ["midspan_uz", "tension", "reaction_z", "cable_length"].map(|n| slot(&e, n));
+        let known = [Known::Input(slot(&e, "P"))];
         let d = e.directional_derivative(&known, &[1.0], &unknowns).unwrap();
         let dwdp = 1.0 / dpdw;
         let l0 = ea * a / (ea + t0);
@@ -362,8 +349,8 @@ fn the_adjoint_is_the_transpose() {
         get(&e, "slipping") > 0.0,
         "some sleeve points slip (friction in the tangent)"
     );
-    let inputs = ["force_2P", "cable_preload"].map(|n| Known::Input(input_slot(&e, n)));
-    let outputs = ["A_dx", "A_dy", "B_dy", "end_x", "end_slip"].map(|n| output_slot(&e, n));
+    let inputs = ["force_2P", "cable_preload"].map(|n| Known::Input(slot(&e, n)));
+    let outputs = ["A_dx", "A_dy", "B_dy", "end_x", "end_slip"].map(|n| slot(&e, n));
     let mut jacobian = Vec::new();
     for k in inputs {
         jacobian.push(e.directional_derivative(&[k], &[1.0], &outputs).unwrap());

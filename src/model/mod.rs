@@ -798,6 +798,23 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
 
 type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
 
+/// Model triangle indices of a membrane group, or of every group (None).
+fn group_elements(groups: &Groups, name: &Option<String>) -> Vec<usize> {
+    groups
+        .iter()
+        .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
+        .flat_map(|g| g.1.clone())
+        .collect()
+}
+
+/// Index of a (validated) cable name.
+fn cable_position(cables: &[CableInfo], name: &str) -> usize {
+    cables
+        .iter()
+        .position(|c| c.name == name)
+        .expect("validated cable name")
+}
+
 /// The probes of one output: one for a scalar output, one per element (row-major) for an
 /// array output (`scene::shape`).
 fn build_probes(
@@ -808,19 +825,8 @@ fn build_probes(
     groups: &Groups,
     probe: &Probe,
 ) -> Vec<ProbeModel> {
-    let elements = |name: &Option<String>| -> Vec<usize> {
-        groups
-            .iter()
-            .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
-            .flat_map(|g| g.1.clone())
-            .collect()
-    };
-    let cable = |name: &str| {
-        cables
-            .iter()
-            .position(|c| c.name == name)
-            .expect("validated cable name")
-    };
+    let elements = |name: &Option<String>| group_elements(groups, name);
+    let cable = |name: &str| cable_position(cables, name);
     match probe {
         Probe::DisplacementField { nodes } => shape::field_nodes(mesh, nodes)
             .into_iter()
@@ -875,19 +881,8 @@ fn build_probe(
     groups: &Groups,
     probe: &Probe,
 ) -> ProbeModel {
-    let elements = |name: &Option<String>| -> Vec<usize> {
-        groups
-            .iter()
-            .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
-            .flat_map(|g| g.1.clone())
-            .collect()
-    };
-    let cable_index = |name: &str| {
-        cables
-            .iter()
-            .position(|c| c.name == name)
-            .expect("validated cable name")
-    };
+    let elements = |name: &Option<String>| group_elements(groups, name);
+    let cable_index = |name: &str| cable_position(cables, name);
     match probe {
         Probe::Displacement { node, component } => ProbeModel::Displacement {
             dof: 3 * one_node(mesh, node) + component.index(),
