@@ -72,6 +72,8 @@ def test_archive_layout_and_binary(fmu3, fmu, md3, velarium):
         "modelDescription.xml",
         f"binaries/x86_64-linux/{identifier}.so",
         "resources/scene.json",
+        "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
+        f"extra/org.fmi-standard.fmi-ls-ref/{identifier}_ref.csv",
     ]
     assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in infos)
     library = velarium.with_name("libvelarium.so")
