@@ -3,11 +3,12 @@ explicit cleanup, a log recorder, debug variants of a shipped scene, and subproc
 
 Log recording. fmpy's native logger proxy (``fmpy.logging.addLoggerProxy``) formats the FMU's
 variadic message and forwards it to ONE process-wide Python callback: the last one registered.
-This module registers exactly one, at import, kept alive for the life of the process, that
-records every message *and prints it exactly as fmpy's default printer does*. So the default
-callbacks of fmpy (which now reach this callback too) keep their behaviour, and no callback is
-ever garbage-collected while the native proxy still points at it. Never pass ``logger=`` to
-``simulate_fmu`` in the harness: that would register a short-lived callback in its place.
+This module makes one, kept alive for the life of the process, the resident callback of
+``velarium_run`` (registered at import and again after every run that passes its own
+``logger=``): it records every message *and prints it exactly as fmpy's default printer does*.
+So the default callbacks of fmpy (which reach this callback too) keep their behaviour, and no
+callback is ever garbage-collected while the native proxy still points at it. Pass ``logger=``
+only through ``velarium_run.simulate_fmu`` / ``simulate``, never to ``fmpy.simulate_fmu``.
 """
 
 from __future__ import annotations
@@ -55,6 +56,9 @@ def _record(_env, instance_name, status, category, message):
 
 
 _LOGGER = fmi2CallbackLoggerTYPE(_record)
+vr.set_resident_logger(_LOGGER)
+# The structure the harness instantiates with (its logger is the proxy; the proxy reaches
+# _LOGGER while it is resident).
 CALLBACKS = fmi2CallbackFunctions()
 CALLBACKS.logger = _LOGGER
 CALLBACKS.allocateMemory = fmpy.fmi2.defaultCallbacks.allocateMemory

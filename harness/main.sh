@@ -9,7 +9,9 @@
 # shipped scene's load ramp instead); then shear the pretensioned WrinkledShear film through
 # fmpy and plot its wrinkle states (harness/wrinkled_shear.py); finally run the shipped
 # LiftedMembrane through fmpy with its ParaView series and 3-D plot (build/runs/LiftedMembrane/)
-# and render the series headless with pyvista (build/plots/LiftedMembrane_pyvista.png).
+# and render the series headless with pyvista (build/plots/LiftedMembrane_pyvista.png), and
+# the form-found FourPointSail under its wind ramp (build/runs/FourPointSail/; the FMU
+# form-finds the sail at instantiation).
 # Extra arguments go to harness/run_main.py.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,3 +22,4 @@ bash harness/setup.sh
 .venv/bin/python harness/wrinkled_shear.py
 .venv/bin/python harness/run_main.py --model LiftedMembrane
 .venv/bin/python harness/screenshot.py build/runs/LiftedMembrane/vtk/LiftedMembrane.pvd build/plots/LiftedMembrane_pyvista.png
+.venv/bin/python harness/run_main.py --model FourPointSail

@@ -72,10 +72,10 @@ def s_shape(loads: np.ndarray, a_dx: np.ndarray) -> bool | None:
     return bool(s[1] > s[0] and s[3] < s[2])
 
 
-def stopped(scene: str, mu_r: float, mu_f: float, loads: np.ndarray, capture: bool = True) -> tuple[np.ndarray, str]:
-    """The converged rows of one FMU run and the FMU's last Discard/Error message. capture=False
-    passes no logger to fmpy (pytest: after a run with a Python logger callback a later FMU run
-    in the same process has crashed with SIGSEGV, an open problem reported with this branch)."""
+def stopped(scene: str, mu_r: float, mu_f: float, loads: np.ndarray) -> tuple[np.ndarray, str]:
+    """The converged rows of one FMU run and the FMU's last Discard/Error message (the logger
+    goes through velarium_run.simulate_fmu, which leaves fmpy's native proxy on a resident
+    callback afterwards: docs/fmu.md, "fmpy's logger")."""
     messages = []
 
     def logger(_env, _name, status, _category, message):
@@ -83,7 +83,7 @@ def stopped(scene: str, mu_r: float, mu_f: float, loads: np.ndarray, capture: bo
             messages.append(message.decode(errors="replace") if isinstance(message, bytes) else str(message))
 
     try:
-        rows = st.run(mu_r, mu_f, loads, logger=logger if capture else None, scene=scene)
+        rows = st.run(mu_r, mu_f, loads, logger=logger, scene=scene)
     except Exception as e:  # an error status: report it, keep going
         return np.zeros(0), str(e)
     # After a Discard fmpy records the last successful time once more: keep the converged rows.

@@ -61,8 +61,10 @@ def run(mu_rubber: float, mu_friction: float, loads: np.ndarray, logger=None, sc
     signal["force_2P"] = loads
     for k, v in preloads.items():
         signal[k] = v
-    rows = fmpy.simulate_fmu(
-        str(vr.FMU_DIR / f"{scene}.fmu"),
+    # Through velarium_run: a logger passed to fmpy.simulate_fmu directly leaves fmpy's native
+    # proxy pointing at freed memory after the run (docs/fmu.md, "fmpy's logger").
+    rows = vr.simulate_fmu(
+        vr.FMU_DIR / f"{scene}.fmu",
         start_time=0.0,
         stop_time=float(n),
         output_interval=1.0,

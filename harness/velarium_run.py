@@ -29,6 +29,58 @@ VELARIUM = ROOT / "target" / "release" / "velarium"
 TIMEOUT = 300
 
 
+# ----------------------------------------------------------------------------- fmpy's logger
+#
+# fmpy formats an FMU's variadic log message in a small native proxy (fmpy.logging,
+# `addLoggerProxy`) that forwards it to ONE process-wide pointer: the Python callback of the
+# last callback structure registered. `simulate_fmu(..., logger=f)` registers a ctypes thunk of
+# `f` that lives only as long as that call; afterwards the proxy's pointer dangles, and the next
+# FMU instance that logs through fmpy's default callbacks (FMU2Slave.instantiate() without
+# callbacks, as harness/sweep.py does) jumps into freed memory: SIGSEGV inside fmi2DoStep or
+# any call that logs (docs/fmu.md, "fmpy's logger"). The harness therefore keeps one resident
+# callback registered for the life of the process and puts it back after every run that
+# passed its own logger: `simulate_fmu` below is the only way the harness passes `logger=`.
+
+from ctypes import byref  # noqa: E402
+
+from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, printLogMessage  # noqa: E402
+from fmpy.logging import addLoggerProxy  # noqa: E402
+
+# The resident thunk (fmpy's own printer until set_resident_logger replaces it) and every
+# callback structure ever registered: none is ever garbage-collected while the proxy may hold it.
+_RESIDENT = [fmi2CallbackLoggerTYPE(printLogMessage)]
+_REGISTERED: list = []
+
+
+def register_resident_logger() -> None:
+    """Point fmpy's native proxy at the resident callback again."""
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = _RESIDENT[0]
+    callbacks.allocateMemory = fmpy.fmi2.defaultCallbacks.allocateMemory
+    callbacks.freeMemory = fmpy.fmi2.defaultCallbacks.freeMemory
+    addLoggerProxy(byref(callbacks))
+    _REGISTERED.append(callbacks)
+
+
+def set_resident_logger(thunk) -> None:
+    """Make `thunk` (an fmi2CallbackLoggerTYPE kept alive by the caller, e.g. a module global)
+    the callback every proxied log message reaches, from now on and after every run."""
+    _RESIDENT[0] = thunk
+    register_resident_logger()
+
+
+def simulate_fmu(fmu, logger=None, **kwargs):
+    """fmpy.simulate_fmu; with `logger`, the resident callback is registered again afterwards
+    (also when the run raises), so no later instance reaches the run's freed thunk."""
+    if logger is None:
+        return fmpy.simulate_fmu(str(fmu), **kwargs)
+    try:
+        return fmpy.simulate_fmu(str(fmu), logger=logger, **kwargs)
+    finally:
+        register_resident_logger()
+
+
+
 def shipped_models() -> list[str]:
     """Names of the shipped scenes: every modelDescription/<Name>/scene.json."""
     return sorted(p.parent.name for p in SCENES.glob("*/scene.json"))
@@ -116,7 +168,7 @@ def simulate(fmu: Path, table: np.ndarray | None = None, **kwargs) -> np.ndarray
         kwargs.setdefault("stop_time", float(table["time"][-1]))
         kwargs.setdefault("output_interval", float(table["time"][1] - table["time"][0]))
     kwargs.setdefault("timeout", TIMEOUT)
-    result = fmpy.simulate_fmu(str(fmu), **kwargs)
+    result = simulate_fmu(fmu, **kwargs)
     stop = kwargs.get("stop_time")
     if stop is None:
         stop = float(fmpy.read_model_description(str(fmu)).defaultExperiment.stopTime)

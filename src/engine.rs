@@ -4,7 +4,7 @@
 //! through this type:
 //!
 //! ```text
-//! Engine::try_new(scene)          validate, build the model, start values
+//! Engine::try_new(scene)          validate, form-find if asked, build the model, start values
 //! set_real / get_real / get_integer   by value reference (the variable table)
 //! solve()                         equilibrium under the current inputs, reached by load
 //!                                 increments from the last committed equilibrium; committed
@@ -14,6 +14,7 @@
 //! ```
 
 use crate::error::Error;
+use crate::memory;
 use crate::model::membrane::Evaluation;
 use crate::model::Model;
 use crate::results;
@@ -52,6 +53,18 @@ pub struct EngineState {
     pub tension_angle: Vec<f64>,
 }
 
+impl EngineState {
+    /// Bytes of its vectors (what a copy of it allocates).
+    pub fn bytes(&self) -> u64 {
+        let floats = self.displacement.len()
+            + self.applied.len()
+            + self.inputs.len()
+            + self.parameters.len()
+            + self.tension_angle.len();
+        8 * floats as u64 + (self.slip_state.len() + self.wrinkle.len()) as u64
+    }
+}
+
 pub struct Engine {
     /// The scene as given (parameter values are applied on top of it when the model is built).
     scene: Scene,
@@ -78,13 +91,36 @@ impl Engine {
     /// the state is the undeformed configuration (call [`Engine::solve`] for the equilibrium
     /// under the start values).
     pub fn try_new(scene: Scene) -> Result<Engine, Error> {
-        let problems = validate::validate(&scene);
+        let (problems, size) = validate::validate_sized(&scene);
         if !problems.is_empty() {
             return Err(Error::Scene(problems));
         }
+        // A scene that asks for form finding is replaced by the found one before anything
+        // else: its geometry is the found shape, its prestress the balancing stress state.
+        let scene = if scene.form_finding.is_some() {
+            let report = crate::formfind::run(&scene)?;
+            let found = report.scene.ok_or_else(|| {
+                Error::FormFinding(format!(
+                    "after {} iterations: {}",
+                    report.iterations, report.message
+                ))
+            })?;
+            let problems = validate::validate(&found);
+            if !problems.is_empty() {
+                return Err(Error::Scene(problems));
+            }
+            found
+        } else {
+            scene
+        };
+        // The whole build (model, pattern, factor, vectors) at once, before any of it: a
+        // shortage is found here, not in the middle (`crate::memory`).
+        if !scene.debug.skip_memory_probes {
+            memory::probe(size.memory_bytes, "the model and the solver")?;
+        }
         let arrays = variables::table(&scene);
         let variables = variables::scalars(&arrays);
-        let model = Model::try_build(&scene).map_err(|p| Error::Scene(vec![p]))?;
+        let model = Model::try_build(&scene)?;
         let count = |c: Causality| variables.iter().filter(|v| v.causality == c).count();
         if count(Causality::Input) != model.loads.len()
             || count(Causality::Output) != model.probes.len()
@@ -97,8 +133,8 @@ impl Engine {
                 model.probes.len()
             )));
         }
-        let solver = Solver::new(&model, settings(&scene));
-        let state = initial_state(&variables, &model);
+        let solver = Solver::try_new(&model, settings(&scene))?;
+        let state = initial_state(&scene, &variables, &model)?;
         let mut engine = Engine {
             scene,
             variables,
@@ -111,7 +147,7 @@ impl Engine {
             membranes: Vec::new(),
             tangent: None,
         };
-        engine.refresh_outputs();
+        engine.refresh_outputs()?;
         Ok(engine)
     }
 
@@ -251,7 +287,22 @@ impl Engine {
     pub fn solve(&mut self) -> StepReport {
         self.tangent = None;
         if self.model_stale {
-            self.rebuild();
+            if let Err(e) = self.rebuild() {
+                return failed(e.to_string());
+            }
+        }
+        // The step's working memory and the copies kept to undo it, probed before it starts:
+        // an allocation failure inside a step would abort the host.
+        let state_bytes = 8 * (self.state.displacement.len() + self.state.slip_state.len()) as u64
+            + 9 * self.state.wrinkle.len() as u64;
+        let step_bytes = self
+            .solver
+            .step_bytes(&self.model)
+            .saturating_add(2 * state_bytes);
+        if !self.scene.debug.skip_memory_probes {
+            if let Err(e) = memory::probe(step_bytes, "the step's working memory") {
+                return failed(e.to_string());
+            }
         }
         let before = (
             self.state.displacement.clone(),
@@ -268,13 +319,19 @@ impl Engine {
             let previous = self.state.clone();
             self.state.applied = self.state.inputs.clone();
             self.state.last_iterations = report.iterations as u32;
-            self.refresh_outputs();
+            if let Err(e) = self.refresh_outputs() {
+                // Nothing of the outputs was changed: back to the state they belong to.
+                self.state = previous;
+                (self.state.displacement, self.state.slip_state) = before;
+                return failed(e.to_string());
+            }
             // A converged answer is never returned non-finite: loads so large that a position,
             // a length or a stress overflows are a failed step, and nothing is committed.
             if let Some(what) = self.non_finite() {
                 self.state = previous;
                 (self.state.displacement, self.state.slip_state) = before;
-                self.refresh_outputs();
+                // The memory of the refresh just made is there again.
+                let _ = self.refresh_outputs();
                 report.outcome = crate::solver::Outcome::Failed;
                 report.reached = 0.0;
                 report.message = format!("the equilibrium found is not finite ({what}); the loads overflow the model's numbers");
@@ -413,17 +470,28 @@ impl Engine {
         let previous = std::mem::replace(&mut self.state, state);
         if params_changed {
             self.model_stale = true;
-            self.rebuild();
+            if let Err(e) = self.rebuild() {
+                // The model and solver are untouched: back to the previous state.
+                self.state = previous;
+                self.model_stale = false;
+                return Err(e);
+            }
         }
-        self.refresh_outputs();
-        if let Some(what) = self.non_finite() {
-            // Leave the engine as it was.
+        let refreshed = self.refresh_outputs();
+        let what = match refreshed {
+            Err(e) => Err(e),
+            Ok(()) => Ok(self.non_finite()),
+        };
+        if !matches!(what, Ok(None)) {
+            // Leave the engine as it was (a rebuild that fails leaves the model stale: the
+            // next solve builds it again; a refresh that failed changed nothing).
             self.state = previous;
             if params_changed {
                 self.model_stale = true;
-                self.rebuild();
+                let _ = self.rebuild();
             }
-            self.refresh_outputs();
+            let what = what?.unwrap_or_default();
+            let _ = self.refresh_outputs();
             return Err(Error::State(format!(
                 "the state gives a non-finite {what}; the instance is unchanged"
             )));
@@ -432,16 +500,22 @@ impl Engine {
     }
 
     /// Back to the start values and the undeformed configuration.
-    pub fn reset(&mut self) {
-        let fresh = initial_state(&self.variables, &self.model);
-        if fresh.parameters != self.state.parameters {
+    /// Memory that cannot be had is an [`Error::Memory`] and leaves the engine as it was.
+    pub fn reset(&mut self) -> Result<(), Error> {
+        let fresh = initial_state(&self.scene, &self.variables, &self.model)?;
+        let previous = std::mem::replace(&mut self.state, fresh);
+        if previous.parameters != self.state.parameters || self.model_stale {
             self.model_stale = true;
+            if let Err(e) = self.rebuild() {
+                self.state = previous;
+                return Err(e);
+            }
         }
-        self.state = fresh;
-        if self.model_stale {
-            self.rebuild();
+        if let Err(e) = self.refresh_outputs() {
+            self.state = previous;
+            return Err(e);
         }
-        self.refresh_outputs();
+        Ok(())
     }
 
     /// Evaluation (state, tension angle, stresses) of every membrane triangle in the committed
@@ -473,7 +547,17 @@ impl Engine {
         )
     }
 
-    fn refresh_outputs(&mut self) {
+    /// Outputs, membrane evaluations, wrinkle codes and tension angles of the committed state.
+    /// Its working memory (element evaluations, residual and load vectors) is probed first
+    /// (always, also with `debug.skip_memory_probes`); on failure nothing is changed.
+    fn refresh_outputs(&mut self) -> Result<(), Error> {
+        let dofs = self.model.dof_count() as u64;
+        let triangles = self.model.triangles.len() as u64;
+        let evaluation = std::mem::size_of::<Evaluation>() as u64;
+        memory::probe(
+            (4 * 8 * dofs).saturating_add(triangles.saturating_mul(2 * evaluation + 16)),
+            "the outputs",
+        )?;
         self.tangent = None;
         let s = &self.state;
         let membranes = self
@@ -494,18 +578,38 @@ impl Engine {
             .collect();
         self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
         self.membranes = membranes;
+        Ok(())
     }
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.
-    fn rebuild(&mut self) {
+    /// The old ones are dropped first (a rebuild must not need twice the memory); if the
+    /// memory for the new ones cannot be had, the error is returned and the model stays stale
+    /// (the next solve tries again).
+    fn rebuild(&mut self) -> Result<(), Error> {
         self.tangent = None;
         let mut scene = self.scene.clone();
         for (p, value) in scene.parameters.clone().iter().zip(&self.state.parameters) {
             variables::set_parameter_value(&mut scene, &p.target, *value);
         }
-        self.model = Model::build(&scene);
-        self.solver = Solver::new(&self.model, settings(&scene));
+        let model = Model::try_build(&scene)?;
+        let solver = Solver::try_new(&model, settings(&scene))?;
+        self.model = model;
+        self.solver = solver;
         self.model_stale = false;
+        Ok(())
+    }
+}
+
+/// A step that did not start (its memory could not be had): nothing was changed.
+fn failed(message: String) -> StepReport {
+    StepReport {
+        outcome: crate::solver::Outcome::Failed,
+        iterations: 0,
+        increments: 0,
+        cutbacks: 0,
+        reached: 0.0,
+        message,
+        log: Vec::new(),
     }
 }
 
@@ -531,7 +635,7 @@ fn type_name(t: VarType) -> &'static str {
     }
 }
 
-fn initial_state(vars: &[Variable], model: &Model) -> EngineState {
+fn initial_state(_scene: &Scene, vars: &[Variable], model: &Model) -> Result<EngineState, Error> {
     let start = |b: fn(Binding) -> bool| -> Vec<f64> {
         vars.iter()
             .filter(|v| b(v.binding))
@@ -541,16 +645,17 @@ fn initial_state(vars: &[Variable], model: &Model) -> EngineState {
     let inputs = start(|b| matches!(b, Binding::Input(_)));
     let parameters = start(|b| matches!(b, Binding::Parameter(_)));
     debug_assert_eq!(inputs.len(), model.loads.len());
-    EngineState {
-        displacement: vec![0.0; model.unknown_count()],
-        slip_state: vec![0; model.slips.len()],
+    const WHAT: &str = "the state";
+    Ok(EngineState {
+        displacement: memory::zeros(model.unknown_count(), WHAT)?,
+        slip_state: memory::zeros(model.slips.len(), WHAT)?,
         applied: vec![0.0; inputs.len()],
         inputs,
         parameters,
         last_iterations: 0,
-        wrinkle: vec![0; model.triangles.len()],
-        tension_angle: vec![0.0; model.triangles.len()],
-    }
+        wrinkle: memory::zeros(model.triangles.len(), WHAT)?,
+        tension_angle: memory::zeros(model.triangles.len(), WHAT)?,
+    })
 }
 
 fn check_bounds(var: &Variable, value: f64) -> Result<(), Error> {

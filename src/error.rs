@@ -27,6 +27,18 @@ pub enum Error {
     Io { path: String, message: String },
     /// Saved state bytes that do not belong to this model or are damaged.
     State(String),
+    /// An allocation that grows with the scene failed (the size limits passed, the process
+    /// could not get the memory); nothing was changed.
+    Memory(crate::memory::OutOfMemory),
+    /// The scene asks for form finding and no equilibrium shape was found (the message says
+    /// after how many iterations and why).
+    FormFinding(String),
+}
+
+impl From<crate::memory::OutOfMemory> for Error {
+    fn from(e: crate::memory::OutOfMemory) -> Error {
+        Error::Memory(e)
+    }
 }
 
 impl fmt::Display for Error {
@@ -60,6 +72,8 @@ impl fmt::Display for Error {
                 write!(f, "{path}: {}", crate::scene::read::clip(message))
             }
             Error::State(m) => write!(f, "FMU state rejected: {}", crate::scene::read::clip(m)),
+            Error::Memory(e) => write!(f, "{e}"),
+            Error::FormFinding(m) => write!(f, "form finding failed: {m}"),
         }
     }
 }

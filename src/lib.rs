@@ -4,10 +4,12 @@
 //! Data flows one way (each module imports only those above it):
 //!
 //! ```text
+//! memory     fallible allocation of what grows with the input       src/memory.rs
 //! scene      validated plain data (serde), mesh generators          src/scene/
 //! variables  the FMU variable table derived from a scene            src/variables.rs
 //! model      mesh, DOFs, element kernels, loads, probes             src/model/
 //! solver     assembly, sparse LDLT, Newton, load increments         src/solver/
+//! formfind   equilibrium shape of a prescribed prestress (URS)       src/formfind.rs
 //! results    outputs computed from model + state                    src/results.rs
 //! engine     model + state + solver workspace: the one facade       src/engine.rs
 //! fmi        thin C ABI adapter over the engine (the only unsafe)   src/fmi/
@@ -21,7 +23,9 @@ pub mod description3;
 pub mod engine;
 pub mod error;
 pub mod fmi;
+pub mod formfind;
 pub mod history;
+pub mod memory;
 pub mod model;
 pub mod pack;
 pub mod results;

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use velarium::description::model_description;
 use velarium::history::{self, Event, LoadTable};
 use velarium::pack::{find_library, pack_versions, write_atomically, FmiVersion};
-use velarium::scene::generate::resolve;
+use velarium::scene::generate::try_resolve;
 use velarium::scene::validate::validate;
 use velarium::vtk;
 use velarium::{Engine, Scene};
@@ -107,6 +107,29 @@ enum Command {
         #[arg(value_name = "SCENE.json")]
         scene: String,
     },
+    /// Find the equilibrium shape of the scene's prestress and write it as a new scene.
+    ///
+    /// Every membrane group needs a `prestress` and every cable a `pretension`; supported
+    /// components stay where the geometry (or `form_finding.place`) puts them. The iteration is
+    /// the Updated Reference Strategy (docs/mechanics.md §10), with the scene's `form_finding`
+    /// settings or their defaults. FOUND.json has the found positions as explicit geometry (all
+    /// node and triangle sets kept) and the same prestress as its initial stress state, so its
+    /// analysis starts in equilibrium. Prints the iterations and the time; exits 1 if the shape
+    /// is not found (nothing is written then).
+    #[command(
+        after_help = "Examples:\n  velarium formfind modelDescription/FourPointSail/form.json --out sail.json\n  velarium formfind catenoid.json --out found.json --quiet"
+    )]
+    Formfind {
+        /// The scene (JSON).
+        #[arg(value_name = "SCENE.json")]
+        scene: String,
+        /// Where to write the found scene (JSON).
+        #[arg(long, value_name = "FOUND.json")]
+        out: String,
+        /// Print only the summary line, not one line per iteration.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Print the scene's modelDescription.xml.
     #[command(
         after_help = "Examples:\n  velarium describe modelDescription/HenckyDisc/scene.json > modelDescription.xml"
@@ -140,6 +163,31 @@ fn usage_of(name: Option<&str>) -> String {
 enum Stop {
     /// The command could not do its job: exit 1.
     Failed(String),
+}
+
+/// Write to standard output. A reader that closed the pipe (`velarium check x.json | head -1`)
+/// ends the command quietly with success, as the usual Unix tools do, instead of a panic.
+fn emit(text: &str) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    if let Err(e) = stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("velarium: cannot write to standard output: {e}");
+        std::process::exit(1);
+    }
+}
+
+macro_rules! out {
+    ($($arg:tt)*) => { emit(&format!($($arg)*)) };
+}
+
+macro_rules! outln {
+    ($($arg:tt)*) => { emit(&format!("{}\n", format!($($arg)*))) };
 }
 
 fn main() -> ExitCode {
@@ -192,13 +240,14 @@ fn main() -> ExitCode {
             quiet,
         }),
         Command::Check { scene } => cmd_check(&scene),
+        Command::Formfind { scene, out, quiet } => cmd_formfind(&scene, &out, quiet),
         Command::Describe { scene } => cmd_describe(&scene),
         Command::Schema => {
-            println!("{}", Scene::json_schema());
+            outln!("{}", Scene::json_schema());
             Ok(ExitCode::SUCCESS)
         }
         Command::Version => {
-            println!("velarium {}", env!("CARGO_PKG_VERSION"));
+            outln!("velarium {}", env!("CARGO_PKG_VERSION"));
             Ok(ExitCode::SUCCESS)
         }
     };
@@ -237,6 +286,31 @@ fn failed(e: velarium::Error) -> Stop {
     Stop::Failed(e.to_string())
 }
 
+fn cmd_formfind(path: &str, out: &str, quiet: bool) -> Result<ExitCode, Stop> {
+    let scene = read_scene(path)?;
+    let report =
+        velarium::formfind::run(&scene).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
+    if !quiet {
+        for line in &report.log {
+            println!("{line}");
+        }
+    }
+    let Some(found) = report.scene else {
+        return Err(Stop::Failed(format!(
+            "{path}: form finding failed after {} iterations: {}",
+            report.iterations, report.message
+        )));
+    };
+    let mut text = found.to_json();
+    text.push('\n');
+    write_atomically(Path::new(out), text.as_bytes()).map_err(failed)?;
+    println!(
+        "form finding converged: {} iterations, {:.3} s, last move {:.1e} of the span; wrote {out}",
+        report.iterations, report.seconds, report.last_move
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 fn cmd_pack(
     scene_path: &str,
     out: &str,
@@ -268,7 +342,7 @@ fn cmd_pack(
     let fmus = pack_versions(&scene, &out, &library, &versions)
         .map_err(|e| Stop::Failed(format!("{scene_path}: {e}")))?;
     for fmu in fmus {
-        println!("{}", fmu.display());
+        outln!("{}", fmu.display());
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -318,7 +392,7 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
     let csv = history.to_csv();
     match &args.out {
         Some(out) => write_atomically(Path::new(out), csv.as_bytes()).map_err(failed)?,
-        None => print!("{csv}"),
+        None => out!("{csv}"),
     }
     match history.failure {
         None => Ok(ExitCode::SUCCESS),
@@ -477,7 +551,7 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
     if !problems.is_empty() {
         return Ok(report_problems(path, &problems));
     }
-    let mesh = resolve(&scene.geometry);
+    let mesh = try_resolve(&scene.geometry).map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
     let counts = [
         (scene.membranes.len(), "membrane group"),
         (scene.cables.len(), "cable"),
@@ -499,19 +573,63 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
     for (n, what) in counts {
         line.push_str(&format!(", {}", count(n, what)));
     }
-    println!(
+    outln!(
         "{line}, {free} unknowns; estimated solve memory {:.3} GB (factor {} entries), limit {} GB",
         size.memory_bytes as f64 / 1e9,
         size.factor_entries,
         scene.solver.limits.max_memory_gb
     );
+    outln!("{}", cost_line(&scene, &size, model.triangles.len()));
     Ok(ExitCode::SUCCESS)
+}
+
+/// Cost model of one Newton iteration on the reference machine (one core of the 2-core CI
+/// kind; docs/solver.md, cost), fitted to `examples/bench.rs`-style floors measured at the
+/// committed state: a 150-ring disc (201,153 unknowns, 11.2 GFlop, 32.5 M factor entries:
+/// factorization and solve 0.75 s, assembly of 135,000 elements 0.058 s) and a [1, 100000]
+/// strip (599,994 unknowns, 0.60 GFlop, 32.4 M entries: 0.22 s, 200,000 elements 0.117 s).
+const FACTOR_FLOPS_PER_SECOND: f64 = 20e9;
+const FACTOR_SECONDS_PER_ENTRY: f64 = 6e-9;
+const ELEMENT_SECONDS: f64 = 0.6e-6;
+/// Assemblies (global, and their equivalent in nodal relaxation) per Newton iteration of a step
+/// that fails: measured 14-17 on the [1, N] strips of SleeveCable (N = 300 to 3000).
+const FAILING_ASSEMBLIES_PER_ITERATION: f64 = 17.0;
+
+/// What one Newton iteration costs at least (one factorization and one assembly), and what a
+/// step whose first increment fails spends before it gives up: every cut-back from
+/// initial_increment down to min_increment, each of max_iterations, or up to the solver's
+/// max_iterations_progressing (200) while the residual, already below 1e-4 of the force
+/// scale, still halves every 10 iterations.
+fn cost_line(
+    scene: &velarium::Scene,
+    size: &velarium::scene::limits::Size,
+    triangles: usize,
+) -> String {
+    let s = &scene.solver;
+    let factor = size.factor_flops / FACTOR_FLOPS_PER_SECOND
+        + size.factor_entries as f64 * FACTOR_SECONDS_PER_ENTRY;
+    let assembly = triangles as f64 * ELEMENT_SECONDS;
+    let ratio = s.initial_increment / s.min_increment;
+    let tries = (ratio.ln() / 4f64.ln()).floor().max(0.0) as usize + 1;
+    let progressing = velarium::solver::Settings::default().max_iterations_progressing;
+    let least = tries * s.max_iterations;
+    let most = tries * s.max_iterations.max(progressing);
+    let seconds = |n: usize| n as f64 * (factor + FAILING_ASSEMBLIES_PER_ITERATION * assembly);
+    format!(
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a step whose first increment does not converge gives up after {least} to {most} iterations ({tries} increments of {}, up to {} near the solution while the residual still halves): about {:.0} to {:.0} s",
+        size.factor_flops / 1e9,
+        factor + assembly,
+        s.max_iterations,
+        s.max_iterations.max(progressing),
+        seconds(least),
+        seconds(most)
+    )
 }
 
 /// Print each problem as `path: message` on stdout and a summary naming the file on stderr.
 fn report_problems(path: &str, problems: &[velarium::scene::Problem]) -> ExitCode {
     for p in problems {
-        println!("{p}");
+        outln!("{p}");
     }
     eprintln!("velarium: {path}: {}", count(problems.len(), "problem"));
     ExitCode::FAILURE
@@ -522,6 +640,6 @@ fn count(n: usize, what: &str) -> String {
 }
 
 fn cmd_describe(path: &str) -> Result<ExitCode, Stop> {
-    print!("{}", model_description(&engine_for(path)?));
+    out!("{}", model_description(&engine_for(path)?));
     Ok(ExitCode::SUCCESS)
 }

@@ -45,6 +45,10 @@ const RULES: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "src/formfind.rs",
+        &["results", "engine", "fmi", "description", "pack", "history"],
+    ),
+    (
         "src/results.rs",
         &["engine", "fmi", "scene", "description", "pack", "history"],
     ),

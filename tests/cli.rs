@@ -640,6 +640,56 @@ fn progress_only_on_a_terminal_and_not_with_quiet() {
     assert_eq!(on_terminal(true), "", "--quiet");
 }
 
+/// `formfind` writes the found scene (which `check` accepts and whose geometry moved), exits 1
+/// without writing anything when the prestress has no equilibrium, and names the field of a
+/// scene that cannot be form-found.
+#[test]
+fn formfind_writes_the_found_scene_or_nothing() {
+    let dir = scratch("formfind");
+    let sail = format!(
+        "{}/modelDescription/FourPointSail/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let out = dir.join("found.json");
+    let run = velarium(&["formfind", &sail, "--out", out.to_str().unwrap(), "--quiet"]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(stdout.contains("form finding converged"), "{stdout}");
+    let check = velarium(&["check", out.to_str().unwrap()]);
+    assert!(
+        check.status.success(),
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    let found = std::fs::read_to_string(&out).unwrap();
+    assert!(found.contains("\"field\"") && found.contains("\"pretensions\""));
+    assert!(!found.contains("form_finding"));
+    // A membrane without prestress cannot be form-found: the field is named, nothing written.
+    let bad = write(
+        &dir,
+        "bad.json",
+        r#"{"format": 1, "name": "Bad",
+  "geometry": {"generators": [{"kind": "rectangle", "name": "sq", "origin": [0, 0, 0], "size": [1, 1], "divisions": [2, 2]}]},
+  "membranes": [{"name": "m", "triangles": "sq", "thickness": 1e-3, "material": {"kind": "svk", "E": 1e6, "nu": 0.3}}],
+  "supports": [{"nodes": "sq.boundary", "fix": ["x", "y", "z"]}]}"#,
+    );
+    let none = dir.join("none.json");
+    let run = velarium(&[
+        "formfind",
+        bad.to_str().unwrap(),
+        "--out",
+        none.to_str().unwrap(),
+    ]);
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("membranes[0].prestress"), "{stderr}");
+    assert!(!none.exists());
+}
+
 /// Two point forces on the tiny cable's middle (down and sideways), for load combinations.
 const TWO_LOADS: &str = r#"{
   "format": 1,
@@ -714,4 +764,26 @@ fn solve_applies_load_combinations() {
         );
         assert!(!dir.join("out.csv").exists());
     }
+}
+
+/// A reader that closes the pipe early (`velarium schema | head -1`) ends the command quietly
+/// with exit 0, not with a panic (exit 101) on the broken pipe.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    use std::process::Stdio;
+    let mut child = Command::new(VELARIUM)
+        .arg("schema")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("velarium runs");
+    // Close the read end at once: the schema (52 KB) then meets a closed pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("velarium ends");
+    assert_eq!(out.status.code(), Some(0), "stderr: {}", text(&out.stderr));
+    assert!(
+        !text(&out.stderr).contains("panicked"),
+        "{}",
+        text(&out.stderr)
+    );
 }

@@ -128,7 +128,7 @@ fn assembled_slip_blocks_match_finite_differences() {
     let mut scene = velarium::Scene::from_json(&text).unwrap();
     scene.cables[0].sleeve.as_mut().unwrap().mu = 0.3;
     let model = velarium::model::Model::build(&scene);
-    let pattern = Pattern::new(&model);
+    let pattern = Pattern::try_new(&model).unwrap();
     let n3 = model.dof_count();
     let m = model.slips.len();
     let mut u = vec![0.0; model.unknown_count()];

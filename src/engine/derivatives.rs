@@ -90,7 +90,7 @@ impl Engine {
         }
         self.ensure_tangent()?;
         let tangent = self.tangent.take().expect("ensured");
-        let result = (|| {
+        let result: Result<Vec<f64>, Error> = (|| {
             let lambda = self
                 .solver
                 .tangent_solve_transposed(&tangent, &c)
@@ -128,7 +128,7 @@ impl Engine {
         }
         self.ensure_tangent()?;
         let tangent = self.tangent.take().expect("ensured");
-        let result = (|| {
+        let result: Result<Vec<f64>, Error> = (|| {
             let mut g = vec![0.0; nu];
             let mut held = vec![0.0; self.model.dof_count()];
             for (slot, &s) in dv.iter().enumerate().filter(|(_, s)| **s != 0.0) {
@@ -205,8 +205,8 @@ impl Engine {
         let _ = tangent;
         let (plus, minus, h) = self.parameter_models(i)?;
         let s = &self.state;
-        let r = |m: &Model| -> Vec<f64> {
-            let pattern = assemble::Pattern::new(m);
+        let r = |m: &Model| -> Result<Vec<f64>, Error> {
+            let pattern = assemble::Pattern::try_new(m).map_err(|e| Error::State(e.to_string()))?;
             let mut r = vec![0.0; m.dof_count()];
             assemble::assemble(m, &pattern, &s.displacement, &s.applied, &mut r, None);
             r.extend(sensitivity::slip_residuals(
@@ -214,9 +214,9 @@ impl Engine {
                 &s.displacement,
                 &s.slip_state,
             ));
-            r
+            Ok(r)
         };
-        let (rp, rm) = (r(&plus), r(&minus));
+        let (rp, rm) = (r(&plus)?, r(&minus)?);
         Ok(rp
             .iter()
             .zip(&rm)
@@ -235,7 +235,7 @@ impl Engine {
             }
             let target = scene.parameters[i].target.clone();
             variables::set_parameter_value(&mut scene, &target, value);
-            Model::try_build(&scene).map_err(|e| Error::Scene(vec![e]))
+            Model::try_build(&scene)
         };
         Ok((build(p + h)?, build(p - h)?, h))
     }
@@ -300,7 +300,7 @@ impl Engine {
             {
                 variables::set_parameter_value(&mut scene, &q.target, p + t * d);
             }
-            Some(Model::try_build(&scene).map_err(|e| Error::Scene(vec![e]))?)
+            Some(Model::try_build(&scene)?)
         } else {
             None
         };

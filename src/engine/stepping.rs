@@ -52,10 +52,12 @@ impl Engine {
     /// Start a step to the current inputs (see the module docs).
     pub fn begin_step(&mut self) -> Step {
         self.tangent = None;
-        if self.model_stale {
-            self.rebuild();
-        }
-        Step {
+        let rebuilt = if self.model_stale {
+            self.rebuild().map_err(|e| e.to_string())
+        } else {
+            Ok(())
+        };
+        let mut step = Step {
             from: self.state.applied.clone(),
             to: self.state.inputs.clone(),
             lambda: 0.0,
@@ -72,7 +74,12 @@ impl Engine {
                 message: String::new(),
                 log: Vec::new(),
             },
+        };
+        if let Err(message) = rebuilt {
+            step.failed = true;
+            step.report.message = message;
         }
+        step
     }
 
     /// One increment attempt; None once the step is complete or has failed.
@@ -170,10 +177,14 @@ impl Engine {
         self.state.slip_state = step.slip_state;
         self.state.applied = applied;
         self.state.last_iterations = report.iterations as u32;
-        self.refresh_outputs();
+        if let Err(e) = self.refresh_outputs() {
+            self.state = previous;
+            report.message = e.to_string();
+            return report;
+        }
         if let Some(what) = self.non_finite() {
             self.state = previous;
-            self.refresh_outputs();
+            let _ = self.refresh_outputs();
             report.message = format!(
                 "the equilibrium found is not finite ({what}); the loads overflow the model's numbers"
             );

@@ -37,6 +37,12 @@ pub struct IntermediateUpdate {
     environment: *mut c_void,
 }
 
+// SAFETY: the environment pointer is the master's; it is only passed back to the master's
+// callback, which is only called on the thread that called fmi3DoStep (never from the worker,
+// which merely holds the instance while it builds or solves).
+unsafe impl Send for IntermediateUpdate {}
+unsafe impl Sync for IntermediateUpdate {}
+
 impl IntermediateUpdate {
     pub fn new(
         callback: Option<Fmi3IntermediateUpdateFn>,

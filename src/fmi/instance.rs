@@ -72,9 +72,13 @@ impl Instance {
     /// `fmi2Instantiate`: None (after logging why) when an argument, the scene or the GUID is
     /// wrong.
     pub fn instantiate(args: &InstantiateArgs, logger: Logger) -> Option<Instance> {
-        match build_engine_guarded(args) {
+        // The engine is built on the instance's worker: a scene that asks for form finding
+        // factorizes while it is built, and the factorization's thread-locals must not land on
+        // the master's thread (worker.rs).
+        let worker = Worker::new();
+        match worker.run(|| build_engine_guarded(args)) {
             Ok((engine, guid)) => {
-                let instance = Instance::new(engine, guid, logger);
+                let instance = Instance::new(engine, guid, logger, worker);
                 instance.logger.log(
                     Category::Calls,
                     &format!("fmi2Instantiate({}) -> instance", describe(args)),
@@ -91,7 +95,7 @@ impl Instance {
         }
     }
 
-    fn new(engine: Engine, guid: String, logger: Logger) -> Instance {
+    fn new(engine: Engine, guid: String, logger: Logger, worker: Worker) -> Instance {
         Instance {
             guid,
             logger,
@@ -104,7 +108,7 @@ impl Instance {
             poisoned: false,
             init_base: None,
             init_solved: false,
-            worker: Worker::new(),
+            worker,
             intermediate: None,
             early_return_allowed: false,
         }
@@ -339,7 +343,7 @@ impl Instance {
     pub fn reset(&mut self) -> Status {
         self.call(Func::Reset, String::new(), |s| {
             if !s.heal()? {
-                s.engine.reset();
+                s.engine.reset().map_err(|e| e.to_string())?;
             }
             s.fsm = FsmState::Instantiated;
             s.experiment = Experiment::default();
@@ -755,6 +759,7 @@ impl Instance {
             engine,
             guid,
             Logger::new(None, std::ptr::null_mut(), "test", false),
+            Worker::new(),
         )
     }
 }

@@ -11,6 +11,11 @@
 //! K_ab = A0 t [ (∇N_a·S ∇N_b) I + B_aᵀ D B_b ]      B_a = [N1 F1ᵀ; N2 F2ᵀ; N2 F1ᵀ + N1 F2ᵀ]
 //! W = A0 t ψ(E)               stored energy
 //! ```
+//! A membrane prestress (an initial PK2 stress S0, from the scene's `prestress` in N/m divided
+//! by the thickness) is a state, not a tangent aid: the law is evaluated at E + E0 with
+//! S(E0) = S0, so `f`, `K` (its geometric part `∇N_a·S ∇N_b` carries S0) and the wrinkling
+//! criterion all see the total stress. For SVK this is exactly S = S0 + D E.
+//!
 //! The artificial prestress σ0 (Pa) adds `A0 t σa (∇N_a·∇N_b) n nᵀ` (n the current unit
 //! normal: out of plane only) to the tangent only, with
 //! `σa = clamp(σ0 − S_min, 0, σ0)` and S_min the minor principal PK2 stress: an isotropic
@@ -41,6 +46,10 @@ pub struct TriangleRef {
     /// The element frame: e1 along the first edge, e2 = normal × e1. Stresses, strains and
     /// tension angles of the element are expressed in it.
     pub frame: [Vector3<f64>; 2],
+    /// Equivalent initial strain E0 (Voigt, element frame) of the membrane prestress: the law
+    /// is evaluated at E + E0, with E0 chosen so that its stress at E = 0 is the prescribed
+    /// initial PK2 stress S0 ([`initial_strain`]). Zero without prestress.
+    pub initial_strain: Vector3<f64>,
 }
 
 impl TriangleRef {
@@ -117,6 +126,7 @@ pub fn triangle_ref(x: [Vector3<f64>; 3]) -> Option<TriangleRef> {
         area: 0.5 * twice_area,
         normal,
         frame: [e1, e2],
+        initial_strain: Vector3::zeros(),
     })
 }
 
@@ -167,7 +177,10 @@ pub fn triangle(
     tangent: Option<&mut Mat9>,
 ) -> (Vec9, Evaluation) {
     let F = deformation_gradient(r, x);
-    let E = green_lagrange(&F);
+    // The prestress enters here, and only here: the law (wrinkling included) sees the total
+    // strain E + E0, so the stress is the total stress S0 + ΔS and the tension-field criterion
+    // acts on it.
+    let E = green_lagrange(&F) + r.initial_strain;
     let resp = mat.response(&E, forced);
     let S = resp.stress;
     let vol = r.area * mat.thickness;
@@ -236,6 +249,73 @@ pub fn triangle(
         area_ratio,
     };
     (f, eval)
+}
+
+/// Initial PK2 stress (Pa, Voigt, element frame) of membrane forces `warp` and `fill` (N/m)
+/// along a warp direction and its in-plane perpendicular, in a sheet of `thickness`. The warp
+/// direction is `warp_direction` (global) projected on the element plane; None when it is
+/// within about 0.6° of the normal (no usable projection). Isotropic prestress: warp = fill,
+/// any direction.
+pub fn initial_stress(
+    r: &TriangleRef,
+    warp: f64,
+    fill: f64,
+    warp_direction: &Vector3<f64>,
+    thickness: f64,
+) -> Option<Vector3<f64>> {
+    let (c, s) = if warp == fill {
+        (1.0, 0.0)
+    } else {
+        let d = warp_direction.normalize();
+        let (c, s) = (d.dot(&r.frame[0]), d.dot(&r.frame[1]));
+        // Not f64::hypot: it needs glibc 2.35, above the FMU baseline.
+        let in_plane = (c * c + s * s).sqrt();
+        if !(in_plane > 1e-2) {
+            return None;
+        }
+        (c / in_plane, s / in_plane)
+    };
+    let (w, f) = (warp / thickness, fill / thickness);
+    Some(Vector3::new(
+        w * c * c + f * s * s,
+        w * s * s + f * c * c,
+        (w - f) * c * s,
+    ))
+}
+
+/// Initial PK2 stress (Pa, Voigt, element frame) of a membrane force tensor given in global
+/// components [n_xx, n_yy, n_zz, n_xy, n_yz, n_xz] (N/m): its in-plane part over the thickness.
+pub fn field_stress(r: &TriangleRef, n: &[f64; 6], thickness: f64) -> Vector3<f64> {
+    let t = Matrix3::new(n[0], n[3], n[5], n[3], n[1], n[4], n[5], n[4], n[2]);
+    let [e1, e2] = r.frame;
+    Vector3::new(e1.dot(&(t * e1)), e2.dot(&(t * e2)), e1.dot(&(t * e2))) / thickness
+}
+
+/// The strain E0 at which the material's elastic law gives the stress `s0`: the equivalent
+/// initial strain of a prestress (exact in one step for SVK, where E0 = D⁻¹ S0; Newton on
+/// S(E0) = S0 for neo-Hookean). None when the law cannot carry `s0` (a neo-Hookean principal
+/// stress at or above μ) or Newton does not reach round-off.
+#[allow(non_snake_case)]
+pub fn initial_strain(mat: &Material, s0: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let scale = mat.modulus();
+    let mut E = mat.law.small_strain().try_inverse()? * s0;
+    for _ in 0..50 {
+        let (S, D, _) = mat.law.elastic(&E);
+        let gap = s0 - S;
+        if !gap.iter().all(|g| g.is_finite()) {
+            return None;
+        }
+        if gap.amax() <= 1e-14 * scale.max(s0.amax()) {
+            return Some(E);
+        }
+        let step = D.try_inverse()? * gap;
+        E += step;
+        // Keep C = I + 2E positive definite (the law's domain).
+        if 1.0 + 2.0 * E[0].min(E[1]) <= 0.0 {
+            return None;
+        }
+    }
+    None
 }
 
 /// Principal values (max, min) of a Voigt stress.

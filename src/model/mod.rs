@@ -22,9 +22,12 @@ pub mod pressure;
 pub mod sleeve;
 pub mod wrinkling;
 
-use crate::scene::generate::{resolve, Mesh};
+use crate::error::Error;
+use crate::memory;
+use crate::scene::generate::{try_resolve, Mesh};
 use crate::scene::{
     CableEnd, Load, Material, OneNode, PolarComponent, Probe, Scene, SlipState, StrainLaw,
+    TriangleRef as TriSel,
 };
 use nalgebra::Vector3;
 
@@ -226,18 +229,36 @@ pub struct Model {
 
 impl Model {
     /// Build from a scene that passed validation (validation guarantees every reference
-    /// resolves; this function does not re-check).
+    /// resolves; this function does not re-check). For tools and tests: panics where
+    /// [`Model::try_build`] errs.
     pub fn build(scene: &Scene) -> Model {
-        Model::try_build(scene).unwrap_or_else(|p| panic!("a validated scene builds: {p}"))
+        Model::try_build(scene).unwrap_or_else(|e| panic!("a validated scene builds: {e}"))
     }
 
     /// Build the model of a validated scene; a triangle whose reference frame cannot be formed
-    /// in floating point is a located problem (validation rejects these first).
-    pub fn try_build(scene: &Scene) -> Result<Model, crate::scene::Problem> {
-        let mesh = resolve(&scene.geometry);
-        let mut reference: Vec<Vector3<f64>> =
-            mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
-        let mut used = vec![false; reference.len()];
+    /// in floating point is a located problem (validation rejects these first), and memory
+    /// that cannot be had is [`Error::Memory`]: the mesh and the model's arrays are reserved
+    /// fallibly after a probe of the whole build (`crate::memory`).
+    pub fn try_build(scene: &Scene) -> Result<Model, Error> {
+        let mesh = try_resolve(&scene.geometry)?;
+        let (nodes, triangles) = (mesh.nodes.len() as u64, mesh.triangles.len() as u64);
+        // The arrays below, the per-group triangle lists and the loads' and probes' lists: at
+        // most a few indices per node and per triangle besides the elements themselves.
+        let probe = |bytes, what| match scene.debug.skip_memory_probes {
+            true => Ok(()),
+            false => memory::probe(bytes, what),
+        };
+        probe(
+            triangles
+                .saturating_mul(std::mem::size_of::<Triangle>() as u64 + 64)
+                .saturating_add(nodes.saturating_mul(24 + 3 + 1 + 64)),
+            "the model",
+        )?;
+        let mut reference: Vec<Vector3<f64>> = memory::collect(
+            mesh.nodes.iter().map(|p| Vector3::from(*p)),
+            "the model's nodes",
+        )?;
+        let mut used = memory::filled(reference.len(), false, "the model's nodes")?;
         let triangles = build_triangles(scene, &mesh, &reference, &mut used)?;
         let mut sleeves = Sleeves::default();
         let (segments, cables) = build_cables(
@@ -249,7 +270,7 @@ impl Model {
             &mut sleeves,
         );
         let n = reference.len();
-        let mut held = vec![false; 3 * n];
+        let mut held = memory::filled(3 * n, false, "the model's DOFs")?;
         for (node, u) in used.iter().enumerate() {
             if !u {
                 held[3 * node..3 * node + 3].fill(true);
@@ -285,7 +306,10 @@ impl Model {
         let probes = scene
             .outputs
             .iter()
-            .flat_map(|o| build_probes(scene, &mesh, &cables, &sleeves.slips, &groups, &o.probe))
+            .map(|o| build_probes(scene, &mesh, &cables, &sleeves.slips, &groups, &o.probe))
+            .collect::<Result<Vec<Vec<ProbeModel>>, _>>()?
+            .into_iter()
+            .flatten()
             .collect();
         let force_scale = triangles
             .iter()
@@ -407,7 +431,14 @@ fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
     }
 }
 
-use crate::scene::shape::{self, triangle_ids};
+use crate::scene::shape;
+
+pub fn triangle_ids<'a>(mesh: &'a Mesh, r: &'a TriSel) -> &'a [usize] {
+    match r {
+        TriSel::Ids(ids) => ids,
+        TriSel::Set(name) => &mesh.triangle_sets[name],
+    }
+}
 
 /// Membrane elements, group by group.
 fn build_triangles(
@@ -415,8 +446,16 @@ fn build_triangles(
     mesh: &Mesh,
     x: &[Vector3<f64>],
     used: &mut [bool],
-) -> Result<Vec<Triangle>, crate::scene::Problem> {
-    let mut out = Vec::new();
+) -> Result<Vec<Triangle>, Error> {
+    let total = scene
+        .membranes
+        .iter()
+        .map(|m| match &m.triangles {
+            TriSel::Ids(ids) => ids.len(),
+            TriSel::Set(name) => mesh.triangle_sets.get(name).map_or(0, Vec::len),
+        })
+        .sum();
+    let mut out = memory::with_capacity(total, "the model's membrane elements")?;
     for m in &scene.membranes {
         let law = match m.material {
             Material::Svk { young, nu } => wrinkling::Law::Svk { young, nu },
@@ -438,22 +477,15 @@ fn build_triangles(
             wrinkling: m.wrinkling,
         };
         let first = out.len();
-        for t in triangle_ids(mesh, &m.triangles) {
+        for (k, &t) in triangle_ids(mesh, &m.triangles).iter().enumerate() {
             let nodes = mesh.triangles[t];
             let Some(reference) = membrane::triangle_ref(nodes.map(|i| x[i])) else {
-                return Err(crate::scene::Problem {
-                    path: format!(
-                        "membranes[{}].triangles",
-                        scene
-                            .membranes
-                            .iter()
-                            .position(|g| std::ptr::eq(g, m))
-                            .unwrap_or(0)
-                    ),
+                return Err(Error::Scene(vec![crate::scene::Problem {
+                    path: format!("membranes[{}].triangles", group_index(scene, m)),
                     message: format!(
                         "triangle {t} (nodes {nodes:?}) has zero area in floating point"
                     ),
-                });
+                }]));
             };
             for &i in &nodes {
                 used[i] = true;
@@ -467,6 +499,16 @@ fn build_triangles(
                 material.law = wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
                     o.e_warp, o.e_fill, o.nu_wf, o.g, angle,
                 ));
+            }
+            let mut reference = reference;
+            if let Some(pre) = &m.prestress {
+                reference.initial_strain = prestress_strain(k, m, &material, pre, &reference)
+                    .map_err(|message| {
+                        Error::Scene(vec![crate::scene::Problem {
+                            path: format!("membranes[{}].prestress", group_index(scene, m)),
+                            message: format!("triangle {t}: {message}"),
+                        }])
+                    })?;
             }
             out.push(Triangle {
                 id: t,
@@ -488,6 +530,34 @@ fn build_triangles(
         }
     }
     Ok(out)
+}
+
+fn group_index(scene: &Scene, m: &crate::scene::Membrane) -> usize {
+    scene
+        .membranes
+        .iter()
+        .position(|g| std::ptr::eq(g, m))
+        .unwrap_or(0)
+}
+
+/// Equivalent initial strain of a group's prestress on one triangle (`membrane::initial_strain`).
+fn prestress_strain(
+    k: usize,
+    m: &crate::scene::Membrane,
+    material: &membrane::Material,
+    pre: &crate::scene::Prestress,
+    r: &membrane::TriangleRef,
+) -> Result<Vector3<f64>, String> {
+    let s0 = if let crate::scene::Prestress::Field { n } = pre {
+        membrane::field_stress(r, &n[k], m.thickness)
+    } else {
+        let (warp, fill, dir) = pre.components();
+        membrane::initial_stress(r, warp, fill, &Vector3::from(dir), m.thickness)
+            .ok_or_else(|| format!("the warp direction {dir:?} is normal to its plane"))?
+    };
+    membrane::initial_strain(material, &s0).ok_or_else(|| {
+        format!("the material cannot carry the initial stress {s0:?} Pa (PK2, element frame)")
+    })
 }
 
 /// Sleeve points and ties collected while the cables are built.
@@ -568,9 +638,10 @@ fn build_cables(
         let start = segments.len();
         for (k, w) in points.windows(2).enumerate() {
             let l = lengths[k];
-            let l0 = match (c.pretension, c.unstretched_length) {
-                (_, Some(l0_total)) => l0_total * l / total,
-                (t0, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
+            let l0 = match (c.pretension, c.unstretched_length, &c.pretensions) {
+                (_, Some(l0_total), _) => l0_total * l / total,
+                (_, None, Some(t)) => cable::unstretched_length(law, c.ea, l, t[k]),
+                (t0, None, None) => cable::unstretched_length(law, c.ea, l, t0.unwrap_or(0.0)),
             };
             used[w[0]] = true;
             used[w[1]] = true;
@@ -603,7 +674,10 @@ fn default_penalty(ea: f64, segment: f64, node: usize, triangles: &[Triangle]) -
 }
 
 /// (group name, range of `Model::triangles` indices, mesh triangle ids) per membrane group.
-fn group_ranges(scene: &Scene, mesh: &Mesh) -> Vec<(String, std::ops::Range<usize>, Vec<usize>)> {
+fn group_ranges<'a>(
+    scene: &'a Scene,
+    mesh: &'a Mesh,
+) -> Vec<(String, std::ops::Range<usize>, &'a [usize])> {
     let mut first = 0;
     scene
         .membranes
@@ -796,7 +870,7 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
     LoadModel::PointForce(forces)
 }
 
-type Groups = [(String, std::ops::Range<usize>, Vec<usize>)];
+type Groups<'a> = [(String, std::ops::Range<usize>, &'a [usize])];
 
 /// Model triangle indices of a membrane group, or of every group (None).
 fn group_elements(groups: &Groups, name: &Option<String>) -> Vec<usize> {
@@ -824,10 +898,10 @@ fn build_probes(
     slips: &[sleeve::SlipPoint],
     groups: &Groups,
     probe: &Probe,
-) -> Vec<ProbeModel> {
+) -> Result<Vec<ProbeModel>, crate::memory::OutOfMemory> {
     let elements = |name: &Option<String>| group_elements(groups, name);
     let cable = |name: &str| cable_position(cables, name);
-    match probe {
+    Ok(match probe {
         Probe::DisplacementField { nodes } => shape::field_nodes(mesh, nodes)
             .into_iter()
             .flat_map(|i| (0..3).map(move |c| ProbeModel::Displacement { dof: 3 * i + c }))
@@ -868,8 +942,8 @@ fn build_probes(
             .iter()
             .map(|&slip| ProbeModel::CableSlip { slip })
             .collect(),
-        _ => vec![build_probe(scene, mesh, cables, slips, groups, probe)],
-    }
+        _ => vec![build_probe(scene, mesh, cables, slips, groups, probe)?],
+    })
 }
 
 /// The one probe of a scalar output.
@@ -878,12 +952,23 @@ fn build_probe(
     mesh: &Mesh,
     cables: &[CableInfo],
     slips: &[sleeve::SlipPoint],
-    groups: &Groups,
+    groups: &Groups<'_>,
     probe: &Probe,
-) -> ProbeModel {
-    let elements = |name: &Option<String>| group_elements(groups, name);
+) -> Result<ProbeModel, crate::memory::OutOfMemory> {
+    // A probe over a membrane group lists its triangles: as long as the mesh, so fallible.
+    let elements = |name: &Option<String>| -> Result<Vec<usize>, crate::memory::OutOfMemory> {
+        let chosen = || {
+            groups
+                .iter()
+                .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
+        };
+        let total = chosen().map(|g| g.1.len()).sum();
+        let mut list = crate::memory::with_capacity(total, "a probe's triangle list")?;
+        list.extend(chosen().flat_map(|g| g.1.clone()));
+        Ok(list)
+    };
     let cable_index = |name: &str| cable_position(cables, name);
-    match probe {
+    Ok(match probe {
         Probe::Displacement { node, component } => ProbeModel::Displacement {
             dof: 3 * one_node(mesh, node) + component.index(),
         },
@@ -973,7 +1058,7 @@ fn build_probe(
         },
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
         Probe::EnclosedVolume { membrane } => {
-            ProbeModel::EnclosedVolume(elements(&Some(membrane.clone())))
+            ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)
         }
         Probe::EnclosedPressure { input } => {
             let unknown = scene
@@ -984,13 +1069,13 @@ fn build_probe(
                 .expect("validated: a volume input");
             ProbeModel::EnclosedPressure(unknown)
         }
-        Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)),
-        Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)),
+        Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)?),
+        Probe::SlackFraction { membrane } => ProbeModel::SlackFraction(elements(membrane)?),
         Probe::MaxPrincipalStress { membrane } => {
-            ProbeModel::MaxPrincipalStress(elements(membrane))
+            ProbeModel::MaxPrincipalStress(elements(membrane)?)
         }
         Probe::MinPrincipalStress { membrane } => {
-            ProbeModel::MinPrincipalStress(elements(membrane))
+            ProbeModel::MinPrincipalStress(elements(membrane)?)
         }
         Probe::ElementState { triangle } => {
             let index = groups
@@ -1009,7 +1094,7 @@ fn build_probe(
         | Probe::PrincipalStresses { .. }
         | Probe::WrinkleStates { .. }
         | Probe::SleeveSlips { .. } => unreachable!("built by build_probes"),
-    }
+    })
 }
 
 fn bounding_diagonal(x: &[Vector3<f64>], used: &[bool]) -> f64 {

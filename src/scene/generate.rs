@@ -10,6 +10,7 @@
 //! Triangles are counter-clockwise seen from +z, so their normals point to +z.
 
 use super::{DiagonalPattern, Generator, Geometry, OneNode};
+use crate::memory::{self, OutOfMemory};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
@@ -22,13 +23,49 @@ pub struct Mesh {
     pub triangle_sets: BTreeMap<String, Vec<usize>>,
 }
 
-/// Resolve explicit geometry and generators. Generators never fail: sizes are checked by
-/// validation before (a zero division count simply yields no triangles here).
+/// Resolve explicit geometry and generators, for tools and tests: [`try_resolve`], panicking
+/// if the memory cannot be had (the library itself always calls [`try_resolve`]).
 pub fn resolve(geometry: &Geometry) -> Mesh {
+    try_resolve(geometry).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Resolve explicit geometry and generators. Generators never fail: sizes are checked by
+/// validation before (a zero division count simply yields no triangles here). The node and
+/// triangle lists are reserved exactly from the generators' counts and the named sets (about
+/// one index per node and per triangle) are probed first, so that a shortage of memory is an
+/// [`OutOfMemory`], never an abort.
+pub fn try_resolve(geometry: &Geometry) -> Result<Mesh, OutOfMemory> {
+    let (mut n, mut t) = (geometry.nodes.len() as u64, geometry.triangles.len() as u64);
+    for g in &geometry.generators {
+        let (gn, gt) = super::limits::generator_counts(g);
+        n = n.saturating_add(gn);
+        t = t.saturating_add(gt);
+    }
+    let too_many = |what| OutOfMemory {
+        what,
+        bytes: u64::MAX,
+    };
+    let n = usize::try_from(n).map_err(|_| too_many("the mesh's nodes"))?;
+    let t = usize::try_from(t).map_err(|_| too_many("the mesh's triangles"))?;
+    // The sets (every generator's "all" and triangle set, its edges: at most the nodes again)
+    // are built while the nodes and triangles are held, so the probe asks for all of it at
+    // once: 24 bytes per node and per triangle, 8 per set entry.
+    let sets = (n as u64).saturating_mul(2).saturating_add(t as u64);
+    memory::probe(
+        (n as u64)
+            .saturating_add(t as u64)
+            .saturating_mul(24)
+            .saturating_add(sets.saturating_mul(8)),
+        "the mesh with its node and triangle sets",
+    )?;
+    let mut nodes = memory::with_capacity(n, "the mesh's nodes")?;
+    nodes.extend_from_slice(&geometry.nodes);
+    let mut triangles = memory::with_capacity(t, "the mesh's triangles")?;
+    // Explicit triangles come first; their nodes are resolved once every set exists.
+    triangles.resize(geometry.triangles.len(), [usize::MAX; 3]);
     let mut mesh = Mesh {
-        nodes: geometry.nodes.clone(),
-        // Explicit triangles come first; their nodes are resolved once every set exists.
-        triangles: vec![[usize::MAX; 3]; geometry.triangles.len()],
+        nodes,
+        triangles,
         node_sets: geometry.node_sets.clone(),
         triangle_sets: geometry.triangle_sets.clone(),
     };
@@ -68,7 +105,7 @@ pub fn resolve(geometry: &Geometry) -> Mesh {
     for (k, t) in geometry.triangles.iter().enumerate() {
         mesh.triangles[k] = [0, 1, 2].map(|c| node_id(&mesh, &t[c]));
     }
-    mesh
+    Ok(mesh)
 }
 
 /// The global id of a triangle corner: an id, or the one node of a set (usize::MAX when the

@@ -18,6 +18,7 @@
 
 use super::generate::Mesh;
 use super::{Generator, NodeRef, Problem, Scene};
+use crate::memory::{self, OutOfMemory};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -35,6 +36,11 @@ pub struct Limits {
     /// Most estimated peak memory of model and solver, in GB (1e9 bytes). Default 16: what a
     /// 24 GB machine can give a solve while the host keeps the rest.
     pub max_memory_gb: f64,
+    /// Also compare the estimate with the memory this process can get now (the smaller of the
+    /// machine's available memory and the address-space limit). Default true; false leaves
+    /// only max_memory_gb (for hosts whose available memory misleads, e.g. with swap). An
+    /// allocation that then fails is still an error, never a crash.
+    pub check_available_memory: bool,
 }
 
 impl Default for Limits {
@@ -44,6 +50,7 @@ impl Default for Limits {
             max_triangles: 4_000_000,
             max_unknowns: 4_000_000,
             max_memory_gb: 16.0,
+            check_available_memory: true,
         }
     }
 }
@@ -61,8 +68,12 @@ pub struct Size {
     pub triangles: u64,
     /// Upper bound: 3 per node plus 4 per sleeve point (held components are not subtracted).
     pub unknowns: u64,
+    /// Sleeve points (slip unknowns): the slip block is dense, m x m.
+    pub sleeve_points: u64,
     /// Entries of the LDLT factor (from the symbolic analysis; 0 before it ran).
     pub factor_entries: u64,
+    /// Flops of one numeric factorization (from the symbolic analysis; 0 before it ran).
+    pub factor_flops: f64,
     /// Estimated peak bytes of model and solver (0 before the symbolic analysis ran).
     pub memory_bytes: u64,
 }
@@ -92,7 +103,9 @@ pub fn count(scene: &Scene) -> Size {
         unknowns: nodes
             .saturating_mul(3)
             .saturating_add(sleeve_points.saturating_mul(4)),
+        sleeve_points,
         factor_entries: 0,
+        factor_flops: 0.0,
         memory_bytes: 0,
     }
 }
@@ -160,8 +173,12 @@ pub fn check_counts(size: &Size, limits: &Limits) -> Vec<Problem> {
 }
 
 /// Node-graph edges of the mesh and cables (each pair once, i < j).
-fn edges(mesh: &Mesh, cables: &[Vec<usize>]) -> Vec<(u32, u32)> {
-    let mut e: Vec<(u32, u32)> = Vec::with_capacity(3 * mesh.triangles.len());
+fn edges(mesh: &Mesh, cables: &[Vec<usize>]) -> Result<Vec<(u32, u32)>, OutOfMemory> {
+    let segments: usize = cables.iter().map(|c| c.len().saturating_sub(1)).sum();
+    let mut e: Vec<(u32, u32)> = memory::with_capacity(
+        3 * mesh.triangles.len() + segments,
+        "the size estimate's node graph",
+    )?;
     let mut add = |a: usize, b: usize| {
         if a != b {
             e.push((a.min(b) as u32, a.max(b) as u32));
@@ -179,13 +196,14 @@ fn edges(mesh: &Mesh, cables: &[Vec<usize>]) -> Vec<(u32, u32)> {
     }
     e.sort_unstable();
     e.dedup();
-    e
+    Ok(e)
 }
 
-/// Entries of the LDLT factor of the 3-DOF-per-node matrix, from the symbolic analysis of the
-/// node graph (faer, AMD, supernodal as the solver's): 9 per node-level entry. None when the
-/// analysis itself cannot run (its own allocation failed).
-pub fn factor_entries(mesh: &Mesh, cables: &[Vec<usize>]) -> Option<u64> {
+/// The symbolic analysis of the node graph (faer, AMD, supernodal as the solver's): the LDLT
+/// factor's entries and the flops of one numeric factorization of the 3-DOF-per-node matrix
+/// (9 entries and 27 times the flops per node-level entry and column), and the node graph's
+/// edge count. An allocation that fails is an [`OutOfMemory`].
+pub fn factor_entries(mesh: &Mesh, cables: &[Vec<usize>]) -> Result<Factor, OutOfMemory> {
     use faer::sparse::linalg::cholesky::{
         factorize_symbolic_cholesky, CholeskySymbolicParams, SymmetricOrdering,
     };
@@ -194,21 +212,24 @@ pub fn factor_entries(mesh: &Mesh, cables: &[Vec<usize>]) -> Option<u64> {
     use faer::Side;
     let n = mesh.nodes.len();
     if n == 0 {
-        return Some(0);
+        return Ok(Factor::default());
     }
-    let e = edges(mesh, cables);
+    let e = edges(mesh, cables)?;
+    let edge_count = e.len() as u64;
+    const WHAT: &str = "the size estimate's symbolic analysis";
     // Upper pattern, column j holds rows i <= j (diagonal included), sorted.
-    let mut count = vec![1usize; n];
+    let mut count = memory::filled(n, 1usize, WHAT)?;
     for &(_, j) in &e {
         count[j as usize] += 1;
     }
-    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut col_ptr = memory::with_capacity(n + 1, WHAT)?;
     col_ptr.push(0usize);
     for c in &count {
         col_ptr.push(col_ptr.last().unwrap() + c);
     }
-    let mut row_idx = vec![0usize; *col_ptr.last().unwrap()];
-    let mut next: Vec<usize> = col_ptr[..n].to_vec();
+    drop(count);
+    let mut row_idx = memory::zeros(*col_ptr.last().unwrap(), WHAT)?;
+    let mut next: Vec<usize> = memory::copy(&col_ptr[..n], WHAT)?;
     let mut by_col = e;
     by_col.sort_unstable_by_key(|&(i, j)| (j, i));
     for (i, j) in by_col {
@@ -218,6 +239,7 @@ pub fn factor_entries(mesh: &Mesh, cables: &[Vec<usize>]) -> Option<u64> {
     for j in 0..n {
         row_idx[next[j]] = j;
     }
+    drop(next);
     let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
     let params = CholeskySymbolicParams {
         supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
@@ -229,12 +251,68 @@ pub fn factor_entries(mesh: &Mesh, cables: &[Vec<usize>]) -> Option<u64> {
         SymmetricOrdering::Amd,
         params,
     )
-    .ok()?;
-    Some(9 * symbolic.len_val() as u64)
+    .map_err(|_| OutOfMemory {
+        what: WHAT,
+        bytes: (pattern.compute_nnz() as u64).saturating_mul(8 * 8),
+    })?;
+    let flops = factor_flops(&symbolic);
+    Ok(Factor {
+        entries: 9 * symbolic.len_val() as u64,
+        flops: 27.0 * flops,
+        edges: edge_count,
+    })
+}
+
+/// What the symbolic analysis tells about the factor.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Factor {
+    /// Entries of L (3-DOF-per-node matrix).
+    pub entries: u64,
+    /// Floating-point operations of one numeric LDLT factorization (multiply-adds counted as
+    /// two): Σ over the columns of L of c², c the column's entries below the diagonal.
+    pub flops: f64,
+    /// Node-graph edges (each pair of nodes sharing an element once).
+    pub edges: u64,
+}
+
+/// Σ_j c_j² over the columns of the node-level L (c_j its entries below the diagonal), from
+/// the supernodal structure: a supernode of w columns and r rows below its diagonal block
+/// has columns with w−1−k+r entries below the diagonal, k = 0..w.
+fn factor_flops(symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>) -> f64 {
+    use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            let (begin, end, rows) = (
+                s.supernode_begin(),
+                s.supernode_end(),
+                s.col_ptr_for_row_idx(),
+            );
+            let mut total = 0.0;
+            for k in 0..s.n_supernodes() {
+                let w = (end[k] - begin[k]) as f64;
+                let r = (rows[k + 1] - rows[k]) as f64;
+                for c in 0..(w as usize) {
+                    let below = w - 1.0 - c as f64 + r;
+                    total += below * below;
+                }
+            }
+            total
+        }
+        SymbolicCholeskyRaw::Simplicial(s) => {
+            let cp = s.col_ptr();
+            (0..s.ncols())
+                .map(|j| {
+                    let c = (cp[j + 1] - cp[j]) as f64 - 1.0;
+                    c.max(0.0) * c.max(0.0)
+                })
+                .sum()
+        }
+    }
 }
 
 /// Estimated peak bytes: factor values and its scratch, the matrix (values, indices, element
-/// maps), the model, the mesh and the solver's vectors. Generous per-item constants (measured
+/// maps), the model, the mesh, the solver's vectors and, with m sleeve points, the slip
+/// block's m solved columns and dense m x m matrix. Generous per-item constants (measured
 /// sizes of the structs rounded up).
 pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let factor = size.factor_entries.saturating_mul(8 + 8);
@@ -242,34 +320,45 @@ pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let elements = size.triangles.saturating_mul(400 + 9 * 9 * 8);
     let nodes = size.nodes.saturating_mul(200);
     let vectors = size.unknowns.saturating_mul(8 * 24);
+    let m = size.sleeve_points;
+    let slip = m
+        .saturating_mul(size.unknowns.saturating_add(m))
+        .saturating_mul(8);
     factor
         .saturating_add(matrix)
         .saturating_add(elements)
         .saturating_add(nodes)
         .saturating_add(vectors)
+        .saturating_add(slip)
 }
 
 /// Step 2: the factor's entries from the symbolic analysis, the memory estimate, checked
-/// against `max_memory_gb` and what the process can get.
+/// against `max_memory_gb` and (unless `check_available_memory` is off) what the process can
+/// get.
 pub fn check_memory(
     size: &mut Size,
     mesh: &Mesh,
     cables: &[Vec<usize>],
     limits: &Limits,
 ) -> Vec<Problem> {
-    let entries = factor_entries(mesh, cables);
-    let mut out = Vec::new();
-    let Some(entries) = entries else {
-        out.push(Problem {
-            path: "geometry".into(),
-            message: "the symbolic analysis of the mesh could not get its memory; the scene is too large for this machine".into(),
-        });
-        return out;
+    let factor = match factor_entries(mesh, cables) {
+        Ok(f) => f,
+        Err(e) => {
+            return vec![Problem {
+                path: "geometry".into(),
+                message: format!(
+                    "the size estimate itself could not get its memory ({e}); the scene is too large for this process"
+                ),
+            }]
+        }
     };
+    let entries = factor.entries;
     size.factor_entries = entries;
-    let matrix_entries = 9u64.saturating_mul(edges(mesh, cables).len() as u64) + 6 * size.nodes;
+    size.factor_flops = factor.flops;
+    let matrix_entries = 9u64.saturating_mul(factor.edges) + 6 * size.nodes;
     size.memory_bytes = memory_bytes(size, matrix_entries);
     let gb = size.memory_bytes as f64 / 1e9;
+    let mut out = Vec::new();
     if gb > limits.max_memory_gb {
         out.push(Problem {
             path: "geometry".into(),
@@ -278,12 +367,12 @@ pub fn check_memory(
                 size.unknowns, limits.max_memory_gb
             ),
         });
-    } else if let Some(avail) = available_bytes() {
+    } else if let Some(avail) = available_bytes().filter(|_| limits.check_available_memory) {
         if size.memory_bytes > avail {
             out.push(Problem {
                 path: "geometry".into(),
                 message: format!(
-                    "the solve would need about {gb:.1} GB, but this process can get only {:.1} GB more (available memory or address-space limit)",
+                    "the solve would need about {gb:.1} GB, but this process can get only {:.1} GB more (available memory or address-space limit; solver.limits.check_available_memory = false skips this comparison)",
                     avail as f64 / 1e9
                 ),
             });
@@ -340,6 +429,7 @@ mod tests {
         let n = mesh.nodes.len();
         let mut cols: Vec<Vec<usize>> = vec![Vec::new(); 3 * n];
         let mut pairs: Vec<(usize, usize)> = edges(mesh, &[])
+            .unwrap()
             .into_iter()
             .map(|(i, j)| (i as usize, j as usize))
             .collect();
@@ -406,7 +496,7 @@ mod tests {
                 generators: vec![g],
                 ..Default::default()
             });
-            let estimate = factor_entries(&mesh, &[]).unwrap();
+            let estimate = factor_entries(&mesh, &[]).unwrap().entries;
             let actual = dof_factor_entries(&mesh);
             println!(
                 "{} nodes: estimate {estimate}, DOF-level {actual}",

@@ -60,12 +60,17 @@ pub struct Scene {
     pub parameters: Vec<Parameter>,
     #[serde(default)]
     pub solver: SolverSettings,
+    /// Form finding before the first step: the geometry is replaced by the equilibrium shape of
+    /// the membranes' `prestress` and the cables' `pretension` between the supports (Updated
+    /// Reference Strategy, `crate::formfind`). Absent: the geometry is taken as given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub form_finding: Option<FormFinding>,
     /// The FMU's DefaultExperiment (pseudo-time: one unit of time is one load history step
     /// as the master chooses it).
     #[serde(default)]
     pub experiment: Experiment,
     /// Debug-only switches that force the FMU's failure paths (a step that does not converge,
-    /// an internal panic) so that an importer's handling of them can be tested. Shipped scenes
+    /// an internal panic, an allocation that fails) so that their handling can be tested. Shipped scenes
     /// leave this out; test variants add it (and may expose its fields as parameters).
     #[serde(default, skip_serializing_if = "DebugSettings::is_off")]
     pub debug: DebugSettings,
@@ -196,6 +201,55 @@ pub struct Membrane {
     /// sheet that carries compression.
     #[serde(default = "yes")]
     pub wrinkling: bool,
+    /// Initial stress state of the group in the scene geometry (membrane forces in N/m): part
+    /// of the equilibrium (residual and tangent), unlike `solver.artificial_prestress`. The
+    /// geometry with no load is in equilibrium only if this prestress balances there (a
+    /// form-found shape, a flat sheet with every edge held). Absent: stress-free.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prestress: Option<Prestress>,
+}
+
+/// A membrane prestress in N/m (force per unit length of cut = stress × thickness).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Prestress {
+    /// The same membrane force `n` (N/m, > 0) in every in-plane direction.
+    Isotropic { n: f64 },
+    /// Membrane forces `warp` and `fill` (N/m, >= 0, not both 0) along the warp direction and
+    /// its in-plane perpendicular. `warp_direction` is a global vector, projected on each
+    /// triangle's plane (it must not be normal to any triangle of the group).
+    WarpFill {
+        warp: f64,
+        fill: f64,
+        warp_direction: [f64; 3],
+    },
+    /// One membrane force tensor per triangle of the group (in the group's triangle order), in
+    /// global components [n_xx, n_yy, n_zz, n_xy, n_yz, n_xz] (N/m); each triangle takes its
+    /// in-plane part. What form finding writes: the stress field that balances the found shape
+    /// exactly (within round-off of the prescribed one, see docs/mechanics.md §10).
+    Field { n: Vec<[f64; 6]> },
+}
+
+impl Prestress {
+    /// (warp, fill, warp direction) in N/m; isotropic: (n, n, x); a field: its largest
+    /// component as both (a force scale only).
+    pub fn components(&self) -> (f64, f64, [f64; 3]) {
+        match self {
+            Prestress::Isotropic { n } => (*n, *n, [1.0, 0.0, 0.0]),
+            Prestress::WarpFill {
+                warp,
+                fill,
+                warp_direction,
+            } => (*warp, *fill, *warp_direction),
+            Prestress::Field { n } => {
+                let m = n
+                    .iter()
+                    .flat_map(|t| t.iter())
+                    .fold(0.0f64, |m, v| m.max(v.abs()));
+                (m, m, [1.0, 0.0, 0.0])
+            }
+        }
+    }
 }
 
 /// Membrane material (plane stress, total Lagrangian).
@@ -258,6 +312,11 @@ pub struct Cable {
     /// segment. Give at most one of `pretension` and `unstretched_length`; neither = 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pretension: Option<f64>,
+    /// Tension in N of each segment in the initial geometry (one per segment, in order): what
+    /// form finding writes (the forces that balance the found shape exactly). Give at most one
+    /// of `pretension`, `pretensions` and `unstretched_length`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pretensions: Option<Vec<f64>>,
     /// Total unstretched length in m, shared among the segments in proportion to their
     /// initial lengths.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -645,6 +704,68 @@ pub enum ParameterVariability {
     Tunable,
 }
 
+/// Form finding settings (docs/mechanics.md §10). Every membrane group needs a `prestress`
+/// and every cable a `pretension`: these are the prescribed stress state whose equilibrium
+/// shape is sought. Supported components stay where `place` (or the geometry) puts them.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FormFinding {
+    /// Iterations before form finding gives up. Default 50.
+    #[serde(default = "form_finding_iterations")]
+    pub max_iterations: usize,
+    /// Converged when the shape moves at most `tolerance` times the span (bounding-box
+    /// diagonal) in one iteration, and so does the distance left estimated from the rate of
+    /// the last two moves: membrane nodes along the surface normal, cable nodes wholly.
+    /// Default 1e-6. The found scene carries the stress state that balances the found
+    /// shape exactly, so its analysis starts in equilibrium whatever the tolerance.
+    #[serde(default = "form_finding_tolerance")]
+    pub tolerance: f64,
+    /// Homotopy factor λ of the Updated Reference Strategy for isotropic prestress, in
+    /// [0, 1): each iteration's matrix is the reference-stress stiffness plus λ times the
+    /// material part of the true (surface-tension) tangent. 0 is the plain URS (each step the
+    /// equilibrium of the prestress as PK2 stress in the last shape); larger λ lets the mesh
+    /// settle within the surface faster (1/(1 − λ) per iteration) at the price of a less
+    /// stable step. Default 0.5.
+    #[serde(default = "form_finding_homotopy")]
+    pub homotopy: f64,
+    /// Start positions of nodes (mast tops, rings): each listed node is moved to `position`
+    /// before form finding; with its components supported it stays there.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub place: Vec<Placement>,
+}
+
+impl Default for FormFinding {
+    fn default() -> Self {
+        FormFinding {
+            max_iterations: form_finding_iterations(),
+            tolerance: form_finding_tolerance(),
+            homotopy: form_finding_homotopy(),
+            place: Vec::new(),
+        }
+    }
+}
+
+fn form_finding_iterations() -> usize {
+    50
+}
+
+fn form_finding_homotopy() -> f64 {
+    0.5
+}
+
+fn form_finding_tolerance() -> f64 {
+    1e-6
+}
+
+/// A node moved to a position before form finding.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Placement {
+    pub node: OneNode,
+    /// [x, y, z] in m.
+    pub position: [f64; 3],
+}
+
 /// Newton and path-following settings. Every default is chosen for the shipped scenes and
 /// explained on its field.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
@@ -701,9 +822,10 @@ impl Default for SolverSettings {
     }
 }
 
-/// Debug-only switches, honoured by the FMU's `fmi2DoStep` (not by `velarium solve`). Each may
-/// be exposed as a parameter (targets `debug.fail_after_time`, `debug.panic_after_time`), which
-/// then needs a value here as its start value.
+/// Debug-only switches. The two time switches are honoured by the FMU's `fmi2DoStep` (not by
+/// `velarium solve`) and may be exposed as parameters (targets `debug.fail_after_time`,
+/// `debug.panic_after_time`), which then need a value here as their start value;
+/// `skip_memory_probes` is honoured everywhere.
 #[derive(Clone, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct DebugSettings {
@@ -716,12 +838,19 @@ pub struct DebugSettings {
     /// `fmi2Error` and the instance goes to the Error state.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub panic_after_time: Option<f64>,
+    /// Skip the memory probes that run before the model is built and before every step
+    /// (`src/memory.rs`), so that a test with a lowered memory limit reaches the fallible
+    /// allocations themselves. Honoured everywhere (library, FMU and CLI); not a parameter.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub skip_memory_probes: bool,
 }
 
 impl DebugSettings {
     /// No switch set (the section is then left out of the serialized scene).
     pub fn is_off(&self) -> bool {
-        self.fail_after_time.is_none() && self.panic_after_time.is_none()
+        self.fail_after_time.is_none()
+            && self.panic_after_time.is_none()
+            && !self.skip_memory_probes
     }
 
     /// Set the field a `debug.<field>` parameter targets. False: no such field.

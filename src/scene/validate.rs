@@ -1,7 +1,7 @@
 //! Semantic checks of a parsed scene. Every problem is reported (not only the first), each with
 //! the JSON path of the field and a sentence a user can act on.
 
-use super::generate::{resolve, Mesh};
+use super::generate::{try_resolve, Mesh};
 use super::limits;
 use super::{
     Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
@@ -57,7 +57,16 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
         v.problems.extend(too_big);
         return v.problems;
     }
-    let mesh = resolve(&scene.geometry);
+    let mesh = match try_resolve(&scene.geometry) {
+        Ok(mesh) => mesh,
+        Err(e) => {
+            v.problems.push(Problem {
+                path: "geometry".into(),
+                message: e.to_string(),
+            });
+            return v.problems;
+        }
+    };
     v.explicit_geometry(scene, &mesh);
     v.generated_triangles(scene, &mesh);
     if v.problems.len() == before {
@@ -74,6 +83,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
             .map(|ids| ids.len())
             .sum();
         size.unknowns = 3 * mesh.nodes.len() as u64 + 4 * sleeve_points as u64;
+        size.sleeve_points = sleeve_points as u64;
         let mut too_big = limits::check_counts(size, limits);
         if too_big.is_empty() {
             too_big = limits::check_memory(size, &mesh, &cables, limits);
@@ -91,6 +101,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     v.parameters(scene);
     v.names(scene);
     v.solver(scene);
+    v.form_finding(scene, &mesh);
     v.problems
 }
 
@@ -653,6 +664,84 @@ impl Validator {
                     }
                 }
             }
+            if let Some(pre) = &m.prestress {
+                self.prestress(m, pre, &format!("{p}.prestress"), mesh);
+            }
+        }
+    }
+
+    fn prestress(&mut self, m: &super::Membrane, pre: &super::Prestress, p: &str, mesh: &Mesh) {
+        let (warp, fill, dir) = pre.components();
+        let force = |x: f64| x.is_finite() && (0.0..=1e12).contains(&x);
+        match pre {
+            super::Prestress::Isotropic { n } => {
+                if !(force(*n) && *n > 0.0) {
+                    self.push(
+                        format!("{p}.n"),
+                        format!("{n} is not a positive membrane force in N/m {RANGE}"),
+                    );
+                }
+            }
+            super::Prestress::WarpFill { .. } => {
+                for (name, v) in [("warp", warp), ("fill", fill)] {
+                    if !force(v) {
+                        self.push(
+                            format!("{p}.{name}"),
+                            format!("{v} is not a membrane force in N/m >= 0 {RANGE}"),
+                        );
+                    }
+                }
+                if warp == 0.0 && fill == 0.0 {
+                    self.push(
+                        format!("{p}.warp"),
+                        "warp and fill are both 0: leave the prestress out for a stress-free sheet",
+                    );
+                }
+                let len = dir.iter().map(|c| c * c).sum::<f64>().sqrt();
+                if !(len.is_finite() && len > 0.0) {
+                    self.push(
+                        format!("{p}.warp_direction"),
+                        format!("{dir:?} is not a direction (finite, not zero)"),
+                    );
+                }
+            }
+            super::Prestress::Field { n } => {
+                let count = match &m.triangles {
+                    TriangleRef::Ids(ids) => ids.len(),
+                    TriangleRef::Set(name) => mesh.triangle_sets.get(name).map_or(0, |t| t.len()),
+                };
+                if n.len() != count {
+                    self.push(
+                        format!("{p}.n"),
+                        format!(
+                            "lists {} tensors for the group's {count} triangles",
+                            n.len()
+                        ),
+                    );
+                }
+                if let Some(k) = n
+                    .iter()
+                    .position(|t| !t.iter().all(|v| v.is_finite() && v.abs() <= 1e12))
+                {
+                    self.push(
+                        format!("{p}.n[{k}]"),
+                        format!("{:?} is not a membrane force tensor in N/m {RANGE}", n[k]),
+                    );
+                }
+            }
+        }
+        // The neo-Hookean sheet carries a principal PK2 stress below μ only (S_i = μ (1 −
+        // 1/(λ_i det C)) < μ); beyond half of it the equivalent stretch exceeds 26 %.
+        if let Material::NeoHookean { mu } = m.material {
+            let s = warp.max(fill) / m.thickness;
+            if positive(mu) && positive(m.thickness) && s.is_finite() && s >= 0.5 * mu {
+                self.push(
+                    p.to_string(),
+                    format!(
+                        "{s:e} Pa (the largest prestress / thickness) is at least half the neo-Hookean shear modulus {mu:e} Pa: the sheet cannot carry it at moderate stretch"
+                    ),
+                );
+            }
         }
     }
 
@@ -713,6 +802,35 @@ impl Validator {
                             t / PRESTRAIN_FLOOR
                         ),
                     );
+                }
+            }
+            if let Some(ts) = &c.pretensions {
+                if c.pretension.is_some() || c.unstretched_length.is_some() {
+                    self.push(
+                        format!("{p}.pretensions"),
+                        "give one of pretension, pretensions and unstretched_length",
+                    );
+                }
+                let segments =
+                    cable_ids(mesh, &c.nodes).map_or(0, |ids| ids.len().saturating_sub(1));
+                if ts.len() != segments {
+                    self.push(
+                        format!("{p}.pretensions"),
+                        format!("lists {} tensions for {segments} segments", ts.len()),
+                    );
+                }
+                for (k, &t) in ts.iter().enumerate() {
+                    if !(t.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&t)) {
+                        self.push(
+                            format!("{p}.pretensions[{k}]"),
+                            format!("{t} is not a tension in N (>= 0 and <= 1e30)"),
+                        );
+                    } else if t > 0.0 && positive(c.ea) && t / c.ea < PRESTRAIN_FLOOR {
+                        self.push(
+                            format!("{p}.pretensions[{k}]"),
+                            format!("{t} N is below round-off for EA = {} N (initial strain below {PRESTRAIN_FLOOR:e})", c.ea),
+                        );
+                    }
                 }
             }
             if let Some(l) = c.unstretched_length {
@@ -1327,6 +1445,77 @@ impl Validator {
                         format!("\"{n}\" is used twice"),
                     );
                 }
+            }
+        }
+    }
+
+    fn form_finding(&mut self, s: &Scene, mesh: &Mesh) {
+        let Some(ff) = &s.form_finding else {
+            return;
+        };
+        if ff.max_iterations == 0 || ff.max_iterations > 10_000 {
+            self.push(
+                "form_finding.max_iterations",
+                format!("{} is not in 1..=10000", ff.max_iterations),
+            );
+        }
+        if !(ff.tolerance.is_finite() && ff.tolerance >= 1e-12 && ff.tolerance < 0.1) {
+            self.push(
+                "form_finding.tolerance",
+                format!(
+                    "{} is not a relative tolerance in [1e-12, 0.1)",
+                    ff.tolerance
+                ),
+            );
+        }
+        if !(ff.homotopy.is_finite() && (0.0..1.0).contains(&ff.homotopy)) {
+            self.push(
+                "form_finding.homotopy",
+                format!("{} is not a homotopy factor in [0, 1)", ff.homotopy),
+            );
+        }
+        for (k, pl) in ff.place.iter().enumerate() {
+            let p = format!("form_finding.place[{k}]");
+            self.one_node(mesh, &pl.node, &format!("{p}.node"));
+            if !pl.position.iter().all(|&c| coordinate(c)) {
+                self.push(
+                    format!("{p}.position"),
+                    format!("{:?} is not a position in m {RANGE}", pl.position),
+                );
+            }
+        }
+        if s.membranes.is_empty() && s.cables.is_empty() {
+            self.push(
+                "form_finding",
+                "there is nothing to form-find: give membranes with a prestress or cables with a pretension",
+            );
+        }
+        for (i, m) in s.membranes.iter().enumerate() {
+            if matches!(m.prestress, Some(super::Prestress::Field { .. })) {
+                self.push(
+                    format!("membranes[{i}].prestress"),
+                    "form finding takes an isotropic or warp_fill prestress (the stress prescribed on the unknown shape), not a field",
+                );
+            }
+            if m.prestress.is_none() {
+                self.push(
+                    format!("membranes[{i}].prestress"),
+                    "form finding needs a prestress on every membrane group (the stress whose equilibrium shape is sought)",
+                );
+            }
+        }
+        for (i, c) in s.cables.iter().enumerate() {
+            if !c.pretension.is_some_and(|t| t > 0.0) {
+                self.push(
+                    format!("cables[{i}].pretension"),
+                    "form finding needs a positive pretension on every cable (its prescribed force)",
+                );
+            }
+            if c.sleeve.is_some() {
+                self.push(
+                    format!("cables[{i}].sleeve"),
+                    "form finding does not take sleeved cables; form-find without the sleeve, then add it to the found scene",
+                );
             }
         }
     }

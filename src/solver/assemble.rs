@@ -8,6 +8,7 @@
 //! R = f_int − f_ext   on every DOF; at held DOFs R is the reaction (what the support supplies)
 //! ```
 
+use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{cable, membrane, pressure, sleeve, LoadModel, Model};
@@ -41,8 +42,10 @@ pub struct AssemblyInfo {
 }
 
 impl Pattern {
-    pub fn new(model: &Model) -> Pattern {
-        let mut eq = vec![NONE; model.dof_count()];
+    /// Pattern and position maps of `model`, every buffer that grows with it allocated
+    /// fallibly (`crate::memory`).
+    pub fn try_new(model: &Model) -> Result<Pattern, OutOfMemory> {
+        let mut eq = memory::filled(model.dof_count(), NONE, "the equation numbers")?;
         let mut n = 0;
         for (d, held) in model.held.iter().enumerate() {
             if !held {
@@ -50,39 +53,86 @@ impl Pattern {
                 n += 1;
             }
         }
-        // Column lists (rows <= col) from every element's DOFs.
-        let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n];
+        // Every element's DOFs (equation numbers, NONE where held), 9 for a triangle, 6 for a
+        // segment or tie; triangles first, then segments and ties (the maps' order).
         let eqr = &eq;
-        let element_dofs = |nodes: &[usize]| -> Vec<usize> {
-            nodes
-                .iter()
-                .flat_map(|&i| (0..3).map(move |c| eqr[3 * i + c]))
-                .collect()
-        };
-        let elements: Vec<Vec<usize>> = model
-            .triangles
-            .iter()
-            .map(|t| element_dofs(&t.nodes))
-            .chain(model.segments.iter().map(|s| element_dofs(&s.nodes)))
-            .chain(model.ties.iter().map(|t| element_dofs(&t.nodes)))
-            .collect();
-        for dofs in &elements {
-            for &i in dofs.iter().filter(|&&i| i != NONE) {
-                for &j in dofs.iter().filter(|&&j| j != NONE && i <= j) {
-                    cols[j].push(i);
+        let dofs_of = |nodes: &[usize], out: &mut [usize; 9]| -> usize {
+            for (a, &i) in nodes.iter().enumerate() {
+                for c in 0..3 {
+                    out[3 * a + c] = eqr[3 * i + c];
                 }
             }
+            3 * nodes.len()
+        };
+        let lines = || {
+            model
+                .segments
+                .iter()
+                .map(|s| s.nodes)
+                .chain(model.ties.iter().map(|t| t.nodes))
+        };
+        let for_each_element = |f: &mut dyn FnMut(&[usize])| {
+            let mut d = [NONE; 9];
+            for t in &model.triangles {
+                let m = dofs_of(&t.nodes, &mut d);
+                f(&d[..m]);
+            }
+            for nodes in lines() {
+                let m = dofs_of(&nodes, &mut d);
+                f(&d[..m]);
+            }
+        };
+        // Column lists (rows <= col), flat: count, place, then sort and dedup each column.
+        let mut start = memory::zeros::<usize>(n + 1, "the tangent's pattern")?;
+        for j in 0..n {
+            start[j + 1] = 1; // a diagonal entry for every equation, even one no element touches
         }
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx = Vec::new();
+        for_each_element(&mut |dofs| {
+            for &i in dofs.iter().filter(|&&i| i != NONE) {
+                for &j in dofs.iter().filter(|&&j| j != NONE && i <= j) {
+                    start[j + 1] += 1;
+                }
+            }
+        });
+        for j in 0..n {
+            start[j + 1] += start[j];
+        }
+        let mut rows = memory::zeros::<usize>(start[n], "the tangent's pattern")?;
+        let mut next = memory::copy(&start[..n], "the tangent's pattern")?;
+        for (j, slot) in next.iter_mut().enumerate() {
+            rows[*slot] = j;
+            *slot += 1;
+        }
+        for_each_element(&mut |dofs| {
+            for &i in dofs.iter().filter(|&&i| i != NONE) {
+                for &j in dofs.iter().filter(|&&j| j != NONE && i <= j) {
+                    rows[next[j]] = i;
+                    next[j] += 1;
+                }
+            }
+        });
+        drop(next);
+        let mut col_ptr = memory::with_capacity(n + 1, "the tangent's pattern")?;
         col_ptr.push(0);
-        for (j, c) in cols.iter_mut().enumerate() {
-            c.push(j); // a diagonal entry for every equation, even one no element touches
-            c.sort_unstable();
-            c.dedup();
-            row_idx.extend_from_slice(c);
-            col_ptr.push(row_idx.len());
+        let mut kept = 0;
+        for j in 0..n {
+            let col = &mut rows[start[j]..start[j + 1]];
+            col.sort_unstable();
+            let mut last = NONE;
+            for k in start[j]..start[j + 1] {
+                let r = rows[k];
+                if r != last {
+                    rows[kept] = r;
+                    kept += 1;
+                    last = r;
+                }
+            }
+            col_ptr.push(kept);
         }
+        drop(start);
+        let mut row_idx = memory::copy(&rows[..kept], "the tangent's pattern")?;
+        drop(rows);
+        row_idx.shrink_to_fit();
         let position = |i: usize, j: usize| -> usize {
             if i == NONE || j == NONE || i > j {
                 return NONE;
@@ -101,31 +151,33 @@ impl Pattern {
                 }
             }
         };
-        let nt = model.triangles.len();
-        let tri_map = elements[..nt]
-            .iter()
-            .map(|d| {
-                let mut m = [NONE; 81];
-                map(d, &mut m);
-                m
-            })
-            .collect();
-        let seg_map = elements[nt..]
-            .iter()
-            .map(|d| {
-                let mut m = [NONE; 36];
-                map(d, &mut m);
-                m
-            })
-            .collect();
-        Pattern {
+        let mut d = [NONE; 9];
+        let mut tri_map =
+            memory::with_capacity(model.triangles.len(), "the element position maps")?;
+        for t in &model.triangles {
+            dofs_of(&t.nodes, &mut d);
+            let mut m = [NONE; 81];
+            map(&d, &mut m);
+            tri_map.push(m);
+        }
+        let mut seg_map = memory::with_capacity(
+            model.segments.len() + model.ties.len(),
+            "the element position maps",
+        )?;
+        for nodes in lines() {
+            dofs_of(&nodes, &mut d);
+            let mut m = [NONE; 36];
+            map(&d[..6], &mut m);
+            seg_map.push(m);
+        }
+        Ok(Pattern {
             eq,
             n,
             col_ptr,
             row_idx,
             tri_map,
             seg_map,
-        }
+        })
     }
 }
 

@@ -226,9 +226,6 @@ impl Solver {
                 alpha *= 0.5;
                 continue;
             }
-            if std::env::var("VDEBUG").is_ok() {
-                eprintln!("slope a={alpha} s0={s0} s={s} inv={inverted}");
-            }
             if s.abs() <= SLOPE_RATIO * s0.abs() || s < 0.0 {
                 // Close enough to the minimum, or still descending: take it.
                 return (alpha, true);

@@ -6,7 +6,8 @@
 //! only, and Newton's residual check decides whether the step is good. A non-finite solution
 //! is reported as a failure, never returned.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
+use crate::memory::{self, OutOfMemory};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky,
@@ -31,35 +32,55 @@ pub struct Ldlt {
 
 impl Ldlt {
     /// Symbolic analysis of the upper-triangular pattern (AMD ordering, forced supernodal).
-    pub fn new(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Ldlt {
+    /// Every buffer that grows with the pattern (values, factor, factorization and solve
+    /// workspaces) is allocated fallibly: a shortage is an [`OutOfMemory`], never an abort.
+    pub fn try_new(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+    ) -> Result<Ldlt, OutOfMemory> {
         let nnz = row_idx.len();
         let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let matrix = SparseColMat::new(sym, vec![0.0; nnz]);
+        let matrix = SparseColMat::new(sym, memory::zeros(nnz, "the tangent matrix")?);
         let params = CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
             ..Default::default()
         };
+        // A square pattern with sorted, in-range indices always has a symbolic factorization;
+        // faer's only other failure is its own allocation (or an index overflow, which the
+        // size limits rule out).
         let symbolic = factorize_symbolic_cholesky(
             matrix.symbolic(),
             Side::Upper,
             SymmetricOrdering::Amd,
             params,
         )
-        .expect(
-            "a square pattern with sorted, in-range indices always has a symbolic factorization",
-        );
-        let l_values = vec![0.0; symbolic.len_val()];
-        let factor_mem = MemBuffer::new(
+        .map_err(|_| OutOfMemory {
+            what: "the symbolic factorization of the tangent",
+            bytes: (nnz as u64).saturating_mul(8 * 4),
+        })?;
+        let l_values = memory::zeros(symbolic.len_val(), "the factor of the tangent")?;
+        let buffer = |req: StackReq, what: &'static str| {
+            MemBuffer::try_new(req).map_err(|_| OutOfMemory {
+                what,
+                bytes: req.size_bytes() as u64,
+            })
+        };
+        let factor_mem = buffer(
             symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
-        );
-        let solve_mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
-        Ldlt {
+            "the factorization workspace",
+        )?;
+        let solve_mem = buffer(
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+            "the solve workspace",
+        )?;
+        Ok(Ldlt {
             matrix,
             symbolic,
             l_values,
             factor_mem,
             solve_mem,
-        }
+        })
     }
 
     /// The matrix values (upper triangle, CSC order) as last filled.

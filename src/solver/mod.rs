@@ -38,6 +38,7 @@ pub mod sensitivity;
 pub mod slip;
 mod volume;
 
+use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
@@ -255,31 +256,60 @@ pub struct Solver {
 }
 
 impl Solver {
-    /// Pattern, position maps and the symbolic factorization, once per model.
-    pub fn new(model: &Model, settings: Settings) -> Solver {
-        let pattern = Pattern::new(model);
-        let linear = Ldlt::new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone());
+    /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
+    /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
+    /// [`OutOfMemory`], never an abort.
+    pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
+        let pattern = Pattern::try_new(model)?;
+        let linear = Ldlt::try_new(
+            pattern.n,
+            memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
+            memory::copy(&pattern.row_idx, "the tangent's pattern")?,
+        )?;
         let n = model.dof_count();
         let trial_len = model.unknown_count();
-        let diagonal_positions = (0..pattern.n).map(|j| pattern.col_ptr[j + 1] - 1).collect();
-        let reference_diagonal = reference_diagonal(model, &pattern);
+        let diagonal_positions = memory::collect(
+            (0..pattern.n).map(|j| pattern.col_ptr[j + 1] - 1),
+            "the solver's vectors",
+        )?;
+        let reference_diagonal = reference_diagonal(model, &pattern)?;
         let reference_size = model.reference.iter().fold(0.0f64, |m, x| m.max(x.amax()));
-        Solver {
+        let vector = |len| memory::zeros(len, "the solver's vectors");
+        Ok(Solver {
             settings,
             linear,
-            residual: vec![0.0; n],
-            trial: vec![0.0; trial_len],
-            rhs: vec![0.0; pattern.n],
-            magnitude: vec![0.0; n],
+            residual: vector(n)?,
+            trial: vector(trial_len)?,
+            rhs: vector(pattern.n)?,
+            magnitude: vector(n)?,
             diagonal_positions,
             reference_diagonal,
             reference_size,
-            evaluations: Vec::with_capacity(model.triangles.len()),
+            evaluations: memory::with_capacity(model.triangles.len(), "the element evaluations")?,
             frozen: None,
-            adjacency: relax::Adjacency::new(model),
+            adjacency: relax::Adjacency::try_new(model)?,
             prestress_factor: 1.0,
             pattern,
-        }
+        })
+    }
+
+    /// Working memory of one step beyond what the solver and the state already hold, in
+    /// bytes: a generous bound on the vectors the path, Newton loop, line search and slip
+    /// block allocate while a step runs (about 16 copies of the unknowns and the forces, the
+    /// element evaluations three times, and with m slip and volume unknowns the m solved
+    /// columns and the dense m x m block). Probed before every step (`crate::memory::probe`).
+    pub fn step_bytes(&self, model: &Model) -> u64 {
+        let unknowns = model.unknown_count() as u64;
+        // Slips and volume pressures: the unknowns eliminated in the dense block.
+        let m = (model.unknown_count() - model.dof_count()) as u64;
+        let vectors = 16u64.saturating_mul(unknowns).saturating_mul(8);
+        let evaluations = 3u64
+            .saturating_mul(model.triangles.len() as u64)
+            .saturating_mul(std::mem::size_of::<Evaluation>() as u64 + 8);
+        let slip = m
+            .saturating_mul(self.pattern.n as u64 + m + 8)
+            .saturating_mul(8);
+        vectors.saturating_add(evaluations).saturating_add(slip)
     }
 
     /// The settings, to change for the next solves (the engine's increment-by-increment
@@ -322,8 +352,8 @@ impl Solver {
 /// would have if every element at it were taut and elastic and unstressed (membranes E t A
 /// |∇N_a|², cables EA/L, ties k; the same for x, y, z), and per slip the axial stiffness of
 /// its two segments. Positive wherever an element touches; 1 N/m elsewhere.
-fn reference_diagonal(model: &Model, pattern: &Pattern) -> Vec<f64> {
-    let mut node = vec![0.0; model.reference.len()];
+fn reference_diagonal(model: &Model, pattern: &Pattern) -> Result<Vec<f64>, OutOfMemory> {
+    let mut node: Vec<f64> = memory::zeros(model.reference.len(), "the solver's vectors")?;
     for t in &model.triangles {
         let k = t.material.modulus() * t.material.thickness * t.reference.area;
         for (a, &i) in t.nodes.iter().enumerate() {
@@ -340,7 +370,7 @@ fn reference_diagonal(model: &Model, pattern: &Pattern) -> Vec<f64> {
             node[i] += t.k;
         }
     }
-    let mut d = vec![0.0; pattern.n + model.slips.len()];
+    let mut d: Vec<f64> = memory::zeros(pattern.n + model.slips.len(), "the solver's vectors")?;
     for (dof, &e) in pattern.eq.iter().enumerate() {
         if e != NONE {
             d[e] = node[dof / 3];
@@ -358,7 +388,7 @@ fn reference_diagonal(model: &Model, pattern: &Pattern) -> Vec<f64> {
             *v = 1.0;
         }
     }
-    d
+    Ok(d)
 }
 
 impl Solver {

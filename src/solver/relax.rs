@@ -21,6 +21,7 @@
 use super::assemble::{
     pressure_contribution, segment_contribution, tie_contribution, triangle_contribution,
 };
+use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Mat9;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{LoadModel, Model};
@@ -29,13 +30,52 @@ use nalgebra::{Matrix3, Vector3};
 /// What touches a node: (element, local index) for triangles, segments and ties.
 #[derive(Clone, Debug, Default)]
 pub struct Adjacency {
-    triangles: Vec<Vec<(usize, usize)>>,
-    segments: Vec<Vec<(usize, usize)>>,
-    ties: Vec<Vec<(usize, usize)>>,
+    triangles: Lists<(usize, usize)>,
+    segments: Lists<(usize, usize)>,
+    ties: Lists<(usize, usize)>,
     /// Per triangle: (load index, follower) of the pressures acting on it.
-    pressures: Vec<Vec<(usize, bool)>>,
+    pressures: Lists<(usize, bool)>,
     /// Per node: (load index, component, force per unit load value).
-    forces: Vec<Vec<(usize, usize, f64)>>,
+    forces: Lists<(usize, usize, f64)>,
+}
+
+/// Per key (a node or a triangle) a list of items, stored flat: one offset array and one item
+/// array, both allocated fallibly (`crate::memory`), in the order the pairs come.
+#[derive(Clone, Debug, Default)]
+struct Lists<T> {
+    start: Vec<usize>,
+    items: Vec<T>,
+}
+
+impl<T: Copy + Default> Lists<T> {
+    /// From (key, item) pairs, which `pairs` yields twice (count, then place).
+    fn try_build<I>(keys: usize, pairs: impl Fn() -> I) -> Result<Lists<T>, OutOfMemory>
+    where
+        I: Iterator<Item = (usize, T)>,
+    {
+        const WHAT: &str = "the node adjacency";
+        let mut start: Vec<usize> = memory::zeros(keys + 1, WHAT)?;
+        for (k, _) in pairs() {
+            start[k + 1] += 1;
+        }
+        for k in 0..keys {
+            start[k + 1] += start[k];
+        }
+        let mut items = memory::filled(start[keys], T::default(), WHAT)?;
+        let mut next = memory::copy(&start[..keys], WHAT)?;
+        for (k, item) in pairs() {
+            items[next[k]] = item;
+            next[k] += 1;
+        }
+        Ok(Lists { start, items })
+    }
+}
+
+impl<T> std::ops::Index<usize> for Lists<T> {
+    type Output = [T];
+    fn index(&self, key: usize) -> &[T] {
+        &self.items[self.start[key]..self.start[key + 1]]
+    }
 }
 
 /// Local Newton steps per node and sweep.
@@ -44,54 +84,54 @@ const LOCAL_ITERATIONS: usize = 20;
 const LOCAL_HALVINGS: usize = 30;
 
 impl Adjacency {
-    pub fn new(model: &Model) -> Adjacency {
+    pub fn try_new(model: &Model) -> Result<Adjacency, OutOfMemory> {
         let n = model.reference.len();
-        let mut a = Adjacency {
-            triangles: vec![Vec::new(); n],
-            segments: vec![Vec::new(); n],
-            ties: vec![Vec::new(); n],
-            pressures: vec![Vec::new(); model.triangles.len()],
-            forces: vec![Vec::new(); n],
-        };
-        for (e, t) in model.triangles.iter().enumerate() {
-            for (k, &i) in t.nodes.iter().enumerate() {
-                a.triangles[i].push((e, k));
-            }
-        }
-        for (e, s) in model.segments.iter().enumerate() {
-            for (k, &i) in s.nodes.iter().enumerate() {
-                a.segments[i].push((e, k));
-            }
-        }
-        for (e, t) in model.ties.iter().enumerate() {
-            for (k, &i) in t.nodes.iter().enumerate() {
-                a.ties[i].push((e, k));
-            }
-        }
-        for (l, load) in model.loads.iter().enumerate() {
-            match load {
-                LoadModel::Pressure {
-                    triangles,
-                    follower,
-                } => {
-                    for &e in triangles {
-                        a.pressures[e].push((l, *follower));
-                    }
-                }
-                LoadModel::PointForce(dofs) => {
-                    for &(d, f) in dofs {
-                        a.forces[d / 3].push((l, d % 3, f));
-                    }
-                }
-                LoadModel::Volume { triangles, .. } => {
-                    for &e in triangles {
-                        a.pressures[e].push((l, true));
-                    }
-                }
-                LoadModel::Displacement(_) => {}
-            }
-        }
-        a
+        Ok(Adjacency {
+            triangles: Lists::try_build(n, || {
+                model
+                    .triangles
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(e, t)| t.nodes.iter().enumerate().map(move |(k, &i)| (i, (e, k))))
+            })?,
+            segments: Lists::try_build(n, || {
+                model
+                    .segments
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(e, s)| s.nodes.iter().enumerate().map(move |(k, &i)| (i, (e, k))))
+            })?,
+            ties: Lists::try_build(n, || {
+                model
+                    .ties
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(e, t)| t.nodes.iter().enumerate().map(move |(k, &i)| (i, (e, k))))
+            })?,
+            pressures: Lists::try_build(model.triangles.len(), || {
+                model.loads.iter().enumerate().flat_map(|(l, load)| {
+                    let (triangles, follower): (&[usize], bool) = match load {
+                        LoadModel::Pressure {
+                            triangles,
+                            follower,
+                        } => (triangles, *follower),
+                        // Gas pressure of an enclosed volume: a follower pressure.
+                        LoadModel::Volume { triangles, .. } => (triangles, true),
+                        _ => (&[], false),
+                    };
+                    triangles.iter().map(move |&e| (e, (l, follower)))
+                })
+            })?,
+            forces: Lists::try_build(n, || {
+                model.loads.iter().enumerate().flat_map(|(l, load)| {
+                    let dofs: &[(usize, f64)] = match load {
+                        LoadModel::PointForce(dofs) => dofs,
+                        _ => &[],
+                    };
+                    dofs.iter().map(move |&(d, f)| (d / 3, (l, d % 3, f)))
+                })
+            })?,
+        })
     }
 }
 

@@ -54,9 +54,11 @@ impl Instance {
     /// `fmi3InstantiateCoSimulation`: None (after logging why) when an argument, the scene or
     /// the token is wrong, or when the master wants event mode (`hasEventMode="false"`).
     pub fn instantiate_fmi3(args: &Instantiate3Args, logger: Logger) -> Option<Instance> {
-        match build_fmi3(args) {
+        // Built on the instance's worker, as in fmi2Instantiate (form finding factorizes).
+        let worker = super::Worker::new();
+        match worker.run(|| build_fmi3(args)) {
             Ok((engine, token)) => {
-                let mut instance = Instance::new(engine, token, logger);
+                let mut instance = Instance::new(engine, token, logger, worker);
                 instance.intermediate = args.intermediate_update;
                 instance.early_return_allowed = args.early_return_allowed;
                 instance.logger.log(

@@ -20,9 +20,18 @@ impl Instance {
         }
     }
 
+    /// Make sure `copies` copies of a state of `bytes` bytes can be had before one is made
+    /// (`crate::memory::probe`): a state as large as the model is copied, encoded and decoded
+    /// here, outside any step.
+    fn probe_state(bytes: u64, copies: u64) -> Result<(), String> {
+        crate::memory::probe(bytes.saturating_mul(copies), "copies of the FMU state")
+            .map_err(|e| e.to_string())
+    }
+
     /// `fmi2GetFMUstate`: `store` puts the snapshot where the master's handle points.
     pub fn get_fmu_state(&mut self, store: impl FnOnce(Snapshot) -> Result<(), String>) -> Status {
         self.call(Func::GetFmuState, String::new(), |s| {
+            Self::probe_state(s.engine.state().bytes(), 1)?;
             store(s.snapshot())?;
             Ok(Status::Ok)
         })
@@ -33,6 +42,8 @@ impl Instance {
         self.call(Func::SetFmuState, String::new(), |s| {
             let snapshot = snapshot?;
             s.check_snapshot(snapshot)?;
+            // The engine's copy, the initialization base, and the state they replace.
+            Self::probe_state(snapshot.engine.bytes(), 3)?;
             s.heal()?;
             s.engine
                 .set_state(snapshot.engine.clone())
@@ -91,7 +102,10 @@ impl Instance {
         store: impl FnOnce(usize) -> Result<(), String>,
     ) -> Status {
         self.call(Func::SerializedFmuStateSize, String::new(), |s| {
-            store(snapshot::encode(snapshot?, &s.guid)?.len())?;
+            let snapshot = snapshot?;
+            // The encoder's buffer grows by doubling: at most twice the encoded size.
+            Self::probe_state(snapshot.engine.bytes(), 2)?;
+            store(snapshot::encode(snapshot, &s.guid)?.len())?;
             Ok(Status::Ok)
         })
     }
@@ -102,7 +116,9 @@ impl Instance {
         buffer: Result<&mut [u8], String>,
     ) -> Status {
         self.call(Func::SerializeFmuState, String::new(), |s| {
-            let bytes = snapshot::encode(snapshot?, &s.guid)?;
+            let snapshot = snapshot?;
+            Self::probe_state(snapshot.engine.bytes(), 2)?;
+            let bytes = snapshot::encode(snapshot, &s.guid)?;
             let buffer = buffer?;
             if buffer.len() < bytes.len() {
                 return Err(format!(
@@ -124,7 +140,10 @@ impl Instance {
     ) -> Status {
         let args = self.args(|| format!("size={}", bytes.as_ref().map_or(0, |b| b.len())));
         self.call(Func::DeSerializeFmuState, args, |s| {
-            let snapshot = snapshot::decode(bytes?, &s.guid)?;
+            let bytes = bytes?;
+            // The decoded vectors take about the bytes' size, grown by doubling.
+            Self::probe_state(bytes.len() as u64, 2)?;
+            let snapshot = snapshot::decode(bytes, &s.guid)?;
             store(snapshot)?;
             Ok(Status::Ok)
         })

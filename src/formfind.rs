@@ -1,0 +1,671 @@
+//! Form finding: the equilibrium shape of a prescribed prestress (membranes) and prescribed
+//! forces (cables) between the supports, by the Updated Reference Strategy.
+//!
+//! ```text
+//! X_k          the reference configuration of iteration k (X_0: the scene geometry, with
+//!              `form_finding.place` applied)
+//! S0           prescribed PK2 stress of each triangle in X_k: the group's prestress (N/m) / t,
+//!              isotropic, or warp/fill along the warp direction projected on the triangle
+//! q_e = T/L_e  force density of each cable segment (T the prescribed force, L_e its length in X_k)
+//! solve        Σ_e A_e t (∇N_a·S0 ∇N_b) x_b + Σ_segments q_e (x_b − x_a) = 0   at free DOFs
+//!              (supported DOFs stay at X_k), x → X_{k+1}
+//! converged    the shape moves at most tolerance · span, and so does the distance left to the
+//!              fixed point estimated from the rate ρ of the last two moves, move·ρ/(1 − ρ):
+//!              at membrane nodes the move along the node normal, at cable nodes the move
+//!              across the cable
+//! found stress N = t (A_k/A_{k+1}) F S0 Fᵀ on each triangle, T L_{k+1}/L_k on each segment:
+//!              the stress state that balances X_{k+1} exactly (the last solve's equations)
+//! ```
+//! The stress is prescribed as a PK2 stress in the reference of the iteration, so the internal
+//! force `f_a = A t F S0 ∇N_a` is linear in the new positions x and each iteration is one
+//! sparse symmetric solve (the URS with homotopy factor λ = 0; with cables only it is the force
+//! density method of Schek 1974 with force densities updated to T/L, and its first iteration
+//! is that method's starting guess). At the fixed point X_{k+1} = X_k, F is the identity in
+//! the plane of each triangle, so the Cauchy stress of the found shape equals the prescribed
+//! one and every cable carries T: the found shape is an equilibrium of exactly the prescribed
+//! stress state (for an isotropic prestress a discrete minimal surface; an edge cable between
+//! membrane of prestress n is an arc of radius T/n).
+//!
+//! An isotropic prestress fixes the surface, not the mesh on it: iterates converge normal to
+//! the surface geometrically (about 0.4 per iteration) while the nodes may keep creeping within
+//! it far more slowly (Wüchner & Bletzinger 2005 on the tangential indeterminacy). The
+//! iteration therefore stops on the shape, and the found scene carries, as its initial stress
+//! state, the stress that balances the last iterate exactly (a `field` prestress per triangle,
+//! `pretensions` per cable segment). It differs from the prescribed state by the last
+//! iteration's in-surface creep; the report gives the largest relative difference
+//! (`deviation`). The analysis that follows starts in equilibrium to round-off.
+//!
+//! A prestress with no equilibrium between the supports (a soap film between two rings set
+//! further apart than 1.3255 times their radius) makes the iterates contract without end: a
+//! triangle whose area falls below `COLLAPSE` of its start area stops the iteration with a
+//! message, as does reaching `max_iterations`.
+//!
+//! # References
+//! Bletzinger & Ramm 1999, *A general finite element approach to the form finding of tensile
+//! structures by the updated reference strategy*, Int. J. Space Structures 14(2):131-145;
+//! Wüchner & Bletzinger 2005, *Stress-adapted numerical form finding of pre-stressed surfaces by
+//! the updated reference strategy*, IJNME 64:143-166 (the homotopy factor λ, λ = 0 used here);
+//! Linhard, Wüchner & Bletzinger 2009 (URS for membranes with cables); Schek 1974, *The force
+//! density method for form finding and computation of general networks*, CMAME 3:115-134.
+
+use crate::model::{membrane, node_ids, triangle_ids, Model};
+use crate::scene::generate::resolve;
+use crate::scene::{FormFinding, Geometry, OneNode, Prestress, Problem, Scene};
+use crate::solver::assemble::{Pattern, NONE};
+use crate::solver::linear::Ldlt;
+use nalgebra::{Matrix3, Vector3};
+
+/// A triangle whose area falls below this fraction of its start area has collapsed: the
+/// prestress has no equilibrium between the supports.
+pub const COLLAPSE: f64 = 1e-3;
+
+/// A shape move ratio between iterations above this marks the mesh creeping within the surface
+/// (the shape itself converges at about 0.4 per iteration): the mesh control switches on.
+pub const CREEP_RATE: f64 = 0.7;
+
+/// Stiffness of the mesh-control springs relative to a node's own stiffness.
+pub const MESH_SPRING: f64 = 100.0;
+
+/// Iterative refinement solves of the last step.
+const REFINEMENTS: usize = 3;
+
+/// What form finding did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Report {
+    /// The scene with the found geometry (explicit nodes, triangles and sets; no generators,
+    /// no `form_finding` section). Present when converged.
+    pub scene: Option<Scene>,
+    /// Iterations (linear solves) done.
+    pub iterations: usize,
+    /// Largest shape move of the last iteration (normal to the surface at membrane nodes, the
+    /// whole move at cable nodes), relative to the span.
+    pub last_move: f64,
+    /// Largest relative deviation of the stress state that balances the found shape from the
+    /// prescribed one (membrane force components over the group's largest prescribed force;
+    /// cable forces over their prescribed force).
+    pub deviation: f64,
+    /// Wall time, s.
+    pub seconds: f64,
+    /// One line per iteration.
+    pub log: Vec<String>,
+    /// Why it failed (empty when converged).
+    pub message: String,
+}
+
+impl Report {
+    pub fn converged(&self) -> bool {
+        self.scene.is_some()
+    }
+}
+
+/// Prescribed stress of one triangle: group prestress (warp, fill in N/m, warp direction) and
+/// thickness.
+struct TriangleStress {
+    nodes: [usize; 3],
+    warp: f64,
+    fill: f64,
+    direction: Vector3<f64>,
+    thickness: f64,
+    group: usize,
+}
+
+/// Form-find a validated scene that has a `form_finding` section (or use `settings`). Err for a
+/// scene problem found on the way (a degenerate start triangle, a warp direction normal to a
+/// triangle); non-convergence is a report with a message, not an error.
+pub fn form_find(scene: &Scene, settings: &FormFinding) -> Result<Report, crate::Error> {
+    let start = std::time::Instant::now();
+    let mesh = resolve(&scene.geometry);
+    let mut start_scene = scene.clone();
+    start_scene.form_finding = None;
+    // Held DOFs and the element lists come from the model of the scene; the reference data of
+    // each iteration is formed here.
+    let model = Model::try_build(&start_scene)?;
+    let mut x: Vec<Vector3<f64>> = mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
+    for pl in &settings.place {
+        let id = match &pl.node {
+            OneNode::Id(id) => *id,
+            OneNode::Set(name) => mesh.node_sets[name][0],
+        };
+        x[id] = Vector3::from(pl.position);
+    }
+    let mut tris = Vec::new();
+    for (g, m) in scene.membranes.iter().enumerate() {
+        let (warp, fill, dir) =
+            m.prestress
+                .as_ref()
+                .map(|p| p.components())
+                .unwrap_or((0.0, 0.0, [1.0, 0.0, 0.0]));
+        for &t in triangle_ids(&mesh, &m.triangles) {
+            tris.push(TriangleStress {
+                nodes: mesh.triangles[t],
+                warp,
+                fill,
+                direction: Vector3::from(dir),
+                thickness: m.thickness,
+                group: g,
+            });
+        }
+    }
+    let mut segments = Vec::new();
+    for c in &scene.cables {
+        let ids = node_ids(&mesh, &c.nodes);
+        let t = c.pretension.unwrap_or(0.0);
+        for w in ids.windows(2) {
+            segments.push((w[0], w[1], t));
+        }
+    }
+    let pattern = Pattern::try_new(&model)?;
+    let mut linear = Ldlt::try_new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone())?;
+    let position = |i: usize, j: usize| -> usize {
+        let col = &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]];
+        pattern.col_ptr[j]
+            + col
+                .binary_search(&i)
+                .expect("pattern holds every element pair")
+    };
+    let mut used = vec![false; x.len()];
+    for t in &tris {
+        t.nodes.iter().for_each(|&i| used[i] = true);
+    }
+    for &(a, b, _) in &segments {
+        used[a] = true;
+        used[b] = true;
+    }
+    let span = span(&x, &used);
+    let mut on_cable = vec![false; x.len()];
+    for &(a, b, _) in &segments {
+        on_cable[a] = true;
+        on_cable[b] = true;
+    }
+    let start_area: Vec<f64> = tris.iter().map(|t| area(&x, t.nodes)).collect::<Vec<_>>();
+    let mut report = Report {
+        scene: None,
+        iterations: 0,
+        last_move: f64::INFINITY,
+        deviation: f64::INFINITY,
+        seconds: 0.0,
+        log: Vec::new(),
+        message: String::new(),
+    };
+    let n_dof = 3 * x.len();
+    let mut r = vec![0.0; n_dof];
+    let mut rhs = vec![0.0; pattern.n];
+    let mut stage: Vec<(membrane::TriangleRef, nalgebra::Matrix2<f64>)> =
+        Vec::with_capacity(tris.len());
+    if let Some(r0) = tris
+        .first()
+        .and_then(|t| membrane::triangle_ref(t.nodes.map(|i| x[i])))
+    {
+        stage.resize(tris.len(), (r0, nalgebra::Matrix2::zeros()));
+    }
+    let mut lengths = vec![0.0; segments.len()];
+    let mut previous_move = 0.0f64;
+    let mut finishing = false;
+    let mut projecting = false;
+    for k in 1..=settings.max_iterations + 1 {
+        // K(X_k) and the residual R = K X_k of the current positions.
+        let values = linear.values_mut();
+        values.fill(0.0);
+        r.fill(0.0);
+        for (e, t) in tris.iter().enumerate() {
+            let Some(reference) = membrane::triangle_ref(t.nodes.map(|i| x[i])) else {
+                report.message = format!(
+                    "iteration {k}: triangle {e} (nodes {:?}) has collapsed to zero area; the prestress has no equilibrium between these supports",
+                    t.nodes
+                );
+                return Ok(finish(report, start));
+            };
+            let ratio = reference.area / start_area[e];
+            if ratio < COLLAPSE {
+                report.message = format!(
+                    "iteration {k}: triangle {e} (nodes {:?}) shrank to {ratio:.1e} of its start area and keeps contracting: the prestress has no equilibrium between these supports (a soap film between rings too far apart pinches off)",
+                    t.nodes
+                );
+                return Ok(finish(report, start));
+            }
+            let Some(s0) =
+                membrane::initial_stress(&reference, t.warp, t.fill, &t.direction, t.thickness)
+            else {
+                return Err(crate::Error::Scene(vec![Problem {
+                    path: format!("membranes[{}].prestress.warp_direction", t.group),
+                    message: format!(
+                        "is normal to triangle {e} (nodes {:?}) of the iterate {k}",
+                        t.nodes
+                    ),
+                }]));
+            };
+            let smat = nalgebra::Matrix2::new(s0[0], s0[2], s0[2], s0[1]);
+            stage[e] = (reference.clone(), smat);
+            let vol = reference.area * t.thickness;
+            // Isotropic groups: λ times the material part of the surface-tension tangent at
+            // the reference (C = I): D = (n/t) (1⊗1 − 2 I_sym), Voigt [[-1, 1, 0], [1, -1, 0],
+            // [0, 0, -1]]; it does not enter the residual.
+            let material = (t.warp == t.fill && settings.homotopy > 0.0 && !finishing).then(|| {
+                let [e1, e2] = reference.frame;
+                let b: [Matrix3<f64>; 3] = [0, 1, 2].map(|a| {
+                    let (n1, n2) = (reference.grad[a].x, reference.grad[a].y);
+                    Matrix3::from_rows(&[
+                        (e1 * n1).transpose(),
+                        (e2 * n2).transpose(),
+                        (e1 * n2 + e2 * n1).transpose(),
+                    ])
+                });
+                let k = t.warp / t.thickness;
+                let d = Matrix3::new(-k, k, 0.0, k, -k, 0.0, 0.0, 0.0, -k);
+                (b, d * (settings.homotopy * vol))
+            });
+            for a in 0..3 {
+                for b in 0..3 {
+                    let kab = reference.grad[a].dot(&(smat * reference.grad[b])) * vol;
+                    let mut block = Matrix3::identity() * kab;
+                    if let Some((bm, d)) = &material {
+                        block += bm[a].transpose() * d * bm[b];
+                    }
+                    add_full_block(&pattern, values, &position, t.nodes[a], t.nodes[b], &block);
+                    for c in 0..3 {
+                        r[3 * t.nodes[a] + c] += kab * x[t.nodes[b]][c];
+                    }
+                }
+            }
+        }
+        for (si, &(a, b, t)) in segments.iter().enumerate() {
+            let l = (x[b] - x[a]).norm();
+            if !(l > 0.0) {
+                report.message = format!(
+                    "iteration {k}: cable segment between nodes {a} and {b} has zero length"
+                );
+                return Ok(finish(report, start));
+            }
+            lengths[si] = l;
+            let q = t / l;
+            for (i, j, s) in [(a, a, q), (b, b, q), (a, b, -q), (b, a, -q)] {
+                add_block(&pattern, values, &position, i, j, s);
+                for c in 0..3 {
+                    r[3 * i + c] += s * x[j][c];
+                }
+            }
+        }
+        // Mesh control (once the mesh creeps, until the shape has converged): the residual
+        // keeps only its shape part at free nodes (along the surface normal; across the cable
+        // at cable nodes) and a stiff spring (MESH_SPRING times the node's own stiffness)
+        // holds the other directions, so the fixed point is the equilibrium of the shape and
+        // the mesh stays put within the surface.
+        let mut g = r.clone();
+        if projecting && !finishing {
+            let (normal_k, tangent_k) = directions(&tris, &segments, &x);
+            let values = linear.values_mut();
+            for i in 0..x.len() {
+                if !(0..3).all(|c| pattern.eq[3 * i + c] != NONE) {
+                    continue;
+                }
+                let shape = if on_cable[i] {
+                    let t = tangent_k[i];
+                    (t.norm() > 0.0).then(|| {
+                        let t = t.normalize();
+                        Matrix3::identity() - t * t.transpose()
+                    })
+                } else {
+                    let n = normal_k[i];
+                    (n.norm() > 0.0).then(|| {
+                        let n = n.normalize();
+                        n * n.transpose()
+                    })
+                };
+                let Some(shape) = shape else { continue };
+                let own = (0..3)
+                    .map(|c| values[position(pattern.eq[3 * i + c], pattern.eq[3 * i + c])])
+                    .sum::<f64>()
+                    / 3.0;
+                let spring = (Matrix3::identity() - shape) * (MESH_SPRING * own);
+                add_full_block(&pattern, values, &position, i, i, &spring);
+                let gi = shape * Vector3::new(r[3 * i], r[3 * i + 1], r[3 * i + 2]);
+                g[3 * i..3 * i + 3].copy_from_slice(gi.as_slice());
+            }
+        }
+        let mut unbalanced = 0.0f64;
+        for (d, &e) in pattern.eq.iter().enumerate() {
+            if e != NONE {
+                rhs[e] = -g[d];
+                unbalanced = unbalanced.max(r[d].abs());
+            }
+        }
+        report
+            .log
+            .push(format!("iteration {k}: residual {:.3e} N", unbalanced));
+        if let Err(why) = linear.factor_solve(&mut rhs) {
+            report.message = format!("iteration {k}: {why}");
+            return Ok(finish(report, start));
+        }
+        let mut step = vec![Vector3::zeros(); x.len()];
+        for (d, &e) in pattern.eq.iter().enumerate() {
+            if e != NONE {
+                step[d / 3][d % 3] = rhs[e];
+            }
+        }
+        if finishing {
+            // The last step solves the plain equations L_k x = 0 (no homotopy, no springs);
+            // iterative refinement takes its residual to round-off so that the found stress
+            // state balances the found shape.
+            for _ in 0..REFINEMENTS {
+                let moved_to: Vec<Vector3<f64>> = x.iter().zip(&step).map(|(p, d)| p + d).collect();
+                let rr = plain_residual(&tris, &stage, &segments, &lengths, &moved_to);
+                for (d, &e) in pattern.eq.iter().enumerate() {
+                    if e != NONE {
+                        rhs[e] = -rr[d];
+                    }
+                }
+                if linear.solve(&mut rhs).is_err() {
+                    break;
+                }
+                for (d, &e) in pattern.eq.iter().enumerate() {
+                    if e != NONE {
+                        step[d / 3][d % 3] += rhs[e];
+                    }
+                }
+            }
+        }
+        for (p, d) in x.iter_mut().zip(&step) {
+            *p += d;
+        }
+        // The shape's move: along the surface normal at membrane nodes (a move within the
+        // surface changes the mesh, not the shape), across the cable at cable nodes (an edge
+        // cable's shape is its move within the surface).
+        let mut normal = vec![Vector3::zeros(); x.len()];
+        for t in &tris {
+            let [a, b, c] = t.nodes.map(|i| x[i]);
+            let n = (b - a).cross(&(c - a));
+            t.nodes.iter().for_each(|&i| normal[i] += n);
+        }
+        // Along a cable of constant force its nodes are free to slide too: a cable node's
+        // move counts without its component along the cable.
+        let mut tangent = vec![Vector3::zeros(); x.len()];
+        for &(a, b, _) in &segments {
+            let d = (x[b] - x[a]).normalize();
+            tangent[a] += d;
+            tangent[b] += d;
+        }
+        let moved = (0..x.len())
+            .map(|i| {
+                if on_cable[i] {
+                    let t = tangent[i];
+                    if t.norm() > 0.0 {
+                        let t = t.normalize();
+                        (step[i] - t * step[i].dot(&t)).norm()
+                    } else {
+                        step[i].norm()
+                    }
+                } else if normal[i].norm() == 0.0 {
+                    step[i].norm()
+                } else {
+                    step[i].dot(&normal[i].normalize()).abs()
+                }
+            })
+            .fold(0.0f64, f64::max);
+        report.iterations = k;
+        report.last_move = moved / span;
+        // The stress that balances X_{k+1} exactly: each S0 pushed forward from X_k, each cable
+        // force T L_{k+1}/L_k; and its largest deviation from the prescribed state.
+        let Some(field) = pushed_forward(&tris, &stage, &x) else {
+            report.message = format!("iteration {k}: a triangle collapsed to zero area");
+            return Ok(finish(report, start));
+        };
+        let forces: Vec<f64> = segments
+            .iter()
+            .zip(&lengths)
+            .map(|(&(a, b, t), l)| t * (x[b] - x[a]).norm() / l)
+            .collect();
+        let deviation = field
+            .iter()
+            .map(|f| f.1)
+            .chain(
+                forces
+                    .iter()
+                    .zip(&segments)
+                    .map(|(f, s)| (f - s.2).abs() / s.2),
+            )
+            .fold(0.0f64, f64::max);
+        report.deviation = deviation;
+        report.log.push(format!(
+            "iteration {k}: shape moved {:.3e} of the span; balancing stress within {deviation:.3e} of the prescribed",
+            moved / span
+        ));
+        // Iterates converge linearly: the distance left is about move·ρ/(1 − ρ), ρ the ratio
+        // of the last two moves. Converged when that estimate is within the tolerance.
+        let rate = if previous_move > 0.0 {
+            moved / previous_move
+        } else {
+            1.0
+        };
+        previous_move = moved;
+        if k >= 3 && rate > CREEP_RATE {
+            projecting = true;
+        }
+        if moved > span {
+            report.message = format!(
+                "iteration {k}: the shape moved {:.1e} times the span in one iteration: the iteration diverges (lower form_finding.homotopy)",
+                moved / span
+            );
+            return Ok(finish(report, start));
+        }
+        let left = if rate < 1.0 {
+            moved * rate / (1.0 - rate)
+        } else {
+            f64::INFINITY
+        };
+        if !finishing && moved <= settings.tolerance * span && left <= settings.tolerance * span {
+            finishing = true;
+            continue;
+        }
+        if finishing {
+            let tensors: Vec<[f64; 6]> = field.iter().map(|f| f.0).collect();
+            report.scene = Some(found_scene(scene, &mesh, &x, &tensors, &forces));
+            return Ok(finish(report, start));
+        }
+    }
+    report.message = format!(
+        "form finding did not converge in {} iterations (last shape move {:.2e} of the span, tolerance {:.0e}); raise form_finding.max_iterations or check that the prestress can be in equilibrium between the supports",
+        settings.max_iterations, report.last_move, settings.tolerance
+    );
+    Ok(finish(report, start))
+}
+
+/// Validate `scene` and form-find it with its `form_finding` settings (defaults when the
+/// section is absent). Scene problems are errors; non-convergence is a report with a message.
+pub fn run(scene: &Scene) -> Result<Report, crate::Error> {
+    let mut asked = scene.clone();
+    let settings = asked
+        .form_finding
+        .get_or_insert_with(FormFinding::default)
+        .clone();
+    let problems = crate::scene::validate::validate(&asked);
+    if !problems.is_empty() {
+        return Err(crate::Error::Scene(problems));
+    }
+    form_find(&asked, &settings)
+}
+
+fn finish(mut report: Report, start: std::time::Instant) -> Report {
+    report.seconds = start.elapsed().as_secs_f64();
+    report
+}
+
+/// Area-weighted node normals of the membranes and summed unit tangents of the cables at `x`.
+fn directions(
+    tris: &[TriangleStress],
+    segments: &[(usize, usize, f64)],
+    x: &[Vector3<f64>],
+) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    let mut normal = vec![Vector3::zeros(); x.len()];
+    for t in tris {
+        let [a, b, c] = t.nodes.map(|i| x[i]);
+        let n = (b - a).cross(&(c - a));
+        t.nodes.iter().for_each(|&i| normal[i] += n);
+    }
+    let mut tangent = vec![Vector3::zeros(); x.len()];
+    for &(a, b, _) in segments {
+        let d = x[b] - x[a];
+        if d.norm() > 0.0 {
+            tangent[a] += d.normalize();
+            tangent[b] += d.normalize();
+        }
+    }
+    (normal, tangent)
+}
+
+/// The plain URS residual L_k x at positions `x` (reference data and stresses of iteration
+/// k in `stage`, cable force densities T/L_k).
+fn plain_residual(
+    tris: &[TriangleStress],
+    stage: &[(membrane::TriangleRef, nalgebra::Matrix2<f64>)],
+    segments: &[(usize, usize, f64)],
+    lengths: &[f64],
+    x: &[Vector3<f64>],
+) -> Vec<f64> {
+    let mut r = vec![0.0; 3 * x.len()];
+    for (t, (reference, smat)) in tris.iter().zip(stage) {
+        let vol = reference.area * t.thickness;
+        for a in 0..3 {
+            for b in 0..3 {
+                let kab = reference.grad[a].dot(&(smat * reference.grad[b])) * vol;
+                for c in 0..3 {
+                    r[3 * t.nodes[a] + c] += kab * x[t.nodes[b]][c];
+                }
+            }
+        }
+    }
+    for (&(a, b, t), l) in segments.iter().zip(lengths) {
+        let q = t / l;
+        for c in 0..3 {
+            let f = q * (x[b][c] - x[a][c]);
+            r[3 * a + c] -= f;
+            r[3 * b + c] += f;
+        }
+    }
+    r
+}
+
+/// Per triangle: the membrane force tensor (global [xx, yy, zz, xy, yz, xz], N/m) on the new
+/// positions `x` of the PK2 stress S0 prescribed on the reference of the iteration
+/// (N = t (A_k/A_{k+1}) F S0 Fᵀ), and its largest deviation from the prescribed tensor on the
+/// new triangle, relative to the largest prescribed force. None if a triangle has no area.
+fn pushed_forward(
+    tris: &[TriangleStress],
+    stage: &[(membrane::TriangleRef, nalgebra::Matrix2<f64>)],
+    x: &[Vector3<f64>],
+) -> Option<Vec<([f64; 6], f64)>> {
+    tris.iter()
+        .zip(stage)
+        .map(|(t, (r, s0))| {
+            let xs = t.nodes.map(|i| x[i]);
+            let f = membrane::deformation_gradient(r, &xs);
+            let now = membrane::triangle_ref(xs)?;
+            let n = f * s0 * f.transpose() * (t.thickness * r.area / now.area);
+            let wanted = membrane::initial_stress(&now, t.warp, t.fill, &t.direction, 1.0)?;
+            let [e1, e2] = now.frame;
+            let local = Vector3::new(e1.dot(&(n * e1)), e2.dot(&(n * e2)), e1.dot(&(n * e2)));
+            let deviation = (local - wanted).amax() / t.warp.max(t.fill);
+            Some((
+                [
+                    n[(0, 0)],
+                    n[(1, 1)],
+                    n[(2, 2)],
+                    n[(0, 1)],
+                    n[(1, 2)],
+                    n[(0, 2)],
+                ],
+                deviation,
+            ))
+        })
+        .collect()
+}
+
+/// Add a 3x3 block to (node i, node j) of the upper-triangular free-free matrix.
+fn add_full_block(
+    pattern: &Pattern,
+    values: &mut [f64],
+    position: &impl Fn(usize, usize) -> usize,
+    i: usize,
+    j: usize,
+    k: &Matrix3<f64>,
+) {
+    for c in 0..3 {
+        for d in 0..3 {
+            let (ei, ej) = (pattern.eq[3 * i + c], pattern.eq[3 * j + d]);
+            if ei != NONE && ej != NONE && ei <= ej {
+                values[position(ei, ej)] += k[(c, d)];
+            }
+        }
+    }
+}
+
+/// Add s·I (3x3) to the block (node i, node j) of the upper-triangular free-free matrix.
+fn add_block(
+    pattern: &Pattern,
+    values: &mut [f64],
+    position: &impl Fn(usize, usize) -> usize,
+    i: usize,
+    j: usize,
+    s: f64,
+) {
+    for c in 0..3 {
+        let (ei, ej) = (pattern.eq[3 * i + c], pattern.eq[3 * j + c]);
+        if ei != NONE && ej != NONE && ei <= ej {
+            values[position(ei, ej)] += s;
+        }
+    }
+}
+
+fn area(x: &[Vector3<f64>], t: [usize; 3]) -> f64 {
+    0.5 * (x[t[1]] - x[t[0]]).cross(&(x[t[2]] - x[t[0]])).norm()
+}
+
+/// Bounding-box diagonal of the nodes the elements use.
+fn span(x: &[Vector3<f64>], used: &[bool]) -> f64 {
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for (p, _) in x.iter().zip(used).filter(|(_, u)| **u) {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let d = (hi - lo).norm();
+    if d.is_finite() && d > 0.0 {
+        d
+    } else {
+        1.0
+    }
+}
+
+/// The scene with the found positions as explicit geometry: every node and triangle of the
+/// resolved mesh, every named set (generated ones keep their names), no generators, no form
+/// finding section. Ids do not change, so every reference of the scene still holds.
+fn found_scene(
+    scene: &Scene,
+    mesh: &crate::scene::generate::Mesh,
+    x: &[Vector3<f64>],
+    tensors: &[[f64; 6]],
+    forces: &[f64],
+) -> Scene {
+    let mut found = scene.clone();
+    found.form_finding = None;
+    let mut next = tensors.iter();
+    for m in &mut found.membranes {
+        let count = triangle_ids(mesh, &m.triangles).len();
+        m.prestress = Some(Prestress::Field {
+            n: next.by_ref().take(count).copied().collect(),
+        });
+    }
+    let mut next = forces.iter();
+    for c in &mut found.cables {
+        let count = node_ids(mesh, &c.nodes).len() - 1;
+        c.pretension = None;
+        c.pretensions = Some(next.by_ref().take(count).copied().collect());
+    }
+    found.geometry = Geometry {
+        nodes: x.iter().map(|p| [p.x, p.y, p.z]).collect(),
+        triangles: mesh.triangles.iter().map(|t| t.map(OneNode::Id)).collect(),
+        node_sets: mesh.node_sets.clone(),
+        triangle_sets: mesh.triangle_sets.clone(),
+        generators: Vec::new(),
+    };
+    found
+}

@@ -1,0 +1,314 @@
+//! GOAL: form finding (Updated Reference Strategy, src/formfind.rs) finds the closed-form
+//!       equilibrium shapes of a prescribed prestress, reports a prestress with no equilibrium
+//!       as a failure with a clear message, and hands the analysis a scene that starts in
+//!       equilibrium.
+//! MESH / BOUNDARY CONDITIONS: per test below (cylinder between two held rings; a square with
+//!       its boundary placed on the Scherk surface and held; a flat square with held corners
+//!       and four edge cables, every z held).
+//! REFERENCES:
+//!   - Catenoid (a minimal surface, Euler 1744): between coaxial rings of radius R a distance H
+//!     apart, r(z) = a cosh((z − H/2)/a) with R = a cosh(H/(2a)) (the larger root a: the
+//!     stable catenoid); no solution for H/R > 1.3255 (the Goldschmidt limit, e.g. Isenberg,
+//!     *The Science of Soap Films and Soap Bubbles*, 1978, §4.6). H/R = 1: neck a = 0.848338.
+//!   - Scherk's first surface z = ln(cos(a y)/cos(a x))/a (Scherk 1835), a minimal surface;
+//!     here a = 1 on |x|, |y| <= 1.
+//!   - A cable of force T bounding a membrane of isotropic prestress n is a circular arc of
+//!     radius R = T/n (equilibrium of the cable under the normal edge load n; e.g. Bletzinger &
+//!     Ramm 1999, Linhard et al. 2009).
+//! TOLERANCES: the shapes carry the discretisation error of linear triangles, O(h²):
+//!   catenoid neck measured 8.5e-4 (48 x 16) and 2.0e-4 (96 x 32) relative: tolerance 5e-3 (the
+//!   issue's target 0.5 %) at 48 x 16 and a > 3x fall per halving of h. Scherk: largest
+//!   |z − f(x, y)| over the nodes, measured 2.3e-3 (12 x 12) and 2.6e-3 (24 x 24), tolerance
+//!   5e-3; this error does not fall with h (a known bias of the mesh control, see the test).
+//!   Edge-cable arcs (measured 1.3e-4): the found forces balance exactly and the edge
+//!   load of the membrane on each cable is n per unit length, so the polygon is inscribed in
+//!   the circle up to the form-finding tolerance (stress deviation 1e-4): radius of the
+//!   least-squares circle through each cable's nodes within 1e-3 of T/n.
+//!   The analysis of a found scene at zero load: 0 or 1 Newton iterations and the largest
+//!   displacement below 1e-9 of the span (the issue's target; measured 0 iterations, 0
+//!   displacement for the catenoid and the FourPointSail).
+
+mod common;
+use common::*;
+use std::f64::consts::PI;
+use velarium::formfind;
+use velarium::Scene;
+
+/// A cylinder of radius 1 between z = 0 and z = h, `nt` nodes per ring, `nz` rows of cells,
+/// diagonals alternating in a checkerboard (mirror-symmetric), both rings held.
+fn catenoid_scene(h: f64, nt: usize, nz: usize) -> Scene {
+    let mut nodes = Vec::new();
+    for j in 0..=nz {
+        for i in 0..nt {
+            let th = 2.0 * PI * i as f64 / nt as f64;
+            nodes.push([th.cos(), th.sin(), h * j as f64 / nz as f64]);
+        }
+    }
+    let id = |i: usize, j: usize| j * nt + i % nt;
+    let mut tris = Vec::new();
+    for j in 0..nz {
+        for i in 0..nt {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if (i + j) % 2 == 0 {
+                tris.push([a, b, c]);
+                tris.push([a, c, d]);
+            } else {
+                tris.push([a, b, d]);
+                tris.push([b, c, d]);
+            }
+        }
+    }
+    let ring = |j: usize| (j * nt..(j + 1) * nt).collect::<Vec<_>>();
+    let json = serde_json::json!({
+        "format": 1, "name": "Catenoid",
+        "geometry": {"nodes": nodes, "triangles": tris,
+            "node_sets": {"bottom": ring(0), "top": ring(nz), "neck": ring(nz / 2)},
+            "triangle_sets": {"film": (0..tris.len()).collect::<Vec<_>>()}},
+        "membranes": [{"name": "film", "triangles": "film", "thickness": 1e-3,
+            "material": {"kind": "svk", "E": 1e6, "nu": 0.3},
+            "prestress": {"kind": "isotropic", "n": 1.0}}],
+        "supports": [{"nodes": "bottom", "fix": ["x", "y", "z"]},
+                     {"nodes": "top", "fix": ["x", "y", "z"]}],
+        "form_finding": {}
+    });
+    Scene::from_json(&json.to_string()).unwrap()
+}
+
+/// The neck radius a of the stable catenoid through rings of radius 1 a distance h apart.
+fn neck_exact(h: f64) -> f64 {
+    // a cosh(h/(2a)) = 1, larger root: bisection on [a*, 1] where a* minimises a cosh(h/2a).
+    let g = |a: f64| a * (h / (2.0 * a)).cosh() - 1.0;
+    let (mut lo, mut hi) = (0.5, 1.0);
+    for _ in 0..200 {
+        let m = 0.5 * (lo + hi);
+        if g(m) > 0.0 {
+            hi = m
+        } else {
+            lo = m
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+fn found(scene: &Scene) -> (Scene, formfind::Report) {
+    let report = formfind::run(scene).unwrap_or_else(|e| panic!("{e}"));
+    let s = report
+        .scene
+        .clone()
+        .unwrap_or_else(|| panic!("not converged: {}", report.message));
+    (s, report)
+}
+
+fn neck_error(nt: usize, nz: usize) -> (f64, usize) {
+    let (s, report) = found(&catenoid_scene(1.0, nt, nz));
+    let neck = &s.geometry.node_sets["neck"];
+    let x = &s.geometry.nodes;
+    let r = neck.iter().map(|&i| x[i][0].hypot(x[i][1])).sum::<f64>() / neck.len() as f64;
+    (rel(r, neck_exact(1.0)), report.iterations)
+}
+
+#[test]
+fn catenoid_neck_matches_the_closed_form() {
+    let (coarse, it0) = neck_error(48, 16);
+    let (fine, it1) = neck_error(96, 32);
+    println!("catenoid H/R = 1: neck error {coarse:.2e} (48x16, {it0} it), {fine:.2e} (96x32, {it1} it); exact a = {}", neck_exact(1.0));
+    assert!(coarse < 5e-3, "48 x 16: {coarse:e}");
+    assert!(coarse > 3.0 * fine, "O(h²): {coarse:e} -> {fine:e}");
+}
+
+#[test]
+fn catenoid_beyond_the_critical_ratio_fails_with_a_clear_message() {
+    let report = formfind::run(&catenoid_scene(1.4, 48, 16)).unwrap();
+    println!("H/R = 1.4: {}", report.message);
+    assert!(!report.converged());
+    assert!(
+        report
+            .message
+            .contains("no equilibrium between these supports"),
+        "{}",
+        report.message
+    );
+    // The engine refuses such a scene with the same message (an FMU's instantiation fails).
+    let err = match velarium::Engine::try_new(catenoid_scene(1.4, 48, 16)) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("a scene with no equilibrium shape built an engine"),
+    };
+    assert!(err.contains("form finding failed"), "{err}");
+}
+
+#[test]
+fn found_catenoid_starts_the_analysis_in_equilibrium() {
+    let scene = catenoid_scene(1.0, 48, 16);
+    // The engine form-finds a scene that asks for it, then solves at zero load.
+    let mut e = engine(scene);
+    let report = solve(&mut e);
+    let span = e.model().length_scale;
+    let worst = e
+        .state()
+        .displacement
+        .iter()
+        .fold(0.0f64, |m, u| m.max(u.abs()));
+    println!(
+        "found catenoid at zero load: {} iterations, max |u| / span = {:e}",
+        report.iterations,
+        worst / span
+    );
+    assert!(report.iterations <= 1);
+    assert!(worst < 1e-9 * span, "{:e}", worst / span);
+}
+
+fn scherk(x: f64, y: f64) -> f64 {
+    (y.cos() / x.cos()).ln()
+}
+
+/// Largest |z − f(x, y)| over the nodes of the Scherk patch with `n` x `n` cells.
+fn scherk_error(n: usize) -> (f64, usize) {
+    let text = format!(
+        r#"{{"format": 1, "name": "Scherk",
+  "geometry": {{"generators": [{{"kind": "rectangle", "name": "sq", "origin": [-1, -1, 0], "size": [2, 2], "divisions": [{n}, {n}]}}]}},
+  "membranes": [{{"name": "film", "triangles": "sq", "thickness": 1e-3,
+                  "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}},
+                  "prestress": {{"kind": "isotropic", "n": 1.0}}}}],
+  "supports": [{{"nodes": "sq.boundary", "fix": ["x", "y", "z"]}}],
+  "form_finding": {{}}}}"#
+    );
+    let mut scene = Scene::from_json(&text).unwrap();
+    // Place every boundary node on the surface: z = f(x, y) at its (x, y).
+    let mesh = velarium::scene::generate::resolve(&scene.geometry);
+    let place = mesh.node_sets["sq.boundary"]
+        .iter()
+        .map(|&i| {
+            let [x, y, _] = mesh.nodes[i];
+            velarium::scene::Placement {
+                node: velarium::scene::OneNode::Id(i),
+                position: [x, y, scherk(x, y)],
+            }
+        })
+        .collect();
+    scene.form_finding.as_mut().unwrap().place = place;
+    let (s, report) = found(&scene);
+    let worst = s
+        .geometry
+        .nodes
+        .iter()
+        .map(|p| (p[2] - scherk(p[0], p[1])).abs())
+        .fold(0.0, f64::max);
+    (worst, report.iterations)
+}
+
+/// The Scherk patch from a flat start: the mesh creeps within the surface, the mesh control
+/// holds it, and the shape error does NOT fall with h (measured 2.3e-3 at 12 x 12, 2.6e-3 at
+/// 24 x 24; the plain URS fixed point at 12 x 12, reached after ~1100 iterations, has 8.0e-4):
+/// the normal-only equilibrium on a crept mesh is biased at the 0.2 % level. Tolerance 5e-3 at
+/// both meshes (2x measured); the O(h²) rate is an open problem (docs/mechanics.md §10).
+#[test]
+fn scherk_surface_is_found_within_its_known_bias() {
+    let (coarse, it0) = scherk_error(12);
+    let (fine, it1) = scherk_error(24);
+    println!("Scherk: max |z − f| = {coarse:.3e} (12x12, {it0} it), {fine:.3e} (24x24, {it1} it)");
+    assert!(coarse < 5e-3 && fine < 5e-3, "{coarse:e} {fine:e}");
+}
+
+/// The shipped FourPointSail: form finding (iterations and time printed; targets 20 and 2 s),
+/// its analysis at zero load (0 or 1 iterations, displacement below 1e-9 of the span), and the
+/// wind ramp to both input limits converging.
+#[test]
+fn four_point_sail_is_found_and_carries_wind() {
+    let scene = read_scene(&shipped("FourPointSail"));
+    let report = formfind::run(&scene).unwrap();
+    println!(
+        "FourPointSail: {} triangles, form finding {} iterations, {:.3} s, stress deviation {:.2e}",
+        velarium::scene::generate::resolve(&scene.geometry)
+            .triangles
+            .len(),
+        report.iterations,
+        report.seconds,
+        report.deviation
+    );
+    assert!(report.converged(), "{}", report.message);
+    let mut e = engine(scene);
+    let step = solve(&mut e);
+    let span = e.model().length_scale;
+    let worst = e
+        .state()
+        .displacement
+        .iter()
+        .fold(0.0f64, |m, u| m.max(u.abs()));
+    println!(
+        "zero load: {} iterations, max |u| / span = {:e}",
+        step.iterations,
+        worst / span
+    );
+    assert!(step.iterations <= 1 && worst < 1e-9 * span);
+    for wind in [100.0, 300.0] {
+        set(&mut e, "wind", wind);
+        let r = solve(&mut e);
+        println!(
+            "wind {wind} Pa: {} iterations, centre uz {:.4} m",
+            r.iterations,
+            get(&e, "center_uz")
+        );
+    }
+    assert!(
+        get(&e, "center_uz") > 0.0,
+        "positive pressure lifts the centre"
+    );
+    set(&mut e, "wind", -300.0);
+    solve(&mut e);
+    assert!(get(&e, "center_uz") < 0.0);
+}
+
+#[test]
+fn edge_cables_become_arcs_of_radius_t_over_n() {
+    let (t, n) = (2.0, 1.0);
+    let text = format!(
+        r#"{{"format": 1, "name": "Arcs",
+  "geometry": {{"generators": [{{"kind": "rectangle", "name": "sq", "origin": [0, 0, 0], "size": [1, 1], "divisions": [16, 16]}}]}},
+  "membranes": [{{"name": "film", "triangles": "sq", "thickness": 1e-3,
+                  "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}},
+                  "prestress": {{"kind": "isotropic", "n": {n}}}}}],
+  "cables": [{{"name": "b", "nodes": "sq.edge_bottom", "EA": 1e5, "pretension": {t}}},
+             {{"name": "t", "nodes": "sq.edge_top", "EA": 1e5, "pretension": {t}}},
+             {{"name": "l", "nodes": "sq.edge_left", "EA": 1e5, "pretension": {t}}},
+             {{"name": "r", "nodes": "sq.edge_right", "EA": 1e5, "pretension": {t}}}],
+  "supports": [{{"nodes": "sq.all", "fix": ["z"]}},
+               {{"nodes": [0, 16, 272, 288], "fix": ["x", "y"]}}],
+  "form_finding": {{}}}}"#
+    );
+    let (s, report) = found(&Scene::from_json(&text).unwrap());
+    let x = &s.geometry.nodes;
+    let mut worst = 0.0f64;
+    for edge in [
+        "sq.edge_bottom",
+        "sq.edge_top",
+        "sq.edge_left",
+        "sq.edge_right",
+    ] {
+        let ids = &s.geometry.node_sets[edge];
+        let r = fit_circle(&ids.iter().map(|&i| [x[i][0], x[i][1]]).collect::<Vec<_>>());
+        println!("{edge}: fitted radius {r:.6} (T/n = {})", t / n);
+        worst = worst.max(rel(r, t / n));
+    }
+    println!(
+        "edge arcs: worst relative radius error {worst:.2e}, {} iterations",
+        report.iterations
+    );
+    assert!(worst < 1e-3, "{worst:e}");
+    let mut e = engine(s);
+    let step = solve(&mut e);
+    assert!(step.iterations <= 1);
+}
+
+/// Radius of the least-squares circle (Kåsa fit) through points.
+fn fit_circle(p: &[[f64; 2]]) -> f64 {
+    // x² + y² + D x + E y + F = 0, least squares in (D, E, F).
+    let mut a = nalgebra::Matrix3::<f64>::zeros();
+    let mut b = nalgebra::Vector3::<f64>::zeros();
+    for q in p {
+        let row = nalgebra::Vector3::new(q[0], q[1], 1.0);
+        a += row * row.transpose();
+        b -= row * (q[0] * q[0] + q[1] * q[1]);
+    }
+    let s = a.lu().solve(&b).unwrap();
+    (0.25 * (s[0] * s[0] + s[1] * s[1]) - s[2]).sqrt()
+}
