@@ -118,7 +118,7 @@ impl Engine {
         if !scene.debug.skip_memory_probes {
             memory::probe(size.memory_bytes, "the model and the solver")?;
         }
-        let arrays = variables::table(&scene);
+        let arrays = variables::try_table(&scene)?;
         let variables = variables::scalars(&arrays);
         let model = Model::try_build(&scene)?;
         let count = |c: Causality| variables.iter().filter(|v| v.causality == c).count();

@@ -9,8 +9,8 @@
 //! ones after it ([`scalars`]). So one numbering serves both versions, and a scene without
 //! arrays has the same table in both.
 
-use crate::scene::generate::resolve;
-use crate::scene::shape::{element_count, input_shape, output_shape};
+use crate::scene::generate::try_resolve;
+use crate::scene::shape::{element_count, has_arrays, input_shape, output_shape};
 use crate::scene::{Load, Material, ParameterVariability, Probe, Scene};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -104,7 +104,17 @@ pub const UNITS: &[(&str, [i32; 4])] = &[
 
 /// Build the table of a (validated) scene. Parameter start values are read from the scene.
 pub fn table(scene: &Scene) -> Vec<Variable> {
-    let mesh = resolve(&scene.geometry);
+    try_table(scene).expect("the mesh of a scene with array variables")
+}
+
+/// [`table`], with the memory for the mesh an array's shape needs (only a scene with arrays
+/// builds it) reported instead of assumed.
+pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMemory> {
+    let mesh = if has_arrays(scene) {
+        try_resolve(&scene.geometry)?
+    } else {
+        crate::scene::generate::Mesh::default()
+    };
     let mut vars = Vec::new();
     let mut vr = 1u32;
     let mut next = |len: usize| {
@@ -208,7 +218,7 @@ pub fn table(scene: &Scene) -> Vec<Variable> {
         });
         output_slot += len;
     }
-    vars
+    Ok(vars)
 }
 
 /// The table as FMI 2 sees it: every array variable replaced by its scalars `name[i]` or

@@ -701,11 +701,15 @@ fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) 
             .map(|g| g.1)
             .expect("validated group");
         debug_assert!(range.end <= triangles.len());
-        LoadModel::Pressure {
-            triangles: shape::zone_positions(scene, mesh, membrane, zone)
+        let triangles = match zone {
+            None => range.collect(),
+            Some(_) => shape::zone_positions(scene, mesh, membrane, zone)
                 .into_iter()
                 .map(|k| range.start + k)
                 .collect(),
+        };
+        LoadModel::Pressure {
+            triangles,
             follower,
         }
     };

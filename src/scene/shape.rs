@@ -131,3 +131,24 @@ pub fn output_shape(scene: &Scene, mesh: &Mesh, probe: &Probe) -> Vec<usize> {
 pub fn element_count(shape: &[usize]) -> usize {
     shape.iter().product()
 }
+
+/// Whether any input or output of the scene is an array (decided from the kinds alone, without
+/// building the mesh).
+pub fn has_arrays(scene: &Scene) -> bool {
+    scene.inputs.iter().any(|i| {
+        matches!(
+            i.load,
+            Load::ZonePressure { .. } | Load::SupportDisplacement { .. }
+        )
+    }) || scene.outputs.iter().any(|o| {
+        matches!(
+            o.probe,
+            Probe::DisplacementField { .. }
+                | Probe::PositionField { .. }
+                | Probe::CableTensions { .. }
+                | Probe::PrincipalStresses { .. }
+                | Probe::WrinkleStates { .. }
+                | Probe::SleeveSlips { .. }
+        )
+    })
+}

@@ -1397,8 +1397,21 @@ impl Validator {
             }
         }
         // An array's FMI 2 scalars are `name[i]`: its name has no brackets, and no other
-        // variable is named like one of its elements.
-        let mesh = super::generate::resolve(&s.geometry);
+        // variable is named like one of its elements. (Only a scene with arrays builds the
+        // mesh here, fallibly: without the memory the shapes are not checked.)
+        self.array_names(s, &seen);
+        self.group_names(s);
+    }
+
+    /// Array inputs and outputs: no brackets in their names, no clash with another variable's
+    /// name of the form `name[...]`.
+    fn array_names(&mut self, s: &Scene, seen: &BTreeMap<&str, String>) {
+        if !super::shape::has_arrays(s) {
+            return;
+        }
+        let Ok(mesh) = super::generate::try_resolve(&s.geometry) else {
+            return;
+        };
         let arrays: Vec<(&String, String)> = s
             .inputs
             .iter()
@@ -1418,12 +1431,16 @@ impl Validator {
                 self.push(path, format!("\"{name}\" names an array: no [ ] in it (FMI 2 names its elements {name}[1], {name}[2], ...)"));
             }
             let prefix = format!("{name}[");
-            for (other, first) in &seen {
+            for (other, first) in seen {
                 if other.starts_with(&prefix) {
                     self.push(path, format!("the elements of array \"{name}\" would clash with {first} (\"{other}\")"));
                 }
             }
         }
+    }
+
+    /// Membrane and cable names: identifiers, unique within their list.
+    fn group_names(&mut self, s: &Scene) {
         for (list, names) in [
             (
                 "membranes",
