@@ -110,9 +110,13 @@ def sweep(fmu, levels, step: bool) -> list[str]:
 def test_instantiate_and_step_under_a_low_address_space_limit_end_in_errors_not_aborts(variants):
     outcomes = sweep(variants[False], range(0, 161, 8), step=True)
     assert any(o.startswith("instantiate-null") for o in outcomes), outcomes
-    # Between the two: instantiated, but the step's memory is not there (Discard, logged).
-    assert any(o.startswith("status-2") for o in outcomes), outcomes
     assert any(o == "converged" for o in outcomes), outcomes
+    # Between the two, a step whose memory is not there is a Discard with the message logged
+    # (`sweep` asserts "out of memory" in every outcome that is not a success). Since the merge
+    # of issue 13 the instantiation probe (42.5 MB here) leaves room for this scene's step
+    # (4.6 MB), so no level of this sweep lands in that window (scanned in 2 MB steps from 36
+    # to 70 MB on 2026-11-23: none). A test that reaches the step's own probe through an FMU
+    # is open work (issue 11 note).
 
 
 def test_each_fallible_allocation_fails_instantiate_with_its_name(variants):
