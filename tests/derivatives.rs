@@ -25,8 +25,8 @@
 //!            largest difference among the outputs of the same unit (the target, away
 //!            from switches), 1e-4 where wrinkled or slack triangles put the tangent-only
 //!            stiffness ε·D0 (ε = 1e-6) into J. Measured worst: PrestressedCable 4.6e-10,
-//!            HenckyDisc 8.1e-9, SlidingCable 9.1e-8, WrinkledShear 9.6e-7, LiftedMembrane
-//!            1.9e-6, SleeveCable 4.2e-6, AnnulusTorsion 3.7e-5 (a tension field: the
+//!            HenckyDisc 8.1e-9, SlidingCable 9.1e-8, WrinkledShear 9.6e-7, FourPointSail
+//!            1.6e-6, LiftedMembrane 1.9e-6, SleeveCable 4.2e-6, AnnulusTorsion 3.7e-5 (a tension field: the
 //!            hub moment against the hub's radial displacement; the differences agree among
 //!            themselves to 1e-7 for steps 1e-6 to 1e-3, so this is the regularisation).
 //!            (3) 1e-10 relative (measured 3e-15).
