@@ -6,6 +6,11 @@
 //! per iteration, and that time divided by the floor (one assembly + one numeric LDLT
 //! factorization and solve, measured at the solution). One core (faer runs `Par::Seq`).
 //!
+//! Then the derivatives of the Hencky disc at the same meshes (issue 12): the first
+//! directional derivative d(center_uz)/d(pressure) (it factors the tangent at the equilibrium
+//! once), then one more seed (a back-substitution with that factorization), and one adjoint
+//! seed, against the time of one Newton iteration of the solve and against the floor.
+//!
 //! Then the wrinkled Lamé annulus (docs/mechanics.md §4b, ρ = 4, τ = 3, reference L/a = 1.80566)
 //! at several meshes: DOF, wrinkled radius (midpoint between the outermost wrinkled and the
 //! innermost taut centroid beyond it) and its error in units of the radial element size, the
@@ -25,6 +30,7 @@ const W_FOLLOWER: f64 = 0.065404;
 
 fn main() {
     hencky();
+    hencky_derivatives();
     lame();
     sheared_film();
 }
@@ -224,6 +230,89 @@ fn hencky() {
             engine.free_dofs(),
             report.iterations,
             per_iter / floor
+        );
+    }
+}
+
+fn hencky_derivatives() {
+    use velarium::engine::Known;
+    use velarium::variables::Binding;
+    let path = format!(
+        "{}/modelDescription/HenckyDisc/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let base = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene"))
+        .expect("valid scene");
+    let rings: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let rings = if rings.is_empty() {
+        vec![8, 16, 32, 64]
+    } else {
+        rings
+    };
+    println!();
+    println!("Hencky disc derivatives d(center_uz)/d(pressure) at q = 40 Pa (best of 5 seeds)");
+    println!(
+        "{:>6} {:>8} {:>12} {:>12} {:>12} {:>12} {:>10} {:>10}",
+        "rings", "DOF", "first s", "seed s", "adjoint s", "Newton s/it", "seed/iter", "seed/floor"
+    );
+    for n in rings {
+        let mut scene = base.clone();
+        if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
+            *rings = n;
+        }
+        let mut engine = Engine::try_new(scene).expect("valid scene");
+        let slot = |e: &Engine, name: &str| match e
+            .variables()
+            .iter()
+            .find(|v| v.name == name)
+            .unwrap()
+            .binding
+        {
+            Binding::Input(k) | Binding::Output(k) => k,
+            Binding::Parameter(_) => unreachable!(),
+        };
+        let (input, output) = (slot(&engine, "pressure"), slot(&engine, "center_uz"));
+        engine
+            .set_real(value_reference(&engine, "pressure"), 40.0)
+            .unwrap();
+        let t = Instant::now();
+        let report = engine.solve();
+        let per_iter = t.elapsed().as_secs_f64() / report.iterations.max(1) as f64;
+        assert!(report.converged(), "{}", report.message);
+        let known = [Known::Input(input)];
+        let t = Instant::now();
+        engine
+            .directional_derivative(&known, &[1.0], &[output])
+            .expect("derivative");
+        let first = t.elapsed().as_secs_f64();
+        let best = |f: &mut dyn FnMut()| {
+            (0..5)
+                .map(|_| {
+                    let t = Instant::now();
+                    f();
+                    t.elapsed().as_secs_f64()
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let seed = best(&mut || {
+            engine
+                .directional_derivative(&known, &[1.0], &[output])
+                .unwrap();
+        });
+        let adjoint = best(&mut || {
+            engine
+                .adjoint_derivative(&[output], &[1.0], &known)
+                .unwrap();
+        });
+        let (assembly, factor) = engine.time_floor(5);
+        println!(
+            "{n:>6} {:>8} {first:>12.3e} {seed:>12.3e} {adjoint:>12.3e} {per_iter:>12.3e} {:>10.3} {:>10.3}",
+            engine.free_dofs(),
+            seed / per_iter,
+            seed / (assembly + factor)
         );
     }
 }

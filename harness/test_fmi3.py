@@ -72,6 +72,8 @@ def test_archive_layout_and_binary(fmu3, fmu, md3, velarium):
         "modelDescription.xml",
         f"binaries/x86_64-linux/{identifier}.so",
         "resources/scene.json",
+        "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
+        f"extra/org.fmi-standard.fmi-ls-ref/{identifier}_ref.csv",
     ]
     assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in infos)
     library = velarium.with_name("libvelarium.so")
@@ -115,9 +117,11 @@ def test_capability_flags_and_model_structure(fmu3):
     cs = root.find("CoSimulation").attrib
     assert cs["canGetAndSetFMUState"] == cs["canSerializeFMUState"] == "true"
     assert cs["canHandleVariableCommunicationStepSize"] == "true"
-    for flag in ("hasEventMode", "mightReturnEarlyFromDoStep", "providesIntermediateUpdate",
-                 "providesDirectionalDerivatives", "providesAdjointDerivatives", "canBeInstantiatedOnlyOncePerProcess"):
+    for flag in ("hasEventMode", "canBeInstantiatedOnlyOncePerProcess"):
         assert cs[flag] == "false", flag
+    assert cs["providesIntermediateUpdate"] == cs["mightReturnEarlyFromDoStep"] == "true"
+    assert cs["canReturnEarlyAfterIntermediateUpdate"] == "true"
+    assert cs["providesDirectionalDerivatives"] == cs["providesAdjointDerivatives"] == "true"
     variables = list(root.find("ModelVariables"))
     outputs = [int(v.get("valueReference")) for v in variables if v.get("causality") == "output"]
     structure = root.find("ModelStructure")
@@ -210,7 +214,7 @@ def test_item54_event_mode_is_refused(unzipdir3, md3):
 
 
 def test_item55_model_exchange_and_other_functions_are_errors(unzipdir3, md3):
-    """ME, SE, event-mode, clock and derivative functions on the CS instance: fmi3Error and a
+    """ME, SE, event-mode and clock functions on the CS instance: fmi3Error and a
     message naming the function; ME and SE instantiation: NULL and a message; the instance
     goes on stepping afterwards."""
     with f3.slave(unzipdir3, md3) as s:
@@ -227,8 +231,6 @@ def test_item55_model_exchange_and_other_functions_are_errors(unzipdir3, md3):
             "fmi3UpdateDiscreteStates": lambda: s.fmi3UpdateDiscreteStates(
                 c, byref(b), byref(b), byref(b), byref(b), byref(b), byref(d)),
             "fmi3ActivateModelPartition": lambda: s.fmi3ActivateModelPartition(c, 0, 0.0),
-            "fmi3GetDirectionalDerivative": lambda: s.fmi3GetDirectionalDerivative(
-                c, vrs, 1, vrs, 1, byref(c_double(1.0)), 1, byref(d), 1),
             "fmi3GetIntervalDecimal": lambda: s.fmi3GetIntervalDecimal(c, vrs, 1, byref(d), None),
         }
         for name, call in calls.items():

@@ -51,6 +51,8 @@ def test_archive_layout_and_contents(fmu, scene, model_description, velarium):
         "modelDescription.xml",
         f"binaries/linux64/{identifier}.so",
         "resources/scene.json",
+        "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
+        f"extra/org.fmi-standard.fmi-ls-ref/{identifier}_ref.csv",
     ]
     assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in infos)
     assert fmpy.supported_platforms(str(fmu)) == ["linux64"]

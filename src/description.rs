@@ -38,26 +38,70 @@ const DISPLAY_UNITS: &[(&str, &str, f64)] = &[
 
 /// The complete modelDescription.xml of the engine's scene.
 pub fn model_description(engine: &Engine) -> String {
-    let scene = engine.scene();
-    let variables = engine.variables();
-    let draft = render(scene, variables, GUID_PLACEHOLDER);
-    draft.replacen(GUID_PLACEHOLDER, &guid_of(&draft), 1)
+    document(engine, Version::Fmi2)
 }
 
 /// The GUID of the engine's scene, `{8-4-4-4-12}` lowercase hex.
 pub fn guid(engine: &Engine) -> String {
-    guid_of(&render(
-        engine.scene(),
-        engine.variables(),
-        GUID_PLACEHOLDER,
-    ))
+    token(engine, Version::Fmi2)
 }
 
-fn render(scene: &Scene, variables: &[Variable], guid: &str) -> String {
+/// The FMI version a description is written for: what differs between the two documents.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Version {
+    Fmi2,
+    Fmi3,
+}
+
+impl Version {
+    fn number(self) -> &'static str {
+        match self {
+            Version::Fmi2 => "2.0",
+            Version::Fmi3 => "3.0",
+        }
+    }
+
+    /// The attribute that carries the document's hash.
+    fn token_attribute(self) -> &'static str {
+        match self {
+            Version::Fmi2 => "guid",
+            Version::Fmi3 => "instantiationToken",
+        }
+    }
+
+    /// FMI 2 declares arrays as scalars, FMI 3 as arrays.
+    fn variables(self, engine: &Engine) -> &[Variable] {
+        match self {
+            Version::Fmi2 => engine.variables(),
+            Version::Fmi3 => engine.arrays(),
+        }
+    }
+
+    fn capability_flags(self) -> &'static [(&'static str, bool)] {
+        match self {
+            Version::Fmi2 => fmi::capability_flags(),
+            Version::Fmi3 => fmi::capability_flags_fmi3(),
+        }
+    }
+}
+
+/// The document of `version` with its hash filled in.
+pub(crate) fn document(engine: &Engine, version: Version) -> String {
+    let draft = render(engine.scene(), version.variables(engine), version);
+    draft.replacen(GUID_PLACEHOLDER, &guid_of(&draft), 1)
+}
+
+/// The hash of the document of `version` (the GUID or the instantiation token).
+pub(crate) fn token(engine: &Engine, version: Version) -> String {
+    guid_of(&render(engine.scene(), version.variables(engine), version))
+}
+
+/// The document with [`GUID_PLACEHOLDER`] where its hash goes.
+fn render(scene: &Scene, variables: &[Variable], version: Version) -> String {
     let mut x = String::new();
     x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    header(&mut x, scene, variables, guid);
-    co_simulation(&mut x, scene);
+    header(&mut x, scene, variables, version);
+    co_simulation(&mut x, scene, version);
     unit_definitions(&mut x, variables);
     log_categories(&mut x);
     let e = &scene.experiment;
@@ -68,23 +112,30 @@ fn render(scene: &Scene, variables: &[Variable], guid: &str) -> String {
         xs_double(e.stop_time),
         xs_double(e.step_size)
     );
-    model_variables(&mut x, variables);
-    model_structure(&mut x, variables);
+    match version {
+        Version::Fmi2 => {
+            model_variables(&mut x, variables);
+            model_structure(&mut x, variables);
+        }
+        Version::Fmi3 => {
+            crate::description3::model_variables(&mut x, variables);
+            crate::description3::model_structure(&mut x, variables);
+        }
+    }
     x.push_str("</fmiModelDescription>\n");
     x
 }
 
-fn header(x: &mut String, scene: &Scene, variables: &[Variable], guid: &str) {
-    let convention = if variables.iter().all(|v| !v.name.contains(['.', '['])) {
-        "flat"
-    } else if variables.iter().all(|v| is_structured_name(&v.name)) {
-        "structured"
-    } else {
-        "flat"
-    };
-    x.push_str("<fmiModelDescription\n  fmiVersion=\"2.0\"\n");
+fn header(x: &mut String, scene: &Scene, variables: &[Variable], version: Version) {
+    let structured = variables.iter().any(|v| v.name.contains(['.', '[']))
+        && variables.iter().all(|v| is_structured_name(&v.name));
+    let _ = writeln!(
+        x,
+        "<fmiModelDescription\n  fmiVersion=\"{}\"",
+        version.number()
+    );
     let _ = writeln!(x, "  modelName=\"{}\"", escape(&scene.name));
-    let _ = writeln!(x, "  guid=\"{guid}\"");
+    let _ = writeln!(x, "  {}=\"{GUID_PLACEHOLDER}\"", version.token_attribute());
     if !scene.description.is_empty() {
         let _ = writeln!(x, "  description=\"{}\"", escape(&scene.description));
     }
@@ -93,17 +144,21 @@ fn header(x: &mut String, scene: &Scene, variables: &[Variable], guid: &str) {
         "  generationTool=\"Velarium {}\"",
         env!("CARGO_PKG_VERSION")
     );
-    let _ = writeln!(x, "  variableNamingConvention=\"{convention}\"");
-    x.push_str("  numberOfEventIndicators=\"0\">\n");
+    let convention = if structured { "structured" } else { "flat" };
+    let _ = write!(x, "  variableNamingConvention=\"{convention}\"");
+    match version {
+        Version::Fmi2 => x.push_str("\n  numberOfEventIndicators=\"0\">\n"),
+        Version::Fmi3 => x.push_str(">\n"),
+    }
 }
 
-fn co_simulation(x: &mut String, scene: &Scene) {
+fn co_simulation(x: &mut String, scene: &Scene, version: Version) {
     let _ = write!(
         x,
         "  <CoSimulation\n    modelIdentifier=\"{}\"",
         escape(&scene.name)
     );
-    for (flag, value) in fmi::capability_flags() {
+    for (flag, value) in version.capability_flags() {
         let _ = write!(x, "\n    {flag}=\"{value}\"");
     }
     let _ = writeln!(
@@ -184,7 +239,7 @@ fn scalar_variable(x: &mut String, v: &Variable) {
     );
     let (element, mut attributes) = match v.var_type {
         VarType::Real => ("Real", String::new()),
-        VarType::Integer => ("Integer", String::new()),
+        VarType::Integer | VarType::UInt8 => ("Integer", String::new()),
     };
     if let Some(unit) = v.unit {
         let _ = write!(attributes, " unit=\"{}\"", escape(unit));
@@ -199,7 +254,7 @@ fn scalar_variable(x: &mut String, v: &Variable) {
         if let Some(value) = value {
             let text = match v.var_type {
                 VarType::Real => xs_double(value),
-                VarType::Integer => format!("{}", value.round() as i64),
+                VarType::Integer | VarType::UInt8 => format!("{}", value.round() as i64),
             };
             let _ = write!(attributes, " {name}=\"{text}\"");
         }

@@ -19,13 +19,9 @@
 //! FMI 2 GUID of the same scene: an FMU state serialized by one archive is rejected by the
 //! other (its bytes carry the GUID or token they were made with).
 
-use crate::description::{
-    causality, escape, guid_of, is_structured_name, log_categories, unit_definitions, variability,
-    xs_double, GUID_PLACEHOLDER,
-};
+use crate::description::{causality, document, escape, token, variability, xs_double, Version};
 use crate::engine::Engine;
 use crate::fmi;
-use crate::scene::Scene;
 use crate::variables::{Causality, VarType, Variable};
 use std::fmt::Write;
 
@@ -34,75 +30,16 @@ pub const TIME_NAME: &str = "time";
 
 /// The complete FMI 3.0 modelDescription.xml of the engine's scene.
 pub fn model_description_fmi3(engine: &Engine) -> String {
-    let draft = render(engine.scene(), engine.variables(), GUID_PLACEHOLDER);
-    draft.replacen(GUID_PLACEHOLDER, &guid_of(&draft), 1)
+    document(engine, Version::Fmi3)
 }
 
 /// The instantiation token of the engine's scene, `{8-4-4-4-12}` lowercase hex.
 pub fn instantiation_token(engine: &Engine) -> String {
-    guid_of(&render(
-        engine.scene(),
-        engine.variables(),
-        GUID_PLACEHOLDER,
-    ))
+    token(engine, Version::Fmi3)
 }
 
-fn render(scene: &Scene, variables: &[Variable], token: &str) -> String {
-    let mut x = String::new();
-    x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    header(&mut x, scene, variables, token);
-    co_simulation(&mut x, scene);
-    unit_definitions(&mut x, variables);
-    log_categories(&mut x);
-    let e = &scene.experiment;
-    let _ = writeln!(
-        x,
-        "  <DefaultExperiment startTime=\"{}\" stopTime=\"{}\" stepSize=\"{}\"/>",
-        xs_double(e.start_time),
-        xs_double(e.stop_time),
-        xs_double(e.step_size)
-    );
-    model_variables(&mut x, variables);
-    model_structure(&mut x, variables);
-    x.push_str("</fmiModelDescription>\n");
-    x
-}
-
-fn header(x: &mut String, scene: &Scene, variables: &[Variable], token: &str) {
-    let structured = variables.iter().any(|v| v.name.contains(['.', '[']))
-        && variables.iter().all(|v| is_structured_name(&v.name));
-    x.push_str("<fmiModelDescription\n  fmiVersion=\"3.0\"\n");
-    let _ = writeln!(x, "  modelName=\"{}\"", escape(&scene.name));
-    let _ = writeln!(x, "  instantiationToken=\"{token}\"");
-    if !scene.description.is_empty() {
-        let _ = writeln!(x, "  description=\"{}\"", escape(&scene.description));
-    }
-    let _ = writeln!(
-        x,
-        "  generationTool=\"Velarium {}\"",
-        env!("CARGO_PKG_VERSION")
-    );
-    let convention = if structured { "structured" } else { "flat" };
-    let _ = writeln!(x, "  variableNamingConvention=\"{convention}\">");
-}
-
-fn co_simulation(x: &mut String, scene: &Scene) {
-    let _ = write!(
-        x,
-        "  <CoSimulation\n    modelIdentifier=\"{}\"",
-        escape(&scene.name)
-    );
-    for (flag, value) in fmi::capability_flags_fmi3() {
-        let _ = write!(x, "\n    {flag}=\"{value}\"");
-    }
-    let _ = writeln!(
-        x,
-        "\n    maxOutputDerivativeOrder=\"{}\"/>",
-        fmi::MAX_OUTPUT_DERIVATIVE_ORDER
-    );
-}
-
-fn model_variables(x: &mut String, variables: &[Variable]) {
+/// `time`, then every variable of the table.
+pub(crate) fn model_variables(x: &mut String, variables: &[Variable]) {
     x.push_str("  <ModelVariables>\n");
     let _ = writeln!(
         x,
@@ -119,6 +56,7 @@ fn variable(x: &mut String, v: &Variable) {
     let element = match v.var_type {
         VarType::Real => "Float64",
         VarType::Integer => "Int32",
+        VarType::UInt8 => "UInt8",
     };
     let _ = write!(
         x,
@@ -148,18 +86,32 @@ fn variable(x: &mut String, v: &Variable) {
         if let Some(value) = value {
             let text = match v.var_type {
                 VarType::Real => xs_double(value),
-                VarType::Integer => format!("{}", value.round() as i64),
+                VarType::Integer | VarType::UInt8 => format!("{}", value.round() as i64),
+            };
+            // An array's start lists every element (row-major).
+            let text = if name == "start" && v.is_array() {
+                vec![text; v.len()].join(" ")
+            } else {
+                text
             };
             let _ = write!(x, "\n      {name}=\"{text}\"");
         }
     }
-    x.push_str("/>\n");
+    if v.is_array() {
+        x.push_str(">\n");
+        for n in &v.dims {
+            let _ = writeln!(x, "      <Dimension start=\"{n}\"/>");
+        }
+        let _ = writeln!(x, "    </{element}>");
+    } else {
+        x.push_str("/>\n");
+    }
 }
 
 /// Every output is listed in Outputs and in InitialUnknowns (all `initial="calculated"`; no
 /// calculated parameters), by value reference, in table order; no `dependencies` attribute
 /// (= depends on every input and parameter).
-fn model_structure(x: &mut String, variables: &[Variable]) {
+pub(crate) fn model_structure(x: &mut String, variables: &[Variable]) {
     x.push_str("  <ModelStructure>\n");
     for element in ["Output", "InitialUnknown"] {
         for v in variables

@@ -23,6 +23,11 @@ use crate::solver::{Settings, Solver, StepReport};
 use crate::variables::{self, Binding, Causality, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 
+mod derivatives;
+mod stepping;
+pub use derivatives::Known;
+pub use stepping::{Increment, Step};
+
 /// Everything needed to continue a run: plain data, `Clone + Serialize`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EngineState {
@@ -63,7 +68,10 @@ impl EngineState {
 pub struct Engine {
     /// The scene as given (parameter values are applied on top of it when the model is built).
     scene: Scene,
+    /// The variable table as FMI 2 sees it: arrays as scalars `name[i]` ([`variables::scalars`]).
     variables: Vec<Variable>,
+    /// The variable table with arrays (what FMI 3 declares); same value references.
+    arrays: Vec<Variable>,
     model: Model,
     solver: Solver,
     state: EngineState,
@@ -73,6 +81,9 @@ pub struct Engine {
     outputs: Vec<f64>,
     /// Evaluation of every membrane triangle in the committed state.
     membranes: Vec<Evaluation>,
+    /// The tangent factored at the committed state for derivatives (None: not yet, or the
+    /// state or the solver's factorization changed since).
+    tangent: Option<crate::solver::sensitivity::Tangent>,
 }
 
 impl Engine {
@@ -107,19 +118,34 @@ impl Engine {
         if !scene.debug.skip_memory_probes {
             memory::probe(size.memory_bytes, "the model and the solver")?;
         }
-        let variables = variables::table(&scene);
+        let arrays = variables::try_table(&scene)?;
+        let variables = variables::scalars(&arrays);
         let model = Model::try_build(&scene)?;
+        let count = |c: Causality| variables.iter().filter(|v| v.causality == c).count();
+        if count(Causality::Input) != model.loads.len()
+            || count(Causality::Output) != model.probes.len()
+        {
+            return Err(Error::State(format!(
+                "internal: the variable table has {} input and {} output scalars, the model {} load channels and {} probes",
+                count(Causality::Input),
+                count(Causality::Output),
+                model.loads.len(),
+                model.probes.len()
+            )));
+        }
         let solver = Solver::try_new(&model, settings(&scene))?;
         let state = initial_state(&scene, &variables, &model)?;
         let mut engine = Engine {
             scene,
             variables,
+            arrays,
             model,
             solver,
             state,
             model_stale: false,
             outputs: Vec::new(),
             membranes: Vec::new(),
+            tangent: None,
         };
         engine.refresh_outputs()?;
         Ok(engine)
@@ -149,15 +175,42 @@ impl Engine {
         &self.variables
     }
 
-    /// Find a variable by value reference and type.
+    /// The variable table with arrays (FMI 3); the same value references as
+    /// [`Engine::variables`], an array's being that of its first element.
+    pub fn arrays(&self) -> &[Variable] {
+        &self.arrays
+    }
+
+    /// Find a scalar (an array element counts as one) by value reference and FMI 2 type (a
+    /// UInt8 is read as an Integer).
     pub fn variable(&self, vr: u32, var_type: VarType) -> Result<&Variable, Error> {
         self.variables
+            .iter()
+            .find(|v| v.value_reference == vr && v.var_type.fmi2() == var_type.fmi2())
+            .ok_or(Error::UnknownValueReference {
+                vr,
+                kind: type_name(var_type),
+            })
+    }
+
+    /// Find a variable of the array table (FMI 3) by its value reference and exact type.
+    pub fn array_variable(&self, vr: u32, var_type: VarType) -> Result<&Variable, Error> {
+        self.arrays
             .iter()
             .find(|v| v.value_reference == vr && v.var_type == var_type)
             .ok_or(Error::UnknownValueReference {
                 vr,
                 kind: type_name(var_type),
             })
+    }
+
+    /// All element values of a variable of the array table (a scalar: one), as f64.
+    pub fn values(&self, var: &Variable) -> &[f64] {
+        match var.binding {
+            Binding::Input(k) => &self.state.inputs[k..k + var.len()],
+            Binding::Parameter(i) => std::slice::from_ref(&self.state.parameters[i]),
+            Binding::Output(k) => &self.outputs[k..k + var.len()],
+        }
     }
 
     /// Set an input or a parameter. Rejects outputs, unknown references and non-finite values
@@ -232,6 +285,7 @@ impl Engine {
     /// with cut-back. On convergence the new equilibrium is committed; otherwise the committed
     /// state is unchanged and the report says how far the increments got.
     pub fn solve(&mut self) -> StepReport {
+        self.tangent = None;
         if self.model_stale {
             if let Err(e) = self.rebuild() {
                 return failed(e.to_string());
@@ -484,6 +538,7 @@ impl Engine {
     /// Seconds of one assembly and of one numeric factorization + solve at the committed
     /// state (best of `repeats`): the per-iteration floor the benchmark compares against.
     pub fn time_floor(&mut self, repeats: usize) -> (f64, f64) {
+        self.tangent = None;
         self.solver.time_floor(
             &self.model,
             &self.state.displacement,
@@ -503,6 +558,7 @@ impl Engine {
             (4 * 8 * dofs).saturating_add(triangles.saturating_mul(2 * evaluation + 16)),
             "the outputs",
         )?;
+        self.tangent = None;
         let s = &self.state;
         let membranes = self
             .solver
@@ -530,6 +586,7 @@ impl Engine {
     /// memory for the new ones cannot be had, the error is returned and the model stays stale
     /// (the next solve tries again).
     fn rebuild(&mut self) -> Result<(), Error> {
+        self.tangent = None;
         let mut scene = self.scene.clone();
         for (p, value) in scene.parameters.clone().iter().zip(&self.state.parameters) {
             variables::set_parameter_value(&mut scene, &p.target, *value);
@@ -576,10 +633,11 @@ fn type_name(t: VarType) -> &'static str {
     match t {
         VarType::Real => "Real",
         VarType::Integer => "Integer",
+        VarType::UInt8 => "UInt8",
     }
 }
 
-fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> Result<EngineState, Error> {
+fn initial_state(_scene: &Scene, vars: &[Variable], model: &Model) -> Result<EngineState, Error> {
     let start = |b: fn(Binding) -> bool| -> Vec<f64> {
         vars.iter()
             .filter(|v| b(v.binding))
@@ -588,7 +646,7 @@ fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> Result<Engi
     };
     let inputs = start(|b| matches!(b, Binding::Input(_)));
     let parameters = start(|b| matches!(b, Binding::Parameter(_)));
-    debug_assert_eq!(inputs.len(), scene.inputs.len());
+    debug_assert_eq!(inputs.len(), model.loads.len());
     const WHAT: &str = "the state";
     Ok(EngineState {
         displacement: memory::zeros(model.unknown_count(), WHAT)?,

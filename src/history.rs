@@ -181,7 +181,8 @@ fn real_input(engine: &Engine, name: &str) -> Result<u32, String> {
 
 /// `combination,<name>,<input>,<factor>[,<input>,<factor>...]`.
 fn parse_combination(text: &str, engine: &Engine, known: &[Column]) -> Result<Column, String> {
-    let cells: Vec<&str> = text.split(',').map(str::trim).collect();
+    let cells = header_cells(text);
+    let cells: Vec<&str> = cells.iter().map(String::as_str).collect();
     let usage = "expected `combination,<name>,<input>,<factor>[,<input>,<factor>...]`";
     if cells.len() < 4 || !cells.len().is_multiple_of(2) {
         return Err(format!("{usage}; got {} cells", cells.len()));
@@ -227,7 +228,8 @@ fn parse_header(
     engine: &Engine,
     combinations: &[Column],
 ) -> Result<Vec<Column>, String> {
-    let mut cells = header.split(',').map(str::trim);
+    let cells = header_cells(header);
+    let mut cells = cells.iter().map(|c| c.as_str());
     if cells.next() != Some("time") {
         return Err("the first column must be `time`".into());
     }
@@ -258,6 +260,35 @@ fn parse_header(
         columns.push(column);
     }
     Ok(columns)
+}
+
+/// The cells of a header line: separated by commas, a cell in double quotes may hold commas
+/// (the FMI 2 names of 2-D array elements, `"corners[1,3]"`), `""` inside quotes is a quote.
+fn header_cells(line: &str) -> Vec<String> {
+    let mut cells = vec![String::new()];
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                chars.next();
+                cells.last_mut().unwrap().push('"');
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => cells.push(String::new()),
+            c => cells.last_mut().unwrap().push(c),
+        }
+    }
+    cells.iter().map(|c| c.trim().to_string()).collect()
+}
+
+/// A header cell: quoted when the name holds a comma or a quote.
+pub fn csv_name(name: &str) -> String {
+    if name.contains([',', '"']) {
+        format!("\"{}\"", name.replace('"', "\"\""))
+    } else {
+        name.to_string()
+    }
 }
 
 fn input_names(engine: &Engine) -> impl Iterator<Item = &str> {
@@ -412,7 +443,12 @@ fn element_rows(engine: &Engine, time: f64, out: &mut String) {
 impl History {
     /// CSV text: the header, then one line per row, numbers in shortest round-trip form.
     pub fn to_csv(&self) -> String {
-        let mut out = self.header.join(",");
+        let mut out = self
+            .header
+            .iter()
+            .map(|n| csv_name(n))
+            .collect::<Vec<_>>()
+            .join(",");
         out.push('\n');
         for row in &self.rows {
             for (i, x) in row.iter().enumerate() {

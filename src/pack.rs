@@ -13,6 +13,21 @@
 //!   resources/scene.json
 //! ```
 //!
+//! Both archives also carry the result of the default experiment as FMI-LS-REF reference
+//! results (the layered standard "References", 1.0.0-alpha.1, as the Reference FMUs ship them):
+//!
+//! ```text
+//!   extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml   one <Related role="result">
+//!   extra/org.fmi-standard.fmi-ls-ref/<Name>_ref.csv        "time" and at most 10 Real
+//!                                                           outputs (table order), quoted
+//!                                                           names, no units, one row per
+//!                                                           stepSize from startTime to stopTime
+//! ```
+//! The rows are what `simulate_fmu(fmu)` with no arguments records: inputs at their start
+//! values, the initial equilibrium at startTime, then one step per row (harness/test_reference.py
+//! compares them with a fresh run). A scene whose default experiment does not converge ships no
+//! reference result.
+//!
 //! One archive holds one modelDescription.xml, hence two archives. The same scene and library
 //! give byte-identical archives. Each archive is written to a temporary file in the output
 //! directory and renamed at the end, so a failed pack never leaves a partial `.fmu` behind.
@@ -76,16 +91,20 @@ pub fn pack_versions(
     let engine = Engine::try_new(scene.clone())?;
     let binary =
         std::fs::read(library).map_err(|e| io_error(library, "cannot read the FMU library", e))?;
+    let reference = reference_result(scene)?;
     let mut archives = Vec::with_capacity(versions.len());
     for &version in versions {
         let description = match version {
             FmiVersion::Fmi2 => model_description(&engine),
             FmiVersion::Fmi3 => model_description_fmi3(&engine),
         };
-        let bytes = archive(scene, version, &description, &binary).map_err(|e| Error::Io {
-            path: library.display().to_string(),
-            message: format!("cannot build the FMU archive: {e}"),
-        })?;
+        let bytes =
+            archive(scene, version, &description, &binary, reference.as_deref()).map_err(|e| {
+                Error::Io {
+                    path: library.display().to_string(),
+                    message: format!("cannot build the FMU archive: {e}"),
+                }
+            })?;
         archives.push((out_dir.join(version.file_name(scene)), bytes));
     }
     std::fs::create_dir_all(out_dir)
@@ -144,19 +163,79 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     })
 }
 
+/// The folder of the FMI-LS-REF files inside an archive.
+pub const REFERENCE_FOLDER: &str = "extra/org.fmi-standard.fmi-ls-ref";
+
+/// Most outputs in the reference result (besides time).
+pub const REFERENCE_OUTPUTS: usize = 10;
+
+/// The default experiment's result as CSV (see the module docs); None when it does not
+/// converge.
+pub fn reference_result(scene: &Scene) -> Result<Option<String>, Error> {
+    let mut engine = Engine::try_new(scene.clone())?;
+    let outputs: Vec<(String, u32)> = engine
+        .variables()
+        .iter()
+        .filter(|v| {
+            v.causality == crate::variables::Causality::Output
+                && v.var_type == crate::variables::VarType::Real
+        })
+        .take(REFERENCE_OUTPUTS)
+        .map(|v| (v.name.clone(), v.value_reference))
+        .collect();
+    let e = &scene.experiment;
+    let steps = ((e.stop_time - e.start_time) / e.step_size)
+        .round()
+        .max(0.0) as usize;
+    let quoted: Vec<String> = std::iter::once("time".to_string())
+        .chain(outputs.iter().map(|(n, _)| n.clone()))
+        .map(|n| format!("\"{}\"", n.replace('"', "\"\"")))
+        .collect();
+    let mut csv = quoted.join(",");
+    csv.push('\n');
+    for k in 0..=steps {
+        if !engine.solve().converged() {
+            return Ok(None);
+        }
+        let t = if k == steps {
+            e.stop_time
+        } else {
+            e.start_time + k as f64 * e.step_size
+        };
+        csv.push_str(&crate::description::xs_double(t));
+        for (_, vr) in &outputs {
+            let value = engine.get_real(*vr)?;
+            csv.push(',');
+            csv.push_str(&crate::description::xs_double(value));
+        }
+        csv.push('\n');
+    }
+    Ok(Some(csv))
+}
+
+/// The FMI-LS-REF manifest naming the reference result.
+fn reference_manifest(scene: &Scene) -> String {
+    format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<fmiReferences\n    xmlns:fmi-ls=\"http://fmi-standard.org/fmi-ls-manifest\"\n    fmi-ls:fmi-ls-name=\"org.fmi-standard.fmi-ls-ref\"\n    fmi-ls:fmi-ls-version=\"1.0.0-alpha.1\"\n    fmi-ls:fmi-ls-description=\"Layered Standard providing information on related files included in an FMU.\">\n    <Related type=\"text/csv\" source=\"{}_ref.csv\" role=\"result\" description=\"Outputs of the default experiment (inputs at their start values)\"/>\n</fmiReferences>\n",
+        scene.name
+    )
+}
+
 /// The archive bytes, entries in a fixed order with fixed metadata.
 fn archive(
     scene: &Scene,
     version: FmiVersion,
     description: &str,
     binary: &[u8],
+    reference: Option<&str>,
 ) -> zip::result::ZipResult<Vec<u8>> {
     let options = SimpleFileOptions::default()
         .compression_method(CompressionMethod::Deflated)
         .last_modified_time(DateTime::default());
     let scene_json = scene.to_json();
     let mut zip = ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let entries: [(String, &[u8], u32); 3] = [
+    let manifest = reference_manifest(scene);
+    let mut entries: Vec<(String, &[u8], u32)> = vec![
         ("modelDescription.xml".into(), description.as_bytes(), 0o644),
         (
             format!("binaries/{}/{}.so", version.platform(), scene.name),
@@ -169,6 +248,18 @@ fn archive(
             0o644,
         ),
     ];
+    if let Some(csv) = reference {
+        entries.push((
+            format!("{REFERENCE_FOLDER}/fmi-ls-manifest.xml"),
+            manifest.as_bytes(),
+            0o644,
+        ));
+        entries.push((
+            format!("{REFERENCE_FOLDER}/{}_ref.csv", scene.name),
+            csv.as_bytes(),
+            0o644,
+        ));
+    }
     for (name, bytes, mode) in entries {
         zip.start_file(name, options.unix_permissions(mode))?;
         zip.write_all(bytes)?;

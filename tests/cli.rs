@@ -217,7 +217,9 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
         [
             "modelDescription.xml",
             "binaries/linux64/TinyCable.so",
-            "resources/scene.json"
+            "resources/scene.json",
+            "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
+            "extra/org.fmi-standard.fmi-ls-ref/TinyCable_ref.csv"
         ]
     );
     for i in 0..zip.len() {
@@ -256,7 +258,9 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
         [
             "modelDescription.xml",
             "binaries/x86_64-linux/TinyCable.so",
-            "resources/scene.json"
+            "resources/scene.json",
+            "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
+            "extra/org.fmi-standard.fmi-ls-ref/TinyCable_ref.csv"
         ]
     );
     for i in 0..zip.len() {

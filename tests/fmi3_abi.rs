@@ -740,14 +740,6 @@ fn unsupported_functions_are_errors_with_a_reason() {
                 fmi::fmi3GetNumberOfContinuousStates(c, &mut n),
             ),
             (
-                "fmi3GetDirectionalDerivative",
-                fmi::fmi3GetDirectionalDerivative(c, &vr, 1, &vr, 1, &1.0, 1, &mut f, 1),
-            ),
-            (
-                "fmi3GetAdjointDerivative",
-                fmi::fmi3GetAdjointDerivative(c, &vr, 1, &vr, 1, &1.0, 1, &mut f, 1),
-            ),
-            (
                 "fmi3GetNumberOfVariableDependencies",
                 fmi::fmi3GetNumberOfVariableDependencies(c, vr, &mut n),
             ),
@@ -982,4 +974,295 @@ fn fmi2_state_bytes(fx: &Fixture) -> Vec<u8> {
         fmi::fmi2FreeInstance(c);
         bytes
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Directional and adjoint derivatives (issue 12 item 3): the C functions give the engine's
+// numbers, check their counts and arguments.
+
+#[test]
+fn derivatives_through_the_c_functions_are_the_engines() {
+    let fx = Fixture::standard();
+    let log = Log::default();
+    let fmu = fx.fmu(&log, false);
+    let c = fmu.c;
+    assert_eq!(fmu.enter(0.0, 1.0), OK);
+    assert_eq!(fmu.set("P", 1000.0), OK);
+    assert_eq!(fmu.exit(), OK);
+    let (w, p, t) = (fx.vr("midspan_uz"), fx.vr("P"), fx.vr("tension"));
+    let unknowns = [w, t];
+    let mut forward = [0.0f64; 2];
+    let mut adjoint = [0.0f64];
+    unsafe {
+        assert_eq!(
+            fmi::fmi3GetDirectionalDerivative(
+                c,
+                unknowns.as_ptr(),
+                2,
+                &p,
+                1,
+                &1.0,
+                1,
+                forward.as_mut_ptr(),
+                2
+            ),
+            OK
+        );
+        let seed = [1.0, 0.0];
+        assert_eq!(
+            fmi::fmi3GetAdjointDerivative(
+                c,
+                unknowns.as_ptr(),
+                2,
+                &p,
+                1,
+                seed.as_ptr(),
+                2,
+                adjoint.as_mut_ptr(),
+                1
+            ),
+            OK
+        );
+    }
+    // The engine on the same scene and load.
+    let mut engine = Engine::try_new(Scene::from_json(&scene_text()).unwrap()).unwrap();
+    engine.set_real(p, 1000.0).unwrap();
+    assert!(engine.solve().converged());
+    let slot = |vr: u32| match engine
+        .variables()
+        .iter()
+        .find(|v| v.value_reference == vr)
+        .unwrap()
+        .binding
+    {
+        velarium::variables::Binding::Output(k) | velarium::variables::Binding::Input(k) => k,
+        _ => panic!(),
+    };
+    let (sw, st, sp) = (slot(w), slot(t), slot(p));
+    let expected = engine
+        .directional_derivative(&[velarium::engine::Known::Input(sp)], &[1.0], &[sw, st])
+        .unwrap();
+    assert_eq!(forward.to_vec(), expected);
+    assert!(forward[0] < 0.0 && forward[1] > 0.0, "{forward:?}");
+    assert!((adjoint[0] - forward[0]).abs() <= 1e-15 * forward[0].abs());
+    // Counts and kinds are checked.
+    unsafe {
+        let mut out = [0.0f64; 2];
+        assert_eq!(
+            fmi::fmi3GetDirectionalDerivative(
+                c,
+                unknowns.as_ptr(),
+                2,
+                &p,
+                1,
+                &1.0,
+                1,
+                out.as_mut_ptr(),
+                1
+            ),
+            ERROR
+        );
+        log.expect("sensitivity has 1 values, expected 2");
+        assert_eq!(
+            fmi::fmi3GetDirectionalDerivative(c, &p, 1, &w, 1, &1.0, 1, out.as_mut_ptr(), 1),
+            ERROR
+        );
+        log.expect("is not a continuous Real output");
+        assert_eq!(
+            fmi::fmi3GetDirectionalDerivative(c, &w, 1, &t, 1, &1.0, 1, out.as_mut_ptr(), 1),
+            ERROR
+        );
+        log.expect("knowns are inputs and parameters");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Intermediate update and early return (issue 12 item 4).
+
+/// The instance environment of the intermediate-update tests: the logger's `Log` first (the
+/// logger callback reads the environment as a `Log`), then what the update callback records.
+#[repr(C)]
+#[derive(Default)]
+struct UpdateEnv {
+    log: Log,
+    /// (time, intermediateStepFinished, canReturnEarly) of every call.
+    calls: Mutex<Vec<(f64, bool, bool)>>,
+    /// Ask for an early return at the first call that may return early.
+    request: std::sync::atomic::AtomicBool,
+}
+
+unsafe extern "C" fn record_update(
+    env: *mut c_void,
+    time: f64,
+    set_requested: bool,
+    get_allowed: bool,
+    finished: bool,
+    can_return_early: bool,
+    early_return_requested: *mut bool,
+    _early_return_time: *mut f64,
+) {
+    let env = &*(env as *const UpdateEnv);
+    assert!(!set_requested && !get_allowed);
+    env.calls
+        .lock()
+        .unwrap()
+        .push((time, finished, can_return_early));
+    *early_return_requested = can_return_early && env.request.load(Ordering::SeqCst);
+}
+
+fn instantiate_with_updates(
+    fx: &Fixture,
+    env: &UpdateEnv,
+    early_return_allowed: bool,
+) -> Component {
+    let c = unsafe {
+        fmi::fmi3InstantiateCoSimulation(
+            c"updates".as_ptr(),
+            fx.token.as_ptr(),
+            fx.path.as_ptr(),
+            false,
+            false,
+            false,
+            early_return_allowed,
+            null(),
+            0,
+            env as *const UpdateEnv as *mut c_void,
+            Some(capture),
+            Some(record_update),
+        )
+    };
+    assert!(!c.is_null(), "{:?}", env.log.messages());
+    c
+}
+
+/// The engine's midspan deflection under P (the reference of the stepped runs).
+fn engine_deflection(p: f64) -> f64 {
+    let mut engine = Engine::try_new(Scene::from_json(&scene_text()).unwrap()).unwrap();
+    let vr = |name: &str| {
+        engine
+            .variables()
+            .iter()
+            .find(|v| v.name == name)
+            .unwrap()
+            .value_reference
+    };
+    let (load, w) = (vr("P"), vr("midspan_uz"));
+    engine.set_real(load, p).unwrap();
+    assert!(engine.solve().converged());
+    engine.get_real(w).unwrap()
+}
+
+/// With a callback, every load increment of a step is reported at its pseudo-time t + λ h,
+/// and the equilibrium is the plain step's to the solver tolerance (the increments are solved
+/// one per call, so their convergence scale differs: 1e-10 relative, measured 8.8e-12);
+/// without earlyReturnAllowed, `canReturnEarly` is false and requests are ignored.
+#[test]
+fn intermediate_updates_report_every_increment() {
+    let fx = Fixture::new(
+        "velarium-fmi3-updates",
+        &with_solver(r#"{"initial_increment": 0.125}"#),
+    );
+    let env = UpdateEnv::default();
+    env.request.store(true, Ordering::SeqCst);
+    let c = instantiate_with_updates(&fx, &env, false);
+    let (p, w) = (fx.vr("P"), fx.vr("midspan_uz"));
+    let (mut event, mut terminate, mut early, mut last) = (false, false, false, 0.0);
+    unsafe {
+        assert_eq!(
+            fmi::fmi3EnterInitializationMode(c, false, 0.0, 0.0, true, 1.0),
+            OK
+        );
+        assert_eq!(fmi::fmi3ExitInitializationMode(c), OK);
+        assert_eq!(fmi::fmi3SetFloat64(c, &p, 1, &5000.0, 1), OK);
+        let status = fmi::fmi3DoStep(
+            c,
+            0.0,
+            0.5,
+            true,
+            &mut event,
+            &mut terminate,
+            &mut early,
+            &mut last,
+        );
+        assert_eq!(status, OK);
+    }
+    assert!(!early && last == 0.5);
+    let calls = env.calls.lock().unwrap().clone();
+    assert!(calls.len() >= 3, "{calls:?}");
+    assert!(calls.windows(2).all(|p| p[0].0 <= p[1].0), "{calls:?}");
+    assert_eq!(calls.last().unwrap(), &(0.5, true, false));
+    assert!(calls.iter().all(|c| !c.2), "earlyReturnAllowed is false");
+    let mut value = 0.0;
+    unsafe {
+        assert_eq!(fmi::fmi3GetFloat64(c, &w, 1, &mut value, 1), OK);
+        fmi::fmi3FreeInstance(c);
+    }
+    let reference = engine_deflection(5000.0);
+    let err = (value - reference).abs() / reference.abs();
+    eprintln!("stepped vs plain: {err:e}");
+    assert!(err < 1e-10, "{value} vs {reference}");
+}
+
+/// earlyReturnAllowed and a request at the first increment: DoStep returns there with
+/// earlyReturn, lastSuccessfulTime = t + λ h and the equilibrium at λ of the load change; the
+/// next DoStep from that time applies the rest.
+#[test]
+fn early_return_stops_at_the_requested_increment() {
+    let fx = Fixture::new(
+        "velarium-fmi3-early",
+        &with_solver(r#"{"initial_increment": 0.125}"#),
+    );
+    let env = UpdateEnv::default();
+    env.request.store(true, Ordering::SeqCst);
+    let c = instantiate_with_updates(&fx, &env, true);
+    let (p, w) = (fx.vr("P"), fx.vr("midspan_uz"));
+    let (mut event, mut terminate, mut early, mut last) = (false, false, false, 0.0);
+    let mut value = 0.0;
+    unsafe {
+        assert_eq!(
+            fmi::fmi3EnterInitializationMode(c, false, 0.0, 0.0, true, 1.0),
+            OK
+        );
+        assert_eq!(fmi::fmi3ExitInitializationMode(c), OK);
+        assert_eq!(fmi::fmi3SetFloat64(c, &p, 1, &5000.0, 1), OK);
+        let status = fmi::fmi3DoStep(
+            c,
+            0.0,
+            0.5,
+            true,
+            &mut event,
+            &mut terminate,
+            &mut early,
+            &mut last,
+        );
+        assert_eq!(status, OK);
+        assert!(early, "early return");
+        assert_eq!(last, 0.5 * 0.125);
+        assert_eq!(fmi::fmi3GetFloat64(c, &w, 1, &mut value, 1), OK);
+        let reference = engine_deflection(5000.0 * 0.125);
+        let err = (value - reference).abs() / reference.abs();
+        eprintln!("early return at λ = 0.125 vs plain: {err:e}");
+        assert!(err < 1e-10, "{value} vs {reference}");
+        // The rest of the step from the returned time.
+        env.request.store(false, Ordering::SeqCst);
+        let h = 0.5 - last;
+        let status = fmi::fmi3DoStep(
+            c,
+            last,
+            h,
+            true,
+            &mut event,
+            &mut terminate,
+            &mut early,
+            &mut last,
+        );
+        assert_eq!(status, OK);
+        assert!(!early && last == 0.5);
+        assert_eq!(fmi::fmi3GetFloat64(c, &w, 1, &mut value, 1), OK);
+        fmi::fmi3FreeInstance(c);
+    }
+    let reference = engine_deflection(5000.0);
+    let err = (value - reference).abs() / reference.abs();
+    eprintln!("after the rest of the step vs plain: {err:e}");
+    assert!(err < 1e-10);
 }

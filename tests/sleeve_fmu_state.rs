@@ -108,7 +108,7 @@ impl Fmu {
                         assert_eq!(fmi::fmi2GetReal(self.c, &v.value_reference, 1, &mut x), OK);
                         x.to_bits()
                     }
-                    VarType::Integer => {
+                    VarType::Integer | VarType::UInt8 => {
                         let mut i: c_int = -1;
                         assert_eq!(
                             fmi::fmi2GetInteger(self.c, &v.value_reference, 1, &mut i),

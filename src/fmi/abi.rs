@@ -295,17 +295,19 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     c: Component,
-    _unknown: *const c_uint,
-    _n_unknown: usize,
-    _known: *const c_uint,
-    _n_known: usize,
-    _dv_known: *const f64,
-    _dv_unknown: *mut f64,
+    unknown: *const c_uint,
+    n_unknown: usize,
+    known: *const c_uint,
+    n_known: usize,
+    dv_known: *const f64,
+    dv_unknown: *mut f64,
 ) -> Status {
     with_instance(c, "fmi2GetDirectionalDerivative", |i| {
-        i.unsupported(
-            Func::GetDirectionalDerivative,
-            "providesDirectionalDerivative is false",
+        i.directional_derivative_fmi2(
+            slice_in(unknown, n_unknown, "vUnknown_ref"),
+            slice_in(known, n_known, "vKnown_ref"),
+            slice_in(dv_known, n_known, "dvKnown"),
+            slice_out(dv_unknown, n_unknown, "dvUnknown"),
         )
     })
 }

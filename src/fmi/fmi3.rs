@@ -3,12 +3,14 @@
 //! -> fmi3Error, panic boundary), pointers turned into `Result`s by the helpers of `ffi.rs`,
 //! then one method of [`Instance`] (FMI 3 specifics in `instance/fmi3.rs`).
 //!
-//! What is supported (Co-Simulation, no event mode, no clocks, no arrays yet):
+//! What is supported (Co-Simulation, no event mode, no clocks):
 //!
 //! ```text
 //! fmi3InstantiateCoSimulation, FreeInstance, EnterInitializationMode, ExitInitializationMode,
 //! Terminate, Reset, SetDebugLogging, GetVersion        as FMI 2 (one call for the experiment)
-//! fmi3Get/SetFloat64, fmi3Get/SetInt32                the variables (nValues checked; time = vr 0)
+//! fmi3Get/SetFloat64, fmi3Get/SetInt32, fmi3GetUInt8  the variables, arrays row-major (nValues =
+//!                                                     their element count; time = vr 0)
+//! fmi3GetDirectionalDerivative, GetAdjointDerivative  at the current equilibrium
 //! fmi3DoStep                                          Discard leaves the state unchanged
 //! fmi3Get/Set/FreeFMUState, SerializedFMUStateSize, SerializeFMUState, DeserializeFMUState
 //! ```
@@ -16,7 +18,7 @@
 //! Every other function is exported (importers such as fmpy resolve all 75 at load time) and
 //! answers fmi3Error with a logged reason: the other variable types have no variables (an
 //! empty call is OK, any value reference is unknown); Model Exchange and Scheduled Execution
-//! instantiation return NULL; event mode, clocks, configuration mode, derivatives, variable
+//! instantiation return NULL; event mode, clocks, configuration mode, variable
 //! dependencies and the Model Exchange functions are not supported.
 //!
 //! # Safety
@@ -33,11 +35,13 @@ use super::ffi::{
 };
 use super::fmi3_ffi::{
     Fmi3ClockUpdateFn, Fmi3Enum, Fmi3IntermediateUpdateFn, Fmi3LoggerFn, Fmi3PreemptionFn,
+    IntermediateUpdate,
 };
 use super::instance::fmi3::{DoStepOut, Instantiate3Args};
 use super::instance::Instance;
 use super::logging::{Callback, Category, Logger};
 use super::Status;
+use crate::variables::VarType;
 use std::ffi::{c_char, c_void};
 use std::ptr::null_mut;
 
@@ -55,16 +59,22 @@ pub fn capability_flags_fmi3() -> &'static [(&'static str, bool)] {
         ),
         ("canGetAndSetFMUState", super::CAN_GET_AND_SET_FMU_STATE),
         ("canSerializeFMUState", super::CAN_SERIALIZE_FMU_STATE),
-        ("providesDirectionalDerivatives", false),
-        ("providesAdjointDerivatives", false),
+        (
+            "providesDirectionalDerivatives",
+            super::PROVIDES_DIRECTIONAL_DERIVATIVE,
+        ),
+        (
+            "providesAdjointDerivatives",
+            super::PROVIDES_DIRECTIONAL_DERIVATIVE,
+        ),
         ("providesPerElementDependencies", false),
         (
             "canHandleVariableCommunicationStepSize",
             super::CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
         ),
-        ("providesIntermediateUpdate", false),
-        ("mightReturnEarlyFromDoStep", false),
-        ("canReturnEarlyAfterIntermediateUpdate", false),
+        ("providesIntermediateUpdate", true),
+        ("mightReturnEarlyFromDoStep", true),
+        ("canReturnEarlyAfterIntermediateUpdate", true),
         ("hasEventMode", false),
         ("providesEvaluateDiscreteStates", false),
     ]
@@ -74,8 +84,6 @@ const NO_EVENT_MODE: &str =
     "this FMU has no event mode (hasEventMode=\"false\"); after fmi3ExitInitializationMode it is in Step Mode";
 const NO_CLOCKS: &str = "this FMU has no clocks";
 const CO_SIMULATION_ONLY: &str = "this is a Model Exchange function; the FMU is Co-Simulation only";
-const NO_DERIVATIVES: &str =
-    "providesDirectionalDerivatives and providesAdjointDerivatives are false";
 const NO_DEPENDENCIES: &str =
     "providesPerElementDependencies is false; the modelDescription's ModelStructure lists the dependencies";
 const NO_CONFIGURATION: &str = "this FMU has no structural parameters to configure";
@@ -164,7 +172,7 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
     _n_required_intermediate_variables: usize,
     instance_environment: *mut c_void,
     log_message: Option<Fmi3LoggerFn>,
-    _intermediate_update: Option<Fmi3IntermediateUpdateFn>,
+    intermediate_update: Option<Fmi3IntermediateUpdateFn>,
 ) -> Component {
     guard(null_mut(), || {
         let (name, token, path) = (
@@ -184,6 +192,7 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
             resource_path: path.as_deref(),
             event_mode_used,
             early_return_allowed,
+            intermediate_update: IntermediateUpdate::new(intermediate_update, instance_environment),
         };
         Instance::instantiate_fmi3(&args, logger).map_or(null_mut(), into_component)
     })
@@ -318,89 +327,15 @@ pub unsafe extern "C" fn fmi3SetInt32(
     instance: Component,
     vr: *const u32,
     n_vr: usize,
-    values: *const i32,
+    _values: *const i32,
     n_values: usize,
 ) -> Status {
     with_instance(instance, "fmi3SetInt32", |i| {
-        i.set_int32(
+        i.set_integer_fmi3(
+            "fmi3SetInt32",
+            VarType::Integer,
             slice_in(vr, n_vr, "valueReferences"),
-            slice_in(values, n_values, "values"),
             n_values,
-        )
-    })
-}
-
-// ---------------------------------------------------------------------------------------------
-// Getting and setting variable values: types without variables (generated pattern)
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetFloat32(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut f32,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetFloat32", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetFloat32",
-            "Float32",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetFloat32(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const f32,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetFloat32", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetFloat32",
-            "Float32",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetInt8(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut i8,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetInt8", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetInt8",
-            "Int8",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetInt8(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const i8,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetInt8", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetInt8",
-            "Int8",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
         )
     })
 }
@@ -410,15 +345,14 @@ pub unsafe extern "C" fn fmi3GetUInt8(
     instance: Component,
     vr: *const u32,
     n_vr: usize,
-    _values: *mut u8,
-    _n_values: usize,
+    values: *mut u8,
+    n_values: usize,
 ) -> Status {
     with_instance(instance, "fmi3GetUInt8", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetUInt8",
-            "UInt8",
-            true,
+        i.get_uint8(
             slice_in(vr, n_vr, "valueReferences"),
+            slice_out(values, n_values, "values"),
+            n_values,
         )
     })
 }
@@ -429,269 +363,72 @@ pub unsafe extern "C" fn fmi3SetUInt8(
     vr: *const u32,
     n_vr: usize,
     _values: *const u8,
-    _n_values: usize,
+    n_values: usize,
 ) -> Status {
     with_instance(instance, "fmi3SetUInt8", |i| {
-        i.no_such_variables_fmi3(
+        i.set_integer_fmi3(
             "fmi3SetUInt8",
-            "UInt8",
-            false,
+            VarType::UInt8,
             slice_in(vr, n_vr, "valueReferences"),
+            n_values,
         )
     })
 }
 
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetInt16(
+// ---------------------------------------------------------------------------------------------
+// Getting and setting variable values: types without variables
+
+/// The getter and setter of a type this FMU has no variables of: any value reference is
+/// unknown (fmi3Error with the reference), an empty call is OK.
+macro_rules! no_variables {
+    ($get:ident, $set:ident, $kind:literal, $value:ty) => {
+        #[no_mangle]
+        pub unsafe extern "C" fn $get(
+            instance: Component,
+            vr: *const u32,
+            n_vr: usize,
+            _values: *mut $value,
+            _n_values: usize,
+        ) -> Status {
+            no_such_variables(instance, stringify!($get), $kind, true, vr, n_vr)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn $set(
+            instance: Component,
+            vr: *const u32,
+            n_vr: usize,
+            _values: *const $value,
+            _n_values: usize,
+        ) -> Status {
+            no_such_variables(instance, stringify!($set), $kind, false, vr, n_vr)
+        }
+    };
+}
+
+/// The shim of a getter or setter of a type without variables.
+unsafe fn no_such_variables(
     instance: Component,
+    name: &'static str,
+    kind: &'static str,
+    getter: bool,
     vr: *const u32,
     n_vr: usize,
-    _values: *mut i16,
-    _n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetInt16", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetInt16",
-            "Int16",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
+    with_instance(instance, name, |i| {
+        i.no_such_variables_fmi3(name, kind, getter, slice_in(vr, n_vr, "valueReferences"))
     })
 }
 
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetInt16(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const i16,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetInt16", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetInt16",
-            "Int16",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetUInt16(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut u16,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetUInt16", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetUInt16",
-            "UInt16",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetUInt16(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const u16,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetUInt16", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetUInt16",
-            "UInt16",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetUInt32(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut u32,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetUInt32", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetUInt32",
-            "UInt32",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetUInt32(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const u32,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetUInt32", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetUInt32",
-            "UInt32",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetInt64(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut i64,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetInt64", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetInt64",
-            "Int64",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetInt64(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const i64,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetInt64", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetInt64",
-            "Int64",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetUInt64(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut u64,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetUInt64", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetUInt64",
-            "UInt64",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetUInt64(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const u64,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetUInt64", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetUInt64",
-            "UInt64",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetBoolean(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut bool,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetBoolean", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetBoolean",
-            "Boolean",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetBoolean(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const bool,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetBoolean", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetBoolean",
-            "Boolean",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3GetString(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *mut *const c_char,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3GetString", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetString",
-            "String",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
-
-#[no_mangle]
-pub unsafe extern "C" fn fmi3SetString(
-    instance: Component,
-    vr: *const u32,
-    n_vr: usize,
-    _values: *const *const c_char,
-    _n_values: usize,
-) -> Status {
-    with_instance(instance, "fmi3SetString", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetString",
-            "String",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
-}
+no_variables!(fmi3GetFloat32, fmi3SetFloat32, "Float32", f32);
+no_variables!(fmi3GetInt8, fmi3SetInt8, "Int8", i8);
+no_variables!(fmi3GetInt16, fmi3SetInt16, "Int16", i16);
+no_variables!(fmi3GetUInt16, fmi3SetUInt16, "UInt16", u16);
+no_variables!(fmi3GetUInt32, fmi3SetUInt32, "UInt32", u32);
+no_variables!(fmi3GetInt64, fmi3SetInt64, "Int64", i64);
+no_variables!(fmi3GetUInt64, fmi3SetUInt64, "UInt64", u64);
+no_variables!(fmi3GetBoolean, fmi3SetBoolean, "Boolean", bool);
+no_variables!(fmi3GetString, fmi3SetString, "String", *const c_char);
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetBinary(
@@ -702,14 +439,7 @@ pub unsafe extern "C" fn fmi3GetBinary(
     _values: *mut *const u8,
     _n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetBinary", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetBinary",
-            "Binary",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
+    no_such_variables(instance, "fmi3GetBinary", "Binary", true, vr, n_vr)
 }
 
 #[no_mangle]
@@ -721,14 +451,7 @@ pub unsafe extern "C" fn fmi3SetBinary(
     _values: *const *const u8,
     _n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3SetBinary", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetBinary",
-            "Binary",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
+    no_such_variables(instance, "fmi3SetBinary", "Binary", false, vr, n_vr)
 }
 
 #[no_mangle]
@@ -738,14 +461,7 @@ pub unsafe extern "C" fn fmi3GetClock(
     n_vr: usize,
     _values: *mut bool,
 ) -> Status {
-    with_instance(instance, "fmi3GetClock", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3GetClock",
-            "Clock",
-            true,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
+    no_such_variables(instance, "fmi3GetClock", "Clock", true, vr, n_vr)
 }
 
 #[no_mangle]
@@ -755,14 +471,7 @@ pub unsafe extern "C" fn fmi3SetClock(
     n_vr: usize,
     _values: *const bool,
 ) -> Status {
-    with_instance(instance, "fmi3SetClock", |i| {
-        i.no_such_variables_fmi3(
-            "fmi3SetClock",
-            "Clock",
-            false,
-            slice_in(vr, n_vr, "valueReferences"),
-        )
-    })
+    no_such_variables(instance, "fmi3SetClock", "Clock", false, vr, n_vr)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -866,31 +575,47 @@ pub unsafe extern "C" fn fmi3DeserializeFMUState(
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
     instance: Component,
-    _unknowns: *const u32,
-    _n_unknowns: usize,
-    _knowns: *const u32,
-    _n_knowns: usize,
-    _seed: *const f64,
-    _n_seed: usize,
-    _sensitivity: *mut f64,
-    _n_sensitivity: usize,
+    unknowns: *const u32,
+    n_unknowns: usize,
+    knowns: *const u32,
+    n_knowns: usize,
+    seed: *const f64,
+    n_seed: usize,
+    sensitivity: *mut f64,
+    n_sensitivity: usize,
 ) -> Status {
-    unsupported(instance, "fmi3GetDirectionalDerivative", NO_DERIVATIVES)
+    with_instance(instance, "fmi3GetDirectionalDerivative", |i| {
+        i.derivative_fmi3(
+            false,
+            slice_in(unknowns, n_unknowns, "unknowns"),
+            slice_in(knowns, n_knowns, "knowns"),
+            slice_in(seed, n_seed, "seed"),
+            slice_out(sensitivity, n_sensitivity, "sensitivity"),
+        )
+    })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetAdjointDerivative(
     instance: Component,
-    _unknowns: *const u32,
-    _n_unknowns: usize,
-    _knowns: *const u32,
-    _n_knowns: usize,
-    _seed: *const f64,
-    _n_seed: usize,
-    _sensitivity: *mut f64,
-    _n_sensitivity: usize,
+    unknowns: *const u32,
+    n_unknowns: usize,
+    knowns: *const u32,
+    n_knowns: usize,
+    seed: *const f64,
+    n_seed: usize,
+    sensitivity: *mut f64,
+    n_sensitivity: usize,
 ) -> Status {
-    unsupported(instance, "fmi3GetAdjointDerivative", NO_DERIVATIVES)
+    with_instance(instance, "fmi3GetAdjointDerivative", |i| {
+        i.derivative_fmi3(
+            true,
+            slice_in(unknowns, n_unknowns, "unknowns"),
+            slice_in(knowns, n_knowns, "knowns"),
+            slice_in(seed, n_seed, "seed"),
+            slice_out(sensitivity, n_sensitivity, "sensitivity"),
+        )
+    })
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -21,10 +21,60 @@ use std::ffi::{c_char, c_void, CStr};
 /// `fmi3LogMessageCallback`.
 pub type Fmi3LoggerFn = unsafe extern "C" fn(*mut c_void, Status, *const c_char, *const c_char);
 
-/// `fmi3IntermediateUpdateCallback` (accepted, never called: this FMU does not provide
-/// intermediate updates, `providesIntermediateUpdate="false"`).
+/// `fmi3IntermediateUpdateCallback(instanceEnvironment, intermediateUpdateTime,
+/// intermediateVariableSetRequested, intermediateVariableGetAllowed, intermediateStepFinished,
+/// canReturnEarly, *earlyReturnRequested, *earlyReturnTime)`.
 pub type Fmi3IntermediateUpdateFn =
     unsafe extern "C" fn(*mut c_void, f64, bool, bool, bool, bool, *mut bool, *mut f64);
+
+/// The master's intermediate-update callback and its environment, called on the thread that
+/// called `fmi3DoStep`, between two load increments (never while the engine is borrowed: the
+/// master may not get or set variables, `intermediateVariableGetAllowed` and
+/// `intermediateVariableSetRequested` are false).
+#[derive(Clone, Copy)]
+pub struct IntermediateUpdate {
+    callback: Fmi3IntermediateUpdateFn,
+    environment: *mut c_void,
+}
+
+// SAFETY: the environment pointer is the master's; it is only passed back to the master's
+// callback, which is only called on the thread that called fmi3DoStep (never from the worker,
+// which merely holds the instance while it builds or solves).
+unsafe impl Send for IntermediateUpdate {}
+unsafe impl Sync for IntermediateUpdate {}
+
+impl IntermediateUpdate {
+    pub fn new(
+        callback: Option<Fmi3IntermediateUpdateFn>,
+        environment: *mut c_void,
+    ) -> Option<IntermediateUpdate> {
+        callback.map(|callback| IntermediateUpdate {
+            callback,
+            environment,
+        })
+    }
+
+    /// Report the point `time` (`step_finished`: an internal increment converged there; else
+    /// a cut-back). Returns whether the master asked to return early.
+    pub fn call(&self, time: f64, step_finished: bool, can_return_early: bool) -> bool {
+        let (mut requested, mut at) = (false, time);
+        // SAFETY: the callback is the master's, with the environment it gave at instantiation
+        // (the FMI 3 contract); the two out-pointers are valid locals.
+        unsafe {
+            (self.callback)(
+                self.environment,
+                time,
+                false,
+                false,
+                step_finished,
+                can_return_early,
+                &mut requested,
+                &mut at,
+            )
+        };
+        requested
+    }
+}
 
 /// `fmi3ClockUpdateCallback` (Scheduled Execution; never called).
 pub type Fmi3ClockUpdateFn = unsafe extern "C" fn(*mut c_void);

@@ -133,7 +133,8 @@ impl Func {
             SetReal | SetInteger | SetBoolean | SetString => I | N | C,
             GetFmuState | SetFmuState | FreeFmuState => ANY,
             SerializedFmuStateSize | SerializeFmuState | DeSerializeFmuState => ANY,
-            GetDirectionalDerivative | SetRealInputDerivatives | GetRealOutputDerivatives => ANY,
+            GetDirectionalDerivative => N | C | F | T,
+            SetRealInputDerivatives | GetRealOutputDerivatives => ANY,
             DoStep => C,
             CancelStep => ANY,
             GetStatus | GetRealStatus | GetIntegerStatus | GetBooleanStatus | GetStringStatus => {

@@ -13,6 +13,7 @@
 //! An illegal call or argument changes nothing. Only an internal failure (a caught panic, an
 //! initial equilibrium that does not converge) moves the instance to the Error state.
 
+mod derivatives;
 pub(crate) mod fmi3;
 mod fmu_state;
 mod status;
@@ -61,6 +62,10 @@ pub struct Instance {
     init_solved: bool,
     /// The thread the solves run on (joined when the instance is dropped; see `worker.rs`).
     worker: Worker,
+    /// FMI 3: the master's intermediate-update callback (steps then report every load
+    /// increment) and whether it allows an early return.
+    intermediate: Option<super::fmi3_ffi::IntermediateUpdate>,
+    early_return_allowed: bool,
 }
 
 impl Instance {
@@ -104,6 +109,8 @@ impl Instance {
             init_base: None,
             init_solved: false,
             worker,
+            intermediate: None,
+            early_return_allowed: false,
         }
     }
 
@@ -226,15 +233,27 @@ impl Instance {
             )
         });
         self.call(Func::SetupExperiment, args, |s| {
-            check_experiment(tolerance, start_time, stop_time)?;
-            s.experiment = Experiment {
-                done: true,
-                tolerance,
-                start_time,
-                stop_time,
-            };
+            s.set_experiment(tolerance, start_time, stop_time)?;
             Ok(Status::Ok)
         })
+    }
+
+    /// Check and keep the experiment (fmi2SetupExperiment, the first half of
+    /// fmi3EnterInitializationMode).
+    fn set_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> Result<(), String> {
+        check_experiment(tolerance, start_time, stop_time)?;
+        self.experiment = Experiment {
+            done: true,
+            tolerance,
+            start_time,
+            stop_time,
+        };
+        Ok(())
     }
 
     pub fn enter_initialization_mode(&mut self) -> Status {
@@ -244,11 +263,16 @@ impl Instance {
                     "fmi2SetupExperiment must be called before fmi2EnterInitializationMode".into(),
                 );
             }
-            s.fsm = FsmState::InitializationMode;
-            s.init_base = Some(s.engine.state().clone());
-            s.init_solved = false;
+            s.begin_initialization();
             Ok(Status::Ok)
         })
+    }
+
+    /// Into Initialization Mode: initial equilibria are solved from the state now.
+    fn begin_initialization(&mut self) {
+        self.fsm = FsmState::InitializationMode;
+        self.init_base = Some(self.engine.state().clone());
+        self.init_solved = false;
     }
 
     /// Solve the equilibrium under the current inputs and parameters (the start values unless
@@ -493,14 +517,8 @@ impl Instance {
             )
         });
         self.call(Func::DoStep, args, |s| {
-            s.check_step(t, h)?;
-            let report = match s.forced_failure(t + h) {
-                Some(report) => report,
-                None => s.solve()?,
-            };
+            let report = s.step(t, h)?;
             if report.converged() {
-                s.time = t + h;
-                s.last_successful_time = s.time;
                 return Ok(Status::Ok);
             }
             s.fsm = FsmState::StepFailed;
@@ -510,6 +528,21 @@ impl Instance {
             s.log_discard(t, h, &report);
             Ok(Status::Discard)
         })
+    }
+
+    /// The step from `t` to `t + h` of both versions: check the times, solve (or take the
+    /// debug switches' forced outcome); converged: the instance's time moves to `t + h`.
+    fn step(&mut self, t: f64, h: f64) -> Result<StepReport, String> {
+        self.check_step(t, h)?;
+        let report = match self.forced_failure(t + h) {
+            Some(report) => report,
+            None => self.solve()?,
+        };
+        if report.converged() {
+            self.time = t + h;
+            self.last_successful_time = self.time;
+        }
+        Ok(report)
     }
 
     /// The scene's debug switches (test variants only): a step ending after `panic_after_time`

@@ -123,7 +123,9 @@ pub const CAN_GET_AND_SET_FMU_STATE: bool = true;
 pub const CAN_SERIALIZE_FMU_STATE: bool = true;
 pub const CAN_NOT_USE_MEMORY_MANAGEMENT_FUNCTIONS: bool = true;
 pub const CAN_INTERPOLATE_INPUTS: bool = false;
-pub const PROVIDES_DIRECTIONAL_DERIVATIVE: bool = false;
+/// `providesDirectionalDerivative` (FMI 2) and `providesDirectionalDerivatives` /
+/// `providesAdjointDerivatives` (FMI 3): derivatives at the committed equilibrium.
+pub const PROVIDES_DIRECTIONAL_DERIVATIVE: bool = true;
 pub const CAN_RUN_ASYNCHRONUOUSLY: bool = false;
 pub const CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS: bool = false;
 pub const NEEDS_EXECUTION_TOOL: bool = false;

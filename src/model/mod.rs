@@ -26,7 +26,7 @@ use crate::error::Error;
 use crate::memory;
 use crate::scene::generate::{try_resolve, Mesh};
 use crate::scene::{
-    CableEnd, Load, Material, NodeRef, OneNode, PolarComponent, Probe, Scene, SlipState, StrainLaw,
+    CableEnd, Load, Material, OneNode, PolarComponent, Probe, Scene, SlipState, StrainLaw,
     TriangleRef as TriSel,
 };
 use nalgebra::Vector3;
@@ -286,7 +286,7 @@ impl Model {
         let mut loads: Vec<LoadModel> = scene
             .inputs
             .iter()
-            .map(|i| build_load(scene, &mesh, &triangles, &i.load))
+            .flat_map(|i| build_loads(scene, &mesh, &triangles, &i.load))
             .collect();
         let mut volumes = 0;
         for l in &mut loads {
@@ -306,8 +306,11 @@ impl Model {
         let probes = scene
             .outputs
             .iter()
-            .map(|o| build_probe(scene, &mesh, &cables, &sleeves.slips, &groups, &o.probe))
-            .collect::<Result<Vec<_>, _>>()?;
+            .map(|o| build_probes(scene, &mesh, &cables, &sleeves.slips, &groups, &o.probe))
+            .collect::<Result<Vec<Vec<ProbeModel>>, _>>()?
+            .into_iter()
+            .flatten()
+            .collect();
         let force_scale = triangles
             .iter()
             .map(|t| t.material.modulus() * t.material.thickness * t.reference.area.sqrt())
@@ -419,13 +422,7 @@ impl Model {
     }
 }
 
-/// Node ids of a (validated) reference.
-pub fn node_ids(mesh: &Mesh, r: &NodeRef) -> Vec<usize> {
-    match r {
-        NodeRef::Ids(ids) => ids.clone(),
-        NodeRef::Set(name) => mesh.node_sets[name].clone(),
-    }
-}
+pub use crate::scene::shape::node_ids;
 
 fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
     match r {
@@ -433,6 +430,8 @@ fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
         OneNode::Set(name) => mesh.node_sets[name][0],
     }
 }
+
+use crate::scene::shape;
 
 pub fn triangle_ids<'a>(mesh: &'a Mesh, r: &'a TriSel) -> &'a [usize] {
     match r {
@@ -692,6 +691,58 @@ fn group_ranges<'a>(
         .collect()
 }
 
+/// The load channels of one input: one for a scalar input, one per element (row-major) for
+/// an array input (`scene::shape`).
+fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> Vec<LoadModel> {
+    let pressure = |membrane: &str, zone: Option<&str>, follower: bool| {
+        let range = group_ranges(scene, mesh)
+            .into_iter()
+            .find(|g| g.0 == membrane)
+            .map(|g| g.1)
+            .expect("validated group");
+        debug_assert!(range.end <= triangles.len());
+        let triangles = match zone {
+            None => range.collect(),
+            Some(_) => shape::zone_positions(scene, mesh, membrane, zone)
+                .into_iter()
+                .map(|k| range.start + k)
+                .collect(),
+        };
+        LoadModel::Pressure {
+            triangles,
+            follower,
+        }
+    };
+    match load {
+        Load::Pressure {
+            membrane,
+            zone,
+            follower,
+        } => vec![pressure(membrane, zone.as_deref(), *follower)],
+        Load::ZonePressure {
+            membrane,
+            zones,
+            follower,
+        } => zones
+            .iter()
+            .map(|z| pressure(membrane, Some(z), *follower))
+            .collect(),
+        Load::SupportDisplacement { nodes } => node_ids(mesh, nodes)
+            .iter()
+            .flat_map(|&i| {
+                (0..3).map(move |c| {
+                    LoadModel::Displacement(Prescribed {
+                        dofs: vec![3 * i + c],
+                        motion: Motion::Component,
+                    })
+                })
+            })
+            .collect(),
+        _ => vec![build_load(scene, mesh, triangles, load)],
+    }
+}
+
+/// The one load channel of a scalar input other than a pressure.
 fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> LoadModel {
     match load {
         Load::PointForce { nodes, direction } => {
@@ -703,18 +754,6 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                     .filter(|(_, f)| *f != 0.0)
                     .collect(),
             )
-        }
-        Load::Pressure { membrane, follower } => {
-            let range = group_ranges(scene, mesh)
-                .into_iter()
-                .find(|g| &g.0 == membrane)
-                .map(|g| g.1)
-                .expect("validated group");
-            debug_assert!(range.end <= triangles.len());
-            LoadModel::Pressure {
-                triangles: range.collect(),
-                follower: *follower,
-            }
         }
         Load::Displacement { nodes, component } => LoadModel::Displacement(Prescribed {
             dofs: node_ids(mesh, nodes)
@@ -800,6 +839,9 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
             Vector3::from(*center),
             *closed,
         ),
+        Load::Pressure { .. } | Load::ZonePressure { .. } | Load::SupportDisplacement { .. } => {
+            unreachable!("built by build_loads")
+        }
     }
 }
 
@@ -834,6 +876,81 @@ fn radial_edge_load(mesh: &Mesh, ids: &[usize], center: Vector3<f64>, closed: bo
 
 type Groups<'a> = [(String, std::ops::Range<usize>, &'a [usize])];
 
+/// Model triangle indices of a membrane group, or of every group (None).
+fn group_elements(groups: &Groups, name: &Option<String>) -> Vec<usize> {
+    groups
+        .iter()
+        .filter(|g| name.as_ref().is_none_or(|n| n == &g.0))
+        .flat_map(|g| g.1.clone())
+        .collect()
+}
+
+/// Index of a (validated) cable name.
+fn cable_position(cables: &[CableInfo], name: &str) -> usize {
+    cables
+        .iter()
+        .position(|c| c.name == name)
+        .expect("validated cable name")
+}
+
+/// The probes of one output: one for a scalar output, one per element (row-major) for an
+/// array output (`scene::shape`).
+fn build_probes(
+    scene: &Scene,
+    mesh: &Mesh,
+    cables: &[CableInfo],
+    slips: &[sleeve::SlipPoint],
+    groups: &Groups,
+    probe: &Probe,
+) -> Result<Vec<ProbeModel>, crate::memory::OutOfMemory> {
+    let elements = |name: &Option<String>| group_elements(groups, name);
+    let cable = |name: &str| cable_position(cables, name);
+    Ok(match probe {
+        Probe::DisplacementField { nodes } => shape::field_nodes(mesh, nodes)
+            .into_iter()
+            .flat_map(|i| (0..3).map(move |c| ProbeModel::Displacement { dof: 3 * i + c }))
+            .collect(),
+        Probe::PositionField { nodes } => shape::field_nodes(mesh, nodes)
+            .into_iter()
+            .flat_map(|i| {
+                (0..3).map(move |c| ProbeModel::Position {
+                    dof: 3 * i + c,
+                    reference: mesh.nodes[i][c],
+                })
+            })
+            .collect(),
+        Probe::CableTensions { cable: name } => {
+            let k = cable(name);
+            (0..cables[k].segments.len())
+                .map(|s| ProbeModel::CableTension {
+                    cable: k,
+                    segment: Some(s),
+                })
+                .collect()
+        }
+        Probe::PrincipalStresses { membrane } => elements(membrane)
+            .into_iter()
+            .flat_map(|e| {
+                [
+                    ProbeModel::MaxPrincipalStress(vec![e]),
+                    ProbeModel::MinPrincipalStress(vec![e]),
+                ]
+            })
+            .collect(),
+        Probe::WrinkleStates { membrane } => elements(membrane)
+            .into_iter()
+            .map(ProbeModel::ElementState)
+            .collect(),
+        Probe::SleeveSlips { cable: name } => cables[cable(name)]
+            .slips
+            .iter()
+            .map(|&slip| ProbeModel::CableSlip { slip })
+            .collect(),
+        _ => vec![build_probe(scene, mesh, cables, slips, groups, probe)?],
+    })
+}
+
+/// The one probe of a scalar output.
 fn build_probe(
     scene: &Scene,
     mesh: &Mesh,
@@ -854,12 +971,7 @@ fn build_probe(
         list.extend(chosen().flat_map(|g| g.1.clone()));
         Ok(list)
     };
-    let cable_index = |name: &str| {
-        cables
-            .iter()
-            .position(|c| c.name == name)
-            .expect("validated cable name")
-    };
+    let cable_index = |name: &str| cable_position(cables, name);
     Ok(match probe {
         Probe::Displacement { node, component } => ProbeModel::Displacement {
             dof: 3 * one_node(mesh, node) + component.index(),
@@ -980,6 +1092,12 @@ fn build_probe(
                 .expect("validated: the triangle belongs to a membrane group");
             ProbeModel::ElementState(index)
         }
+        Probe::DisplacementField { .. }
+        | Probe::PositionField { .. }
+        | Probe::CableTensions { .. }
+        | Probe::PrincipalStresses { .. }
+        | Probe::WrinkleStates { .. }
+        | Probe::SleeveSlips { .. } => unreachable!("built by build_probes"),
     })
 }
 

@@ -21,6 +21,7 @@
 pub mod generate;
 pub mod limits;
 pub mod read;
+pub mod shape;
 pub mod validate;
 
 use schemars::JsonSchema;
@@ -436,10 +437,29 @@ pub enum Load {
     Pressure {
         /// Name of the membrane group loaded.
         membrane: String,
+        /// Load only the group's triangles in this zone: a named triangle set
+        /// (`geometry.triangle_sets` or a generator's set). Absent: the whole group.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        zone: Option<String>,
         /// Follow the deformed surface (true, default) or stay dead (false).
         #[serde(default = "yes")]
         follower: bool,
     },
+    /// Pressure in Pa per zone: an array input with one element per zone, element k loading
+    /// the group's triangles in `zones[k]` exactly as a `pressure` input with that `zone` would
+    /// (same sign convention, same `follower` choice). Zones are named triangle sets; they may
+    /// overlap (the pressures then add).
+    ZonePressure {
+        membrane: String,
+        /// Triangle-set names, one per array element (at least one).
+        zones: Vec<String>,
+        #[serde(default = "yes")]
+        follower: bool,
+    },
+    /// Prescribed displacement in m of every node of the set in x, y and z: an array input of
+    /// shape [nodes, 3] (row k = node k of the set, columns x, y, z), for a frame model that
+    /// drives the supports. All three components of these nodes become held.
+    SupportDisplacement { nodes: NodeRef },
     /// Prescribed displacement in m (the input's value) of one component of every node of the
     /// set, positive along the +axis of `component`. The component becomes held (not an
     /// unknown); a `reaction` probe reads the force it needs.
@@ -620,6 +640,35 @@ pub enum Probe {
     },
     /// State of one triangle (mesh triangle id), Integer: 0 taut, 1 wrinkled, 2 slack.
     ElementState { triangle: usize },
+    /// Array [nodes, 3]: displacement x, y, z (m) of every node of the set (absent: every
+    /// mesh node, in id order).
+    DisplacementField {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        nodes: Option<NodeRef>,
+    },
+    /// Array [nodes, 3]: current position x, y, z (m) of every node of the set (absent: every
+    /// mesh node).
+    PositionField {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        nodes: Option<NodeRef>,
+    },
+    /// Array [segments]: axial force (N) of every segment of a cable, in order.
+    CableTensions { cable: String },
+    /// Array [triangles, 2]: major and minor principal Cauchy stress (Pa) of every triangle of
+    /// a group (absent: all groups, in group order).
+    PrincipalStresses {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        membrane: Option<String>,
+    },
+    /// Array [triangles] of UInt8 (Integer scalars in FMI 2): wrinkle state of every triangle
+    /// of a group (absent: all groups), 0 taut, 1 wrinkled, 2 slack.
+    WrinkleStates {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        membrane: Option<String>,
+    },
+    /// Array [sleeve points]: slip (m, as `cable_slip`) at every sleeve point of a cable, in
+    /// order along it.
+    SleeveSlips { cable: String },
     /// Volume (m³) enclosed by a closed membrane group (the signed volume of its triangles
     /// seen from the origin: positive when their normals face outward).
     EnclosedVolume { membrane: String },

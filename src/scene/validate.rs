@@ -984,6 +984,9 @@ impl Validator {
                     (0..3).filter(|&c| c != axis.index()).collect(),
                     format!("{component:?}").to_lowercase() + " displacement",
                 ),
+                Load::SupportDisplacement { nodes } => {
+                    (nodes, vec![0, 1, 2], "support displacement".to_string())
+                }
                 _ => continue,
             };
             let p = format!("inputs[{i}].load.nodes");
@@ -1030,16 +1033,11 @@ impl Validator {
                         );
                     }
                 }
-                Load::Pressure { membrane, .. } => {
-                    if !s.membranes.iter().any(|m| &m.name == membrane) {
-                        let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
-                        self.push(
-                            format!("{p}.load.membrane"),
-                            format!(
-                                "no membrane group is named \"{membrane}\"{}",
-                                suggest(membrane, names.into_iter())
-                            ),
-                        );
+                Load::Pressure { membrane, zone, .. } => {
+                    if self.membrane_name(s, membrane, &format!("{p}.load.membrane")) {
+                        if let Some(zone) = zone {
+                            self.zone(s, mesh, membrane, zone, &format!("{p}.load.zone"));
+                        }
                     }
                 }
                 Load::Volume { membrane } => {
@@ -1059,6 +1057,20 @@ impl Validator {
                         );
                     }
                 }
+                Load::ZonePressure {
+                    membrane, zones, ..
+                } => {
+                    if zones.is_empty() {
+                        self.push(format!("{p}.load.zones"), "lists no zone");
+                    }
+                    if self.membrane_name(s, membrane, &format!("{p}.load.membrane")) {
+                        for (k, zone) in zones.iter().enumerate() {
+                            self.zone(s, mesh, membrane, zone, &format!("{p}.load.zones[{k}]"));
+                        }
+                    }
+                }
+                // Checked with the supports.
+                Load::SupportDisplacement { .. } => {}
                 Load::Displacement { .. } => {} // checked with the supports
                 Load::Rotation { point, axis, .. } => {
                     self.point_and_axis(point, axis, &format!("{p}.load"));
@@ -1253,6 +1265,25 @@ impl Validator {
                         }
                     }
                 }
+                Probe::DisplacementField { nodes } | Probe::PositionField { nodes } => {
+                    if let Some(nodes) = nodes {
+                        self.nodes(mesh, nodes, &format!("{p}.nodes"));
+                    }
+                }
+                Probe::CableTensions { cable } => {
+                    self.cable_name(s, cable, &format!("{p}.cable"));
+                }
+                Probe::SleeveSlips { cable } => {
+                    self.sleeve_probe(s, mesh, cable, None, &p);
+                }
+                Probe::PrincipalStresses { membrane } | Probe::WrinkleStates { membrane } => {
+                    if s.membranes.is_empty() {
+                        self.push(format!("{p}.kind"), "the scene has no membrane to measure");
+                    }
+                    if let Some(name) = membrane {
+                        self.membrane_name(s, name, &format!("{p}.membrane"));
+                    }
+                }
                 Probe::ElementState { triangle } => {
                     let in_group = s.membranes.iter().any(|m| match &m.triangles {
                         TriangleRef::Ids(ids) => ids.contains(triangle),
@@ -1269,6 +1300,40 @@ impl Validator {
                     }
                 }
             }
+        }
+    }
+
+    /// Whether a membrane group of that name exists (reported when not).
+    fn membrane_name(&mut self, s: &Scene, membrane: &str, path: &str) -> bool {
+        if s.membranes.iter().any(|m| m.name == membrane) {
+            return true;
+        }
+        let names: Vec<&String> = s.membranes.iter().map(|m| &m.name).collect();
+        self.push(
+            path,
+            format!(
+                "no membrane group is named \"{membrane}\"{}",
+                suggest(membrane, names.into_iter())
+            ),
+        );
+        false
+    }
+
+    /// A pressure zone: a triangle set that shares at least one triangle with the group.
+    fn zone(&mut self, s: &Scene, mesh: &Mesh, membrane: &str, zone: &str, path: &str) {
+        if !mesh.triangle_sets.contains_key(zone) {
+            self.push(
+                path,
+                format!(
+                    "no triangle set is named \"{zone}\"{}",
+                    suggest(zone, mesh.triangle_sets.keys())
+                ),
+            );
+        } else if super::shape::zone_positions(s, mesh, membrane, Some(zone)).is_empty() {
+            self.push(
+                path,
+                format!("zone \"{zone}\" has no triangle of membrane group \"{membrane}\""),
+            );
         }
     }
 
@@ -1331,6 +1396,51 @@ impl Validator {
                 seen.insert(name, path);
             }
         }
+        // An array's FMI 2 scalars are `name[i]`: its name has no brackets, and no other
+        // variable is named like one of its elements. (Only a scene with arrays builds the
+        // mesh here, fallibly: without the memory the shapes are not checked.)
+        self.array_names(s, &seen);
+        self.group_names(s);
+    }
+
+    /// Array inputs and outputs: no brackets in their names, no clash with another variable's
+    /// name of the form `name[...]`.
+    fn array_names(&mut self, s: &Scene, seen: &BTreeMap<&str, String>) {
+        if !super::shape::has_arrays(s) {
+            return;
+        }
+        let Ok(mesh) = super::generate::try_resolve(&s.geometry) else {
+            return;
+        };
+        let arrays: Vec<(&String, String)> = s
+            .inputs
+            .iter()
+            .enumerate()
+            .filter(|(_, i)| !super::shape::input_shape(&mesh, &i.load).is_empty())
+            .map(|(k, i)| (&i.name, format!("inputs[{k}].name")))
+            .chain(
+                s.outputs
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, o)| !super::shape::output_shape(s, &mesh, &o.probe).is_empty())
+                    .map(|(k, o)| (&o.name, format!("outputs[{k}].name"))),
+            )
+            .collect();
+        for (name, path) in &arrays {
+            if name.contains(['[', ']']) {
+                self.push(path, format!("\"{name}\" names an array: no [ ] in it (FMI 2 names its elements {name}[1], {name}[2], ...)"));
+            }
+            let prefix = format!("{name}[");
+            for (other, first) in seen {
+                if other.starts_with(&prefix) {
+                    self.push(path, format!("the elements of array \"{name}\" would clash with {first} (\"{other}\")"));
+                }
+            }
+        }
+    }
+
+    /// Membrane and cable names: identifiers, unique within their list.
+    fn group_names(&mut self, s: &Scene) {
         for (list, names) in [
             (
                 "membranes",

@@ -36,6 +36,7 @@ mod newton;
 mod order;
 mod path;
 mod relax;
+pub mod sensitivity;
 pub mod slip;
 mod volume;
 
@@ -324,6 +325,12 @@ impl Solver {
             .saturating_mul(self.pattern.n as u64 + m + 8)
             .saturating_mul(8);
         vectors.saturating_add(evaluations).saturating_add(slip)
+    }
+
+    /// The settings, to change for the next solves (the engine's increment-by-increment
+    /// driver, `engine/stepping.rs`, runs one increment per solve).
+    pub fn settings_mut(&mut self) -> &mut Settings {
+        &mut self.settings
     }
 
     /// Number of unknowns (free DOFs).

@@ -313,7 +313,7 @@ pub(super) fn slip_rows(
 }
 
 /// Columns of B = ∂R_x/∂s: per slip, (equation, value) pairs.
-fn slip_columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(usize, f64)>> {
+pub(super) fn slip_columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(usize, f64)>> {
     let mut cols = vec![Vec::new(); model.slips.len()];
     for (e, s) in model.segments.iter().enumerate() {
         if s.slip == [None, None] || model.segment_closed(u, e) {

@@ -40,7 +40,7 @@ pub fn get(engine: &Engine, name: &str) -> f64 {
     let v = engine.variables().iter().find(|v| v.name == name).unwrap();
     match v.var_type {
         VarType::Real => engine.get_real(v.value_reference).unwrap(),
-        VarType::Integer => engine.get_integer(v.value_reference).unwrap() as f64,
+        VarType::Integer | VarType::UInt8 => engine.get_integer(v.value_reference).unwrap() as f64,
     }
 }
 

@@ -21,14 +21,13 @@
 //! Messages of the shared methods name the FMI 2 function they implement; the FMI 3 logger
 //! (`fmi3_ffi::fmi3_names`) prints the FMI 3 names.
 
-use super::{check_experiment, load_engine_from, reached, shown, Instance};
+use super::{load_engine_from, reached, shown, Instance};
 use crate::description3;
-use crate::fmi::fmi3_ffi::TIME_VALUE_REFERENCE;
-use crate::fmi::fsm::{FsmState, Func};
+use crate::fmi::fmi3_ffi::{IntermediateUpdate, TIME_VALUE_REFERENCE};
+use crate::fmi::fsm::Func;
 use crate::fmi::logging::{Category, Logger};
-use crate::fmi::snapshot::Experiment;
 use crate::fmi::Status;
-use crate::variables::Causality;
+use crate::variables::{Causality, VarType, Variable};
 
 /// The arguments of `fmi3InstantiateCoSimulation` that matter, as Rust values.
 pub struct Instantiate3Args<'a> {
@@ -37,6 +36,7 @@ pub struct Instantiate3Args<'a> {
     pub resource_path: Option<&'a str>,
     pub event_mode_used: bool,
     pub early_return_allowed: bool,
+    pub intermediate_update: Option<IntermediateUpdate>,
 }
 
 /// The out-arguments of `fmi3DoStep`.
@@ -58,7 +58,9 @@ impl Instance {
         let worker = super::Worker::new();
         match worker.run(|| build_fmi3(args)) {
             Ok((engine, token)) => {
-                let instance = Instance::new(engine, token, logger, worker);
+                let mut instance = Instance::new(engine, token, logger, worker);
+                instance.intermediate = args.intermediate_update;
+                instance.early_return_allowed = args.early_return_allowed;
                 instance.logger.log(
                     Category::Calls,
                     &format!(
@@ -102,106 +104,178 @@ impl Instance {
             Func::EnterInitializationMode,
             args,
             |s| {
-                check_experiment(tolerance, start_time, stop_time)?;
-                s.experiment = Experiment {
-                    done: true,
-                    tolerance,
-                    start_time,
-                    stop_time,
-                };
-                s.fsm = FsmState::InitializationMode;
+                s.set_experiment(tolerance, start_time, stop_time)?;
+                s.begin_initialization();
                 s.time = start_time;
-                s.init_base = Some(s.engine.state().clone());
-                s.init_solved = false;
                 Ok(Status::Ok)
             },
         )
     }
 
-    /// `fmi3GetFloat64`: every variable is a scalar, so `nValues` must equal the number of value
-    /// references; value reference 0 is `time`.
+    /// The variables of the array table that `vr` name, all of type `var_type` (value
+    /// reference 0 is `time`, a Float64 scalar), and their total element count, which must be
+    /// `n_values`.
+    fn resolve_fmi3(
+        &self,
+        vr: &[u32],
+        var_type: VarType,
+        n_values: usize,
+    ) -> Result<Vec<Option<Variable>>, String> {
+        let mut vars = Vec::with_capacity(vr.len());
+        let mut total = 0;
+        for &r in vr {
+            if r == TIME_VALUE_REFERENCE && var_type == VarType::Real {
+                vars.push(None);
+                total += 1;
+                continue;
+            }
+            let var = self
+                .engine
+                .array_variable(r, var_type)
+                .map_err(|e| e.to_string())?;
+            total += var.len();
+            vars.push(Some(var.clone()));
+        }
+        if total != n_values {
+            return Err(format!(
+                "nValues = {n_values}, expected {total}: the sum of the element counts of the {} variables",
+                vr.len()
+            ));
+        }
+        Ok(vars)
+    }
+
+    /// Getters of FMI 3: every element of every variable in order (arrays row-major), `time`
+    /// at value reference 0; `nValues` must be the total element count.
+    fn get_fmi3<T>(
+        &mut self,
+        name: &'static str,
+        var_type: VarType,
+        vr: Result<&[u32], String>,
+        values: Result<&mut [T], String>,
+        n_values: usize,
+        convert: fn(f64) -> T,
+    ) -> Status {
+        let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
+        let func = match var_type {
+            VarType::Real => Func::GetReal,
+            _ => Func::GetInteger,
+        };
+        self.call_as(name, func, args, |s| {
+            let vr = vr?;
+            let vars = s.resolve_fmi3(vr, var_type, n_values)?;
+            let values = values?;
+            s.prepare_outputs(vr)?;
+            let mut at = 0;
+            for var in &vars {
+                match var {
+                    None => {
+                        values[at] = convert(s.time);
+                        at += 1;
+                    }
+                    Some(var) => {
+                        for x in s.engine.values(var) {
+                            values[at] = convert(*x);
+                            at += 1;
+                        }
+                    }
+                }
+            }
+            Ok(Status::Ok)
+        })
+    }
+
+    /// `fmi3GetFloat64`.
     pub fn get_float64(
         &mut self,
         vr: Result<&[u32], String>,
         values: Result<&mut [f64], String>,
         n_values: usize,
     ) -> Status {
-        let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
-        self.call_as("fmi3GetFloat64", Func::GetReal, args, |s| {
-            let vr = vr?;
-            check_n_values(vr.len(), n_values)?;
-            let values = values?;
-            s.prepare_outputs(vr)?;
-            for (r, v) in vr.iter().zip(values.iter_mut()) {
-                *v = if *r == TIME_VALUE_REFERENCE {
-                    s.time
-                } else {
-                    s.engine.get_real(*r).map_err(|e| e.to_string())?
-                };
-            }
-            Ok(Status::Ok)
-        })
+        self.get_fmi3("fmi3GetFloat64", VarType::Real, vr, values, n_values, |x| x)
     }
 
-    /// `fmi3SetFloat64`: the FMI 2 rules of `fmi2SetReal` (all or nothing), after the checks
-    /// FMI 3 adds (`nValues`, `time` is not settable).
-    pub fn set_float64(
-        &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&[f64], String>,
-        n_values: usize,
-    ) -> Status {
-        let problem = match &vr {
-            Ok(vr) => check_n_values(vr.len(), n_values).err().or_else(|| {
-                vr.contains(&TIME_VALUE_REFERENCE).then(|| {
-                    format!(
-                        "variable {} (value reference {TIME_VALUE_REFERENCE}) cannot be set: it is the independent variable (set by fmi3EnterInitializationMode and fmi3DoStep)",
-                        description3::TIME_NAME
-                    )
-                })
-            }),
-            Err(_) => None,
-        };
-        match problem {
-            Some(message) => self.call_as("fmi3SetFloat64", Func::SetReal, String::new(), |_| {
-                Err(message)
-            }),
-            None => self.set_real(vr, values),
-        }
-    }
-
-    /// `fmi3GetInt32`: FMI 2's `fmi2GetInteger` after the `nValues` check.
+    /// `fmi3GetInt32`.
     pub fn get_int32(
         &mut self,
         vr: Result<&[u32], String>,
         values: Result<&mut [i32], String>,
         n_values: usize,
     ) -> Status {
-        match vr.as_ref().map(|vr| check_n_values(vr.len(), n_values)) {
-            Ok(Err(message)) => {
-                self.call_as("fmi3GetInt32", Func::GetInteger, String::new(), |_| {
-                    Err(message)
-                })
-            }
-            _ => self.get_integer(vr, values),
+        self.get_fmi3(
+            "fmi3GetInt32",
+            VarType::Integer,
+            vr,
+            values,
+            n_values,
+            |x| x.round() as i32,
+        )
+    }
+
+    /// `fmi3GetUInt8` (wrinkle states).
+    pub fn get_uint8(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&mut [u8], String>,
+        n_values: usize,
+    ) -> Status {
+        self.get_fmi3("fmi3GetUInt8", VarType::UInt8, vr, values, n_values, |x| {
+            x.round() as u8
+        })
+    }
+
+    /// `fmi3SetFloat64`: the FMI 2 rules of `fmi2SetReal` (all or nothing) on every element,
+    /// after the checks FMI 3 adds (`nValues`, `time` is not settable).
+    pub fn set_float64(
+        &mut self,
+        vr: Result<&[u32], String>,
+        values: Result<&[f64], String>,
+        n_values: usize,
+    ) -> Status {
+        let elements = match &vr {
+            Ok(vr) if vr.contains(&TIME_VALUE_REFERENCE) => Err(format!(
+                "variable {} (value reference {TIME_VALUE_REFERENCE}) cannot be set: it is the independent variable (set by fmi3EnterInitializationMode and fmi3DoStep)",
+                description3::TIME_NAME
+            )),
+            Ok(vr) => self
+                .resolve_fmi3(vr, VarType::Real, n_values)
+                .map(|vars| {
+                    vars.iter()
+                        .flatten()
+                        .flat_map(|v| v.references())
+                        .collect::<Vec<u32>>()
+                }),
+            Err(e) => Err(e.clone()),
+        };
+        match elements {
+            Err(message) => self.call_as("fmi3SetFloat64", Func::SetReal, String::new(), |_| {
+                Err(message)
+            }),
+            Ok(elements) => self.set_real(Ok(&elements), values),
         }
     }
 
-    /// `fmi3SetInt32`: FMI 2's `fmi2SetInteger` after the `nValues` check.
-    pub fn set_int32(
+    /// `fmi3SetInt32` / `fmi3SetUInt8`: there are no integer inputs or parameters, so every
+    /// reference is an output or unknown (FMI 2's `fmi2SetInteger` rules).
+    pub fn set_integer_fmi3(
         &mut self,
+        name: &'static str,
+        var_type: VarType,
         vr: Result<&[u32], String>,
-        values: Result<&[i32], String>,
         n_values: usize,
     ) -> Status {
-        match vr.as_ref().map(|vr| check_n_values(vr.len(), n_values)) {
-            Ok(Err(message)) => {
-                self.call_as("fmi3SetInt32", Func::SetInteger, String::new(), |_| {
-                    Err(message)
-                })
+        let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
+        self.call_as(name, Func::SetInteger, args, |s| {
+            let vr = vr?;
+            let vars = s.resolve_fmi3(vr, var_type, n_values)?;
+            match vars.iter().flatten().next() {
+                Some(v) => Err(format!(
+                    "variable {} (value reference {}) cannot be set: it is an output",
+                    v.name, v.value_reference
+                )),
+                None => Ok(Status::Ok),
             }
-            _ => self.set_integer(vr, values),
-        }
+        })
     }
 
     /// Get or set a variable type this FMU has no variables of: any reference is unknown;
@@ -217,7 +291,7 @@ impl Instance {
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
         self.call_as(name, legal, args, |_| match vr?.first() {
             Some(r) => Err(format!(
-                "no {kind} variable has value reference {r} (this FMU has Float64 and Int32 variables only)"
+                "no {kind} variable has value reference {r} (this FMU has Float64, Int32 and UInt8 variables only)"
             )),
             None => Ok(Status::Ok),
         })
@@ -234,8 +308,9 @@ impl Instance {
     /// converged: the instance stays exactly as it was before the call (same equilibrium,
     /// time, state-machine state) and the call returns fmi3Discard with
     /// `lastSuccessfulTime = currentCommunicationPoint`; the master may change inputs and try
-    /// again, restore a state, or terminate. `earlyReturn` and `eventHandlingNeeded` are
-    /// always false (no early return, no event mode); `terminateSimulation` is false.
+    /// again, restore a state, or terminate. `eventHandlingNeeded` and `terminateSimulation` are
+    /// false (no event mode); `earlyReturn` is true only when the master asked for it through
+    /// its intermediate-update callback and allowed it at instantiation ([`Instance::step_reported`]).
     pub fn do_step_fmi3(
         &mut self,
         t: f64,
@@ -254,21 +329,73 @@ impl Instance {
             *out.terminate_simulation = false;
             *out.early_return = false;
             *out.last_successful_time = s.time;
-            s.check_step(t, h)?;
-            let report = match s.forced_failure(t + h) {
-                Some(report) => report,
-                None => s.solve()?,
+            let (report, early) = match s.intermediate {
+                Some(callback) => s.step_reported(t, h, callback)?,
+                None => (s.step(t, h)?, false),
             };
             if report.converged() {
-                s.time = t + h;
-                s.last_successful_time = s.time;
                 *out.last_successful_time = s.time;
+                *out.early_return = early;
                 return Ok(Status::Ok);
             }
             *out.last_successful_time = t;
             s.log_discard_fmi3(t, h, &report);
             Ok(Status::Discard)
         })
+    }
+
+    /// [`Instance::step`] one load increment at a time, each reported to the master's
+    /// intermediate-update callback at its pseudo-time t + λ h (λ the load fraction of the step
+    /// reached; `intermediateStepFinished` true for a converged increment, false for a
+    /// cut-back). When early return is allowed and the master asks for it after a converged
+    /// increment short of the end, the step stops there: the equilibrium at λ is committed and
+    /// the instance's time is t + λ h (the next DoStep starts there and applies the rest).
+    /// Returns the report and whether the step returned early.
+    fn step_reported(
+        &mut self,
+        t: f64,
+        h: f64,
+        callback: IntermediateUpdate,
+    ) -> Result<(crate::solver::StepReport, bool), String> {
+        self.check_step(t, h)?;
+        if let Some(report) = self.forced_failure(t + h) {
+            return Ok((report, false));
+        }
+        if self.poisoned {
+            return Err("the engine is unusable after an internal error; call fmi3Reset".into());
+        }
+        let engine = &mut self.engine;
+        let mut step = self.worker.run(|| engine.begin_step());
+        let mut early = false;
+        loop {
+            let engine = &mut self.engine;
+            let Some(increment) = self.worker.run(|| engine.advance(&mut step)) else {
+                break;
+            };
+            let can_return_early =
+                self.early_return_allowed && increment.converged && increment.lambda < 1.0;
+            let requested = callback.call(
+                t + increment.lambda * h,
+                increment.converged,
+                can_return_early,
+            );
+            if requested && can_return_early {
+                early = true;
+                break;
+            }
+        }
+        let engine = &mut self.engine;
+        let report = self.worker.run(|| engine.end_step(step));
+        if self.logger.enabled(Category::Solver) {
+            for line in &report.log {
+                self.logger.log(Category::Solver, line);
+            }
+        }
+        if report.converged() {
+            self.time = if early { t + report.reached * h } else { t + h };
+            self.last_successful_time = self.time;
+        }
+        Ok((report, early))
     }
 
     /// logStatusDiscard for FMI 3: how far the step got, why, and the inputs by name.
@@ -295,16 +422,6 @@ impl Instance {
                 if inputs.is_empty() { "none".to_string() } else { inputs.join(", ") }
             ),
         );
-    }
-}
-
-fn check_n_values(n_refs: usize, n_values: usize) -> Result<(), String> {
-    if n_refs == n_values {
-        Ok(())
-    } else {
-        Err(format!(
-            "nValues = {n_values}, expected {n_refs}: every variable of this FMU is a scalar, so nValues must equal nValueReferences"
-        ))
     }
 }
 

@@ -1,0 +1,509 @@
+//! Directional and adjoint derivatives of the outputs with respect to inputs and parameters
+//! at the committed equilibrium (FMI's `GetDirectionalDerivative` / `GetAdjointDerivative`).
+//!
+//! ```text
+//! equilibrium   R(z; v, p) = 0 at the committed z (displacements and slips)
+//! forward       dz = J⁻¹ g,  g = −∂R/∂v·dv − ∂R/∂p·dp            (solver/sensitivity.rs)
+//!               held DOFs of displacement inputs move by dv itself
+//! outputs       dy = ∂y/∂z·dz + ∂y/∂v·dv + ∂y/∂p·dp
+//!               displacement, position, slip probes: exact (linear in z)
+//!               other continuous probes: central difference of the probe along (dz, dv, dp)
+//!               with a step 1e-6 of the model's length scale (error ~1e-10 relative)
+//!               integer probes and area fractions: 0 (their states are frozen)
+//! adjoint       w̄ = (∂y/∂(v, p))ᵀ w: one transposed solve Jᵀ λ = (∂y/∂z)ᵀ w when every seeded
+//!               output is a displacement, position or slip probe; otherwise one forward solve
+//!               per known (the same numbers, another order of work)
+//! parameters    ∂R/∂p and ∂y/∂p by central differences over models rebuilt at p ± h,
+//!               h = 1e-4 |p| (two model rebuilds: slower than an input seed)
+//! ```
+//! The tangent is factored once per committed state, at the first derivative asked for, and
+//! kept until the state changes (Newton's last factorization is of the iterate before the
+//! converged one, with the iteration's damping and prestress, so it is not reused).
+
+use super::Engine;
+use crate::error::Error;
+use crate::model::{Model, ProbeModel};
+use crate::results;
+use crate::solver::assemble;
+use crate::solver::sensitivity::{self, Tangent};
+use crate::variables;
+
+/// What a derivative is taken with respect to: an input element (slot of the flat input
+/// vector) or a parameter (index into `scene.parameters`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Known {
+    Input(usize),
+    Parameter(usize),
+}
+
+/// Step of the central differences of the probes, relative to the model's length scale.
+const STEP: f64 = 1e-6;
+/// Relative step of the central differences over a parameter: the residual is a difference of
+/// internal forces much larger than itself, so round-off (∝ 1/h) dominates below 1e-4
+/// (measured on the prestressed cable's pretension: 1e-8 → 1.3e-6, 1e-6 → 3.8e-8, 1e-4 →
+/// 7.6e-10 relative error; the truncation error, ∝ h², is still below that at 1e-4).
+const PARAMETER_STEP: f64 = 1e-4;
+
+impl Engine {
+    /// dy = J_{unknowns, knowns} · seed at the committed equilibrium; `unknowns` are output
+    /// slots (elements of the flat output vector).
+    pub fn directional_derivative(
+        &mut self,
+        knowns: &[Known],
+        seed: &[f64],
+        unknowns: &[usize],
+    ) -> Result<Vec<f64>, Error> {
+        let (dz, dv, dp) = self.forward(knowns, seed)?;
+        self.output_derivative(unknowns, &dz, &dv, &dp)
+    }
+
+    /// w̄ = J_{unknowns, knowns}ᵀ · seed (seed per unknown, result per known).
+    pub fn adjoint_derivative(
+        &mut self,
+        unknowns: &[usize],
+        seed: &[f64],
+        knowns: &[Known],
+    ) -> Result<Vec<f64>, Error> {
+        let linear = unknowns
+            .iter()
+            .zip(seed)
+            .filter(|(_, w)| **w != 0.0)
+            .all(|(o, _)| self.probe_gradient(*o).is_some());
+        let params = knowns.iter().any(|k| matches!(k, Known::Parameter(_)));
+        if !linear || params {
+            // One forward solve per known.
+            let mut out = Vec::with_capacity(knowns.len());
+            for k in knowns {
+                let column = self.directional_derivative(&[*k], &[1.0], unknowns)?;
+                out.push(column.iter().zip(seed).map(|(a, b)| a * b).sum());
+            }
+            return Ok(out);
+        }
+        let nu = self.model.unknown_count();
+        let mut c = vec![0.0; nu];
+        for (o, w) in unknowns.iter().zip(seed) {
+            if *w != 0.0 {
+                for (i, g) in self.probe_gradient(*o).unwrap_or_default() {
+                    c[i] += w * g;
+                }
+            }
+        }
+        self.ensure_tangent()?;
+        let tangent = self.tangent.take().expect("ensured");
+        let result: Result<Vec<f64>, Error> = (|| {
+            let lambda = self
+                .solver
+                .tangent_solve_transposed(&tangent, &c)
+                .map_err(Error::State)?;
+            let mut out = Vec::with_capacity(knowns.len());
+            for k in knowns {
+                let Known::Input(slot) = *k else {
+                    unreachable!("parameters take the forward path")
+                };
+                let (g, held) = self.load_rhs(&tangent, slot);
+                let free: f64 = lambda.iter().zip(&g).map(|(a, b)| a * b).sum();
+                let moved: f64 = held.iter().zip(&c).map(|(a, b)| a * b).sum();
+                out.push(free + moved);
+            }
+            Ok(out)
+        })();
+        self.tangent = Some(tangent);
+        result
+    }
+
+    /// dz (per unknown, held DOFs included), dv (per input slot), dp (per parameter) of a seed.
+    fn forward(
+        &mut self,
+        knowns: &[Known],
+        seed: &[f64],
+    ) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), Error> {
+        let nu = self.model.unknown_count();
+        let mut dv = vec![0.0; self.state.inputs.len()];
+        let mut dp = vec![0.0; self.state.parameters.len()];
+        for (k, s) in knowns.iter().zip(seed) {
+            match *k {
+                Known::Input(slot) => dv[slot] += s,
+                Known::Parameter(i) => dp[i] += s,
+            }
+        }
+        self.ensure_tangent()?;
+        let tangent = self.tangent.take().expect("ensured");
+        let result: Result<Vec<f64>, Error> = (|| {
+            let mut g = vec![0.0; nu];
+            let mut held = vec![0.0; self.model.dof_count()];
+            for (slot, &s) in dv.iter().enumerate().filter(|(_, s)| **s != 0.0) {
+                let (gk, hk) = self.load_rhs(&tangent, slot);
+                for (a, b) in g.iter_mut().zip(&gk) {
+                    *a += s * b;
+                }
+                for (a, b) in held.iter_mut().zip(&hk) {
+                    *a += s * b;
+                }
+            }
+            for (i, &s) in dp.iter().enumerate().filter(|(_, s)| **s != 0.0) {
+                let gp = self.parameter_rhs(&tangent, i)?;
+                for (a, b) in g.iter_mut().zip(&gp) {
+                    *a += s * b;
+                }
+            }
+            let mut dz = self
+                .solver
+                .tangent_solve(&tangent, &g)
+                .map_err(Error::State)?;
+            for (a, b) in dz.iter_mut().zip(&held) {
+                *a += b;
+            }
+            Ok(dz)
+        })();
+        self.tangent = Some(tangent);
+        Ok((result?, dv, dp))
+    }
+
+    /// Factor the tangent at the committed state unless it is.
+    fn ensure_tangent(&mut self) -> Result<(), Error> {
+        if self.tangent.is_some() {
+            return Ok(());
+        }
+        if self.model_stale {
+            return Err(Error::State(
+                "a parameter changed since the last equilibrium: step first, then ask for derivatives".into(),
+            ));
+        }
+        let states: Vec<_> = self.membranes.iter().map(|e| e.state).collect();
+        let s = &self.state;
+        let tangent = self
+            .solver
+            .factor_tangent(
+                &self.model,
+                &s.displacement,
+                &s.applied,
+                &states,
+                &s.slip_state,
+            )
+            .map_err(|e| Error::State(format!("the tangent at the equilibrium: {e}")))?;
+        self.tangent = Some(tangent);
+        Ok(())
+    }
+
+    fn load_rhs(&mut self, tangent: &Tangent, slot: usize) -> (Vec<f64>, Vec<f64>) {
+        let states: Vec<_> = self.membranes.iter().map(|e| e.state).collect();
+        let s = &self.state;
+        self.solver.load_rhs(
+            &self.model,
+            &s.displacement,
+            &s.applied,
+            tangent,
+            &states,
+            &s.slip_state,
+            slot,
+        )
+    }
+
+    /// −∂R/∂p_i per unknown (free DOFs and slip rows), by a central difference over models
+    /// rebuilt at p ± h.
+    fn parameter_rhs(&mut self, tangent: &Tangent, i: usize) -> Result<Vec<f64>, Error> {
+        let _ = tangent;
+        let (plus, minus, h) = self.parameter_models(i)?;
+        let s = &self.state;
+        let r = |m: &Model| -> Result<Vec<f64>, Error> {
+            let pattern = assemble::Pattern::try_new(m).map_err(|e| Error::State(e.to_string()))?;
+            let mut r = vec![0.0; m.dof_count()];
+            assemble::assemble(m, &pattern, &s.displacement, &s.applied, &mut r, None);
+            r.extend(sensitivity::slip_residuals(
+                m,
+                &s.displacement,
+                &s.slip_state,
+            ));
+            Ok(r)
+        };
+        let (rp, rm) = (r(&plus)?, r(&minus)?);
+        Ok(rp
+            .iter()
+            .zip(&rm)
+            .map(|(a, b)| -(a - b) / (2.0 * h))
+            .collect())
+    }
+
+    /// The models at p_i ± h and h.
+    fn parameter_models(&self, i: usize) -> Result<(Model, Model, f64), Error> {
+        let p = self.state.parameters[i];
+        let h = PARAMETER_STEP * p.abs().max(f64::MIN_POSITIVE.sqrt());
+        let build = |value: f64| -> Result<Model, Error> {
+            let mut scene = self.scene.clone();
+            for (q, v) in scene.parameters.clone().iter().zip(&self.state.parameters) {
+                variables::set_parameter_value(&mut scene, &q.target, *v);
+            }
+            let target = scene.parameters[i].target.clone();
+            variables::set_parameter_value(&mut scene, &target, value);
+            Model::try_build(&scene)
+        };
+        Ok((build(p + h)?, build(p - h)?, h))
+    }
+
+    /// dy of the output slots for the change (dz, dv, dp).
+    fn output_derivative(
+        &mut self,
+        unknowns: &[usize],
+        dz: &[f64],
+        dv: &[f64],
+        dp: &[f64],
+    ) -> Result<Vec<f64>, Error> {
+        let mut out = vec![0.0; unknowns.len()];
+        let mut needs_difference = Vec::new();
+        // A parameter may enter a probe itself (EA in a tension): only the kinematic probes
+        // then keep their exact gradient.
+        let parameters = dp.iter().any(|x| *x != 0.0);
+        for (k, &o) in unknowns.iter().enumerate() {
+            let gradient = self
+                .probe_gradient(o)
+                .filter(|_| !parameters || kinematic(&self.model.probes[o]));
+            match gradient {
+                Some(gradient) => {
+                    out[k] = gradient.iter().map(|&(i, g)| g * dz[i]).sum();
+                }
+                None if continuous(&self.model.probes[o]) => needs_difference.push(k),
+                None => {}
+            }
+        }
+        if needs_difference.is_empty() {
+            return Ok(out);
+        }
+        let scale = dz.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let h = STEP * self.model.length_scale / scale.max(f64::MIN_POSITIVE);
+        let h = if scale == 0.0 { STEP } else { h };
+        let plus = self.probes_at(h, dz, dv, dp)?;
+        let minus = self.probes_at(-h, dz, dv, dp)?;
+        for k in needs_difference {
+            let o = unknowns[k];
+            out[k] = (plus[o] - minus[o]) / (2.0 * h);
+        }
+        Ok(out)
+    }
+
+    /// Every probe at z + t dz, v + t dv, p + t dp (states as committed).
+    fn probes_at(&mut self, t: f64, dz: &[f64], dv: &[f64], dp: &[f64]) -> Result<Vec<f64>, Error> {
+        let s = &self.state;
+        let u: Vec<f64> = s
+            .displacement
+            .iter()
+            .zip(dz)
+            .map(|(a, b)| a + t * b)
+            .collect();
+        let v: Vec<f64> = s.applied.iter().zip(dv).map(|(a, b)| a + t * b).collect();
+        let model = if dp.iter().any(|x| *x != 0.0) {
+            let mut scene = self.scene.clone();
+            for (q, (p, d)) in scene
+                .parameters
+                .clone()
+                .iter()
+                .zip(s.parameters.iter().zip(dp))
+            {
+                variables::set_parameter_value(&mut scene, &q.target, p + t * d);
+            }
+            Some(Model::try_build(&scene)?)
+        } else {
+            None
+        };
+        let model = model.as_ref().unwrap_or(&self.model);
+        let membranes = self.solver.evaluate_membranes(model, &u, &v);
+        Ok(results::evaluate(
+            model,
+            &mut self.solver,
+            &u,
+            &v,
+            s.last_iterations,
+            &membranes,
+            &s.slip_state,
+        ))
+    }
+
+    /// ∂y/∂z of an output slot as (unknown, value) pairs, for the probes that do not depend
+    /// on the loads directly (displacements, positions, slips, cable lengths and tensions,
+    /// contact forces and gaps; a largest-over probe takes the gradient of the one that is
+    /// largest); None for the others (reactions and stresses: differences).
+    fn probe_gradient(&self, slot: usize) -> Option<Vec<(usize, f64)>> {
+        let model = &self.model;
+        let u = &self.state.displacement;
+        let n3 = model.dof_count();
+        Some(match &model.probes[slot] {
+            ProbeModel::Displacement { dof } | ProbeModel::Position { dof, .. } => {
+                vec![(*dof, 1.0)]
+            }
+            ProbeModel::CableSlip { slip } => vec![(n3 + slip, -1.0)],
+            // A closed segment (sleeve points merged into one contact group, length 0) has no
+            // direction: its probes go by differences.
+            ProbeModel::CableLength { segments }
+                if segments.clone().any(|e| closed(model, u, e)) =>
+            {
+                return None
+            }
+            ProbeModel::CableTension { cable, .. }
+                if model.cables[*cable]
+                    .segments
+                    .clone()
+                    .any(|e| closed(model, u, e)) =>
+            {
+                return None
+            }
+            ProbeModel::ContactGap { slips }
+                if slips
+                    .iter()
+                    .any(|&j| model.slips[j].segments.iter().any(|&e| closed(model, u, e))) =>
+            {
+                return None
+            }
+            ProbeModel::CableLength { segments } => {
+                let mut g = Vec::new();
+                for e in segments.clone() {
+                    length_gradient(model, u, e, 1.0, &mut g);
+                }
+                g
+            }
+            ProbeModel::CableTension { cable, segment } => {
+                let tensions = results::segment_tensions(model, u, *cable);
+                let k = segment.unwrap_or_else(|| argmax(&tensions));
+                let e = model.cables[*cable].segments.start + k;
+                tension_gradient(model, u, e)
+            }
+            ProbeModel::ContactForce { slips } => {
+                let forces: Vec<f64> = slips
+                    .iter()
+                    .map(|&j| tie_vector(model, u, j).norm() * model.ties[model.slips[j].tie].k)
+                    .collect();
+                match slips.get(argmax(&forces)) {
+                    Some(&j) => {
+                        let k = model.ties[model.slips[j].tie].k;
+                        gap_gradient(model, u, j, k)
+                    }
+                    None => Vec::new(),
+                }
+            }
+            ProbeModel::ContactGap { slips } => {
+                let ratio = |j: usize| {
+                    let [a, b] = model.slips[j].segments;
+                    let (la, lb) = (segment_length(model, u, a), segment_length(model, u, b));
+                    let (e, l) = if la <= lb { (a, la) } else { (b, lb) };
+                    (tie_vector(model, u, j).norm() / l, e, l)
+                };
+                let ratios: Vec<f64> = slips.iter().map(|&j| ratio(j).0).collect();
+                match slips.get(argmax(&ratios)) {
+                    Some(&j) => {
+                        // d(gap/l) = dgap/l − gap dl/l².
+                        let (r, e, l) = ratio(j);
+                        let mut g = gap_gradient(model, u, j, 1.0 / l);
+                        length_gradient(model, u, e, -r / l, &mut g);
+                        g
+                    }
+                    None => Vec::new(),
+                }
+            }
+            _ => return None,
+        })
+    }
+}
+
+/// Whether segment `e` is closed: shorter than 1e-6 of the model's length scale (merged sleeve
+/// points meet to within about 1e-7 of the span, `solver/order.rs`).
+fn closed(model: &Model, u: &[f64], e: usize) -> bool {
+    segment_length(model, u, e) < 1e-6 * model.length_scale
+}
+
+fn argmax(v: &[f64]) -> usize {
+    v.iter()
+        .enumerate()
+        .fold(
+            (0, f64::NEG_INFINITY),
+            |m, (i, &x)| if x > m.1 { (i, x) } else { m },
+        )
+        .0
+}
+
+fn segment_vector(model: &Model, u: &[f64], e: usize) -> nalgebra::Vector3<f64> {
+    let [a, b] = model.segments[e].nodes;
+    model.position(u, b) - model.position(u, a)
+}
+
+fn segment_length(model: &Model, u: &[f64], e: usize) -> f64 {
+    segment_vector(model, u, e).norm()
+}
+
+/// Adds `factor` · ∂l_e/∂z.
+fn length_gradient(model: &Model, u: &[f64], e: usize, factor: f64, g: &mut Vec<(usize, f64)>) {
+    let d = segment_vector(model, u, e);
+    let l = d.norm();
+    if l == 0.0 {
+        return;
+    }
+    let [a, b] = model.segments[e].nodes;
+    for c in 0..3 {
+        g.push((3 * b + c, factor * d[c] / l));
+        g.push((3 * a + c, -factor * d[c] / l));
+    }
+}
+
+/// ∂T_e/∂z: T(L0, l) with L0 = l0 + s_end − s_start.
+fn tension_gradient(model: &Model, u: &[f64], e: usize) -> Vec<(usize, f64)> {
+    let s = &model.segments[e];
+    let (l0, l) = (model.segment_l0(u, e), segment_length(model, u, e));
+    let (_, dt_dl) = crate::model::cable::tension(s.law, s.ea, l0, l);
+    let dt_dl0 = crate::model::cable::tension_dl0(s.law, s.ea, l0, l);
+    let mut g = Vec::new();
+    length_gradient(model, u, e, dt_dl, &mut g);
+    let n3 = model.dof_count();
+    if let Some(j) = s.slip[1] {
+        g.push((n3 + j, dt_dl0));
+    }
+    if let Some(j) = s.slip[0] {
+        g.push((n3 + j, -dt_dl0));
+    }
+    g
+}
+
+/// x_c − x_m of the tie of sleeve point `j`.
+fn tie_vector(model: &Model, u: &[f64], j: usize) -> nalgebra::Vector3<f64> {
+    let [c, m] = model.ties[model.slips[j].tie].nodes;
+    model.position(u, c) - model.position(u, m)
+}
+
+/// `factor` · ∂|x_c − x_m|/∂z (zero at a closed gap, where the norm has no gradient).
+fn gap_gradient(model: &Model, u: &[f64], j: usize, factor: f64) -> Vec<(usize, f64)> {
+    let d = tie_vector(model, u, j);
+    let gap = d.norm();
+    if gap == 0.0 {
+        return Vec::new();
+    }
+    let [c, m] = model.ties[model.slips[j].tie].nodes;
+    (0..3)
+        .flat_map(|k| {
+            [
+                (3 * c + k, factor * d[k] / gap),
+                (3 * m + k, -factor * d[k] / gap),
+            ]
+        })
+        .collect()
+}
+
+/// Whether a probe is a function of the positions and slips alone (no material constant).
+fn kinematic(p: &ProbeModel) -> bool {
+    matches!(
+        p,
+        ProbeModel::Displacement { .. }
+            | ProbeModel::Position { .. }
+            | ProbeModel::CableSlip { .. }
+            | ProbeModel::CableLength { .. }
+            | ProbeModel::ContactGap { .. }
+    )
+}
+
+/// Whether a probe varies continuously with the state (else its derivative is 0: counts,
+/// codes and area fractions change only when a frozen state switches).
+fn continuous(p: &ProbeModel) -> bool {
+    !matches!(
+        p,
+        ProbeModel::NewtonIterations
+            | ProbeModel::SlipCount { .. }
+            | ProbeModel::ElementState(_)
+            | ProbeModel::WrinkledFraction(_)
+            | ProbeModel::SlackFraction(_)
+    )
+}

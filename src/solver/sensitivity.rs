@@ -1,0 +1,445 @@
+//! Sensitivities of a converged equilibrium: the consistent tangent at that state, factored
+//! once, and solves with it (and with its transpose) per seed.
+//!
+//! ```text
+//! equilibrium   R(z; v) = 0,  z = (x free displacements, s slips),  v load values
+//! tangent       J = ∂R/∂z = [A + N   B]   A  symmetric: membranes, cables, ties, follower
+//!                           [C       D]      pressure's symmetric part (what Newton factors)
+//!                                         N  the follower pressure's skew part (zero where the
+//!                                            loaded surface is held at its boundary)
+//!                                         B, C, D  the slip columns and rows (slip.rs)
+//! states        wrinkle states and stick/slip states frozen as converged; no damping, no
+//!               artificial prestress (both are tangent-only devices of the iteration)
+//! forward       J dz = g          g = −∂R/∂v · dv  (load sensitivity, [`Solver::load_rhs`])
+//! adjoint       Jᵀ λ = w
+//! solves        the symmetric part J₀ = J − N by the Schur path of slip.rs:
+//!               y0 = A⁻¹ g_x, (D − C Y) s = g_s − C y0, x = y0 − Y s   (Y = A⁻¹ B, once)
+//!               transposed: (D − C Y)ᵀ μ = w_s − Yᵀ w_x, λ_x = A⁻¹ (w_x − Cᵀ μ)
+//!               then the skew part by the fixed point z ← J₀⁻¹ (g − N z): one back-substitution
+//!               per round; the first round's N z is round-off when the surface is held (Hencky),
+//!               so a seed costs one back-substitution (plus m for the slips' Schur)
+//! ```
+//! A switch of a frozen state inside the perturbation is not seen: the derivative is that of
+//! the branch the equilibrium is on (one-sided at a switch; see docs/fmu.md, derivatives).
+//!
+//! # References
+//! Golub & Van Loan 2013, §3.2 (block elimination), §3.5.3 (iterative refinement); Haftka &
+//! Gürdal 1992, ch. 7 (direct and adjoint sensitivity of static equilibria).
+
+use super::assemble::{self, Membranes, NONE};
+use super::slip::{slip_rows, Row};
+use super::Solver;
+use crate::model::membrane::Mat9;
+use crate::model::sleeve::Contact;
+use crate::model::wrinkling::WrinkleState;
+use crate::model::{pressure, LoadModel, Model};
+use nalgebra::{DMatrix, DVector};
+
+/// Rounds of the skew fixed point before the solve is declared failed.
+const MAX_ROUNDS: usize = 60;
+/// The fixed point stops when a round changes the answer by at most this, relative.
+const ROUND_TOLERANCE: f64 = 1e-15;
+/// |N z|∞ ≤ this · |g|∞: the skew part is round-off (4 ε).
+const SKEW_NEGLIGIBLE: f64 = 4.0 * f64::EPSILON;
+
+/// The factored tangent at one converged state (valid until the solver factors again).
+pub struct Tangent {
+    /// Slip rows with the stick/slip states frozen (committed slips = the state's).
+    rows: Vec<Row>,
+    /// Y = A⁻¹ B, one column per slip.
+    y: Vec<Vec<f64>>,
+    /// The Schur complement D − C Y and its transpose, factored.
+    schur: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
+    schur_t: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
+    /// Skew parts (K_p − K_pᵀ)/2 of the follower-pressure triangles: (nodes, 9×9).
+    skew: Vec<([usize; 3], Mat9)>,
+    /// Equation of every DOF (NONE: held).
+    eq: Vec<usize>,
+    n: usize,
+    m: usize,
+}
+
+impl Solver {
+    /// Assemble the consistent tangent at the converged state `u` (wrinkle states `wrinkle`,
+    /// stick/slip codes `slip_states`, both frozen) and factor it once.
+    pub fn factor_tangent(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        wrinkle: &[WrinkleState],
+        slip_states: &[u8],
+    ) -> Result<Tangent, String> {
+        if model.volumes > 0 {
+            return Err("derivatives are not available for scenes with volume or gas inputs (their pressure unknowns are not in the sensitivity's border yet)".into());
+        }
+        let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
+        let membranes = Membranes {
+            forced: Some(&forced),
+            prestress_factor: Some(0.0),
+            ..Default::default()
+        };
+        let mut r = vec![0.0; model.dof_count()];
+        assemble::assemble_with(
+            model,
+            &self.pattern,
+            u,
+            loads,
+            &mut r,
+            Some(self.linear.values_mut()),
+            membranes,
+        );
+        self.linear.factor()?;
+        let (n, m) = (self.pattern.n, model.slips.len());
+        let n3 = model.dof_count();
+        let states: Vec<Contact> = slip_states
+            .iter()
+            .map(|&c| Contact::from_code(c).unwrap_or_default())
+            .collect();
+        let rows = slip_rows(model, &self.pattern.eq, u, &u[n3..], &states);
+        let mut y = Vec::with_capacity(m);
+        for col in super::slip::slip_columns(model, &self.pattern.eq, u) {
+            let mut v = vec![0.0; n];
+            for (e, b) in col {
+                v[e] += b;
+            }
+            self.linear.solve(&mut v)?;
+            y.push(v);
+        }
+        let (schur, schur_t) = if m == 0 {
+            (None, None)
+        } else {
+            let s = schur_matrix(&rows, &y);
+            (Some(s.clone().lu()), Some(s.transpose().lu()))
+        };
+        Ok(Tangent {
+            rows,
+            y,
+            schur,
+            schur_t,
+            skew: skew_parts(model, u, loads),
+            eq: self.pattern.eq.clone(),
+            n,
+            m,
+        })
+    }
+
+    /// Solve J dz = g. `g` per unknown of the model (DOFs, then slips; held DOFs ignored);
+    /// returns dz per unknown (held DOFs 0).
+    pub fn tangent_solve(&mut self, t: &Tangent, g: &[f64]) -> Result<Vec<f64>, String> {
+        self.fixed_point(t, g, false)
+    }
+
+    /// Solve Jᵀ λ = w, `w` and the result per unknown as in [`Solver::tangent_solve`].
+    pub fn tangent_solve_transposed(&mut self, t: &Tangent, w: &[f64]) -> Result<Vec<f64>, String> {
+        self.fixed_point(t, w, true)
+    }
+
+    /// z ← J₀⁻¹ (g − N z) (transposed: N → Nᵀ = −N) until a round changes nothing.
+    fn fixed_point(
+        &mut self,
+        t: &Tangent,
+        g: &[f64],
+        transposed: bool,
+    ) -> Result<Vec<f64>, String> {
+        let mut z = self.symmetric_solve(t, g, transposed)?;
+        if t.skew.is_empty() {
+            return Ok(z);
+        }
+        for _ in 0..MAX_ROUNDS {
+            let nz = skew_product(t, &z, transposed);
+            // A skew residual below round-off of g changes z by less than the solve's own
+            // backward error: stop without another back-substitution (the clamped Hencky disc:
+            // |N z| ~ 1e-16 |g|, so a seed costs one solve).
+            let residual = nz.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let size = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            if residual <= SKEW_NEGLIGIBLE * size {
+                return Ok(z);
+            }
+            let rhs: Vec<f64> = g.iter().zip(&nz).map(|(a, b)| a - b).collect();
+            let next = self.symmetric_solve(t, &rhs, transposed)?;
+            let size = next.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let change = next
+                .iter()
+                .zip(&z)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            z = next;
+            if change <= ROUND_TOLERANCE * size {
+                return Ok(z);
+            }
+        }
+        Err(format!(
+            "the follower pressure's non-symmetric load stiffness is too large for the symmetric factorization ({MAX_ROUNDS} rounds did not settle)"
+        ))
+    }
+
+    /// Solve with J₀ (or J₀ᵀ) by the Schur path.
+    fn symmetric_solve(
+        &mut self,
+        t: &Tangent,
+        g: &[f64],
+        transposed: bool,
+    ) -> Result<Vec<f64>, String> {
+        let n3 = t.eq.len();
+        let mut x = vec![0.0; t.n];
+        for (d, &e) in t.eq.iter().enumerate() {
+            if e != NONE {
+                x[e] = g[d];
+            }
+        }
+        let gs = &g[n3..n3 + t.m];
+        let s = if t.m == 0 {
+            self.linear.solve(&mut x)?;
+            Vec::new()
+        } else if !transposed {
+            self.linear.solve(&mut x)?;
+            let rhs = DVector::from_iterator(
+                t.m,
+                t.rows
+                    .iter()
+                    .zip(gs)
+                    .map(|(row, g)| g - row.dx.iter().map(|&(e, c)| c * x[e]).sum::<f64>()),
+            );
+            let s = solve_lu(t.schur.as_ref(), &rhs)?;
+            for (j, yj) in t.y.iter().enumerate() {
+                for (e, v) in x.iter_mut().enumerate() {
+                    *v -= yj[e] * s[j];
+                }
+            }
+            s.iter().copied().collect()
+        } else {
+            let rhs = DVector::from_iterator(
+                t.m,
+                t.y.iter()
+                    .zip(gs)
+                    .map(|(yj, g)| g - yj.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>()),
+            );
+            let mu = solve_lu(t.schur_t.as_ref(), &rhs)?;
+            for (row, mu) in t.rows.iter().zip(mu.iter()) {
+                for &(e, c) in &row.dx {
+                    x[e] -= c * mu;
+                }
+            }
+            self.linear.solve(&mut x)?;
+            mu.iter().copied().collect()
+        };
+        let mut z = vec![0.0; n3 + t.m];
+        for (d, &e) in t.eq.iter().enumerate() {
+            if e != NONE {
+                z[d] = x[e];
+            }
+        }
+        z[n3..].copy_from_slice(&s);
+        if z.iter().all(|v| v.is_finite()) {
+            Ok(z)
+        } else {
+            Err("the sensitivity is not finite (singular tangent)".into())
+        }
+    }
+
+    /// g = −∂R/∂v_k for a unit change of load channel `k` at `u`, per unknown, and the change
+    /// of the held DOFs it prescribes (per DOF). Force loads: the external force per unit
+    /// value (follower pressure on the current geometry). Prescribed displacements: the held
+    /// DOFs move by 1 and drag the free ones through the tangent's coupling (and the slip rows
+    /// through theirs, by a central difference of the rows, which are cheap).
+    pub fn load_rhs(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        t: &Tangent,
+        wrinkle: &[WrinkleState],
+        slip_states: &[u8],
+        k: usize,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let n3 = model.dof_count();
+        let mut g = vec![0.0; model.unknown_count()];
+        let mut held = vec![0.0; n3];
+        match &model.loads[k] {
+            LoadModel::PointForce(dofs) => {
+                for &(d, f) in dofs {
+                    g[d] += f;
+                }
+            }
+            LoadModel::Pressure {
+                triangles,
+                follower,
+            } => {
+                for &e in triangles {
+                    let (f, _) =
+                        assemble::pressure_contribution(model, e, u, 1.0, *follower, false);
+                    for &i in &model.triangles[e].nodes {
+                        for c in 0..3 {
+                            g[3 * i + c] += f[c];
+                        }
+                    }
+                }
+            }
+            // Refused by factor_tangent: no tangent exists for these.
+            LoadModel::Volume { .. } => {}
+            LoadModel::Displacement(prescribed) => {
+                // d(prescribed displacement)/d(value): exact for a component or a direction
+                // (linear in the value), a central difference for a rotation (smooth).
+                let value = loads[k];
+                let h = 1e-6 * value.abs().max(1.0);
+                let (mut plus, mut minus) = (vec![0.0; n3], vec![0.0; n3]);
+                prescribed.add(&model.reference, value + h, &mut plus);
+                prescribed.add(&model.reference, value - h, &mut minus);
+                for &d in &prescribed.dofs {
+                    held[d] = (plus[d] - minus[d]) / (2.0 * h);
+                }
+                let mut coupling = vec![0.0; n3];
+                let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
+                let membranes = Membranes {
+                    forced: Some(&forced),
+                    prestress_factor: Some(0.0),
+                    held_step: Some((&held, &mut coupling)),
+                    ..Default::default()
+                };
+                let mut r = vec![0.0; n3];
+                assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
+                let skew = skew_product_dofs(&t.skew, &held, false);
+                for d in 0..n3 {
+                    g[d] = -(coupling[d] + skew[d]);
+                }
+                if t.m > 0 {
+                    let dr = slip_rows_derivative(model, &self.pattern.eq, u, &held, slip_states);
+                    for (j, v) in dr.iter().enumerate() {
+                        g[n3 + j] = -v;
+                    }
+                }
+            }
+        }
+        (g, held)
+    }
+}
+
+/// D − C Y.
+fn schur_matrix(rows: &[Row], y: &[Vec<f64>]) -> DMatrix<f64> {
+    let m = rows.len();
+    let mut s = DMatrix::<f64>::zeros(m, m);
+    for (i, row) in rows.iter().enumerate() {
+        for &(j, d) in &row.ds {
+            s[(i, j)] += d;
+        }
+        for (j, yj) in y.iter().enumerate() {
+            s[(i, j)] -= row.dx.iter().map(|&(e, c)| c * yj[e]).sum::<f64>();
+        }
+    }
+    s
+}
+
+fn solve_lu(
+    lu: Option<&nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
+    rhs: &DVector<f64>,
+) -> Result<DVector<f64>, String> {
+    lu.and_then(|lu| lu.solve(rhs))
+        .ok_or_else(|| "the slip block of the tangent is singular (a sliding mechanism)".into())
+}
+
+/// (K_p − K_pᵀ)/2 of every follower-pressure triangle under the loads (summed over the
+/// channels that load it).
+fn skew_parts(model: &Model, u: &[f64], loads: &[f64]) -> Vec<([usize; 3], Mat9)> {
+    let mut out = Vec::new();
+    for (load, &value) in model.loads.iter().zip(loads) {
+        let LoadModel::Pressure {
+            triangles,
+            follower: true,
+        } = load
+        else {
+            continue;
+        };
+        if value == 0.0 {
+            continue;
+        }
+        for &e in triangles {
+            let nodes = model.triangles[e].nodes;
+            let x = nodes.map(|i| model.position(u, i));
+            let k = pressure::follower_stiffness(value, &x);
+            out.push((nodes, (k - k.transpose()) * 0.5));
+        }
+    }
+    out
+}
+
+/// N z on the free DOFs (per unknown; transposed: Nᵀ z = −N z).
+fn skew_product(t: &Tangent, z: &[f64], transposed: bool) -> Vec<f64> {
+    let n3 = t.eq.len();
+    let mut free = z[..n3].to_vec();
+    for (d, &e) in t.eq.iter().enumerate() {
+        if e == NONE {
+            free[d] = 0.0;
+        }
+    }
+    let mut out = skew_product_dofs(&t.skew, &free, transposed);
+    for (d, &e) in t.eq.iter().enumerate() {
+        if e == NONE {
+            out[d] = 0.0;
+        }
+    }
+    out.resize(z.len(), 0.0);
+    out
+}
+
+/// Σ skew_e · v_e over the triangles, per DOF.
+fn skew_product_dofs(skew: &[([usize; 3], Mat9)], v: &[f64], transposed: bool) -> Vec<f64> {
+    let sign = if transposed { -1.0 } else { 1.0 };
+    let mut out = vec![0.0; v.len()];
+    for (nodes, k) in skew {
+        let dof = |a: usize| 3 * nodes[a / 3] + a % 3;
+        for b in 0..9 {
+            let vb = v[dof(b)];
+            if vb == 0.0 {
+                continue;
+            }
+            for a in 0..9 {
+                out[dof(a)] += sign * k[(a, b)] * vb;
+            }
+        }
+    }
+    out
+}
+
+/// ∂r/∂x · dx of the slip rows for a change `dx` of DOFs (any, held included), by a central
+/// difference of the rows with their states frozen.
+fn slip_rows_derivative(
+    model: &Model,
+    eq: &[usize],
+    u: &[f64],
+    dx: &[f64],
+    slip_states: &[u8],
+) -> Vec<f64> {
+    let n3 = model.dof_count();
+    let states: Vec<Contact> = slip_states
+        .iter()
+        .map(|&c| Contact::from_code(c).unwrap_or_default())
+        .collect();
+    let h = 1e-6 * model.length_scale / dx.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
+    let at = |sign: f64| {
+        let mut v = u.to_vec();
+        for (a, d) in v.iter_mut().zip(dx) {
+            *a += sign * h * d;
+        }
+        slip_rows(model, eq, &v, &u[n3..], &states)
+    };
+    let (plus, minus) = (at(1.0), at(-1.0));
+    plus.iter()
+        .zip(&minus)
+        .map(|(a, b)| (a.r - b.r) / (2.0 * h))
+        .collect()
+}
+
+/// The slip residuals r at `u` with the stick/slip states given and the committed slips the
+/// state's own (a stuck point's row is then 0).
+pub fn slip_residuals(model: &Model, u: &[f64], slip_states: &[u8]) -> Vec<f64> {
+    let n3 = model.dof_count();
+    let states: Vec<Contact> = slip_states
+        .iter()
+        .map(|&c| Contact::from_code(c).unwrap_or_default())
+        .collect();
+    let eq = vec![NONE; n3];
+    slip_rows(model, &eq, u, &u[n3..], &states)
+        .iter()
+        .map(|r| r.r)
+        .collect()
+}
