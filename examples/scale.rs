@@ -8,7 +8,7 @@
 //! written as explicit nodes and triangles with the node ids permuted by a fixed-seed
 //! xorshift generator, as a user's mesher might number it).
 //!
-//! Printed per case: free DOF, numbering, Newton iterations, wall time of the solve, the
+//! Printed per case: free DOF, numbering, stored entries of the LDLT factor after faer's AMD, Newton iterations, wall time of the solve, the
 //! floor (one assembly + one numeric LDLT factorization and solve at the solution, best of 3,
 //! `Engine::time_floor`), seconds per iteration divided by the floor, the process's peak
 //! resident set so far (VmHWM from /proc/self/status; it only grows, so run one size per
@@ -119,9 +119,10 @@ fn run(label: &str, mut engine: Engine) {
     let (assembly, factor) = engine.time_floor(3);
     let floor = assembly + factor;
     println!(
-        "{:>8} {:>10} {:>6} {:>9.3} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
+        "{:>8} {:>10} {:>11} {:>6} {:>9.3} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
         engine.free_dofs(),
         label,
+        engine.factor_nonzeros(),
         report.iterations,
         time,
         assembly,
@@ -150,9 +151,10 @@ fn main() {
         .expect("valid scene");
     println!("Hencky disc, follower pressure 40 Pa, flat start to full load, 1 thread");
     println!(
-        "{:>8} {:>10} {:>6} {:>9} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
+        "{:>8} {:>10} {:>11} {:>6} {:>9} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
         "DOF",
         "numbering",
+        "factor nnz",
         "iters",
         "total s",
         "assem s",
