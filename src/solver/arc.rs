@@ -79,6 +79,13 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl Solver {
+    /// Why a step `from` → `to` under `solver.path: "arc_length"` is load-controlled as a
+    /// whole (sleeve points, volume or gas unknowns, moving prescribed displacements or
+    /// volumes, unchanged loads); None when arc length follows it.
+    pub fn arc_length_fallback(model: &Model, from: &[f64], to: &[f64]) -> Option<&'static str> {
+        not_applicable(model, from, to)
+    }
+
     /// q = R(u, from) − R(u, to) on the equations (−∂R/∂λ).
     fn load_direction(&mut self, model: &Model, from: &[f64], to: &[f64], u: &[f64]) -> Vec<f64> {
         let mut r0 = vec![0.0; model.dof_count()];
