@@ -242,7 +242,7 @@ def summary(lift: dict, slide: dict, table1: dict | None) -> list[tuple[str, str
             "Table 1, SleeveDrawstring reading",
             "as above",
             f"converges only to 2P = {best['largest_2P_reached_N']:.2f} N (of 5 N) on the grid",
-            "not reached (solver)",
+            "not reached (a gathered corner element collapses near 0.19-0.2 N, also under displacement control)",
         ))
     return rows
 
