@@ -1,21 +1,22 @@
-//! GOAL: under `solver.path: arc_length` the steps the arc-length corrector does not take
-//!       (moving prescribed displacements, sleeve points, volume inputs: docs/solver.md, arc
+//! GOAL: under `solver.path: arc_length` prescribed displacements follow the load factor (a
+//!       step that moves them, alone or with a force, and a force step with them held are
+//!       traced by arc length and give load control's equilibria), and the steps the
+//!       arc-length corrector does not take (sleeve points, volume inputs: docs/solver.md, arc
 //!       length) are load-controlled as a whole, the step's log says so, and the answers equal
-//!       load control; a prescribed displacement that is held while a force rises does not stop
-//!       arc length, and its equilibria equal load control's (issue 10, arc length with
-//!       sleeves, volume inputs and prescribed displacements).
+//!       load control (issue 10, arc length with sleeves, volume inputs and prescribed
+//!       displacements).
 //! MESH, BOUNDARY CONDITIONS, PARAMETERS: (a) the shipped PrestressedCable (half-span 1 m,
-//!       EA 1e5 N, pretension 100 N) with its right end free in x and moved by a displacement
-//!       input `shift`; (b) the shipped SlidingCable (frictionless sleeve points 7, 8, 9).
+//!       EA 1e5 N, pretension 100 N) with its right end moved in x by a displacement input
+//!       `shift`; (b) the shipped SlidingCable (frictionless sleeve points 7, 8, 9).
 //! LOADING: (a) shift 0 → 0.01 m (one step), then P 0 → 1000 N in five steps with shift held,
-//!       then shift and P together (0.02 m, 1200 N); (b) the scene's ten load rows to P = 200 N,
-//!       p = 20 N.
-//! REFERENCE: the same scenes under load control (a different path for (a)'s force steps: both
-//!       converged to the residual tolerance 1e-9, so outputs agree to 1e-7 relative, the bound
-//!       of tests/verify_arc_length.rs; measured values printed). The load-controlled fallbacks
-//!       run the load-control code itself, so they agree to round-off (asserted 1e-12); what
-//!       they check is that the step converges, is logged as a fallback and takes no arc-length
-//!       increment.
+//!       then shift and P together (0.02 m, 1200 N), then the shift back to 0; (b) the scene's
+//!       ten load rows to P = 200 N, p = 20 N.
+//! REFERENCE: (a) the same scene under load control (a different path: both converged to the
+//!       residual tolerance 1e-9, so outputs agree to 1e-7 relative, the bound of
+//!       tests/verify_arc_length.rs; measured values printed), every step with arc-length
+//!       increments. (b) The load-controlled fallback runs the load-control code itself, so it
+//!       agrees to round-off (asserted 1e-12); what it checks is that the step converges, is
+//!       logged as a fallback and takes no arc-length increment.
 mod common;
 use common::*;
 use velarium::scene::PathMethod;
@@ -67,52 +68,39 @@ fn a_prescribed_displacement_under_arc_length() {
     arc.solver.arc_length = Some(2e-3);
     let mut a = engine(load_control);
     let mut b = engine(arc);
-    // The shift moves a prescribed displacement: load control, logged.
-    set(&mut a, "shift", 0.01);
-    set(&mut b, "shift", 0.01);
-    solve(&mut a);
-    let rb = solve(&mut b);
-    assert!(
-        rb.log[0].starts_with(FALLBACK) && rb.log[0].contains("prescribed displacement"),
-        "{}",
-        rb.log[0]
-    );
-    assert_eq!(count(&rb.log, "(arc length,"), 0);
-    let d = compare(&a, &b, 1e-12, "shift 0.01 m");
-    println!(
-        "shift 0.01 m: tension {:.6} N (load control fallback, difference {d:.1e})",
-        get(&b, "tension")
-    );
-    // The force rises with the shift held: arc length runs.
+    // (shift m, P N): the shift alone, the force with the shift held, both together.
+    let steps = [
+        (0.01, 0.0),
+        (0.01, 200.0),
+        (0.01, 400.0),
+        (0.01, 600.0),
+        (0.01, 800.0),
+        (0.01, 1000.0),
+        (0.02, 1200.0),
+        (0.0, 1200.0),
+    ];
     let mut arcs = 0;
-    for k in 1..=5 {
-        let p = 200.0 * k as f64;
-        set(&mut a, "P", p);
-        set(&mut b, "P", p);
+    for (shift, p) in steps {
+        for e in [&mut a, &mut b] {
+            set(e, "shift", shift);
+            set(e, "P", p);
+        }
         let ra = solve(&mut a);
         let rb = solve(&mut b);
         assert!(!rb.log[0].starts_with(FALLBACK), "{}", rb.log[0]);
         let by_arc = count(&rb.log, "(arc length,");
+        assert!(by_arc > 0, "shift {shift}, P {p}: arc-length increments");
         arcs += by_arc;
-        let d = compare(&a, &b, 1e-7, &format!("P = {p} N"));
+        let d = compare(&a, &b, 1e-7, &format!("shift {shift} m, P = {p} N"));
         println!(
-            "P = {p} N, shift held: midspan_uz {:.9} m, load control {} iterations, arc length {} iterations ({by_arc} arc-length increments), worst output difference {d:.1e}",
+            "shift {shift} m, P = {p} N: tension {:.6} N, midspan_uz {:.9} m, load control {} iterations, arc length {} iterations ({by_arc} arc-length increments), worst output difference {d:.1e}",
+            get(&a, "tension"),
             get(&a, "midspan_uz"),
             ra.iterations,
             rb.iterations
         );
     }
-    assert!(arcs > 0, "the force steps used arc length");
-    // Both move: load control again.
-    set(&mut a, "shift", 0.02);
-    set(&mut b, "shift", 0.02);
-    set(&mut a, "P", 1200.0);
-    set(&mut b, "P", 1200.0);
-    solve(&mut a);
-    let rb = solve(&mut b);
-    assert!(rb.log[0].starts_with(FALLBACK), "{}", rb.log[0]);
-    assert_eq!(count(&rb.log, "(arc length,"), 0);
-    compare(&a, &b, 1e-12, "shift 0.02 m, P = 1200 N");
+    println!("arc-length increments {arcs}");
 }
 
 #[test]
