@@ -268,6 +268,8 @@ pub struct Solver {
     adjacency: relax::Adjacency,
     /// Factor on the artificial prestress in the tangent of the current Newton iteration.
     prestress_factor: f64,
+    /// States held by the probe evaluations ([`Solver::hold_states`]).
+    probe_states: Option<Vec<Option<WrinkleState>>>,
 }
 
 impl Solver {
@@ -304,6 +306,7 @@ impl Solver {
             frozen: None,
             adjacency: relax::Adjacency::try_new(model)?,
             prestress_factor: 1.0,
+            probe_states: None,
             pattern,
         })
     }
@@ -341,8 +344,19 @@ impl Solver {
     /// Residual R = f_int − f_ext on all DOFs (reactions at held DOFs) at `u` under `loads`.
     pub fn residual(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<f64> {
         let mut r = vec![0.0; model.dof_count()];
-        assemble::assemble(model, &self.pattern, u, loads, &mut r, None);
+        let membranes = assemble::Membranes {
+            forced: self.probe_states.as_deref(),
+            ..Default::default()
+        };
+        assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         r
+    }
+
+    /// Wrinkle states that [`Solver::residual`] and [`Solver::evaluate_membranes`] hold instead
+    /// of the law's own (None: the law decides). The derivatives evaluate their probe
+    /// differences on the branch of the committed equilibrium with them (`engine/derivatives.rs`).
+    pub fn hold_states(&mut self, states: Option<Vec<Option<WrinkleState>>>) {
+        self.probe_states = states;
     }
 
     /// Evaluation (state, tension angle, stress, energy) of every membrane triangle at `u`.
@@ -356,6 +370,7 @@ impl Solver {
         let mut out = Vec::with_capacity(model.triangles.len());
         let membranes = assemble::Membranes {
             out: Some(&mut out),
+            forced: self.probe_states.as_deref(),
             ..Default::default()
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);

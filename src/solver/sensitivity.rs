@@ -9,13 +9,16 @@
 //!                                            loaded surface is held at its boundary)
 //!                                         B, C, D  the slip columns and rows (slip.rs)
 //! states        wrinkle states and stick/slip states frozen as converged; no damping, no
-//!               artificial prestress (both are tangent-only devices of the iteration)
+//!               artificial prestress (both are tangent-only devices of the iteration); the
+//!               wrinkled and slack triangles' tangent-only regularisation Reg (ε·D0) is in the
+//!               factored matrix and is taken out again by the fixed point below
 //! forward       J dz = g          g = −∂R/∂v · dv  (load sensitivity, [`Solver::load_rhs`])
 //! adjoint       Jᵀ λ = w
 //! solves        the symmetric part J₀ = J − N by the Schur path of slip.rs:
 //!               y0 = A⁻¹ g_x, (D − C Y) s = g_s − C y0, x = y0 − Y s   (Y = A⁻¹ B, once)
 //!               transposed: (D − C Y)ᵀ μ = w_s − Yᵀ w_x, λ_x = A⁻¹ (w_x − Cᵀ μ)
-//!               then the skew part by the fixed point z ← J₀⁻¹ (g − N z): one back-substitution
+//!               then the skew part and the regularisation by the fixed point
+//!               z ← J₀⁻¹ (g − (N − Reg) z), the held DOFs' coupling corrected likewise: one back-substitution
 //!               per round; the first round's N z is round-off when the surface is held (Hencky),
 //!               so a seed costs one back-substitution (plus m for the slips' Schur)
 //! ```
@@ -29,9 +32,10 @@
 use super::assemble::{self, Membranes, NONE};
 use super::slip::{slip_rows, Row};
 use super::Solver;
-use crate::model::membrane::Mat9;
+use crate::model::membrane::{self, Mat9};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
+use crate::model::wrinkling::REGULARIZATION;
 use crate::model::{pressure, LoadModel, Model};
 use nalgebra::{DMatrix, DVector};
 
@@ -53,6 +57,9 @@ pub struct Tangent {
     schur_t: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
     /// Skew parts (K_p − K_pᵀ)/2 of the follower-pressure triangles: (nodes, 9×9).
     skew: Vec<([usize; 3], Mat9)>,
+    /// The tangent-only regularisation ε·D0 of the wrinkled and slack triangles, as element
+    /// matrices vol·Bᵀ ε D0 B (nodes, 9×9): in the factored J₀, not in the true J.
+    regularisation: Vec<([usize; 3], Mat9)>,
     /// Equation of every DOF (NONE: held).
     eq: Vec<usize>,
     n: usize,
@@ -118,6 +125,7 @@ impl Solver {
             schur,
             schur_t,
             skew: skew_parts(model, u, loads),
+            regularisation: regularisation_parts(model, u, wrinkle),
             eq: self.pattern.eq.clone(),
             n,
             m,
@@ -143,7 +151,7 @@ impl Solver {
         transposed: bool,
     ) -> Result<Vec<f64>, String> {
         let mut z = self.symmetric_solve(t, g, transposed)?;
-        if t.skew.is_empty() {
+        if t.skew.is_empty() && t.regularisation.is_empty() {
             return Ok(z);
         }
         for _ in 0..MAX_ROUNDS {
@@ -169,7 +177,7 @@ impl Solver {
             }
         }
         Err(format!(
-            "the follower pressure's non-symmetric load stiffness is too large for the symmetric factorization ({MAX_ROUNDS} rounds did not settle)"
+            "the tangent's correction (the follower pressure's non-symmetric load stiffness, the wrinkled and slack triangles' regularisation) did not settle in {MAX_ROUNDS} rounds: the derivative is not defined to the solve's accuracy here"
         ))
     }
 
@@ -298,9 +306,13 @@ impl Solver {
                 };
                 let mut r = vec![0.0; n3];
                 assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
+                // The true coupling: the element tangents' (regularised where wrinkled or
+                // slack, as factored) plus the follower pressure's skew part minus that
+                // regularisation.
                 let skew = skew_product_dofs(&t.skew, &held, false);
+                let reg = skew_product_dofs(&t.regularisation, &held, false);
                 for d in 0..n3 {
-                    g[d] = -(coupling[d] + skew[d]);
+                    g[d] = -(coupling[d] + skew[d] - reg[d]);
                 }
                 if t.m > 0 {
                     let dr = slip_rows_derivative(model, &self.pattern.eq, u, &held, slip_states);
@@ -362,7 +374,43 @@ fn skew_parts(model: &Model, u: &[f64], loads: &[f64]) -> Vec<([usize; 3], Mat9)
     out
 }
 
-/// N z on the free DOFs (per unknown; transposed: Nᵀ z = −N z).
+/// The regularisation ε·D0 that the wrinkled and slack triangles add to the factored tangent
+/// (`wrinkling::REGULARIZATION`, tangent only): vol·Bᵀ ε D0 B per triangle, B the variation of
+/// the Green-Lagrange strain at the current deformation (the material part of
+/// `membrane::triangle`'s tangent).
+fn regularisation_parts(
+    model: &Model,
+    u: &[f64],
+    wrinkle: &[WrinkleState],
+) -> Vec<([usize; 3], Mat9)> {
+    let mut out = Vec::new();
+    for (t, state) in model.triangles.iter().zip(wrinkle) {
+        if !t.material.wrinkling || *state == WrinkleState::Taut {
+            continue;
+        }
+        let r = &t.reference;
+        let x = t.nodes.map(|i| model.position(u, i));
+        let f = membrane::deformation_gradient(r, &x);
+        let (f1, f2) = (f.column(0).into_owned(), f.column(1).into_owned());
+        let mut b = nalgebra::SMatrix::<f64, 3, 9>::zeros();
+        for a in 0..3 {
+            let g = r.grad[a];
+            b.fixed_view_mut::<1, 3>(0, 3 * a)
+                .copy_from(&(f1 * g[0]).transpose());
+            b.fixed_view_mut::<1, 3>(1, 3 * a)
+                .copy_from(&(f2 * g[1]).transpose());
+            b.fixed_view_mut::<1, 3>(2, 3 * a)
+                .copy_from(&(f1 * g[1] + f2 * g[0]).transpose());
+        }
+        let d = t.material.law.small_strain() * REGULARIZATION;
+        let vol = r.area * t.material.thickness;
+        out.push((t.nodes, b.transpose() * d * b * vol));
+    }
+    out
+}
+
+/// (N − Reg) z on the free DOFs (per unknown; transposed: Nᵀ z = −N z, Reg symmetric): the
+/// part of the true tangent J = J₀ + N − Reg that the factored J₀ lacks or has too much of.
 fn skew_product(t: &Tangent, z: &[f64], transposed: bool) -> Vec<f64> {
     let n3 = t.eq.len();
     let mut free = z[..n3].to_vec();
@@ -372,6 +420,10 @@ fn skew_product(t: &Tangent, z: &[f64], transposed: bool) -> Vec<f64> {
         }
     }
     let mut out = skew_product_dofs(&t.skew, &free, transposed);
+    let reg = skew_product_dofs(&t.regularisation, &free, false);
+    for (o, r) in out.iter_mut().zip(&reg) {
+        *o -= r;
+    }
     for (d, &e) in t.eq.iter().enumerate() {
         if e == NONE {
             out[d] = 0.0;
