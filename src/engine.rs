@@ -313,6 +313,19 @@ impl Engine {
             self.state.displacement.clone(),
             self.state.slip_state.clone(),
         );
+        // Under arc length a step the arc-length corrector cannot take is load-controlled as a
+        // whole: the log says so (docs/solver.md, arc length).
+        let fallback = if self.scene.solver.path == crate::scene::PathMethod::ArcLength
+            && self.state.applied != self.state.inputs
+        {
+            crate::solver::Solver::arc_length_fallback(
+                &self.model,
+                &self.state.applied,
+                &self.state.inputs,
+            )
+        } else {
+            None
+        };
         let mut report = self.solver.solve_step_with(
             &self.model,
             &self.state.applied,
@@ -320,6 +333,12 @@ impl Engine {
             &mut self.state.displacement,
             &mut self.state.slip_state,
         );
+        if let Some(why) = fallback {
+            report.log.insert(
+                0,
+                format!("arc length does not apply ({why}): the step is load-controlled"),
+            );
+        }
         if report.converged() {
             let previous = self.state.clone();
             self.state.applied = self.state.inputs.clone();
