@@ -8,10 +8,12 @@
    one panel per prestress, like the paper's Fig. 5a/5b) and compare the equilibria (lift,
    reaction, cable tension) row by row.
 2. Fig. 6 (SlidingCable): the cable through nodes 7, 8, 9 loaded in ten rows to P = 200 N,
-   p = 20 N, frictionless and with mu = 0.3. The paper: frictionless "the nodes 7 and 9 converge
-   to the node 8"; with friction a distinct equilibrium with contact forces. We plot the nodes'
-   paths over the load rows (build/plots/seed_fig6_paths.png) and report |x7 - x8|, |x9 - x8|,
-   the tensions and the contact forces.
+   p = 20 N, frictionless, with mu = 0.1, 0.15, 0.2 and with mu = 0.3. The paper: frictionless
+   "the nodes 7 and 9 converge to the node 8"; with friction a distinct equilibrium with
+   contact forces. We plot the nodes' paths over the load rows (build/plots/seed_fig6_paths.png
+   for mu 0 and 0.3, build/plots/seed_fig6_friction_paths.png for mu 0.1-0.2: the points stick,
+   then slide onto node 8 in one row) and report |x7 - x8|, |x9 - x8|, the tensions, the
+   contact forces, the row where 7 and 9 meet 8 and the iterations per row.
 3. Table 1 (Fig. 1): both readings (SleeveCable, SleeveDrawstring) from
    build/table1_readings.json, written by harness/sleeve_readings.py (the main job runs it
    first); RMS per column, the sign of A_dy, the S-shape.
@@ -106,7 +108,7 @@ def sliding_cable() -> dict:
     rows = [{"P": 200.0 * (k + 1) / ROWS, "p": 20.0 * (k + 1) / ROWS} for k in range(ROWS)]
     outs = ["x7", "y7", "x8", "y8", "x9", "y9", "T_A7", "T_9B", "contact7", "contact8", "newton_iterations"]
     out = {}
-    for mu in (0.0, 0.3):
+    for mu in (0.0, 0.1, 0.15, 0.2, 0.3):
         values, _, statuses = run_rows("SlidingCable", {"mu": mu}, rows, outs)
         last = values[-1] if values else {}
         its = [int(v["newton_iterations"]) for v in values]
@@ -117,6 +119,8 @@ def sliding_cable() -> dict:
             "T_A7": last.get("T_A7"), "T_9B": last.get("T_9B"),
             "contact7": last.get("contact7"), "contact8": last.get("contact8"),
             "iterations_per_row": its, "median_iterations": float(np.median(its)) if its else None,
+            # First row where 7 and 9 are within 1e-6 of the span of node 8 (None: never).
+            "met_at_row": next((k + 1 for k, v in enumerate(values) if max(abs(v["x7"] - v["x8"]), abs(v["x9"] - v["x8"])) < 4e-6), None),
         }
     return out
 
@@ -165,6 +169,28 @@ def plot(lift: dict, slide: dict) -> None:
     fig.savefig(PLOTS / "seed_fig6_paths.png", dpi=120)
     plt.close(fig)
 
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4), sharey=True)
+    for ax, mu in zip(axes, ("0.1", "0.15", "0.2")):
+        path = slide[mu]["path"]
+        ax.plot([0, 4], [0, 0], "ks", ms=6)
+        for node, c in (("7", "C0"), ("8", "C3"), ("9", "C2")):
+            xs = [{"7": 1.0, "8": 2.0, "9": 3.0}[node]] + path[f"x{node}"]
+            ys = [0.0] + path[f"y{node}"]
+            ax.plot(xs, ys, "o-", color=c, ms=3, label=f"node {node}")
+            for k, (x, y) in enumerate(zip(xs[1:], ys[1:])):
+                if node != "8":
+                    ax.annotate(str(k + 1), (x, y), fontsize=6, color=c, xytext=(2, 2), textcoords="offset points")
+        met = slide[mu]["met_at_row"]
+        ax.set_title(f"Fig. 6: mu = {mu} (7, 9 meet 8 in row {met}; it./row {slide[mu]['iterations_per_row']})", fontsize=8)
+        ax.set_xlabel("x (m)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0].set_ylabel("y (m)")
+    fig.suptitle("SlidingCable with friction 0.1-0.2: stick, then one sliding row onto node 8 (row numbers at the points)")
+    fig.tight_layout()
+    fig.savefig(PLOTS / "seed_fig6_friction_paths.png", dpi=120)
+    plt.close(fig)
+
 
 def summary(lift: dict, slide: dict, table1: dict | None) -> list[tuple[str, str, str, str]]:
     rows = []
@@ -192,6 +218,13 @@ def summary(lift: dict, slide: dict, table1: dict | None) -> list[tuple[str, str
         f"7, 8, 9 at x = {f3['path']['x7'][-1]:.3f}, {f3['path']['x8'][-1]:.3f}, {f3['path']['x9'][-1]:.3f}; contact forces {f3['contact7']:.1f}, {f3['contact8']:.1f} N",
         "reproduced (qualitative: the paper gives no numbers)" if distinct else "NOT reproduced",
     ))
+    fr = {mu: slide[mu] for mu in ("0.1", "0.15", "0.2")}
+    rows.append((
+        "Fig. 6 with friction (mu 0.1-0.2)",
+        "(not in the paper) stick, then slide onto node 8",
+        "; ".join(f"mu {mu}: meet in row {f['met_at_row']}, {max(f['iterations_per_row'])} it. in that row, median {f['median_iterations']:g}" for mu, f in fr.items()),
+        "converged, points meet" if all(f["rows"] == ROWS and f["met_at_row"] for f in fr.values()) else "NOT converged",
+    ))
     if table1 is None:
         rows.append(("Table 1 (Fig. 1)", "A_dx 3, 19, 42, 44 mm ...", "build/table1_readings.json missing: run harness/sleeve_readings.py", "not run"))
     else:
@@ -209,7 +242,7 @@ def summary(lift: dict, slide: dict, table1: dict | None) -> list[tuple[str, str
             "Table 1, SleeveDrawstring reading",
             "as above",
             f"converges only to 2P = {best['largest_2P_reached_N']:.2f} N (of 5 N) on the grid",
-            "not reached (solver)",
+            "not reached (a gathered corner element collapses near 0.19-0.2 N, also under displacement control)",
         ))
     return rows
 
@@ -226,10 +259,12 @@ def main() -> int:
         print(" | ".join(c.ljust(w) for c, w in zip(r, widths)))
     f0 = slide["0.0"]
     print(f"Fig. 6 frictionless iterations per row: {f0['iterations_per_row']}; mu 0.3: {slide['0.3']['iterations_per_row']}")
+    for mu in ("0.1", "0.15", "0.2"):
+        print(f"Fig. 6 mu {mu}: 7 and 9 meet 8 in row {slide[mu]['met_at_row']}; iterations per row {slide[mu]['iterations_per_row']}")
     print(f"Fig. 5 iterations per row, prestress 10: {lift['iterations_per_row']['10.0']}; 200: {lift['iterations_per_row']['200.0']}")
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps({"summary": rows, "lift": lift, "sliding": slide}, indent=1))
-    print(f"wrote {OUT.relative_to(vr.ROOT)}, build/plots/seed_fig5_iterations.png, build/plots/seed_fig6_paths.png")
+    print(f"wrote {OUT.relative_to(vr.ROOT)}, build/plots/seed_fig5_iterations.png, build/plots/seed_fig6_paths.png, build/plots/seed_fig6_friction_paths.png")
     return 0
 
 

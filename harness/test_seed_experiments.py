@@ -11,7 +11,10 @@ its verdict strings:
   span recomputed from the recorded last row, median iterations per row <= 15 (issue 10 target);
 - Fig. 6 with mu = 0.3: nodes 7 and 9 stay more than 0.4 m (a tenth of the span) from node 8,
   and the contact forces are the loads the ties carry (10 N at node 7, 200 N at node 8, 1e-6 N);
-- the summary table has one row per experiment and both plots are written.
+- Fig. 6 with mu = 0.1, 0.15, 0.2: all ten rows converge, 7 and 9 meet node 8 (within 1e-6 of
+  the span) in rows 2, 4 and 6 (tests/verify_sliding_cable.rs measures the same path), median
+  iterations per row <= 15;
+- the summary table has one row per experiment and the three plots are written.
 """
 
 from __future__ import annotations
@@ -68,9 +71,20 @@ def test_fig6_with_friction_is_distinct(report):
     assert f3["contact8"] == pytest.approx(200.0, abs=1e-6)
 
 
+def test_fig6_frictional_points_meet(report):
+    for mu, row in (("0.1", 2), ("0.15", 4), ("0.2", 6)):
+        f = report["sliding"][mu]
+        assert f["rows"] == 10
+        assert f["met_at_row"] == row, (mu, f["met_at_row"])
+        path = f["path"]
+        assert abs(path["x7"][-1] - path["x8"][-1]) < 1e-6 * 4.0
+        assert abs(path["x9"][-1] - path["x8"][-1]) < 1e-6 * 4.0
+        assert np.median(f["iterations_per_row"]) <= 15
+
+
 def test_summary_and_plots(report):
     experiments = [r[0] for r in report["summary"]]
     assert experiments[:3] == ["Fig. 4-5 lift, prestress 10 vs 200 N/m2", "Fig. 6 frictionless", "Fig. 6 with friction (mu 0.3)"]
     assert any(e.startswith("Table 1") for e in experiments)
-    for png in ("seed_fig5_iterations.png", "seed_fig6_paths.png"):
+    for png in ("seed_fig5_iterations.png", "seed_fig6_paths.png", "seed_fig6_friction_paths.png"):
         assert (vr.ROOT / "build" / "plots" / png).stat().st_size > 10_000

@@ -84,6 +84,10 @@ pub struct Engine {
     /// The tangent factored at the committed state for derivatives (None: not yet, or the
     /// state or the solver's factorization changed since).
     tangent: Option<crate::solver::sensitivity::Tangent>,
+    /// The committed state is an equilibrium a solve of this engine converged to (or ended a
+    /// whole step at), with nothing set, restored or reset since: with the inputs equal to the
+    /// applied ones and the model not stale, a step has nothing to do ([`Engine::settled`]).
+    converged: bool,
 }
 
 impl Engine {
@@ -146,6 +150,7 @@ impl Engine {
             outputs: Vec::new(),
             membranes: Vec::new(),
             tangent: None,
+            converged: false,
         };
         engine.refresh_outputs()?;
         Ok(engine)
@@ -308,6 +313,19 @@ impl Engine {
             self.state.displacement.clone(),
             self.state.slip_state.clone(),
         );
+        // Under arc length a step the arc-length corrector cannot take is load-controlled as a
+        // whole: the log says so (docs/solver.md, arc length).
+        let fallback = if self.scene.solver.path == crate::scene::PathMethod::ArcLength
+            && self.state.applied != self.state.inputs
+        {
+            crate::solver::Solver::arc_length_fallback(
+                &self.model,
+                &self.state.applied,
+                &self.state.inputs,
+            )
+        } else {
+            None
+        };
         let mut report = self.solver.solve_step_with(
             &self.model,
             &self.state.applied,
@@ -315,6 +333,12 @@ impl Engine {
             &mut self.state.displacement,
             &mut self.state.slip_state,
         );
+        if let Some(why) = fallback {
+            report.log.insert(
+                0,
+                format!("arc length does not apply ({why}): the step is load-controlled"),
+            );
+        }
         if report.converged() {
             let previous = self.state.clone();
             self.state.applied = self.state.inputs.clone();
@@ -335,9 +359,44 @@ impl Engine {
                 report.outcome = crate::solver::Outcome::Failed;
                 report.reached = 0.0;
                 report.message = format!("the equilibrium found is not finite ({what}); the loads overflow the model's numbers");
+            } else {
+                self.converged = true;
             }
         }
         report
+    }
+
+    /// Whether a step to the current inputs has nothing to do: the committed state is an
+    /// equilibrium this engine converged to, the inputs are exactly (bit for bit up to the sign
+    /// of zero) the ones it carries, and no parameter changed since. Then [`Engine::keep`]
+    /// stands for [`Engine::solve`] without running the solver.
+    pub fn settled(&self) -> bool {
+        self.converged && !self.model_stale && self.state.inputs == self.state.applied
+    }
+
+    /// The step of a [`settled`](Engine::settled) engine: the equilibrium stays as it is (no
+    /// assembly, no factorization, no allocation); the step took no Newton iteration, which is
+    /// what the `iterations` outputs now show. Returns the converged report of a solve that
+    /// found its start already in equilibrium; None when the engine is not settled.
+    pub fn keep(&mut self) -> Option<StepReport> {
+        if !self.settled() {
+            return None;
+        }
+        self.state.last_iterations = 0;
+        for (probe, out) in self.model.probes.iter().zip(self.outputs.iter_mut()) {
+            if matches!(probe, crate::model::ProbeModel::NewtonIterations) {
+                *out = 0.0;
+            }
+        }
+        Some(StepReport {
+            outcome: crate::solver::Outcome::Converged,
+            iterations: 0,
+            increments: 0,
+            cutbacks: 0,
+            reached: 1.0,
+            message: String::new(),
+            log: Vec::new(),
+        })
     }
 
     /// The first non-finite value of the committed state or outputs, named; None if all are
@@ -496,6 +555,9 @@ impl Engine {
                 "the state gives a non-finite {what}; the instance is unchanged"
             )));
         }
+        // A restored state is not known to be an equilibrium of this engine: the next step
+        // solves.
+        self.converged = false;
         Ok(())
     }
 
@@ -515,6 +577,7 @@ impl Engine {
             self.state = previous;
             return Err(e);
         }
+        self.converged = false;
         Ok(())
     }
 

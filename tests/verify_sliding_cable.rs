@@ -358,18 +358,23 @@ fn frictionless_nodes_that_meet_part_when_pulled_apart() {
     }
 }
 
-/// GOAL: frictional sleeve points that meet (issue 10): SlidingCable with μ = 0.1, 0.2, 0.3
-///       follows the symmetric load path: 7 and 9 stick while the Coulomb cone holds them, then
-///       (μ = 0.1 from row 2, μ = 0.2 from row 6) slide symmetrically onto node 8 and the three
-///       hang as one contact group at mid-span; with μ = 0.3 they stick throughout.
+/// GOAL: frictional sleeve points that meet (issue 10): SlidingCable with μ = 0.1, 0.125,
+///       0.15, 0.175, 0.2, 0.3 follows the symmetric load path: 7 and 9 stick while the Coulomb
+///       cone holds them, then (μ = 0.1 from row 2, 0.125 row 3, 0.15 row 4, 0.175 row 5, 0.2
+///       row 6) slide symmetrically onto node 8 and the three hang as one contact group at
+///       mid-span; with μ = 0.3 they stick throughout. Measured iterations per row: 3-5 except
+///       the row where the points slide and meet (154, 36, 29, 23, 15 for μ = 0.1 … 0.2);
+///       medians 3-4.
 /// MESH, BOUNDARY CONDITIONS, PARAMETERS: the shipped SlidingCable as in (b) above, μ set by
 ///       its tunable parameter, the same ten load rows to P = 200 N, p = 20 N.
 /// REFERENCE: (1) symmetry of the loading and of the path (no reference computed by the
 ///       code): x7 + x9 = 4 m and x8 = 2 m within 1e-9 m at every row, slip7 = −slip9 and
 ///       slip8 = 0 within 1e-9 m (before this fix a wandering iteration slid node 8 onto 7:
 ///       x = 0.94 at μ = 0.15-0.2); (2) a sticking row (all slips 0 within 1e-12 m) satisfies
-///       the bisector Coulomb law at nodes 7 and 9 (|ΔT| cos ≤ μ f_n, slack 1e-4 for the
-///       kink angles at the nodes); (3) once the points met: the group within 1e-6 of the span
+///       the bisector Coulomb law at nodes 7 and 9 (|ΔT| cos ≤ μ f_n, slack 1e-4; the kink
+///       angles at the cable points, the membrane nodes lifted by their tie stretch load/k_c:
+///       at the nodes themselves node 8's 6e-5 m hang changes f_n by 0.4 %, which at μ = 0.15,
+///       row 3, a sticking point 0.17 % inside the cone, reads as outside it); (3) once the points met: the group within 1e-6 of the span
 ///       of node 8, and the frictionless V of the combined load (`v_sag`, total unstretched
 ///       length conserved: T within 1e-5 relative, y8 within 1e-5 m, the same bounds and
 ///       reasons as the frictionless test): the group is symmetric, so friction carries no
@@ -377,7 +382,14 @@ fn frictionless_nodes_that_meet_part_when_pulled_apart() {
 ///       is printed; iterations per row printed (median asserted <= 15, the issue's target).
 #[test]
 fn seed_fig6_frictional_points_meet_on_the_symmetric_path() {
-    for (mu, meets) in [(0.1, true), (0.2, true), (0.3, false)] {
+    for (mu, meets) in [
+        (0.1, true),
+        (0.125, true),
+        (0.15, true),
+        (0.175, true),
+        (0.2, true),
+        (0.3, false),
+    ] {
         let mut e = engine(read_scene(&shipped("SlidingCable")));
         set(&mut e, "mu", mu);
         solve(&mut e);
@@ -402,7 +414,16 @@ fn seed_fig6_frictional_points_meet_on_the_symmetric_path() {
                 .map(|n| get(&e, n))
                 .collect();
             if s7.abs() < 1e-12 && s9.abs() < 1e-12 {
-                let pos = |n: &str| (get(&e, &format!("x{n}")), get(&e, &format!("y{n}")));
+                // The cable points: the membrane nodes lifted by their tie stretch load/k_c
+                // (k_c = 100 EA/ℓ = 1e6 N/m; P on node 8, p/2 on 7 and 9).
+                let k_c = 100.0 * 1e4 / 1.0;
+                let lift = |n: &str| if n == "8" { 20.0 * k as f64 } else { k as f64 } / k_c;
+                let pos = |n: &str| {
+                    (
+                        get(&e, &format!("x{n}")),
+                        get(&e, &format!("y{n}")) + lift(n),
+                    )
+                };
                 let p = [(0.0, 0.0), pos("7"), pos("8"), pos("9"), (4.0, 0.0)];
                 for k in [1, 3] {
                     let (a, c, b) = (p[k - 1], p[k], p[k + 1]);
@@ -414,8 +435,10 @@ fn seed_fig6_frictional_points_meet_on_the_symmetric_path() {
                     let (ta, tb) = (t[k - 1], t[k]);
                     assert!(
                         (tb - ta).abs() * ch <= mu * (ta + tb) * sh * (1.0 + 1e-4) + 1e-6,
-                        "μ {mu}, node {}: sticking outside the cone",
-                        k + 6
+                        "μ {mu}, node {}: sticking outside the cone: |ΔT| cos {:.6e} vs μ f_n {:.6e}; T {t:?}",
+                        k + 6,
+                        (tb - ta).abs() * ch,
+                        mu * (ta + tb) * sh
                     );
                 }
             } else if met_at.is_none() {

@@ -414,3 +414,34 @@ fn arc_length_step_beyond_the_limit_load_fails_naming_it() {
     );
     assert!((reached - expected).abs() < 0.01 * expected);
 }
+
+/// GOAL: a volume input under `solver.path: arc_length` is load-controlled (the volume is
+///       itself the control that passes the limit point; docs/solver.md, arc length), the log
+///       says so, and the answers equal plain volume control.
+/// LOADING: the balloon of 8 divisions, dV to the stretches 1.2, 1.4 (past the limit 1.383), 1.6.
+/// REFERENCE: the same scene under load control (the same code runs: equal to round-off,
+///       asserted 1e-12 relative).
+#[test]
+fn a_volume_input_under_arc_length_is_load_controlled() {
+    let divisions = 8;
+    let (nodes, triangles) = octasphere(divisions, 1.0);
+    let (v0, _) = volume_and_area(&nodes, &triangles);
+    let mut arc = balloon(divisions);
+    arc.solver.path = velarium::scene::PathMethod::ArcLength;
+    let mut a = engine(balloon(divisions));
+    let mut b = engine(arc);
+    for stretch in [1.2f64, 1.4, 1.6] {
+        set(&mut a, "dV", (stretch.powi(3) - 1.0) * v0);
+        set(&mut b, "dV", (stretch.powi(3) - 1.0) * v0);
+        solve(&mut a);
+        let rb = solve(&mut b);
+        assert!(
+            rb.log[0].starts_with("arc length does not apply") && rb.log[0].contains("volume"),
+            "{}",
+            rb.log[0]
+        );
+        let (pa, pb) = (get(&a, "p"), get(&b, "p"));
+        assert!((pa - pb).abs() <= 1e-12 * pa.abs(), "{pa} vs {pb}");
+        println!("stretch {stretch}: p = {pb:.6} Pa by both");
+    }
+}

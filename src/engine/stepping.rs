@@ -192,6 +192,9 @@ impl Engine {
         }
         report.outcome = Outcome::Converged;
         report.reached = lambda;
+        // Short of the end (early return) the inputs are not yet the applied ones, so the
+        // engine is settled only after a whole step.
+        self.converged = true;
         report
     }
 }

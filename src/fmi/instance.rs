@@ -366,6 +366,24 @@ impl Instance {
         Ok(true)
     }
 
+    /// The cheap step (docs/fmu.md, the cost of a step): when the inputs and parameters are
+    /// those of the committed equilibrium, the step keeps it on the calling thread, with no
+    /// hand-over to the worker (nothing runs that could touch faer's thread-locals or need the
+    /// worker's stack). None: a solve is needed.
+    fn keep(&mut self) -> Result<Option<StepReport>, String> {
+        if self.poisoned {
+            return Err("the engine is unusable after an internal error; call fmi2Reset".into());
+        }
+        let kept = self.engine.keep();
+        if kept.is_some() && self.logger.enabled(Category::Solver) {
+            self.logger.log(
+                Category::Solver,
+                "inputs and parameters unchanged since the last converged step: equilibrium kept, no solve",
+            );
+        }
+        Ok(kept)
+    }
+
     /// `engine.solve()` with its log lines sent to logSolver.
     fn solve(&mut self) -> Result<StepReport, String> {
         if self.poisoned {
@@ -536,7 +554,10 @@ impl Instance {
         self.check_step(t, h)?;
         let report = match self.forced_failure(t + h) {
             Some(report) => report,
-            None => self.solve()?,
+            None => match self.keep()? {
+                Some(report) => report,
+                None => self.solve()?,
+            },
         };
         if report.converged() {
             self.time = t + h;

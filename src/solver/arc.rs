@@ -19,9 +19,12 @@
 //! The metric is the Euclidean norm of the free displacements divided by √n (n free DOFs), so
 //! `Settings::arc_length` is an RMS displacement in metres whatever the mesh.
 //!
-//! Where arc length does not apply the step is load-controlled: a step that moves prescribed
-//! displacements or volume/gas inputs, a model with sleeve points (stick/slip states) or volume
-//! unknowns, and every increment across which a membrane's wrinkle state switches
+//! Prescribed displacements that the step moves follow λ like the loads: they are set from
+//! load(λ) at every iteration, and q gains −K_fp du_p/dλ (their coupling into the free
+//! equations), so a displacement-driven path is followed through a limit point too.
+//!
+//! Where arc length does not apply the step is load-controlled: a step that moves volume/gas
+//! inputs, a model with sleeve points (stick/slip states) or volume unknowns, and every increment across which a membrane's wrinkle state switches
 //! (taut/wrinkled/slack) while the load rises: that increment is solved again by load control
 //! to the load factor the arc-length point reached (state switches make the path
 //! non-smooth, and the normal plane can then cut it at another state's equilibrium). A step
@@ -57,8 +60,8 @@ fn not_applicable(model: &Model, from: &[f64], to: &[f64]) -> Option<&'static st
         return Some("the model has sleeve points or volume unknowns");
     }
     for ((load, a), b) in model.loads.iter().zip(from).zip(to) {
-        if a != b && matches!(load, LoadModel::Displacement(_) | LoadModel::Volume { .. }) {
-            return Some("the step moves a prescribed displacement or volume");
+        if a != b && matches!(load, LoadModel::Volume { .. }) {
+            return Some("the step moves a prescribed volume");
         }
     }
     if from == to {
@@ -74,13 +77,59 @@ fn loads_at(from: &[f64], to: &[f64], lambda: f64) -> Vec<f64> {
         .collect()
 }
 
+/// du/dλ of the prescribed DOFs at λ (zero elsewhere), None when no prescribed displacement
+/// moves in the step.
+fn prescribed_rate(
+    model: &Model,
+    from: &[f64],
+    to: &[f64],
+    lambda: f64,
+    u: &[f64],
+) -> Option<Vec<f64>> {
+    let moves = model
+        .loads
+        .iter()
+        .zip(from.iter().zip(to))
+        .any(|(load, (a, b))| a != b && matches!(load, LoadModel::Displacement(_)));
+    if !moves {
+        return None;
+    }
+    let eps = 1e-6;
+    let (mut plus, mut minus) = (u.to_vec(), u.to_vec());
+    super::path::prescribe(model, &loads_at(from, to, lambda + eps), &mut plus);
+    super::path::prescribe(model, &loads_at(from, to, lambda - eps), &mut minus);
+    let mut rate = vec![0.0; model.dof_count()];
+    for load in &model.loads {
+        if let LoadModel::Displacement(p) = load {
+            for &d in &p.dofs {
+                rate[d] = (plus[d] - minus[d]) / (2.0 * eps);
+            }
+        }
+    }
+    Some(rate)
+}
+
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 impl Solver {
+    /// Why a step `from` → `to` under `solver.path: "arc_length"` is load-controlled as a
+    /// whole (sleeve points, volume or gas unknowns, moving volumes, unchanged loads); None
+    /// when arc length follows it.
+    pub fn arc_length_fallback(model: &Model, from: &[f64], to: &[f64]) -> Option<&'static str> {
+        not_applicable(model, from, to)
+    }
+
     /// q = R(u, from) − R(u, to) on the equations (−∂R/∂λ).
-    fn load_direction(&mut self, model: &Model, from: &[f64], to: &[f64], u: &[f64]) -> Vec<f64> {
+    fn load_direction(
+        &mut self,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        lambda: f64,
+        u: &[f64],
+    ) -> Vec<f64> {
         let mut r0 = vec![0.0; model.dof_count()];
         let mut r1 = vec![0.0; model.dof_count()];
         assemble_with(
@@ -105,6 +154,24 @@ impl Solver {
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             if e != NONE {
                 q[e] = r0[d] - r1[d];
+            }
+        }
+        // Prescribed displacements that move with λ: −K_fp du_p/dλ (du_p/dλ by a central
+        // difference: exact for translations, to about 1e-10 for rotations), through the held-step
+        // coupling of the assembly (the tangent's values are not touched).
+        if let Some(rate) = prescribed_rate(model, from, to, lambda, u) {
+            let mut coupling = vec![0.0; model.dof_count()];
+            let mut r = vec![0.0; model.dof_count()];
+            let membranes = Membranes {
+                held_step: Some((&rate, &mut coupling)),
+                ..Default::default()
+            };
+            let loads = loads_at(from, to, lambda);
+            assemble_with(model, &self.pattern, u, &loads, &mut r, None, membranes);
+            for (d, &e) in self.pattern.eq.iter().enumerate() {
+                if e != NONE {
+                    q[e] -= coupling[d];
+                }
             }
         }
         q
@@ -140,7 +207,7 @@ impl Solver {
         self.prestress_factor = 1.0;
         let loads = loads_at(from, to, lambda);
         self.assemble_at(model, &loads, u);
-        let mut v = self.load_direction(model, from, to, u);
+        let mut v = self.load_direction(model, from, to, lambda, u);
         self.linear.factor_solve(&mut v)?;
         let norm = dot(&v, &v).sqrt();
         if !(norm.is_finite() && norm > 0.0) {
@@ -184,6 +251,8 @@ impl Solver {
         self.prestress_factor = 1.0;
         for it in 0..=self.settings.max_iterations {
             let loads = loads_at(from, to, lambda);
+            // Prescribed displacements follow the load factor.
+            super::path::prescribe(model, &loads, &mut u);
             let info = self.assemble_at(model, &loads, &u);
             super::check_inversion(model, &info).map_err(|why| (it, why))?;
             let inc = Increment {
@@ -230,7 +299,7 @@ impl Solver {
                     y0[e] = -self.residual[d];
                 }
             }
-            let mut y1 = self.load_direction(model, from, to, &u);
+            let mut y1 = self.load_direction(model, from, to, lambda, &u);
             // load_direction does not touch the tangent values assembled above.
             self.linear.factor().map_err(|why| (it + 1, why))?;
             self.linear.solve(&mut y0).map_err(|why| (it + 1, why))?;
@@ -291,6 +360,9 @@ impl Solver {
     ) -> Result<(Vec<f64>, usize), (usize, String)> {
         let loads = loads_at(from, to, lambda);
         let mut trial = u.to_vec();
+        // Moves the prescribed displacements to λ (and predicts the free DOFs) as load
+        // control does.
+        let predicted = self.predict(model, &loads, &mut trial);
         let mut contact: Vec<Contact> = Vec::new();
         let increment = Increment {
             loads: &loads,
@@ -298,7 +370,8 @@ impl Solver {
             moved: true,
         };
         self.newton(model, &increment, &mut trial, &mut contact, log)
-            .map(|i| (trial, i))
+            .map(|i| (trial, i + predicted))
+            .map_err(|(i, why)| (i + predicted, why))
     }
 
     /// Trace the path of the step `from` → `to` from the equilibrium `u` (at `from`) by

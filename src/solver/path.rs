@@ -152,7 +152,7 @@ impl Solver {
     /// layer of elements and spend the first iterations (and wrinkle-state switches) undoing
     /// it. Returns the factorizations used (0 when nothing is prescribed to move, or 1);
     /// `u` leaves with the prescribed values set in any case.
-    fn predict(&mut self, model: &Model, loads: &[f64], u: &mut [f64]) -> usize {
+    pub(super) fn predict(&mut self, model: &Model, loads: &[f64], u: &mut [f64]) -> usize {
         let mut du = vec![0.0; u.len()];
         let mut target = u.to_vec();
         prescribe(model, loads, &mut target);
@@ -275,7 +275,7 @@ fn external_forces(model: &Model, loads: &[f64]) -> Vec<f64> {
 
 /// Set prescribed DOFs to their load values: the sum of what every input prescribing the DOF
 /// gives it (a rotation plus a translation, a radial plus a tangential component).
-fn prescribe(model: &Model, loads: &[f64], u: &mut [f64]) {
+pub(super) fn prescribe(model: &Model, loads: &[f64], u: &mut [f64]) {
     for load in &model.loads {
         if let LoadModel::Displacement(p) = load {
             for &d in &p.dofs {
