@@ -598,6 +598,11 @@ impl Engine {
             .residual(&self.model, &self.state.displacement, &self.state.applied)
     }
 
+    /// Stored entries of the tangent's LDLT factor (after AMD ordering), for the scaling benchmark.
+    pub fn factor_nonzeros(&self) -> usize {
+        self.solver.factor_nonzeros()
+    }
+
     /// Seconds of one assembly and of one numeric factorization + solve at the committed
     /// state (best of `repeats`): the per-iteration floor the benchmark compares against.
     pub fn time_floor(&mut self, repeats: usize) -> (f64, f64) {

@@ -83,6 +83,11 @@ impl Ldlt {
         })
     }
 
+    /// Stored entries of the factor L (AMD ordering, supernodal), for the scaling benchmark.
+    pub fn factor_nonzeros(&self) -> usize {
+        self.symbolic.len_val()
+    }
+
     /// The matrix values (upper triangle, CSC order) as last filled.
     pub fn values(&self) -> &[f64] {
         self.matrix.val()

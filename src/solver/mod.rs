@@ -273,6 +273,11 @@ pub struct Solver {
 }
 
 impl Solver {
+    /// Stored entries of the tangent's LDLT factor.
+    pub fn factor_nonzeros(&self) -> usize {
+        self.linear.factor_nonzeros()
+    }
+
     /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.

@@ -1,0 +1,182 @@
+//! Scaling benchmark, printed (not asserted; issue 15 item 6):
+//! `cargo run --release --example scale -- [RINGS...] [--no-shuffle]`.
+//!
+//! The Hencky disc (docs/mechanics.md §4a, follower pressure 40 Pa, flat start to full load in
+//! one step) at the given ring counts (default 34 and 106 rings: about 10k and 100k free DOF;
+//! 183 rings is about 300k, 334 rings about 1M DOF and about 3 GB: run those by hand, never
+//! in CI), each in the generator's node numbering and in a shuffled numbering (the same mesh
+//! written as explicit nodes and triangles with the node ids permuted by a fixed-seed
+//! xorshift generator, as a user's mesher might number it).
+//!
+//! Printed per case: free DOF, numbering, stored entries of the LDLT factor after faer's AMD, Newton iterations, wall time of the solve, the
+//! floor (one assembly + one numeric LDLT factorization and solve at the solution, best of 3,
+//! `Engine::time_floor`), seconds per iteration divided by the floor, the process's peak
+//! resident set so far (VmHWM from /proc/self/status; it only grows, so run one size per
+//! process for a per-size peak), threads (1: faer runs `Par::Seq`), and the relative error of
+//! the centre deflection against w0/a = 0.065404 (both numberings must agree).
+
+use std::time::Instant;
+use velarium::scene::{Generator, Scene};
+use velarium::Engine;
+
+const W_FOLLOWER: f64 = 0.065404;
+
+fn peak_rss_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kib| kib / 1024.0)
+}
+
+/// A fixed-seed permutation of 0..n (Fisher-Yates on xorshift64*).
+fn permutation(n: usize) -> Vec<usize> {
+    let mut p: Vec<usize> = (0..n).collect();
+    let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
+    for i in (1..n).rev() {
+        s ^= s >> 12;
+        s ^= s << 25;
+        s ^= s >> 27;
+        let r = s.wrapping_mul(0x2545_F491_4F6C_DD1D);
+        p.swap(i, (r % (i as u64 + 1)) as usize);
+    }
+    p
+}
+
+/// The same disc as explicit nodes and triangles with node ids permuted.
+fn shuffled(generated: &Engine, base: &Scene) -> Scene {
+    let model = generated.model();
+    let n = model.reference.len();
+    let perm = permutation(n); // old id -> new id
+    let mut nodes = vec![[0.0; 3]; n];
+    for (old, x) in model.reference.iter().enumerate() {
+        nodes[perm[old]] = [x.x, x.y, x.z];
+    }
+    let triangles: Vec<String> = model
+        .triangles
+        .iter()
+        .map(|t| {
+            format!(
+                "[{}, {}, {}]",
+                perm[t.nodes[0]], perm[t.nodes[1]], perm[t.nodes[2]]
+            )
+        })
+        .collect();
+    let rim: Vec<usize> = (0..n)
+        .filter(|&i| (model.reference[i].norm() - 0.5).abs() < 1e-9)
+        .map(|i| perm[i])
+        .collect();
+    let center = (0..n)
+        .find(|&i| model.reference[i].norm() < 1e-12)
+        .map(|i| perm[i])
+        .expect("a centre node");
+    let nodes_json: Vec<String> = nodes
+        .iter()
+        .map(|x| format!("[{:e}, {:e}, {:e}]", x[0], x[1], x[2]))
+        .collect();
+    let mut value = serde_json::to_value(base).expect("scene serializes");
+    value["geometry"] = serde_json::from_str(&format!(
+        r#"{{"nodes": [{}], "triangles": [{}], "node_sets": {{"rim": {:?}, "center": [{}]}}, "triangle_sets": {{"disc": {:?}}}}}"#,
+        nodes_json.join(","),
+        triangles.join(","),
+        rim,
+        center,
+        (0..model.triangles.len()).collect::<Vec<_>>()
+    ))
+    .expect("geometry JSON");
+    let text = serde_json::to_string(&value)
+        .unwrap()
+        .replace("\"disc.rim\"", "\"rim\"")
+        .replace("\"disc.center\"", "\"center\"");
+    Scene::from_json(&text).expect("valid shuffled scene")
+}
+
+fn run(label: &str, mut engine: Engine) {
+    let vr = engine
+        .variables()
+        .iter()
+        .find(|v| v.name == "pressure")
+        .unwrap()
+        .value_reference;
+    let out = engine
+        .variables()
+        .iter()
+        .find(|v| v.name == "center_uz")
+        .unwrap()
+        .value_reference;
+    let t = Instant::now();
+    engine.set_real(vr, 40.0).unwrap();
+    let report = engine.solve();
+    let time = t.elapsed().as_secs_f64();
+    if !report.converged() {
+        println!("{label}: did not converge: {}", report.message);
+        return;
+    }
+    let w = engine.get_real(out).unwrap() / 0.5;
+    let (assembly, factor) = engine.time_floor(3);
+    let floor = assembly + factor;
+    println!(
+        "{:>8} {:>10} {:>11} {:>6} {:>9.3} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
+        engine.free_dofs(),
+        label,
+        engine.factor_nonzeros(),
+        report.iterations,
+        time,
+        assembly,
+        factor,
+        time / report.iterations.max(1) as f64 / floor,
+        peak_rss_mib(),
+        1,
+        (w - W_FOLLOWER).abs() / W_FOLLOWER
+    );
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let no_shuffle = args.iter().any(|a| a == "--no-shuffle");
+    let rings: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
+    let rings = if rings.is_empty() {
+        vec![34, 106]
+    } else {
+        rings
+    };
+    let path = format!(
+        "{}/modelDescription/HenckyDisc/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let base = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene"))
+        .expect("valid scene");
+    println!("Hencky disc, follower pressure 40 Pa, flat start to full load, 1 thread");
+    println!(
+        "{:>8} {:>10} {:>11} {:>6} {:>9} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
+        "DOF",
+        "numbering",
+        "factor nnz",
+        "iters",
+        "total s",
+        "assem s",
+        "factor s",
+        "ratio",
+        "peak MiB",
+        "thr",
+        "w0 error"
+    );
+    for n in rings {
+        let mut scene = base.clone();
+        if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
+            *rings = n;
+        }
+        let engine = Engine::try_new(scene.clone()).expect("valid scene");
+        let shuffled_scene = (!no_shuffle).then(|| shuffled(&engine, &scene));
+        run("generated", engine);
+        if let Some(s) = shuffled_scene {
+            run(
+                "shuffled",
+                Engine::try_new(s).expect("valid shuffled scene"),
+            );
+        }
+    }
+}
