@@ -8,7 +8,7 @@
 //! outputs       dy = ∂y/∂z·dz + ∂y/∂v·dv + ∂y/∂p·dp
 //!               displacement, position, slip probes: exact (linear in z)
 //!               other continuous probes: central difference of the probe along (dz, dv, dp)
-//!               with a step 1e-7 of the model's length scale, wrinkle states held as
+//!               with a step 1e-6 of the model's length scale, wrinkle states held as
 //!               committed (a triangle on a wrinkle border must not switch inside the step)
 //!               integer probes and area fractions: 0 (their states are frozen)
 //! adjoint       w̄ = (∂y/∂(v, p))ᵀ w: one transposed solve Jᵀ λ = (∂y/∂z)ᵀ w when every seeded
@@ -38,7 +38,7 @@ pub enum Known {
 }
 
 /// Step of the central differences of the probes, relative to the model's length scale.
-const STEP: f64 = 1e-7;
+const STEP: f64 = 1e-6;
 /// Relative step of the central differences over a parameter: the residual is a difference of
 /// internal forces much larger than itself, so round-off (∝ 1/h) dominates below 1e-4
 /// (measured on the prestressed cable's pretension: 1e-8 → 1.3e-6, 1e-6 → 3.8e-8, 1e-4 →
@@ -274,7 +274,8 @@ impl Engine {
         let h = if scale == 0.0 { STEP } else { h };
         // On the branch of the committed equilibrium: a triangle on a wrinkle border must not
         // switch inside ±h (the difference would average the two sides' slopes; measured on
-        // AnnulusTorsion's hub moment: 3.9e-5 with the law's states, 1.5e-6 held).
+        // AnnulusTorsion's hub moment, whose remaining 3.9e-5 at this step is open: 1.5e-6 at a
+        // step of 1e-7, which however loses other outputs to round-off through the FMU).
         let held = self.membranes.iter().map(|e| Some(e.state)).collect();
         self.solver.hold_states(Some(held));
         let plus = self.probes_at(h, dz, dv, dp);
