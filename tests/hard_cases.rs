@@ -2,8 +2,8 @@
 //!       RIGHT answer (a closed form, exact statics, an exact symmetry or a hand bound) or, where
 //!       no equilibrium exists, the specific failure. No test accepts both convergence and
 //!       failure. On the solver of commit 79af9e6 (two Newton loops) 8 of the 19 passed; on the
-//!       one-loop solver 18 pass. The 2 that still fail are `#[ignore]`d with the reason and
-//!       the measured behaviour in the attribute: they are open work of issue 9, run them with
+//!       one-loop solver 19 pass. The 1 that still fails (e) is `#[ignore]`d with the reason and
+//!       the measured behaviour in the attribute: it is open work of issue 9, run it with
 //!       `cargo test --release --test hard_cases -- --ignored`.
 //!
 //! Conventions used in the tolerances below. The solver's documented criterion
@@ -432,7 +432,7 @@ fn k_ring_on_a_frictionless_cable() {
 /// softest, pendulum-like sliding stiffness ~F/0.4 m gives 4e-10 m against displacements of mm);
 /// (5) the bottom edge moves down (the film hangs: u_y < 0 at its midpoint).
 #[test]
-#[ignore = "open (issue 9): the residual-merit line search keeps the sliding step at α 0.008-0.06 (fraction-to-boundary on the slips); no convergence in 25 iterations, Discard at load fraction 0"]
+#[ignore = "open (issue 9): the residual-merit line search keeps the sliding step at α 0.008-0.06 while the cable is still straight (the film's slide along it is a near-mechanism); the path follower reaches load fraction 0.001, where 50 iterations end at |R| 8.1e-8 against the tolerance 5e-8: Discard"]
 fn e_membrane_held_only_by_a_frictionless_sleeve() {
     // Explicit nodes 0 (A), 1 (B); generated (i, j) -> 2 + 9 j + i; top edge j = 8: 74..=82.
     let id = |i: usize, j: usize| 2 + 9 * j + i;
@@ -905,12 +905,19 @@ fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
 /// REFERENCE: (1) global balance: the left-edge reactions sum to (−F, 0) within 1e-7 F
 /// (72 free nodes × the criterion 1e-9 F); (2) the tension field fans from the loaded corner:
 /// near a point load the tension-field solution is a centred fan (straight tension rays through
-/// the load point, zero hoop stress), so in every wrinkled triangle the tension direction is
+/// the load point, zero hoop stress), so in every wrinkled triangle that carries the load path's
+/// stress (major principal stress at least 1 % of the sheet's largest) the tension direction is
 /// closer to the ray towards the corner than to the hoop direction (angle < 45°, a generous bound
-/// for CST triangles seen from the corner under up to 45°; the largest deviation is printed);
+/// for CST triangles seen from the corner under up to 45°; the largest deviation is printed).
+/// Triangles below 1 % are left out because their direction is not determined: a wrinkled
+/// triangle under a stress of 1e-8 to 1e3 Pa (against 4.0e5 Pa at the corner) is an equilibrium
+/// for any tension direction to within the criterion; measured on this mesh, the 43 triangles
+/// above 1 % lie within 42.2° of the ray, the 29 below scatter up to 86°;
 /// (3) the two triangles at the loaded corner carry tension (not slack) and the corner moves in +x.
+/// Solved in one increment: 49 Newton iterations, the wrinkle states of the chattering triangles
+/// frozen from iteration 6, found wrong at the frozen equilibrium and then left to the law for
+/// the rest of the increment (docs/solver.md, chatter).
 #[test]
-#[ignore = "open (issue 9): the tension fan from the corner point load leaves slack-zone nodes as mechanisms of the tension-field law; Discard at load fraction 0"]
 fn j_rubber_sheet_pulled_at_one_corner() {
     let scene = scene_of(json!({
         "format": 1, "name": "CornerPull",
@@ -943,6 +950,12 @@ fn j_rubber_sheet_pulled_at_one_corner() {
     );
     assert!(disp(&e, corner).x > 0.0);
     let mut worst: f64 = 0.0;
+    let peak = e
+        .membranes()
+        .iter()
+        .map(|ev| ev.cauchy.0)
+        .fold(0.0_f64, f64::max);
+    let mut checked = 0;
     for (t, tri) in e.model().triangles.iter().enumerate() {
         let ev = &e.membranes()[t];
         let touches = tri.nodes.contains(&corner);
@@ -953,9 +966,10 @@ fn j_rubber_sheet_pulled_at_one_corner() {
                 "triangle {t} at the loaded corner is slack"
             );
         }
-        if ev.state != WrinkleState::Wrinkled || touches {
+        if ev.state != WrinkleState::Wrinkled || touches || ev.cauchy.0 < 0.01 * peak {
             continue;
         }
+        checked += 1;
         let centroid = tri
             .nodes
             .iter()
@@ -972,7 +986,11 @@ fn j_rubber_sheet_pulled_at_one_corner() {
         );
     }
     println!(
-        "(j) largest deviation of a wrinkled triangle's tension from the fan ray: {worst:.1}°"
+        "(j) largest deviation from the fan ray in the {checked} wrinkled triangles above 1 % of the peak stress {peak:.3e} Pa: {worst:.1}°"
+    );
+    assert!(
+        checked >= 20,
+        "only {checked} wrinkled triangles carry the load path"
     );
 }
 

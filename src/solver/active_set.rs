@@ -14,7 +14,10 @@
 //!                                  or when the laws' residual also meets the tolerance (an
 //!                                  element on a state border, where stress is continuous);
 //!                                  otherwise unfreeze and iterate on (at most max_unfreeze
-//!                                  times, then the increment fails with "chatter")
+//!                                  times, then the increment fails with "chatter"); wrinkle
+//!                                  states found wrong follow the law for the rest of the
+//!                                  increment (refreezing them leads back to the same wrong
+//!                                  equilibrium: hard case j)
 //! ```
 //! Freezing only the chattering triangles matters: a frozen state is evaluated outside its own
 //! region (a frozen wrinkled triangle then carries compression along its tension direction, a
@@ -47,6 +50,9 @@ pub(super) struct ActiveSet {
     freeze_after: usize,
     unfreezes: usize,
     max_unfreeze: usize,
+    /// Wrinkle states follow the law for the rest of the increment: set when frozen wrinkle
+    /// states turned out wrong at a converged point.
+    wrinkles_released: bool,
     merge_gap: f64,
 }
 
@@ -70,6 +76,7 @@ impl ActiveSet {
             freeze_after: settings.freeze_after,
             unfreezes: 0,
             max_unfreeze: settings.max_unfreeze,
+            wrinkles_released: false,
             merge_gap: settings.merge_gap,
         }
     }
@@ -84,6 +91,7 @@ impl ActiveSet {
         log: &mut Vec<String>,
     ) {
         if it >= self.freeze_at
+            && !self.wrinkles_released
             && self.previous.len() == states.len()
             && self.before.len() == states.len()
         {
@@ -195,6 +203,7 @@ impl ActiveSet {
         );
         self.contact_frozen = false;
         self.wrinkle_frozen = None;
+        self.wrinkles_released |= !wrinkle_ok;
         self.freeze_at = it + self.freeze_after;
         Ok(Recheck::IterateOn)
     }

@@ -2,12 +2,14 @@
 //! has.
 //!
 //! ```text
-//! Potential   every load has a potential and there are no slip unknowns: non-monotone Armijo
-//!             on Π (Grippo, Lampariello & Lucidi 1986), Π(α) <= max(last 5 Π) + c α Δu·R,
-//!             quadratic interpolation between tries
+//! Potential   every load has a potential and every sleeve point (if any) slides without
+//!             friction: non-monotone Armijo on Π (Grippo, Lampariello & Lucidi 1986),
+//!             Π(α) <= max(last 5 Π) + c α (Δu·R + Δs·r), quadratic interpolation between
+//!             tries, α from the same fraction-to-boundary limit as below
 //! Slope       follower pressure (no potential), no slip unknowns: s(α) = Δu·R(u + αΔu); full
 //!             step unless it overshoots the minimum, then regula falsi between 0 and α
-//! Residual    slip unknowns (friction has no potential): non-monotone Armijo on ‖(R_x, r)‖₂,
+//! Residual    friction, stuck or merged sleeve points, volume unknowns: non-monotone Armijo
+//!             on ‖(R_x, r)‖₂,
 //!             ‖R(α)‖ <= (1 − c α) max(last 5 ‖R‖), halving; α starts at the largest step that
 //!             keeps every sleeved segment's unstretched length above a tenth of its value
 //! ```
@@ -37,6 +39,8 @@ pub(super) enum Merit {
     Potential {
         value: f64,
         reference: f64,
+        /// Δs·r: the slips' part of the slope (0 without sleeve points).
+        slip_slope: f64,
     },
     Slope,
     /// ‖R‖₂ reference (the largest of the recent iterates).
@@ -77,7 +81,12 @@ impl Solver {
         // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
         let s0 = self.direction_dot_residual(dir.dx);
         match merit {
-            Merit::Potential { value, reference } => {
+            Merit::Potential {
+                value,
+                reference,
+                slip_slope,
+            } => {
+                let s0 = s0 + slip_slope;
                 // The potential resolves changes down to round-off of its own size; below a
                 // thousand times that, the slope (computed from forces) is the sharper measure.
                 let noise = 1e-13 * value.abs().max(f64::MIN_POSITIVE);
@@ -188,7 +197,7 @@ impl Solver {
         s0: f64,
     ) -> (f64, bool) {
         let noise = 1e-13 * p0.abs().max(f64::MIN_POSITIVE);
-        let mut alpha = 1.0;
+        let mut alpha = step_limit(model, u, dir.ds, self.settings.keep_length);
         for _ in 0..self.settings.line_search_tries {
             let (p, _, inverted) = self.trial_point(model, u, dir, at, alpha);
             if inverted || !p.is_finite() {

@@ -148,6 +148,9 @@ impl Solver {
         let memory = self.settings.nonmonotone_memory;
         let mut reopened = 0;
         let mut recent = std::collections::VecDeque::with_capacity(memory + 1);
+        // Whether `recent` holds potentials (true) or residual norms: a sleeve point that
+        // sticks or merges switches the merit, and the memory starts afresh.
+        let mut recent_potential = None;
         let max = self.settings.max_iterations;
         let hard_max = max.max(self.settings.max_iterations_progressing);
         let mut history: Vec<f64> = Vec::new();
@@ -290,7 +293,21 @@ impl Solver {
                 }
                 Err(why) => return Err((it + 1, why)),
             };
-            let merit = if !rows.is_empty() {
+            // Frictionless sliding points are conservative: a slip row r = f_t = c (T_b − T_a)
+            // vanishes where the potential is stationary in that slip (∂Π/∂s = T_b (1 + ε_b/2)
+            // − T_a (1 + ε_a/2), c the cosine of the half kink), so the potential is the merit,
+            // as without sleeves, with Δs·r for the slips' part of the slope. Friction, stuck or
+            // merged points and volume rows need the residual.
+            let sliding_freely =
+                rows.len() == model.slips.len()
+                    && model.slips.iter().zip(&active.contact).all(|(p, c)| {
+                        p.mu == 0.0 && matches!(c, Contact::Forward | Contact::Backward)
+                    });
+            let residual_merit = !rows.is_empty() && !(sliding_freely && model.is_conservative());
+            if recent_potential.replace(!residual_merit) == Some(residual_merit) {
+                recent.clear();
+            }
+            let merit = if residual_merit {
                 let slip: Vec<f64> = rows.iter().map(|r| r.r).collect();
                 Merit::Residual {
                     reference: remember(&mut recent, memory, self.residual_norm(&slip)),
@@ -299,6 +316,7 @@ impl Solver {
                 Merit::Potential {
                     value: info.potential,
                     reference: remember(&mut recent, memory, info.potential),
+                    slip_slope: rows.iter().zip(&ds).map(|(r, d)| r.r * d).sum(),
                 }
             } else {
                 Merit::Slope
