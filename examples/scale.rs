@@ -16,7 +16,7 @@
 //! the centre deflection against w0/a = 0.065404 (both numberings must agree).
 
 use std::time::Instant;
-use velarium::scene::{Generator, Scene};
+use velarium::scene::{Generator, NodeOrder, Scene};
 use velarium::Engine;
 
 const W_FOLLOWER: f64 = 0.065404;
@@ -51,13 +51,20 @@ fn shuffled(generated: &Engine, base: &Scene) -> Scene {
     let model = generated.model();
     let n = model.reference.len();
     let perm = permutation(n); // old id -> new id
+                               // Triangles in a shuffled order too: a mesher's element order is no better than its node
+                               // order.
+    let tri_perm = permutation(model.triangles.len()); // old position -> new position
+    let mut tri_order = vec![0; tri_perm.len()];
+    for (old, &new) in tri_perm.iter().enumerate() {
+        tri_order[new] = old;
+    }
     let mut nodes = vec![[0.0; 3]; n];
     for (old, x) in model.reference.iter().enumerate() {
         nodes[perm[old]] = [x.x, x.y, x.z];
     }
-    let triangles: Vec<String> = model
-        .triangles
+    let triangles: Vec<String> = tri_order
         .iter()
+        .map(|&e| &model.triangles[e])
         .map(|t| {
             format!(
                 "[{}, {}, {}]",
@@ -95,6 +102,15 @@ fn shuffled(generated: &Engine, base: &Scene) -> Scene {
 }
 
 fn run(label: &str, mut engine: Engine) {
+    if std::env::args().any(|a| a == "--nnz-only") {
+        println!(
+            "{:>8} {:>13} {:>11}",
+            engine.free_dofs(),
+            label,
+            engine.factor_nonzeros()
+        );
+        return;
+    }
     let vr = engine
         .variables()
         .iter()
@@ -119,7 +135,7 @@ fn run(label: &str, mut engine: Engine) {
     let (assembly, factor) = engine.time_floor(3);
     let floor = assembly + factor;
     println!(
-        "{:>8} {:>10} {:>11} {:>6} {:>9.3} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
+        "{:>8} {:>13} {:>11} {:>6} {:>9.3} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
         engine.free_dofs(),
         label,
         engine.factor_nonzeros(),
@@ -137,6 +153,21 @@ fn run(label: &str, mut engine: Engine) {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let no_shuffle = args.iter().any(|a| a == "--no-shuffle");
+    let mut orders: Vec<NodeOrder> = args
+        .iter()
+        .filter_map(|a| a.strip_prefix("--order="))
+        .flat_map(|list| list.split(','))
+        .map(|name| match name {
+            "rcm" => NodeOrder::Rcm,
+            "hilbert" => NodeOrder::Hilbert,
+            "central" => NodeOrder::Central,
+            "given" => NodeOrder::Given,
+            other => panic!("unknown --order {other}: rcm, hilbert or given"),
+        })
+        .collect();
+    if orders.is_empty() {
+        orders.push(NodeOrder::default());
+    }
     let rings: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
     let rings = if rings.is_empty() {
         vec![34, 106]
@@ -151,7 +182,7 @@ fn main() {
         .expect("valid scene");
     println!("Hencky disc, follower pressure 40 Pa, flat start to full load, 1 thread");
     println!(
-        "{:>8} {:>10} {:>11} {:>6} {:>9} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
+        "{:>8} {:>13} {:>11} {:>6} {:>9} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
         "DOF",
         "numbering",
         "factor nnz",
@@ -169,14 +200,23 @@ fn main() {
         if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
             *rings = n;
         }
-        let engine = Engine::try_new(scene.clone()).expect("valid scene");
-        let shuffled_scene = (!no_shuffle).then(|| shuffled(&engine, &scene));
-        run("generated", engine);
-        if let Some(s) = shuffled_scene {
-            run(
-                "shuffled",
-                Engine::try_new(s).expect("valid shuffled scene"),
-            );
+        let shuffled_scene = (!no_shuffle).then(|| {
+            let engine = Engine::try_new(scene.clone()).expect("valid scene");
+            shuffled(&engine, &scene)
+        });
+        for &order in &orders {
+            let name = format!("{order:?}").to_lowercase();
+            scene.solver.node_order = order;
+            let engine = Engine::try_new(scene.clone()).expect("valid scene");
+            run(&format!("gen/{name}"), engine);
+            if let Some(s) = &shuffled_scene {
+                let mut s = s.clone();
+                s.solver.node_order = order;
+                run(
+                    &format!("shuf/{name}"),
+                    Engine::try_new(s).expect("valid shuffled scene"),
+                );
+            }
         }
     }
 }

@@ -721,6 +721,27 @@ impl PathMethod {
     }
 }
 
+/// Internal node numbering of the linear solve (`solver.node_order`, `solver::renumber`).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum NodeOrder {
+    /// Reverse Cuthill-McKee on the node graph.
+    #[default]
+    Rcm,
+    /// Cuthill-McKee outward from a central node.
+    Central,
+    /// A Hilbert curve through the reference coordinates.
+    Hilbert,
+    /// The scene's own numbering.
+    Given,
+}
+
+impl NodeOrder {
+    fn is_default(&self) -> bool {
+        *self == NodeOrder::Rcm
+    }
+}
+
 /// Form finding settings (docs/mechanics.md §10). Every membrane group needs a `prestress`
 /// and every cable a `pretension`: these are the prescribed stress state whose equilibrium
 /// shape is sought. Supported components stay where `place` (or the geometry) puts them.
@@ -828,6 +849,12 @@ pub struct SolverSettings {
     /// in metres. Absent: set by a first load-controlled increment of `initial_increment`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub arc_length: Option<f64>,
+    /// Internal numbering of the nodes inside the linear solve (`rcm`, the default, `hilbert`
+    /// or `given`): the tangent's equations and the element visit order follow it, so the solve
+    /// costs the same whatever the mesher's numbering. Every result stays in the scene's node
+    /// numbering (docs/performance.md).
+    #[serde(default, skip_serializing_if = "NodeOrder::is_default")]
+    pub node_order: NodeOrder,
     /// Size limits checked before anything that grows with the scene is allocated
     /// (`limits.rs`): max_nodes, max_triangles, max_unknowns, max_memory_gb.
     #[serde(skip_serializing_if = "limits::Limits::is_default")]
@@ -846,6 +873,7 @@ impl Default for SolverSettings {
             line_search: true,
             path: PathMethod::LoadControl,
             arc_length: None,
+            node_order: NodeOrder::Rcm,
             limits: limits::Limits::default(),
         }
     }

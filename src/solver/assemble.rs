@@ -12,6 +12,7 @@ use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{cable, membrane, pressure, sleeve, LoadModel, Model};
+use crate::solver::renumber::{self, NodeOrder};
 use nalgebra::{SMatrix, Vector3};
 
 pub const NONE: usize = usize::MAX;
@@ -24,6 +25,12 @@ pub struct Pattern {
     pub row_idx: Vec<usize>,
     tri_map: Vec<[usize; 81]>,
     seg_map: Vec<[usize; 36]>,
+    /// The order in which an assembly visits the triangles: by their lowest internal node
+    /// (`renumber.rs`), so the scatter into K walks the mesh; the user's order under
+    /// `NodeOrder::Given`.
+    tri_order: Vec<usize>,
+    /// Per load, its pressed triangles in visit order (empty for other loads).
+    pressed_order: Vec<Vec<usize>>,
 }
 
 /// What one assembly found besides R and K.
@@ -42,17 +49,56 @@ pub struct AssemblyInfo {
 }
 
 impl Pattern {
-    /// Pattern and position maps of `model`, every buffer that grows with it allocated
-    /// fallibly (`crate::memory`).
+    /// Pattern and position maps of `model` in the default internal node order
+    /// (reverse Cuthill-McKee).
     pub fn try_new(model: &Model) -> Result<Pattern, OutOfMemory> {
+        Pattern::try_ordered(model, NodeOrder::default())
+    }
+
+    /// Pattern and position maps of `model` with equations numbered node by node in `order`
+    /// (`renumber.rs`), every buffer that grows with it allocated fallibly (`crate::memory`).
+    pub fn try_ordered(model: &Model, order: NodeOrder) -> Result<Pattern, OutOfMemory> {
+        let rank = renumber::node_rank(model, order)?;
+        let mut by_rank = memory::zeros::<usize>(rank.len(), "the equation numbers")?;
+        for (node, &r) in rank.iter().enumerate() {
+            by_rank[r] = node;
+        }
         let mut eq = memory::filled(model.dof_count(), NONE, "the equation numbers")?;
         let mut n = 0;
-        for (d, held) in model.held.iter().enumerate() {
-            if !held {
-                eq[d] = n;
-                n += 1;
+        for &node in &by_rank {
+            for d in 3 * node..3 * node + 3 {
+                if !model.held[d] {
+                    eq[d] = n;
+                    n += 1;
+                }
             }
         }
+        drop(by_rank);
+        let mut tri_order = memory::collect(0..model.triangles.len(), "the element order")?;
+        let mut tri_rank = Vec::new();
+        if order != NodeOrder::Given {
+            let first = |e: usize| model.triangles[e].nodes.iter().map(|&i| rank[i]).min();
+            tri_order.sort_by_key(|&e| first(e));
+            tri_rank = memory::zeros::<usize>(tri_order.len(), "the element order")?;
+            for (k, &e) in tri_order.iter().enumerate() {
+                tri_rank[e] = k;
+            }
+        }
+        drop(rank);
+        let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
+        for load in &model.loads {
+            let mut list = match load {
+                LoadModel::Pressure { triangles, .. } | LoadModel::Volume { triangles, .. } => {
+                    memory::copy(triangles, "the element order")?
+                }
+                _ => Vec::new(),
+            };
+            if !tri_rank.is_empty() {
+                list.sort_by_key(|&e| tri_rank[e]);
+            }
+            pressed_order.push(list);
+        }
+        drop(tri_rank);
         // Every element's DOFs (equation numbers, NONE where held), 9 for a triangle, 6 for a
         // segment or tie; triangles first, then segments and ties (the maps' order).
         let eqr = &eq;
@@ -177,9 +223,21 @@ impl Pattern {
             row_idx,
             tri_map,
             seg_map,
+            tri_order,
+            pressed_order,
         })
     }
 }
+
+/// Placeholder of a triangle's evaluation until the assembly writes it.
+const UNEVALUATED: Evaluation = Evaluation {
+    energy: 0.0,
+    state: WrinkleState::Taut,
+    angle: 0.0,
+    stress: Vector3::new(0.0, 0.0, 0.0),
+    cauchy: (0.0, 0.0),
+    area_ratio: 1.0,
+};
 
 fn scatter<const N: usize>(k: &SMatrix<f64, N, N>, map: &[usize], values: &mut [f64]) {
     for a in 0..N {
@@ -357,11 +415,13 @@ pub fn assemble_with(
     };
     if let Some(out) = extra.out.as_deref_mut() {
         out.clear();
+        out.resize(model.triangles.len(), UNEVALUATED);
     }
     let want_k = k.is_some() || extra.held_step.is_some();
     let factor = extra.prestress_factor.unwrap_or(1.0);
     let mut ke = membrane::Mat9::zeros();
-    for (e, t) in model.triangles.iter().enumerate() {
+    for &e in &pattern.tri_order {
+        let t = &model.triangles[e];
         let forced = extra.forced.and_then(|f| f[e]);
         let (f, eval, ratio) =
             triangle_contribution(model, e, u, factor, forced, want_k.then_some(&mut ke));
@@ -374,7 +434,7 @@ pub fn assemble_with(
             couple(&ke, &t.nodes, du, out);
         }
         if let Some(out) = extra.out.as_deref_mut() {
-            out.push(eval);
+            out[e] = eval;
         }
         info.potential += eval.energy;
         info.min_area_ratio = info.min_area_ratio.min(ratio);
@@ -421,7 +481,8 @@ pub fn assemble_with(
             }
             LoadModel::Pressure { .. } | LoadModel::Volume { .. } => {
                 let (triangles, follower) = pressed.expect("a pressure load");
-                for &e in triangles {
+                debug_assert_eq!(triangles.len(), pattern.pressed_order[l].len());
+                for &e in &pattern.pressed_order[l] {
                     let nodes = model.triangles[e].nodes;
                     let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
                     for &i in &nodes {

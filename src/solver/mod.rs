@@ -36,6 +36,7 @@ mod newton;
 mod order;
 mod path;
 mod relax;
+pub mod renumber;
 pub mod sensitivity;
 pub mod slip;
 mod volume;
@@ -152,6 +153,9 @@ pub struct Settings {
     /// first load-controlled increment of `initial_increment` (the scene's
     /// `solver.arc_length`). Default 0.
     pub arc_length: f64,
+    /// Internal node numbering of the tangent (`renumber.rs`). Default reverse Cuthill-McKee:
+    /// a shuffled numbering then costs what the generator's does (docs/performance.md).
+    pub node_order: renumber::NodeOrder,
 }
 
 impl Default for Settings {
@@ -187,6 +191,7 @@ impl Default for Settings {
             arc_length_path: false,
             contact_settle: 1e-3,
             arc_length: 0.0,
+            node_order: renumber::NodeOrder::Rcm,
         }
     }
 }
@@ -282,7 +287,7 @@ impl Solver {
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
-        let pattern = Pattern::try_new(model)?;
+        let pattern = Pattern::try_ordered(model, settings.node_order)?;
         let linear = Ldlt::try_new(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
