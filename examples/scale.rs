@@ -160,9 +160,9 @@ fn main() {
         .map(|name| match name {
             "rcm" => NodeOrder::Rcm,
             "hilbert" => NodeOrder::Hilbert,
-            "central" => NodeOrder::Central,
+            "rings" => NodeOrder::Rings,
             "given" => NodeOrder::Given,
-            other => panic!("unknown --order {other}: rcm, hilbert or given"),
+            other => panic!("unknown --order {other}: rings, rcm, hilbert or given"),
         })
         .collect();
     if orders.is_empty() {
@@ -174,6 +174,10 @@ fn main() {
     } else {
         rings
     };
+    if args.iter().any(|a| a == "--scenes") {
+        scenes();
+        return;
+    }
     let path = format!(
         "{}/modelDescription/HenckyDisc/scene.json",
         env!("CARGO_MANIFEST_DIR")
@@ -218,5 +222,43 @@ fn main() {
                 );
             }
         }
+    }
+}
+
+/// `--scenes`: the stored entries of the factor of every shipped scene in each internal node
+/// order (the symbolic factorization only; no solve).
+fn scenes() {
+    let root = format!("{}/modelDescription", env!("CARGO_MANIFEST_DIR"));
+    let mut dirs: Vec<_> = std::fs::read_dir(&root)
+        .expect("modelDescription")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    dirs.sort();
+    let orders = [
+        NodeOrder::Given,
+        NodeOrder::Rings,
+        NodeOrder::Rcm,
+        NodeOrder::Hilbert,
+    ];
+    println!(
+        "{:<24} {:>7} {:>10} {:>10} {:>10} {:>10}",
+        "scene", "DOF", "given", "rings", "rcm", "hilbert"
+    );
+    for dir in dirs {
+        let Ok(text) = std::fs::read_to_string(dir.join("scene.json")) else {
+            continue;
+        };
+        let scene = Scene::from_json(&text).expect("a shipped scene is valid");
+        let mut line = String::new();
+        let mut dofs = 0;
+        for order in orders {
+            let mut scene = scene.clone();
+            scene.solver.node_order = order;
+            let engine = Engine::try_new(scene).expect("a shipped scene builds");
+            dofs = engine.free_dofs();
+            line += &format!(" {:>10}", engine.factor_nonzeros());
+        }
+        let name = dir.file_name().unwrap().to_string_lossy().into_owned();
+        println!("{name:<24} {dofs:>7}{line}");
     }
 }

@@ -725,11 +725,11 @@ impl PathMethod {
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum NodeOrder {
-    /// Reverse Cuthill-McKee on the node graph.
+    /// Breadth-first rings outward from a central node, each ring counterclockwise.
     #[default]
+    Rings,
+    /// Reverse Cuthill-McKee on the node graph.
     Rcm,
-    /// Cuthill-McKee outward from a central node.
-    Central,
     /// A Hilbert curve through the reference coordinates.
     Hilbert,
     /// The scene's own numbering.
@@ -738,7 +738,7 @@ pub enum NodeOrder {
 
 impl NodeOrder {
     fn is_default(&self) -> bool {
-        *self == NodeOrder::Rcm
+        *self == NodeOrder::Rings
     }
 }
 
@@ -849,8 +849,8 @@ pub struct SolverSettings {
     /// in metres. Absent: set by a first load-controlled increment of `initial_increment`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub arc_length: Option<f64>,
-    /// Internal numbering of the nodes inside the linear solve (`rcm`, the default, `hilbert`
-    /// or `given`): the tangent's equations and the element visit order follow it, so the solve
+    /// Internal numbering of the nodes inside the linear solve (`rings`, the default, `rcm`,
+    /// `hilbert` or `given`): the tangent's equations and the element visit order follow it, so the solve
     /// costs the same whatever the mesher's numbering. Every result stays in the scene's node
     /// numbering (docs/performance.md).
     #[serde(default, skip_serializing_if = "NodeOrder::is_default")]
@@ -873,7 +873,7 @@ impl Default for SolverSettings {
             line_search: true,
             path: PathMethod::LoadControl,
             arc_length: None,
-            node_order: NodeOrder::Rcm,
+            node_order: NodeOrder::Rings,
             limits: limits::Limits::default(),
         }
     }

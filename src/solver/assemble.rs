@@ -50,7 +50,7 @@ pub struct AssemblyInfo {
 
 impl Pattern {
     /// Pattern and position maps of `model` in the default internal node order
-    /// (reverse Cuthill-McKee).
+    /// (`NodeOrder::Rings`).
     pub fn try_new(model: &Model) -> Result<Pattern, OutOfMemory> {
         Pattern::try_ordered(model, NodeOrder::default())
     }

@@ -153,8 +153,8 @@ pub struct Settings {
     /// first load-controlled increment of `initial_increment` (the scene's
     /// `solver.arc_length`). Default 0.
     pub arc_length: f64,
-    /// Internal node numbering of the tangent (`renumber.rs`). Default reverse Cuthill-McKee:
-    /// a shuffled numbering then costs what the generator's does (docs/performance.md).
+    /// Internal node numbering of the tangent (`renumber.rs`). Default rings from a central
+    /// node: any numbering of the same mesh then costs the same (docs/performance.md).
     pub node_order: renumber::NodeOrder,
 }
 
@@ -191,7 +191,7 @@ impl Default for Settings {
             arc_length_path: false,
             contact_settle: 1e-3,
             arc_length: 0.0,
-            node_order: renumber::NodeOrder::Rcm,
+            node_order: renumber::NodeOrder::Rings,
         }
     }
 }

@@ -32,8 +32,10 @@
 use crate::memory::{self, OutOfMemory};
 use crate::model::Model;
 pub use crate::scene::NodeOrder;
+use nalgebra::Vector3;
 
 const WHAT: &str = "the node renumbering";
+const NONE: usize = usize::MAX;
 
 /// Internal position of every node of `model` under `order` (`rank[node]`), a permutation.
 pub fn node_rank(model: &Model, order: NodeOrder) -> Result<Vec<usize>, OutOfMemory> {
@@ -41,7 +43,7 @@ pub fn node_rank(model: &Model, order: NodeOrder) -> Result<Vec<usize>, OutOfMem
     let sequence = match order {
         NodeOrder::Given => return memory::collect(0..n, WHAT),
         NodeOrder::Rcm => cuthill_mckee(model, false)?,
-        NodeOrder::Central => cuthill_mckee(model, true)?,
+        NodeOrder::Rings => cuthill_mckee(model, true)?,
         NodeOrder::Hilbert => hilbert(model)?,
     };
     let mut rank = memory::filled(n, usize::MAX, WHAT)?;
@@ -126,6 +128,21 @@ fn cuthill_mckee(model: &Model, central: bool) -> Result<Vec<usize>, OutOfMemory
     let mut reached: Vec<usize> = memory::with_capacity(n, WHAT)?;
     let mut far_level: Vec<usize> = Vec::new();
     let mut neighbours: Vec<usize> = Vec::new();
+    let mut parent = memory::filled(n, NONE, WHAT)?;
+    // Unit normal of the membrane at every node (area-weighted over its triangles; zero at a
+    // node no triangle touches).
+    let mut normal = memory::filled(n, Vector3::zeros(), WHAT)?;
+    for t in &model.triangles {
+        let [a, b, c] = t.nodes.map(|i| model.reference[i]);
+        let w = (b - a).cross(&(c - a));
+        for &i in &t.nodes {
+            normal[i] += w;
+        }
+    }
+    for v in &mut normal {
+        let l = v.norm();
+        *v = if l > 0.0 { *v / l } else { Vector3::zeros() };
+    }
     let clear = |level: &mut [usize], reached: &[usize]| {
         for &i in reached {
             level[i] = usize::MAX;
@@ -193,9 +210,42 @@ fn cuthill_mckee(model: &Model, central: bool) -> Result<Vec<usize>, OutOfMemory
                     .copied()
                     .filter(|&j| !placed[j]),
             );
-            neighbours.sort_unstable_by_key(|&j| (degree(j), keys[j], j));
+            if central && normal[i] != Vector3::zeros() {
+                // Counterclockwise around i's normal, from the direction to i's parent (to its
+                // lowest-keyed neighbour at the start): each level continues around the front
+                // the way the previous one went.
+                let x = &model.reference;
+                let nrm = normal[i];
+                let towards = match parent[i] {
+                    NONE => neighbours
+                        .iter()
+                        .min_by_key(|&&j| (keys[j], j))
+                        .map(|&j| x[j]),
+                    p => Some(x[p]),
+                };
+                let d0 = towards.map_or(Vector3::zeros(), |y| y - x[i]);
+                let d0 = d0 - nrm * d0.dot(&nrm);
+                let e2 = nrm.cross(&d0);
+                let angle = |j: usize| {
+                    let d = x[j] - x[i];
+                    let a = e2.dot(&d).atan2(d0.dot(&d));
+                    if a < 0.0 {
+                        a + std::f64::consts::TAU
+                    } else {
+                        a
+                    }
+                };
+                neighbours.sort_unstable_by(|&a, &b| {
+                    angle(a)
+                        .total_cmp(&angle(b))
+                        .then((keys[a], a).cmp(&(keys[b], b)))
+                });
+            } else {
+                neighbours.sort_unstable_by_key(|&j| (degree(j), keys[j], j));
+            }
             for &j in &neighbours {
                 placed[j] = true;
+                parent[j] = i;
                 order.push(j);
             }
         }
