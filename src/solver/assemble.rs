@@ -23,13 +23,18 @@ pub struct Pattern {
     pub n: usize,
     pub col_ptr: Vec<usize>,
     pub row_idx: Vec<usize>,
+    /// Per triangle in visit order (`tri_order`), the position in K's values of each of its
+    /// 81 entries (NONE: held or lower triangle).
     tri_map: Vec<[usize; 81]>,
     seg_map: Vec<[usize; 36]>,
     /// The order in which an assembly visits the triangles: by their lowest internal node
     /// (`renumber.rs`), so the scatter into K walks the mesh; the user's order under
     /// `NodeOrder::Given`.
     tri_order: Vec<usize>,
-    /// Per load, its pressed triangles in visit order (empty for other loads).
+    /// Position of every triangle in `tri_order` (its row of `tri_map`).
+    tri_slot: Vec<usize>,
+    /// Per load, its pressed triangles in visit order (empty for other loads): the pressure
+    /// loop streams through `tri_map` too.
     pressed_order: Vec<Vec<usize>>,
 }
 
@@ -75,16 +80,15 @@ impl Pattern {
         }
         drop(by_rank);
         let mut tri_order = memory::collect(0..model.triangles.len(), "the element order")?;
-        let mut tri_rank = Vec::new();
         if order != NodeOrder::Given {
             let first = |e: usize| model.triangles[e].nodes.iter().map(|&i| rank[i]).min();
             tri_order.sort_by_key(|&e| first(e));
-            tri_rank = memory::zeros::<usize>(tri_order.len(), "the element order")?;
-            for (k, &e) in tri_order.iter().enumerate() {
-                tri_rank[e] = k;
-            }
         }
         drop(rank);
+        let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
+        for (k, &e) in tri_order.iter().enumerate() {
+            tri_slot[e] = k;
+        }
         let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
         for load in &model.loads {
             let mut list = match load {
@@ -93,12 +97,9 @@ impl Pattern {
                 }
                 _ => Vec::new(),
             };
-            if !tri_rank.is_empty() {
-                list.sort_by_key(|&e| tri_rank[e]);
-            }
+            list.sort_by_key(|&e| tri_slot[e]);
             pressed_order.push(list);
         }
-        drop(tri_rank);
         // Every element's DOFs (equation numbers, NONE where held), 9 for a triangle, 6 for a
         // segment or tie; triangles first, then segments and ties (the maps' order).
         let eqr = &eq;
@@ -200,8 +201,8 @@ impl Pattern {
         let mut d = [NONE; 9];
         let mut tri_map =
             memory::with_capacity(model.triangles.len(), "the element position maps")?;
-        for t in &model.triangles {
-            dofs_of(&t.nodes, &mut d);
+        for &e in &tri_order {
+            dofs_of(&model.triangles[e].nodes, &mut d);
             let mut m = [NONE; 81];
             map(&d, &mut m);
             tri_map.push(m);
@@ -224,6 +225,7 @@ impl Pattern {
             tri_map,
             seg_map,
             tri_order,
+            tri_slot,
             pressed_order,
         })
     }
@@ -420,7 +422,7 @@ pub fn assemble_with(
     let want_k = k.is_some() || extra.held_step.is_some();
     let factor = extra.prestress_factor.unwrap_or(1.0);
     let mut ke = membrane::Mat9::zeros();
-    for &e in &pattern.tri_order {
+    for (slot, &e) in pattern.tri_order.iter().enumerate() {
         let t = &model.triangles[e];
         let forced = extra.forced.and_then(|f| f[e]);
         let (f, eval, ratio) =
@@ -428,7 +430,7 @@ pub fn assemble_with(
         add_force(r, &t.nodes, f.as_slice(), &mut extra.magnitude);
         info.carried = info.carried.max(largest(f.as_slice()));
         if let Some(k) = k.as_deref_mut() {
-            scatter(&ke, &pattern.tri_map[e], k);
+            scatter(&ke, &pattern.tri_map[slot], k);
         }
         if let Some((du, out)) = extra.held_step.as_mut() {
             couple(&ke, &t.nodes, du, out);
@@ -492,7 +494,7 @@ pub fn assemble_with(
                     }
                     if let Some(kp) = kp {
                         if let Some(k) = k.as_deref_mut() {
-                            scatter(&kp, &pattern.tri_map[e], k);
+                            scatter(&kp, &pattern.tri_map[pattern.tri_slot[e]], k);
                         }
                         if let Some((du, out)) = extra.held_step.as_mut() {
                             couple(&kp, &nodes, du, out);
