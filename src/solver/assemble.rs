@@ -33,6 +33,11 @@ pub struct Pattern {
     tri_order: Vec<usize>,
     /// Position of every triangle in `tri_order` (its row of `tri_map`).
     tri_slot: Vec<usize>,
+    /// The model's triangles in visit order with their nodes' internal positions (empty under
+    /// `NodeOrder::Given`): one assembly reads them, and the positions, front to back.
+    triangles: Vec<crate::model::Triangle>,
+    /// The user's node at every internal position (empty under `NodeOrder::Given`).
+    node_of: Vec<usize>,
     /// Per load, its pressed triangles in visit order (empty for other loads): the pressure
     /// loop streams through `tri_map` too.
     pressed_order: Vec<Vec<usize>>,
@@ -78,17 +83,30 @@ impl Pattern {
                 }
             }
         }
-        drop(by_rank);
         let mut tri_order = memory::collect(0..model.triangles.len(), "the element order")?;
         if order != NodeOrder::Given {
             let first = |e: usize| model.triangles[e].nodes.iter().map(|&i| rank[i]).min();
             tri_order.sort_by_key(|&e| first(e));
         }
-        drop(rank);
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {
             tri_slot[e] = k;
         }
+        let mut triangles = Vec::new();
+        if order != NodeOrder::Given {
+            triangles = memory::with_capacity(tri_order.len(), "the element order")?;
+            triangles.extend(tri_order.iter().map(|&e| {
+                let mut t = model.triangles[e].clone();
+                t.nodes = t.nodes.map(|i| rank[i]);
+                t
+            }));
+        }
+        drop(rank);
+        let node_of = if order == NodeOrder::Given {
+            Vec::new()
+        } else {
+            by_rank
+        };
         let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
         for load in &model.loads {
             let mut list = match load {
@@ -226,6 +244,8 @@ impl Pattern {
             seg_map,
             tri_order,
             tri_slot,
+            triangles,
+            node_of,
             pressed_order,
         })
     }
@@ -313,17 +333,39 @@ pub(super) fn triangle_contribution(
     forced: Option<WrinkleState>,
     ke: Option<&mut membrane::Mat9>,
 ) -> (membrane::Vec9, Evaluation, f64) {
-    let t = &model.triangles[e];
-    let x = gather(model, u, t.nodes);
+    triangle_of(model, &model.triangles[e], u, prestress_factor, forced, ke)
+}
+
+/// [`triangle_contribution`] of triangle data `t` (the model's, or the pattern's copy in
+/// visit order).
+fn triangle_of(
+    model: &Model,
+    t: &crate::model::Triangle,
+    u: &[f64],
+    prestress_factor: f64,
+    forced: Option<WrinkleState>,
+    ke: Option<&mut membrane::Mat9>,
+) -> (membrane::Vec9, Evaluation, f64) {
+    triangle_at(t, &gather(model, u, t.nodes), prestress_factor, forced, ke)
+}
+
+/// One triangle's force, evaluation and area ratio at current node positions `x`.
+fn triangle_at(
+    t: &crate::model::Triangle,
+    x: &[Vector3<f64>; 3],
+    prestress_factor: f64,
+    forced: Option<WrinkleState>,
+    ke: Option<&mut membrane::Mat9>,
+) -> (membrane::Vec9, Evaluation, f64) {
     let (f, eval) = membrane::triangle(
         &t.reference,
         &t.material,
         t.prestress * prestress_factor,
-        &x,
+        x,
         forced,
         ke,
     );
-    (f, eval, membrane::signed_area_ratio(&t.reference, &x))
+    (f, eval, membrane::signed_area_ratio(&t.reference, x))
 }
 
 /// One cable segment's internal force, tangent and energy at `u` (its unstretched length
@@ -369,13 +411,28 @@ pub(super) fn pressure_contribution(
     want_k: bool,
 ) -> (Vector3<f64>, Option<membrane::Mat9>) {
     let t = &model.triangles[e];
+    let x = if follower {
+        gather(model, u, t.nodes)
+    } else {
+        [Vector3::zeros(); 3]
+    };
+    pressure_at(t, &x, value, follower, want_k)
+}
+
+/// [`pressure_contribution`] of triangle data `t` at node positions `x` (used if `follower`).
+fn pressure_at(
+    t: &crate::model::Triangle,
+    x: &[Vector3<f64>; 3],
+    value: f64,
+    follower: bool,
+    want_k: bool,
+) -> (Vector3<f64>, Option<membrane::Mat9>) {
     if follower {
-        let x = gather(model, u, t.nodes);
         let k = want_k.then(|| {
-            let kp = pressure::follower_stiffness(value, &x);
+            let kp = pressure::follower_stiffness(value, x);
             (kp + kp.transpose()) * 0.5
         });
-        (pressure::follower_force(value, &x), k)
+        (pressure::follower_force(value, x), k)
     } else {
         (t.reference.normal * (value * t.reference.area / 3.0), None)
     }
@@ -422,24 +479,61 @@ pub fn assemble_with(
     let want_k = k.is_some() || extra.held_step.is_some();
     let factor = extra.prestress_factor.unwrap_or(1.0);
     let mut ke = membrane::Mat9::zeros();
+    // Renumbered (`pattern.triangles` holds the triangles in visit order with internal node
+    // numbers): positions gathered once in internal order, forces summed in internal order and
+    // added to R (and the magnitudes) node by node at the end, so the element loop reads and
+    // writes memory front to back whatever the user's numbering.
+    let internal = !pattern.triangles.is_empty();
+    let mut xi = Vec::new();
+    let (mut ri, mut mi) = (Vec::new(), Vec::new());
+    if internal {
+        xi.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
+        ri.resize(3 * xi.len(), 0.0);
+        if extra.magnitude.is_some() {
+            mi.resize(3 * xi.len(), 0.0);
+        }
+    }
     for (slot, &e) in pattern.tri_order.iter().enumerate() {
-        let t = &model.triangles[e];
+        let user = &model.triangles[e];
         let forced = extra.forced.and_then(|f| f[e]);
-        let (f, eval, ratio) =
-            triangle_contribution(model, e, u, factor, forced, want_k.then_some(&mut ke));
-        add_force(r, &t.nodes, f.as_slice(), &mut extra.magnitude);
+        let kk = want_k.then_some(&mut ke);
+        let (f, eval, ratio) = if internal {
+            let t = &pattern.triangles[slot];
+            let (f, eval, ratio) = triangle_at(t, &t.nodes.map(|i| xi[i]), factor, forced, kk);
+            let mut m = (!mi.is_empty()).then_some(&mut mi[..]);
+            add_force(&mut ri, &t.nodes, f.as_slice(), &mut m);
+            (f, eval, ratio)
+        } else {
+            let (f, eval, ratio) = triangle_of(model, user, u, factor, forced, kk);
+            add_force(r, &user.nodes, f.as_slice(), &mut extra.magnitude);
+            (f, eval, ratio)
+        };
         info.carried = info.carried.max(largest(f.as_slice()));
         if let Some(k) = k.as_deref_mut() {
             scatter(&ke, &pattern.tri_map[slot], k);
         }
         if let Some((du, out)) = extra.held_step.as_mut() {
-            couple(&ke, &t.nodes, du, out);
+            couple(&ke, &user.nodes, du, out);
         }
         if let Some(out) = extra.out.as_deref_mut() {
             out[e] = eval;
         }
         info.potential += eval.energy;
         info.min_area_ratio = info.min_area_ratio.min(ratio);
+    }
+    if internal {
+        for (k, &i) in pattern.node_of.iter().enumerate() {
+            for c in 0..3 {
+                r[3 * i + c] += ri[3 * k + c];
+            }
+        }
+        if let Some(m) = extra.magnitude.as_deref_mut() {
+            for (k, &i) in pattern.node_of.iter().enumerate() {
+                for c in 0..3 {
+                    m[3 * i + c] += mi[3 * k + c];
+                }
+            }
+        }
     }
     let ns = model.segments.len();
     let lines = (0..ns).map(|e| {
@@ -485,8 +579,16 @@ pub fn assemble_with(
                 let (triangles, follower) = pressed.expect("a pressure load");
                 debug_assert_eq!(triangles.len(), pattern.pressed_order[l].len());
                 for &e in &pattern.pressed_order[l] {
-                    let nodes = model.triangles[e].nodes;
-                    let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
+                    let slot = pattern.tri_slot[e];
+                    let (f, kp, nodes) = if internal {
+                        let t = &pattern.triangles[slot];
+                        let x = t.nodes.map(|i| xi[i]);
+                        let (f, kp) = pressure_at(t, &x, value, follower, want_k);
+                        (f, kp, t.nodes.map(|i| pattern.node_of[i]))
+                    } else {
+                        let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
+                        (f, kp, model.triangles[e].nodes)
+                    };
                     for &i in &nodes {
                         for c in 0..3 {
                             fext[3 * i + c] += f[c];
@@ -494,7 +596,7 @@ pub fn assemble_with(
                     }
                     if let Some(kp) = kp {
                         if let Some(k) = k.as_deref_mut() {
-                            scatter(&kp, &pattern.tri_map[pattern.tri_slot[e]], k);
+                            scatter(&kp, &pattern.tri_map[slot], k);
                         }
                         if let Some((du, out)) = extra.held_step.as_mut() {
                             couple(&kp, &nodes, du, out);
