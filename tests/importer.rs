@@ -31,8 +31,9 @@
 //! difference over all outputs, rows, scenes and both FMI versions is 0). Every output column of
 //! the CSV must be read through the FMU and every FMU output must have its column.
 //!
-//! `VELARIUM_IMPORTER_LIB=path/to/libvelarium.so` packs that library instead of the one next to
-//! the `velarium` executable (used to check the glibc 2.17 build, docs/fmu.md).
+//! With `VELARIUM_LIB=path/to/libvelarium.so` in the environment, `velarium pack` ships that
+//! library instead of the one next to the `velarium` executable: `.ci/glibc217` runs this test
+//! so on the glibc 2.17 build (docs/fmu.md).
 
 use std::collections::HashMap;
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
@@ -67,18 +68,12 @@ fn run(args: &[&str]) -> String {
 
 /// `velarium pack` into `dir`: (FMI 2 archive, FMI 3 archive).
 fn pack(scene: &Path, name: &str, dir: &Path) -> (PathBuf, PathBuf) {
-    let mut args = vec![
-        "pack".to_string(),
-        scene.display().to_string(),
-        "--out".to_string(),
-        dir.display().to_string(),
-    ];
-    if let Ok(lib) = std::env::var("VELARIUM_IMPORTER_LIB") {
-        args.push("--lib".into());
-        args.push(lib);
-    }
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    run(&args);
+    run(&[
+        "pack",
+        scene.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
     (
         dir.join(format!("{name}.fmu")),
         dir.join(format!("{name}_fmi3.fmu")),

@@ -23,7 +23,7 @@
 
 use super::Engine;
 use crate::error::Error;
-use crate::model::{Model, ProbeModel};
+use crate::model::{LoadModel, Model, ProbeModel};
 use crate::results;
 use crate::solver::assemble;
 use crate::solver::sensitivity::{self, Tangent};
@@ -254,6 +254,8 @@ impl Engine {
         // A parameter may enter a probe itself (EA in a tension): only the kinematic probes
         // then keep their exact gradient.
         let parameters = dp.iter().any(|x| *x != 0.0);
+        // The reactions' exact change (None: they go by the difference below).
+        let mut reactions: Option<Option<ReactionChange>> = None;
         for (k, &o) in unknowns.iter().enumerate() {
             let gradient = self
                 .probe_gradient(o)
@@ -261,10 +263,23 @@ impl Engine {
             match gradient {
                 Some(gradient) => {
                     out[k] = gradient.iter().map(|&(i, g)| g * dz[i]).sum();
+                    continue;
                 }
-                None if continuous(&self.model.probes[o]) => needs_difference.push(k),
+                None if !continuous(&self.model.probes[o]) => continue,
                 None => {}
             }
+            if is_reaction(&self.model.probes[o]) && !parameters {
+                if reactions.is_none() {
+                    reactions = Some(self.reaction_change(dz, dv)?);
+                }
+                if let Some(change) = reactions.as_ref().and_then(|r| r.as_ref()) {
+                    if let Some(d) = change.probe(&self.model, &self.state.displacement, dz, o) {
+                        out[k] = d;
+                        continue;
+                    }
+                }
+            }
+            needs_difference.push(k);
         }
         if needs_difference.is_empty() {
             return Ok(out);
@@ -287,6 +302,51 @@ impl Engine {
             out[k] = (plus[o] - minus[o]) / (2.0 * h);
         }
         Ok(out)
+    }
+
+    /// The held DOFs' reactions r = R(z; v) at the committed equilibrium and their change dr =
+    /// ∂R/∂z·dz + ∂R/∂v·dv along a solution (dz with the held DOFs' prescribed motion, dv the
+    /// inputs' change), exactly: the rows of the consistent tangent with the states frozen,
+    /// minus the change of the external loads. None where a part is not formed (slips).
+    fn reaction_change(&mut self, dz: &[f64], dv: &[f64]) -> Result<Option<ReactionChange>, Error> {
+        self.ensure_tangent()?;
+        let tangent = self.tangent.take().expect("ensured");
+        let states: Vec<_> = self.membranes.iter().map(|e| e.state).collect();
+        let held = states.iter().map(|s| Some(*s)).collect();
+        let s = &self.state;
+        let product = self.solver.tangent_product(
+            &self.model,
+            &s.displacement,
+            &s.applied,
+            &tangent,
+            &states,
+            dz,
+        );
+        let change = match product {
+            None => None,
+            Some(mut dr) => {
+                // −∂f_ext/∂v·dv: a force input's external force per unit value (a prescribed
+                // displacement's change is in dz already).
+                for (slot, &d) in dv.iter().enumerate().filter(|(_, d)| **d != 0.0) {
+                    if matches!(self.model.loads[slot], LoadModel::Displacement(_)) {
+                        continue;
+                    }
+                    let (g, _) = self.load_rhs(&tangent, slot);
+                    for (a, b) in dr.iter_mut().zip(&g) {
+                        *a -= d * b;
+                    }
+                }
+                self.solver.hold_states(Some(held));
+                let s = &self.state;
+                let r = self
+                    .solver
+                    .residual(&self.model, &s.displacement, &s.applied);
+                self.solver.hold_states(None);
+                Some(ReactionChange { r, dr })
+            }
+        };
+        self.tangent = Some(tangent);
+        Ok(change)
     }
 
     /// Every probe at z + t dz, v + t dv, p + t dp (states as committed).
@@ -409,6 +469,70 @@ impl Engine {
             _ => return None,
         })
     }
+}
+
+/// The reactions at the committed equilibrium (`r`, every DOF's residual; the held DOFs'
+/// entries are the reactions) and their change `dr` along a solution.
+struct ReactionChange {
+    r: Vec<f64>,
+    dr: Vec<f64>,
+}
+
+impl ReactionChange {
+    /// d(probe) of a reaction probe (None: not a reaction probe, or the resultant at zero
+    /// where its norm has no derivative).
+    fn probe(&self, model: &Model, u: &[f64], dz: &[f64], slot: usize) -> Option<f64> {
+        let held = |v: &[f64], i: usize| {
+            nalgebra::Vector3::from_fn(|c, _| {
+                if model.held[3 * i + c] {
+                    v[3 * i + c]
+                } else {
+                    0.0
+                }
+            })
+        };
+        match &model.probes[slot] {
+            ProbeModel::Reaction { dofs } => Some(
+                dofs.iter()
+                    .filter(|&&d| model.held[d])
+                    .map(|&d| self.dr[d])
+                    .sum(),
+            ),
+            // M = Σ (x_i − p) × r_i · a: dM = Σ (dx_i × r_i + (x_i − p) × dr_i) · a.
+            ProbeModel::ReactionMoment { nodes, point, axis } => Some(
+                nodes
+                    .iter()
+                    .map(|&i| {
+                        let arm = model.position(u, i) - point;
+                        let dx = nalgebra::Vector3::new(dz[3 * i], dz[3 * i + 1], dz[3 * i + 2]);
+                        (dx.cross(&held(&self.r, i)) + arm.cross(&held(&self.dr, i))).dot(axis)
+                    })
+                    .sum(),
+            ),
+            // |S|, S = Σ r_i: d|S| = S·dS/|S|.
+            ProbeModel::ReactionResultant { nodes } => {
+                let sum = |v: &[f64]| {
+                    nodes
+                        .iter()
+                        .map(|&i| held(v, i))
+                        .sum::<nalgebra::Vector3<f64>>()
+                };
+                let (total, change) = (sum(&self.r), sum(&self.dr));
+                let norm = total.norm();
+                (norm > 0.0).then(|| total.dot(&change) / norm)
+            }
+            _ => None,
+        }
+    }
+}
+
+fn is_reaction(p: &ProbeModel) -> bool {
+    matches!(
+        p,
+        ProbeModel::Reaction { .. }
+            | ProbeModel::ReactionMoment { .. }
+            | ProbeModel::ReactionResultant { .. }
+    )
 }
 
 /// Whether segment `e` is closed: shorter than 1e-6 of the model's length scale (merged sleeve
