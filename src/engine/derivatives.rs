@@ -255,7 +255,7 @@ impl Engine {
         // then keep their exact gradient.
         let parameters = dp.iter().any(|x| *x != 0.0);
         // The reactions' exact change (None: they go by the difference below).
-        let mut reactions: Option<Option<ReactionChange>> = None;
+        let mut reactions: Option<ReactionChange> = None;
         for (k, &o) in unknowns.iter().enumerate() {
             let gradient = self
                 .probe_gradient(o)
@@ -272,7 +272,7 @@ impl Engine {
                 if reactions.is_none() {
                     reactions = Some(self.reaction_change(dz, dv)?);
                 }
-                if let Some(change) = reactions.as_ref().and_then(|r| r.as_ref()) {
+                if let Some(change) = &reactions {
                     if let Some(d) = change.probe(&self.model, &self.state.displacement, dz, o) {
                         out[k] = d;
                         continue;
@@ -307,14 +307,14 @@ impl Engine {
     /// The held DOFs' reactions r = R(z; v) at the committed equilibrium and their change dr =
     /// ∂R/∂z·dz + ∂R/∂v·dv along a solution (dz with the held DOFs' prescribed motion, dv the
     /// inputs' change), exactly: the rows of the consistent tangent with the states frozen,
-    /// minus the change of the external loads. None where a part is not formed (slips).
-    fn reaction_change(&mut self, dz: &[f64], dv: &[f64]) -> Result<Option<ReactionChange>, Error> {
+    /// minus the change of the external loads.
+    fn reaction_change(&mut self, dz: &[f64], dv: &[f64]) -> Result<ReactionChange, Error> {
         self.ensure_tangent()?;
         let tangent = self.tangent.take().expect("ensured");
         let states: Vec<_> = self.membranes.iter().map(|e| e.state).collect();
         let held = states.iter().map(|s| Some(*s)).collect();
         let s = &self.state;
-        let product = self.solver.tangent_product(
+        let mut dr = self.solver.tangent_product(
             &self.model,
             &s.displacement,
             &s.applied,
@@ -322,29 +322,24 @@ impl Engine {
             &states,
             dz,
         );
-        let change = match product {
-            None => None,
-            Some(mut dr) => {
-                // −∂f_ext/∂v·dv: a force input's external force per unit value (a prescribed
-                // displacement's change is in dz already).
-                for (slot, &d) in dv.iter().enumerate().filter(|(_, d)| **d != 0.0) {
-                    if matches!(self.model.loads[slot], LoadModel::Displacement(_)) {
-                        continue;
-                    }
-                    let (g, _) = self.load_rhs(&tangent, slot);
-                    for (a, b) in dr.iter_mut().zip(&g) {
-                        *a -= d * b;
-                    }
-                }
-                self.solver.hold_states(Some(held));
-                let s = &self.state;
-                let r = self
-                    .solver
-                    .residual(&self.model, &s.displacement, &s.applied);
-                self.solver.hold_states(None);
-                Some(ReactionChange { r, dr })
+        // −∂f_ext/∂v·dv: a force input's external force per unit value (a prescribed
+        // displacement's change is in dz already).
+        for (slot, &d) in dv.iter().enumerate().filter(|(_, d)| **d != 0.0) {
+            if matches!(self.model.loads[slot], LoadModel::Displacement(_)) {
+                continue;
             }
-        };
+            let (g, _) = self.load_rhs(&tangent, slot);
+            for (a, b) in dr.iter_mut().zip(&g) {
+                *a -= d * b;
+            }
+        }
+        self.solver.hold_states(Some(held));
+        let s = &self.state;
+        let r = self
+            .solver
+            .residual(&self.model, &s.displacement, &s.applied);
+        self.solver.hold_states(None);
+        let change = ReactionChange { r, dr };
         self.tangent = Some(tangent);
         Ok(change)
     }

@@ -331,8 +331,9 @@ impl Solver {
     /// ones included), with the states of the tangent `t` frozen: the element tangents as
     /// factored (one assembly pass that multiplies instead of scattering), plus the follower
     /// pressure's skew part, minus the wrinkled and slack triangles' regularisation. The
-    /// reactions' exact change along a solution (`engine/derivatives.rs`). None when the
-    /// model has slips (their columns on the held rows are not formed).
+    /// reactions' exact change along a solution (`engine/derivatives.rs`). `dx` per unknown:
+    /// its slip entries change the sliding segments' unstretched lengths (the slip columns B,
+    /// here on every DOF row, held ones included).
     pub fn tangent_product(
         &mut self,
         model: &Model,
@@ -341,12 +342,9 @@ impl Solver {
         t: &Tangent,
         wrinkle: &[WrinkleState],
         dx: &[f64],
-    ) -> Option<Vec<f64>> {
-        if t.m > 0 {
-            return None;
-        }
+    ) -> Vec<f64> {
         let n3 = model.dof_count();
-        let dx = &dx[..n3];
+        let (dx, ds) = dx.split_at(n3);
         let mut product = vec![0.0; n3];
         let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
         let membranes = Membranes {
@@ -362,7 +360,16 @@ impl Solver {
         for d in 0..n3 {
             product[d] += skew[d] - reg[d];
         }
-        Some(product)
+        if t.m > 0 {
+            let every_dof: Vec<usize> = (0..n3).collect();
+            let columns = super::slip::slip_columns(model, &every_dof, u);
+            for (column, &dsj) in columns.iter().zip(ds) {
+                for &(d, b) in column {
+                    product[d] += b * dsj;
+                }
+            }
+        }
+        product
     }
 }
 
