@@ -470,10 +470,9 @@ unsafe extern "C" fn fmi2_logger(
     let format = text(format);
     let message = if format == "%s" { text(first) } else { format };
     let line = format!(
-        "[{}] {} status {status} {}: {message}",
+        "[{}] {} status {status}: {message}",
         text(instance),
-        text(category),
-        ""
+        text(category)
     );
     messages().lock().unwrap().push(line);
 }

@@ -7,6 +7,9 @@
 //!               held DOFs of displacement inputs move by dv itself
 //! outputs       dy = ∂y/∂z·dz + ∂y/∂v·dv + ∂y/∂p·dp
 //!               displacement, position, slip probes: exact (linear in z)
+//!               reactions (r = R at the held DOFs): dr = ∂R/∂z·dz + ∂R/∂v·dv exactly, the
+//!               held rows of the tangent with the states frozen (input seeds; a parameter
+//!               seed takes the difference); moment dM = Σ (dx × r + (x − p) × dr)·a
 //!               other continuous probes: central difference of the probe along (dz, dv, dp)
 //!               with a step 1e-6 of the model's length scale, wrinkle states held as
 //!               committed (a triangle on a wrinkle border must not switch inside the step)
@@ -288,9 +291,9 @@ impl Engine {
         let h = STEP * self.model.length_scale / scale.max(f64::MIN_POSITIVE);
         let h = if scale == 0.0 { STEP } else { h };
         // On the branch of the committed equilibrium: a triangle on a wrinkle border must not
-        // switch inside ±h (the difference would average the two sides' slopes; measured on
-        // AnnulusTorsion's hub moment, whose remaining 3.9e-5 at this step is open: 1.5e-6 at a
-        // step of 1e-7, which however loses other outputs to round-off through the FMU).
+        // switch inside ±h (the difference would average the two sides' slopes). The reactions
+        // no longer come this way: on AnnulusTorsion their difference left 3.9e-5 at this step
+        // (1.5e-6 at 1e-7, which loses other outputs to round-off through the FMU).
         let held = self.membranes.iter().map(|e| Some(e.state)).collect();
         self.solver.hold_states(Some(held));
         let plus = self.probes_at(h, dz, dv, dp);
