@@ -257,7 +257,7 @@ impl Engine {
         // A parameter may enter a probe itself (EA in a tension): only the kinematic probes
         // then keep their exact gradient.
         let parameters = dp.iter().any(|x| *x != 0.0);
-        // The reactions' exact change (None: they go by the difference below).
+        // The reactions' exact change, formed at the first reaction output asked for.
         let mut reactions: Option<ReactionChange> = None;
         for (k, &o) in unknowns.iter().enumerate() {
             let gradient = self
