@@ -372,6 +372,15 @@ fn hilbert_key(mut x: [u32; 3], bits: u32) -> u64 {
 mod tests {
     use super::hilbert_key;
 
+    /// The memory estimate (`scene::limits::memory_bytes`) counts 400 bytes a triangle for the
+    /// assembly's copy of the triangles in visit order.
+    #[test]
+    fn a_triangle_copy_fits_the_memory_estimate() {
+        let size = std::mem::size_of::<crate::model::Triangle>();
+        println!("size_of::<Triangle>() = {size}");
+        assert!(size <= 400, "{size}");
+    }
+
     /// The 2x2x2 Hilbert curve visits the 8 cells once each, every step to a face neighbour.
     #[test]
     fn hilbert_curve_of_order_one_is_a_face_connected_tour() {
