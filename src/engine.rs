@@ -693,7 +693,12 @@ fn settings(scene: &Scene) -> Settings {
         line_search: s.line_search,
         arc_length_path: s.path == crate::scene::PathMethod::ArcLength,
         arc_length: s.arc_length.unwrap_or(0.0),
-        node_order: s.node_order,
+        node_order: match s.node_order {
+            crate::scene::NodeOrder::Rings => crate::solver::renumber::NodeOrder::Rings,
+            crate::scene::NodeOrder::Rcm => crate::solver::renumber::NodeOrder::Rcm,
+            crate::scene::NodeOrder::Hilbert => crate::solver::renumber::NodeOrder::Hilbert,
+            crate::scene::NodeOrder::Given => crate::solver::renumber::NodeOrder::Given,
+        },
         ..Settings::default()
     }
 }

@@ -42,11 +42,24 @@
 
 use crate::memory::{self, OutOfMemory};
 use crate::model::Model;
-pub use crate::scene::NodeOrder;
 use nalgebra::Vector3;
 
 const WHAT: &str = "the node renumbering";
 const NONE: usize = usize::MAX;
+
+/// Internal node numbering of the linear solve (the scene's `solver.node_order`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum NodeOrder {
+    /// Breadth-first rings outward from a central node, each ring counterclockwise.
+    #[default]
+    Rings,
+    /// Reverse Cuthill-McKee on the node graph.
+    Rcm,
+    /// A Hilbert curve through the reference coordinates.
+    Hilbert,
+    /// The model's own numbering.
+    Given,
+}
 
 /// Internal position of every node of `model` under `order` (`rank[node]`), a permutation.
 pub fn node_rank(model: &Model, order: NodeOrder) -> Result<Vec<usize>, OutOfMemory> {
