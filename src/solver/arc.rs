@@ -41,7 +41,10 @@
 //! every increment across which a membrane's wrinkle state (taut/wrinkled/slack) or a sleeve
 //! point's stick/slip/merged state switches while the load rises is solved again by load
 //! control to the load factor the arc-length point reached (state switches make the path
-//! non-smooth, and the normal plane can then cut it at another state's equilibrium). A step
+//! non-smooth, and the normal plane can then cut it at another state's equilibrium); an
+//! increment whose corrector fails while the predictor raises the load is tried once by load
+//! control to the predictor's λ before Δs is cut (sleeve points on a straight cable slide at
+//! zero load, where the normal plane cuts no equilibrium). A step
 //! ends where the load reaches its target: the last increment is load-controlled to λ = 1
 //! exactly. A step whose target lies beyond a limit load therefore fails (the load factor
 //! turns back past the limit): the message names the largest load factor reached.
