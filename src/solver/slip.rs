@@ -134,9 +134,13 @@ impl Solver {
             rhs[i] = -row.r - row.dx.iter().map(|&(e, c)| c * y0[e]).sum::<f64>();
         }
         // A zero pivot is a sliding mechanism (frictionless point on a straight or slack cable):
-        // a tiny spring on the slip, in the tangent only.
-        let big = (0..m).map(|i| schur[(i, i)].abs()).fold(0.0, f64::max);
-        for i in 0..m {
+        // a tiny spring on the slip, in the tangent only. Not on the arc-length row (its pivot
+        // t·K⁻¹q is in metres per unit load factor, not comparable with the others').
+        let regular = if extra.is_some() { m - 1 } else { m };
+        let big = (0..regular)
+            .map(|i| schur[(i, i)].abs())
+            .fold(0.0, f64::max);
+        for i in 0..regular {
             if schur[(i, i)].abs() <= 1e-12 * big {
                 schur[(i, i)] += 1e-9 * big.max(f64::MIN_POSITIVE);
             }
