@@ -246,9 +246,9 @@ fn scherk_surface_as_a_graph_converges_at_second_order() {
     );
 }
 
-/// The shipped FourPointSail: form finding (iterations and time printed; targets 20 and 2 s),
-/// its analysis at zero load (0 or 1 iterations, displacement below 1e-9 of the span), and the
-/// wind ramp to both input limits converging.
+/// The shipped FourPointSail: form finding in at most 20 URS iterations (the target;
+/// measured 15; time printed, target 2 s), its analysis at zero load (0 or 1 iterations,
+/// displacement below 1e-9 of the span), and the wind ramp to both input limits converging.
 #[test]
 fn four_point_sail_is_found_and_carries_wind() {
     let scene = read_scene(&shipped("FourPointSail"));
@@ -263,6 +263,7 @@ fn four_point_sail_is_found_and_carries_wind() {
         report.deviation
     );
     assert!(report.converged(), "{}", report.message);
+    assert!(report.iterations <= 20, "{} iterations", report.iterations);
     let mut e = engine(scene);
     let step = solve(&mut e);
     let span = e.model().length_scale;
@@ -293,6 +294,73 @@ fn four_point_sail_is_found_and_carries_wind() {
     set(&mut e, "wind", -300.0);
     solve(&mut e);
     assert!(get(&e, "center_uz") < 0.0);
+}
+
+/// The FourPointSail's edge cables found with and without the mesh control's relief of the
+/// membrane stiffness across the cables (`formfind::ACROSS_CABLE_KEPT`): the relief changes
+/// the matrix, not the residual, so both reach the same fixed point; it only takes fewer
+/// iterations (measured 29 without, 15 with). Every node of the two found scenes within the
+/// stopping tolerance (1e-6 of the span; measured 2.9e-7). And the edge cables are arcs of
+/// radius T/n = 20 kN / 2 kN/m = 10 m within the surface (curvature n/T, the cable's
+/// equilibrium under the membrane's edge load n): the circumradius through three successive
+/// nodes of each cable, median within 2e-3 (measured 8.0e-4) and every one within 1e-2
+/// (measured 4.0e-3: discretisation and the found stress's deviation 4.1e-3 from the
+/// prescribed one, largest near the corners).
+#[test]
+fn four_point_sail_relief_keeps_the_shape_and_the_arcs() {
+    let scene = read_scene(&shipped("FourPointSail"));
+    let settings = scene.form_finding.clone().unwrap();
+    let with = formfind::form_find_keeping(&scene, &settings, formfind::ACROSS_CABLE_KEPT).unwrap();
+    let without = formfind::form_find_keeping(&scene, &settings, 1.0).unwrap();
+    println!(
+        "FourPointSail: {} iterations with the relief, {} without",
+        with.iterations, without.iterations
+    );
+    assert!(with.converged() && without.converged());
+    assert!(with.iterations < without.iterations);
+    let (a, b) = (with.scene.unwrap(), without.scene.unwrap());
+    let (xa, xb) = (&a.geometry.nodes, &b.geometry.nodes);
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in xa {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let span = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
+    let apart = xa
+        .iter()
+        .zip(xb)
+        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0f64, f64::max)
+        / span;
+    println!("largest node distance between the two found shapes: {apart:.2e} of the span");
+    assert!(apart < 1e-6, "{apart:e}");
+    let mut radii = Vec::new();
+    for c in &a.cables {
+        let velarium::scene::NodeRef::Set(name) = &c.nodes else {
+            panic!("the sail's cables are named node sets")
+        };
+        let ids = &a.geometry.node_sets[name];
+        for w in ids.windows(3) {
+            let [p, q, r] = [w[0], w[1], w[2]].map(|i| nalgebra::Vector3::from(xa[i]));
+            let (u, v, s) = ((q - r).norm(), (p - r).norm(), (p - q).norm());
+            radii.push(u * v * s / (2.0 * (q - p).cross(&(r - p)).norm()));
+        }
+    }
+    radii.sort_by(f64::total_cmp);
+    let median = radii[radii.len() / 2];
+    let worst = radii.iter().map(|r| rel(*r, 10.0)).fold(0.0f64, f64::max);
+    println!(
+        "edge-cable circumradius: median {median:.4} m, range {:.4} to {:.4} m (T/n = 10 m), worst {worst:.2e}",
+        radii[0],
+        radii[radii.len() - 1]
+    );
+    assert!(
+        rel(median, 10.0) < 2e-3 && worst < 1e-2,
+        "{median} {worst:e}"
+    );
 }
 
 #[test]
