@@ -44,6 +44,10 @@
 //! nodes next to the cable held this spurious stiffness slowed the edge-cable arcs to 0.78 per
 //! iteration (FourPointSail: 29 iterations, now 15, the same shape within 3e-7 of the span).
 //!
+//! In a cable net, a node where cables cross (no membrane) cannot slide and is left out of the
+//! mesh control; between such nodes and held ones the force density's stiffness along each
+//! segment (none in the true tangent (T/L)(I − d dᵀ)) leaves the matrix but for `AXIAL_KEPT`.
+//!
 //! A prestress with no equilibrium between the supports (a soap film between two rings set
 //! further apart than 1.3255 times their radius) makes the iterates contract without end: a
 //! triangle whose area falls below `COLLAPSE` of its start area stops the iteration with a
