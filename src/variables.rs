@@ -197,6 +197,7 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
             Probe::CableTension { .. }
             | Probe::Reaction { .. }
             | Probe::ReactionResultant { .. }
+            | Probe::ZoneForce { .. }
             | Probe::ContactForce { .. } => (VarType::Real, Variability::Continuous, Some("N")),
             Probe::ReactionMoment { .. } => (VarType::Real, Variability::Continuous, Some("N.m")),
             Probe::EnclosedVolume { .. } => (VarType::Real, Variability::Continuous, Some("m3")),

@@ -193,6 +193,12 @@ pub enum ProbeModel {
     ReactionResultant {
         nodes: Vec<usize>,
     },
+    /// Component `component` of the pressure loads' resultant on triangles `zone` (a mask
+    /// over `Model::triangles`).
+    ZoneForce {
+        zone: Vec<bool>,
+        component: usize,
+    },
     NewtonIterations,
     /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
     /// indices).
@@ -1060,6 +1066,27 @@ fn build_probe(
         Probe::ReactionResultant { nodes } => ProbeModel::ReactionResultant {
             nodes: node_ids(mesh, nodes),
         },
+        Probe::ZoneForce { zone, component } => {
+            let total = groups.iter().map(|g| g.1.end).max().unwrap_or(0);
+            let mut mask = crate::memory::with_capacity(total, "a zone's triangle mask")?;
+            mask.resize(total, false);
+            let set: std::collections::BTreeSet<usize> = mesh
+                .triangle_sets
+                .get(zone)
+                .map(|t| t.iter().copied().collect())
+                .unwrap_or_default();
+            for (_, range, ids) in groups {
+                for (k, id) in ids.iter().enumerate() {
+                    if set.contains(id) {
+                        mask[range.start + k] = true;
+                    }
+                }
+            }
+            ProbeModel::ZoneForce {
+                zone: mask,
+                component: component.index(),
+            }
+        }
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
         Probe::EnclosedVolume { membrane } => {
             ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)

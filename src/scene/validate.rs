@@ -1221,6 +1221,25 @@ impl Validator {
                 Probe::ReactionResultant { nodes } => {
                     self.reaction_nodes(mesh, nodes, held, &p);
                 }
+                Probe::ZoneForce { zone, .. } => {
+                    let path = format!("{p}.zone");
+                    if !mesh.triangle_sets.contains_key(zone) {
+                        self.push(
+                            path,
+                            format!(
+                                "no triangle set is named \"{zone}\"{}",
+                                suggest(zone, mesh.triangle_sets.keys())
+                            ),
+                        );
+                    } else if !s.membranes.iter().any(|m| {
+                        !super::shape::zone_positions(s, mesh, &m.name, Some(zone)).is_empty()
+                    }) {
+                        self.push(
+                            path,
+                            format!("zone \"{zone}\" has no triangle of any membrane group"),
+                        );
+                    }
+                }
                 Probe::NewtonIterations => {}
                 Probe::EnclosedVolume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.membrane"));
