@@ -3,6 +3,7 @@
 //! ```text
 //! displacement   u[dof]                       m
 //! position       X[dof] + u[dof]              m
+//! polar          u_i · e, e the node's reference radial or tangential unit vector   m
 //! cable length   Σ |x_b − x_a| over the segments of the cable or span      m
 //! cable slip     −s_j: unstretched cable that passed the sleeve point toward the cable's end  m
 //! contact force  |k_c (x_c − x_m)| of a sleeve tie (largest over the listed ones)  N
@@ -69,6 +70,7 @@ pub fn evaluate(
         .map(|p| match p {
             ProbeModel::Displacement { dof } => u[*dof],
             ProbeModel::Position { dof, reference } => reference + u[*dof],
+            ProbeModel::Along { node, unit } => (0..3).map(|c| u[3 * node + c] * unit[c]).sum(),
             ProbeModel::CableLength { segments } => {
                 segments.clone().map(|e| segment_length(model, u, e)).sum()
             }

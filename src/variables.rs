@@ -190,6 +190,7 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
                 (VarType::Real, Variability::Continuous, Some("Pa"))
             }
             Probe::Displacement { .. }
+            | Probe::PolarDisplacement { .. }
             | Probe::Position { .. }
             | Probe::CableLength { .. }
             | Probe::CableSlip { .. }

@@ -189,6 +189,11 @@ pub enum ProbeModel {
         point: Vector3<f64>,
         axis: Vector3<f64>,
     },
+    /// Displacement of `node` along the unit vector `unit`.
+    Along {
+        node: usize,
+        unit: Vector3<f64>,
+    },
     /// |Σ R| over the held DOFs of `nodes`.
     ReactionResultant {
         nodes: Vec<usize>,
@@ -982,6 +987,26 @@ fn build_probe(
         Probe::Displacement { node, component } => ProbeModel::Displacement {
             dof: 3 * one_node(mesh, node) + component.index(),
         },
+        Probe::PolarDisplacement {
+            node,
+            center,
+            axis,
+            component,
+        } => {
+            let id = one_node(mesh, node);
+            let k = axis.index();
+            let mut a = Vector3::zeros();
+            a[k] = 1.0;
+            let r = Vector3::from(mesh.nodes[id]) - Vector3::from(*center);
+            let radial = (r - a * r[k]).normalize();
+            ProbeModel::Along {
+                node: id,
+                unit: match component {
+                    PolarComponent::Radial => radial,
+                    PolarComponent::Tangential => a.cross(&radial),
+                },
+            }
+        }
         Probe::Position { node, component } => {
             let id = one_node(mesh, node);
             ProbeModel::Position {

@@ -567,6 +567,16 @@ pub enum Probe {
     Displacement { node: OneNode, component: Component },
     /// Current position component of one node, m.
     Position { node: OneNode, component: Component },
+    /// Displacement (m) of one node along its radial (`radial`: away from the axis) or
+    /// tangential (`tangential`: axis × radial) direction about the coordinate axis `axis`
+    /// through `center`, both in the reference configuration (as the `polar_displacement`
+    /// input). The node must not lie on the axis.
+    PolarDisplacement {
+        node: OneNode,
+        center: [f64; 3],
+        axis: Component,
+        component: PolarComponent,
+    },
     /// Current total length of a cable, m.
     /// Current length of a cable, or of its span between two of its nodes.
     CableLength {
