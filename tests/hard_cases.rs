@@ -895,6 +895,76 @@ fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
     println!("(i) Newton iterations per step: {iterations:?}");
 }
 
+/// CASE (i'), issue 9: case (i) with the film's `residual_stiffness` set to 1e-4 (a wrinkled or
+/// slack triangle keeps 1e-4 of its elastic stiffness, in stress, energy and tangent alike;
+/// docs/mechanics.md §1.5). This makes the equilibrium isolated where the pure tension field
+/// leaves the displacement across the tension undetermined (docs/solver.md, hard cases), at the
+/// price of a compressive stress ρ E e₂ in wrinkled directions.
+/// REFERENCE: as case (i) (the homogeneous tension field at the centre, same tolerances: the
+/// residual stiffness moves the centre's stresses by about ρ E |e₂| ≈ 1e-4 · 3.5e9 · 1e-3 =
+/// 350 Pa, 4e-5 of S11); every step converges in one increment.
+/// Measured: median 6, largest 12 Newton iterations per step (the issue's target 8 / 40 holds
+/// here, with the option; case (i) without it: 13 / 2947).
+#[test]
+fn i2_sheared_film_with_a_residual_stiffness() {
+    let separation = 1e-4;
+    let mut scene = read_scene(&shipped("WrinkledShear"));
+    for m in &mut scene.membranes {
+        m.residual_stiffness = Some(1e-4);
+    }
+    let mut e = engine(scene);
+    set(&mut e, "separation", separation);
+    solve(&mut e);
+    let mut iterations = Vec::new();
+    for k in 1..=20 {
+        let shear = 3e-3 * k as f64 / 20.0;
+        set(&mut e, "shear", shear);
+        let report = e.solve();
+        assert!(
+            report.converged() && report.increments == 1,
+            "step {k} (δ = {shear}): {} increments, {}",
+            report.increments,
+            report.message
+        );
+        iterations.push(report.iterations);
+        let (g, s) = (shear / SHEAR_H, separation / SHEAR_H);
+        let strain = Vector3::new(0.0, 0.5 * (g * g + (1.0 + s) * (1.0 + s) - 1.0), g);
+        let reference = Law::Svk {
+            young: 3.5e9,
+            nu: 0.3,
+        }
+        .response(&strain, None);
+        for t in SHEAR_CENTRE {
+            let ev = &e.membranes()[t];
+            let tri = &e.model().triangles[t];
+            let gs = tri.reference.to_global(&ev.stress);
+            let stress = [gs[(0, 0)], gs[(1, 1)], gs[(0, 1)]];
+            assert_eq!(ev.state, reference.state, "δ = {shear}: triangle {t} state");
+            let compared = if ev.state == WrinkleState::Wrinkled {
+                0..3
+            } else {
+                1..3
+            };
+            for c in compared {
+                let tolerance = if c == 2 { 1e-2 } else { 2e-2 };
+                assert!(
+                    rel(stress[c], reference.stress[c]) < tolerance,
+                    "δ = {shear}: triangle {t} S[{c}] = {} vs {}",
+                    stress[c],
+                    reference.stress[c]
+                );
+            }
+        }
+    }
+    let mut sorted = iterations.clone();
+    sorted.sort();
+    println!(
+        "(i') residual stiffness 1e-4: Newton iterations per step {iterations:?}, median {}, largest {}",
+        sorted[sorted.len() / 2],
+        sorted[sorted.len() - 1]
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // (j) A rubber sheet pulled in-plane at one corner node.
 // ---------------------------------------------------------------------------------------------

@@ -486,6 +486,7 @@ fn build_triangles(
             law,
             thickness: m.thickness,
             wrinkling: m.wrinkling,
+            residual: m.residual_stiffness.unwrap_or(0.0),
         };
         let first = out.len();
         for (k, &t) in triangle_ids(mesh, &m.triangles).iter().enumerate() {

@@ -201,6 +201,11 @@ pub struct Membrane {
     /// sheet that carries compression.
     #[serde(default = "yes")]
     pub wrinkling: bool,
+    /// Share ρ of the small-strain elastic stiffness a wrinkled or slack triangle keeps (with
+    /// wrinkling on): its stress is (1 − ρ) S_tension-field + ρ D0 E, consistently in the
+    /// energy and the tangent. Absent or 0: the pure tension-field law (docs/mechanics.md §1.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual_stiffness: Option<f64>,
     /// Initial stress state of the group in the scene geometry (membrane forces in N/m): part
     /// of the equilibrium (residual and tangent), unlike `solver.artificial_prestress`. The
     /// geometry with no load is in equilibrium only if this prestress balances there (a

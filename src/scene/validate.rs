@@ -581,6 +581,20 @@ impl Validator {
                     }
                 }
             }
+            if let Some(rho) = m.residual_stiffness {
+                if !(rho.is_finite() && (0.0..=1e-2).contains(&rho)) {
+                    self.push(
+                        format!("{p}.residual_stiffness"),
+                        format!("{rho} is not a share of the elastic stiffness in [0, 0.01]"),
+                    );
+                } else if rho > 0.0 && !m.wrinkling {
+                    self.push(
+                        format!("{p}.residual_stiffness"),
+                        "applies to the tension-field law only: this group has wrinkling off"
+                            .to_string(),
+                    );
+                }
+            }
             if !positive(m.thickness) {
                 self.push(
                     format!("{p}.thickness"),
