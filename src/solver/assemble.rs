@@ -86,7 +86,9 @@ impl Pattern {
         let mut tri_order = memory::collect(0..model.triangles.len(), "the element order")?;
         if order != NodeOrder::Given {
             let first = |e: usize| model.triangles[e].nodes.iter().map(|&i| rank[i]).min();
-            tri_order.sort_by_key(|&e| first(e));
+            // In place (a stable sort would allocate its buffer infallibly); ties by triangle
+            // number, the order the stable sort gave.
+            tri_order.sort_unstable_by_key(|&e| (first(e), e));
         }
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {
@@ -115,7 +117,7 @@ impl Pattern {
                 }
                 _ => Vec::new(),
             };
-            list.sort_by_key(|&e| tri_slot[e]);
+            list.sort_unstable_by_key(|&e| tri_slot[e]);
             pressed_order.push(list);
         }
         // Every element's DOFs (equation numbers, NONE where held), 9 for a triangle, 6 for a
