@@ -112,17 +112,21 @@ pub fn peak_resident() -> Option<u64> {
 /// "estimated X MB, peak resident Y MB" (the peak omitted where unknown), for the CLI's and
 /// the FMU's logs.
 pub fn report(estimate: u64) -> String {
-    let mb = |b: u64| b as f64 / 1e6;
+    let mb = |b: u64| {
+        let mb = b as f64 / 1e6;
+        if mb >= 100.0 {
+            format!("{mb:.0} MB")
+        } else {
+            format!("{mb:.3} MB")
+        }
+    };
     match peak_resident() {
         Some(peak) => format!(
-            "memory: estimated {:.1} MB for model and solver, peak resident {:.1} MB (whole process)",
+            "memory: estimated {} for model and solver, peak resident {} (whole process)",
             mb(estimate),
             mb(peak)
         ),
-        None => format!(
-            "memory: estimated {:.1} MB for model and solver",
-            mb(estimate)
-        ),
+        None => format!("memory: estimated {} for model and solver", mb(estimate)),
     }
 }
 
