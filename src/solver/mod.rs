@@ -41,6 +41,7 @@ pub mod renumber;
 pub mod sensitivity;
 pub mod slip;
 mod volume;
+mod work;
 
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
@@ -276,6 +277,8 @@ pub struct Solver {
     prestress_factor: f64,
     /// States held by the probe evaluations ([`Solver::hold_states`]).
     probe_states: Option<Vec<Option<WrinkleState>>>,
+    /// The Newton loop's reused work buffers (`work.rs`).
+    work: work::Work,
 }
 
 impl Solver {
@@ -324,6 +327,7 @@ impl Solver {
             adjacency: relax::Adjacency::try_new(model)?,
             prestress_factor: 1.0,
             probe_states: None,
+            work: work::Work::default(),
             pattern,
         })
     }
