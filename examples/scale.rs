@@ -36,6 +36,9 @@ use velarium::Engine;
 
 const W_FOLLOWER: f64 = 0.065404;
 
+/// The square's fabric prestress by default, N/m (`--square-prestress=` changes it).
+const SQUARE_PRESTRESS: f64 = 0.0;
+
 fn peak_rss_mib() -> f64 {
     velarium::memory::peak_resident().map_or(f64::NAN, |b| b as f64 / (1024.0 * 1024.0))
 }
@@ -273,6 +276,12 @@ fn main() {
     } else {
         problems
     };
+    let square_prestress: f64 = args
+        .iter()
+        .find_map(|a| a.strip_prefix("--square-prestress="))
+        .map_or(SQUARE_PRESTRESS, |v| {
+            v.parse().expect("--square-prestress=N/m")
+        });
     if args.iter().any(|a| a == "--scenes") {
         scenes();
         return;
@@ -315,7 +324,7 @@ fn main() {
                     }
                     scene
                 }
-                _ => square_scene(divisions),
+                _ => square_scene(divisions, square_prestress),
             };
             // Large meshes are what this benchmark is for: the default size limits would stop
             // a 1M DOF scene on a machine with less free memory than the estimate.
@@ -341,12 +350,18 @@ fn main() {
     }
 }
 
-/// The square with edge cables at `n` x `n` cells.
-fn square_scene(n: usize) -> Scene {
+/// The square with edge cables at `n` x `n` cells, its fabric prestressed by `prestress` N/m
+/// (isotropic; 0: stress-free).
+fn square_scene(n: usize, prestress: f64) -> Scene {
+    let prestress = if prestress > 0.0 {
+        format!(r#", "prestress": {{"kind": "isotropic", "n": {prestress:e}}}"#)
+    } else {
+        String::new()
+    };
     let text = format!(
         r#"{{"format": 1, "name": "ScaleSquare",
   "geometry": {{"generators": [{{"kind": "rectangle", "name": "sheet", "origin": [0, 0, 0], "size": [4.0, 4.0], "divisions": [{n}, {n}]}}]}},
-  "membranes": [{{"name": "fabric", "triangles": "sheet", "thickness": 1e-3, "material": {{"kind": "svk", "E": 6e8, "nu": 0.3}}}}],
+  "membranes": [{{"name": "fabric", "triangles": "sheet", "thickness": 1e-3, "material": {{"kind": "svk", "E": 6e8, "nu": 0.3}}{prestress}}}],
   "cables": [
     {{"name": "edge_bottom", "nodes": "sheet.edge_bottom", "EA": 2e6, "pretension": 2000}},
     {{"name": "edge_right", "nodes": "sheet.edge_right", "EA": 2e6, "pretension": 2000}},
