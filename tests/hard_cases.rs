@@ -491,20 +491,33 @@ fn e_membrane_held_only_by_a_frictionless_sleeve_has_no_equilibrium() {
     let t = std::time::Instant::now();
     let report = e.solve();
     let seconds = t.elapsed().as_secs_f64();
-    println!("(e) {:?} after {seconds:.3} s: {}", report.outcome, report.message);
-    assert!(!report.converged(), "the curtain converged: {}", report.message);
+    println!(
+        "(e) {:?} after {seconds:.3} s: {}",
+        report.outcome, report.message
+    );
+    assert!(
+        !report.converged(),
+        "the curtain converged: {}",
+        report.message
+    );
     assert!(
         report.message.contains("node 65 in x") || report.message.contains("node 73 in x"),
         "the message does not name a side-edge node: {}",
         report.message
     );
     assert!(
-        report.message.contains("every triangle is wrinkled or slack"),
+        report
+            .message
+            .contains("every triangle is wrinkled or slack"),
         "the message does not say why: {}",
         report.message
     );
     for (s, k) in kept.iter().enumerate() {
-        assert_eq!(get(&e, &format!("T{s}")), *k, "segment {s}: the state was not kept");
+        assert_eq!(
+            get(&e, &format!("T{s}")),
+            *k,
+            "segment {s}: the state was not kept"
+        );
     }
     assert_eq!(get(&e, "RAx"), rax, "R_A: the state was not kept");
 }
