@@ -103,7 +103,9 @@ impl Solver {
         self.linear.solve(&mut y0)?;
         if m == 0 {
             return if y0.iter().all(|v| v.is_finite()) {
-                Ok((y0, std::mem::take(&mut self.work.ds)))
+                let mut ds = std::mem::take(&mut self.work.ds);
+                ds.clear();
+                Ok((y0, ds))
             } else {
                 Err("the Newton direction is not finite".into())
             };
