@@ -1,35 +1,46 @@
 //! Scaling benchmark, printed (not asserted; issue 15 item 6):
-//! `cargo run --release --example scale -- [RINGS...] [--no-shuffle]`.
+//! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--problem=disc,square]
+//! [--order=rings,rcm,hilbert,given]`.
 //!
-//! The Hencky disc (docs/mechanics.md §4a, follower pressure 40 Pa, flat start to full load in
-//! one step) at the given ring counts (default 34 and 106 rings: about 10k and 100k free DOF;
-//! 183 rings is about 300k, 334 rings about 1M DOF and about 3 GB: run those by hand, never
-//! in CI), each in the generator's node numbering and in a shuffled numbering (the same mesh
-//! written as explicit nodes and triangles with the node ids permuted by a fixed-seed
-//! xorshift generator, as a user's mesher might number it).
+//! Two problems, each flat start to full load in one step:
+//! - `disc`: the Hencky disc (docs/mechanics.md §4a, follower pressure 40 Pa);
+//! - `square`: a flat square membrane 4 m x 4 m, 1 mm, SVK E 600 MPa, nu 0.3, with four edge
+//!   cables (EA 2e6 N, 2 kN pretension) along its edges, held at its four corners, follower
+//!   pressure 300 Pa (the README's WindSquare kind of scene at a finer mesh).
 //!
-//! Printed per case: free DOF, numbering, stored entries of the LDLT factor after faer's AMD, Newton iterations, wall time of the solve, the
-//! floor (one assembly + one numeric LDLT factorization and solve at the solution, best of 3,
-//! `Engine::time_floor`), seconds per iteration divided by the floor, the process's peak
-//! resident set so far (VmHWM from /proc/self/status; it only grows, so run one size per
-//! process for a per-size peak), threads (1: faer runs `Par::Seq`), and the relative error of
-//! the centre deflection against w0/a = 0.065404 (both numberings must agree).
+//! A SIZE is a DOF count with a suffix (`10k`, `300k`, `1M`: the disc's rings and the square's
+//! divisions are chosen for about that many free DOF) or a bare ring count of the disc (`334`:
+//! the square is then sized to the same DOF). Default `10k 100k`. 300k and 1M DOF (about 1 and
+//! 3 GB) are run by hand, never in CI.
+//!
+//! Each in the generator's node numbering (`gen`) and in a shuffled numbering (`shuf`: the
+//! same mesh written as explicit nodes and triangles, node ids and triangle order permuted by
+//! a fixed-seed xorshift generator, as a user's mesher might number it), solved in every
+//! internal node order asked for (`--order`, default the solver's default).
+//!
+//! Printed per case: free DOF, numbering/internal order, stored entries of the LDLT factor,
+//! numeric factorizations and Newton iterations of the solve, the floor's parts (one assembly,
+//! one numeric LDLT factorization, one solve, each the best of 3 at the solution,
+//! `Engine::time_floor_parts`), the solve's wall time, the peak resident set of the case
+//! (VmHWM from /proc/self/status, reset through /proc/self/clear_refs before each case; the
+//! scene's own mesh is built before the reset and not counted), the engine's memory estimate
+//! (`Engine::memory_estimate`), threads (1: faer runs `Par::Seq`), the ratio total /
+//! (iterations x floor) and the check of the answer: the disc's relative error of the centre
+//! deflection against w0/a = 0.065404, the square's centre deflection in mm (both numberings
+//! must agree).
 
 use std::time::Instant;
-use velarium::scene::{Generator, NodeOrder, Scene};
+use velarium::scene::generate::resolve;
+use velarium::scene::{Generator, Geometry, NodeOrder, OneNode, Scene};
 use velarium::Engine;
 
 const W_FOLLOWER: f64 = 0.065404;
 
+/// The square's fabric prestress by default, N/m (`--square-prestress=` changes it).
+const SQUARE_PRESTRESS: f64 = 0.0;
+
 fn peak_rss_mib() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
-        })
-        .map_or(f64::NAN, |kib| kib / 1024.0)
+    velarium::memory::peak_resident().map_or(f64::NAN, |b| b as f64 / (1024.0 * 1024.0))
 }
 
 /// A fixed-seed permutation of 0..n (Fisher-Yates on xorshift64*).
@@ -101,53 +112,135 @@ fn shuffled(generated: &Engine, base: &Scene) -> Scene {
     Scene::from_json(&text).expect("valid shuffled scene")
 }
 
-fn run(label: &str, mut engine: Engine) {
+/// Reset the process's peak resident set (VmHWM) to its current size (Linux >= 4.0); false
+/// where that is not possible (the peak column then runs on from earlier cases).
+fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// What a problem asks for: its load input, the value, and how its answer is checked.
+struct Problem {
+    name: &'static str,
+    input: &'static str,
+    value: f64,
+}
+
+const DISC: Problem = Problem {
+    name: "disc",
+    input: "pressure",
+    value: 40.0,
+};
+
+const SQUARE: Problem = Problem {
+    name: "square",
+    input: "wind",
+    value: 300.0,
+};
+
+fn value_reference(engine: &Engine, name: &str) -> u32 {
+    engine
+        .variables()
+        .iter()
+        .find(|v| v.name == name)
+        .unwrap_or_else(|| panic!("variable {name}"))
+        .value_reference
+}
+
+fn run(problem: &Problem, label: &str, scene: Scene) {
+    let reset = reset_peak_rss();
+    let built = Instant::now();
+    let mut engine = Engine::try_new(scene).expect("valid scene");
+    let setup = built.elapsed().as_secs_f64();
     if std::env::args().any(|a| a == "--nnz-only") {
         println!(
-            "{:>8} {:>13} {:>11}",
+            "{:>7} {:>8} {:>13} {:>11}",
+            problem.name,
             engine.free_dofs(),
             label,
             engine.factor_nonzeros()
         );
         return;
     }
-    let vr = engine
-        .variables()
-        .iter()
-        .find(|v| v.name == "pressure")
-        .unwrap()
-        .value_reference;
-    let out = engine
-        .variables()
-        .iter()
-        .find(|v| v.name == "center_uz")
-        .unwrap()
-        .value_reference;
+    let vr = value_reference(&engine, problem.input);
+    let out = value_reference(&engine, "center_uz");
+    let factorizations = engine.factorizations();
     let t = Instant::now();
-    engine.set_real(vr, 40.0).unwrap();
+    engine.set_real(vr, problem.value).unwrap();
     let report = engine.solve();
     let time = t.elapsed().as_secs_f64();
+    let factorizations = engine.factorizations() - factorizations;
+    let peak = peak_rss_mib();
     if !report.converged() {
-        println!("{label}: did not converge: {}", report.message);
+        println!(
+            "{:>7} {label}: did not converge: {}",
+            problem.name, report.message
+        );
         return;
     }
-    let w = engine.get_real(out).unwrap() / 0.5;
-    let (assembly, factor) = engine.time_floor(3);
-    let floor = assembly + factor;
+    let w = engine.get_real(out).unwrap();
+    let check = match problem.name {
+        "disc" => format!("{:.2e}", (w / 0.5 - W_FOLLOWER).abs() / W_FOLLOWER),
+        _ => format!("{:.4} mm", 1e3 * w),
+    };
+    let (assembly, factor, solve) = engine.time_floor_parts(3);
+    let floor = assembly + factor + solve;
     println!(
-        "{:>8} {:>13} {:>11} {:>6} {:>9.3} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
+        "{:>7} {:>8} {:>13} {:>11} {:>5} {:>5} {:>8.4} {:>8.4} {:>8.4} {:>7.2} {:>8.3} {:>8.0}{} {:>8.0} {:>3} {:>6.2} {:>11}",
+        problem.name,
         engine.free_dofs(),
         label,
         engine.factor_nonzeros(),
+        factorizations,
         report.iterations,
-        time,
         assembly,
         factor,
-        time / report.iterations.max(1) as f64 / floor,
-        peak_rss_mib(),
+        solve,
+        setup,
+        time,
+        peak,
+        if reset { " " } else { "*" },
+        engine.memory_estimate() as f64 / (1024.0 * 1024.0),
         1,
-        (w - W_FOLLOWER).abs() / W_FOLLOWER
+        time / report.iterations.max(1) as f64 / floor,
+        check
     );
+}
+
+/// The size arguments as disc ring counts and square divisions: `10k`/`1M` are free DOF, a
+/// bare number is the disc's rings (the square then gets the disc's DOF).
+fn sizes(args: &[String]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for a in args.iter().filter(|a| !a.starts_with("--")) {
+        let lower = a.to_ascii_lowercase();
+        let (num, mul) = if let Some(n) = lower.strip_suffix('k') {
+            (n.to_string(), Some(1e3))
+        } else if let Some(n) = lower.strip_suffix('m') {
+            (n.to_string(), Some(1e6))
+        } else {
+            (lower.clone(), None)
+        };
+        let Ok(x) = num.parse::<f64>() else {
+            panic!("not a size: {a} (e.g. 10k, 1M, or a ring count such as 334)")
+        };
+        // Disc: 1 + 3R(R+1) nodes, the rim's 6R held: 3 (1 + 3R(R-1)) ≈ 9R² free DOF.
+        let (rings, dof) = match mul {
+            Some(m) => {
+                let dof = x * m;
+                (((dof / 9.0).sqrt().round() as usize).max(2), dof)
+            }
+            None => {
+                let r = x as usize;
+                (r, 3.0 * (1.0 + 3.0 * (r * r.saturating_sub(1)) as f64))
+            }
+        };
+        // Square: (n+1)² nodes, 4 corners held: 3 (n+1)² − 12 free DOF.
+        let divisions = ((((dof + 12.0) / 3.0).sqrt() - 1.0).round() as usize).max(2);
+        out.push((rings, divisions));
+    }
+    if out.is_empty() {
+        out = sizes(&["10k".to_string(), "100k".to_string()]);
+    }
+    out
 }
 
 fn main() {
@@ -168,12 +261,27 @@ fn main() {
     if orders.is_empty() {
         orders.push(NodeOrder::default());
     }
-    let rings: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
-    let rings = if rings.is_empty() {
-        vec![34, 106]
+    let problems: Vec<&Problem> = args
+        .iter()
+        .filter_map(|a| a.strip_prefix("--problem="))
+        .flat_map(|list| list.split(','))
+        .map(|name| match name {
+            "disc" => &DISC,
+            "square" => &SQUARE,
+            other => panic!("unknown --problem {other}: disc or square"),
+        })
+        .collect();
+    let problems = if problems.is_empty() {
+        vec![&DISC, &SQUARE]
     } else {
-        rings
+        problems
     };
+    let square_prestress: f64 = args
+        .iter()
+        .find_map(|a| a.strip_prefix("--square-prestress="))
+        .map_or(SQUARE_PRESTRESS, |v| {
+            v.parse().expect("--square-prestress=N/m")
+        });
     if args.iter().any(|a| a == "--scenes") {
         scenes();
         return;
@@ -182,47 +290,123 @@ fn main() {
         "{}/modelDescription/HenckyDisc/scene.json",
         env!("CARGO_MANIFEST_DIR")
     );
-    let base = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene"))
+    let disc = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene"))
         .expect("valid scene");
-    println!("Hencky disc, follower pressure 40 Pa, flat start to full load, 1 thread");
     println!(
-        "{:>8} {:>13} {:>11} {:>6} {:>9} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
+        "disc: Hencky disc, follower pressure 40 Pa; square: 4 m square with edge cables, follower pressure 300 Pa; flat start to full load, 1 thread"
+    );
+    println!(
+        "{:>7} {:>8} {:>13} {:>11} {:>5} {:>5} {:>8} {:>8} {:>8} {:>7} {:>8} {:>9} {:>8} {:>3} {:>6} {:>11}",
+        "problem",
         "DOF",
         "numbering",
         "factor nnz",
+        "facts",
         "iters",
-        "total s",
         "assem s",
         "factor s",
-        "ratio",
+        "solve s",
+        "setup s",
+        "total s",
         "peak MiB",
+        "est MiB",
         "thr",
-        "w0 error"
+        "ratio",
+        "check"
     );
-    for n in rings {
-        let mut scene = base.clone();
-        if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
-            *rings = n;
-        }
-        let shuffled_scene = (!no_shuffle).then(|| {
-            let engine = Engine::try_new(scene.clone()).expect("valid scene");
-            shuffled(&engine, &scene)
-        });
-        for &order in &orders {
-            let name = format!("{order:?}").to_lowercase();
-            scene.solver.node_order = order;
-            let engine = Engine::try_new(scene.clone()).expect("valid scene");
-            run(&format!("gen/{name}"), engine);
-            if let Some(s) = &shuffled_scene {
-                let mut s = s.clone();
-                s.solver.node_order = order;
-                run(
-                    &format!("shuf/{name}"),
-                    Engine::try_new(s).expect("valid shuffled scene"),
-                );
+    for (rings, divisions) in sizes(&args) {
+        for problem in &problems {
+            let mut scene = match problem.name {
+                "disc" => {
+                    let mut scene = disc.clone();
+                    if let Generator::Disc { rings: r, .. } = &mut scene.geometry.generators[0] {
+                        *r = rings;
+                    }
+                    scene
+                }
+                _ => square_scene(divisions, square_prestress),
+            };
+            // Large meshes are what this benchmark is for: the default size limits would stop
+            // a 1M DOF scene on a machine with less free memory than the estimate.
+            scene.solver.limits.max_memory_gb = 64.0;
+            let shuffled_scene = (!no_shuffle).then(|| match problem.name {
+                "disc" => {
+                    let engine = Engine::try_new(scene.clone()).expect("valid scene");
+                    shuffled(&engine, &scene)
+                }
+                _ => shuffled_square(&scene),
+            });
+            for &order in &orders {
+                let name = format!("{order:?}").to_lowercase();
+                scene.solver.node_order = order;
+                run(problem, &format!("gen/{name}"), scene.clone());
+                if let Some(s) = &shuffled_scene {
+                    let mut s = s.clone();
+                    s.solver.node_order = order;
+                    run(problem, &format!("shuf/{name}"), s);
+                }
             }
         }
     }
+}
+
+/// The square with edge cables at `n` x `n` cells, its fabric prestressed by `prestress` N/m
+/// (isotropic; 0: stress-free).
+fn square_scene(n: usize, prestress: f64) -> Scene {
+    let prestress = if prestress > 0.0 {
+        format!(r#", "prestress": {{"kind": "isotropic", "n": {prestress:e}}}"#)
+    } else {
+        String::new()
+    };
+    let text = format!(
+        r#"{{"format": 1, "name": "ScaleSquare",
+  "geometry": {{"generators": [{{"kind": "rectangle", "name": "sheet", "origin": [0, 0, 0], "size": [4.0, 4.0], "divisions": [{n}, {n}]}}]}},
+  "membranes": [{{"name": "fabric", "triangles": "sheet", "thickness": 1e-3, "material": {{"kind": "svk", "E": 6e8, "nu": 0.3}}{prestress}}}],
+  "cables": [
+    {{"name": "edge_bottom", "nodes": "sheet.edge_bottom", "EA": 2e6, "pretension": 2000}},
+    {{"name": "edge_right", "nodes": "sheet.edge_right", "EA": 2e6, "pretension": 2000}},
+    {{"name": "edge_top", "nodes": "sheet.edge_top", "EA": 2e6, "pretension": 2000}},
+    {{"name": "edge_left", "nodes": "sheet.edge_left", "EA": 2e6, "pretension": 2000}}],
+  "supports": [
+    {{"nodes": "sheet.corner_bl", "fix": ["x", "y", "z"]}}, {{"nodes": "sheet.corner_br", "fix": ["x", "y", "z"]}},
+    {{"nodes": "sheet.corner_tl", "fix": ["x", "y", "z"]}}, {{"nodes": "sheet.corner_tr", "fix": ["x", "y", "z"]}}],
+  "inputs": [{{"name": "wind", "load": {{"kind": "pressure", "membrane": "fabric", "follower": true}}, "start": 0, "min": -1000, "max": 300}}],
+  "outputs": [{{"name": "center_uz", "probe": {{"kind": "displacement", "node": "sheet.center", "component": "z"}}}}]}}"#
+    );
+    Scene::from_json(&text).expect("valid scene")
+}
+
+/// The square's mesh written explicitly with node ids and triangle order permuted (the same
+/// generator as the disc's), every node and triangle set carried over under its name.
+fn shuffled_square(scene: &Scene) -> Scene {
+    let mesh = resolve(&scene.geometry);
+    let perm = permutation(mesh.nodes.len()); // old id -> new id
+    let tri_perm = permutation(mesh.triangles.len()); // old position -> new position
+    let mut nodes = vec![[0.0; 3]; mesh.nodes.len()];
+    for (old, &new) in perm.iter().enumerate() {
+        nodes[new] = mesh.nodes[old];
+    }
+    let mut triangles = vec![[OneNode::Id(0), OneNode::Id(0), OneNode::Id(0)]; tri_perm.len()];
+    for (old, &new) in tri_perm.iter().enumerate() {
+        triangles[new] = mesh.triangles[old].map(|i| OneNode::Id(perm[i]));
+    }
+    let mut out = scene.clone();
+    out.geometry = Geometry {
+        nodes,
+        triangles,
+        node_sets: mesh
+            .node_sets
+            .into_iter()
+            .map(|(name, set)| (name, set.into_iter().map(|i| perm[i]).collect()))
+            .collect(),
+        triangle_sets: mesh
+            .triangle_sets
+            .into_iter()
+            .map(|(name, set)| (name, set.into_iter().map(|e| tri_perm[e]).collect()))
+            .collect(),
+        generators: Vec::new(),
+    };
+    out
 }
 
 /// `--scenes`: the stored entries of the factor of every shipped scene in each internal node

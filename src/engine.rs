@@ -88,6 +88,9 @@ pub struct Engine {
     /// whole step at), with nothing set, restored or reset since: with the inputs equal to the
     /// applied ones and the model not stale, a step has nothing to do ([`Engine::settled`]).
     converged: bool,
+    /// Estimated peak bytes of model and solver (`scene::limits::memory_bytes`), from the
+    /// validation that admitted the scene.
+    memory_estimate: u64,
 }
 
 impl Engine {
@@ -151,6 +154,7 @@ impl Engine {
             membranes: Vec::new(),
             tangent: None,
             converged: false,
+            memory_estimate: size.memory_bytes,
         };
         engine.refresh_outputs()?;
         Ok(engine)
@@ -598,6 +602,14 @@ impl Engine {
             .residual(&self.model, &self.state.displacement, &self.state.applied)
     }
 
+    /// Estimated peak memory of model and solver in bytes (`scene::limits::memory_bytes`: the
+    /// factor from the symbolic analysis, the matrix, the elements, the vectors), the figure
+    /// the size limits and the memory probe use. Compare with [`crate::memory::peak_resident`]
+    /// (docs/performance.md, memory).
+    pub fn memory_estimate(&self) -> u64 {
+        self.memory_estimate
+    }
+
     /// Stored entries of the tangent's LDLT factor (after AMD ordering), for the scaling benchmark.
     pub fn factor_nonzeros(&self) -> usize {
         self.solver.factor_nonzeros()
@@ -613,6 +625,24 @@ impl Engine {
             &self.state.applied,
             repeats,
         )
+    }
+
+    /// [`Engine::time_floor`] with the factorization and the solve timed apart: (assembly,
+    /// factorization, solve) seconds, each the best of `repeats`.
+    pub fn time_floor_parts(&mut self, repeats: usize) -> (f64, f64, f64) {
+        self.tangent = None;
+        self.solver.time_floor_parts(
+            &self.model,
+            &self.state.displacement,
+            &self.state.applied,
+            repeats,
+        )
+    }
+
+    /// Numeric factorizations of the tangent since the engine was built (the scaling
+    /// benchmark's count; `StepReport::iterations` counts Newton iterations).
+    pub fn factorizations(&self) -> usize {
+        self.solver.factorizations()
     }
 
     /// Outputs, membrane evaluations, wrinkle codes and tension angles of the committed state.

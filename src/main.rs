@@ -98,6 +98,11 @@ enum Command {
         /// No progress line on stderr.
         #[arg(long, short)]
         quiet: bool,
+        /// Print the memory line on stderr also when stderr is not a terminal (it is printed
+        /// at the end of a run on a terminal unless --quiet): the engine's estimate for model
+        /// and solver and the process's peak resident set.
+        #[arg(long)]
+        memory: bool,
     },
     /// List every problem of a scene by JSON path; exit 1 if there is any.
     #[command(
@@ -232,6 +237,7 @@ fn main() -> ExitCode {
             elements,
             vtk,
             quiet,
+            memory,
         } => cmd_solve(&SolveArgs {
             scene,
             loads,
@@ -239,6 +245,7 @@ fn main() -> ExitCode {
             elements,
             vtk,
             quiet,
+            memory,
         }),
         Command::Check { scene } => cmd_check(&scene),
         Command::Formfind { scene, out, quiet } => cmd_formfind(&scene, &out, quiet),
@@ -355,6 +362,7 @@ struct SolveArgs {
     elements: Option<String>,
     vtk: Option<String>,
     quiet: bool,
+    memory: bool,
 }
 
 fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
@@ -383,6 +391,12 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
         },
     );
     progress.finish();
+    if args.memory || (!args.quiet && std::io::stderr().is_terminal()) {
+        eprintln!(
+            "velarium: {}",
+            velarium::memory::report(engine.memory_estimate())
+        );
+    }
     let history = result.map_err(failed)?;
     if let Some(series) = &series {
         series.finish().map_err(failed)?;

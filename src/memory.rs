@@ -99,6 +99,37 @@ pub fn probe(bytes: u64, what: &'static str) -> Result<(), OutOfMemory> {
     Ok(())
 }
 
+/// The process's peak resident set in bytes (VmHWM of /proc/self/status: the most physical
+/// memory it has held at once, its own and every library's), None where that file is missing
+/// (not Linux). What a user compares with the engine's estimate (`Engine::memory_estimate`).
+pub fn peak_resident() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib.saturating_mul(1024))
+}
+
+/// "estimated X MB, peak resident Y MB" (the peak omitted where unknown), for the CLI's and
+/// the FMU's logs.
+pub fn report(estimate: u64) -> String {
+    let mb = |b: u64| {
+        let mb = b as f64 / 1e6;
+        if mb >= 100.0 {
+            format!("{mb:.0} MB")
+        } else {
+            format!("{mb:.3} MB")
+        }
+    };
+    match peak_resident() {
+        Some(peak) => format!(
+            "memory: estimated {} for model and solver, peak resident {} (whole process)",
+            mb(estimate),
+            mb(peak)
+        ),
+        None => format!("memory: estimated {} for model and solver", mb(estimate)),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -467,6 +467,32 @@ fn solve_names_the_line_and_column_of_a_bad_cell() {
     }
 }
 
+/// `velarium solve --memory`: one line on stderr with the engine's estimate and the process's
+/// peak resident set (both positive; the peak is at least what the estimate's model and solver
+/// can be for this tiny scene: the executable alone is larger); without it, into a pipe,
+/// nothing.
+#[test]
+fn solve_reports_estimated_and_peak_memory_on_request() {
+    let dir = scratch("solve-memory");
+    let scene = write(&dir, "tiny.json", TINY);
+    let loads = write(&dir, "loads.csv", "time,F\n0,0\n1,80\n");
+    let quiet = velarium(&["solve", s(&scene), "--loads", s(&loads)]);
+    assert!(quiet.status.success(), "{}", text(&quiet.stderr));
+    assert_eq!(text(&quiet.stderr), "", "nothing on stderr into a pipe");
+    let out = velarium(&["solve", s(&scene), "--loads", s(&loads), "--memory"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stderr = text(&out.stderr);
+    let line = stderr.trim();
+    assert!(line.starts_with("velarium: memory: estimated "), "{line}");
+    let numbers: Vec<f64> = line
+        .split(' ')
+        .filter_map(|w| w.parse::<f64>().ok())
+        .collect();
+    assert_eq!(numbers.len(), 2, "estimate and peak: {line}");
+    assert!(numbers[0] > 0.0 && numbers[1] > numbers[0], "{line}");
+    assert!(line.contains("peak resident"), "{line}");
+}
+
 #[test]
 fn solve_writes_one_row_per_load_row() {
     let dir = scratch("solve-good");

@@ -1005,6 +1005,36 @@ fn messages_use_percent_s_and_keep_percent_literal() {
     assert!(!r.message.ends_with('\n'));
 }
 
+/// With logging on, instantiation logs the model's memory on logSolver: the engine's estimate
+/// for model and solver and the host's peak resident set, both positive.
+#[test]
+fn instantiation_logs_the_memory_estimate_and_peak() {
+    let fx = Fixture::standard();
+    let log = Log::default();
+    let _fmu = fx.fmu(&log, true);
+    let records = log.records();
+    let memory = records
+        .iter()
+        .find(|r| r.message.starts_with("memory: estimated "))
+        .unwrap_or_else(|| panic!("no memory line in {records:?}"));
+    assert_eq!((memory.category.as_str(), memory.status), ("logSolver", OK));
+    let numbers: Vec<f64> = memory
+        .message
+        .split([' ', ';', ','])
+        .filter_map(|w| w.parse::<f64>().ok())
+        .collect();
+    assert!(
+        numbers.len() >= 2 && numbers[0] > 0.0 && numbers[1] > 0.0,
+        "{}",
+        memory.message
+    );
+    assert!(
+        memory.message.contains("peak resident"),
+        "{}",
+        memory.message
+    );
+}
+
 #[test]
 fn categories_are_switched_as_asked() {
     let fx = Fixture::standard();

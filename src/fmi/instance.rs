@@ -83,6 +83,7 @@ impl Instance {
                     Category::Calls,
                     &format!("fmi2Instantiate({}) -> instance", describe(args)),
                 );
+                instance.log_memory();
                 Some(instance)
             }
             Err(message) => {
@@ -111,6 +112,23 @@ impl Instance {
             worker,
             intermediate: None,
             early_return_allowed: false,
+        }
+    }
+
+    /// The model's memory on the solver category at instantiation: the engine's estimate of
+    /// model and solver and the host process's peak resident set so far (docs/performance.md,
+    /// memory).
+    pub(crate) fn log_memory(&self) {
+        if self.logger.enabled(Category::Solver) {
+            let line = crate::memory::report(self.engine.memory_estimate());
+            self.logger.log(
+                Category::Solver,
+                &format!(
+                    "{line}; {} unknowns, {} factor entries",
+                    self.engine.free_dofs(),
+                    self.engine.factor_nonzeros()
+                ),
+            );
         }
     }
 

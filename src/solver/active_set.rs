@@ -43,6 +43,11 @@ pub(super) struct ActiveSet {
     previous: Vec<WrinkleState>,
     /// Wrinkle states of the iteration before `previous`.
     before: Vec<WrinkleState>,
+    /// This iteration's wrinkle states (the three buffers rotate: no allocation per
+    /// iteration once they have their size).
+    current: Vec<WrinkleState>,
+    /// The storage of `wrinkle_frozen` while it is None (reused when states freeze again).
+    spare_frozen: Vec<Option<WrinkleState>>,
     /// Trial stick/slip state of every sleeve point.
     pub contact: Vec<Contact>,
     contact_frozen: bool,
@@ -70,6 +75,8 @@ impl ActiveSet {
             wrinkle_frozen: None,
             previous: Vec::new(),
             before: Vec::new(),
+            current: Vec::new(),
+            spare_frozen: Vec::new(),
             contact,
             contact_frozen: false,
             freeze_at: settings.freeze_after,
@@ -87,17 +94,31 @@ impl ActiveSet {
     pub fn observe_wrinkles(
         &mut self,
         it: usize,
-        states: Vec<WrinkleState>,
+        states: impl Iterator<Item = WrinkleState>,
         log: &mut Vec<String>,
     ) {
+        self.current.clear();
+        self.current.extend(states);
+        if self.wrinkle_frozen.is_none() {
+            // The frozen states' storage, had at the increment's first iteration rather than
+            // at the freeze iteration (the same allocation, once per increment).
+            let n = self.current.len();
+            self.spare_frozen
+                .reserve_exact(n.saturating_sub(self.spare_frozen.len()));
+        }
+        let states = &self.current;
         if it >= self.freeze_at
             && !self.wrinkles_released
             && self.previous.len() == states.len()
             && self.before.len() == states.len()
         {
-            let frozen = self
-                .wrinkle_frozen
-                .get_or_insert_with(|| vec![None; states.len()]);
+            let spare = &mut self.spare_frozen;
+            let frozen = self.wrinkle_frozen.get_or_insert_with(|| {
+                let mut v = std::mem::take(spare);
+                v.clear();
+                v.resize(states.len(), None);
+                v
+            });
             let mut newly = 0;
             // Past twice the freeze iteration every element still changing is frozen too.
             let late = it >= self.freeze_at + self.freeze_after;
@@ -118,10 +139,14 @@ impl ActiveSet {
                 );
             }
             if frozen.iter().all(Option::is_none) {
-                self.wrinkle_frozen = None;
+                if let Some(v) = self.wrinkle_frozen.take() {
+                    self.spare_frozen = v;
+                }
             }
         }
-        self.before = std::mem::replace(&mut self.previous, states);
+        // before <- previous <- current; the old `before` buffer is the next `current`.
+        std::mem::swap(&mut self.before, &mut self.previous);
+        std::mem::swap(&mut self.previous, &mut self.current);
     }
 
     /// Return map of every sleeve point at `u` (unless frozen); returns how many states

@@ -297,6 +297,18 @@ fn largest(f: &[f64]) -> f64 {
     f.iter().fold(0.0f64, |m, v| m.max(v.abs()))
 }
 
+/// Work buffers of an assembly that grow with the model (node positions and forces in the
+/// internal order, the external load vector): owned by the solver and reused by every
+/// assembly of its Newton iterations and line searches, so that an iteration allocates
+/// nothing (docs/performance.md, memory). An assembly given none makes its own.
+#[derive(Default)]
+pub struct AssemblyScratch {
+    xi: Vec<Vector3<f64>>,
+    ri: Vec<f64>,
+    mi: Vec<f64>,
+    fext: Vec<f64>,
+}
+
 /// What an assembly computes besides R (and K when a matrix is given).
 #[derive(Default)]
 pub struct Membranes<'a> {
@@ -312,6 +324,8 @@ pub struct Membranes<'a> {
     /// Per DOF, the sum of the magnitudes of every force that meets there (element forces and
     /// loads): the size of the terms whose sum is R, for its round-off floor. Zeroed here.
     pub magnitude: Option<&'a mut [f64]>,
+    /// Reused work buffers (None: allocated for this assembly).
+    pub scratch: Option<&'a mut AssemblyScratch>,
 }
 
 /// Add K_e·du_e (the element's rows) to `out` for an element with `nodes`.
@@ -486,8 +500,11 @@ pub fn assemble_with(
     // added to R (and the magnitudes) node by node at the end, so the element loop reads and
     // writes memory front to back whatever the user's numbering.
     let internal = !pattern.triangles.is_empty();
-    let mut xi = Vec::new();
-    let (mut ri, mut mi) = (Vec::new(), Vec::new());
+    let mut own = AssemblyScratch::default();
+    let AssemblyScratch { xi, ri, mi, fext } = extra.scratch.take().unwrap_or(&mut own);
+    xi.clear();
+    ri.clear();
+    mi.clear();
     if internal {
         xi.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
         ri.resize(3 * xi.len(), 0.0);
@@ -503,7 +520,7 @@ pub fn assemble_with(
             let t = &pattern.triangles[slot];
             let (f, eval, ratio) = triangle_at(t, &t.nodes.map(|i| xi[i]), factor, forced, kk);
             let mut m = (!mi.is_empty()).then_some(&mut mi[..]);
-            add_force(&mut ri, &t.nodes, f.as_slice(), &mut m);
+            add_force(ri, &t.nodes, f.as_slice(), &mut m);
             (f, eval, ratio)
         } else {
             let (f, eval, ratio) = triangle_of(model, user, u, factor, forced, kk);
@@ -559,7 +576,8 @@ pub fn assemble_with(
         }
     }
     // External loads: R −= f_ext.
-    let mut fext = vec![0.0; r.len()];
+    fext.clear();
+    fext.resize(r.len(), 0.0);
     for (l, load) in model.loads.iter().enumerate() {
         // A volume input's load is the follower pressure held in its unknown.
         let value = model.load_value(l, u, loads);
@@ -617,7 +635,7 @@ pub fn assemble_with(
         info.external = info.external.max(f.abs());
     }
     if let Some(m) = extra.magnitude.as_deref_mut() {
-        for (m, f) in m.iter_mut().zip(&fext) {
+        for (m, f) in m.iter_mut().zip(fext.iter()) {
             *m += f.abs();
         }
     }

@@ -26,7 +26,7 @@
 //! 23:707–716 (non-monotone).
 
 use super::assemble::{assemble_with, Membranes, NONE};
-use super::slip::{slip_rows, step_limit};
+use super::slip::{slip_rows_into, step_limit};
 use super::Solver;
 use crate::model::sleeve::Contact;
 use crate::model::Model;
@@ -113,8 +113,8 @@ impl Solver {
         }
     }
 
-    /// Residual at u + α dir into `self.residual`; returns (potential, slip rows' residuals,
-    /// inverted).
+    /// Residual at u + α dir into `self.residual` and the slip and volume rows' residuals into
+    /// `self.work.trial_slip`; returns (potential, inverted).
     fn trial_point(
         &mut self,
         model: &Model,
@@ -122,7 +122,7 @@ impl Solver {
         dir: &Direction,
         at: &Trial,
         alpha: f64,
-    ) -> (f64, Vec<f64>, bool) {
+    ) -> (f64, bool) {
         self.trial.copy_from_slice(u);
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             if e != NONE {
@@ -151,30 +151,30 @@ impl Solver {
             None,
             Membranes {
                 forced: self.frozen.as_deref(),
+                scratch: Some(&mut self.work.scratch),
                 ..Default::default()
             },
         );
         let inverted = super::check_inversion(model, &info).is_err();
-        let mut rows: Vec<f64> = if model.slips.is_empty() {
-            Vec::new()
-        } else {
-            slip_rows(
+        let work = &mut self.work;
+        work.trial_slip.clear();
+        if !model.slips.is_empty() {
+            slip_rows_into(
                 model,
                 &self.pattern.eq,
                 &self.trial,
                 at.committed,
                 at.contact,
-            )
-            .iter()
-            .map(|r| r.r)
-            .collect()
-        };
-        rows.extend(
+                &mut work.trial_rows,
+            );
+            work.trial_slip.extend(work.trial_rows.iter().map(|r| r.r));
+        }
+        work.trial_slip.extend(
             super::volume::rows(model, &self.pattern.eq, &self.trial, loads)
                 .iter()
                 .map(|r| r.r),
         );
-        (info.potential, rows, inverted)
+        (info.potential, inverted)
     }
 
     /// Δu·R: the displacement direction dotted with the residual on the free DOFs.
@@ -189,7 +189,7 @@ impl Solver {
     }
 
     /// ‖(R_free, r)‖₂ of the last assembly and the given slip residuals.
-    pub(super) fn residual_norm(&self, slip: &[f64]) -> f64 {
+    pub(super) fn residual_norm<'a>(&self, slip: impl IntoIterator<Item = &'a f64>) -> f64 {
         let free: f64 = self
             .pattern
             .eq
@@ -198,7 +198,7 @@ impl Solver {
             .filter(|(&e, _)| e != NONE)
             .map(|(_, r)| r * r)
             .sum();
-        (free + slip.iter().map(|r| r * r).sum::<f64>()).sqrt()
+        (free + slip.into_iter().map(|r| r * r).sum::<f64>()).sqrt()
     }
 
     /// Armijo backtracking on the potential Π with quadratic interpolation.
@@ -214,7 +214,7 @@ impl Solver {
         let noise = 1e-13 * p0.abs().max(f64::MIN_POSITIVE);
         let mut alpha = step_limit(model, u, dir.ds, self.settings.keep_length);
         for _ in 0..self.settings.line_search_tries {
-            let (p, _, inverted) = self.trial_point(model, u, dir, at, alpha);
+            let (p, inverted) = self.trial_point(model, u, dir, at, alpha);
             if inverted || !p.is_finite() {
                 alpha *= 0.25;
                 continue;
@@ -244,7 +244,7 @@ impl Solver {
         }
         let mut alpha = 1.0;
         for _ in 0..self.settings.line_search_tries {
-            let (_, _, inverted) = self.trial_point(model, u, dir, at, alpha);
+            let (_, inverted) = self.trial_point(model, u, dir, at, alpha);
             let s = self.direction_dot_residual(dir.dx);
             if inverted || !s.is_finite() {
                 alpha *= 0.5;
@@ -271,8 +271,8 @@ impl Solver {
     ) -> (f64, bool) {
         let mut alpha = step_limit(model, u, dir.ds, self.settings.keep_length);
         for _ in 0..self.settings.line_search_tries {
-            let (_, slip, inverted) = self.trial_point(model, u, dir, at, alpha);
-            let norm = self.residual_norm(&slip);
+            let (_, inverted) = self.trial_point(model, u, dir, at, alpha);
+            let norm = self.residual_norm(&self.work.trial_slip);
             let armijo = self.settings.armijo;
             if !inverted && norm.is_finite() && norm <= (1.0 - armijo * alpha) * reference {
                 return (alpha, true);

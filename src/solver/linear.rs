@@ -28,6 +28,8 @@ pub struct Ldlt {
     l_values: Vec<f64>,
     factor_mem: MemBuffer,
     solve_mem: MemBuffer,
+    /// Numeric factorizations done so far (the scaling benchmark's count).
+    factorizations: usize,
 }
 
 impl Ldlt {
@@ -80,12 +82,18 @@ impl Ldlt {
             l_values,
             factor_mem,
             solve_mem,
+            factorizations: 0,
         })
     }
 
     /// Stored entries of the factor L (AMD ordering, supernodal), for the scaling benchmark.
     pub fn factor_nonzeros(&self) -> usize {
         self.symbolic.len_val()
+    }
+
+    /// Numeric factorizations done since this factorization object was made.
+    pub fn factorizations(&self) -> usize {
+        self.factorizations
     }
 
     /// The matrix values (upper triangle, CSC order) as last filled.
@@ -119,6 +127,7 @@ impl Ldlt {
                 "tangent diagonal is not positive and finite (max {max_diag:e})"
             ));
         }
+        self.factorizations += 1;
         let reg = LdltRegularization {
             dynamic_regularization_signs: None,
             dynamic_regularization_delta: PIVOT_DELTA * max_diag,

@@ -41,6 +41,7 @@ pub mod renumber;
 pub mod sensitivity;
 pub mod slip;
 mod volume;
+mod work;
 
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
@@ -276,12 +277,20 @@ pub struct Solver {
     prestress_factor: f64,
     /// States held by the probe evaluations ([`Solver::hold_states`]).
     probe_states: Option<Vec<Option<WrinkleState>>>,
+    /// The Newton loop's reused work buffers (`work.rs`).
+    work: work::Work,
 }
 
 impl Solver {
     /// Stored entries of the tangent's LDLT factor.
     pub fn factor_nonzeros(&self) -> usize {
         self.linear.factor_nonzeros()
+    }
+
+    /// Numeric factorizations of the tangent since the solver was made (every Newton
+    /// direction, prescribed-displacement predictor, sensitivity and timing included).
+    pub fn factorizations(&self) -> usize {
+        self.linear.factorizations()
     }
 
     /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
@@ -318,6 +327,7 @@ impl Solver {
             adjacency: relax::Adjacency::try_new(model)?,
             prestress_factor: 1.0,
             probe_states: None,
+            work: work::Work::default(),
             pattern,
         })
     }
@@ -443,7 +453,20 @@ impl Solver {
         loads: &[f64],
         repeats: usize,
     ) -> (f64, f64) {
-        let (mut assembly, mut factor) = (f64::INFINITY, f64::INFINITY);
+        let (assembly, factor, solve) = self.time_floor_parts(model, u, loads, repeats);
+        (assembly, factor + solve)
+    }
+
+    /// [`Solver::time_floor`] with the numeric factorization and the solve (forward and back
+    /// substitution) timed apart, each the best of `repeats`.
+    pub fn time_floor_parts(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        repeats: usize,
+    ) -> (f64, f64, f64) {
+        let (mut assembly, mut factor, mut solve) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
         for _ in 0..repeats.max(1) {
             let t = std::time::Instant::now();
             assemble::assemble(
@@ -460,12 +483,20 @@ impl Solver {
                     self.rhs[e] = -self.residual[d];
                 }
             }
+            // A failed factorization or solve still costs its time; the floor is about cost
+            // only.
             let t = std::time::Instant::now();
-            // A failed factorization still costs its time; the floor is about cost only.
-            let _ = self.linear.factor_solve(&mut self.rhs);
+            let factored = self.linear.factor().is_ok();
             factor = factor.min(t.elapsed().as_secs_f64());
+            if factored && !self.rhs.is_empty() {
+                let t = std::time::Instant::now();
+                let _ = self.linear.solve(&mut self.rhs);
+                solve = solve.min(t.elapsed().as_secs_f64());
+            } else {
+                solve = 0.0;
+            }
         }
-        (assembly, factor)
+        (assembly, factor, solve)
     }
 }
 

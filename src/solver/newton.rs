@@ -50,7 +50,7 @@ use super::active_set::{ActiveSet, Recheck};
 use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
 use super::line_search::{Direction, Merit, Trial};
 use super::relax::relax_nodes;
-use super::slip::{largest_gap, slip_rows, step_limit, Row, MAX_GAP};
+use super::slip::{largest_gap, slip_rows_into, step_limit, Row, MAX_GAP};
 use super::{push_log, Solver};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
@@ -186,33 +186,44 @@ impl Solver {
         let mut recent_potential = None;
         let max = self.settings.max_iterations;
         let hard_max = max.max(self.settings.max_iterations_progressing);
-        let mut history: Vec<f64> = Vec::new();
+        // Allocated once per increment, reused by every iteration (`work.rs`).
+        let mut history: Vec<f64> = Vec::with_capacity(hard_max + 1);
+        let mut loads: Vec<f64> = Vec::with_capacity(step.loads.len());
+        let mut rows: Vec<Row> = Vec::new();
         for it in 0..=hard_max {
-            let loads: Vec<f64> = match arc.as_deref() {
+            match arc.as_deref() {
                 Some(a) => {
-                    let loads = super::arc::loads_at(a.from, a.to, a.lambda);
+                    loads = super::arc::loads_at(a.from, a.to, a.lambda);
                     super::path::prescribe(model, &loads, u);
-                    loads
                 }
-                None => step.loads.to_vec(),
-            };
+                None => {
+                    loads.clear();
+                    loads.extend_from_slice(step.loads);
+                }
+            }
             let inc = &Increment {
                 loads: &loads,
                 change: step.change,
                 moved: step.moved,
             };
-            self.frozen = active.wrinkle_frozen.clone();
+            self.frozen.clone_from(&active.wrinkle_frozen);
             let info = self.assemble_at(model, inc.loads, u);
-            let states: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
-            active.observe_wrinkles(it, states, log);
-            self.frozen = active.wrinkle_frozen.clone();
+            active.observe_wrinkles(it, self.evaluations.iter().map(|e| e.state), log);
+            self.frozen.clone_from(&active.wrinkle_frozen);
             super::check_inversion(model, &info).map_err(|why| (it, why))?;
             // The return map runs only once the iterate is near equilibrium (`contact_settle`):
             // the cone test at a far iterate (a linear step that overshoots the kinks) flips
             // sticking points to slip and sends Newton wandering (active_set.rs).
             let settled = last_relative <= self.settings.contact_settle;
             let changed = active.update_contact(it, model, u, &mut committed, settled, log);
-            let mut rows = slip_rows(model, &self.pattern.eq, u, &committed, &active.contact);
+            slip_rows_into(
+                model,
+                &self.pattern.eq,
+                u,
+                &committed,
+                &active.contact,
+                &mut rows,
+            );
             rows.extend(super::volume::rows(model, &self.pattern.eq, u, inc.loads));
             let mut check = self.check(model, &info, &rows, u, inc, it);
             if !(check.free.is_finite() && check.slip.is_finite()) {
@@ -395,9 +406,9 @@ impl Solver {
                 recent.clear();
             }
             let merit = if residual_merit {
-                let slip: Vec<f64> = rows.iter().map(|r| r.r).collect();
+                let norm = self.residual_norm(rows.iter().map(|r| &r.r));
                 Merit::Residual {
-                    reference: remember(&mut recent, memory, self.residual_norm(&slip)),
+                    reference: remember(&mut recent, memory, norm),
                 }
             } else if model.is_conservative() {
                 Merit::Potential {
@@ -472,6 +483,7 @@ impl Solver {
                     arc.as_deref().map_or(String::new(), |a| format!(", λ -> {:.6}", a.lambda)),
                 ),
             );
+            self.work.recycle(dx, ds);
         }
         // Reached only when frozen states were found wrong at the last allowed iteration.
         Err((
@@ -582,6 +594,7 @@ impl Solver {
             held_step: None,
             prestress_factor: Some(self.prestress_factor),
             magnitude: Some(&mut self.magnitude),
+            scratch: Some(&mut self.work.scratch),
         };
         assemble_with(
             model,
@@ -608,6 +621,7 @@ impl Solver {
             forced: None,
             out: Some(&mut self.evaluations),
             magnitude: Some(&mut self.magnitude),
+            scratch: Some(&mut self.work.scratch),
             ..Default::default()
         };
         let info = assemble_with(
@@ -637,7 +651,11 @@ impl Solver {
     ) -> usize {
         let s = self.settings.clone();
         let (mut free, mut moved_total) = (free, 0);
-        let mut patch = vec![false; model.reference.len()];
+        // The patch and its node list in reused buffers (`work.rs`).
+        let mut patch = std::mem::take(&mut self.work.patch);
+        patch.clear();
+        patch.resize(model.reference.len(), false);
+        let mut nodes = std::mem::take(&mut self.work.nodes);
         for _ in 0..s.relax_rounds {
             // The patch grows by the nodes that now carry the residual (the neighbours the last
             // round passed it on to) and is relaxed as a whole: block Gauss-Seidel on it.
@@ -647,7 +665,8 @@ impl Solver {
                     self.pattern.eq[d] != NONE && self.residual[d].abs() >= s.relax_share * free
                 });
             }
-            let nodes: Vec<usize> = (0..patch.len()).filter(|&i| patch[i]).collect();
+            nodes.clear();
+            nodes.extend((0..patch.len()).filter(|&i| patch[i]));
             if nodes.len() as f64 > s.relax_max_share * model.reference.len() as f64 {
                 // The residual is spread over the mesh: a global, not a local, difficulty.
                 break;
@@ -671,6 +690,7 @@ impl Solver {
             moved_total += moved;
             let membranes = Membranes {
                 forced,
+                scratch: Some(&mut self.work.scratch),
                 ..Default::default()
             };
             assemble_with(
@@ -688,6 +708,8 @@ impl Solver {
                 break;
             }
         }
+        self.work.patch = patch;
+        self.work.nodes = nodes;
         moved_total
     }
 

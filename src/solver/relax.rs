@@ -217,7 +217,13 @@ pub fn relax_nodes(
 ) -> usize {
     let mut moved = 0;
     for &node in nodes {
-        let free: Vec<usize> = (0..3).filter(|&c| !model.held[3 * node + c]).collect();
+        // The node's free components (no allocation per node).
+        let (mut comps, mut k) = ([0usize; 3], 0);
+        for c in (0..3).filter(|&c| !model.held[3 * node + c]) {
+            comps[k] = c;
+            k += 1;
+        }
+        let free = &comps[..k];
         if free.is_empty() {
             continue;
         }
@@ -228,7 +234,7 @@ pub fn relax_nodes(
             if norm <= target {
                 break;
             }
-            let Some(step) = newton_step(&here, &free) else {
+            let Some(step) = newton_step(&here, free) else {
                 break;
             };
             if !line_search(model, adj, u, loads, node, forced, &here, &step, norm) {

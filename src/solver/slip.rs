@@ -25,14 +25,14 @@ use super::assemble::NONE;
 use super::Solver;
 use crate::model::sleeve::{self, Contact, SegmentLaw};
 use crate::model::Model;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 
 /// Largest tie gap, relative to the shorter adjacent segment, before the log warns (the
 /// penetration bound of docs/mechanics.md, sleeves: below 1e-3 of the element size).
 pub const MAX_GAP: f64 = 1e-3;
 
 /// One slip row: residual and its non-zero couplings.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub(super) struct Row {
     pub r: f64,
     /// (equation of a free displacement DOF, ∂r/∂x)
@@ -59,7 +59,10 @@ impl Solver {
         damping: f64,
         extra: Option<&[(usize, f64)]>,
     ) -> Result<(Vec<f64>, Vec<f64>), String> {
-        let mut residual = vec![0.0; self.pattern.n];
+        // The direction's buffer from the last iteration (`work.rs`), filled with R.
+        let mut residual = std::mem::take(&mut self.work.dx);
+        residual.clear();
+        residual.resize(self.pattern.n, 0.0);
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             if e != NONE {
                 residual[e] = self.residual[d];
@@ -93,43 +96,53 @@ impl Solver {
             }
         }
         self.linear.factor()?;
-        let mut y0: Vec<f64> = residual.iter().map(|r| -r).collect();
+        let mut y0 = residual;
+        for v in y0.iter_mut() {
+            *v = -*v;
+        }
         self.linear.solve(&mut y0)?;
         if m == 0 {
             return if y0.iter().all(|v| v.is_finite()) {
-                Ok((y0, Vec::new()))
+                let mut ds = std::mem::take(&mut self.work.ds);
+                ds.clear();
+                Ok((y0, ds))
             } else {
                 Err("the Newton direction is not finite".into())
             };
         }
-        let mut columns = slip_columns(model, &self.pattern.eq, u);
-        columns.extend(super::volume::columns(model, &self.pattern.eq, u));
+        // B's columns and their solves Y = A⁻¹ B into the reused buffers (`work.rs`).
+        let work = &mut self.work;
+        slip_columns_into(model, &self.pattern.eq, u, &mut work.columns);
+        work.columns
+            .extend(super::volume::columns(model, &self.pattern.eq, u));
         if let Some(col) = extra {
-            columns.push(col.to_vec());
+            work.columns.push(col.to_vec());
         }
-        debug_assert_eq!(columns.len(), m, "one column per row");
-        let mut y = Vec::with_capacity(m);
-        for col in &columns {
-            let mut v = vec![0.0; n];
+        debug_assert_eq!(work.columns.len(), m, "one column per row");
+        super::work::zero_columns(&mut work.solved, m, n);
+        for (col, v) in work.columns.iter().zip(work.solved.iter_mut()) {
             for &(e, b) in col {
                 v[e] += b;
             }
             if !col.is_empty() {
-                self.linear.solve(&mut v)?;
+                self.linear.solve(v)?;
             }
-            y.push(v);
         }
-        let mut schur = DMatrix::<f64>::zeros(m, m);
-        let mut rhs = DVector::<f64>::zeros(m);
+        let y = &work.solved;
+        let (schur, rhs) = (&mut work.schur, &mut work.schur_rhs);
+        schur.clear();
+        schur.resize(m * m, 0.0);
+        rhs.clear();
+        rhs.resize(m, 0.0);
         for (i, row) in rows.iter().enumerate() {
             for &(j, d) in &row.ds {
-                schur[(i, j)] += d;
+                schur[i * m + j] += d;
             }
             if row.damped {
-                schur[(i, i)] += damping * self.reference_diagonal[n + i];
+                schur[i * m + i] += damping * self.reference_diagonal[n + i];
             }
             for (j, yj) in y.iter().enumerate() {
-                schur[(i, j)] -= row.dx.iter().map(|&(e, c)| c * yj[e]).sum::<f64>();
+                schur[i * m + j] -= row.dx.iter().map(|&(e, c)| c * yj[e]).sum::<f64>();
             }
             rhs[i] = -row.r - row.dx.iter().map(|&(e, c)| c * y0[e]).sum::<f64>();
         }
@@ -138,17 +151,17 @@ impl Solver {
         // t·K⁻¹q is in metres per unit load factor, not comparable with the others').
         let regular = if extra.is_some() { m - 1 } else { m };
         let big = (0..regular)
-            .map(|i| schur[(i, i)].abs())
+            .map(|i| schur[i * m + i].abs())
             .fold(0.0, f64::max);
         for i in 0..regular {
-            if schur[(i, i)].abs() <= 1e-12 * big {
-                schur[(i, i)] += 1e-9 * big.max(f64::MIN_POSITIVE);
+            if schur[i * m + i].abs() <= 1e-12 * big {
+                schur[i * m + i] += 1e-9 * big.max(f64::MIN_POSITIVE);
             }
         }
-        let ds = schur
-            .lu()
-            .solve(&rhs)
-            .ok_or_else(|| "the slip block of the tangent is singular".to_string())?;
+        if !super::work::dense_solve(schur, rhs) {
+            return Err("the slip block of the tangent is singular".to_string());
+        }
+        let ds = &work.schur_rhs;
         let mut dx = y0;
         for (j, yj) in y.iter().enumerate() {
             for (e, v) in dx.iter_mut().enumerate() {
@@ -158,7 +171,10 @@ impl Solver {
         if !(dx.iter().all(|v| v.is_finite()) && ds.iter().all(|v| v.is_finite())) {
             return Err("the Newton direction is not finite".into());
         }
-        Ok((dx, ds.iter().copied().collect()))
+        let mut out = std::mem::take(&mut work.ds);
+        out.clear();
+        out.extend_from_slice(ds);
+        Ok((dx, out))
     }
 }
 
@@ -259,91 +275,111 @@ pub(super) fn slip_rows(
     committed: &[f64],
     states: &[Contact],
 ) -> Vec<Row> {
+    let mut rows = Vec::new();
+    slip_rows_into(model, eq, u, committed, states, &mut rows);
+    rows
+}
+
+/// [`slip_rows`] into `rows` (replaced; every row's coupling lists reused: no allocation once
+/// the buffers have their size).
+pub(super) fn slip_rows_into(
+    model: &Model,
+    eq: &[usize],
+    u: &[f64],
+    committed: &[f64],
+    states: &[Contact],
+    rows: &mut Vec<Row>,
+) {
     let n3 = model.dof_count();
-    model
-        .slips
-        .iter()
-        .enumerate()
-        .map(|(j, p)| {
-            if states[j] == Contact::Merged {
-                let e = p.segments[0];
-                let seg = &model.segments[e];
-                let k_ref = seg.ea / seg.l0;
-                let i = seg.slip[0].expect("a merged point follows a sleeve point");
-                let r = k_ref * (model.segment_l0(u, e) + sleeve::CLOSED_OFFSET * seg.l0);
-                return Row {
-                    r,
-                    dx: Vec::new(),
-                    ds: vec![(j, k_ref), (i, -k_ref)],
-                    magnitude: r.abs() + k_ref * (seg.l0 + u[n3 + j].abs() + u[n3 + i].abs()),
-                    damped: false,
-                };
-            }
-            let g = Group::of(model, states, j);
-            let [a, b] = g.segments;
-            let (sa, sb) = (&model.segments[a], &model.segments[b]);
-            if states[j] == Contact::Stick {
-                let k_ref = sa.ea / sa.l0;
-                let r = k_ref * (u[n3 + j] - committed[j]);
-                return Row {
-                    r,
-                    dx: Vec::new(),
-                    ds: vec![(j, k_ref)],
-                    magnitude: r.abs() + k_ref * committed[j].abs(),
-                    damped: true,
-                };
-            }
-            let sigma_mu = states[j].sigma() * p.mu;
-            let magnitude =
-                (1.0 + p.mu) * (model.segment_tension(u, a) + model.segment_tension(u, b));
-            let (r, dxs, dl) = sleeve::group_slip_row(
-                SegmentLaw {
-                    law: sa.law,
-                    ea: sa.ea,
-                },
-                SegmentLaw {
-                    law: sb.law,
-                    ea: sb.ea,
-                },
-                model.segment_l0(u, a),
-                model.segment_l0(u, b),
-                &model.position(u, g.nodes[0]),
-                &model.position(u, g.nodes[1]),
-                &model.position(u, g.nodes[2]),
-                &model.position(u, g.nodes[3]),
-                sigma_mu,
-            );
-            let mut dx = Vec::new();
-            for (node, d) in g.nodes.iter().zip(&dxs) {
-                for c in 0..3 {
-                    let e = eq[3 * node + c];
-                    if e != NONE {
-                        dx.push((e, d[c]));
-                    }
+    rows.truncate(model.slips.len());
+    rows.resize_with(model.slips.len(), Row::default);
+    for ((j, p), row) in model.slips.iter().enumerate().zip(rows.iter_mut()) {
+        row.dx.clear();
+        row.ds.clear();
+        if states[j] == Contact::Merged {
+            let e = p.segments[0];
+            let seg = &model.segments[e];
+            let k_ref = seg.ea / seg.l0;
+            let i = seg.slip[0].expect("a merged point follows a sleeve point");
+            let r = k_ref * (model.segment_l0(u, e) + sleeve::CLOSED_OFFSET * seg.l0);
+            row.r = r;
+            row.ds.extend([(j, k_ref), (i, -k_ref)]);
+            row.magnitude = r.abs() + k_ref * (seg.l0 + u[n3 + j].abs() + u[n3 + i].abs());
+            row.damped = false;
+            continue;
+        }
+        let g = Group::of(model, states, j);
+        let [a, b] = g.segments;
+        let (sa, sb) = (&model.segments[a], &model.segments[b]);
+        if states[j] == Contact::Stick {
+            let k_ref = sa.ea / sa.l0;
+            let r = k_ref * (u[n3 + j] - committed[j]);
+            row.r = r;
+            row.ds.push((j, k_ref));
+            row.magnitude = r.abs() + k_ref * committed[j].abs();
+            row.damped = true;
+            continue;
+        }
+        let sigma_mu = states[j].sigma() * p.mu;
+        let magnitude = (1.0 + p.mu) * (model.segment_tension(u, a) + model.segment_tension(u, b));
+        let (r, dxs, dl) = sleeve::group_slip_row(
+            SegmentLaw {
+                law: sa.law,
+                ea: sa.ea,
+            },
+            SegmentLaw {
+                law: sb.law,
+                ea: sb.ea,
+            },
+            model.segment_l0(u, a),
+            model.segment_l0(u, b),
+            &model.position(u, g.nodes[0]),
+            &model.position(u, g.nodes[1]),
+            &model.position(u, g.nodes[2]),
+            &model.position(u, g.nodes[3]),
+            sigma_mu,
+        );
+        for (node, d) in g.nodes.iter().zip(&dxs) {
+            for c in 0..3 {
+                let e = eq[3 * node + c];
+                if e != NONE {
+                    row.dx.push((e, d[c]));
                 }
             }
-            // L_a = l0_a + s_first − s_prev,  L_b = l0_b + s_next − s_last.
-            let mut ds = vec![(g.slips[0], dl[0]), (g.slips[1], -dl[1])];
-            if let Some(i) = sa.slip[0] {
-                ds.push((i, -dl[0]));
-            }
-            if let Some(i) = sb.slip[1] {
-                ds.push((i, dl[1]));
-            }
-            Row {
-                r,
-                dx,
-                ds,
-                magnitude,
-                damped: true,
-            }
-        })
-        .collect()
+        }
+        // L_a = l0_a + s_first − s_prev,  L_b = l0_b + s_next − s_last.
+        row.ds.extend([(g.slips[0], dl[0]), (g.slips[1], -dl[1])]);
+        if let Some(i) = sa.slip[0] {
+            row.ds.push((i, -dl[0]));
+        }
+        if let Some(i) = sb.slip[1] {
+            row.ds.push((i, dl[1]));
+        }
+        row.r = r;
+        row.magnitude = magnitude;
+        row.damped = true;
+    }
 }
 
 /// Columns of B = ∂R_x/∂s: per slip, (equation, value) pairs.
 pub(super) fn slip_columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(usize, f64)>> {
-    let mut cols = vec![Vec::new(); model.slips.len()];
+    let mut cols = Vec::new();
+    slip_columns_into(model, eq, u, &mut cols);
+    cols
+}
+
+/// [`slip_columns`] into `cols` (replaced; every column's storage reused).
+pub(super) fn slip_columns_into(
+    model: &Model,
+    eq: &[usize],
+    u: &[f64],
+    cols: &mut Vec<Vec<(usize, f64)>>,
+) {
+    cols.truncate(model.slips.len());
+    cols.resize_with(model.slips.len(), Vec::new);
+    for c in cols.iter_mut() {
+        c.clear();
+    }
     for (e, s) in model.segments.iter().enumerate() {
         if s.slip == [None, None] || model.segment_closed(u, e) {
             // A closed segment's link force does not depend on the slips.
@@ -367,7 +403,6 @@ pub(super) fn slip_columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(u
             }
         }
     }
-    cols
 }
 
 /// Largest tie gap |x_c − x_m| over the shorter adjacent open segment length (a closed

@@ -72,6 +72,7 @@ impl Instance {
                         args.early_return_allowed
                     ),
                 );
+                instance.log_memory();
                 Some(instance)
             }
             Err(message) => {
