@@ -1,5 +1,5 @@
 //! Scaling benchmark, printed (not asserted; issue 15 item 6):
-//! `cargo run --release --example scale -- [RINGS...] [--no-shuffle]`.
+//! `cargo run --release --example scale -- [RINGS...] [--no-shuffle] [--threads N]`.
 //!
 //! The Hencky disc (docs/mechanics.md §4a, follower pressure 40 Pa, flat start to full load in
 //! one step) at the given ring counts (default 34 and 106 rings: about 10k and 100k free DOF;
@@ -12,7 +12,8 @@
 //! floor (one assembly + one numeric LDLT factorization and solve at the solution, best of 3,
 //! `Engine::time_floor`), seconds per iteration divided by the floor, the process's peak
 //! resident set so far (VmHWM from /proc/self/status; it only grows, so run one size per
-//! process for a per-size peak), threads (1: faer runs `Par::Seq`), and the relative error of
+//! process for a per-size peak), threads (`--threads N`, the scene's `solver.threads`; default
+//! 1: everything on the calling thread, faer runs `Par::Seq`), and the relative error of
 //! the centre deflection against w0/a = 0.065404 (both numberings must agree).
 
 use std::time::Instant;
@@ -94,7 +95,7 @@ fn shuffled(generated: &Engine, base: &Scene) -> Scene {
     Scene::from_json(&text).expect("valid shuffled scene")
 }
 
-fn run(label: &str, mut engine: Engine) {
+fn run(label: &str, mut engine: Engine, threads: usize) {
     let vr = engine
         .variables()
         .iter()
@@ -129,7 +130,7 @@ fn run(label: &str, mut engine: Engine) {
         factor,
         time / report.iterations.max(1) as f64 / floor,
         peak_rss_mib(),
-        1,
+        threads,
         (w - W_FOLLOWER).abs() / W_FOLLOWER
     );
 }
@@ -137,7 +138,22 @@ fn run(label: &str, mut engine: Engine) {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let no_shuffle = args.iter().any(|a| a == "--no-shuffle");
-    let rings: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
+    let threads = match args.iter().position(|a| a == "--threads") {
+        Some(i) => match args.get(i + 1).and_then(|n| n.parse::<usize>().ok()) {
+            Some(n) if (1..=64).contains(&n) => n,
+            _ => {
+                eprintln!("scale: --threads needs a count from 1 to 64");
+                std::process::exit(2);
+            }
+        },
+        None => 1,
+    };
+    let rings: Vec<usize> = args
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i == 0 || args[i - 1] != "--threads")
+        .filter_map(|(_, a)| a.parse().ok())
+        .collect();
     let rings = if rings.is_empty() {
         vec![34, 106]
     } else {
@@ -149,7 +165,15 @@ fn main() {
     );
     let base = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene"))
         .expect("valid scene");
-    println!("Hencky disc, follower pressure 40 Pa, flat start to full load, 1 thread");
+    println!(
+        "Hencky disc, follower pressure 40 Pa, flat start to full load, {threads} thread(s), load average {}",
+        std::fs::read_to_string("/proc/loadavg")
+            .unwrap_or_default()
+            .split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
     println!(
         "{:>8} {:>10} {:>11} {:>6} {:>9} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
         "DOF",
@@ -166,16 +190,18 @@ fn main() {
     );
     for n in rings {
         let mut scene = base.clone();
+        scene.solver.threads = threads;
         if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
             *rings = n;
         }
         let engine = Engine::try_new(scene.clone()).expect("valid scene");
         let shuffled_scene = (!no_shuffle).then(|| shuffled(&engine, &scene));
-        run("generated", engine);
+        run("generated", engine, threads);
         if let Some(s) = shuffled_scene {
             run(
                 "shuffled",
                 Engine::try_new(s).expect("valid shuffled scene"),
+                threads,
             );
         }
     }

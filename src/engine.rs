@@ -693,6 +693,7 @@ fn settings(scene: &Scene) -> Settings {
         line_search: s.line_search,
         arc_length_path: s.path == crate::scene::PathMethod::ArcLength,
         arc_length: s.arc_length.unwrap_or(0.0),
+        threads: s.threads,
         ..Settings::default()
     }
 }

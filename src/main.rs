@@ -97,6 +97,11 @@ enum Command {
         /// No progress line on stderr.
         #[arg(long, short)]
         quiet: bool,
+        /// Solver threads (1-64), instead of the scene's `solver.threads` (default 1, the
+        /// FMU's count, so the CLI reproduces the FMU's numbers to the bit). 2 pays from about
+        /// 10k unknowns (docs/performance.md).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=64))]
+        threads: Option<u64>,
     },
     /// List every problem of a scene by JSON path; exit 1 if there is any.
     #[command(
@@ -231,6 +236,7 @@ fn main() -> ExitCode {
             elements,
             vtk,
             quiet,
+            threads,
         } => cmd_solve(&SolveArgs {
             scene,
             loads,
@@ -238,6 +244,7 @@ fn main() -> ExitCode {
             elements,
             vtk,
             quiet,
+            threads: threads.map(|n| n as usize),
         }),
         Command::Check { scene } => cmd_check(&scene),
         Command::Formfind { scene, out, quiet } => cmd_formfind(&scene, &out, quiet),
@@ -354,11 +361,17 @@ struct SolveArgs {
     elements: Option<String>,
     vtk: Option<String>,
     quiet: bool,
+    threads: Option<usize>,
 }
 
 fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
     let loads = args.loads.as_str();
-    let mut engine = engine_for(&args.scene)?;
+    let mut scene = read_scene(&args.scene)?;
+    if let Some(n) = args.threads {
+        scene.solver.threads = n;
+    }
+    let mut engine =
+        Engine::try_new(scene).map_err(|e| Stop::Failed(format!("{}: {e}", args.scene)))?;
     let table = LoadTable::parse(&read_text(loads)?, loads, &mut engine).map_err(failed)?;
     let mut series = match &args.vtk {
         Some(dir) => {

@@ -1560,6 +1560,13 @@ impl Validator {
         if st.target_iterations == 0 {
             self.push("solver.target_iterations", "must be at least 1");
         }
+        let most = crate::solver::threads::MAX_THREADS;
+        if !(1..=most).contains(&st.threads) {
+            self.push(
+                "solver.threads",
+                format!("{} must be an integer from 1 to {most}", st.threads),
+            );
+        }
         if let Some(a) = st.arc_length {
             if !(positive(a) && a <= MAX_MAGNITUDE) {
                 self.push(

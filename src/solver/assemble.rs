@@ -8,11 +8,13 @@
 //! R = f_int − f_ext   on every DOF; at held DOFs R is the reaction (what the support supplies)
 //! ```
 
+use super::threads::Pool;
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{cable, membrane, pressure, sleeve, LoadModel, Model};
 use nalgebra::{SMatrix, Vector3};
+use std::sync::{Arc, Mutex};
 
 pub const NONE: usize = usize::MAX;
 
@@ -24,6 +26,29 @@ pub struct Pattern {
     pub row_idx: Vec<usize>,
     tri_map: Vec<[usize; 81]>,
     seg_map: Vec<[usize; 36]>,
+    /// The solver's worker threads and their assembly buffers (None: one thread).
+    parallel: Option<Parallel>,
+}
+
+/// Models with fewer triangles are assembled on one thread whatever the setting: below this
+/// the hand-over to the pool and the extra buffers cost more than the element work saved
+/// (docs/performance.md, "Threads").
+pub const PARALLEL_MIN_TRIANGLES: usize = 256;
+
+/// The pool and, per thread after the first, the buffers its triangles are summed into.
+struct Parallel {
+    pool: Arc<Pool>,
+    scratch: Mutex<Vec<Scratch>>,
+}
+
+/// One thread's share of an assembly (threads 1.., thread 0 writes the caller's buffers).
+#[derive(Default)]
+struct Scratch {
+    r: Vec<f64>,
+    k: Vec<f64>,
+    magnitude: Vec<f64>,
+    evaluations: Vec<Evaluation>,
+    info: AssemblyInfo,
 }
 
 /// What one assembly found besides R and K.
@@ -177,7 +202,35 @@ impl Pattern {
             row_idx,
             tri_map,
             seg_map,
+            parallel: None,
         })
+    }
+
+    /// Assemble the triangles of `model` on `pool`'s threads from now on (when there are at
+    /// least [`PARALLEL_MIN_TRIANGLES`]). Each thread after the first gets buffers of R, K's
+    /// values and the force magnitudes, allocated here (fallibly) and reused.
+    pub fn use_pool(&mut self, model: &Model, pool: Arc<Pool>) -> Result<(), OutOfMemory> {
+        self.parallel = None;
+        if pool.count() < 2 || model.triangles.len() < PARALLEL_MIN_TRIANGLES {
+            return Ok(());
+        }
+        let what = "the assembly buffers of the solver's threads";
+        let mut scratch = memory::with_capacity(pool.count() - 1, what)?;
+        let share = model.triangles.len().div_ceil(pool.count());
+        for _ in 1..pool.count() {
+            scratch.push(Scratch {
+                r: memory::zeros(model.dof_count(), what)?,
+                k: memory::zeros(self.row_idx.len(), what)?,
+                magnitude: memory::zeros(model.dof_count(), what)?,
+                evaluations: memory::with_capacity(share, what)?,
+                info: AssemblyInfo::default(),
+            });
+        }
+        self.parallel = Some(Parallel {
+            pool,
+            scratch: Mutex::new(scratch),
+        });
+        Ok(())
     }
 }
 
@@ -321,6 +374,173 @@ pub(super) fn pressure_contribution(
     }
 }
 
+impl AssemblyInfo {
+    fn empty() -> AssemblyInfo {
+        AssemblyInfo {
+            min_area_ratio: f64::INFINITY,
+            ..Default::default()
+        }
+    }
+
+    /// Fold another part's findings into these (potentials add, in the order merged).
+    fn merge(&mut self, part: &AssemblyInfo) {
+        self.potential += part.potential;
+        self.external = self.external.max(part.external);
+        self.min_area_ratio = self.min_area_ratio.min(part.min_area_ratio);
+        self.carried = self.carried.max(part.carried);
+    }
+}
+
+/// The membrane triangles `range`: forces into `r` (and `magnitude`), tangents into `k`
+/// and `held_step`, evaluations appended to `out`, in element order.
+#[allow(clippy::too_many_arguments)]
+fn triangle_range(
+    model: &Model,
+    pattern: &Pattern,
+    range: std::ops::Range<usize>,
+    u: &[f64],
+    factor: f64,
+    forced: Option<&[Option<WrinkleState>]>,
+    want_k: bool,
+    r: &mut [f64],
+    mut k: Option<&mut [f64]>,
+    mut magnitude: Option<&mut [f64]>,
+    mut held_step: Option<(&[f64], &mut [f64])>,
+    mut out: Option<&mut Vec<Evaluation>>,
+) -> AssemblyInfo {
+    let mut info = AssemblyInfo::empty();
+    let mut ke = membrane::Mat9::zeros();
+    for e in range {
+        let t = &model.triangles[e];
+        let forced = forced.and_then(|f| f[e]);
+        let (f, eval, ratio) =
+            triangle_contribution(model, e, u, factor, forced, want_k.then_some(&mut ke));
+        add_force(r, &t.nodes, f.as_slice(), &mut magnitude);
+        info.carried = info.carried.max(largest(f.as_slice()));
+        if let Some(k) = k.as_deref_mut() {
+            scatter(&ke, &pattern.tri_map[e], k);
+        }
+        if let Some((du, out)) = held_step.as_mut() {
+            couple(&ke, &t.nodes, du, out);
+        }
+        if let Some(out) = out.as_deref_mut() {
+            out.push(eval);
+        }
+        info.potential += eval.energy;
+        info.min_area_ratio = info.min_area_ratio.min(ratio);
+    }
+    info
+}
+
+/// The triangle loop on the pool: thread i takes the i-th contiguous share of the triangles
+/// (a fixed split), thread 0 into the caller's buffers, the others into their own; then each
+/// buffer is added into the caller's in thread order, K's values split between the threads by
+/// position. Every entry is summed in an order fixed by the thread count alone, so a run
+/// repeats bit for bit; against one thread only the grouping of the sums differs (round-off).
+#[allow(clippy::too_many_arguments)]
+fn parallel_triangles(
+    model: &Model,
+    pattern: &Pattern,
+    parallel: &Parallel,
+    u: &[f64],
+    factor: f64,
+    forced: Option<&[Option<WrinkleState>]>,
+    r: &mut [f64],
+    mut k: Option<&mut [f64]>,
+    mut magnitude: Option<&mut [f64]>,
+    mut out: Option<&mut Vec<Evaluation>>,
+) -> AssemblyInfo {
+    let mut guard = parallel.scratch.lock().unwrap_or_else(|e| e.into_inner());
+    let scratch: &mut Vec<Scratch> = &mut guard;
+    let threads = scratch.len() + 1;
+    let count = model.triangles.len();
+    let share = |i: usize| i * count / threads..(i + 1) * count / threads;
+    let want_k = k.is_some();
+    let want_magnitude = magnitude.is_some();
+    let want_out = out.is_some();
+    let first = parallel.pool.scope(|s| {
+        for (i, part) in scratch.iter_mut().enumerate() {
+            s.spawn(move |_| {
+                part.r.fill(0.0);
+                if want_k {
+                    part.k.fill(0.0);
+                }
+                if want_magnitude {
+                    part.magnitude.fill(0.0);
+                }
+                part.evaluations.clear();
+                part.info = triangle_range(
+                    model,
+                    pattern,
+                    share(i + 1),
+                    u,
+                    factor,
+                    forced,
+                    want_k,
+                    &mut part.r,
+                    want_k.then_some(&mut part.k[..]),
+                    want_magnitude.then_some(&mut part.magnitude[..]),
+                    None,
+                    want_out.then_some(&mut part.evaluations),
+                );
+            });
+        }
+        triangle_range(
+            model,
+            pattern,
+            share(0),
+            u,
+            factor,
+            forced,
+            want_k,
+            r,
+            k.as_deref_mut(),
+            magnitude.as_deref_mut(),
+            None,
+            out.as_deref_mut(),
+        )
+    });
+    let mut info = first;
+    for part in scratch.iter() {
+        info.merge(&part.info);
+        add_into(r, &part.r);
+        if let Some(m) = magnitude.as_deref_mut() {
+            add_into(m, &part.magnitude);
+        }
+        if let Some(out) = out.as_deref_mut() {
+            out.extend_from_slice(&part.evaluations);
+        }
+    }
+    if let Some(k) = k {
+        // K's values are the large sum: each thread adds every buffer into its own range.
+        let parts: &[Scratch] = &scratch;
+        let len = k.len();
+        parallel.pool.scope(|s| {
+            let mut rest = k;
+            let mut start = 0;
+            for i in 0..threads {
+                let end = (i + 1) * len / threads;
+                let (mine, tail) = rest.split_at_mut(end - start);
+                rest = tail;
+                let range = start..end;
+                s.spawn(move |_| {
+                    for part in parts {
+                        add_into(mine, &part.k[range.clone()]);
+                    }
+                });
+                start = end;
+            }
+        });
+    }
+    info
+}
+
+fn add_into(sum: &mut [f64], part: &[f64]) {
+    for (s, p) in sum.iter_mut().zip(part) {
+        *s += p;
+    }
+}
+
 /// Residual R = f_int − f_ext(loads) on all DOFs at displacement `u`, and, if `k` is given,
 /// the free-free tangent (upper triangle) into `k` (zeroed here).
 pub fn assemble(
@@ -360,24 +580,39 @@ pub fn assemble_with(
     }
     let want_k = k.is_some() || extra.held_step.is_some();
     let factor = extra.prestress_factor.unwrap_or(1.0);
-    let mut ke = membrane::Mat9::zeros();
-    for (e, t) in model.triangles.iter().enumerate() {
-        let forced = extra.forced.and_then(|f| f[e]);
-        let (f, eval, ratio) =
-            triangle_contribution(model, e, u, factor, forced, want_k.then_some(&mut ke));
-        add_force(r, &t.nodes, f.as_slice(), &mut extra.magnitude);
-        info.carried = info.carried.max(largest(f.as_slice()));
-        if let Some(k) = k.as_deref_mut() {
-            scatter(&ke, &pattern.tri_map[e], k);
+    match (&pattern.parallel, extra.held_step.is_none()) {
+        (Some(parallel), true) => {
+            let part = parallel_triangles(
+                model,
+                pattern,
+                parallel,
+                u,
+                factor,
+                extra.forced,
+                r,
+                k.as_deref_mut(),
+                extra.magnitude.as_deref_mut(),
+                extra.out.as_deref_mut(),
+            );
+            info.merge(&part);
         }
-        if let Some((du, out)) = extra.held_step.as_mut() {
-            couple(&ke, &t.nodes, du, out);
+        _ => {
+            let part = triangle_range(
+                model,
+                pattern,
+                0..model.triangles.len(),
+                u,
+                factor,
+                extra.forced,
+                want_k,
+                r,
+                k.as_deref_mut(),
+                extra.magnitude.as_deref_mut(),
+                extra.held_step.as_mut().map(|(du, out)| (*du, &mut **out)),
+                extra.out.as_deref_mut(),
+            );
+            info.merge(&part);
         }
-        if let Some(out) = extra.out.as_deref_mut() {
-            out.push(eval);
-        }
-        info.potential += eval.energy;
-        info.min_area_ratio = info.min_area_ratio.min(ratio);
     }
     let ns = model.segments.len();
     let lines = (0..ns).map(|e| {

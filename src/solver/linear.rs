@@ -6,6 +6,7 @@
 //! only, and Newton's residual check decides whether the step is good. A non-finite solution
 //! is reported as a failure, never returned.
 
+use super::threads::Pool;
 use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -16,6 +17,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
+use std::sync::Arc;
 
 /// Regularization threshold relative to the largest diagonal entry.
 const PIVOT_EPSILON: f64 = 1e-13;
@@ -28,6 +30,9 @@ pub struct Ldlt {
     l_values: Vec<f64>,
     factor_mem: MemBuffer,
     solve_mem: MemBuffer,
+    /// The solver's threads: the numeric factorization runs on them (`Par::rayon`) inside
+    /// the pool (never rayon's global one). None: `Par::Seq` on the caller's thread.
+    pool: Option<Arc<Pool>>,
 }
 
 impl Ldlt {
@@ -80,7 +85,26 @@ impl Ldlt {
             l_values,
             factor_mem,
             solve_mem,
+            pool: None,
         })
+    }
+
+    /// Factor on `pool`'s threads from now on. faer 0.24 parallelises the dense kernels
+    /// inside each supernode (the update products and the diagonal block's factorization);
+    /// supernodes are still eliminated one after another, so the gain comes from the large
+    /// supernodes near the root of the elimination tree. The triangular solves stay
+    /// sequential (one right-hand side: too little work per supernode to share).
+    pub fn use_pool(&mut self, pool: Arc<Pool>) -> Result<(), OutOfMemory> {
+        let par = Par::rayon(pool.count());
+        let req = self
+            .symbolic
+            .factorize_numeric_ldlt_scratch::<f64>(par, Default::default());
+        self.factor_mem = MemBuffer::try_new(req).map_err(|_| OutOfMemory {
+            what: "the factorization workspace",
+            bytes: req.size_bytes() as u64,
+        })?;
+        self.pool = Some(pool);
+        Ok(())
     }
 
     /// Stored entries of the factor L (AMD ordering, supernodal), for the scaling benchmark.
@@ -124,18 +148,33 @@ impl Ldlt {
             dynamic_regularization_delta: PIVOT_DELTA * max_diag,
             dynamic_regularization_epsilon: PIVOT_EPSILON * max_diag,
         };
-        self.symbolic
-            .factorize_numeric_ldlt(
-                &mut self.l_values,
-                self.matrix.as_ref(),
-                Side::Upper,
-                reg,
-                Par::Seq,
-                MemStack::new(&mut self.factor_mem),
-                Default::default(),
-            )
-            .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
-        Ok(())
+        let (symbolic, l_values, matrix, mem) = (
+            &self.symbolic,
+            &mut self.l_values,
+            self.matrix.as_ref(),
+            &mut self.factor_mem,
+        );
+        let mut factor = move |par: Par| {
+            symbolic
+                .factorize_numeric_ldlt(
+                    l_values,
+                    matrix,
+                    Side::Upper,
+                    reg,
+                    par,
+                    MemStack::new(mem),
+                    Default::default(),
+                )
+                .map(|_| ())
+                .map_err(|e| format!("LDLT factorization failed: {e:?}"))
+        };
+        match &self.pool {
+            Some(pool) => {
+                let par = Par::rayon(pool.count());
+                pool.install(move || factor(par))
+            }
+            None => factor(Par::Seq),
+        }
     }
 
     /// Solve with the last factorization, in place (one more forward/back substitution).

@@ -38,6 +38,7 @@ mod path;
 mod relax;
 pub mod sensitivity;
 pub mod slip;
+pub mod threads;
 mod volume;
 
 use crate::memory::{self, OutOfMemory};
@@ -152,6 +153,10 @@ pub struct Settings {
     /// first load-controlled increment of `initial_increment` (the scene's
     /// `solver.arc_length`). Default 0.
     pub arc_length: f64,
+    /// Threads of the assembly's element loop and of the numeric factorization (`threads.rs`):
+    /// 1 runs everything on the caller's thread; n > 1 starts a pool of n threads owned by
+    /// the solver and joined when it is dropped. Default 1 (the scene's `solver.threads`).
+    pub threads: usize,
 }
 
 impl Default for Settings {
@@ -187,6 +192,7 @@ impl Default for Settings {
             arc_length_path: false,
             contact_settle: 1e-3,
             arc_length: 0.0,
+            threads: 1,
         }
     }
 }
@@ -282,12 +288,22 @@ impl Solver {
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
-        let pattern = Pattern::try_new(model)?;
-        let linear = Ldlt::try_new(
+        let mut pattern = Pattern::try_new(model)?;
+        let mut linear = Ldlt::try_new(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
             memory::copy(&pattern.row_idx, "the tangent's pattern")?,
         )?;
+        if settings.threads > 1 {
+            // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
+            let pool = threads::Pool::try_new(settings.threads).map_err(|_| OutOfMemory {
+                what: "the solver's threads (their stacks)",
+                bytes: (settings.threads as u64).saturating_mul(2 << 20),
+            })?;
+            let pool = std::sync::Arc::new(pool);
+            pattern.use_pool(model, pool.clone())?;
+            linear.use_pool(pool)?;
+        }
         let n = model.dof_count();
         let trial_len = model.unknown_count();
         let diagonal_positions = memory::collect(
