@@ -21,13 +21,21 @@ fn the_pool_starts_with_the_engine_and_is_joined_when_it_is_dropped() {
         let mut scene = read_scene(&shipped("HenckyDisc"));
         scene.solver.threads = 2;
         let mut e = engine(scene);
-        assert_eq!(threads_now(), before + 2, "cycle {cycle}: after building the engine");
+        assert_eq!(
+            threads_now(),
+            before + 2,
+            "cycle {cycle}: after building the engine"
+        );
         solve(&mut e);
         set(&mut e, "pressure", 40.0);
         solve(&mut e);
         assert_eq!(threads_now(), before + 2, "cycle {cycle}: after solving");
         drop(e);
-        assert_eq!(threads_now(), before, "cycle {cycle}: after dropping the engine");
+        assert_eq!(
+            threads_now(),
+            before,
+            "cycle {cycle}: after dropping the engine"
+        );
     }
     let mut e = engine(read_scene(&shipped("HenckyDisc")));
     set(&mut e, "pressure", 40.0);

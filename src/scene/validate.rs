@@ -1560,7 +1560,8 @@ impl Validator {
         if st.target_iterations == 0 {
             self.push("solver.target_iterations", "must be at least 1");
         }
-        let most = crate::solver::threads::MAX_THREADS;
+        // The solver's pool bound (`solver::threads::MAX_THREADS`).
+        let most = 64;
         if !(1..=most).contains(&st.threads) {
             self.push(
                 "solver.threads",
