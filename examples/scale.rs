@@ -9,6 +9,8 @@
 //! xorshift generator, as a user's mesher might number it).
 //!
 //! Printed per case: free DOF, numbering, stored entries of the LDLT factor after faer's AMD, Newton iterations, wall time of the solve, the
+//! CPU time of the solve (all threads, /proc/self/stat: above the wall time when a second
+//! core works), the
 //! floor (one assembly + one numeric LDLT factorization and solve at the solution, best of 3,
 //! `Engine::time_floor`), seconds per iteration divided by the floor, the process's peak
 //! resident set so far (VmHWM from /proc/self/status; it only grows, so run one size per
@@ -21,6 +23,23 @@ use velarium::scene::{Generator, Scene};
 use velarium::Engine;
 
 const W_FOLLOWER: f64 = 0.065404;
+
+/// CPU seconds (user + system, all threads) of this process so far, from /proc/self/stat.
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command name (which ends with the last ')'): utime and stime are the
+    // 12th and 13th of them, in clock ticks (100 per second on Linux).
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .map(|x| x.parse().unwrap_or(0.0))
+        .collect();
+    if f.len() > 12 {
+        (f[11] + f[12]) / 100.0
+    } else {
+        f64::NAN
+    }
+}
 
 fn peak_rss_mib() -> f64 {
     std::fs::read_to_string("/proc/self/status")
@@ -109,9 +128,11 @@ fn run(label: &str, mut engine: Engine, threads: usize) {
         .unwrap()
         .value_reference;
     let t = Instant::now();
+    let cpu = cpu_seconds();
     engine.set_real(vr, 40.0).unwrap();
     let report = engine.solve();
     let time = t.elapsed().as_secs_f64();
+    let cpu = cpu_seconds() - cpu;
     if !report.converged() {
         println!("{label}: did not converge: {}", report.message);
         return;
@@ -120,12 +141,13 @@ fn run(label: &str, mut engine: Engine, threads: usize) {
     let (assembly, factor) = engine.time_floor(3);
     let floor = assembly + factor;
     println!(
-        "{:>8} {:>10} {:>11} {:>6} {:>9.3} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
+        "{:>8} {:>10} {:>11} {:>6} {:>9.3} {:>7.2} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
         engine.free_dofs(),
         label,
         engine.factor_nonzeros(),
         report.iterations,
         time,
+        cpu,
         assembly,
         factor,
         time / report.iterations.max(1) as f64 / floor,
@@ -175,12 +197,13 @@ fn main() {
             .join(" ")
     );
     println!(
-        "{:>8} {:>10} {:>11} {:>6} {:>9} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
+        "{:>8} {:>10} {:>11} {:>6} {:>9} {:>7} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
         "DOF",
         "numbering",
         "factor nnz",
         "iters",
         "total s",
+        "cpu s",
         "assem s",
         "factor s",
         "ratio",
