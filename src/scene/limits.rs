@@ -76,6 +76,8 @@ pub struct Size {
     pub factor_flops: f64,
     /// Estimated peak bytes of model and solver (0 before the symbolic analysis ran).
     pub memory_bytes: u64,
+    /// The solver's threads (`solver.threads`; 0 is taken as 1).
+    pub threads: u64,
 }
 
 /// Counts from the scene's numbers alone: no mesh is built. Saturating, so that absurd
@@ -107,6 +109,7 @@ pub fn count(scene: &Scene) -> Size {
         factor_entries: 0,
         factor_flops: 0.0,
         memory_bytes: 0,
+        threads: 1,
     }
 }
 
@@ -310,10 +313,21 @@ fn factor_flops(symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usiz
     }
 }
 
+/// Packing buffers of the dense kernels under faer's factorization, per thread that factorizes:
+/// private-gemm-x86 (with faer's rayon feature) keeps 2 x L3 in a thread-local on its first
+/// product, allocated infallibly (measured: one 64 MiB mapping on this 32 MiB-L3 EPYC). Counted
+/// so that the probe fails first, with a message, where that allocation would abort.
+pub const DENSE_KERNEL_BYTES: u64 = 64 << 20;
+
+/// Address space of each solver pool thread besides its packing buffers: its stack (8 MiB) and
+/// the malloc arena glibc reserves for a new thread (64 MiB on 64-bit).
+pub const POOL_THREAD_BYTES: u64 = 72 << 20;
+
 /// Estimated peak bytes: factor values and its scratch, the matrix (values, indices, element
 /// maps), the model, the mesh, the solver's vectors and, with m sleeve points, the slip
 /// block's m solved columns and dense m x m matrix. Generous per-item constants (measured
-/// sizes of the structs rounded up).
+/// sizes of the structs rounded up). Plus the dense kernels' packing buffers of each thread that
+/// factorizes, and with n > 1 threads each pool thread's stack, arena and assembly buffers.
 pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let factor = size.factor_entries.saturating_mul(8 + 8);
     let matrix = matrix_entries.saturating_mul(8 + 8);
@@ -324,12 +338,27 @@ pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let slip = m
         .saturating_mul(size.unknowns.saturating_add(m))
         .saturating_mul(8);
+    let threads = size.threads.max(1);
+    let dense = threads.saturating_mul(DENSE_KERNEL_BYTES);
+    let pool = if threads > 1 {
+        // Per thread after the first: R, K's values and the force magnitudes (`assemble.rs`).
+        let buffers = matrix_entries
+            .saturating_add(2 * size.unknowns)
+            .saturating_mul(8);
+        threads
+            .saturating_mul(POOL_THREAD_BYTES)
+            .saturating_add((threads - 1).saturating_mul(buffers))
+    } else {
+        0
+    };
     factor
         .saturating_add(matrix)
         .saturating_add(elements)
         .saturating_add(nodes)
         .saturating_add(vectors)
         .saturating_add(slip)
+        .saturating_add(dense)
+        .saturating_add(pool)
 }
 
 /// Step 2: the factor's entries from the symbolic analysis, the memory estimate, checked

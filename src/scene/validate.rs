@@ -84,6 +84,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
             .sum();
         size.unknowns = 3 * mesh.nodes.len() as u64 + 4 * sleeve_points as u64;
         size.sleeve_points = sleeve_points as u64;
+        size.threads = scene.solver.threads as u64;
         let mut too_big = limits::check_counts(size, limits);
         if too_big.is_empty() {
             too_big = limits::check_memory(size, &mesh, &cables, limits);
