@@ -7,6 +7,7 @@ messages are read from the recording logger of ``fmi_support``.
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import stat
@@ -33,11 +34,16 @@ FMI2_FUNCTIONS = sorted(
     fmi2GetRealStatus fmi2GetIntegerStatus fmi2GetBooleanStatus fmi2GetStringStatus""".split()
 )
 
-# Shared libraries the FMU may need: the C runtime only.
-C_RUNTIME = re.compile(r"^(libc\.so\.6|libm\.so\.6|libgcc_s\.so\.1|ld-linux-x86-64\.so\.2)$")
+# Shared libraries the FMU may need: the C runtime only (libpthread, libdl and librt are parts
+# of glibc that a build against glibc < 2.34 names separately, e.g. the glibc 2.17 build of
+# .ci/glibc217, which links its unwinder statically and so needs no libgcc_s).
+C_RUNTIME = re.compile(
+    r"^(libc\.so\.6|libm\.so\.6|libgcc_s\.so\.1|ld-linux-x86-64\.so\.2|libpthread\.so\.0|libdl\.so\.2|librt\.so\.1)$")
 
-# The oldest glibc the binary must load on; the README states it (section "FMU behaviour").
-GLIBC_BASELINE = (2, 34)
+# The oldest glibc the binary must load on; the README states it (section "FMU behaviour"):
+# 2.34 for the native build, 2.17 for the cargo-zigbuild one (.ci/glibc217 sets
+# VELARIUM_GLIBC_BASELINE=2.17).
+GLIBC_BASELINE = tuple(int(x) for x in os.environ.get("VELARIUM_GLIBC_BASELINE", "2.34").split("."))
 
 
 def binary(fmu, md, tmp_path):

@@ -50,7 +50,8 @@ enum Command {
         /// Directory to write <name>.fmu into (created if missing).
         #[arg(long, value_name = "DIR")]
         out: String,
-        /// The FMU library to ship; default: libvelarium.so next to this executable (built by
+        /// The FMU library to ship; default: the file named by the environment variable
+        /// VELARIUM_LIB if set, else libvelarium.so next to this executable (built by
         /// `cargo build --release`).
         #[arg(long, value_name = "PATH")]
         lib: Option<String>,

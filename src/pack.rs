@@ -115,16 +115,28 @@ pub fn pack_versions(
     Ok(archives.into_iter().map(|(path, _)| path).collect())
 }
 
-/// The library to ship: `explicit` if given (it must exist), else `libvelarium.so` next to the
-/// running executable (cargo puts both in `target/release` or `target/debug`).
+/// The environment variable naming the library to ship when `--lib` is not given (e.g. the
+/// glibc 2.17 build of `.ci/glibc217`, docs/fmu.md).
+pub const LIBRARY_ENV: &str = "VELARIUM_LIB";
+
+/// The library to ship: `explicit` if given (it must exist), else the file named by the
+/// environment variable `VELARIUM_LIB` if set and not empty (it must exist), else
+/// `libvelarium.so` next to the running executable (cargo puts both in `target/release` or
+/// `target/debug`).
 pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
-    if let Some(path) = explicit {
+    let from_env = std::env::var_os(LIBRARY_ENV).filter(|v| !v.is_empty());
+    let given = match (explicit, &from_env) {
+        (Some(path), _) => Some((path.to_path_buf(), "given with --lib".to_string())),
+        (None, Some(path)) => Some((PathBuf::from(path), format!("given by {LIBRARY_ENV}"))),
+        (None, None) => None,
+    };
+    if let Some((path, source)) = given {
         return if path.is_file() {
-            Ok(path.to_path_buf())
+            Ok(path)
         } else {
             Err(Error::Io {
                 path: path.display().to_string(),
-                message: "no such library file (given with --lib)".into(),
+                message: format!("no such library file ({source})"),
             })
         };
     }

@@ -341,6 +341,51 @@ fn pack_names_a_missing_library() {
     assert_eq!(listing(&dir), vec!["tiny.json".to_string()]);
 }
 
+/// `VELARIUM_LIB` names the library to ship when `--lib` is not given (the glibc 2.17 build of
+/// `.ci/glibc217`); `--lib` wins over it; a missing file is named with where it came from.
+#[test]
+fn pack_ships_the_library_named_by_velarium_lib_and_lib_wins() {
+    let dir = scratch("pack-env-lib");
+    let scene = write(&dir, "tiny.json", TINY);
+    let from_env = write(&dir, "env.so", "the library named by VELARIUM_LIB");
+    let from_flag = write(&dir, "flag.so", "the library given with --lib");
+    let shipped = |out: &Path| -> Vec<u8> {
+        let bytes = std::fs::read(out.join("TinyCable.fmu")).unwrap();
+        let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes)).unwrap();
+        let mut so = zip.by_name("binaries/linux64/TinyCable.so").unwrap();
+        let mut data = Vec::new();
+        std::io::Read::read_to_end(&mut so, &mut data).unwrap();
+        data
+    };
+    let pack = |out: &Path, extra: &[&str], env: &Path| {
+        let mut args = vec!["pack", s(&scene), "--out", s(out)];
+        args.extend_from_slice(extra);
+        Command::new(VELARIUM)
+            .args(&args)
+            .env("VELARIUM_LIB", env)
+            .output()
+            .unwrap()
+    };
+    let out = dir.join("env");
+    let run = pack(&out, &[], &from_env);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(shipped(&out), std::fs::read(&from_env).unwrap());
+    let out = dir.join("flag");
+    let run = pack(&out, &["--lib", s(&from_flag)], &from_env);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert_eq!(shipped(&out), std::fs::read(&from_flag).unwrap());
+    let out = dir.join("missing");
+    let missing = dir.join("nowhere.so");
+    let run = pack(&out, &[], &missing);
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = text(&run.stderr);
+    assert!(
+        stderr.contains(s(&missing)) && stderr.contains("VELARIUM_LIB"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "a failed pack leaves no output directory");
+}
+
 #[test]
 fn pack_finds_the_library_next_to_the_executable_when_it_was_built() {
     let beside = Path::new(VELARIUM).with_file_name("libvelarium.so");

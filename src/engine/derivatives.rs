@@ -7,6 +7,9 @@
 //!               held DOFs of displacement inputs move by dv itself
 //! outputs       dy = ∂y/∂z·dz + ∂y/∂v·dv + ∂y/∂p·dp
 //!               displacement, position, slip probes: exact (linear in z)
+//!               reactions (r = R at the held DOFs): dr = ∂R/∂z·dz + ∂R/∂v·dv exactly, the
+//!               held rows of the tangent with the states frozen (input seeds; a parameter
+//!               seed takes the difference); moment dM = Σ (dx × r + (x − p) × dr)·a
 //!               other continuous probes: central difference of the probe along (dz, dv, dp)
 //!               with a step 1e-6 of the model's length scale, wrinkle states held as
 //!               committed (a triangle on a wrinkle border must not switch inside the step)
@@ -23,7 +26,7 @@
 
 use super::Engine;
 use crate::error::Error;
-use crate::model::{Model, ProbeModel};
+use crate::model::{LoadModel, Model, ProbeModel};
 use crate::results;
 use crate::solver::assemble;
 use crate::solver::sensitivity::{self, Tangent};
@@ -254,6 +257,8 @@ impl Engine {
         // A parameter may enter a probe itself (EA in a tension): only the kinematic probes
         // then keep their exact gradient.
         let parameters = dp.iter().any(|x| *x != 0.0);
+        // The reactions' exact change, formed at the first reaction output asked for.
+        let mut reactions: Option<ReactionChange> = None;
         for (k, &o) in unknowns.iter().enumerate() {
             let gradient = self
                 .probe_gradient(o)
@@ -261,10 +266,23 @@ impl Engine {
             match gradient {
                 Some(gradient) => {
                     out[k] = gradient.iter().map(|&(i, g)| g * dz[i]).sum();
+                    continue;
                 }
-                None if continuous(&self.model.probes[o]) => needs_difference.push(k),
+                None if !continuous(&self.model.probes[o]) => continue,
                 None => {}
             }
+            if is_reaction(&self.model.probes[o]) && !parameters {
+                if reactions.is_none() {
+                    reactions = Some(self.reaction_change(dz, dv)?);
+                }
+                if let Some(change) = &reactions {
+                    if let Some(d) = change.probe(&self.model, &self.state.displacement, dz, o) {
+                        out[k] = d;
+                        continue;
+                    }
+                }
+            }
+            needs_difference.push(k);
         }
         if needs_difference.is_empty() {
             return Ok(out);
@@ -273,9 +291,9 @@ impl Engine {
         let h = STEP * self.model.length_scale / scale.max(f64::MIN_POSITIVE);
         let h = if scale == 0.0 { STEP } else { h };
         // On the branch of the committed equilibrium: a triangle on a wrinkle border must not
-        // switch inside ±h (the difference would average the two sides' slopes; measured on
-        // AnnulusTorsion's hub moment, whose remaining 3.9e-5 at this step is open: 1.5e-6 at a
-        // step of 1e-7, which however loses other outputs to round-off through the FMU).
+        // switch inside ±h (the difference would average the two sides' slopes). The reactions
+        // no longer come this way: on AnnulusTorsion their difference left 3.9e-5 at this step
+        // (1.5e-6 at 1e-7, which loses other outputs to round-off through the FMU).
         let held = self.membranes.iter().map(|e| Some(e.state)).collect();
         self.solver.hold_states(Some(held));
         let plus = self.probes_at(h, dz, dv, dp);
@@ -287,6 +305,46 @@ impl Engine {
             out[k] = (plus[o] - minus[o]) / (2.0 * h);
         }
         Ok(out)
+    }
+
+    /// The held DOFs' reactions r = R(z; v) at the committed equilibrium and their change dr =
+    /// ∂R/∂z·dz + ∂R/∂v·dv along a solution (dz with the held DOFs' prescribed motion, dv the
+    /// inputs' change), exactly: the rows of the consistent tangent with the states frozen,
+    /// minus the change of the external loads.
+    fn reaction_change(&mut self, dz: &[f64], dv: &[f64]) -> Result<ReactionChange, Error> {
+        self.ensure_tangent()?;
+        let tangent = self.tangent.take().expect("ensured");
+        let states: Vec<_> = self.membranes.iter().map(|e| e.state).collect();
+        let held = states.iter().map(|s| Some(*s)).collect();
+        let s = &self.state;
+        let mut dr = self.solver.tangent_product(
+            &self.model,
+            &s.displacement,
+            &s.applied,
+            &tangent,
+            &states,
+            dz,
+        );
+        // −∂f_ext/∂v·dv: a force input's external force per unit value (a prescribed
+        // displacement's change is in dz already).
+        for (slot, &d) in dv.iter().enumerate().filter(|(_, d)| **d != 0.0) {
+            if matches!(self.model.loads[slot], LoadModel::Displacement(_)) {
+                continue;
+            }
+            let (g, _) = self.load_rhs(&tangent, slot);
+            for (a, b) in dr.iter_mut().zip(&g) {
+                *a -= d * b;
+            }
+        }
+        self.solver.hold_states(Some(held));
+        let s = &self.state;
+        let r = self
+            .solver
+            .residual(&self.model, &s.displacement, &s.applied);
+        self.solver.hold_states(None);
+        let change = ReactionChange { r, dr };
+        self.tangent = Some(tangent);
+        Ok(change)
     }
 
     /// Every probe at z + t dz, v + t dv, p + t dp (states as committed).
@@ -409,6 +467,70 @@ impl Engine {
             _ => return None,
         })
     }
+}
+
+/// The reactions at the committed equilibrium (`r`, every DOF's residual; the held DOFs'
+/// entries are the reactions) and their change `dr` along a solution.
+struct ReactionChange {
+    r: Vec<f64>,
+    dr: Vec<f64>,
+}
+
+impl ReactionChange {
+    /// d(probe) of a reaction probe (None: not a reaction probe, or the resultant at zero
+    /// where its norm has no derivative).
+    fn probe(&self, model: &Model, u: &[f64], dz: &[f64], slot: usize) -> Option<f64> {
+        let held = |v: &[f64], i: usize| {
+            nalgebra::Vector3::from_fn(|c, _| {
+                if model.held[3 * i + c] {
+                    v[3 * i + c]
+                } else {
+                    0.0
+                }
+            })
+        };
+        match &model.probes[slot] {
+            ProbeModel::Reaction { dofs } => Some(
+                dofs.iter()
+                    .filter(|&&d| model.held[d])
+                    .map(|&d| self.dr[d])
+                    .sum(),
+            ),
+            // M = Σ (x_i − p) × r_i · a: dM = Σ (dx_i × r_i + (x_i − p) × dr_i) · a.
+            ProbeModel::ReactionMoment { nodes, point, axis } => Some(
+                nodes
+                    .iter()
+                    .map(|&i| {
+                        let arm = model.position(u, i) - point;
+                        let dx = nalgebra::Vector3::new(dz[3 * i], dz[3 * i + 1], dz[3 * i + 2]);
+                        (dx.cross(&held(&self.r, i)) + arm.cross(&held(&self.dr, i))).dot(axis)
+                    })
+                    .sum(),
+            ),
+            // |S|, S = Σ r_i: d|S| = S·dS/|S|.
+            ProbeModel::ReactionResultant { nodes } => {
+                let sum = |v: &[f64]| {
+                    nodes
+                        .iter()
+                        .map(|&i| held(v, i))
+                        .sum::<nalgebra::Vector3<f64>>()
+                };
+                let (total, change) = (sum(&self.r), sum(&self.dr));
+                let norm = total.norm();
+                (norm > 0.0).then(|| total.dot(&change) / norm)
+            }
+            _ => None,
+        }
+    }
+}
+
+fn is_reaction(p: &ProbeModel) -> bool {
+    matches!(
+        p,
+        ProbeModel::Reaction { .. }
+            | ProbeModel::ReactionMoment { .. }
+            | ProbeModel::ReactionResultant { .. }
+    )
 }
 
 /// Whether segment `e` is closed: shorter than 1e-6 of the model's length scale (merged sleeve

@@ -326,6 +326,53 @@ impl Solver {
     }
 }
 
+impl Solver {
+    /// ∂R/∂x · dx on every DOF row (held rows included) for a change `dx` of the DOFs (held
+    /// ones included), with the states of the tangent `t` frozen: the element tangents as
+    /// factored (one assembly pass that multiplies instead of scattering), plus the follower
+    /// pressure's skew part, minus the wrinkled and slack triangles' regularisation. The
+    /// reactions' exact change along a solution (`engine/derivatives.rs`). `dx` per unknown:
+    /// its slip entries change the sliding segments' unstretched lengths (the slip columns B,
+    /// here on every DOF row, held ones included).
+    pub fn tangent_product(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        t: &Tangent,
+        wrinkle: &[WrinkleState],
+        dx: &[f64],
+    ) -> Vec<f64> {
+        let n3 = model.dof_count();
+        let (dx, ds) = dx.split_at(n3);
+        let mut product = vec![0.0; n3];
+        let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
+        let membranes = Membranes {
+            forced: Some(&forced),
+            prestress_factor: Some(0.0),
+            held_step: Some((dx, &mut product)),
+            ..Default::default()
+        };
+        let mut r = vec![0.0; n3];
+        assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
+        let skew = skew_product_dofs(&t.skew, dx, false);
+        let reg = skew_product_dofs(&t.regularisation, dx, false);
+        for d in 0..n3 {
+            product[d] += skew[d] - reg[d];
+        }
+        if t.m > 0 {
+            let every_dof: Vec<usize> = (0..n3).collect();
+            let columns = super::slip::slip_columns(model, &every_dof, u);
+            for (column, &dsj) in columns.iter().zip(ds) {
+                for &(d, b) in column {
+                    product[d] += b * dsj;
+                }
+            }
+        }
+        product
+    }
+}
+
 /// D − C Y.
 fn schur_matrix(rows: &[Row], y: &[Vec<f64>]) -> DMatrix<f64> {
     let m = rows.len();
