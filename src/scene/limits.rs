@@ -319,15 +319,19 @@ fn factor_flops(symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usiz
 /// so that the probe fails first, with a message, where that allocation would abort.
 pub const DENSE_KERNEL_BYTES: u64 = 64 << 20;
 
-/// Address space of each solver pool thread besides its packing buffers: its stack (8 MiB) and
-/// the malloc arena glibc reserves for a new thread (64 MiB on 64-bit).
-pub const POOL_THREAD_BYTES: u64 = 72 << 20;
+/// Address space of each thread that solves besides its packing buffers: its stack (8 MiB) and
+/// the malloc arena glibc reserves for a new thread (64 MiB on 64-bit). Counted for the
+/// FMU's worker thread as for each pool thread (measured: without it, an FMU whose
+/// instantiation probe passed under an address-space limit still aborted in the packing
+/// buffers' allocation, harness/test_memory_limits.py at 120 MB above the mapped size).
+pub const THREAD_BYTES: u64 = 72 << 20;
 
 /// Estimated peak bytes: factor values and its scratch, the matrix (values, indices, element
 /// maps), the model, the mesh, the solver's vectors and, with m sleeve points, the slip
 /// block's m solved columns and dense m x m matrix. Generous per-item constants (measured
-/// sizes of the structs rounded up). Plus the dense kernels' packing buffers of each thread that
-/// factorizes, and with n > 1 threads each pool thread's stack, arena and assembly buffers.
+/// sizes of the structs rounded up). Plus, per thread that factorizes (the FMU's worker, or each
+/// of n > 1 pool threads), the dense kernels' packing buffers, its stack and malloc arena; and
+/// each pool thread's assembly buffers.
 pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let factor = size.factor_entries.saturating_mul(8 + 8);
     let matrix = matrix_entries.saturating_mul(8 + 8);
@@ -339,18 +343,12 @@ pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
         .saturating_mul(size.unknowns.saturating_add(m))
         .saturating_mul(8);
     let threads = size.threads.max(1);
-    let dense = threads.saturating_mul(DENSE_KERNEL_BYTES);
-    let pool = if threads > 1 {
-        // Per thread after the first: R, K's values and the force magnitudes (`assemble.rs`).
-        let buffers = matrix_entries
-            .saturating_add(2 * size.unknowns)
-            .saturating_mul(8);
-        threads
-            .saturating_mul(POOL_THREAD_BYTES)
-            .saturating_add((threads - 1).saturating_mul(buffers))
-    } else {
-        0
-    };
+    let dense = threads.saturating_mul(DENSE_KERNEL_BYTES + THREAD_BYTES);
+    // Per pool thread after the first: R, K's values and the force magnitudes (`assemble.rs`).
+    let buffers = matrix_entries
+        .saturating_add(2 * size.unknowns)
+        .saturating_mul(8);
+    let pool = (threads - 1).saturating_mul(buffers);
     factor
         .saturating_add(matrix)
         .saturating_add(elements)
