@@ -3,6 +3,7 @@
 //! ```text
 //! displacement   u[dof]                       m
 //! position       X[dof] + u[dof]              m
+//! polar          u_i · e, e the node's reference radial or tangential unit vector   m
 //! cable length   Σ |x_b − x_a| over the segments of the cable or span      m
 //! cable slip     −s_j: unstretched cable that passed the sleeve point toward the cable's end  m
 //! contact force  |k_c (x_c − x_m)| of a sleeve tie (largest over the listed ones)  N
@@ -15,12 +16,14 @@
 //!                and prescribed displacements exert on the structure        N
 //! moment         Σ ((x_i − p) × R_i)·a over the set's nodes (R_i: held components)  N·m
 //! resultant      |Σ R_i| over the set's nodes (held components)              N
+//! zone force     Σ p A n over the zone's pressure-loaded triangles (current A n for a
+//!                follower pressure, reference for a dead one), one component       N
 //! iterations     Newton iterations of the last step
 //! ```
 
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
-use crate::model::{sleeve, Model, ProbeModel};
+use crate::model::{pressure, sleeve, LoadModel, Model, ProbeModel};
 use crate::solver::Solver;
 
 /// Every output of the model, in probe order. `u` displacement, `applied` input values it
@@ -67,6 +70,7 @@ pub fn evaluate(
         .map(|p| match p {
             ProbeModel::Displacement { dof } => u[*dof],
             ProbeModel::Position { dof, reference } => reference + u[*dof],
+            ProbeModel::Along { node, unit } => (0..3).map(|c| u[3 * node + c] * unit[c]).sum(),
             ProbeModel::CableLength { segments } => {
                 segments.clone().map(|e| segment_length(model, u, e)).sum()
             }
@@ -124,6 +128,9 @@ pub fn evaluate(
                 .map(|&i| held_force(model, &r, i))
                 .sum::<nalgebra::Vector3<f64>>()
                 .norm(),
+            ProbeModel::ZoneForce { zone, component } => {
+                zone_force(model, u, applied, zone)[*component]
+            }
             ProbeModel::NewtonIterations => iterations as f64,
             ProbeModel::WrinkledFraction(tris) => fraction(tris, WrinkleState::Wrinkled),
             ProbeModel::SlackFraction(tris) => fraction(tris, WrinkleState::Slack),
@@ -140,6 +147,33 @@ pub fn evaluate(
             ProbeModel::EnclosedPressure(k) => u[model.volume_unknown(*k)],
         })
         .collect()
+}
+
+/// Resultant of the pressure loads (pressure and volume channels at their current values) on
+/// the triangles marked in `zone`: Σ p A n, current or reference area and normal.
+fn zone_force(model: &Model, u: &[f64], applied: &[f64], zone: &[bool]) -> nalgebra::Vector3<f64> {
+    let mut total = nalgebra::Vector3::zeros();
+    for (l, load) in model.loads.iter().enumerate() {
+        let (triangles, follower) = match load {
+            LoadModel::Pressure {
+                triangles,
+                follower,
+            } => (triangles, *follower),
+            LoadModel::Volume { triangles, .. } => (triangles, true),
+            _ => continue,
+        };
+        let p = model.load_value(l, u, applied);
+        for &e in triangles.iter().filter(|&&e| zone.get(e) == Some(&true)) {
+            let t = &model.triangles[e];
+            total += if follower {
+                let x = t.nodes.map(|i| model.position(u, i));
+                pressure::follower_force(p, &x) * 3.0
+            } else {
+                t.reference.normal * (p * t.reference.area)
+            };
+        }
+    }
+    total
 }
 
 /// The reaction force at node `i`: its held components of the residual (zero elsewhere).

@@ -190,6 +190,7 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
                 (VarType::Real, Variability::Continuous, Some("Pa"))
             }
             Probe::Displacement { .. }
+            | Probe::PolarDisplacement { .. }
             | Probe::Position { .. }
             | Probe::CableLength { .. }
             | Probe::CableSlip { .. }
@@ -197,6 +198,7 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
             Probe::CableTension { .. }
             | Probe::Reaction { .. }
             | Probe::ReactionResultant { .. }
+            | Probe::ZoneForce { .. }
             | Probe::ContactForce { .. } => (VarType::Real, Variability::Continuous, Some("N")),
             Probe::ReactionMoment { .. } => (VarType::Real, Variability::Continuous, Some("N.m")),
             Probe::EnclosedVolume { .. } => (VarType::Real, Variability::Continuous, Some("m3")),

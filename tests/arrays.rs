@@ -7,7 +7,11 @@
 //!       zone_pressure array); two half-disc zones at the same pressure give the whole-disc
 //!       answer up to the order of summation; the north half alone and the south half alone
 //!       give mirror images; (3) support displacements move the supports: the same
-//!       translation d of all four corners of examples/ZonedCushion moves every node by d.
+//!       translation d of all four corners of examples/ZonedCushion moves every node by d;
+//!       (4) the `zone_force` output is the pressure resultant on a zone: with dead pressures
+//!       40 Pa (north) and 25 Pa (south) on the disc its z component is q times the zone's
+//!       area (Σ of the triangle areas, computed here from the mesh) and its x, y components
+//!       vanish; with follower pressures the two zones' z forces balance the rim reaction.
 //! MESH: HenckyDisc at 8 rings (384 triangles); examples/ZonedCushion (8 x 8 cells).
 //! BOUNDARY CONDITIONS: rim clamped (disc); corners prescribed (cushion).
 //! PARAMETERS: q = 40 Pa on the disc (qa/Eh = 1e-3); d = (0.01, -0.02, 0.03) m.
@@ -15,7 +19,10 @@
 //!            (two halves against the whole): 1e-13 of the largest displacement (measured
 //!            2.2e-15). Mirror images and the rigid translation: 5e-13 (measured 1.0e-14 and
 //!            5.9e-15; the Newton iterates are not mirrored step by step, so only round-off of
-//!            the converged answers separates them).
+//!            the converged answers separates them). Zone force (4): dead, q A to 1e-13
+//!            relative (measured 0), x, y below 1e-12 N (measured 0); follower, the sum
+//!            against the rim reaction to 1e-10 of the load (what the Newton tolerance leaves
+//!            on the free DOFs; measured 9.4e-12).
 
 mod common;
 use common::*;
@@ -192,6 +199,67 @@ fn two_half_zones_add_up_to_the_whole_and_mirror_each_other() {
     );
 }
 
+#[test]
+fn zone_force_is_the_pressure_resultant_on_the_zone() {
+    let mut scene = disc(8);
+    add_zone(&mut scene, "north", |_, y| y > 0.0);
+    add_zone(&mut scene, "south", |_, y| y <= 0.0);
+    let output = |name: &str, probe: &str| -> velarium::scene::Output {
+        serde_json::from_str(&format!(r#"{{"name": "{name}", "probe": {probe}}}"#)).unwrap()
+    };
+    for (zone, c) in [
+        ("north", "x"),
+        ("north", "y"),
+        ("north", "z"),
+        ("south", "z"),
+    ] {
+        scene.outputs.push(output(
+            &format!("F_{zone}_{c}"),
+            &format!(r#"{{"kind": "zone_force", "zone": "{zone}", "component": "{c}"}}"#),
+        ));
+    }
+    let mesh = resolve(&scene.geometry);
+    let area = |zone: &str| -> f64 {
+        mesh.triangle_sets[zone]
+            .iter()
+            .map(|&t| {
+                let [a, b, c] = mesh.triangles[t].map(|i| nalgebra::Vector3::from(mesh.nodes[i]));
+                0.5 * (b - a).cross(&(c - a)).norm()
+            })
+            .sum()
+    };
+    let (qn, qs) = (40.0, 25.0);
+    for follower in [false, true] {
+        let mut e = engine(with_load(
+            scene.clone(),
+            Load::ZonePressure {
+                membrane: "film".into(),
+                zones: vec!["north".into(), "south".into()],
+                follower,
+            },
+        ));
+        solve(&mut e);
+        e.set_real(vr(&e, "pressure[1]"), qn).unwrap();
+        e.set_real(vr(&e, "pressure[2]"), qs).unwrap();
+        solve(&mut e);
+        let (fn_z, fs_z) = (get(&e, "F_north_z"), get(&e, "F_south_z"));
+        let rim = get(&e, "rim_reaction_z");
+        if follower {
+            let err = (fn_z + fs_z + rim).abs() / (fn_z + fs_z);
+            eprintln!("follower: zone forces {fn_z:.6} + {fs_z:.6} N, rim {rim:.6} N, {err:e}");
+            assert!(err < 1e-10, "{err:e}");
+        } else {
+            let (en, es) = (rel(fn_z, qn * area("north")), rel(fs_z, qs * area("south")));
+            let side = get(&e, "F_north_x").abs().max(get(&e, "F_north_y").abs());
+            eprintln!("dead: q A within {en:e}, {es:e}; x, y {side:e} N");
+            assert!(
+                en < 1e-13 && es < 1e-13 && side < 1e-12,
+                "{en:e} {es:e} {side:e}"
+            );
+        }
+    }
+}
+
 fn cushion() -> Engine {
     let path = format!("{}/examples/ZonedCushion.json", env!("CARGO_MANIFEST_DIR"));
     engine(read_scene(&path))
@@ -332,6 +400,22 @@ fn zones_and_arrays_are_validated() {
         problems
             .iter()
             .any(|p| p.path == "inputs[0].name" && p.message.contains("no [ ]")),
+        "{problems:?}"
+    );
+    let mut scene = disc(2);
+    scene.outputs.push(
+        serde_json::from_str(
+            r#"{"name": "F", "probe": {"kind": "zone_force", "zone": "nowhere", "component": "z"}}"#,
+        )
+        .unwrap(),
+    );
+    let n = scene.outputs.len() - 1;
+    let problems = velarium::scene::validate::validate(&scene);
+    assert!(
+        problems
+            .iter()
+            .any(|p| p.path == format!("outputs[{n}].probe.zone")
+                && p.message.contains("no triangle set is named \"nowhere\"")),
         "{problems:?}"
     );
 }

@@ -1,7 +1,7 @@
 //! GOAL: the support motions as inputs: a rigid motion of a node set (a `rotation` about an
 //!       oblique axis plus `displacement` translations on the same nodes, adding), radial and
-//!       tangential displacements about an axis (`polar_displacement`), and the reaction moment
-//!       and resultant outputs.
+//!       tangential displacements about an axis (`polar_displacement` inputs and outputs), and
+//!       the reaction moment and resultant outputs.
 //! MESH: (a) rectangle 1 m x 0.5 m, 4 x 2 cells, crossed; (b) annulus a = 1 m, b = 3 m,
 //!       30 rings x 96 sectors.
 //! BOUNDARY CONDITIONS: (a) every boundary node driven by one rotation input (1.2 rad about the
@@ -21,7 +21,10 @@
 //!       stopping point), stress σ0 = E(ε0 + ε0²/2)/(1 − ν) to 1e-8 (measured 1.1e-9).
 //!       Tangential hub displacement δ on the prestrained sheet (taut: δ/a below the wrinkling
 //!       onset): the linear torsion of an annulus (see verify_annulus_torsion) with φ = δ/a:
-//!       M = 4π G t δ a b²/(b² − a²), within 1e-3 (the mesh error; measured below).
+//!       M = 4π G t δ a b²/(b² − a²), within 1e-3 (the mesh error; measured 6.7e-4), and the
+//!       same solution's u_θ(r) = δ (a/r)(b² − r²)/(b² − a²) at r = 2 m read by a
+//!       `polar_displacement` output within 1e-3 (measured 2.0e-4); in the Lamé case that
+//!       output gives u_r = ε0 r to 1e-10 (measured 1.1e-12) and u_θ below 1e-10 ε0 r.
 
 mod common;
 use common::*;
@@ -81,6 +84,14 @@ const A: f64 = 1.0;
 const B: f64 = 3.0;
 const SECTORS: usize = 96;
 const RINGS: usize = 30;
+/// A node of the middle ring (r = 2 m), off the x axis.
+const MID: usize = (RINGS / 2) * SECTORS + 7;
+
+/// Reference radius of node `MID`.
+fn mid_radius(e: &velarium::Engine) -> f64 {
+    let x = e.model().reference[MID];
+    x.x.hypot(x.y)
+}
 
 fn annulus() -> velarium::Engine {
     let text = format!(
@@ -92,7 +103,9 @@ fn annulus() -> velarium::Engine {
         "inputs": [{{"name": "hub_r", "load": {{"kind": "polar_displacement", "nodes": "ring.inner_rim", "center": [0,0,0], "axis": "z", "component": "radial"}}}},
                    {{"name": "hub_t", "load": {{"kind": "polar_displacement", "nodes": "ring.inner_rim", "center": [0,0,0], "axis": "z", "component": "tangential"}}}},
                    {{"name": "rim_r", "load": {{"kind": "polar_displacement", "nodes": "ring.outer_rim", "center": [0,0,0], "axis": "z", "component": "radial"}}}}],
-        "outputs": [{{"name": "hub_moment", "probe": {{"kind": "reaction_moment", "nodes": "ring.inner_rim", "point": [0,0,0], "axis": [0,0,1]}}}}]}}"#
+        "outputs": [{{"name": "hub_moment", "probe": {{"kind": "reaction_moment", "nodes": "ring.inner_rim", "point": [0,0,0], "axis": [0,0,1]}}}},
+                    {{"name": "mid_r", "probe": {{"kind": "polar_displacement", "node": {MID}, "center": [0,0,0], "axis": "z", "component": "radial"}}}},
+                    {{"name": "mid_t", "probe": {{"kind": "polar_displacement", "node": {MID}, "center": [0,0,0], "axis": "z", "component": "tangential"}}}}]}}"#
     );
     let mut e = engine(Scene::from_json(&text).unwrap());
     solve(&mut e);
@@ -129,6 +142,12 @@ fn radial_displacement_of_both_rims_gives_the_uniform_lame_field() {
     );
     assert!(worst < 1e-10, "displacement field off by {worst:e}");
     assert!(worst_s < 1e-8 * sigma0, "stress off by {worst_s}");
+    // The polar_displacement outputs of a node of the middle ring: u_r = ε0 r, u_θ = 0.
+    let r = mid_radius(&e);
+    let (ur, ut) = (get(&e, "mid_r"), get(&e, "mid_t"));
+    println!("r = {r}: u_r {ur:e} (ε0 r = {:e}), u_θ {ut:e}", eps0 * r);
+    assert!((r - 2.0).abs() < 1e-12, "the middle ring is at r = 2");
+    assert!(rel(ur, eps0 * r) < 1e-10 && ut.abs() < 1e-10 * eps0 * r);
 }
 
 #[test]
@@ -155,4 +174,14 @@ fn tangential_hub_displacement_twists_like_the_elastic_annulus() {
         rel(m, exact)
     );
     assert!(rel(m, exact) < 1e-3, "hub moment {m} vs {exact}");
+    // The tangential displacement of the middle ring: u_θ = δ (a/r)(b² − r²)/(b² − a²)
+    // (the linear elastic annulus, hub moved by δ, rim held tangentially), mesh error 1e-3.
+    let r = mid_radius(&e);
+    let want = delta * (A / r) * (B * B - r * r) / (B * B - A * A);
+    let ut = get(&e, "mid_t");
+    println!(
+        "u_θ(r = {r}) = {ut:.6e} vs {want:.6e}: {:.2e}",
+        rel(ut, want)
+    );
+    assert!(rel(ut, want) < 1e-3, "u_θ {ut} vs {want}");
 }

@@ -189,9 +189,20 @@ pub enum ProbeModel {
         point: Vector3<f64>,
         axis: Vector3<f64>,
     },
+    /// Displacement of `node` along the unit vector `unit`.
+    Along {
+        node: usize,
+        unit: Vector3<f64>,
+    },
     /// |Σ R| over the held DOFs of `nodes`.
     ReactionResultant {
         nodes: Vec<usize>,
+    },
+    /// Component `component` of the pressure loads' resultant on triangles `zone` (a mask
+    /// over `Model::triangles`).
+    ZoneForce {
+        zone: Vec<bool>,
+        component: usize,
     },
     NewtonIterations,
     /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
@@ -976,6 +987,26 @@ fn build_probe(
         Probe::Displacement { node, component } => ProbeModel::Displacement {
             dof: 3 * one_node(mesh, node) + component.index(),
         },
+        Probe::PolarDisplacement {
+            node,
+            center,
+            axis,
+            component,
+        } => {
+            let id = one_node(mesh, node);
+            let k = axis.index();
+            let mut a = Vector3::zeros();
+            a[k] = 1.0;
+            let r = Vector3::from(mesh.nodes[id]) - Vector3::from(*center);
+            let radial = (r - a * r[k]).normalize();
+            ProbeModel::Along {
+                node: id,
+                unit: match component {
+                    PolarComponent::Radial => radial,
+                    PolarComponent::Tangential => a.cross(&radial),
+                },
+            }
+        }
         Probe::Position { node, component } => {
             let id = one_node(mesh, node);
             ProbeModel::Position {
@@ -1060,6 +1091,27 @@ fn build_probe(
         Probe::ReactionResultant { nodes } => ProbeModel::ReactionResultant {
             nodes: node_ids(mesh, nodes),
         },
+        Probe::ZoneForce { zone, component } => {
+            let total = groups.iter().map(|g| g.1.end).max().unwrap_or(0);
+            let mut mask = crate::memory::with_capacity(total, "a zone's triangle mask")?;
+            mask.resize(total, false);
+            let set: std::collections::BTreeSet<usize> = mesh
+                .triangle_sets
+                .get(zone)
+                .map(|t| t.iter().copied().collect())
+                .unwrap_or_default();
+            for (_, range, ids) in groups {
+                for (k, id) in ids.iter().enumerate() {
+                    if set.contains(id) {
+                        mask[range.start + k] = true;
+                    }
+                }
+            }
+            ProbeModel::ZoneForce {
+                zone: mask,
+                component: component.index(),
+            }
+        }
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
         Probe::EnclosedVolume { membrane } => {
             ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)

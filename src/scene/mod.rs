@@ -567,6 +567,16 @@ pub enum Probe {
     Displacement { node: OneNode, component: Component },
     /// Current position component of one node, m.
     Position { node: OneNode, component: Component },
+    /// Displacement (m) of one node along its radial (`radial`: away from the axis) or
+    /// tangential (`tangential`: axis × radial) direction about the coordinate axis `axis`
+    /// through `center`, both in the reference configuration (as the `polar_displacement`
+    /// input). The node must not lie on the axis.
+    PolarDisplacement {
+        node: OneNode,
+        center: [f64; 3],
+        axis: Component,
+        component: PolarComponent,
+    },
     /// Current total length of a cable, m.
     /// Current length of a cable, or of its span between two of its nodes.
     CableLength {
@@ -616,6 +626,11 @@ pub enum Probe {
     /// Magnitude (N) of the resultant of the reaction forces at the set's constrained nodes,
     /// |Σ R_i| (`reaction` gives one component of the same sum).
     ReactionResultant { nodes: NodeRef },
+    /// Component (N) of the resultant force that the pressure loads (every `pressure`,
+    /// `zone_pressure`, `volume` and `gas` input) exert on the membrane triangles of a zone (a
+    /// triangle set): Σ p A n over the zone's loaded triangles, current area and normal for a
+    /// follower pressure, reference ones for a dead pressure. The wind force on a panel.
+    ZoneForce { zone: String, component: Component },
     /// Newton iterations used by the last step (all internal increments), Integer.
     NewtonIterations,
     /// Fraction (0..1) of the reference area that is wrinkled, of one membrane group or of all.

@@ -1149,6 +1149,27 @@ impl Validator {
                 Probe::Displacement { node, .. } | Probe::Position { node, .. } => {
                     self.one_node(mesh, node, &format!("{p}.node"));
                 }
+                Probe::PolarDisplacement {
+                    node, center, axis, ..
+                } => {
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(format!("{p}.center"), "must be finite with |x| <= 1e30 m");
+                    } else if let Some(id) = self.one_node(mesh, node, &format!("{p}.node")) {
+                        let k = axis.index();
+                        let x = mesh.nodes[id];
+                        let (mut off, mut size) = (0.0f64, 0.0f64);
+                        for c in (0..3).filter(|&c| c != k) {
+                            off += (x[c] - center[c]).powi(2);
+                            size = size.max(x[c].abs()).max(center[c].abs());
+                        }
+                        if off.sqrt() <= 1e-12 * size.max(1e-300) {
+                            self.push(
+                                format!("{p}.node"),
+                                format!("node {id} lies on the axis: it has no radial or tangential direction"),
+                            );
+                        }
+                    }
+                }
                 Probe::CableLength { cable, from, to } => {
                     self.cable_name(s, cable, &format!("{p}.cable"));
                     let ids = s
@@ -1221,6 +1242,25 @@ impl Validator {
                 }
                 Probe::ReactionResultant { nodes } => {
                     self.reaction_nodes(mesh, nodes, held, &p);
+                }
+                Probe::ZoneForce { zone, .. } => {
+                    let path = format!("{p}.zone");
+                    if !mesh.triangle_sets.contains_key(zone) {
+                        self.push(
+                            path,
+                            format!(
+                                "no triangle set is named \"{zone}\"{}",
+                                suggest(zone, mesh.triangle_sets.keys())
+                            ),
+                        );
+                    } else if !s.membranes.iter().any(|m| {
+                        !super::shape::zone_positions(s, mesh, &m.name, Some(zone)).is_empty()
+                    }) {
+                        self.push(
+                            path,
+                            format!("zone \"{zone}\" has no triangle of any membrane group"),
+                        );
+                    }
                 }
                 Probe::NewtonIterations => {}
                 Probe::EnclosedVolume { membrane } => {

@@ -1,33 +1,50 @@
 //! Arc-length path following (the normal-plane variant of Riks and Crisfield): the load factor
 //! λ of the step becomes one more unknown, held by one more equation on the displacements, so
-//! the path goes on through limit points where load control stops.
+//! the path goes on through limit points where load control stops. This module holds the path
+//! logic only (predictor, step size, sign, fallbacks); the corrector is the one Newton loop
+//! (`newton.rs`) with the arc-length row added to its bordered system.
 //!
 //! ```text
-//! loads      load(λ) = from + λ (to − from);  R(u, λ) = f_int(u) − f_ext(u, load(λ))
+//! loads      load(λ) = from + λ (to − from);  G(z, λ) = (R, r_slip, h_volume) = 0
 //!            q = −∂R/∂λ = R(u, from) − R(u, to)     (R is affine in the loads; follower
 //!                                                   pressures make q depend on u)
-//! predictor  K v = q at the converged (u_n, λ_n);  t = ±v/|v|,  Δλ = ±Δs/|v|
+//!            ∂h_volume/∂λ = −k_V (ΔV_to − ΔV_from)  (a moving volume or gas input)
+//! predictor  J dz = −∂G/∂λ at the converged (z_n, λ_n), J the bordered tangent of the loop
+//!            (slip and volume rows eliminated by Schur, `slip.rs`); v the displacement part:
+//!            t = ±v/|v|,  Δλ = ±Δs/|v|; the volume pressures are predicted along dz, the
+//!            slips are not (the loop's stick anchors are the last converged slips)
 //!            sign: + at the start of a step (towards the target), then the sign that keeps
 //!            t · (u_n − u_{n−1}) > 0 (the path goes on in the direction it came from)
-//! corrector  equations R(u, λ) = 0 and h = t · (u − u_n) − Δs = 0 (the plane normal to t at
-//!            distance Δs: Riks's fixed normal plane)
-//!            [K  −q] [Δu]     [R]      y0 = −K⁻¹R,  y1 = K⁻¹q   (two solves on one LDLT of K)
-//!            [tᵀ  0] [Δλ] = − [h]      Δλ = (−h − t·y0)/(t·y1),  Δu = y0 + Δλ y1
+//! corrector  the one Newton loop with one more unknown λ and one more row
+//!            h = t · (u − u_n) − Δs = 0 (the plane normal to t at distance Δs: Riks's fixed
+//!            normal plane), its column ∂R/∂λ = −q (and ∂h_volume/∂λ in the volume rows),
+//!            eliminated with the slip and volume rows on the one LDLT of K; active set,
+//!            damping, relaxation and re-check as under load control; the line search's merit
+//!            is the residual ‖(R, r)‖ (the loads move with λ inside the step, so no
+//!            potential at fixed loads is a merit; the arc row is linear and falls as
+//!            (1 − α) h along any step); converged when the load-control test holds and
+//!            |h| <= tolerance · Δs
 //! step size  Δs grows 1.5x after an increment within the target iterations, halves after one
 //!            above 3/4 of the limit, is cut by 4 on failure
 //! ```
 //! The metric is the Euclidean norm of the free displacements divided by √n (n free DOFs), so
-//! `Settings::arc_length` is an RMS displacement in metres whatever the mesh.
+//! `Settings::arc_length` is an RMS displacement in metres whatever the mesh; slips and volume
+//! pressures are not in it.
 //!
 //! Prescribed displacements that the step moves follow λ like the loads: they are set from
-//! load(λ) at every iteration, and q gains −K_fp du_p/dλ (their coupling into the free
-//! equations), so a displacement-driven path is followed through a limit point too.
+//! load(λ) at every iteration and trial point, and q gains −K_fp du_p/dλ (their coupling into
+//! the free equations), so a displacement-driven path is followed through a limit point too.
+//! (A slip row's own dependence on a prescribed sleeve node moving with λ is left out of the
+//! border: the corrector then converges more slowly, not elsewhere.)
 //!
-//! Where arc length does not apply the step is load-controlled: a step that moves volume/gas
-//! inputs, a model with sleeve points (stick/slip states) or volume unknowns, and every increment across which a membrane's wrinkle state switches
-//! (taut/wrinkled/slack) while the load rises: that increment is solved again by load control
-//! to the load factor the arc-length point reached (state switches make the path
-//! non-smooth, and the normal plane can then cut it at another state's equilibrium). A step
+//! Fallbacks to load control: a step whose loads do not change is load-controlled as a whole;
+//! every increment across which a membrane's wrinkle state (taut/wrinkled/slack) or a sleeve
+//! point's stick/slip/merged state switches while the load rises is solved again by load
+//! control to the load factor the arc-length point reached (state switches make the path
+//! non-smooth, and the normal plane can then cut it at another state's equilibrium); an
+//! increment whose corrector fails while the predictor raises the load is tried once by load
+//! control to the predictor's λ before Δs is cut (sleeve points on a straight cable slide at
+//! zero load, where the normal plane cuts no equilibrium). A step
 //! ends where the load reaches its target: the last increment is load-controlled to λ = 1
 //! exactly. A step whose target lies beyond a limit load therefore fails (the load factor
 //! turns back past the limit): the message names the largest load factor reached.
@@ -37,7 +54,8 @@
 //! §9.3–9.4 (arc length, bordered systems by two solves, the sign of the predictor).
 
 use super::assemble::{assemble_with, Membranes, NONE};
-use super::newton::Increment;
+use super::newton::{ArcRow, Increment};
+use super::slip::slip_rows;
 use super::{push_log, Outcome, Solver, StepReport};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
@@ -55,22 +73,14 @@ pub struct PathPoint {
 }
 
 /// Why arc length does not apply to a step (None: it does).
-fn not_applicable(model: &Model, from: &[f64], to: &[f64]) -> Option<&'static str> {
-    if model.unknown_count() != model.dof_count() {
-        return Some("the model has sleeve points or volume unknowns");
-    }
-    for ((load, a), b) in model.loads.iter().zip(from).zip(to) {
-        if a != b && matches!(load, LoadModel::Volume { .. }) {
-            return Some("the step moves a prescribed volume");
-        }
-    }
+fn not_applicable(_model: &Model, from: &[f64], to: &[f64]) -> Option<&'static str> {
     if from == to {
         return Some("the loads do not change");
     }
     None
 }
 
-fn loads_at(from: &[f64], to: &[f64], lambda: f64) -> Vec<f64> {
+pub(super) fn loads_at(from: &[f64], to: &[f64], lambda: f64) -> Vec<f64> {
     from.iter()
         .zip(to)
         .map(|(a, b)| a + lambda * (b - a))
@@ -115,13 +125,13 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 impl Solver {
     /// Why a step `from` → `to` under `solver.path: "arc_length"` is load-controlled as a
-    /// whole (sleeve points, volume or gas unknowns, moving volumes, unchanged loads); None
-    /// when arc length follows it.
+    /// whole (unchanged loads); None when arc length follows it.
     pub fn arc_length_fallback(model: &Model, from: &[f64], to: &[f64]) -> Option<&'static str> {
         not_applicable(model, from, to)
     }
 
-    /// q = R(u, from) − R(u, to) on the equations (−∂R/∂λ).
+    /// q = R(u, from) − R(u, to) on the equations (−∂R/∂λ), with the coupling of moving
+    /// prescribed displacements.
     fn load_direction(
         &mut self,
         model: &Model,
@@ -177,6 +187,24 @@ impl Solver {
         q
     }
 
+    /// The load factor's column of the bordered Newton system, ∂R/∂λ = −q, as (equation,
+    /// value) pairs (`newton.rs`).
+    pub(super) fn load_column(
+        &mut self,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        lambda: f64,
+        u: &[f64],
+    ) -> Vec<(usize, f64)> {
+        self.load_direction(model, from, to, lambda, u)
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| **v != 0.0)
+            .map(|(e, v)| (e, -v))
+            .collect()
+    }
+
     /// Wrinkle states of the membranes at `u` (natural, no freezing).
     fn wrinkle_states(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> Vec<WrinkleState> {
         self.frozen = None;
@@ -189,9 +217,12 @@ impl Solver {
         self.evaluations.iter().map(|e| e.state).collect()
     }
 
-    /// The unit tangent (on the equations) at the converged point and dλ per unit arc length
-    /// (in the √n-scaled metric), with the sign that continues `previous` (or raises the load
-    /// when there is none).
+    /// The path's tangent at the converged point: dz/dλ from the bordered tangent (slip and
+    /// volume rows included, the stick/slip states `contact`), J dz = −∂G/∂λ. Returns the unit
+    /// tangent t of its displacement part (on the equations), dλ per unit arc length (in the
+    /// √n-scaled metric) with the sign that continues `previous` (or raises the load when
+    /// there is none), and the rates of the slips and volume pressures per unit λ.
+    #[allow(clippy::too_many_arguments)]
     fn arc_tangent(
         &mut self,
         model: &Model,
@@ -199,16 +230,30 @@ impl Solver {
         to: &[f64],
         lambda: f64,
         u: &[f64],
+        contact: &[Contact],
         previous: Option<&[f64]>,
-    ) -> Result<(Vec<f64>, f64), String> {
+    ) -> Result<(Vec<f64>, f64, Vec<f64>), String> {
         self.frozen = None;
         // The artificial prestress (tangent only, where an element lacks tension) keeps the
         // predictor of a stress-free start regular; it does not change the equilibrium.
         self.prestress_factor = 1.0;
         let loads = loads_at(from, to, lambda);
         self.assemble_at(model, &loads, u);
-        let mut v = self.load_direction(model, from, to, lambda, u);
-        self.linear.factor_solve(&mut v)?;
+        let n3 = model.dof_count();
+        let mut rows = slip_rows(model, &self.pattern.eq, u, &u[n3..], contact);
+        rows.extend(super::volume::rows(model, &self.pattern.eq, u, &loads));
+        // Right-hand side −∂G/∂λ: q on the equations, the rows' −∂r/∂λ (the slip rows do not
+        // depend on λ; a volume row's target moves with its input).
+        for row in rows.iter_mut() {
+            row.r = 0.0;
+        }
+        let rates = super::volume::load_rates(model, from, to);
+        for (row, rate) in rows[model.slips.len()..].iter_mut().zip(rates) {
+            row.r = rate;
+        }
+        let q = self.load_direction(model, from, to, lambda, u);
+        let minus_q: Vec<f64> = q.iter().map(|v| -v).collect();
+        let (v, w) = self.solve_bordered(model, u, &rows, 0.0, None, minus_q)?;
         let norm = dot(&v, &v).sqrt();
         if !(norm.is_finite() && norm > 0.0) {
             return Err("the tangent predictor is not finite".into());
@@ -219,143 +264,67 @@ impl Solver {
         };
         let scale = (self.pattern.n as f64).sqrt();
         let t: Vec<f64> = v.iter().map(|x| sign * x / norm).collect();
-        Ok((t, sign * scale / norm))
+        Ok((t, sign * scale / norm, w))
     }
 
     /// One arc-length increment of length `ds` (RMS metres) from the converged (u_n, λ_n)
-    /// along the unit tangent `t` (dλ/ds `dlds`): Ok((u, λ, iterations)).
+    /// along the unit tangent `t` (dλ/ds `dlds`, `w` the slips' and pressures' dz/dλ): the one
+    /// Newton loop with the arc-length row. Ok((u, λ, iterations)); `contact` in: the
+    /// converged stick/slip states, out: the increment's.
     #[allow(clippy::too_many_arguments)]
     fn arc_increment(
         &mut self,
         model: &Model,
-        from: &[f64],
-        to: &[f64],
-        change: f64,
+        (from, to, change): (&[f64], &[f64], f64),
         u_n: &[f64],
         lambda_n: f64,
-        t: &[f64],
-        dlds: f64,
+        (t, dlds, w): (&[f64], f64, &[f64]),
         ds: f64,
+        contact: &mut Vec<Contact>,
         log: &mut Vec<String>,
     ) -> Result<(Vec<f64>, f64, usize), (usize, String)> {
         let scale = (self.pattern.n as f64).sqrt();
         let length = ds * scale;
+        let dl = ds * dlds;
         let mut u = u_n.to_vec();
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             if e != NONE {
                 u[d] += length * t[e];
             }
         }
-        let mut lambda = lambda_n + ds * dlds;
-        self.frozen = None;
-        self.prestress_factor = 1.0;
-        for it in 0..=self.settings.max_iterations {
-            let loads = loads_at(from, to, lambda);
-            // Prescribed displacements follow the load factor.
-            super::path::prescribe(model, &loads, &mut u);
-            let info = self.assemble_at(model, &loads, &u);
-            super::check_inversion(model, &info).map_err(|why| (it, why))?;
-            let inc = Increment {
-                loads: &loads,
-                change,
-                moved: true,
-            };
-            let check = self.check(model, &info, &[], &u, &inc, it);
-            if !check.free.is_finite() {
-                return Err((it, "the residual is not finite".into()));
-            }
-            self.prestress_factor = super::newton::prestress_factor(
-                check.free / check.scale.max(f64::MIN_POSITIVE),
-                self.settings.prestress_fade,
-            );
-            let mut h = -length;
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != NONE {
-                    h += t[e] * (u[d] - u_n[d]);
-                }
-            }
-            if it > 0 && check.strict && h.abs() <= self.settings.tolerance * length {
-                push_log(
-                    log,
-                    format!(
-                        "  arc length: converged at λ {lambda:.6}: |R| = {:.3e} (scale {:.3e})",
-                        check.free, check.scale
-                    ),
-                );
-                return Ok((u, lambda, it));
-            }
-            if it == self.settings.max_iterations {
-                return Err((
-                    it,
-                    format!(
-                        "arc length: no convergence in {it} iterations (|R| = {:.3e}, scale {:.3e})",
-                        check.free, check.scale
-                    ),
-                ));
-            }
-            let mut y0 = vec![0.0; self.pattern.n];
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != NONE {
-                    y0[e] = -self.residual[d];
-                }
-            }
-            let mut y1 = self.load_direction(model, from, to, lambda, &u);
-            // load_direction does not touch the tangent values assembled above.
-            self.linear.factor().map_err(|why| (it + 1, why))?;
-            self.linear.solve(&mut y0).map_err(|why| (it + 1, why))?;
-            self.linear.solve(&mut y1).map_err(|why| (it + 1, why))?;
-            let ty1 = dot(t, &y1);
-            if !(ty1.is_finite() && ty1 != 0.0) {
-                return Err((it + 1, "arc length: the bordered system is singular".into()));
-            }
-            let dl = (-h - dot(t, &y0)) / ty1;
-            let correction = y0
-                .iter()
-                .zip(&y1)
-                .map(|(a, b)| (a + dl * b).abs())
-                .fold(0.0f64, f64::max);
-            if it > 0
-                && check.within_floor
-                && correction <= self.settings.tolerance * self.coordinate_size(model, &u)
-            {
-                push_log(
-                    log,
-                    format!(
-                        "  arc length: converged at λ {lambda:.6} (round-off floor): |R| = {:.3e}",
-                        check.free
-                    ),
-                );
-                return Ok((u, lambda, it));
-            }
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != NONE {
-                    u[d] += y0[e] + dl * y1[e];
-                }
-            }
-            lambda += dl;
-            push_log(
-                log,
-                format!(
-                    "  arc length iteration {}: |R| = {:.3e} (scale {:.3e}), λ -> {lambda:.6}",
-                    it + 1,
-                    check.free,
-                    check.scale
-                ),
-            );
+        // The volume pressures are predicted along the tangent; the slips are not (the loop
+        // takes the last converged slips as the stick anchors).
+        let (n3, m) = (model.dof_count(), model.slips.len());
+        for (j, rate) in w.iter().enumerate().skip(m) {
+            u[n3 + j] += dl * rate;
         }
-        unreachable!("the loop returns at max_iterations")
+        let mut arc = ArcRow {
+            from,
+            to,
+            t,
+            u_n,
+            length,
+            lambda: lambda_n + dl,
+        };
+        let inc = Increment {
+            loads: from,
+            change,
+            moved: true,
+        };
+        let iterations = self.newton(model, &inc, &mut u, contact, Some(&mut arc), log)?;
+        Ok((u, arc.lambda, iterations))
     }
 
-    /// One load-controlled increment λ_a → λ_b from the converged `u` (the fallback).
+    /// One load-controlled increment to λ from the converged `u` (the fallback); `contact` as
+    /// in [`Solver::arc_increment`].
     #[allow(clippy::too_many_arguments)]
     fn load_increment(
         &mut self,
         model: &Model,
-        from: &[f64],
-        to: &[f64],
-        change: f64,
+        (from, to, change): (&[f64], &[f64], f64),
         u: &[f64],
         lambda: f64,
+        contact: &mut Vec<Contact>,
         log: &mut Vec<String>,
     ) -> Result<(Vec<f64>, usize), (usize, String)> {
         let loads = loads_at(from, to, lambda);
@@ -363,13 +332,12 @@ impl Solver {
         // Moves the prescribed displacements to λ (and predicts the free DOFs) as load
         // control does.
         let predicted = self.predict(model, &loads, &mut trial);
-        let mut contact: Vec<Contact> = Vec::new();
         let increment = Increment {
             loads: &loads,
             change,
             moved: true,
         };
-        self.newton(model, &increment, &mut trial, &mut contact, log)
+        self.newton(model, &increment, &mut trial, contact, None, log)
             .map(|i| (trial, i + predicted))
             .map_err(|(i, why)| (i + predicted, why))
     }
@@ -377,7 +345,8 @@ impl Solver {
     /// Trace the path of the step `from` → `to` from the equilibrium `u` (at `from`) by
     /// `count` arc-length increments of fixed length `ds` (RMS metres), without stopping at the
     /// target load and without the load-control fallback: the converged points in order. For
-    /// verification and studies of a whole path (a limit point and what lies past it).
+    /// verification and studies of a whole path (a limit point and what lies past it). Sleeve
+    /// points start from their default states.
     pub fn trace_arc_length(
         &mut self,
         model: &Model,
@@ -393,14 +362,29 @@ impl Solver {
         let change = super::path::load_change(model, from, to);
         let mut log = Vec::new();
         let (mut u_n, mut lambda_n) = (u.to_vec(), 0.0);
+        let mut contact = vec![Contact::default(); model.slips.len()];
         let mut previous: Option<Vec<f64>> = None;
         let mut points = Vec::new();
         for k in 0..count {
-            let (t, dlds) =
-                self.arc_tangent(model, from, to, lambda_n, &u_n, previous.as_deref())?;
+            let (t, dlds, w) = self.arc_tangent(
+                model,
+                from,
+                to,
+                lambda_n,
+                &u_n,
+                &contact,
+                previous.as_deref(),
+            )?;
             let (u, lambda, iterations) = self
                 .arc_increment(
-                    model, from, to, change, &u_n, lambda_n, &t, dlds, ds, &mut log,
+                    model,
+                    (from, to, change),
+                    &u_n,
+                    lambda_n,
+                    (&t, dlds, &w),
+                    ds,
+                    &mut contact,
+                    &mut log,
                 )
                 .map_err(|(_, why)| format!("increment {k}: {why}\n{}", log.join("\n")))?;
             previous = Some(self.equation_difference(&u, &u_n));
@@ -425,14 +409,16 @@ impl Solver {
         out
     }
 
-    /// Solve one step by arc length (module docs); falls back to
-    /// [`Solver::solve_step_with`]'s load control where arc length does not apply.
+    /// Solve one step by arc length (module docs); None where arc length does not apply
+    /// (then [`Solver::solve_step_with`]'s load control runs). `states`: the stick/slip
+    /// codes of the sleeve points, advanced on convergence.
     pub(super) fn solve_step_arc(
         &mut self,
         model: &Model,
         from: &[f64],
         to: &[f64],
         u: &mut Vec<f64>,
+        states: &mut Vec<u8>,
     ) -> Option<StepReport> {
         let mut report = StepReport {
             outcome: Outcome::Failed,
@@ -443,16 +429,16 @@ impl Solver {
             message: String::new(),
             log: Vec::new(),
         };
-        if let Some(why) = not_applicable(model, from, to) {
-            push_log(
-                &mut report.log,
-                format!("arc length does not apply ({why}): load control"),
-            );
+        if not_applicable(model, from, to).is_some() {
             return None;
         }
         let s = self.settings.clone();
-        let change = super::path::load_change(model, from, to);
+        let step = (from, to, super::path::load_change(model, from, to));
         let (mut u_n, mut lambda_n, mut lambda_max) = (u.clone(), 0.0f64, 0.0f64);
+        let mut contact_n: Vec<Contact> = states
+            .iter()
+            .map(|&c| Contact::from_code(c).unwrap_or_default())
+            .collect();
         let mut previous: Option<Vec<f64>> = None;
         let mut ds = s.arc_length;
         let mut first_dl = s.initial_increment;
@@ -469,7 +455,9 @@ impl Solver {
             if ds <= 0.0 {
                 // No size given: the first increment is load-controlled and sets Δs.
                 let target = first_dl.min(1.0);
-                match self.load_increment(model, from, to, change, &u_n, target, &mut report.log) {
+                let mut contact = contact_n.clone();
+                match self.load_increment(model, step, &u_n, target, &mut contact, &mut report.log)
+                {
                     Ok((u_new, iters)) => {
                         report.iterations += iters;
                         report.increments += 1;
@@ -478,6 +466,7 @@ impl Solver {
                         push_log(&mut report.log, format!("increment λ 0 -> {target:.6} (load control): converged in {iters} iterations; arc length {ds:.3e} m"));
                         previous = Some(d);
                         u_n = u_new;
+                        contact_n = contact;
                         lambda_n = target;
                         lambda_max = target;
                         smallest = ds * s.min_increment;
@@ -509,8 +498,16 @@ impl Solver {
             if !smallest.is_finite() {
                 smallest = ds * s.min_increment;
             }
-            let tangent = self.arc_tangent(model, from, to, lambda_n, &u_n, previous.as_deref());
-            let (t, dlds) = match tangent {
+            let tangent = self.arc_tangent(
+                model,
+                from,
+                to,
+                lambda_n,
+                &u_n,
+                &contact_n,
+                previous.as_deref(),
+            );
+            let (t, dlds, w) = match tangent {
                 Ok(x) => x,
                 Err(why) => {
                     report.message = format!("arc length at load fraction {lambda_n:.6}: {why}");
@@ -519,19 +516,18 @@ impl Solver {
                 }
             };
             let predicted = lambda_n + ds * dlds;
+            let mut contact = contact_n.clone();
             let outcome = if predicted >= 1.0 {
                 Err((0, String::from("the predictor passes the target")))
             } else {
                 self.arc_increment(
                     model,
-                    from,
-                    to,
-                    change,
+                    step,
                     &u_n,
                     lambda_n,
-                    &t,
-                    dlds,
+                    (&t, dlds, &w),
                     ds,
+                    &mut contact,
                     &mut report.log,
                 )
             };
@@ -545,35 +541,43 @@ impl Solver {
                         let before =
                             self.wrinkle_states(model, &loads_at(from, to, lambda_n), &u_n);
                         let after = self.wrinkle_states(model, &loads_at(from, to, lambda), &u_new);
-                        let mut accepted = (u_new, lambda, iters, "arc length");
-                        if before != after && lambda > lambda_n {
-                            let switched =
-                                before.iter().zip(&after).filter(|(a, b)| a != b).count();
+                        let wrinkles = before.iter().zip(&after).filter(|(a, b)| a != b).count();
+                        let sleeves = contact_n
+                            .iter()
+                            .zip(&contact)
+                            .filter(|(a, b)| a != b)
+                            .count();
+                        let mut accepted = (u_new, lambda, iters, "arc length", contact);
+                        if (wrinkles > 0 || sleeves > 0) && lambda > lambda_n {
+                            let what = format!(
+                                "{wrinkles} wrinkle states and {sleeves} stick/slip states switch"
+                            );
+                            let mut redone = contact_n.clone();
                             match self.load_increment(
                                 model,
-                                from,
-                                to,
-                                change,
+                                step,
                                 &u_n,
                                 lambda,
+                                &mut redone,
                                 &mut report.log,
                             ) {
                                 Ok((u_lc, it2)) => {
                                     report.iterations += it2;
-                                    push_log(&mut report.log, format!("  {switched} wrinkle states switch: increment redone by load control in {it2} iterations"));
-                                    accepted = (u_lc, lambda, it2, "load control");
+                                    push_log(&mut report.log, format!("  {what}: increment redone by load control in {it2} iterations"));
+                                    accepted = (u_lc, lambda, it2, "load control", redone);
                                 }
                                 Err((it2, why)) => {
                                     report.iterations += it2;
-                                    push_log(&mut report.log, format!("  {switched} wrinkle states switch; load control failed ({why}): the arc-length point is kept"));
+                                    push_log(&mut report.log, format!("  {what}; load control failed ({why}): the arc-length point is kept"));
                                 }
                             }
                         }
-                        let (u_new, lambda, iters, how) = accepted;
+                        let (u_new, lambda, iters, how, contact) = accepted;
                         report.increments += 1;
                         push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {lambda:.6} ({how}, Δs {ds:.3e} m): converged in {iters} iterations"));
                         previous = Some(self.equation_difference(&u_new, &u_n));
                         u_n = u_new;
+                        contact_n = contact;
                         lambda_n = lambda;
                         lambda_max = lambda_max.max(lambda);
                         if lambda < 0.0 && lambda_max > 0.0 {
@@ -593,6 +597,32 @@ impl Solver {
                 }
                 Err((iters, why)) if !finish => {
                     report.iterations += iters;
+                    // A corrector that fails while the load rises is retried once by load
+                    // control to the predictor's λ: the path can be non-smooth inside the
+                    // increment (a state switch, or sleeve points that slide along a straight
+                    // cable at zero load, where the normal plane cuts no equilibrium).
+                    if predicted > lambda_n {
+                        let mut redone = contact_n.clone();
+                        if let Ok((u_lc, it2)) = self.load_increment(
+                            model,
+                            step,
+                            &u_n,
+                            predicted,
+                            &mut redone,
+                            &mut report.log,
+                        ) {
+                            report.iterations += it2;
+                            report.increments += 1;
+                            push_log(&mut report.log, format!("  arc length: {why}"));
+                            push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {predicted:.6} (load control after the arc-length corrector failed, Δs {ds:.3e} m): converged in {it2} iterations"));
+                            previous = Some(self.equation_difference(&u_lc, &u_n));
+                            u_n = u_lc;
+                            contact_n = redone;
+                            lambda_n = predicted;
+                            lambda_max = lambda_max.max(predicted);
+                            continue;
+                        }
+                    }
                     report.cutbacks += 1;
                     push_log(&mut report.log, format!("increment from λ {lambda_n:.6} (arc length, Δs {ds:.3e} m): {why}; cutting back"));
                     ds *= 0.25;
@@ -607,12 +637,14 @@ impl Solver {
             }
             if finish {
                 // The target lies within this increment: reach it exactly by load control.
-                match self.load_increment(model, from, to, change, &u_n, 1.0, &mut report.log) {
+                let mut contact = contact_n.clone();
+                match self.load_increment(model, step, &u_n, 1.0, &mut contact, &mut report.log) {
                     Ok((u_new, iters)) => {
                         report.iterations += iters;
                         report.increments += 1;
                         push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> 1 (load control to the target): converged in {iters} iterations"));
                         u_n = u_new;
+                        contact_n = contact;
                         break;
                     }
                     Err((iters, why)) => {
@@ -630,6 +662,7 @@ impl Solver {
             }
         }
         *u = u_n;
+        *states = contact_n.iter().map(|c| c.code()).collect();
         report.outcome = Outcome::Converged;
         report.reached = 1.0;
         Some(report)

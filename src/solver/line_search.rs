@@ -8,7 +8,9 @@
 //!             tries, α from the same fraction-to-boundary limit as below
 //! Slope       follower pressure (no potential), no slip unknowns: s(α) = Δu·R(u + αΔu); full
 //!             step unless it overshoots the minimum, then regula falsi between 0 and α
-//! Residual    friction, stuck or merged sleeve points, volume unknowns: non-monotone Armijo
+//! Residual    friction, stuck or merged sleeve points, volume unknowns, arc length (the
+//!             loads move with λ inside the step, so no potential at fixed loads applies; the
+//!             trial point takes the loads of λ + αΔλ): non-monotone Armijo
 //!             on ‖(R_x, r)‖₂,
 //!             ‖R(α)‖ <= (1 − c α) max(last 5 ‖R‖), halving; α starts at the largest step that
 //!             keeps every sleeved segment's unstretched length above a tenth of its value
@@ -60,6 +62,10 @@ pub(super) struct Trial<'a> {
     pub loads: &'a [f64],
     pub committed: &'a [f64],
     pub contact: &'a [Contact],
+    /// Under arc length (`arc.rs`): the step's loads (from, to), the load factor λ and its
+    /// Newton correction Δλ; the trial point's loads and prescribed displacements are those
+    /// of λ + α Δλ.
+    pub arc: Option<(&'a [f64], &'a [f64], f64, f64)>,
 }
 
 impl Solver {
@@ -127,11 +133,20 @@ impl Solver {
         for (j, d) in dir.ds.iter().enumerate() {
             self.trial[n3 + j] += alpha * d;
         }
+        let moved;
+        let loads = match at.arc {
+            Some((from, to, lambda, dl)) => {
+                moved = super::arc::loads_at(from, to, lambda + alpha * dl);
+                super::path::prescribe(model, &moved, &mut self.trial);
+                &moved[..]
+            }
+            None => at.loads,
+        };
         let info = assemble_with(
             model,
             &self.pattern,
             &self.trial,
-            at.loads,
+            loads,
             &mut self.residual,
             None,
             Membranes {
@@ -155,7 +170,7 @@ impl Solver {
             .collect()
         };
         rows.extend(
-            super::volume::rows(model, &self.pattern.eq, &self.trial, at.loads)
+            super::volume::rows(model, &self.pattern.eq, &self.trial, loads)
                 .iter()
                 .map(|r| r.r),
         );

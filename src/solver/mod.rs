@@ -12,7 +12,8 @@
 //! slip.rs         slip rows and columns, return map, Schur direction (m = 0: plain LDLT)
 //! volume.rs       volume control: pressure unknowns of closed groups, their rows and columns
 //!                 (eliminated with the slips)
-//! arc.rs          arc-length path following: the load factor an unknown (normal plane)
+//! arc.rs          arc-length path following: the load factor an unknown (normal plane);
+//!                 path logic only, the corrector is newton.rs with the arc row bordered
 //! order.rs        sleeve points keep their order along a cable: touching points merge into
 //!                 one contact group and part when the contact force would pull
 //! line_search.rs  one backtracking search: potential, slope or residual merit

@@ -110,6 +110,36 @@ pub(super) struct Check {
     pub scale: f64,
 }
 
+/// The arc-length constraint of an increment (`arc.rs`): the load factor λ of the step is one
+/// more unknown of the loop, held by the row h = t·(u − u_n) − Δs = 0 on the free
+/// displacements, whose column is ∂R/∂λ = −q (eliminated with the slip and volume rows).
+pub(super) struct ArcRow<'a> {
+    pub from: &'a [f64],
+    pub to: &'a [f64],
+    /// Unit tangent on the equations.
+    pub t: &'a [f64],
+    /// The last converged displacements (unknown vector).
+    pub u_n: &'a [f64],
+    /// Δs·√n: the constraint's distance on the equations (m).
+    pub length: f64,
+    /// The load factor: in, the predictor's; out, the last iterate's (the converged one on
+    /// success).
+    pub lambda: f64,
+}
+
+impl ArcRow<'_> {
+    /// h = t·(u − u_n) − Δs·√n.
+    fn residual(&self, eq: &[usize], u: &[f64]) -> f64 {
+        let mut h = -self.length;
+        for (d, &e) in eq.iter().enumerate() {
+            if e != NONE {
+                h += self.t[e] * (u[d] - self.u_n[d]);
+            }
+        }
+        h
+    }
+}
+
 /// Where a Newton loop starts and what it knows of its step.
 pub(super) struct Increment<'a> {
     pub loads: &'a [f64],
@@ -123,12 +153,15 @@ impl Solver {
     /// Iterate to equilibrium at fixed loads. `u` holds displacements then slips, `contact` the
     /// stick/slip states (in: last converged, out: this increment's). Ok(iterations) or
     /// Err((iterations, reason)); on Err `u` and `contact` are scratch.
+    /// With `arc`, the loads are those of the load factor `arc.lambda`, an unknown held by the
+    /// arc-length row (`step.loads` is not read; prescribed displacements follow λ).
     pub(super) fn newton(
         &mut self,
         model: &Model,
-        inc: &Increment,
+        step: &Increment,
         u: &mut [f64],
         contact: &mut Vec<Contact>,
+        mut arc: Option<&mut ArcRow>,
         log: &mut Vec<String>,
     ) -> Result<usize, (usize, String)> {
         let n3 = model.dof_count();
@@ -155,6 +188,19 @@ impl Solver {
         let hard_max = max.max(self.settings.max_iterations_progressing);
         let mut history: Vec<f64> = Vec::new();
         for it in 0..=hard_max {
+            let loads: Vec<f64> = match arc.as_deref() {
+                Some(a) => {
+                    let loads = super::arc::loads_at(a.from, a.to, a.lambda);
+                    super::path::prescribe(model, &loads, u);
+                    loads
+                }
+                None => step.loads.to_vec(),
+            };
+            let inc = &Increment {
+                loads: &loads,
+                change: step.change,
+                moved: step.moved,
+            };
             self.frozen = active.wrinkle_frozen.clone();
             let info = self.assemble_at(model, inc.loads, u);
             let states: Vec<WrinkleState> = self.evaluations.iter().map(|e| e.state).collect();
@@ -194,16 +240,46 @@ impl Solver {
                     );
                 }
             }
+            // The arc-length row and column (the border is built at every iteration: the
+            // column −q depends on u through follower loads and prescribed displacements).
+            let (arc_met, bordered) = match arc.as_deref() {
+                Some(a) => {
+                    let h = a.residual(&self.pattern.eq, u);
+                    let column = self.load_column(model, a.from, a.to, a.lambda, u);
+                    let mut all = rows.clone();
+                    let at = all.len();
+                    let rates = super::volume::load_rates(model, a.from, a.to);
+                    for (row, rate) in all[model.slips.len()..].iter_mut().zip(rates) {
+                        row.ds.push((at, rate));
+                    }
+                    all.push(Row {
+                        r: h,
+                        dx: (0..self.pattern.n)
+                            .filter(|&e| a.t[e] != 0.0)
+                            .map(|e| (e, a.t[e]))
+                            .collect(),
+                        ds: Vec::new(),
+                        magnitude: a.length,
+                        damped: false,
+                    });
+                    let met = h.abs() <= self.settings.tolerance * a.length;
+                    (met, Some((all, column)))
+                }
+                None => (true, None),
+            };
             // Within the round-off floor but not the tolerance: converged only when the Newton
             // correction from here is within the tolerance of the coordinates, tol · X at every
             // unknown (a floor reached at every DOF could still leave a net force on a soft part
             // held by stiff members; that part's correction is then large and real).
             let mut pending = None;
-            let mut converged = check.strict;
-            if !converged && check.within_floor && changed == 0 {
-                if let Ok((dx, ds)) = self.direction(model, u, &rows, damping) {
+            let mut converged = check.strict && arc_met;
+            if !converged && check.within_floor && arc_met && changed == 0 {
+                if let Ok((dx, ds)) = self.direction_of(model, u, &rows, bordered.as_ref(), damping)
+                {
                     let limit = self.settings.tolerance * self.coordinate_size(model, u);
-                    converged = dx.iter().chain(&ds).all(|v| v.abs() <= limit);
+                    // The load factor's correction is not a coordinate (the arc row, met,
+                    // holds the path's position).
+                    converged = dx.iter().chain(&ds[..rows.len()]).all(|v| v.abs() <= limit);
                     pending = Some((dx, ds));
                 }
             }
@@ -247,10 +323,12 @@ impl Solver {
                         push_log(
                             log,
                             format!(
-                                "  converged: |R| = {:.3e} (scale {:.3e}){}",
+                                "  converged: |R| = {:.3e} (scale {:.3e}){}{}",
                                 check.free,
                                 check.scale,
-                                slip_note(&check)
+                                slip_note(&check),
+                                arc.as_deref()
+                                    .map_or(String::new(), |a| format!(" at λ {:.6}", a.lambda)),
                             ),
                         );
                         *contact = active.contact;
@@ -275,9 +353,9 @@ impl Solver {
             }
             let direction = match pending.take() {
                 Some(d) => Ok(d),
-                None => self.direction(model, u, &rows, damping),
+                None => self.direction_of(model, u, &rows, bordered.as_ref(), damping),
             };
-            let (dx, ds) = match direction {
+            let (dx, mut ds) = match direction {
                 Ok(d) => d,
                 Err(why) if damping == 0.0 && self.settings.damping_start > 0.0 => {
                     // A tangent with no stiffness at all (every cable slack, nothing stressed):
@@ -288,7 +366,7 @@ impl Solver {
                     } else {
                         self.settings.damping_start
                     };
-                    self.direction(model, u, &rows, damping)
+                    self.direction_of(model, u, &rows, bordered.as_ref(), damping)
                         .map_err(|why| (it + 1, why))?
                 }
                 Err(why) => return Err((it + 1, why)),
@@ -303,7 +381,13 @@ impl Solver {
                     && model.slips.iter().zip(&active.contact).all(|(p, c)| {
                         p.mu == 0.0 && matches!(c, Contact::Forward | Contact::Backward)
                     });
-            let residual_merit = !rows.is_empty() && !(sliding_freely && model.is_conservative());
+            // Under arc length the loads move with λ inside the step: no potential at fixed
+            // loads is the merit, the residual of the equilibrium and constraint rows is (the
+            // bordered Newton direction is a descent direction of ‖(R, r)‖; the arc row is
+            // linear, so it falls as (1 − α) h along any step and needs no share in the merit).
+            let dlambda = if arc.is_some() { ds.pop() } else { None };
+            let residual_merit =
+                arc.is_some() || (!rows.is_empty() && !(sliding_freely && model.is_conservative()));
             if recent_potential.replace(!residual_merit) == Some(residual_merit) {
                 recent.clear();
             }
@@ -329,6 +413,10 @@ impl Solver {
                     loads: inc.loads,
                     committed: &committed,
                     contact: &active.contact,
+                    arc: arc
+                        .as_deref()
+                        .zip(dlambda)
+                        .map(|(a, dl)| (a.from, a.to, a.lambda, dl)),
                 },
                 merit,
             );
@@ -346,6 +434,9 @@ impl Solver {
             }
             for (j, v) in ds.iter().enumerate() {
                 u[n3 + j] += alpha * v;
+            }
+            if let (Some(a), Some(dl)) = (arc.as_deref_mut(), dlambda) {
+                a.lambda += alpha * dl;
             }
             let s = &self.settings;
             if damping > 0.0 {
@@ -370,11 +461,12 @@ impl Solver {
             push_log(
                 log,
                 format!(
-                    "  iteration {}: |R| = {:.3e} (scale {:.3e}){}, step α = {alpha:.3}, damping τ = {damping:.1e}",
+                    "  iteration {}: |R| = {:.3e} (scale {:.3e}){}, step α = {alpha:.3}, damping τ = {damping:.1e}{}",
                     it + 1,
                     check.free,
                     check.scale,
                     slip_note(&check),
+                    arc.as_deref().map_or(String::new(), |a| format!(", λ -> {:.6}", a.lambda)),
                 ),
             );
         }
@@ -383,6 +475,22 @@ impl Solver {
             hard_max,
             format!("no convergence in {hard_max} iterations (states changed at the end)"),
         ))
+    }
+
+    /// The Newton direction with the slip and volume rows, and under arc length with the
+    /// bordered arc row and its column (then the last entry of the slip part is Δλ).
+    fn direction_of(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        rows: &[Row],
+        bordered: Option<&(Vec<Row>, Vec<(usize, f64)>)>,
+        damping: f64,
+    ) -> Result<(Vec<f64>, Vec<f64>), String> {
+        match bordered {
+            Some((all, column)) => self.direction(model, u, all, damping, Some(column)),
+            None => self.direction(model, u, rows, damping, None),
+        }
     }
 
     /// The convergence test (module docs) on the last assembly.

@@ -40,8 +40,8 @@ impl Solver {
         u: &mut Vec<f64>,
         states: &mut Vec<u8>,
     ) -> StepReport {
-        if self.settings.arc_length_path && states.is_empty() {
-            if let Some(report) = self.solve_step_arc(model, from, to, u) {
+        if self.settings.arc_length_path {
+            if let Some(report) = self.solve_step_arc(model, from, to, u, states) {
                 return report;
             }
         }
@@ -97,6 +97,7 @@ impl Solver {
                     &increment,
                     &mut trial,
                     &mut trial_states,
+                    None,
                     &mut report.log,
                 )
                 .map(|i| i + predicted)

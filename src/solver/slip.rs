@@ -32,6 +32,7 @@ use nalgebra::{DMatrix, DVector};
 pub const MAX_GAP: f64 = 1e-3;
 
 /// One slip row: residual and its non-zero couplings.
+#[derive(Clone, Debug)]
 pub(super) struct Row {
     pub r: f64,
     /// (equation of a free displacement DOF, ∂r/∂x)
@@ -56,9 +57,34 @@ impl Solver {
         u: &[f64],
         rows: &[Row],
         damping: f64,
+        extra: Option<&[(usize, f64)]>,
+    ) -> Result<(Vec<f64>, Vec<f64>), String> {
+        let mut residual = vec![0.0; self.pattern.n];
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                residual[e] = self.residual[d];
+            }
+        }
+        self.solve_bordered(model, u, rows, damping, extra, residual)
+    }
+
+    /// Solve J (Δx, Δs) = −(R, r) for the residual `residual` on the equations and the rows'
+    /// residuals r: J is the tangent (assembled values, damped by τ = `damping`) bordered by
+    /// the slip and volume rows and columns and, where `extra` is given, by one more column
+    /// (its non-zeros on the equations) whose row is the last of `rows` (the arc-length
+    /// constraint, `arc.rs`: the column is ∂R/∂λ). Factors the tangent.
+    pub(super) fn solve_bordered(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        rows: &[Row],
+        damping: f64,
+        extra: Option<&[(usize, f64)]>,
+        residual: Vec<f64>,
     ) -> Result<(Vec<f64>, Vec<f64>), String> {
         let n = self.pattern.n;
-        // Slip rows, then volume rows (`volume.rs`): the same elimination serves both.
+        // Slip rows, then volume rows (`volume.rs`), then the arc-length row: the same
+        // elimination serves all.
         let m = rows.len();
         if damping > 0.0 {
             let values = self.linear.values_mut();
@@ -67,12 +93,7 @@ impl Solver {
             }
         }
         self.linear.factor()?;
-        let mut y0 = vec![0.0; n];
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            if e != NONE {
-                y0[e] = -self.residual[d];
-            }
-        }
+        let mut y0: Vec<f64> = residual.iter().map(|r| -r).collect();
         self.linear.solve(&mut y0)?;
         if m == 0 {
             return if y0.iter().all(|v| v.is_finite()) {
@@ -83,6 +104,10 @@ impl Solver {
         }
         let mut columns = slip_columns(model, &self.pattern.eq, u);
         columns.extend(super::volume::columns(model, &self.pattern.eq, u));
+        if let Some(col) = extra {
+            columns.push(col.to_vec());
+        }
+        debug_assert_eq!(columns.len(), m, "one column per row");
         let mut y = Vec::with_capacity(m);
         for col in &columns {
             let mut v = vec![0.0; n];
@@ -109,9 +134,13 @@ impl Solver {
             rhs[i] = -row.r - row.dx.iter().map(|&(e, c)| c * y0[e]).sum::<f64>();
         }
         // A zero pivot is a sliding mechanism (frictionless point on a straight or slack cable):
-        // a tiny spring on the slip, in the tangent only.
-        let big = (0..m).map(|i| schur[(i, i)].abs()).fold(0.0, f64::max);
-        for i in 0..m {
+        // a tiny spring on the slip, in the tangent only. Not on the arc-length row (its pivot
+        // t·K⁻¹q is in metres per unit load factor, not comparable with the others').
+        let regular = if extra.is_some() { m - 1 } else { m };
+        let big = (0..regular)
+            .map(|i| schur[(i, i)].abs())
+            .fold(0.0, f64::max);
+        for i in 0..regular {
             if schur[(i, i)].abs() <= 1e-12 * big {
                 schur[(i, i)] += 1e-9 * big.max(f64::MIN_POSITIVE);
             }

@@ -115,3 +115,19 @@ pub(super) fn columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(usize,
     }
     out
 }
+
+/// ∂h/∂λ of every volume row (in the order of [`rows`]) when the loads move as
+/// from + λ (to − from): −k_V (ΔV_to − ΔV_from) (the row's target is affine in its input, for
+/// the volume and the gas law alike). The arc-length border's coupling of the volume rows
+/// (`arc.rs`).
+pub(super) fn load_rates(model: &Model, from: &[f64], to: &[f64]) -> Vec<f64> {
+    model
+        .loads
+        .iter()
+        .zip(from.iter().zip(to))
+        .filter_map(|(load, (a, b))| match load {
+            LoadModel::Volume { stiffness, .. } => Some(-stiffness * (b - a)),
+            _ => None,
+        })
+        .collect()
+}
