@@ -9,17 +9,14 @@
 //! xorshift generator, as a user's mesher might number it).
 //!
 //! Printed per case: free DOF, numbering, stored entries of the LDLT factor after faer's AMD, Newton iterations, wall time of the solve, the
-//! CPU time of the solve (all threads, /proc/self/stat: above the wall time when a second
-//! core works), the
 //! floor (one assembly + one numeric LDLT factorization and solve at the solution, best of 3,
 //! `Engine::time_floor`), seconds per iteration divided by the floor, the process's peak
 //! resident set so far (VmHWM from /proc/self/status; it only grows, so run one size per
-//! process for a per-size peak), threads (`--threads N`, the scene's `solver.threads`; default
-//! 1: everything on the calling thread, faer runs `Par::Seq`), and the relative error of
+//! process for a per-size peak), threads (1: faer runs `Par::Seq`), and the relative error of
 //! the centre deflection against w0/a = 0.065404 (both numberings must agree).
 
 use std::time::Instant;
-use velarium::scene::{Generator, Scene};
+use velarium::scene::{Generator, NodeOrder, Scene};
 use velarium::Engine;
 
 const W_FOLLOWER: f64 = 0.065404;
@@ -71,13 +68,20 @@ fn shuffled(generated: &Engine, base: &Scene) -> Scene {
     let model = generated.model();
     let n = model.reference.len();
     let perm = permutation(n); // old id -> new id
+                               // Triangles in a shuffled order too: a mesher's element order is no better than its node
+                               // order.
+    let tri_perm = permutation(model.triangles.len()); // old position -> new position
+    let mut tri_order = vec![0; tri_perm.len()];
+    for (old, &new) in tri_perm.iter().enumerate() {
+        tri_order[new] = old;
+    }
     let mut nodes = vec![[0.0; 3]; n];
     for (old, x) in model.reference.iter().enumerate() {
         nodes[perm[old]] = [x.x, x.y, x.z];
     }
-    let triangles: Vec<String> = model
-        .triangles
+    let triangles: Vec<String> = tri_order
         .iter()
+        .map(|&e| &model.triangles[e])
         .map(|t| {
             format!(
                 "[{}, {}, {}]",
@@ -115,6 +119,15 @@ fn shuffled(generated: &Engine, base: &Scene) -> Scene {
 }
 
 fn run(label: &str, mut engine: Engine, threads: usize) {
+    if std::env::args().any(|a| a == "--nnz-only") {
+        println!(
+            "{:>8} {:>13} {:>11}",
+            engine.free_dofs(),
+            label,
+            engine.factor_nonzeros()
+        );
+        return;
+    }
     let vr = engine
         .variables()
         .iter()
@@ -141,7 +154,7 @@ fn run(label: &str, mut engine: Engine, threads: usize) {
     let (assembly, factor) = engine.time_floor(3);
     let floor = assembly + factor;
     println!(
-        "{:>8} {:>10} {:>11} {:>6} {:>9.3} {:>7.2} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
+        "{:>8} {:>13} {:>11} {:>6} {:>9.3} {:>7.2} {:>9.4} {:>9.4} {:>7.2} {:>9.0} {:>3} {:>10.2e}",
         engine.free_dofs(),
         label,
         engine.factor_nonzeros(),
@@ -160,6 +173,21 @@ fn run(label: &str, mut engine: Engine, threads: usize) {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let no_shuffle = args.iter().any(|a| a == "--no-shuffle");
+    let mut orders: Vec<NodeOrder> = args
+        .iter()
+        .filter_map(|a| a.strip_prefix("--order="))
+        .flat_map(|list| list.split(','))
+        .map(|name| match name {
+            "rcm" => NodeOrder::Rcm,
+            "hilbert" => NodeOrder::Hilbert,
+            "rings" => NodeOrder::Rings,
+            "given" => NodeOrder::Given,
+            other => panic!("unknown --order {other}: rings, rcm, hilbert or given"),
+        })
+        .collect();
+    if orders.is_empty() {
+        orders.push(NodeOrder::default());
+    }
     let threads = match args.iter().position(|a| a == "--threads") {
         Some(i) => match args.get(i + 1).and_then(|n| n.parse::<usize>().ok()) {
             Some(n) if (1..=64).contains(&n) => n,
@@ -181,6 +209,10 @@ fn main() {
     } else {
         rings
     };
+    if args.iter().any(|a| a == "--scenes") {
+        scenes();
+        return;
+    }
     let path = format!(
         "{}/modelDescription/HenckyDisc/scene.json",
         env!("CARGO_MANIFEST_DIR")
@@ -197,7 +229,7 @@ fn main() {
             .join(" ")
     );
     println!(
-        "{:>8} {:>10} {:>11} {:>6} {:>9} {:>7} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
+        "{:>8} {:>13} {:>11} {:>6} {:>9} {:>7} {:>9} {:>9} {:>7} {:>9} {:>3} {:>10}",
         "DOF",
         "numbering",
         "factor nnz",
@@ -217,15 +249,62 @@ fn main() {
         if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
             *rings = n;
         }
-        let engine = Engine::try_new(scene.clone()).expect("valid scene");
-        let shuffled_scene = (!no_shuffle).then(|| shuffled(&engine, &scene));
-        run("generated", engine, threads);
-        if let Some(s) = shuffled_scene {
-            run(
-                "shuffled",
-                Engine::try_new(s).expect("valid shuffled scene"),
-                threads,
-            );
+        let shuffled_scene = (!no_shuffle).then(|| {
+            let engine = Engine::try_new(scene.clone()).expect("valid scene");
+            shuffled(&engine, &scene)
+        });
+        for &order in &orders {
+            let name = format!("{order:?}").to_lowercase();
+            scene.solver.node_order = order;
+            let engine = Engine::try_new(scene.clone()).expect("valid scene");
+            run(&format!("gen/{name}"), engine, threads);
+            if let Some(s) = &shuffled_scene {
+                let mut s = s.clone();
+                s.solver.node_order = order;
+                run(
+                    &format!("shuf/{name}"),
+                    Engine::try_new(s).expect("valid shuffled scene"),
+                    threads,
+                );
+            }
         }
+    }
+}
+
+/// `--scenes`: the stored entries of the factor of every shipped scene in each internal node
+/// order (the symbolic factorization only; no solve).
+fn scenes() {
+    let root = format!("{}/modelDescription", env!("CARGO_MANIFEST_DIR"));
+    let mut dirs: Vec<_> = std::fs::read_dir(&root)
+        .expect("modelDescription")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    dirs.sort();
+    let orders = [
+        NodeOrder::Given,
+        NodeOrder::Rings,
+        NodeOrder::Rcm,
+        NodeOrder::Hilbert,
+    ];
+    println!(
+        "{:<24} {:>7} {:>10} {:>10} {:>10} {:>10}",
+        "scene", "DOF", "given", "rings", "rcm", "hilbert"
+    );
+    for dir in dirs {
+        let Ok(text) = std::fs::read_to_string(dir.join("scene.json")) else {
+            continue;
+        };
+        let scene = Scene::from_json(&text).expect("a shipped scene is valid");
+        let mut line = String::new();
+        let mut dofs = 0;
+        for order in orders {
+            let mut scene = scene.clone();
+            scene.solver.node_order = order;
+            let engine = Engine::try_new(scene).expect("a shipped scene builds");
+            dofs = engine.free_dofs();
+            line += &format!(" {:>10}", engine.factor_nonzeros());
+        }
+        let name = dir.file_name().unwrap().to_string_lossy().into_owned();
+        println!("{name:<24} {dofs:>7}{line}");
     }
 }

@@ -148,9 +148,12 @@ def test_derivatives_match_differences_of_the_fmus_equilibria(tight):
             largest = float(np.max(np.abs(difference)))
             for k, unit in enumerate(units):
                 # An output that does not move (0 by symmetry: AnnulusTorsion's hub force
-                # resultant, analytic 1e-11 N) is compared at the noise of the differences,
-                # 1e-6 of the largest derivative of any output.
-                if abs(analytic[k]) <= 1e-9 * largest and abs(difference[k]) <= 1e-6 * largest:
+                # resultant, analytic 4e-14 N) is compared at the noise of the differences: the
+                # equilibria are solved to a residual, not exactly, so such an output's difference
+                # is that noise over the step, measured up to 4.1e-6 of the largest derivative of
+                # any output (the hub force under the hub's radial seed, with the solver's
+                # locality ordering of the equations; below 1e-6 with the scene's own order). Bound 1e-5.
+                if abs(analytic[k]) <= 1e-9 * largest and abs(difference[k]) <= 1e-5 * largest:
                     continue
                 scale = max(abs(difference[j]) for j, u in enumerate(units) if u == unit)
                 err = abs(analytic[k] - difference[k]) / scale if scale > 0 else abs(analytic[k])

@@ -76,6 +76,11 @@ def run(fmus, how: str):
 
 def test_fmpy_alone_crashes_in_the_later_sweep(fmus):
     r = run(fmus, "fmpy")
+    if r.returncode == 0 and "sweep rows" in r.stdout:
+        # A jump into freed memory is undefined behaviour: it faults on almost every run, but
+        # once in a CI run on a heavily loaded machine the freed thunk was still intact and the
+        # sequence finished. That run shows nothing about Velarium either way.
+        pytest.skip("fmpy's freed logger thunk did not fault this time (undefined behaviour)")
     assert r.returncode < 0, f"expected the process to be killed by a signal:\n{r.stdout}\n{r.stderr}"
     # It got through the first run (and its Discard message) and died in the sweep.
     assert "first run's messages" in r.stdout and "sweep rows" not in r.stdout, r.stdout

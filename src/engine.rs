@@ -694,6 +694,12 @@ fn settings(scene: &Scene) -> Settings {
         arc_length_path: s.path == crate::scene::PathMethod::ArcLength,
         arc_length: s.arc_length.unwrap_or(0.0),
         threads: s.threads,
+        node_order: match s.node_order {
+            crate::scene::NodeOrder::Rings => crate::solver::renumber::NodeOrder::Rings,
+            crate::scene::NodeOrder::Rcm => crate::solver::renumber::NodeOrder::Rcm,
+            crate::scene::NodeOrder::Hilbert => crate::solver::renumber::NodeOrder::Hilbert,
+            crate::scene::NodeOrder::Given => crate::solver::renumber::NodeOrder::Given,
+        },
         ..Settings::default()
     }
 }

@@ -852,47 +852,97 @@ fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
             report.message
         );
         iterations.push(report.iterations);
-        let (g, s) = (shear / SHEAR_H, separation / SHEAR_H);
-        let strain = Vector3::new(0.0, 0.5 * (g * g + (1.0 + s) * (1.0 + s) - 1.0), g);
-        let reference = Law::Svk {
-            young: 3.5e9,
-            nu: 0.3,
-        }
-        .response(&strain, None);
-        for t in SHEAR_CENTRE {
-            let ev = &e.membranes()[t];
-            let tri = &e.model().triangles[t];
-            let gs = tri.reference.to_global(&ev.stress);
-            let stress = [gs[(0, 0)], gs[(1, 1)], gs[(0, 1)]];
-            assert_eq!(ev.state, reference.state, "δ = {shear}: triangle {t} state");
-            let compared = if ev.state == WrinkleState::Wrinkled {
-                0..3
-            } else {
-                1..3
-            };
-            for c in compared {
-                let tolerance = if c == 2 { 1e-2 } else { 2e-2 };
-                assert!(
-                    rel(stress[c], reference.stress[c]) < tolerance,
-                    "δ = {shear}: triangle {t} S[{c}] = {} vs {}",
-                    stress[c],
-                    reference.stress[c]
-                );
-            }
-            if ev.state == WrinkleState::Wrinkled {
-                let d = tri.reference.direction(ev.angle);
-                let angle = d.y.atan2(d.x).rem_euclid(std::f64::consts::PI);
-                let expected = reference.angle.rem_euclid(std::f64::consts::PI);
-                assert!(
-                    (angle - expected).abs().to_degrees() < 0.5,
-                    "δ = {shear}: {}° vs {}°",
-                    angle.to_degrees(),
-                    expected.to_degrees()
-                );
-            }
-        }
+        check_shear_centre(&e, shear, separation);
     }
     println!("(i) Newton iterations per step: {iterations:?}");
+}
+
+/// CASE (i'), issue 9: case (i) with the film's `residual_stiffness` set to 1e-4 (a wrinkled or
+/// slack triangle keeps 1e-4 of its elastic stiffness, in stress, energy and tangent alike;
+/// docs/mechanics.md §1.5). This makes the equilibrium isolated where the pure tension field
+/// leaves the displacement across the tension undetermined (docs/solver.md, hard cases), at the
+/// price of a compressive stress ρ E e₂ in wrinkled directions.
+/// REFERENCE: as case (i) (the homogeneous tension field at the centre, same tolerances: the
+/// residual stiffness moves the centre's stresses by about ρ E |e₂| ≈ 1e-4 · 3.5e9 · 1e-3 =
+/// 350 Pa, 4e-5 of S11); every step converges in one increment.
+/// Measured: median 6, largest 12 Newton iterations per step (the issue's target 8 / 40 holds
+/// here, with the option; case (i) without it: 47 / 2842).
+#[test]
+fn i2_sheared_film_with_a_residual_stiffness() {
+    let separation = 1e-4;
+    let mut scene = read_scene(&shipped("WrinkledShear"));
+    for m in &mut scene.membranes {
+        m.residual_stiffness = Some(1e-4);
+    }
+    let mut e = engine(scene);
+    set(&mut e, "separation", separation);
+    solve(&mut e);
+    let mut iterations = Vec::new();
+    for k in 1..=20 {
+        let shear = 3e-3 * k as f64 / 20.0;
+        set(&mut e, "shear", shear);
+        let report = e.solve();
+        assert!(
+            report.converged() && report.increments == 1,
+            "step {k} (δ = {shear}): {} increments, {}",
+            report.increments,
+            report.message
+        );
+        iterations.push(report.iterations);
+        check_shear_centre(&e, shear, separation);
+    }
+    let mut sorted = iterations.clone();
+    sorted.sort();
+    println!(
+        "(i') residual stiffness 1e-4: Newton iterations per step {iterations:?}, median {}, largest {}",
+        sorted[sorted.len() / 2],
+        sorted[sorted.len() - 1]
+    );
+}
+
+/// The centre of the sheared film against the homogeneous tension field (case i's reference and
+/// tolerances, written in its header): state equal, S12 within 1 %, S11 and S22 within 2 %
+/// (S22 only while taut), tension direction within 0.5°.
+fn check_shear_centre(e: &Engine, shear: f64, separation: f64) {
+    let (g, s) = (shear / SHEAR_H, separation / SHEAR_H);
+    let strain = Vector3::new(0.0, 0.5 * (g * g + (1.0 + s) * (1.0 + s) - 1.0), g);
+    let reference = Law::Svk {
+        young: 3.5e9,
+        nu: 0.3,
+    }
+    .response(&strain, None);
+    for t in SHEAR_CENTRE {
+        let ev = &e.membranes()[t];
+        let tri = &e.model().triangles[t];
+        let gs = tri.reference.to_global(&ev.stress);
+        let stress = [gs[(0, 0)], gs[(1, 1)], gs[(0, 1)]];
+        assert_eq!(ev.state, reference.state, "δ = {shear}: triangle {t} state");
+        let compared = if ev.state == WrinkleState::Wrinkled {
+            0..3
+        } else {
+            1..3
+        };
+        for c in compared {
+            let tolerance = if c == 2 { 1e-2 } else { 2e-2 };
+            assert!(
+                rel(stress[c], reference.stress[c]) < tolerance,
+                "δ = {shear}: triangle {t} S[{c}] = {} vs {}",
+                stress[c],
+                reference.stress[c]
+            );
+        }
+        if ev.state == WrinkleState::Wrinkled {
+            let d = tri.reference.direction(ev.angle);
+            let angle = d.y.atan2(d.x).rem_euclid(std::f64::consts::PI);
+            let expected = reference.angle.rem_euclid(std::f64::consts::PI);
+            assert!(
+                (angle - expected).abs().to_degrees() < 0.5,
+                "δ = {shear}: {}° vs {}°",
+                angle.to_degrees(),
+                expected.to_degrees()
+            );
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -914,7 +964,7 @@ fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
 /// for any tension direction to within the criterion; measured on this mesh, the 43 triangles
 /// above 1 % lie within 42.2° of the ray, the 29 below scatter up to 86°;
 /// (3) the two triangles at the loaded corner carry tension (not slack) and the corner moves in +x.
-/// Solved in one increment: 49 Newton iterations, the wrinkle states of the chattering triangles
+/// Solved in one increment: 42 Newton iterations, the wrinkle states of the chattering triangles
 /// frozen from iteration 6, found wrong at the frozen equilibrium and then left to the law for
 /// the rest of the increment (docs/solver.md, chatter).
 #[test]

@@ -139,3 +139,34 @@ fn orthotropic_and_support_motion_problems_are_located() {
         );
     }
 }
+
+/// `membranes[].residual_stiffness` (docs/scenes.md): a share of the elastic stiffness in
+/// [0, 0.01], for the tension-field law only; each bad value is named with its path.
+#[test]
+fn residual_stiffness_out_of_range_or_without_wrinkling_is_named() {
+    let scene = |value: &str, wrinkling: bool| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}},
+              "membranes": [{{"name": "m", "triangles": [0], "thickness": 1e-4,
+                             "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}},
+                             "wrinkling": {wrinkling}, "residual_stiffness": {value}}}],
+              "supports": [{{"nodes": [0, 1, 2], "fix": ["x", "y", "z"]}}]}}"#
+        )
+    };
+    for bad in ["-1e-4", "0.5"] {
+        let p = problems(&scene(bad, true));
+        assert!(
+            p.iter()
+                .any(|m| m.contains("membranes[0].residual_stiffness") && m.contains("[0, 0.01]")),
+            "{bad}: {p:?}"
+        );
+    }
+    let p = problems(&scene("1e-4", false));
+    assert!(
+        p.iter()
+            .any(|m| m.contains("membranes[0].residual_stiffness") && m.contains("wrinkling off")),
+        "{p:?}"
+    );
+    assert!(problems(&scene("1e-4", true)).is_empty());
+}

@@ -72,6 +72,7 @@ fn membrane_tangent_matches_finite_differences() {
             law,
             thickness: 1e-4,
             wrinkling: false,
+            residual: 0.0,
         };
         // Large displacements and rotations, strains up to ~20 %.
         let x: Vec<Vector3<f64>> = reference
@@ -111,6 +112,7 @@ fn membrane_force_is_the_gradient_of_its_energy() {
         },
         thickness: 1e-3,
         wrinkling: false,
+        residual: 0.0,
     };
     let x: Vec<Vector3<f64>> = reference.iter().map(|p| p + rng.vec3(0.1)).collect();
     let (f, _, _) = tri(&r, &mat, &x);
@@ -294,7 +296,7 @@ fn wrinkling_tangent_matches_finite_differences_entry_by_entry() {
         },
         Law::NeoHookean { mu: 1e5 },
     ];
-    let (counts, worst) = wrinkling_fd_samples(&laws, 0x2545F4914F6CDD1D, 600);
+    let (counts, worst) = wrinkling_fd_samples(&laws, 0x2545F4914F6CDD1D, 600, 0.0);
     println!("samples taut/wrinkled/slack {counts:?}, worst entry-wise error {worst:?}");
 }
 
@@ -309,16 +311,40 @@ fn orthotropic_wrinkling_tangent_matches_finite_differences_entry_by_entry() {
         Law::Orthotropic(Orthotropic::new(4e8, 1e8, 0.5, 2e7, 0.5)),
         Law::Orthotropic(Orthotropic::new(4e8, 1e8, 0.5, 2e7, -1.1)),
     ];
-    let (counts, worst) = wrinkling_fd_samples(&laws, 0x9E3779B97F4A7C15, 600);
+    let (counts, worst) = wrinkling_fd_samples(&laws, 0x9E3779B97F4A7C15, 600, 0.0);
     println!(
         "orthotropic: samples taut/wrinkled/slack {counts:?}, worst entry-wise error {worst:?}"
     );
 }
 
+/// The law with a residual stiffness ρ = 1e-4 (`membranes[].residual_stiffness`): stress,
+/// energy and tangent all carry ρ·D0 in wrinkled and slack states, so the tangent is consistent
+/// there too and every state is held to the taut floor 1e-3 k0 (not 3 ε k0); tolerances as
+/// above. SVK, neo-Hookean and orthotropic.
+#[test]
+fn residual_stiffness_tangent_matches_finite_differences_entry_by_entry() {
+    use velarium::model::orthotropic::Orthotropic;
+    let laws = [
+        Law::Svk {
+            young: 2e8,
+            nu: 0.3,
+        },
+        Law::NeoHookean { mu: 1e5 },
+        Law::Orthotropic(Orthotropic::new(4e8, 1e8, 0.5, 2e7, 0.5)),
+    ];
+    let (counts, worst) = wrinkling_fd_samples(&laws, 0xD1B54A32D192ED03, 900, 1e-4);
+    println!("residual 1e-4: samples taut/wrinkled/slack {counts:?}, worst {worst:?}");
+}
+
 /// Sample `samples` random deformed triangles, law `laws[sample % laws.len()]`, and check
 /// those whose state is stable over the ±1e-4 box (see above); returns the sample counts and
 /// the worst errors per state (taut, wrinkled, slack).
-fn wrinkling_fd_samples(laws: &[Law], seed: u64, samples: usize) -> ([usize; 3], [f64; 3]) {
+fn wrinkling_fd_samples(
+    laws: &[Law],
+    seed: u64,
+    samples: usize,
+    residual: f64,
+) -> ([usize; 3], [f64; 3]) {
     use velarium::model::wrinkling::WrinkleState;
     let mut rng = Rng(seed);
     let mut counts = [0usize; 3];
@@ -336,6 +362,7 @@ fn wrinkling_fd_samples(laws: &[Law], seed: u64, samples: usize) -> ([usize; 3],
             law,
             thickness: 1e-4,
             wrinkling: true,
+            residual,
         };
         // Stretch in one direction, compress or stretch in the other, rotate out of plane:
         // taut, wrinkled and slack states all occur.
@@ -365,7 +392,8 @@ fn wrinkling_fd_samples(laws: &[Law], seed: u64, samples: usize) -> ([usize; 3],
         }
         let (_, k, _) = tri(&r, &mat, &x);
         let k0 = tri(&r, &mat, &reference).1.abs().max();
-        let floor = if s0 == WrinkleState::Taut {
+        // With a residual stiffness the tangent is consistent in every state.
+        let floor = if s0 == WrinkleState::Taut || residual > 0.0 {
             1e-3 * k0
         } else {
             3.0 * velarium::model::wrinkling::REGULARIZATION / 1e-6 * k0
@@ -439,6 +467,7 @@ fn prestressed_membrane_tangent_matches_finite_differences() {
             law,
             thickness: 1e-4,
             wrinkling,
+            residual: 0.0,
         };
         let u01 = |v: f64| 0.5 + 0.5 * v;
         let (warp, fill) = (
@@ -559,6 +588,7 @@ fn prestressed_orthotropic_tangent_matches_finite_differences() {
             law,
             thickness: 1e-4,
             wrinkling,
+            residual: 0.0,
         };
         let u01 = |v: f64| 0.5 + 0.5 * v;
         let (warp, fill) = (

@@ -28,7 +28,7 @@
 //! Bonet & Wood, *Nonlinear Continuum Mechanics for Finite Element Analysis*, 2nd ed. 2008, ch. 9;
 //! Gil 2006 (prestressed SVK membranes); seed paper §3 and Fig. 5 (artificial prestress).
 
-use super::wrinkling::{Law, Response, WrinkleState};
+use super::wrinkling::{Law, Response, WrinkleState, REGULARIZATION};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector2, Vector3};
 
 pub type Vec9 = SVector<f64, 9>;
@@ -74,13 +74,31 @@ pub struct Material {
     pub thickness: f64,
     /// Tension-field law on (compression impossible); off: the plain elastic sheet.
     pub wrinkling: bool,
+    /// Residual stiffness ρ of wrinkled and slack states (0: the pure tension-field law).
+    pub residual: f64,
 }
 
 impl Material {
     /// Stress, tangent and energy density at a strain; `forced` overrides the wrinkle state.
     pub fn response(&self, strain: &Vector3<f64>, forced: Option<WrinkleState>) -> Response {
         if self.wrinkling {
-            self.law.response(strain, forced)
+            let r = self.law.response(strain, forced);
+            if self.residual > 0.0 && r.state != WrinkleState::Taut {
+                // W = (1 − ρ) W_tf + ρ ½ Eᵀ D0 E: the law's tangent-only ε·D0 is replaced by
+                // the consistent ρ·D0 (the blend is continuous at the slack border, and at the
+                // taut border for the laws whose taut stress is D0 E).
+                let rho = self.residual;
+                let d0 = self.law.small_strain();
+                let linear = d0 * strain;
+                Response {
+                    stress: r.stress * (1.0 - rho) + linear * rho,
+                    tangent: (r.tangent - d0 * REGULARIZATION) * (1.0 - rho) + d0 * rho,
+                    energy: r.energy * (1.0 - rho) + 0.5 * rho * strain.dot(&linear),
+                    ..r
+                }
+            } else {
+                r
+            }
         } else {
             let (stress, tangent, energy) = self.law.elastic(strain);
             let (_, _, angle) = super::wrinkling::principal(strain);

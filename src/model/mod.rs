@@ -294,11 +294,10 @@ impl Model {
                 }
             }
         }
-        let mut loads: Vec<LoadModel> = scene
-            .inputs
-            .iter()
-            .flat_map(|i| build_loads(scene, &mesh, &triangles, &i.load))
-            .collect();
+        let mut loads: Vec<LoadModel> = Vec::new();
+        for i in &scene.inputs {
+            loads.extend(build_loads(scene, &mesh, &triangles, &i.load)?);
+        }
         let mut volumes = 0;
         for l in &mut loads {
             if let LoadModel::Volume { unknown, .. } = l {
@@ -486,6 +485,7 @@ fn build_triangles(
             law,
             thickness: m.thickness,
             wrinkling: m.wrinkling,
+            residual: m.residual_stiffness.unwrap_or(0.0),
         };
         let first = out.len();
         for (k, &t) in triangle_ids(mesh, &m.triangles).iter().enumerate() {
@@ -704,7 +704,14 @@ fn group_ranges<'a>(
 
 /// The load channels of one input: one for a scalar input, one per element (row-major) for
 /// an array input (`scene::shape`).
-fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> Vec<LoadModel> {
+/// A pressure's triangle list is as long as its group: allocated fallibly (`crate::memory`).
+fn build_loads(
+    scene: &Scene,
+    mesh: &Mesh,
+    triangles: &[Triangle],
+    load: &Load,
+) -> Result<Vec<LoadModel>, crate::memory::OutOfMemory> {
+    const WHAT: &str = "a pressure input's triangle list";
     let pressure = |membrane: &str, zone: Option<&str>, follower: bool| {
         let range = group_ranges(scene, mesh)
             .into_iter()
@@ -713,23 +720,25 @@ fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) 
             .expect("validated group");
         debug_assert!(range.end <= triangles.len());
         let triangles = match zone {
-            None => range.collect(),
-            Some(_) => shape::zone_positions(scene, mesh, membrane, zone)
-                .into_iter()
-                .map(|k| range.start + k)
-                .collect(),
+            None => crate::memory::collect(range, WHAT)?,
+            Some(_) => crate::memory::collect(
+                shape::zone_positions(scene, mesh, membrane, zone)
+                    .into_iter()
+                    .map(|k| range.start + k),
+                WHAT,
+            )?,
         };
-        LoadModel::Pressure {
+        Ok(LoadModel::Pressure {
             triangles,
             follower,
-        }
+        })
     };
-    match load {
+    Ok(match load {
         Load::Pressure {
             membrane,
             zone,
             follower,
-        } => vec![pressure(membrane, zone.as_deref(), *follower)],
+        } => vec![pressure(membrane, zone.as_deref(), *follower)?],
         Load::ZonePressure {
             membrane,
             zones,
@@ -737,7 +746,7 @@ fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) 
         } => zones
             .iter()
             .map(|z| pressure(membrane, Some(z), *follower))
-            .collect(),
+            .collect::<Result<Vec<_>, _>>()?,
         Load::SupportDisplacement { nodes } => node_ids(mesh, nodes)
             .iter()
             .flat_map(|&i| {
@@ -749,13 +758,18 @@ fn build_loads(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) 
                 })
             })
             .collect(),
-        _ => vec![build_load(scene, mesh, triangles, load)],
-    }
+        _ => vec![build_load(scene, mesh, triangles, load)?],
+    })
 }
 
 /// The one load channel of a scalar input other than a pressure.
-fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -> LoadModel {
-    match load {
+fn build_load(
+    scene: &Scene,
+    mesh: &Mesh,
+    triangles: &[Triangle],
+    load: &Load,
+) -> Result<LoadModel, crate::memory::OutOfMemory> {
+    Ok(match load {
         Load::PointForce { nodes, direction } => {
             let ids = node_ids(mesh, nodes);
             let d = Vector3::from(*direction).normalize() / ids.len() as f64;
@@ -830,7 +844,7 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
                 })
                 .sum();
             LoadModel::Volume {
-                triangles: range.collect(),
+                triangles: crate::memory::collect(range, "a volume input's triangle list")?,
                 unknown: 0,
                 reference,
                 stiffness: et / area,
@@ -853,7 +867,7 @@ fn build_load(scene: &Scene, mesh: &Mesh, triangles: &[Triangle], load: &Load) -
         Load::Pressure { .. } | Load::ZonePressure { .. } | Load::SupportDisplacement { .. } => {
             unreachable!("built by build_loads")
         }
-    }
+    })
 }
 
 /// Nodal forces per unit edge load (N/m): half of each segment's reference length to each end

@@ -335,7 +335,9 @@ pub const THREAD_BYTES: u64 = 72 << 20;
 pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let factor = size.factor_entries.saturating_mul(8 + 8);
     let matrix = matrix_entries.saturating_mul(8 + 8);
-    let elements = size.triangles.saturating_mul(400 + 9 * 9 * 8);
+    // Per triangle: the model's data and evaluation (400), the assembly's copy in visit order
+    // (`solver::renumber`, 400; 328 measured) and the element map (81 positions).
+    let elements = size.triangles.saturating_mul(400 + 400 + 9 * 9 * 8);
     let nodes = size.nodes.saturating_mul(200);
     let vectors = size.unknowns.saturating_mul(8 * 24);
     let m = size.sleeve_points;

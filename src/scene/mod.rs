@@ -201,6 +201,11 @@ pub struct Membrane {
     /// sheet that carries compression.
     #[serde(default = "yes")]
     pub wrinkling: bool,
+    /// Share ρ of the small-strain elastic stiffness a wrinkled or slack triangle keeps (with
+    /// wrinkling on): its stress is (1 − ρ) S_tension-field + ρ D0 E, consistently in the
+    /// energy and the tangent. Absent or 0: the pure tension-field law (docs/mechanics.md §1.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual_stiffness: Option<f64>,
     /// Initial stress state of the group in the scene geometry (membrane forces in N/m): part
     /// of the equilibrium (residual and tangent), unlike `solver.artificial_prestress`. The
     /// geometry with no load is in equilibrium only if this prestress balances there (a
@@ -736,6 +741,27 @@ impl PathMethod {
     }
 }
 
+/// Internal node numbering of the linear solve (`solver.node_order`, `solver::renumber`).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum NodeOrder {
+    /// Breadth-first rings outward from a central node, each ring counterclockwise.
+    #[default]
+    Rings,
+    /// Reverse Cuthill-McKee on the node graph.
+    Rcm,
+    /// A Hilbert curve through the reference coordinates.
+    Hilbert,
+    /// The scene's own numbering.
+    Given,
+}
+
+impl NodeOrder {
+    fn is_default(&self) -> bool {
+        *self == NodeOrder::Rings
+    }
+}
+
 /// Form finding settings (docs/mechanics.md §10). Every membrane group needs a `prestress`
 /// and every cable a `pretension`: these are the prescribed stress state whose equilibrium
 /// shape is sought. Supported components stay where `place` (or the geometry) puts them.
@@ -843,6 +869,12 @@ pub struct SolverSettings {
     /// in metres. Absent: set by a first load-controlled increment of `initial_increment`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub arc_length: Option<f64>,
+    /// Internal numbering of the nodes inside the linear solve (`rings`, the default, `rcm`,
+    /// `hilbert` or `given`): the tangent's equations and the element visit order follow it, so the solve
+    /// costs the same whatever the mesher's numbering. Every result stays in the scene's node
+    /// numbering (docs/performance.md).
+    #[serde(default, skip_serializing_if = "NodeOrder::is_default")]
+    pub node_order: NodeOrder,
     /// Size limits checked before anything that grows with the scene is allocated
     /// (`limits.rs`): max_nodes, max_triangles, max_unknowns, max_memory_gb.
     #[serde(skip_serializing_if = "limits::Limits::is_default")]
@@ -872,6 +904,7 @@ impl Default for SolverSettings {
             line_search: true,
             path: PathMethod::LoadControl,
             arc_length: None,
+            node_order: NodeOrder::Rings,
             limits: limits::Limits::default(),
             threads: 1,
         }

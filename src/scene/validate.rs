@@ -582,6 +582,20 @@ impl Validator {
                     }
                 }
             }
+            if let Some(rho) = m.residual_stiffness {
+                if !(rho.is_finite() && (0.0..=1e-2).contains(&rho)) {
+                    self.push(
+                        format!("{p}.residual_stiffness"),
+                        format!("{rho} is not a share of the elastic stiffness in [0, 0.01]"),
+                    );
+                } else if rho > 0.0 && !m.wrinkling {
+                    self.push(
+                        format!("{p}.residual_stiffness"),
+                        "applies to the tension-field law only: this group has wrinkling off"
+                            .to_string(),
+                    );
+                }
+            }
             if !positive(m.thickness) {
                 self.push(
                     format!("{p}.thickness"),
@@ -1090,13 +1104,7 @@ impl Validator {
                     } else if let Some(ids) = self.nodes(mesh, nodes, &format!("{p}.load.nodes")) {
                         let k = axis.index();
                         for id in ids {
-                            let x = mesh.nodes[id];
-                            let (mut off, mut size) = (0.0f64, 0.0f64);
-                            for c in (0..3).filter(|&c| c != k) {
-                                off += (x[c] - center[c]).powi(2);
-                                size = size.max(x[c].abs()).max(center[c].abs());
-                            }
-                            if off.sqrt() <= 1e-12 * size.max(1e-300) {
+                            if on_axis(mesh.nodes[id], center, k) {
                                 self.push(
                                     format!("{p}.load.nodes"),
                                     format!("node {id} lies on the axis: it has no radial or tangential direction"),
@@ -1156,13 +1164,7 @@ impl Validator {
                         self.push(format!("{p}.center"), "must be finite with |x| <= 1e30 m");
                     } else if let Some(id) = self.one_node(mesh, node, &format!("{p}.node")) {
                         let k = axis.index();
-                        let x = mesh.nodes[id];
-                        let (mut off, mut size) = (0.0f64, 0.0f64);
-                        for c in (0..3).filter(|&c| c != k) {
-                            off += (x[c] - center[c]).powi(2);
-                            size = size.max(x[c].abs()).max(center[c].abs());
-                        }
-                        if off.sqrt() <= 1e-12 * size.max(1e-300) {
+                        if on_axis(mesh.nodes[id], center, k) {
                             self.push(
                                 format!("{p}.node"),
                                 format!("node {id} lies on the axis: it has no radial or tangential direction"),
@@ -1709,4 +1711,15 @@ fn suggest<'a>(name: &str, known: impl Iterator<Item = &'a String>) -> String {
     }
     let shown: Vec<&str> = known.iter().take(8).map(|s| s.as_str()).collect();
     format!("; known: {}", shown.join(", "))
+}
+
+/// Whether a node at `x` lies on the axis through `center` along coordinate `k` (to round-off of
+/// the coordinates): it then has no radial or tangential direction.
+fn on_axis(x: [f64; 3], center: &[f64; 3], k: usize) -> bool {
+    let (mut off, mut size) = (0.0f64, 0.0f64);
+    for c in (0..3).filter(|&c| c != k) {
+        off += (x[c] - center[c]).powi(2);
+        size = size.max(x[c].abs()).max(center[c].abs());
+    }
+    off.sqrt() <= 1e-12 * size.max(1e-300)
 }

@@ -510,9 +510,56 @@ impl Solver {
             let (t, dlds, w) = match tangent {
                 Ok(x) => x,
                 Err(why) => {
-                    report.message = format!("arc length at load fraction {lambda_n:.6}: {why}");
-                    report.reached = lambda_n;
-                    return Some(report);
+                    // No path tangent at this point (a singular bordered tangent: sleeve points
+                    // free to slide along a straight cable at zero load): the next increment is
+                    // load-controlled, from the remaining load down to `min_increment` of it.
+                    let mut fraction = s.initial_increment.min(1.0);
+                    let mut done = false;
+                    while fraction >= s.min_increment {
+                        let target = (lambda_n + fraction * (1.0 - lambda_n)).min(1.0);
+                        let mut redone = contact_n.clone();
+                        match self.load_increment(
+                            model,
+                            step,
+                            &u_n,
+                            target,
+                            &mut redone,
+                            &mut report.log,
+                        ) {
+                            Ok((u_lc, it2)) => {
+                                report.iterations += it2;
+                                report.increments += 1;
+                                push_log(
+                                    &mut report.log,
+                                    format!(
+                                        "  arc length: no path tangent at λ {lambda_n:.6} ({why})"
+                                    ),
+                                );
+                                push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {target:.6} (load control where the path tangent is not defined): converged in {it2} iterations"));
+                                previous = Some(self.equation_difference(&u_lc, &u_n));
+                                u_n = u_lc;
+                                contact_n = redone;
+                                lambda_n = target;
+                                lambda_max = lambda_max.max(target);
+                                done = true;
+                                break;
+                            }
+                            Err((it2, _)) => {
+                                report.iterations += it2;
+                                report.cutbacks += 1;
+                                fraction *= 0.25;
+                            }
+                        }
+                    }
+                    if !done {
+                        report.message = format!("arc length at load fraction {lambda_n:.6}: {why}; load control from there failed too");
+                        report.reached = lambda_n;
+                        return Some(report);
+                    }
+                    if lambda_n >= 1.0 {
+                        break;
+                    }
+                    continue;
                 }
             };
             let predicted = lambda_n + ds * dlds;

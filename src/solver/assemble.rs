@@ -8,13 +8,12 @@
 //! R = f_int − f_ext   on every DOF; at held DOFs R is the reaction (what the support supplies)
 //! ```
 
-use super::threads::Pool;
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{cable, membrane, pressure, sleeve, LoadModel, Model};
+use crate::solver::renumber::{self, NodeOrder};
 use nalgebra::{SMatrix, Vector3};
-use std::sync::{Arc, Mutex};
 
 pub const NONE: usize = usize::MAX;
 
@@ -24,31 +23,24 @@ pub struct Pattern {
     pub n: usize,
     pub col_ptr: Vec<usize>,
     pub row_idx: Vec<usize>,
+    /// Per triangle in visit order (`tri_order`), the position in K's values of each of its
+    /// 81 entries (NONE: held or lower triangle).
     tri_map: Vec<[usize; 81]>,
     seg_map: Vec<[usize; 36]>,
-    /// The solver's worker threads and their assembly buffers (None: one thread).
-    parallel: Option<Parallel>,
-}
-
-/// Models with fewer triangles are assembled on one thread whatever the setting: below this
-/// the hand-over to the pool and the extra buffers cost more than the element work saved
-/// (docs/performance.md, "Threads").
-pub const PARALLEL_MIN_TRIANGLES: usize = 256;
-
-/// The pool and, per thread after the first, the buffers its triangles are summed into.
-struct Parallel {
-    pool: Arc<Pool>,
-    scratch: Mutex<Vec<Scratch>>,
-}
-
-/// One thread's share of an assembly (threads 1.., thread 0 writes the caller's buffers).
-#[derive(Default)]
-struct Scratch {
-    r: Vec<f64>,
-    k: Vec<f64>,
-    magnitude: Vec<f64>,
-    evaluations: Vec<Evaluation>,
-    info: AssemblyInfo,
+    /// The order in which an assembly visits the triangles: by their lowest internal node
+    /// (`renumber.rs`), so the scatter into K walks the mesh; the user's order under
+    /// `NodeOrder::Given`.
+    tri_order: Vec<usize>,
+    /// Position of every triangle in `tri_order` (its row of `tri_map`).
+    tri_slot: Vec<usize>,
+    /// The model's triangles in visit order with their nodes' internal positions (empty under
+    /// `NodeOrder::Given`): one assembly reads them, and the positions, front to back.
+    triangles: Vec<crate::model::Triangle>,
+    /// The user's node at every internal position (empty under `NodeOrder::Given`).
+    node_of: Vec<usize>,
+    /// Per load, its pressed triangles in visit order (empty for other loads): the pressure
+    /// loop streams through `tri_map` too.
+    pressed_order: Vec<Vec<usize>>,
 }
 
 /// What one assembly found besides R and K.
@@ -67,16 +59,66 @@ pub struct AssemblyInfo {
 }
 
 impl Pattern {
-    /// Pattern and position maps of `model`, every buffer that grows with it allocated
-    /// fallibly (`crate::memory`).
+    /// Pattern and position maps of `model` in the default internal node order
+    /// (`NodeOrder::Rings`).
     pub fn try_new(model: &Model) -> Result<Pattern, OutOfMemory> {
+        Pattern::try_ordered(model, NodeOrder::default())
+    }
+
+    /// Pattern and position maps of `model` with equations numbered node by node in `order`
+    /// (`renumber.rs`), every buffer that grows with it allocated fallibly (`crate::memory`).
+    pub fn try_ordered(model: &Model, order: NodeOrder) -> Result<Pattern, OutOfMemory> {
+        let rank = renumber::node_rank(model, order)?;
+        let mut by_rank = memory::zeros::<usize>(rank.len(), "the equation numbers")?;
+        for (node, &r) in rank.iter().enumerate() {
+            by_rank[r] = node;
+        }
         let mut eq = memory::filled(model.dof_count(), NONE, "the equation numbers")?;
         let mut n = 0;
-        for (d, held) in model.held.iter().enumerate() {
-            if !held {
-                eq[d] = n;
-                n += 1;
+        for &node in &by_rank {
+            for d in 3 * node..3 * node + 3 {
+                if !model.held[d] {
+                    eq[d] = n;
+                    n += 1;
+                }
             }
+        }
+        let mut tri_order = memory::collect(0..model.triangles.len(), "the element order")?;
+        if order != NodeOrder::Given {
+            let first = |e: usize| model.triangles[e].nodes.iter().map(|&i| rank[i]).min();
+            // In place (a stable sort would allocate its buffer infallibly); ties by triangle
+            // number, the order the stable sort gave.
+            tri_order.sort_unstable_by_key(|&e| (first(e), e));
+        }
+        let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
+        for (k, &e) in tri_order.iter().enumerate() {
+            tri_slot[e] = k;
+        }
+        let mut triangles = Vec::new();
+        if order != NodeOrder::Given {
+            triangles = memory::with_capacity(tri_order.len(), "the element order")?;
+            triangles.extend(tri_order.iter().map(|&e| {
+                let mut t = model.triangles[e].clone();
+                t.nodes = t.nodes.map(|i| rank[i]);
+                t
+            }));
+        }
+        drop(rank);
+        let node_of = if order == NodeOrder::Given {
+            Vec::new()
+        } else {
+            by_rank
+        };
+        let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
+        for load in &model.loads {
+            let mut list = match load {
+                LoadModel::Pressure { triangles, .. } | LoadModel::Volume { triangles, .. } => {
+                    memory::copy(triangles, "the element order")?
+                }
+                _ => Vec::new(),
+            };
+            list.sort_unstable_by_key(|&e| tri_slot[e]);
+            pressed_order.push(list);
         }
         // Every element's DOFs (equation numbers, NONE where held), 9 for a triangle, 6 for a
         // segment or tie; triangles first, then segments and ties (the maps' order).
@@ -179,8 +221,8 @@ impl Pattern {
         let mut d = [NONE; 9];
         let mut tri_map =
             memory::with_capacity(model.triangles.len(), "the element position maps")?;
-        for t in &model.triangles {
-            dofs_of(&t.nodes, &mut d);
+        for &e in &tri_order {
+            dofs_of(&model.triangles[e].nodes, &mut d);
             let mut m = [NONE; 81];
             map(&d, &mut m);
             tri_map.push(m);
@@ -202,37 +244,24 @@ impl Pattern {
             row_idx,
             tri_map,
             seg_map,
-            parallel: None,
+            tri_order,
+            tri_slot,
+            triangles,
+            node_of,
+            pressed_order,
         })
     }
-
-    /// Assemble the triangles of `model` on `pool`'s threads from now on (when there are at
-    /// least [`PARALLEL_MIN_TRIANGLES`]). Each thread after the first gets buffers of R, K's
-    /// values and the force magnitudes, allocated here (fallibly) and reused.
-    pub fn use_pool(&mut self, model: &Model, pool: Arc<Pool>) -> Result<(), OutOfMemory> {
-        self.parallel = None;
-        if pool.count() < 2 || model.triangles.len() < PARALLEL_MIN_TRIANGLES {
-            return Ok(());
-        }
-        let what = "the assembly buffers of the solver's threads";
-        let mut scratch = memory::with_capacity(pool.count() - 1, what)?;
-        let share = model.triangles.len().div_ceil(pool.count());
-        for _ in 1..pool.count() {
-            scratch.push(Scratch {
-                r: memory::zeros(model.dof_count(), what)?,
-                k: memory::zeros(self.row_idx.len(), what)?,
-                magnitude: memory::zeros(model.dof_count(), what)?,
-                evaluations: memory::with_capacity(share, what)?,
-                info: AssemblyInfo::default(),
-            });
-        }
-        self.parallel = Some(Parallel {
-            pool,
-            scratch: Mutex::new(scratch),
-        });
-        Ok(())
-    }
 }
+
+/// Placeholder of a triangle's evaluation until the assembly writes it.
+const UNEVALUATED: Evaluation = Evaluation {
+    energy: 0.0,
+    state: WrinkleState::Taut,
+    angle: 0.0,
+    stress: Vector3::new(0.0, 0.0, 0.0),
+    cauchy: (0.0, 0.0),
+    area_ratio: 1.0,
+};
 
 fn scatter<const N: usize>(k: &SMatrix<f64, N, N>, map: &[usize], values: &mut [f64]) {
     for a in 0..N {
@@ -306,17 +335,39 @@ pub(super) fn triangle_contribution(
     forced: Option<WrinkleState>,
     ke: Option<&mut membrane::Mat9>,
 ) -> (membrane::Vec9, Evaluation, f64) {
-    let t = &model.triangles[e];
-    let x = gather(model, u, t.nodes);
+    triangle_of(model, &model.triangles[e], u, prestress_factor, forced, ke)
+}
+
+/// [`triangle_contribution`] of triangle data `t` (the model's, or the pattern's copy in
+/// visit order).
+fn triangle_of(
+    model: &Model,
+    t: &crate::model::Triangle,
+    u: &[f64],
+    prestress_factor: f64,
+    forced: Option<WrinkleState>,
+    ke: Option<&mut membrane::Mat9>,
+) -> (membrane::Vec9, Evaluation, f64) {
+    triangle_at(t, &gather(model, u, t.nodes), prestress_factor, forced, ke)
+}
+
+/// One triangle's force, evaluation and area ratio at current node positions `x`.
+fn triangle_at(
+    t: &crate::model::Triangle,
+    x: &[Vector3<f64>; 3],
+    prestress_factor: f64,
+    forced: Option<WrinkleState>,
+    ke: Option<&mut membrane::Mat9>,
+) -> (membrane::Vec9, Evaluation, f64) {
     let (f, eval) = membrane::triangle(
         &t.reference,
         &t.material,
         t.prestress * prestress_factor,
-        &x,
+        x,
         forced,
         ke,
     );
-    (f, eval, membrane::signed_area_ratio(&t.reference, &x))
+    (f, eval, membrane::signed_area_ratio(&t.reference, x))
 }
 
 /// One cable segment's internal force, tangent and energy at `u` (its unstretched length
@@ -362,182 +413,30 @@ pub(super) fn pressure_contribution(
     want_k: bool,
 ) -> (Vector3<f64>, Option<membrane::Mat9>) {
     let t = &model.triangles[e];
+    let x = if follower {
+        gather(model, u, t.nodes)
+    } else {
+        [Vector3::zeros(); 3]
+    };
+    pressure_at(t, &x, value, follower, want_k)
+}
+
+/// [`pressure_contribution`] of triangle data `t` at node positions `x` (used if `follower`).
+fn pressure_at(
+    t: &crate::model::Triangle,
+    x: &[Vector3<f64>; 3],
+    value: f64,
+    follower: bool,
+    want_k: bool,
+) -> (Vector3<f64>, Option<membrane::Mat9>) {
     if follower {
-        let x = gather(model, u, t.nodes);
         let k = want_k.then(|| {
-            let kp = pressure::follower_stiffness(value, &x);
+            let kp = pressure::follower_stiffness(value, x);
             (kp + kp.transpose()) * 0.5
         });
-        (pressure::follower_force(value, &x), k)
+        (pressure::follower_force(value, x), k)
     } else {
         (t.reference.normal * (value * t.reference.area / 3.0), None)
-    }
-}
-
-impl AssemblyInfo {
-    fn empty() -> AssemblyInfo {
-        AssemblyInfo {
-            min_area_ratio: f64::INFINITY,
-            ..Default::default()
-        }
-    }
-
-    /// Fold another part's findings into these (potentials add, in the order merged).
-    fn merge(&mut self, part: &AssemblyInfo) {
-        self.potential += part.potential;
-        self.external = self.external.max(part.external);
-        self.min_area_ratio = self.min_area_ratio.min(part.min_area_ratio);
-        self.carried = self.carried.max(part.carried);
-    }
-}
-
-/// The membrane triangles `range`: forces into `r` (and `magnitude`), tangents into `k`
-/// and `held_step`, evaluations appended to `out`, in element order.
-#[allow(clippy::too_many_arguments)]
-fn triangle_range(
-    model: &Model,
-    pattern: &Pattern,
-    range: std::ops::Range<usize>,
-    u: &[f64],
-    factor: f64,
-    forced: Option<&[Option<WrinkleState>]>,
-    want_k: bool,
-    r: &mut [f64],
-    mut k: Option<&mut [f64]>,
-    mut magnitude: Option<&mut [f64]>,
-    mut held_step: Option<(&[f64], &mut [f64])>,
-    mut out: Option<&mut Vec<Evaluation>>,
-) -> AssemblyInfo {
-    let mut info = AssemblyInfo::empty();
-    let mut ke = membrane::Mat9::zeros();
-    for e in range {
-        let t = &model.triangles[e];
-        let forced = forced.and_then(|f| f[e]);
-        let (f, eval, ratio) =
-            triangle_contribution(model, e, u, factor, forced, want_k.then_some(&mut ke));
-        add_force(r, &t.nodes, f.as_slice(), &mut magnitude);
-        info.carried = info.carried.max(largest(f.as_slice()));
-        if let Some(k) = k.as_deref_mut() {
-            scatter(&ke, &pattern.tri_map[e], k);
-        }
-        if let Some((du, out)) = held_step.as_mut() {
-            couple(&ke, &t.nodes, du, out);
-        }
-        if let Some(out) = out.as_deref_mut() {
-            out.push(eval);
-        }
-        info.potential += eval.energy;
-        info.min_area_ratio = info.min_area_ratio.min(ratio);
-    }
-    info
-}
-
-/// The triangle loop on the pool: thread i takes the i-th contiguous share of the triangles
-/// (a fixed split), thread 0 into the caller's buffers, the others into their own; then each
-/// buffer is added into the caller's in thread order, K's values split between the threads by
-/// position. Every entry is summed in an order fixed by the thread count alone, so a run
-/// repeats bit for bit; against one thread only the grouping of the sums differs (round-off).
-#[allow(clippy::too_many_arguments)]
-fn parallel_triangles(
-    model: &Model,
-    pattern: &Pattern,
-    parallel: &Parallel,
-    u: &[f64],
-    factor: f64,
-    forced: Option<&[Option<WrinkleState>]>,
-    r: &mut [f64],
-    mut k: Option<&mut [f64]>,
-    mut magnitude: Option<&mut [f64]>,
-    mut out: Option<&mut Vec<Evaluation>>,
-) -> AssemblyInfo {
-    let mut guard = parallel.scratch.lock().unwrap_or_else(|e| e.into_inner());
-    let scratch: &mut Vec<Scratch> = &mut guard;
-    let threads = scratch.len() + 1;
-    let count = model.triangles.len();
-    let share = |i: usize| i * count / threads..(i + 1) * count / threads;
-    let want_k = k.is_some();
-    let want_magnitude = magnitude.is_some();
-    let want_out = out.is_some();
-    let first = parallel.pool.scope(|s| {
-        for (i, part) in scratch.iter_mut().enumerate() {
-            s.spawn(move |_| {
-                part.r.fill(0.0);
-                if want_k {
-                    part.k.fill(0.0);
-                }
-                if want_magnitude {
-                    part.magnitude.fill(0.0);
-                }
-                part.evaluations.clear();
-                part.info = triangle_range(
-                    model,
-                    pattern,
-                    share(i + 1),
-                    u,
-                    factor,
-                    forced,
-                    want_k,
-                    &mut part.r,
-                    want_k.then_some(&mut part.k[..]),
-                    want_magnitude.then_some(&mut part.magnitude[..]),
-                    None,
-                    want_out.then_some(&mut part.evaluations),
-                );
-            });
-        }
-        triangle_range(
-            model,
-            pattern,
-            share(0),
-            u,
-            factor,
-            forced,
-            want_k,
-            r,
-            k.as_deref_mut(),
-            magnitude.as_deref_mut(),
-            None,
-            out.as_deref_mut(),
-        )
-    });
-    let mut info = first;
-    for part in scratch.iter() {
-        info.merge(&part.info);
-        add_into(r, &part.r);
-        if let Some(m) = magnitude.as_deref_mut() {
-            add_into(m, &part.magnitude);
-        }
-        if let Some(out) = out.as_deref_mut() {
-            out.extend_from_slice(&part.evaluations);
-        }
-    }
-    if let Some(k) = k {
-        // K's values are the large sum: each thread adds every buffer into its own range.
-        let parts: &[Scratch] = &scratch;
-        let len = k.len();
-        parallel.pool.scope(|s| {
-            let mut rest = k;
-            let mut start = 0;
-            for i in 0..threads {
-                let end = (i + 1) * len / threads;
-                let (mine, tail) = rest.split_at_mut(end - start);
-                rest = tail;
-                let range = start..end;
-                s.spawn(move |_| {
-                    for part in parts {
-                        add_into(mine, &part.k[range.clone()]);
-                    }
-                });
-                start = end;
-            }
-        });
-    }
-    info
-}
-
-fn add_into(sum: &mut [f64], part: &[f64]) {
-    for (s, p) in sum.iter_mut().zip(part) {
-        *s += p;
     }
 }
 
@@ -577,41 +476,65 @@ pub fn assemble_with(
     };
     if let Some(out) = extra.out.as_deref_mut() {
         out.clear();
+        out.resize(model.triangles.len(), UNEVALUATED);
     }
     let want_k = k.is_some() || extra.held_step.is_some();
     let factor = extra.prestress_factor.unwrap_or(1.0);
-    match (&pattern.parallel, extra.held_step.is_none()) {
-        (Some(parallel), true) => {
-            let part = parallel_triangles(
-                model,
-                pattern,
-                parallel,
-                u,
-                factor,
-                extra.forced,
-                r,
-                k.as_deref_mut(),
-                extra.magnitude.as_deref_mut(),
-                extra.out.as_deref_mut(),
-            );
-            info.merge(&part);
+    let mut ke = membrane::Mat9::zeros();
+    // Renumbered (`pattern.triangles` holds the triangles in visit order with internal node
+    // numbers): positions gathered once in internal order, forces summed in internal order and
+    // added to R (and the magnitudes) node by node at the end, so the element loop reads and
+    // writes memory front to back whatever the user's numbering.
+    let internal = !pattern.triangles.is_empty();
+    let mut xi = Vec::new();
+    let (mut ri, mut mi) = (Vec::new(), Vec::new());
+    if internal {
+        xi.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
+        ri.resize(3 * xi.len(), 0.0);
+        if extra.magnitude.is_some() {
+            mi.resize(3 * xi.len(), 0.0);
         }
-        _ => {
-            let part = triangle_range(
-                model,
-                pattern,
-                0..model.triangles.len(),
-                u,
-                factor,
-                extra.forced,
-                want_k,
-                r,
-                k.as_deref_mut(),
-                extra.magnitude.as_deref_mut(),
-                extra.held_step.as_mut().map(|(du, out)| (*du, &mut **out)),
-                extra.out.as_deref_mut(),
-            );
-            info.merge(&part);
+    }
+    for (slot, &e) in pattern.tri_order.iter().enumerate() {
+        let user = &model.triangles[e];
+        let forced = extra.forced.and_then(|f| f[e]);
+        let kk = want_k.then_some(&mut ke);
+        let (f, eval, ratio) = if internal {
+            let t = &pattern.triangles[slot];
+            let (f, eval, ratio) = triangle_at(t, &t.nodes.map(|i| xi[i]), factor, forced, kk);
+            let mut m = (!mi.is_empty()).then_some(&mut mi[..]);
+            add_force(&mut ri, &t.nodes, f.as_slice(), &mut m);
+            (f, eval, ratio)
+        } else {
+            let (f, eval, ratio) = triangle_of(model, user, u, factor, forced, kk);
+            add_force(r, &user.nodes, f.as_slice(), &mut extra.magnitude);
+            (f, eval, ratio)
+        };
+        info.carried = info.carried.max(largest(f.as_slice()));
+        if let Some(k) = k.as_deref_mut() {
+            scatter(&ke, &pattern.tri_map[slot], k);
+        }
+        if let Some((du, out)) = extra.held_step.as_mut() {
+            couple(&ke, &user.nodes, du, out);
+        }
+        if let Some(out) = extra.out.as_deref_mut() {
+            out[e] = eval;
+        }
+        info.potential += eval.energy;
+        info.min_area_ratio = info.min_area_ratio.min(ratio);
+    }
+    if internal {
+        for (k, &i) in pattern.node_of.iter().enumerate() {
+            for c in 0..3 {
+                r[3 * i + c] += ri[3 * k + c];
+            }
+        }
+        if let Some(m) = extra.magnitude.as_deref_mut() {
+            for (k, &i) in pattern.node_of.iter().enumerate() {
+                for c in 0..3 {
+                    m[3 * i + c] += mi[3 * k + c];
+                }
+            }
         }
     }
     let ns = model.segments.len();
@@ -656,9 +579,18 @@ pub fn assemble_with(
             }
             LoadModel::Pressure { .. } | LoadModel::Volume { .. } => {
                 let (triangles, follower) = pressed.expect("a pressure load");
-                for &e in triangles {
-                    let nodes = model.triangles[e].nodes;
-                    let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
+                debug_assert_eq!(triangles.len(), pattern.pressed_order[l].len());
+                for &e in &pattern.pressed_order[l] {
+                    let slot = pattern.tri_slot[e];
+                    let (f, kp, nodes) = if internal {
+                        let t = &pattern.triangles[slot];
+                        let x = t.nodes.map(|i| xi[i]);
+                        let (f, kp) = pressure_at(t, &x, value, follower, want_k);
+                        (f, kp, t.nodes.map(|i| pattern.node_of[i]))
+                    } else {
+                        let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
+                        (f, kp, model.triangles[e].nodes)
+                    };
                     for &i in &nodes {
                         for c in 0..3 {
                             fext[3 * i + c] += f[c];
@@ -666,7 +598,7 @@ pub fn assemble_with(
                     }
                     if let Some(kp) = kp {
                         if let Some(k) = k.as_deref_mut() {
-                            scatter(&kp, &pattern.tri_map[e], k);
+                            scatter(&kp, &pattern.tri_map[slot], k);
                         }
                         if let Some((du, out)) = extra.held_step.as_mut() {
                             couple(&kp, &nodes, du, out);

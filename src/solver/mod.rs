@@ -37,6 +37,7 @@ mod newton;
 mod order;
 mod path;
 mod relax;
+pub mod renumber;
 pub mod sensitivity;
 pub mod slip;
 pub mod threads;
@@ -158,6 +159,9 @@ pub struct Settings {
     /// 1 runs everything on the caller's thread; n > 1 starts a pool of n threads owned by
     /// the solver and joined when it is dropped. Default 1 (the scene's `solver.threads`).
     pub threads: usize,
+    /// Internal node numbering of the tangent (`renumber.rs`). Default rings from a central
+    /// node: any numbering of the same mesh then costs the same (docs/performance.md).
+    pub node_order: renumber::NodeOrder,
 }
 
 impl Default for Settings {
@@ -194,6 +198,7 @@ impl Default for Settings {
             contact_settle: 1e-3,
             arc_length: 0.0,
             threads: 1,
+            node_order: renumber::NodeOrder::Rings,
         }
     }
 }
@@ -289,7 +294,7 @@ impl Solver {
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
-        let mut pattern = Pattern::try_new(model)?;
+        let pattern = Pattern::try_ordered(model, settings.node_order)?;
         let mut linear = Ldlt::try_new(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
@@ -302,8 +307,7 @@ impl Solver {
                 bytes: (settings.threads as u64).saturating_mul(2 << 20),
             })?;
             let pool = std::sync::Arc::new(pool);
-            pattern.use_pool(model, pool.clone())?;
-            linear.use_pool(pool)?;
+            linear.use_pool(std::sync::Arc::clone(&pool))?;
         }
         let n = model.dof_count();
         let trial_len = model.unknown_count();

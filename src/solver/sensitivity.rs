@@ -432,7 +432,7 @@ fn regularisation_parts(
 ) -> Vec<([usize; 3], Mat9)> {
     let mut out = Vec::new();
     for (t, state) in model.triangles.iter().zip(wrinkle) {
-        if !t.material.wrinkling || *state == WrinkleState::Taut {
+        if !t.material.wrinkling || t.material.residual > 0.0 || *state == WrinkleState::Taut {
             continue;
         }
         let r = &t.reference;

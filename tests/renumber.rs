@@ -1,0 +1,382 @@
+//! Node renumbering for locality (issue 15 item 2, `solver::renumber`, `solver.node_order`).
+//!
+//! GOAL: (1) the internal node order is a property of the mesh, not of its numbering: the same
+//!       disc given with shuffled node and triangle ids gets the same tangent factor (equal
+//!       stored entries) and the same answers, mapped to each numbering: every output, the
+//!       displacement of every node (the `u` displacement-field array as an FMU reads it), the
+//!       stresses and wrinkle states of every triangle (array outputs), and the VTK file's point
+//!       and cell data; (2) renumbering changes nothing but round-off: the same scene solved
+//!       with `node_order: "given"` (the scene's own numbering, the code path before
+//!       renumbering) and with each internal order agrees on every array output and on the VTK
+//!       document's numbers (ZonedCushion: cables, zones, supports; HenckyDisc); (3) messages
+//!       name the scene's node ids whatever the internal order (the mechanism diagnosis);
+//!       (4) the default order fills the factor no more than the generator's own ring order.
+//! MESH: HenckyDisc at 12 rings (469 nodes, 864 triangles) and 34 rings (fill only), the same
+//!       mesh written explicitly with node and triangle ids permuted by a fixed-seed xorshift
+//!       generator; examples/ZonedCushion (8 x 8 cells, edge cables).
+//! BOUNDARY CONDITIONS: rim clamped (disc); the cushion's own.
+//! PARAMETERS: follower pressure 40 Pa on the disc (docs/mechanics.md §4a); the cushion's
+//!             pressure zones at their start values, then wind 200 / 80 Pa.
+//! REFERENCE: exact identities (the same equilibrium); only the order of floating-point sums
+//!            differs, so the tolerance is round-off: 1e-11 of the largest value of each field
+//!            (measured, printed by each test: shuffled vs generated disc, displacements 5.5e-15,
+//!            principal stresses 1.1e-12 (array output and VTK cell data alike), centre
+//!            deflection 8.5e-16, rim reaction 1.8e-14; internal orders vs given, worst field or
+//!            VTK number 9.7e-13 on the disc, 5.9e-13 on the cushion). Integer outputs
+//!            (iterations, wrinkle states) exactly equal.
+//!            Factor fill (deterministic): the default order's stored entries at most 1.02x the
+//!            generator's order at 34 rings (measured 0.971: 896 148 against 923 382).
+
+mod common;
+use common::*;
+use serde_json::{json, Value};
+use velarium::scene::generate::resolve;
+use velarium::scene::NodeOrder;
+use velarium::{Engine, Scene};
+
+const Q: f64 = 40.0;
+/// Round-off tolerance relative to a field's largest magnitude.
+const ROUND_OFF: f64 = 1e-11;
+
+/// A fixed-seed permutation of 0..n (Fisher-Yates on xorshift64*): old id -> new id.
+fn permutation(n: usize, seed: u64) -> Vec<usize> {
+    let mut p: Vec<usize> = (0..n).collect();
+    let mut s = seed;
+    for i in (1..n).rev() {
+        s ^= s >> 12;
+        s ^= s << 25;
+        s ^= s >> 27;
+        let r = s.wrapping_mul(0x2545_F491_4F6C_DD1D);
+        p.swap(i, (r % (i as u64 + 1)) as usize);
+    }
+    p
+}
+
+/// The shipped disc at `rings` rings with array outputs of every node's displacement and every
+/// triangle's stresses and wrinkle state.
+fn disc(rings: usize) -> Value {
+    let mut v: Value =
+        serde_json::from_str(&std::fs::read_to_string(shipped("HenckyDisc")).unwrap()).unwrap();
+    v["geometry"]["generators"][0]["rings"] = json!(rings);
+    let outputs = v["outputs"].as_array_mut().unwrap();
+    outputs.push(json!({"name": "u", "probe": {"kind": "displacement_field"}}));
+    outputs.push(
+        json!({"name": "stress", "probe": {"kind": "principal_stresses", "membrane": "film"}}),
+    );
+    outputs
+        .push(json!({"name": "wrinkle", "probe": {"kind": "wrinkle_states", "membrane": "film"}}));
+    v
+}
+
+/// The same disc as explicit nodes and triangles, node ids permuted by `node_perm` and
+/// triangles by `tri_perm` (old -> new), node sets `disc.rim` and `disc.center` carried over.
+fn shuffled(generated: &Value, node_perm: &[usize], tri_perm: &[usize]) -> Value {
+    let scene: Scene = Scene::from_json(&generated.to_string()).unwrap();
+    let mesh = resolve(&scene.geometry);
+    let mut nodes = vec![[0.0; 3]; mesh.nodes.len()];
+    for (old, x) in mesh.nodes.iter().enumerate() {
+        nodes[node_perm[old]] = *x;
+    }
+    let mut triangles = vec![[0usize; 3]; mesh.triangles.len()];
+    for (old, t) in mesh.triangles.iter().enumerate() {
+        triangles[tri_perm[old]] = t.map(|i| node_perm[i]);
+    }
+    let set =
+        |name: &str| -> Vec<usize> { mesh.node_sets[name].iter().map(|&i| node_perm[i]).collect() };
+    let mut v = generated.clone();
+    v["geometry"] = json!({
+        "nodes": nodes,
+        "triangles": triangles,
+        "node_sets": {"disc.rim": set("disc.rim"), "disc.center": set("disc.center")},
+        "triangle_sets": {"disc": (0..triangles.len()).collect::<Vec<_>>()},
+    });
+    v
+}
+
+fn with_order(mut v: Value, order: &str) -> Scene {
+    v["solver"]["node_order"] = json!(order);
+    Scene::from_json(&v.to_string()).unwrap_or_else(|p| panic!("{p}"))
+}
+
+fn array(e: &Engine, name: &str) -> Vec<f64> {
+    let var = e.arrays().iter().find(|v| v.name == name).unwrap();
+    e.values(var).to_vec()
+}
+
+/// Largest difference relative to the largest magnitude of `a`.
+fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = a
+        .iter()
+        .fold(0.0f64, |m, x| m.max(x.abs()))
+        .max(f64::MIN_POSITIVE);
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
+
+/// The numbers of every `DataArray` named `name` in a VTK document.
+fn vtk_array(doc: &str, name: &str) -> Vec<f64> {
+    let tag = format!("Name=\"{name}\"");
+    let start = doc
+        .find(&tag)
+        .unwrap_or_else(|| panic!("no {name} in the VTK file"));
+    let body = &doc[start..];
+    let body = &body[body.find('>').unwrap() + 1..body.find("</DataArray>").unwrap()];
+    body.split_whitespace()
+        .map(|s| s.parse().unwrap())
+        .collect()
+}
+
+fn solved(scene: Scene) -> Engine {
+    let mut e = engine(scene);
+    set(&mut e, "pressure", Q);
+    solve(&mut e);
+    e
+}
+
+#[test]
+fn a_shuffled_disc_gives_the_generated_answers_in_its_own_numbering() {
+    let generated = disc(12);
+    let n = resolve(&Scene::from_json(&generated.to_string()).unwrap().geometry)
+        .nodes
+        .len();
+    let e0 = engine(with_order(generated.clone(), "rings"));
+    let nt = e0.model().triangles.len();
+    let (node_perm, tri_perm) = (permutation(n, 0x9E37_79B9_7F4A_7C15), permutation(nt, 7));
+    let shuffled = shuffled(&generated, &node_perm, &tri_perm);
+    drop(e0);
+    let a = solved(with_order(generated, "rings"));
+    let b = solved(with_order(shuffled, "rings"));
+    // The internal order is the mesh's: the same factor.
+    assert_eq!(a.factor_nonzeros(), b.factor_nonzeros());
+    for name in ["center_uz", "rim_reaction_z"] {
+        let (x, y) = (get(&a, name), get(&b, name));
+        println!("{name}: {x:e} vs {y:e}, relative {:.1e}", rel(y, x));
+        assert!(rel(y, x) <= ROUND_OFF, "{name}: {x} vs {y}");
+    }
+    assert_eq!(get(&a, "newton_iterations"), get(&b, "newton_iterations"));
+    // Every node's displacement (the displacement-field array), mapped to the generator's ids.
+    let (ua, ub) = (array(&a, "u"), array(&b, "u"));
+    let ub_mapped: Vec<f64> = (0..3 * n)
+        .map(|d| ub[3 * node_perm[d / 3] + d % 3])
+        .collect();
+    let du = rel_diff(&ua, &ub_mapped);
+    assert_eq!(ua, a.state().displacement[..3 * n].to_vec());
+    // Every triangle's principal stresses and wrinkle state.
+    let (sa, sb) = (array(&a, "stress"), array(&b, "stress"));
+    let sb_mapped: Vec<f64> = (0..2 * nt)
+        .map(|k| sb[2 * tri_perm[k / 2] + k % 2])
+        .collect();
+    let ds = rel_diff(&sa, &sb_mapped);
+    let (wa, wb) = (array(&a, "wrinkle"), array(&b, "wrinkle"));
+    let wb_mapped: Vec<f64> = (0..nt).map(|k| wb[tri_perm[k]]).collect();
+    assert_eq!(wa, wb_mapped, "wrinkle states");
+    // The VTK file: point displacements and cell stresses, each in its own numbering.
+    let (va, vb) = (
+        velarium::vtk::unstructured_grid(&a),
+        velarium::vtk::unstructured_grid(&b),
+    );
+    let (pa, pb) = (
+        vtk_array(&va, "displacement"),
+        vtk_array(&vb, "displacement"),
+    );
+    let pb_mapped: Vec<f64> = (0..3 * n)
+        .map(|d| pb[3 * node_perm[d / 3] + d % 3])
+        .collect();
+    let dv = rel_diff(&pa, &pb_mapped);
+    let (ca, cb) = (vtk_array(&va, "sigma_max"), vtk_array(&vb, "sigma_max"));
+    let cb_mapped: Vec<f64> = (0..nt).map(|k| cb[tri_perm[k]]).collect();
+    let dc = rel_diff(&ca, &cb_mapped);
+    println!(
+        "shuffled vs generated ({n} nodes, {nt} triangles): u {du:.1e}, stress {ds:.1e}, VTK displacement {dv:.1e}, VTK sigma_max {dc:.1e}"
+    );
+    for (what, d) in [
+        ("u", du),
+        ("stress", ds),
+        ("VTK displacement", dv),
+        ("VTK sigma_max", dc),
+    ] {
+        assert!(d <= ROUND_OFF, "{what}: {d:e}");
+    }
+    // A generated number is in the file in the user's numbering: the centre node's
+    // deflection sits at its own id in each.
+    let centre_a = a
+        .model()
+        .reference
+        .iter()
+        .position(|x| x.norm() < 1e-12)
+        .unwrap();
+    let centre_b = b
+        .model()
+        .reference
+        .iter()
+        .position(|x| x.norm() < 1e-12)
+        .unwrap();
+    assert_eq!(centre_b, node_perm[centre_a]);
+    assert_eq!(pa[3 * centre_a + 2], get(&a, "center_uz"));
+    assert_eq!(pb[3 * centre_b + 2], get(&b, "center_uz"));
+}
+
+/// Every internal order against the scene's own numbering on one scene: every array output
+/// and every number of the VTK document within round-off, integer outputs exactly.
+fn orders_agree(scene: Value, drive: impl Fn(&mut Engine), label: &str) {
+    let run = |order: &str| {
+        let mut e = engine(with_order(scene.clone(), order));
+        drive(&mut e);
+        e
+    };
+    let given = run("given");
+    let doc_given = velarium::vtk::unstructured_grid(&given);
+    for order in ["rings", "rcm", "hilbert"] {
+        let e = run(order);
+        let mut worst = 0.0f64;
+        for var in given.arrays() {
+            let (x, y) = (array(&given, &var.name), array(&e, &var.name));
+            if var.var_type == velarium::variables::VarType::Real {
+                let d = rel_diff(&x, &y);
+                worst = worst.max(d);
+                assert!(
+                    d <= ROUND_OFF,
+                    "{label} {order}: {} differs by {d:e}",
+                    var.name
+                );
+            } else {
+                assert_eq!(x, y, "{label} {order}: {}", var.name);
+            }
+        }
+        let doc = velarium::vtk::unstructured_grid(&e);
+        let numbers = |d: &str| -> Vec<f64> {
+            d.split(|c: char| c.is_whitespace() || c == '>' || c == '<')
+                .filter_map(|s| s.parse::<f64>().ok())
+                .collect()
+        };
+        let d = rel_diff(&numbers(&doc_given), &numbers(&doc));
+        worst = worst.max(d);
+        assert!(
+            d <= ROUND_OFF,
+            "{label} {order}: VTK numbers differ by {d:e}"
+        );
+        println!(
+            "{label}: {order} vs given: worst relative difference {worst:.1e}; factor nnz {} vs {}",
+            e.factor_nonzeros(),
+            given.factor_nonzeros()
+        );
+    }
+}
+
+#[test]
+fn every_order_gives_the_given_numberings_answers_on_the_zoned_cushion() {
+    let path = format!("{}/examples/ZonedCushion.json", env!("CARGO_MANIFEST_DIR"));
+    let scene: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    orders_agree(
+        scene,
+        |e| {
+            solve(e);
+            set(e, "wind[1]", 200.0);
+            set(e, "wind[2]", 80.0);
+            solve(e);
+        },
+        "ZonedCushion",
+    );
+}
+
+#[test]
+fn every_order_gives_the_given_numberings_answers_on_the_disc() {
+    orders_agree(
+        disc(12),
+        |e| {
+            set(e, "pressure", Q);
+            solve(e);
+        },
+        "HenckyDisc",
+    );
+}
+
+/// The floating patch of hard case l6 (tests/hard_cases.rs), numbered patch first: whatever
+/// the internal order, the failure names the patch's own ids 0, 1, 2, 3.
+#[test]
+fn a_mechanism_is_named_by_the_scenes_node_ids_in_every_order() {
+    let mut nodes: Vec<[f64; 3]> = vec![
+        [0.0, 1.0, 0.0],
+        [0.2, 1.0, 0.0],
+        [0.2, 1.2, 0.0],
+        [0.0, 1.2, 0.0],
+    ];
+    nodes.extend((0..12).map(|k| [k as f64 * 0.1, 0.0, 0.0]));
+    let base = json!({
+        "format": 1, "name": "Floating",
+        "geometry": {"nodes": nodes, "triangles": [[0, 1, 2], [0, 2, 3]],
+                     "node_sets": {"ends": [4, 15], "corner": [2]}},
+        "membranes": [{"name": "patch", "triangles": [0, 1], "thickness": 1e-4,
+                       "material": {"kind": "svk", "E": 2e8, "nu": 0.3}}],
+        "cables": [{"name": "c", "nodes": (4..16).collect::<Vec<_>>(), "EA": 1e4, "pretension": 10.0}],
+        "supports": [{"nodes": "ends", "fix": ["x", "y", "z"]}],
+        "inputs": [{"name": "F", "load": {"kind": "point_force", "nodes": "corner", "direction": [1.0, 0.0, 0.0]}}]
+    });
+    let mut messages = Vec::new();
+    for order in ["given", "rings", "rcm", "hilbert"] {
+        let message = match Engine::try_new(with_order(base.clone(), order)) {
+            Err(err) => err.to_string(),
+            Ok(mut e) => {
+                set(&mut e, "F", 1.0);
+                let report = e.solve();
+                assert!(
+                    !report.converged(),
+                    "{order}: a floating patch has no equilibrium"
+                );
+                report.message
+            }
+        };
+        let tokens: Vec<&str> = message
+            .split(|c: char| !c.is_ascii_digit())
+            .filter(|s| !s.is_empty())
+            .collect();
+        for id in ["0", "1", "2", "3"] {
+            assert!(
+                tokens.contains(&id),
+                "{order}: must name node {id}: {message}"
+            );
+        }
+        assert!(message.contains("mechanism"), "{order}: {message}");
+        // The diagnosis (after the iteration's last residual, which differs by order).
+        let diagnosis = message[message.find("the structure is").unwrap()..].to_string();
+        messages.push(diagnosis);
+    }
+    println!("{}", messages[1]);
+    assert!(messages.iter().all(|m| m == &messages[0]), "{messages:#?}");
+}
+
+/// Fill: the default order on the shuffled disc against the generator's ring order as given.
+#[test]
+fn the_default_order_fills_no_more_than_the_generators_order() {
+    let generated = disc(34);
+    let n = resolve(&Scene::from_json(&generated.to_string()).unwrap().geometry)
+        .nodes
+        .len();
+    let nt = engine(with_order(generated.clone(), "given"))
+        .model()
+        .triangles
+        .len();
+    let shuffled = shuffled(&generated, &permutation(n, 3), &permutation(nt, 5));
+    let fill = |v: &Value, order: &str| engine(with_order(v.clone(), order)).factor_nonzeros();
+    let reference = fill(&generated, "given");
+    let shuffled_given = fill(&shuffled, "given");
+    let shuffled_rings = fill(&shuffled, "rings");
+    let generated_rings = fill(&generated, "rings");
+    println!(
+        "factor nnz at 34 rings: generated/given {reference}, shuffled/given {shuffled_given}, generated/rings {generated_rings}, shuffled/rings {shuffled_rings} ({:.3}x)",
+        shuffled_rings as f64 / reference as f64
+    );
+    assert_eq!(shuffled_rings, generated_rings);
+    assert!(
+        (shuffled_rings as f64) <= 1.02 * reference as f64,
+        "{shuffled_rings} vs {reference}"
+    );
+    // The default is `rings`.
+    assert_eq!(
+        velarium::scene::SolverSettings::default().node_order,
+        NodeOrder::Rings
+    );
+}
