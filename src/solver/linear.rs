@@ -6,6 +6,7 @@
 //! only, and Newton's residual check decides whether the step is good. A non-finite solution
 //! is reported as a failure, never returned.
 
+use super::split::Split;
 use super::threads::Pool;
 use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -24,15 +25,20 @@ const PIVOT_EPSILON: f64 = 1e-13;
 /// Replacement pivot magnitude relative to the largest diagonal entry.
 const PIVOT_DELTA: f64 = 1e-9;
 
+/// Smallest tangent (equations) factored in two halves when the solver has 2 threads or more:
+/// below it the dense separator block and the hand-over cost more than half a factorization
+/// (docs/performance.md, "Threads").
+pub const SPLIT_MIN_EQUATIONS: usize = 20_000;
+
 pub struct Ldlt {
     matrix: SparseColMat<usize, f64>,
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
     factor_mem: MemBuffer,
     solve_mem: MemBuffer,
-    /// The solver's threads: the numeric factorization runs on them (`Par::rayon`) inside
-    /// the pool (never rayon's global one). None: `Par::Seq` on the caller's thread.
-    pool: Option<Arc<Pool>>,
+    /// Two halves factored side by side on the solver's threads (`split.rs`); None: the
+    /// whole tangent on the caller's thread.
+    split: Option<Split>,
 }
 
 impl Ldlt {
@@ -85,31 +91,37 @@ impl Ldlt {
             l_values,
             factor_mem,
             solve_mem,
-            pool: None,
+            split: None,
         })
     }
 
-    /// Factor on `pool`'s threads from now on. faer 0.24 parallelises the dense kernels
-    /// inside each supernode (the update products and the diagonal block's factorization);
-    /// supernodes are still eliminated one after another, so the gain comes from the large
-    /// supernodes near the root of the elimination tree. The triangular solves stay
-    /// sequential (one right-hand side: too little work per supernode to share).
+    /// Factor on `pool`'s threads from now on, when the tangent is large enough
+    /// ([`SPLIT_MIN_EQUATIONS`]) and has a small balanced separator: two halves side by side
+    /// (`split.rs`). Otherwise nothing changes. The one-thread factor's buffers are freed.
     pub fn use_pool(&mut self, pool: Arc<Pool>) -> Result<(), OutOfMemory> {
-        let par = Par::rayon(pool.count());
-        let req = self
-            .symbolic
-            .factorize_numeric_ldlt_scratch::<f64>(par, Default::default());
-        self.factor_mem = MemBuffer::try_new(req).map_err(|_| OutOfMemory {
-            what: "the factorization workspace",
-            bytes: req.size_bytes() as u64,
-        })?;
-        self.pool = Some(pool);
+        let sym = self.matrix.symbolic();
+        if sym.ncols() < SPLIT_MIN_EQUATIONS {
+            return Ok(());
+        }
+        self.split = Split::try_new(sym.ncols(), sym.col_ptr(), sym.row_idx(), pool)?;
+        if self.split.is_some() {
+            self.l_values = Vec::new();
+            self.factor_mem = MemBuffer::new(StackReq::EMPTY);
+        }
         Ok(())
+    }
+
+    /// (A, B, separator) equations of the two-domain factorization, if it is used.
+    pub fn split_sizes(&self) -> Option<(usize, usize, usize)> {
+        self.split.as_ref().map(Split::sizes)
     }
 
     /// Stored entries of the factor L (AMD ordering, supernodal), for the scaling benchmark.
     pub fn factor_nonzeros(&self) -> usize {
-        self.symbolic.len_val()
+        match &self.split {
+            Some(split) => split.factor_nonzeros(),
+            None => self.symbolic.len_val(),
+        }
     }
 
     /// The matrix values (upper triangle, CSC order) as last filled.
@@ -148,33 +160,22 @@ impl Ldlt {
             dynamic_regularization_delta: PIVOT_DELTA * max_diag,
             dynamic_regularization_epsilon: PIVOT_EPSILON * max_diag,
         };
-        let (symbolic, l_values, matrix, mem) = (
-            &self.symbolic,
-            &mut self.l_values,
-            self.matrix.as_ref(),
-            &mut self.factor_mem,
-        );
-        let mut factor = move |par: Par| {
-            symbolic
-                .factorize_numeric_ldlt(
-                    l_values,
-                    matrix,
-                    Side::Upper,
-                    reg,
-                    par,
-                    MemStack::new(mem),
-                    Default::default(),
-                )
-                .map(|_| ())
-                .map_err(|e| format!("LDLT factorization failed: {e:?}"))
-        };
-        match &self.pool {
-            Some(pool) => {
-                let par = Par::rayon(pool.count());
-                pool.install(move || factor(par))
-            }
-            None => factor(Par::Seq),
+        if let Some(split) = self.split.as_mut() {
+            let reg = (PIVOT_DELTA * max_diag, PIVOT_EPSILON * max_diag);
+            return split.factor(self.matrix.val(), reg);
         }
+        self.symbolic
+            .factorize_numeric_ldlt(
+                &mut self.l_values,
+                self.matrix.as_ref(),
+                Side::Upper,
+                reg,
+                Par::Seq,
+                MemStack::new(&mut self.factor_mem),
+                Default::default(),
+            )
+            .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
+        Ok(())
     }
 
     /// Solve with the last factorization, in place (one more forward/back substitution).
@@ -182,6 +183,14 @@ impl Ldlt {
         let n = rhs.len();
         if n == 0 {
             return Ok(());
+        }
+        if let Some(split) = self.split.as_mut() {
+            split.solve(rhs)?;
+            return if rhs.iter().all(|x| x.is_finite()) {
+                Ok(())
+            } else {
+                Err("linear solve produced non-finite values".into())
+            };
         }
         let ldlt = LdltRef::new(&self.symbolic, &self.l_values);
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);

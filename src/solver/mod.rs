@@ -40,6 +40,7 @@ mod relax;
 pub mod renumber;
 pub mod sensitivity;
 pub mod slip;
+mod split;
 pub mod threads;
 mod volume;
 
