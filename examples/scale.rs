@@ -168,6 +168,12 @@ fn run(label: &str, mut engine: Engine, threads: usize) {
         threads,
         (w - W_FOLLOWER).abs() / W_FOLLOWER
     );
+    if let Some((a, b, sep)) = engine.split_sizes() {
+        println!(
+            "{:>8} two halves of {a} and {b} equations, separator {sep}",
+            ""
+        );
+    }
 }
 
 fn main() {

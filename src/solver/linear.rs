@@ -50,6 +50,19 @@ impl Ldlt {
         col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
     ) -> Result<Ldlt, OutOfMemory> {
+        Ldlt::try_with_pool(n, col_ptr, row_idx, None)
+    }
+
+    /// [`Ldlt::try_new`], factoring on `pool`'s threads when there are 2 or more, the tangent
+    /// is large enough ([`SPLIT_MIN_EQUATIONS`]) and it has a small balanced separator: two
+    /// halves side by side (`split.rs`, numbered in the AMD order of the whole). Otherwise (and
+    /// with no pool) the whole tangent on the caller's thread.
+    pub fn try_with_pool(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        pool: Option<Arc<Pool>>,
+    ) -> Result<Ldlt, OutOfMemory> {
         let nnz = row_idx.len();
         let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let matrix = SparseColMat::new(sym, memory::zeros(nnz, "the tangent matrix")?);
@@ -70,7 +83,17 @@ impl Ldlt {
             what: "the symbolic factorization of the tangent",
             bytes: (nnz as u64).saturating_mul(8 * 4),
         })?;
-        let l_values = memory::zeros(symbolic.len_val(), "the factor of the tangent")?;
+        let split = match pool {
+            Some(pool) if n >= SPLIT_MIN_EQUATIONS => {
+                let sym = matrix.symbolic();
+                let rank = symbolic.perm().map(|p| p.arrays().1);
+                Split::try_new(n, sym.col_ptr(), sym.row_idx(), rank, pool)?
+            }
+            _ => None,
+        };
+        // With a split its halves hold the factor.
+        let whole = if split.is_none() { 1 } else { 0 };
+        let l_values = memory::zeros(whole * symbolic.len_val(), "the factor of the tangent")?;
         let buffer = |req: StackReq, what: &'static str| {
             MemBuffer::try_new(req).map_err(|_| OutOfMemory {
                 what,
@@ -78,7 +101,12 @@ impl Ldlt {
             })
         };
         let factor_mem = buffer(
-            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+            match split {
+                None => {
+                    symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default())
+                }
+                Some(_) => StackReq::EMPTY,
+            },
             "the factorization workspace",
         )?;
         let solve_mem = buffer(
@@ -91,24 +119,8 @@ impl Ldlt {
             l_values,
             factor_mem,
             solve_mem,
-            split: None,
+            split,
         })
-    }
-
-    /// Factor on `pool`'s threads from now on, when the tangent is large enough
-    /// ([`SPLIT_MIN_EQUATIONS`]) and has a small balanced separator: two halves side by side
-    /// (`split.rs`). Otherwise nothing changes. The one-thread factor's buffers are freed.
-    pub fn use_pool(&mut self, pool: Arc<Pool>) -> Result<(), OutOfMemory> {
-        let sym = self.matrix.symbolic();
-        if sym.ncols() < SPLIT_MIN_EQUATIONS {
-            return Ok(());
-        }
-        self.split = Split::try_new(sym.ncols(), sym.col_ptr(), sym.row_idx(), pool)?;
-        if self.split.is_some() {
-            self.l_values = Vec::new();
-            self.factor_mem = MemBuffer::new(StackReq::EMPTY);
-        }
-        Ok(())
     }
 
     /// (A, B, separator) equations of the two-domain factorization, if it is used.

@@ -291,25 +291,34 @@ impl Solver {
         self.linear.factor_nonzeros()
     }
 
+    /// (A, B, separator) equations of the two-domain factorization, if it is used.
+    pub fn split_sizes(&self) -> Option<(usize, usize, usize)> {
+        self.linear.split_sizes()
+    }
+
     /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
         let pattern = Pattern::try_ordered(model, settings.node_order)?;
-        let mut linear = Ldlt::try_new(
+        let pool = if settings.threads > 1 && pattern.n >= linear::SPLIT_MIN_EQUATIONS {
+            // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
+            // Two threads at most: the factorization has two halves (`split.rs`).
+            let pool =
+                threads::Pool::try_new(settings.threads.min(2)).map_err(|_| OutOfMemory {
+                    what: "the solver's threads (their stacks)",
+                    bytes: (settings.threads as u64).saturating_mul(2 << 20),
+                })?;
+            Some(std::sync::Arc::new(pool))
+        } else {
+            None
+        };
+        let linear = Ldlt::try_with_pool(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
             memory::copy(&pattern.row_idx, "the tangent's pattern")?,
+            pool,
         )?;
-        if settings.threads > 1 {
-            // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
-            let pool = threads::Pool::try_new(settings.threads).map_err(|_| OutOfMemory {
-                what: "the solver's threads (their stacks)",
-                bytes: (settings.threads as u64).saturating_mul(2 << 20),
-            })?;
-            let pool = std::sync::Arc::new(pool);
-            linear.use_pool(std::sync::Arc::clone(&pool))?;
-        }
         let n = model.dof_count();
         let trial_len = model.unknown_count();
         let diagonal_positions = memory::collect(

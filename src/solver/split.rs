@@ -147,6 +147,7 @@ impl Half {
                 Default::default(),
             )
             .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
+        let t0 = std::time::Instant::now();
         // L_SS and D_S of the separator block, then S_h = L_SS D_S L_SS^T.
         let (nd, ns) = (self.nd, self.eq.len() - self.nd);
         let mut lss = std::mem::replace(&mut self.lss, Mat::new());
@@ -188,6 +189,14 @@ impl Half {
         );
         self.lss = lss;
         self.d = d;
+        if std::env::var_os("SPLIT_TRACE").is_some() {
+            eprintln!(
+                "half nd {} ns {} schur part {:.4}",
+                self.nd,
+                ns,
+                t0.elapsed().as_secs_f64()
+            );
+        }
         Ok(())
     }
 
@@ -296,6 +305,7 @@ impl Split {
         n: usize,
         col_ptr: &[usize],
         row_idx: &[usize],
+        rank: Option<&[usize]>,
         pool: Arc<Pool>,
     ) -> Result<Option<Split>, OutOfMemory> {
         if pool.helpers() == 0 {
@@ -320,7 +330,7 @@ impl Split {
         let mut halves = Vec::new();
         for h in 0..2 {
             let domain = select(n, |i| side(levels[i]) == h)?;
-            match Half::try_new(n, col_ptr, row_idx, &domain, &s_eq)? {
+            match Half::try_new(n, col_ptr, row_idx, &domain, &s_eq, rank)? {
                 Some(half) => halves.push(Arc::new(Mutex::new(half))),
                 None => return Ok(None),
             }
@@ -380,6 +390,7 @@ impl Split {
 
     /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon).
     pub fn factor(&mut self, k: &[f64], reg: (f64, f64)) -> Result<(), String> {
+        let t0 = std::time::Instant::now();
         {
             let mut b = lock(&self.b);
             gather(&mut b, k);
@@ -395,7 +406,9 @@ impl Split {
             a.run();
             std::mem::replace(&mut a.status, Ok(()))
         };
+        let t1 = t0.elapsed().as_secs_f64();
         self.pool.wait(0)?;
+        let t2 = t0.elapsed().as_secs_f64();
         mine?;
         let a = lock(&self.a);
         let b = lock(&self.b);
@@ -421,6 +434,12 @@ impl Split {
             Default::default(),
         )
         .map_err(|e| format!("LDLT factorization of the separator failed: {e:?}"))?;
+        if std::env::var_os("SPLIT_TRACE").is_some() {
+            eprintln!(
+                "factor: A done {t1:.4} B done {t2:.4} total {:.4}",
+                t0.elapsed().as_secs_f64()
+            );
+        }
         Ok(())
     }
 
@@ -524,9 +543,17 @@ impl Half {
         row_idx: &[usize],
         domain: &[usize],
         s_eq: &[usize],
+        rank: Option<&[usize]>,
     ) -> Result<Option<Half>, OutOfMemory> {
         let what = "the two-domain factorization";
         let (nd, ns) = (domain.len(), s_eq.len());
+        if let Some(rank) = rank {
+            let mut eq = memory::with_capacity(nd + ns, what)?;
+            eq.extend_from_slice(domain);
+            eq.sort_unstable_by_key(|&g| rank[g]);
+            eq.extend_from_slice(s_eq);
+            return Half::numbered(n, col_ptr, row_idx, eq, nd);
+        }
         // Domain-local numbering for AMD: the domain block's upper CSC.
         let mut local = memory::filled(n, usize::MAX, what)?;
         for (k, &g) in domain.iter().enumerate() {
@@ -570,7 +597,21 @@ impl Half {
         let mut eq = memory::with_capacity(nd + ns, what)?;
         eq.extend(perm.iter().map(|&k| domain[k]));
         eq.extend_from_slice(s_eq);
-        local.fill(usize::MAX);
+        drop(local);
+        Half::numbered(n, col_ptr, row_idx, eq, nd)
+    }
+
+    /// The half with equations `eq` (the domain's `nd` first, then the separator).
+    fn numbered(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        eq: Vec<usize>,
+        nd: usize,
+    ) -> Result<Option<Half>, OutOfMemory> {
+        let what = "the two-domain factorization";
+        let ns = eq.len() - nd;
+        let mut local = memory::filled(n, usize::MAX, what)?;
         for (k, &g) in eq.iter().enumerate() {
             local[g] = k;
         }
@@ -738,17 +779,17 @@ fn separator_levels(
         size[l] += 1;
     }
     let mut before = 0;
-    let mut best: Option<usize> = None;
+    let mut best: Option<(usize, usize)> = None;
     for l in 0..depth {
         let after = n - before - size[l];
         let least = (BALANCE * n as f64) as usize;
-        if before >= least && after >= least && best.is_none_or(|b| size[l] < size[b]) {
-            best = Some(l);
+        if before >= least && after >= least && best.is_none_or(|(_, m)| before.max(after) < m) {
+            best = Some((l, before.max(after)));
         }
         before += size[l];
     }
     Ok(match best {
-        Some(l) if size[l] <= MAX_SEPARATOR => Some((l, levels)),
+        Some((l, _)) if size[l] <= MAX_SEPARATOR => Some((l, levels)),
         _ => None,
     })
 }
@@ -796,7 +837,7 @@ mod tests {
     fn the_split_solves_a_grid_laplacian() {
         let (n, cp, ri, v) = grid(60, 40);
         let pool = Arc::new(Pool::try_new(2).unwrap());
-        let mut split = Split::try_new(n, &cp, &ri, pool)
+        let mut split = Split::try_new(n, &cp, &ri, None, pool)
             .unwrap()
             .expect("a separator");
         let (na, nb, ns) = split.sizes();
@@ -826,11 +867,11 @@ mod tests {
     fn no_split_without_a_helper_or_without_a_small_separator() {
         let (n, cp, ri, _) = grid(30, 20);
         let one = Arc::new(Pool::try_new(1).unwrap());
-        assert!(Split::try_new(n, &cp, &ri, one).unwrap().is_none());
+        assert!(Split::try_new(n, &cp, &ri, None, one).unwrap().is_none());
         // A dense 5 x 5 block: every level set is too unbalanced.
         let cp: Vec<usize> = (0..=5).map(|j| j * (j + 1) / 2).collect();
         let ri: Vec<usize> = (0..5).flat_map(|j| 0..=j).collect();
         let two = Arc::new(Pool::try_new(2).unwrap());
-        assert!(Split::try_new(5, &cp, &ri, two).unwrap().is_none());
+        assert!(Split::try_new(5, &cp, &ri, None, two).unwrap().is_none());
     }
 }
