@@ -96,10 +96,7 @@ fn solve_under_a_low_address_space_limit_exits_1_naming_memory() {
     let scene = scene(false);
     let loads = scene.replace("disc60-false.json", "loads.csv");
     let args = ["solve", &scene, "--loads", &loads, "--quiet"];
-    // Up to 290 MB: the estimate counts the dense kernels' 64 MiB packing buffers and the
-    // solving thread's stack and arena (`scene::limits::DENSE_KERNEL_BYTES`, `THREAD_BYTES`),
-    // so the probe first passes at about 240 MB.
-    let (messages, ok) = sweep(&args, (8..=290).step_by(6));
+    let (messages, ok) = sweep(&args, (8..=140).step_by(6));
     println!("solve: {} out-of-memory exits, {ok} solved", messages.len());
     assert!(
         !messages.is_empty() && ok > 0,

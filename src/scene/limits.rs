@@ -313,25 +313,11 @@ fn factor_flops(symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usiz
     }
 }
 
-/// Packing buffers of the dense kernels under faer's factorization, per thread that factorizes:
-/// private-gemm-x86 (with faer's rayon feature) keeps 2 x L3 in a thread-local on its first
-/// product, allocated infallibly (measured: one 64 MiB mapping on this 32 MiB-L3 EPYC). Counted
-/// so that the probe fails first, with a message, where that allocation would abort.
-pub const DENSE_KERNEL_BYTES: u64 = 64 << 20;
-
-/// Address space of each thread that solves besides its packing buffers: its stack (8 MiB) and
-/// the malloc arena glibc reserves for a new thread (64 MiB on 64-bit). Counted for the
-/// FMU's worker thread as for each pool thread (measured: without it, an FMU whose
-/// instantiation probe passed under an address-space limit still aborted in the packing
-/// buffers' allocation, harness/test_memory_limits.py at 120 MB above the mapped size).
-pub const THREAD_BYTES: u64 = 72 << 20;
-
 /// Estimated peak bytes: factor values and its scratch, the matrix (values, indices, element
 /// maps), the model, the mesh, the solver's vectors and, with m sleeve points, the slip
 /// block's m solved columns and dense m x m matrix. Generous per-item constants (measured
-/// sizes of the structs rounded up). Plus, per thread that factorizes (the FMU's worker, or each
-/// of n > 1 pool threads), the dense kernels' packing buffers, its stack and malloc arena; and
-/// each pool thread's assembly buffers.
+/// sizes of the structs rounded up). With 2 threads or more on a model that the solver
+/// factors in two halves, those too ([`split_bytes`]).
 pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let factor = size.factor_entries.saturating_mul(8 + 8);
     let matrix = matrix_entries.saturating_mul(8 + 8);
@@ -344,21 +330,40 @@ pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let slip = m
         .saturating_mul(size.unknowns.saturating_add(m))
         .saturating_mul(8);
-    let threads = size.threads.max(1);
-    let dense = threads.saturating_mul(DENSE_KERNEL_BYTES + THREAD_BYTES);
-    // Per pool thread after the first: R, K's values and the force magnitudes (`assemble.rs`).
-    let buffers = matrix_entries
-        .saturating_add(2 * size.unknowns)
-        .saturating_mul(8);
-    let pool = (threads - 1).saturating_mul(buffers);
     factor
         .saturating_add(matrix)
         .saturating_add(elements)
         .saturating_add(nodes)
         .saturating_add(vectors)
         .saturating_add(slip)
-        .saturating_add(dense)
-        .saturating_add(pool)
+        .saturating_add(split_bytes(size, matrix_entries))
+}
+
+/// Equations from which 2 threads factor the tangent in two halves (the solver's
+/// `linear::SPLIT_MIN_EQUATIONS`; the scene keeps its own copy: it imports nothing from the
+/// solver). Counted here against the upper bound of the unknowns: generous.
+pub const SPLIT_MIN_UNKNOWNS: u64 = 20_000;
+
+/// Address space of the solver's helper thread: its stack (8 MiB) and the malloc arena glibc
+/// reserves for a new thread (64 MiB on 64-bit).
+pub const THREAD_BYTES: u64 = 72 << 20;
+
+/// The two-domain factorization's own memory (`solver/split.rs`), 0 with 1 thread or below
+/// [`SPLIT_MIN_UNKNOWNS`]: the helper thread; each half's copy of its part of the matrix
+/// (value, row index and position in the tangent: 24 bytes an entry, both halves together
+/// at most every entry once plus the separator block twice: counted as all entries); 15 %
+/// more factor entries than the whole (measured 6.3 % on the 300k-DOF disc); and seven dense
+/// separator-sized matrices, with a separator of 3 sqrt(unknowns) equations (at most 2500,
+/// `split::MAX_SEPARATOR`; measured 1095 on the 300k-DOF disc, where this counts 1643).
+pub fn split_bytes(size: &Size, matrix_entries: u64) -> u64 {
+    if size.threads < 2 || size.unknowns < SPLIT_MIN_UNKNOWNS {
+        return 0;
+    }
+    let separator = ((3.0 * (size.unknowns as f64).sqrt()) as u64).min(2500);
+    THREAD_BYTES
+        .saturating_add(matrix_entries.saturating_mul(24))
+        .saturating_add(size.factor_entries.saturating_mul(8 * 15) / 100)
+        .saturating_add(7 * separator * separator * 8)
 }
 
 /// Step 2: the factor's entries from the symbolic analysis, the memory estimate, checked
@@ -505,6 +510,26 @@ mod tests {
 
     /// The node-graph estimate bounds the DOF-level factor from above, within a factor 3
     /// (measured here on discs and rectangles; printed with --nocapture).
+    #[test]
+    fn the_split_is_counted_with_two_threads_on_large_models_only() {
+        let mut size = Size {
+            unknowns: 300_000,
+            factor_entries: 45_000_000,
+            threads: 1,
+            ..Size::default()
+        };
+        assert_eq!(split_bytes(&size, 6_000_000), 0);
+        size.threads = 2;
+        let bytes = split_bytes(&size, 6_000_000);
+        // 72 MiB + 144 MB + 54 MB + 7 x 1643^2 x 8 (151 MB).
+        assert_eq!(
+            bytes,
+            (72 << 20) + 144_000_000 + 54_000_000 + 7 * 1643 * 1643 * 8
+        );
+        size.unknowns = 10_000;
+        assert_eq!(split_bytes(&size, 200_000), 0);
+    }
+
     #[test]
     fn node_graph_estimate_bounds_the_dof_factor() {
         let disc = |rings| Generator::Disc {

@@ -147,7 +147,6 @@ impl Half {
                 Default::default(),
             )
             .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
-        let t0 = std::time::Instant::now();
         // L_SS and D_S of the separator block, then S_h = L_SS D_S L_SS^T.
         let (nd, ns) = (self.nd, self.eq.len() - self.nd);
         let mut lss = std::mem::replace(&mut self.lss, Mat::new());
@@ -189,14 +188,6 @@ impl Half {
         );
         self.lss = lss;
         self.d = d;
-        if std::env::var_os("SPLIT_TRACE").is_some() {
-            eprintln!(
-                "half nd {} ns {} schur part {:.4}",
-                self.nd,
-                ns,
-                t0.elapsed().as_secs_f64()
-            );
-        }
         Ok(())
     }
 
@@ -390,7 +381,6 @@ impl Split {
 
     /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon).
     pub fn factor(&mut self, k: &[f64], reg: (f64, f64)) -> Result<(), String> {
-        let t0 = std::time::Instant::now();
         {
             let mut b = lock(&self.b);
             gather(&mut b, k);
@@ -406,9 +396,7 @@ impl Split {
             a.run();
             std::mem::replace(&mut a.status, Ok(()))
         };
-        let t1 = t0.elapsed().as_secs_f64();
         self.pool.wait(0)?;
-        let t2 = t0.elapsed().as_secs_f64();
         mine?;
         let a = lock(&self.a);
         let b = lock(&self.b);
@@ -434,12 +422,6 @@ impl Split {
             Default::default(),
         )
         .map_err(|e| format!("LDLT factorization of the separator failed: {e:?}"))?;
-        if std::env::var_os("SPLIT_TRACE").is_some() {
-            eprintln!(
-                "factor: A done {t1:.4} B done {t2:.4} total {:.4}",
-                t0.elapsed().as_secs_f64()
-            );
-        }
         Ok(())
     }
 
