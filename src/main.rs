@@ -99,8 +99,8 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
         /// Solver threads (1-64), instead of the scene's `solver.threads` (default 1, the
-        /// FMU's count, so the CLI reproduces the FMU's numbers to the bit). 2 pays from about
-        /// 10k unknowns (docs/performance.md).
+        /// FMU's count, so the CLI reproduces the FMU's numbers to the bit). 2 factors a
+        /// tangent of 20 000 equations or more in two halves at once (docs/performance.md).
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=64))]
         threads: Option<u64>,
     },
