@@ -417,36 +417,29 @@ fn k_ring_on_a_frictionless_cable() {
 // (e) A membrane held only by a frictionless sleeve, wrinkling on.
 // ---------------------------------------------------------------------------------------------
 
-/// CASE (e), issue 9: a square film (0.4 m, 8 x 8 cells, crossed, SVK E = 200 MPa, ν = 0.3,
-/// t = 0.1 mm, wrinkling ON) hangs from a cable threaded through a frictionless sleeve along its
-/// top edge (all 9 top-edge nodes); the cable (EA = 1e5 N, T0 = 50 N) is anchored at
-/// A = (−0.1, 0.4) and B = (0.5, 0.4). Nothing else holds the film; its bottom edge carries
-/// F = 20 N in −y shared by its 9 nodes. All film nodes held in z.
-/// Today: "slip block of the tangent is singular".
-/// REFERENCE (exact consequences, no closed form exists for the field): (1) global balance: the
-/// anchors' reactions sum to (0, F), within 1e-7 F (81 free nodes × criterion 1e-9 F);
-/// (2) frictionless ⇒ one tension in all 10 segments, within 1e-6 relative (as verify_sliding_cable);
-/// (3) an anchor is held by one segment only, so |R_A| = T_0 within 1e-7 relative;
-/// (4) mirror symmetry about x = 0.2 (mesh, sleeve, anchors and load are symmetric): every node and
-/// its mirror image agree within 1e-6 of the largest displacement (a residual of 1e-9 F over the
-/// softest, pendulum-like sliding stiffness ~F/0.4 m gives 4e-10 m against displacements of mm);
-/// (5) the bottom edge moves down (the film hangs: u_y < 0 at its midpoint).
-#[test]
-#[ignore = "open (issue 9): the path follower reaches load fraction 0.001, where 50 full Newton steps end at |R| 8.1e-8 against the tolerance 5e-8 (Discard): the side-edge nodes 65 and 73, between wrinkled triangles whose tension runs along the edge, move 2.8e-5 m inward per iteration against the tangent-only regularisation (2.9e-3 N/m) while their residual falls 0.1 % (docs/solver.md, hard cases)"]
-fn e_membrane_held_only_by_a_frictionless_sleeve() {
-    // Explicit nodes 0 (A), 1 (B); generated (i, j) -> 2 + 9 j + i; top edge j = 8: 74..=82.
+/// The curtain of cases (e) and (e'): a square film (0.4 m, 8 x 8 cells, crossed, SVK
+/// E = 200 MPa, ν = 0.3, t = 0.1 mm, wrinkling ON) hangs from a cable threaded through a
+/// frictionless sleeve along its top edge (all 9 top-edge nodes); the cable (EA = 1e5 N,
+/// T0 = 50 N) is anchored at A = (−0.1, 0.4) and B = (0.5, 0.4). Nothing else holds the film;
+/// its bottom edge carries the input F in −y shared by its 9 nodes. All film nodes held in z.
+/// Explicit nodes 0 (A), 1 (B); generated (i, j) -> 2 + 9 j + i; top edge j = 8: 74..=82.
+fn curtain(residual_stiffness: f64) -> Scene {
     let id = |i: usize, j: usize| 2 + 9 * j + i;
     let mut chain = vec![0];
     chain.extend((0..=8).map(|i| id(i, 8)));
     chain.push(1);
-    let scene = scene_of(json!({
+    let mut membrane = json!({"name": "film", "triangles": "film", "thickness": 1e-4,
+                              "material": {"kind": "svk", "E": 2e8, "nu": 0.3}});
+    if residual_stiffness > 0.0 {
+        membrane["residual_stiffness"] = json!(residual_stiffness);
+    }
+    scene_of(json!({
         "format": 1, "name": "Curtain",
         "geometry": {"nodes": [[-0.1, 0.4, 0.0], [0.5, 0.4, 0.0]],
                      "node_sets": {"a": [0], "b": [1]},
                      "generators": [{"kind": "rectangle", "name": "film", "origin": [0.0, 0.0, 0.0],
                                      "size": [0.4, 0.4], "divisions": [8, 8]}]},
-        "membranes": [{"name": "film", "triangles": "film", "thickness": 1e-4,
-                       "material": {"kind": "svk", "E": 2e8, "nu": 0.3}}],
+        "membranes": [membrane],
         "cables": [{"name": "cable", "nodes": chain, "EA": 1e5, "pretension": 50.0,
                     "sleeve": {"mu": 0.0}}],
         "supports": [{"nodes": "a", "fix": ["x", "y", "z"]}, {"nodes": "b", "fix": ["x", "y", "z"]},
@@ -468,9 +461,84 @@ fn e_membrane_held_only_by_a_frictionless_sleeve() {
             {"name": "T8", "probe": {"kind": "cable_tension", "cable": "cable", "segment": 8}},
             {"name": "T9", "probe": {"kind": "cable_tension", "cable": "cable", "segment": 9}}
         ]
-    }));
-    let f = 20.0;
-    let mut e = engine(scene);
+    }))
+}
+
+/// CASE (e), issue 9: the curtain above, pure tension-field law, F = 20 N. Issue 9 lists it
+/// among structures that have an equilibrium; it has none, and the right outcome is a failure
+/// that says why.
+/// WHY NO EQUILIBRIUM (statics, any F > 0): a frictionless sleeve point takes only the cable's
+/// resultant at its node, T (t_a + t_b), along the bisector of the kink. Under any load the cable
+/// sags and is steeper between A and the first film node than beyond it, so that resultant has a
+/// horizontal part toward midspan of about T (s_a² − s_b²)/2 ≠ 0 at the top corner node. The
+/// film can pull a node only toward its own interior (tension only), and the corner's interior
+/// lies toward midspan too: nothing balances it, and the top edge gathers along the cable (a
+/// curtain on a wire) until its triangles degenerate. A residual stiffness lets the film carry
+/// that compression (case e').
+/// ASSERTED: Discard (no convergence), the engine keeps the last equilibrium (the unloaded
+/// state: outputs unchanged), and the message names a side-edge node of the film where every
+/// triangle is wrinkled or slack (the crawl measured in docs/solver.md: nodes 65 and 73 move
+/// 2.8e-5 m inward per iteration while their residual falls 0.1 %). The wall time of the failure
+/// is printed (issue target: under 2 s; measured 0.39 s for the whole test binary run).
+#[test]
+fn e_membrane_held_only_by_a_frictionless_sleeve_has_no_equilibrium() {
+    let mut e = engine(curtain(0.0));
+    let before = e.solve();
+    assert!(before.converged(), "unloaded: {}", before.message);
+    let kept: Vec<f64> = (0..10).map(|s| get(&e, &format!("T{s}"))).collect();
+    let rax = get(&e, "RAx");
+    set(&mut e, "F", 20.0);
+    let t = std::time::Instant::now();
+    let report = e.solve();
+    let seconds = t.elapsed().as_secs_f64();
+    println!(
+        "(e) {:?} after {seconds:.3} s: {}",
+        report.outcome, report.message
+    );
+    assert!(
+        !report.converged(),
+        "the curtain converged: {}",
+        report.message
+    );
+    assert!(
+        report.message.contains("node 65 in x") || report.message.contains("node 73 in x"),
+        "the message does not name a side-edge node: {}",
+        report.message
+    );
+    assert!(
+        report
+            .message
+            .contains("every triangle is wrinkled or slack"),
+        "the message does not say why: {}",
+        report.message
+    );
+    for (s, k) in kept.iter().enumerate() {
+        assert_eq!(
+            get(&e, &format!("T{s}")),
+            *k,
+            "segment {s}: the state was not kept"
+        );
+    }
+    assert_eq!(get(&e, "RAx"), rax, "R_A: the state was not kept");
+}
+
+/// CASE (e'), issue 9: the curtain with `residual_stiffness` 1e-4 (docs/mechanics.md §1.5): the
+/// film now resists the gathering with a compressive stress ρ E e₂ and hangs in equilibrium at
+/// F = 10 N (measured: the path follower reaches 0.674 of F = 20 N, where a side-edge triangle
+/// degenerates, area ratio 9.9e-7, as the argument of case (e) predicts for growing loads).
+/// REFERENCE (exact consequences, no closed form exists for the field): (1) global balance: the
+/// anchors' reactions sum to (0, F), within 1e-7 F (81 free nodes × criterion 1e-9 F);
+/// (2) frictionless ⇒ one tension in all 10 segments, within 1e-6 relative (as verify_sliding_cable);
+/// (3) an anchor is held by one segment only, so |R_A| = T_0 within 1e-7 relative;
+/// (4) mirror symmetry about x = 0.2 (mesh, sleeve, anchors and load are symmetric): every node and
+/// its mirror image agree within 1e-6 of the largest displacement (a residual of 1e-9 F over the
+/// softest, pendulum-like sliding stiffness ~F/0.4 m gives 4e-10 m against displacements of mm);
+/// (5) the bottom edge moves down (the film hangs: u_y < 0 at its midpoint).
+#[test]
+fn e2_curtain_with_a_residual_stiffness_hangs() {
+    let id = |i: usize, j: usize| 2 + 9 * j + i;
+    let f = 10.0;
+    let mut e = engine(curtain(1e-4));
     set(&mut e, "F", f);
     let report = e.solve();
     assert!(report.converged(), "{}", report.message);

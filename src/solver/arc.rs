@@ -72,6 +72,19 @@ pub struct PathPoint {
     pub iterations: usize,
 }
 
+/// The last converged point of a step traced by arc length, with what the next increment needs
+/// from the path so far.
+struct Committed {
+    u: Vec<f64>,
+    lambda: f64,
+    /// Stick/slip states of the sleeve points there.
+    contact: Vec<Contact>,
+    /// The step to it on the equations (None before the first increment): the path's sense.
+    previous: Option<Vec<f64>>,
+    /// The largest load fraction any converged point of the step reached.
+    lambda_max: f64,
+}
+
 /// Why arc length does not apply to a step (None: it does).
 fn not_applicable(_model: &Model, from: &[f64], to: &[f64]) -> Option<&'static str> {
     if from == to {
@@ -315,20 +328,19 @@ impl Solver {
         Ok((u, arc.lambda, iterations))
     }
 
-    /// One load-controlled increment to λ from the converged `u` (the fallback); `contact` as
-    /// in [`Solver::arc_increment`].
-    #[allow(clippy::too_many_arguments)]
+    /// One load-controlled increment to λ from the last converged point of the path (the
+    /// fallback): the new displacements, stick/slip states and iterations.
     fn load_increment(
         &mut self,
         model: &Model,
         (from, to, change): (&[f64], &[f64], f64),
-        u: &[f64],
+        at: &Committed,
         lambda: f64,
-        contact: &mut Vec<Contact>,
         log: &mut Vec<String>,
-    ) -> Result<(Vec<f64>, usize), (usize, String)> {
+    ) -> Result<(Vec<f64>, Vec<Contact>, usize), (usize, String)> {
         let loads = loads_at(from, to, lambda);
-        let mut trial = u.to_vec();
+        let mut trial = at.u.clone();
+        let mut contact = at.contact.clone();
         // Moves the prescribed displacements to λ (and predicts the free DOFs) as load
         // control does.
         let predicted = self.predict(model, &loads, &mut trial);
@@ -337,9 +349,18 @@ impl Solver {
             change,
             moved: true,
         };
-        self.newton(model, &increment, &mut trial, contact, None, log)
-            .map(|i| (trial, i + predicted))
+        self.newton(model, &increment, &mut trial, &mut contact, None, log)
+            .map(|i| (trial, contact, i + predicted))
             .map_err(|(i, why)| (i + predicted, why))
+    }
+
+    /// Make (u, λ, contact) the path's last converged point; `previous` becomes the step to it.
+    fn commit(&self, at: &mut Committed, u: Vec<f64>, lambda: f64, contact: Vec<Contact>) {
+        at.previous = Some(self.equation_difference(&u, &at.u));
+        at.u = u;
+        at.lambda = lambda;
+        at.contact = contact;
+        at.lambda_max = at.lambda_max.max(lambda);
     }
 
     /// Trace the path of the step `from` → `to` from the equilibrium `u` (at `from`) by
@@ -434,16 +455,21 @@ impl Solver {
         }
         let s = self.settings.clone();
         let step = (from, to, super::path::load_change(model, from, to));
-        let (mut u_n, mut lambda_n, mut lambda_max) = (u.clone(), 0.0f64, 0.0f64);
-        let mut contact_n: Vec<Contact> = states
-            .iter()
-            .map(|&c| Contact::from_code(c).unwrap_or_default())
-            .collect();
-        let mut previous: Option<Vec<f64>> = None;
+        let mut at = Committed {
+            u: u.clone(),
+            lambda: 0.0,
+            contact: states
+                .iter()
+                .map(|&c| Contact::from_code(c).unwrap_or_default())
+                .collect(),
+            previous: None,
+            lambda_max: 0.0,
+        };
         let mut ds = s.arc_length;
         let mut first_dl = s.initial_increment;
         let mut smallest = f64::INFINITY;
         loop {
+            let (lambda_n, lambda_max) = (at.lambda, at.lambda_max);
             if report.increments + report.cutbacks >= s.max_increments {
                 report.reached = lambda_max;
                 report.message = format!(
@@ -455,20 +481,14 @@ impl Solver {
             if ds <= 0.0 {
                 // No size given: the first increment is load-controlled and sets Δs.
                 let target = first_dl.min(1.0);
-                let mut contact = contact_n.clone();
-                match self.load_increment(model, step, &u_n, target, &mut contact, &mut report.log)
-                {
-                    Ok((u_new, iters)) => {
+                match self.load_increment(model, step, &at, target, &mut report.log) {
+                    Ok((u_new, contact, iters)) => {
                         report.iterations += iters;
                         report.increments += 1;
-                        let d = self.equation_difference(&u_new, &u_n);
-                        ds = (dot(&d, &d) / self.pattern.n as f64).sqrt();
+                        self.commit(&mut at, u_new, target, contact);
+                        let d = at.previous.as_deref().unwrap_or_default();
+                        ds = (dot(d, d) / self.pattern.n as f64).sqrt();
                         push_log(&mut report.log, format!("increment λ 0 -> {target:.6} (load control): converged in {iters} iterations; arc length {ds:.3e} m"));
-                        previous = Some(d);
-                        u_n = u_new;
-                        contact_n = contact;
-                        lambda_n = target;
-                        lambda_max = target;
                         smallest = ds * s.min_increment;
                         if target >= 1.0 {
                             break;
@@ -503,9 +523,9 @@ impl Solver {
                 from,
                 to,
                 lambda_n,
-                &u_n,
-                &contact_n,
-                previous.as_deref(),
+                &at.u,
+                &at.contact,
+                at.previous.as_deref(),
             );
             let (t, dlds, w) = match tangent {
                 Ok(x) => x,
@@ -517,16 +537,8 @@ impl Solver {
                     let mut done = false;
                     while fraction >= s.min_increment {
                         let target = (lambda_n + fraction * (1.0 - lambda_n)).min(1.0);
-                        let mut redone = contact_n.clone();
-                        match self.load_increment(
-                            model,
-                            step,
-                            &u_n,
-                            target,
-                            &mut redone,
-                            &mut report.log,
-                        ) {
-                            Ok((u_lc, it2)) => {
+                        match self.load_increment(model, step, &at, target, &mut report.log) {
+                            Ok((u_lc, redone, it2)) => {
                                 report.iterations += it2;
                                 report.increments += 1;
                                 push_log(
@@ -536,11 +548,7 @@ impl Solver {
                                     ),
                                 );
                                 push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {target:.6} (load control where the path tangent is not defined): converged in {it2} iterations"));
-                                previous = Some(self.equation_difference(&u_lc, &u_n));
-                                u_n = u_lc;
-                                contact_n = redone;
-                                lambda_n = target;
-                                lambda_max = lambda_max.max(target);
+                                self.commit(&mut at, u_lc, target, redone);
                                 done = true;
                                 break;
                             }
@@ -556,21 +564,21 @@ impl Solver {
                         report.reached = lambda_n;
                         return Some(report);
                     }
-                    if lambda_n >= 1.0 {
+                    if at.lambda >= 1.0 {
                         break;
                     }
                     continue;
                 }
             };
             let predicted = lambda_n + ds * dlds;
-            let mut contact = contact_n.clone();
+            let mut contact = at.contact.clone();
             let outcome = if predicted >= 1.0 {
                 Err((0, String::from("the predictor passes the target")))
             } else {
                 self.arc_increment(
                     model,
                     step,
-                    &u_n,
+                    &at.u,
                     lambda_n,
                     (&t, dlds, &w),
                     ds,
@@ -586,10 +594,11 @@ impl Solver {
                         finish = true;
                     } else {
                         let before =
-                            self.wrinkle_states(model, &loads_at(from, to, lambda_n), &u_n);
+                            self.wrinkle_states(model, &loads_at(from, to, lambda_n), &at.u);
                         let after = self.wrinkle_states(model, &loads_at(from, to, lambda), &u_new);
                         let wrinkles = before.iter().zip(&after).filter(|(a, b)| a != b).count();
-                        let sleeves = contact_n
+                        let sleeves = at
+                            .contact
                             .iter()
                             .zip(&contact)
                             .filter(|(a, b)| a != b)
@@ -599,16 +608,8 @@ impl Solver {
                             let what = format!(
                                 "{wrinkles} wrinkle states and {sleeves} stick/slip states switch"
                             );
-                            let mut redone = contact_n.clone();
-                            match self.load_increment(
-                                model,
-                                step,
-                                &u_n,
-                                lambda,
-                                &mut redone,
-                                &mut report.log,
-                            ) {
-                                Ok((u_lc, it2)) => {
+                            match self.load_increment(model, step, &at, lambda, &mut report.log) {
+                                Ok((u_lc, redone, it2)) => {
                                     report.iterations += it2;
                                     push_log(&mut report.log, format!("  {what}: increment redone by load control in {it2} iterations"));
                                     accepted = (u_lc, lambda, it2, "load control", redone);
@@ -622,12 +623,9 @@ impl Solver {
                         let (u_new, lambda, iters, how, contact) = accepted;
                         report.increments += 1;
                         push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {lambda:.6} ({how}, Δs {ds:.3e} m): converged in {iters} iterations"));
-                        previous = Some(self.equation_difference(&u_new, &u_n));
-                        u_n = u_new;
-                        contact_n = contact;
-                        lambda_n = lambda;
-                        lambda_max = lambda_max.max(lambda);
-                        if lambda < 0.0 && lambda_max > 0.0 {
+                        self.commit(&mut at, u_new, lambda, contact);
+                        if lambda < 0.0 && at.lambda_max > 0.0 {
+                            let lambda_max = at.lambda_max;
                             report.reached = lambda_max;
                             report.message = format!("no equilibrium found at the step's target by arc length: the path passed a limit point and its load fell back below the step's start (largest load fraction reached {lambda_max:.6})");
                             return Some(report);
@@ -649,24 +647,14 @@ impl Solver {
                     // increment (a state switch, or sleeve points that slide along a straight
                     // cable at zero load, where the normal plane cuts no equilibrium).
                     if predicted > lambda_n {
-                        let mut redone = contact_n.clone();
-                        if let Ok((u_lc, it2)) = self.load_increment(
-                            model,
-                            step,
-                            &u_n,
-                            predicted,
-                            &mut redone,
-                            &mut report.log,
-                        ) {
+                        if let Ok((u_lc, redone, it2)) =
+                            self.load_increment(model, step, &at, predicted, &mut report.log)
+                        {
                             report.iterations += it2;
                             report.increments += 1;
                             push_log(&mut report.log, format!("  arc length: {why}"));
                             push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {predicted:.6} (load control after the arc-length corrector failed, Δs {ds:.3e} m): converged in {it2} iterations"));
-                            previous = Some(self.equation_difference(&u_lc, &u_n));
-                            u_n = u_lc;
-                            contact_n = redone;
-                            lambda_n = predicted;
-                            lambda_max = lambda_max.max(predicted);
+                            self.commit(&mut at, u_lc, predicted, redone);
                             continue;
                         }
                     }
@@ -684,14 +672,12 @@ impl Solver {
             }
             if finish {
                 // The target lies within this increment: reach it exactly by load control.
-                let mut contact = contact_n.clone();
-                match self.load_increment(model, step, &u_n, 1.0, &mut contact, &mut report.log) {
-                    Ok((u_new, iters)) => {
+                match self.load_increment(model, step, &at, 1.0, &mut report.log) {
+                    Ok((u_new, contact, iters)) => {
                         report.iterations += iters;
                         report.increments += 1;
                         push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> 1 (load control to the target): converged in {iters} iterations"));
-                        u_n = u_new;
-                        contact_n = contact;
+                        self.commit(&mut at, u_new, 1.0, contact);
                         break;
                     }
                     Err((iters, why)) => {
@@ -708,8 +694,8 @@ impl Solver {
                 }
             }
         }
-        *u = u_n;
-        *states = contact_n.iter().map(|c| c.code()).collect();
+        *u = at.u;
+        *states = at.contact.iter().map(|c| c.code()).collect();
         report.outcome = Outcome::Converged;
         report.reached = 1.0;
         Some(report)

@@ -346,8 +346,11 @@ impl Solver {
                 return Err((
                     it,
                     format!(
-                        "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e})",
-                        check.free, check.slip, check.scale
+                        "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e}){}",
+                        check.free,
+                        check.slip,
+                        check.scale,
+                        self.where_stuck(model)
                     ),
                 ));
             }
@@ -689,6 +692,39 @@ impl Solver {
     }
 
     /// |R|∞ over the free DOFs of the last assembly.
+    /// Where the residual of a failed iteration sits: the free DOF with the largest |R| (the
+    /// scene's node numbering), and whether every triangle at that node is wrinkled or slack
+    /// (then only the regularisation resists across the tension there, docs/solver.md, and
+    /// without a compressive stiffness the load may have no equilibrium).
+    fn where_stuck(&self, model: &Model) -> String {
+        let Some((d, _)) = self
+            .pattern
+            .eq
+            .iter()
+            .zip(&self.residual)
+            .enumerate()
+            .filter(|(_, (&e, r))| e != NONE && r.is_finite())
+            .map(|(d, (_, r))| (d, r.abs()))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            return String::new();
+        };
+        let (node, axis) = (d / 3, ["x", "y", "z"][d % 3]);
+        let states: Vec<WrinkleState> = model
+            .triangles
+            .iter()
+            .zip(&self.evaluations)
+            .filter(|(t, _)| t.nodes.contains(&node))
+            .map(|(_, e)| e.state)
+            .collect();
+        let soft = !states.is_empty() && states.iter().all(|&s| s != WrinkleState::Taut);
+        if soft {
+            format!("; the largest residual is at node {node} in {axis}, where every triangle is wrinkled or slack: across the tension the film has no stiffness there, so the load may have no equilibrium unless something else holds that node (or the film gets a residual stiffness, membranes[].residual_stiffness)")
+        } else {
+            format!("; the largest residual is at node {node} in {axis}")
+        }
+    }
+
     fn free_norm(&self) -> f64 {
         self.pattern
             .eq
