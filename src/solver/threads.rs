@@ -11,7 +11,7 @@
 //! heap per load, measured on branch i15t). A helper here is a plain loop that waits on a
 //! condition variable for its next job, and `Drop` tells it to end and joins it.
 //!
-//! Jobs are `'static` closures (the solver has no unsafe code, so a job cannot borrow the
+//! Jobs are `'static` closures (the solver has no `unsafe` blocks, so a job cannot borrow the
 //! caller's stack): what a job works on lives behind an `Arc<Mutex<_>>` that the caller fills
 //! before [`Pool::start`] and reads after [`Pool::wait`]. A job is installed once
 //! ([`Pool::set_job`]) and run any number of times, so a Newton iteration allocates nothing.
