@@ -1,5 +1,5 @@
 //! Scaling benchmark, printed (not asserted; issue 15 item 6):
-//! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--problem=disc,square]
+//! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--problem=disc,square] [--threads=N]
 //! [--order=rings,rcm,hilbert,given]`.
 //!
 //! Two problems, each flat start to full load in one step:
@@ -200,7 +200,7 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
         peak,
         if reset { " " } else { "*" },
         engine.memory_estimate() as f64 / (1024.0 * 1024.0),
-        1,
+        engine.scene().solver.threads,
         time / report.iterations.max(1) as f64 / floor,
         check
     );
@@ -246,6 +246,12 @@ fn sizes(args: &[String]) -> Vec<(usize, usize)> {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let no_shuffle = args.iter().any(|a| a == "--no-shuffle");
+    // `--threads=N`: the solver's threads (`solver.threads`; 2 or more factor a large tangent
+    // in two halves at once, docs/performance.md).
+    let threads: usize = args
+        .iter()
+        .find_map(|a| a.strip_prefix("--threads="))
+        .map_or(1, |v| v.parse().expect("--threads=N"));
     let mut orders: Vec<NodeOrder> = args
         .iter()
         .filter_map(|a| a.strip_prefix("--order="))
@@ -293,7 +299,8 @@ fn main() {
     let disc = Scene::from_json(&std::fs::read_to_string(&path).expect("shipped scene"))
         .expect("valid scene");
     println!(
-        "disc: Hencky disc, follower pressure 40 Pa; square: 4 m square with edge cables, follower pressure 300 Pa; flat start to full load, 1 thread"
+        "disc: Hencky disc, follower pressure 40 Pa; square: 4 m square with edge cables, follower pressure 300 Pa; flat start to full load, {threads} thread(s), load average {}",
+        std::fs::read_to_string("/proc/loadavg").unwrap_or_default().trim()
     );
     println!(
         "{:>7} {:>8} {:>13} {:>11} {:>5} {:>5} {:>8} {:>8} {:>8} {:>7} {:>8} {:>9} {:>8} {:>3} {:>6} {:>11}",
@@ -329,6 +336,7 @@ fn main() {
             // Large meshes are what this benchmark is for: the default size limits would stop
             // a 1M DOF scene on a machine with less free memory than the estimate.
             scene.solver.limits.max_memory_gb = 64.0;
+            scene.solver.threads = threads;
             let shuffled_scene = (!no_shuffle).then(|| match problem.name {
                 "disc" => {
                     let engine = Engine::try_new(scene.clone()).expect("valid scene");

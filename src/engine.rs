@@ -615,6 +615,13 @@ impl Engine {
         self.solver.factor_nonzeros()
     }
 
+    /// Equations of the two halves and of their separator when the tangent is factored on two
+    /// threads (`solver.threads` >= 2 on a large enough model: docs/performance.md, "Threads");
+    /// None when it is factored whole on the solving thread.
+    pub fn split_sizes(&self) -> Option<(usize, usize, usize)> {
+        self.solver.split_sizes()
+    }
+
     /// Seconds of one assembly and of one numeric factorization + solve at the committed
     /// state (best of `repeats`): the per-iteration floor the benchmark compares against.
     pub fn time_floor(&mut self, repeats: usize) -> (f64, f64) {
@@ -723,6 +730,7 @@ fn settings(scene: &Scene) -> Settings {
         line_search: s.line_search,
         arc_length_path: s.path == crate::scene::PathMethod::ArcLength,
         arc_length: s.arc_length.unwrap_or(0.0),
+        threads: s.threads,
         node_order: match s.node_order {
             crate::scene::NodeOrder::Rings => crate::solver::renumber::NodeOrder::Rings,
             crate::scene::NodeOrder::Rcm => crate::solver::renumber::NodeOrder::Rcm,

@@ -69,6 +69,9 @@ pub(crate) struct Worker {
 impl Worker {
     /// Start the thread (None inside if it could not be created: jobs then run in place).
     pub(crate) fn new() -> Worker {
+        // The solver's pool threads (scenes with `solver.threads` > 1) are started the same
+        // way as this worker, never as std threads (`solver::threads`).
+        crate::solver::threads::set_start(start_pool_thread);
         let shared = Arc::new(Shared {
             slot: Mutex::new(Slot::Idle),
             changed: Condvar::new(),
@@ -174,6 +177,46 @@ unsafe fn spawn(arg: *mut c_void) -> Option<libc::pthread_t> {
     let created = libc::pthread_create(&mut thread, &attr, worker_main, arg) == 0;
     libc::pthread_attr_destroy(&mut attr);
     created.then_some(thread)
+}
+
+/// The solver pool's thread starter in the FMU (`solver::threads::set_start`): `body` on a
+/// thread of `pthread_create`, joined with `pthread_join`. Not `std::thread`: its start creates
+/// a pthread TLS key in this library that is never deleted (std's thread-local guard), one per
+/// load of the FMU, until the process runs out of keys after about 1000 loads.
+fn start_pool_thread(
+    body: Box<dyn FnOnce() + Send>,
+) -> std::io::Result<crate::solver::threads::Joiner> {
+    let arg = Box::into_raw(Box::new(body)) as *mut c_void;
+    // SAFETY: plain pthread calls on an initialized attribute; `arg` is a boxed closure that
+    // `pool_main` takes ownership of, or that is freed here when no thread starts.
+    unsafe {
+        let mut attr: libc::pthread_attr_t = std::mem::zeroed();
+        let rc = libc::pthread_attr_init(&mut attr);
+        if rc != 0 {
+            drop(Box::from_raw(arg as *mut Box<dyn FnOnce() + Send>));
+            return Err(std::io::Error::from_raw_os_error(rc));
+        }
+        libc::pthread_attr_setstacksize(&mut attr, crate::solver::threads::STACK_BYTES);
+        let mut thread: libc::pthread_t = 0;
+        let rc = libc::pthread_create(&mut thread, &attr, pool_main, arg);
+        libc::pthread_attr_destroy(&mut attr);
+        if rc != 0 {
+            drop(Box::from_raw(arg as *mut Box<dyn FnOnce() + Send>));
+            return Err(std::io::Error::from_raw_os_error(rc));
+        }
+        Ok(crate::solver::threads::Joiner::new(move || {
+            // SAFETY: a joinable thread created above, joined once (the joiner is FnOnce).
+            libc::pthread_join(thread, null_mut());
+        }))
+    }
+}
+
+/// A pool thread: the boxed body (rayon's worker loop), no panic across the C frame.
+extern "C" fn pool_main(arg: *mut c_void) -> *mut c_void {
+    // SAFETY: `start_pool_thread` passes a boxed closure and gives up ownership of it.
+    let body = unsafe { Box::from_raw(arg as *mut Box<dyn FnOnce() + Send>) };
+    let _ = catch_unwind(AssertUnwindSafe(move || body()));
+    null_mut()
 }
 
 #[cfg(test)]

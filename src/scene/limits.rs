@@ -76,6 +76,8 @@ pub struct Size {
     pub factor_flops: f64,
     /// Estimated peak bytes of model and solver (0 before the symbolic analysis ran).
     pub memory_bytes: u64,
+    /// The solver's threads (`solver.threads`; 0 is taken as 1).
+    pub threads: u64,
 }
 
 /// Counts from the scene's numbers alone: no mesh is built. Saturating, so that absurd
@@ -107,6 +109,7 @@ pub fn count(scene: &Scene) -> Size {
         factor_entries: 0,
         factor_flops: 0.0,
         memory_bytes: 0,
+        threads: 1,
     }
 }
 
@@ -313,7 +316,8 @@ fn factor_flops(symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usiz
 /// Estimated peak bytes: factor values and its scratch, the matrix (values, indices, element
 /// maps), the model, the mesh, the solver's vectors and, with m sleeve points, the slip
 /// block's m solved columns and dense m x m matrix. Generous per-item constants (measured
-/// sizes of the structs rounded up).
+/// sizes of the structs rounded up). With 2 threads or more on a model that the solver
+/// factors in two halves, those too ([`split_bytes`]).
 pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
     let factor = size.factor_entries.saturating_mul(8 + 8);
     let matrix = matrix_entries.saturating_mul(8 + 8);
@@ -332,6 +336,34 @@ pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
         .saturating_add(nodes)
         .saturating_add(vectors)
         .saturating_add(slip)
+        .saturating_add(split_bytes(size, matrix_entries))
+}
+
+/// Equations from which 2 threads factor the tangent in two halves (the solver's
+/// `linear::SPLIT_MIN_EQUATIONS`; the scene keeps its own copy: it imports nothing from the
+/// solver). Counted here against the upper bound of the unknowns: generous.
+pub const SPLIT_MIN_UNKNOWNS: u64 = 20_000;
+
+/// Address space of the solver's helper thread: its stack (8 MiB) and the malloc arena glibc
+/// reserves for a new thread (64 MiB on 64-bit).
+pub const THREAD_BYTES: u64 = 72 << 20;
+
+/// The two-domain factorization's own memory (`solver/split.rs`), 0 with 1 thread or below
+/// [`SPLIT_MIN_UNKNOWNS`]: the helper thread; each half's copy of its part of the matrix
+/// (value, row index and position in the tangent: 24 bytes an entry, both halves together
+/// at most every entry once plus the separator block twice: counted as all entries); 15 %
+/// more factor entries than the whole (measured 6.3 % on the 300k-DOF disc); and seven dense
+/// separator-sized matrices, with a separator of 3 sqrt(unknowns) equations (at most 2500,
+/// `split::MAX_SEPARATOR`; measured 1095 on the 300k-DOF disc, where this counts 1643).
+pub fn split_bytes(size: &Size, matrix_entries: u64) -> u64 {
+    if size.threads < 2 || size.unknowns < SPLIT_MIN_UNKNOWNS {
+        return 0;
+    }
+    let separator = ((3.0 * (size.unknowns as f64).sqrt()) as u64).min(2500);
+    THREAD_BYTES
+        .saturating_add(matrix_entries.saturating_mul(24))
+        .saturating_add(size.factor_entries.saturating_mul(8 * 15) / 100)
+        .saturating_add(7 * separator * separator * 8)
 }
 
 /// Step 2: the factor's entries from the symbolic analysis, the memory estimate, checked
@@ -478,6 +510,26 @@ mod tests {
 
     /// The node-graph estimate bounds the DOF-level factor from above, within a factor 3
     /// (measured here on discs and rectangles; printed with --nocapture).
+    #[test]
+    fn the_split_is_counted_with_two_threads_on_large_models_only() {
+        let mut size = Size {
+            unknowns: 300_000,
+            factor_entries: 45_000_000,
+            threads: 1,
+            ..Size::default()
+        };
+        assert_eq!(split_bytes(&size, 6_000_000), 0);
+        size.threads = 2;
+        let bytes = split_bytes(&size, 6_000_000);
+        // 72 MiB + 144 MB + 54 MB + 7 x 1643^2 x 8 (151 MB).
+        assert_eq!(
+            bytes,
+            (72 << 20) + 144_000_000 + 54_000_000 + 7 * 1643 * 1643 * 8
+        );
+        size.unknowns = 10_000;
+        assert_eq!(split_bytes(&size, 200_000), 0);
+    }
+
     #[test]
     fn node_graph_estimate_bounds_the_dof_factor() {
         let disc = |rings| Generator::Disc {

@@ -879,6 +879,17 @@ pub struct SolverSettings {
     /// (`limits.rs`): max_nodes, max_triangles, max_unknowns, max_memory_gb.
     #[serde(skip_serializing_if = "limits::Limits::is_default")]
     pub limits: limits::Limits,
+    /// Threads of the solver (1 to 64): with 2 or more the instance starts that many worker
+    /// threads of its own (joined when it is freed) for the element loop of the assembly and
+    /// the sparse factorization. 1 (the default, and what an FMU uses unless the scene asks
+    /// for more): no thread besides the instance's own. Results agree with 1 thread to
+    /// round-off (docs/performance.md).
+    #[serde(skip_serializing_if = "is_one")]
+    pub threads: usize,
+}
+
+fn is_one(n: &usize) -> bool {
+    *n == 1
 }
 
 impl Default for SolverSettings {
@@ -895,6 +906,7 @@ impl Default for SolverSettings {
             arc_length: None,
             node_order: NodeOrder::Rings,
             limits: limits::Limits::default(),
+            threads: 1,
         }
     }
 }

@@ -84,6 +84,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
             .sum();
         size.unknowns = 3 * mesh.nodes.len() as u64 + 4 * sleeve_points as u64;
         size.sleeve_points = sleeve_points as u64;
+        size.threads = scene.solver.threads as u64;
         let mut too_big = limits::check_counts(size, limits);
         if too_big.is_empty() {
             too_big = limits::check_memory(size, &mesh, &cables, limits);
@@ -1601,6 +1602,14 @@ impl Validator {
         }
         if st.target_iterations == 0 {
             self.push("solver.target_iterations", "must be at least 1");
+        }
+        // The solver's pool bound (`solver::threads::MAX_THREADS`).
+        let most = 64;
+        if !(1..=most).contains(&st.threads) {
+            self.push(
+                "solver.threads",
+                format!("{} must be an integer from 1 to {most}", st.threads),
+            );
         }
         if let Some(a) = st.arc_length {
             if !(positive(a) && a <= MAX_MAGNITUDE) {

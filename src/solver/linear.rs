@@ -6,6 +6,8 @@
 //! only, and Newton's residual check decides whether the step is good. A non-finite solution
 //! is reported as a failure, never returned.
 
+use super::split::Split;
+use super::threads::Pool;
 use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -16,11 +18,17 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
+use std::sync::Arc;
 
 /// Regularization threshold relative to the largest diagonal entry.
 const PIVOT_EPSILON: f64 = 1e-13;
 /// Replacement pivot magnitude relative to the largest diagonal entry.
 const PIVOT_DELTA: f64 = 1e-9;
+
+/// Smallest tangent (equations) factored in two halves when the solver has 2 threads or more:
+/// below it the dense separator block and the hand-over cost more than half a factorization
+/// (docs/performance.md, "Threads").
+pub const SPLIT_MIN_EQUATIONS: usize = 20_000;
 
 pub struct Ldlt {
     matrix: SparseColMat<usize, f64>,
@@ -30,6 +38,9 @@ pub struct Ldlt {
     solve_mem: MemBuffer,
     /// Numeric factorizations done so far (the scaling benchmark's count).
     factorizations: usize,
+    /// Two halves factored side by side on the solver's threads (`split.rs`); None: the
+    /// whole tangent on the caller's thread.
+    split: Option<Split>,
 }
 
 impl Ldlt {
@@ -40,6 +51,19 @@ impl Ldlt {
         n: usize,
         col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
+    ) -> Result<Ldlt, OutOfMemory> {
+        Ldlt::try_with_pool(n, col_ptr, row_idx, None)
+    }
+
+    /// [`Ldlt::try_new`], factoring on `pool`'s threads when there are 2 or more, the tangent
+    /// is large enough ([`SPLIT_MIN_EQUATIONS`]) and it has a small balanced separator: two
+    /// halves side by side (`split.rs`, numbered in the AMD order of the whole). Otherwise (and
+    /// with no pool) the whole tangent on the caller's thread.
+    pub fn try_with_pool(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        pool: Option<Arc<Pool>>,
     ) -> Result<Ldlt, OutOfMemory> {
         let nnz = row_idx.len();
         let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
@@ -61,7 +85,17 @@ impl Ldlt {
             what: "the symbolic factorization of the tangent",
             bytes: (nnz as u64).saturating_mul(8 * 4),
         })?;
-        let l_values = memory::zeros(symbolic.len_val(), "the factor of the tangent")?;
+        let split = match pool {
+            Some(pool) if n >= SPLIT_MIN_EQUATIONS => {
+                let sym = matrix.symbolic();
+                let rank = symbolic.perm().map(|p| p.arrays().1);
+                Split::try_new(n, sym.col_ptr(), sym.row_idx(), rank, pool)?
+            }
+            _ => None,
+        };
+        // With a split its halves hold the factor.
+        let whole = if split.is_none() { 1 } else { 0 };
+        let l_values = memory::zeros(whole * symbolic.len_val(), "the factor of the tangent")?;
         let buffer = |req: StackReq, what: &'static str| {
             MemBuffer::try_new(req).map_err(|_| OutOfMemory {
                 what,
@@ -69,7 +103,12 @@ impl Ldlt {
             })
         };
         let factor_mem = buffer(
-            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+            match split {
+                None => {
+                    symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default())
+                }
+                Some(_) => StackReq::EMPTY,
+            },
             "the factorization workspace",
         )?;
         let solve_mem = buffer(
@@ -83,12 +122,21 @@ impl Ldlt {
             factor_mem,
             solve_mem,
             factorizations: 0,
+            split,
         })
+    }
+
+    /// (A, B, separator) equations of the two-domain factorization, if it is used.
+    pub fn split_sizes(&self) -> Option<(usize, usize, usize)> {
+        self.split.as_ref().map(Split::sizes)
     }
 
     /// Stored entries of the factor L (AMD ordering, supernodal), for the scaling benchmark.
     pub fn factor_nonzeros(&self) -> usize {
-        self.symbolic.len_val()
+        match &self.split {
+            Some(split) => split.factor_nonzeros(),
+            None => self.symbolic.len_val(),
+        }
     }
 
     /// Numeric factorizations done since this factorization object was made.
@@ -133,6 +181,10 @@ impl Ldlt {
             dynamic_regularization_delta: PIVOT_DELTA * max_diag,
             dynamic_regularization_epsilon: PIVOT_EPSILON * max_diag,
         };
+        if let Some(split) = self.split.as_mut() {
+            let reg = (PIVOT_DELTA * max_diag, PIVOT_EPSILON * max_diag);
+            return split.factor(self.matrix.val(), reg);
+        }
         self.symbolic
             .factorize_numeric_ldlt(
                 &mut self.l_values,
@@ -152,6 +204,14 @@ impl Ldlt {
         let n = rhs.len();
         if n == 0 {
             return Ok(());
+        }
+        if let Some(split) = self.split.as_mut() {
+            split.solve(rhs)?;
+            return if rhs.iter().all(|x| x.is_finite()) {
+                Ok(())
+            } else {
+                Err("linear solve produced non-finite values".into())
+            };
         }
         let ldlt = LdltRef::new(&self.symbolic, &self.l_values);
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);

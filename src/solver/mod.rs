@@ -40,6 +40,8 @@ mod relax;
 pub mod renumber;
 pub mod sensitivity;
 pub mod slip;
+mod split;
+pub mod threads;
 mod volume;
 mod work;
 
@@ -155,6 +157,10 @@ pub struct Settings {
     /// first load-controlled increment of `initial_increment` (the scene's
     /// `solver.arc_length`). Default 0.
     pub arc_length: f64,
+    /// Threads of the assembly's element loop and of the numeric factorization (`threads.rs`):
+    /// 1 runs everything on the caller's thread; n > 1 starts a pool of n threads owned by
+    /// the solver and joined when it is dropped. Default 1 (the scene's `solver.threads`).
+    pub threads: usize,
     /// Internal node numbering of the tangent (`renumber.rs`). Default rings from a central
     /// node: any numbering of the same mesh then costs the same (docs/performance.md).
     pub node_order: renumber::NodeOrder,
@@ -193,6 +199,7 @@ impl Default for Settings {
             arc_length_path: false,
             contact_settle: 1e-3,
             arc_length: 0.0,
+            threads: 1,
             node_order: renumber::NodeOrder::Rings,
         }
     }
@@ -293,15 +300,33 @@ impl Solver {
         self.linear.factorizations()
     }
 
+    /// (A, B, separator) equations of the two-domain factorization, if it is used.
+    pub fn split_sizes(&self) -> Option<(usize, usize, usize)> {
+        self.linear.split_sizes()
+    }
+
     /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
         let pattern = Pattern::try_ordered(model, settings.node_order)?;
-        let linear = Ldlt::try_new(
+        let pool = if settings.threads > 1 && pattern.n >= linear::SPLIT_MIN_EQUATIONS {
+            // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
+            // Two threads at most: the factorization has two halves (`split.rs`).
+            let pool =
+                threads::Pool::try_new(settings.threads.min(2)).map_err(|_| OutOfMemory {
+                    what: "the solver's threads (their stacks)",
+                    bytes: (settings.threads as u64).saturating_mul(2 << 20),
+                })?;
+            Some(std::sync::Arc::new(pool))
+        } else {
+            None
+        };
+        let linear = Ldlt::try_with_pool(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
             memory::copy(&pattern.row_idx, "the tangent's pattern")?,
+            pool,
         )?;
         let n = model.dof_count();
         let trial_len = model.unknown_count();

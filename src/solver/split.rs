@@ -1,0 +1,861 @@
+//! Two-domain LDLT on two threads (`solver.threads` >= 2, large models): the tangent's
+//! equations are split into two halves A and B and a separator S such that no entry of K
+//! couples A with B,
+//!
+//! ```text
+//!     | K_AA   0    K_AS |
+//! K = |  0    K_BB  K_BS |
+//!     | K_SA  K_SB  K_SS |
+//! ```
+//!
+//! Each half h is its own sparse matrix M_h = [K_hh K_hS; K_Sh K_SS], numbered with faer's AMD
+//! ordering of K_hh first and S last, and factored by faer (`Par::Seq`) on its own thread: the
+//! solving thread factors A while a helper (`threads.rs`) factors B. The trailing S block of
+//! M_h's factor, L_SS D_S L_SS^T, is S_h = K_SS - K_Sh K_hh^-1 K_hS. The Schur complement of
+//! both halves, S = K_SS - K_SA K_AA^-1 K_AS - K_SB K_BB^-1 K_BS = S_A + S_B - K_SS, is dense
+//! (|S| is one ring of nodes across the mesh) and is factored by faer's dense LDLT.
+//!
+//! Why: faer 0.24.4 eliminates the supernodes of one factorization one after another and
+//! parallelises only the dense kernels inside a supernode (docs/performance.md, "Threads"),
+//! which gave 8 % on two threads. The two halves here are independent subtrees of the
+//! elimination, so they run side by side.
+//!
+//! A solve: forward substitution over each half's own columns (both halves at once) gives
+//! z_h = L_hh^-1 b_h and, in its S rows, -K_Sh K_hh^-1 b_h; then S x_S = b_S - K_SA K_AA^-1 b_A
+//! - K_SB K_BB^-1 b_B (dense); then back substitution over each half's own columns with x_S
+//! known gives x_h = K_hh^-1 (b_h - K_hS x_S).
+//!
+//! The separator is a level set of a breadth-first search from a pseudo-peripheral equation
+//! (a level set separates the levels before it from those after it): the smallest level with at
+//! least 35 % of the equations on each side. Where there is none, or it is too large
+//! ([`MAX_SEPARATOR`]), the solver keeps the one-thread factorization.
+//!
+//! Pivots: each half regularizes its tiny pivots like the one-thread factorization
+//! (`linear.rs`), and so does the dense LDLT of S. Results agree with one thread to
+//! round-off: the elimination order differs.
+
+use super::threads::Pool;
+use crate::memory::{self, OutOfMemory};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
+    SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// Largest separator (equations) the dense Schur complement is built for: its buffers take
+/// 7 |S|^2 doubles (|S| = 2500: 350 MB) and its LDLT |S|^3 / 3 flops.
+pub const MAX_SEPARATOR: usize = 2500;
+
+/// Smallest share of the equations on each side of the separator.
+const BALANCE: f64 = 0.35;
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    Factor,
+    Forward,
+    Backward,
+}
+
+/// One half: its own equations (domain in AMD order, then the separator) and its factor.
+struct Half {
+    /// Global equation of each local one: the domain's `nd`, then the separator's.
+    eq: Vec<usize>,
+    nd: usize,
+    /// Position in K's values (upper CSC) of each stored value of `matrix`.
+    map: Vec<usize>,
+    matrix: SparseColMat<usize, f64>,
+    symbolic: SymbolicCholesky<usize>,
+    l_values: Vec<f64>,
+    mem: MemBuffer,
+    /// L_SS (unit lower, dense) of the factor's separator block, then S_h (lower).
+    lss: Mat<f64>,
+    w: Mat<f64>,
+    s_block: Mat<f64>,
+    d: Vec<f64>,
+    /// Local right-hand side / solution.
+    x: Vec<f64>,
+    reg: (f64, f64),
+    phase: Phase,
+    status: Result<(), String>,
+}
+
+fn lock(h: &Mutex<Half>) -> MutexGuard<'_, Half> {
+    h.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Half {
+    fn run(&mut self) {
+        self.status = match self.phase {
+            Phase::Factor => self.factor(),
+            Phase::Forward => {
+                self.forward();
+                Ok(())
+            }
+            Phase::Backward => {
+                self.backward();
+                Ok(())
+            }
+        };
+    }
+
+    fn supernodal(
+        &self,
+    ) -> &faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize> {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => s,
+            // try_new keeps only supernodal halves.
+            SymbolicCholeskyRaw::Simplicial(_) => unreachable!("a supernodal half"),
+        }
+    }
+
+    /// The values of supernode `s`: (first column, its dense block, the rows below it).
+    fn supernode(&self, s: usize) -> (usize, MatRef<'_, f64>, &[usize]) {
+        let sym = self.supernodal();
+        let start = sym.supernode_begin()[s];
+        let end = sym.supernode_end()[s];
+        let pattern =
+            &sym.row_idx()[sym.col_ptr_for_row_idx()[s]..sym.col_ptr_for_row_idx()[s + 1]];
+        let vals = &self.l_values[sym.col_ptr_for_val()[s]..sym.col_ptr_for_val()[s + 1]];
+        let ncols = end - start;
+        (
+            start,
+            MatRef::from_column_major_slice(vals, ncols + pattern.len(), ncols),
+            pattern,
+        )
+    }
+
+    fn factor(&mut self) -> Result<(), String> {
+        let reg = LdltRegularization {
+            dynamic_regularization_signs: None,
+            dynamic_regularization_delta: self.reg.0,
+            dynamic_regularization_epsilon: self.reg.1,
+        };
+        self.symbolic
+            .factorize_numeric_ldlt(
+                &mut self.l_values,
+                self.matrix.as_ref(),
+                Side::Upper,
+                reg,
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
+        // L_SS and D_S of the separator block, then S_h = L_SS D_S L_SS^T.
+        let (nd, ns) = (self.nd, self.eq.len() - self.nd);
+        let mut lss = std::mem::replace(&mut self.lss, Mat::new());
+        let mut d = std::mem::take(&mut self.d);
+        lss.fill(0.0);
+        for s in 0..self.supernodal().n_supernodes() {
+            let (start, ls, pattern) = self.supernode(s);
+            let ncols = ls.ncols();
+            if start + ncols <= nd {
+                continue;
+            }
+            for c in nd.saturating_sub(start)..ncols {
+                let jl = start + c - nd;
+                d[jl] = ls[(c, c)];
+                lss[(jl, jl)] = 1.0;
+                for r in c + 1..ncols {
+                    lss[(start + r - nd, jl)] = ls[(r, c)];
+                }
+                for (i, &p) in pattern.iter().enumerate() {
+                    lss[(p - nd, jl)] = ls[(ncols + i, c)];
+                }
+            }
+        }
+        for j in 0..ns {
+            for i in j..ns {
+                self.w[(i, j)] = lss[(i, j)] * d[j];
+            }
+        }
+        triangular::matmul(
+            self.s_block.as_mut(),
+            BlockStructure::TriangularLower,
+            Accum::Replace,
+            self.w.as_ref(),
+            BlockStructure::TriangularLower,
+            lss.as_ref().transpose(),
+            BlockStructure::TriangularUpper,
+            1.0,
+            Par::Seq,
+        );
+        self.lss = lss;
+        self.d = d;
+        Ok(())
+    }
+
+    /// x := D_hh^-1 L_hh^-1 x over the domain's columns; the separator rows receive
+    /// -L_Sh L_hh^-1 x_h (= -K_Sh K_hh^-1 b_h when they start at 0).
+    fn forward(&mut self) {
+        let nd = self.nd;
+        let mut x = std::mem::take(&mut self.x);
+        for s in 0..self.supernodal().n_supernodes() {
+            let (start, ls, pattern) = self.supernode(s);
+            if start >= nd {
+                break;
+            }
+            let ncols = ls.ncols();
+            let k = ncols.min(nd - start);
+            {
+                let top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
+                faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place(
+                    ls.submatrix(0, 0, k, k),
+                    top,
+                    Par::Seq,
+                );
+            }
+            for c in 0..k {
+                let xc = x[start + c];
+                if xc == 0.0 {
+                    continue;
+                }
+                let col = ls
+                    .col(c)
+                    .try_as_col_major()
+                    .expect("column major")
+                    .as_slice();
+                for r in k..ncols {
+                    x[start + r] -= col[r] * xc;
+                }
+                for (i, &p) in pattern.iter().enumerate() {
+                    x[p] -= col[ncols + i] * xc;
+                }
+            }
+            for c in 0..k {
+                x[start + c] /= ls[(c, c)];
+            }
+        }
+        self.x = x;
+    }
+
+    /// With the separator's solution in x[nd..]: x_h := L_hh^-T (x_h - L_Sh^T x_S) over the
+    /// domain's columns, last to first.
+    fn backward(&mut self) {
+        let nd = self.nd;
+        let mut x = std::mem::take(&mut self.x);
+        for s in (0..self.supernodal().n_supernodes()).rev() {
+            let (start, ls, pattern) = self.supernode(s);
+            if start >= nd {
+                continue;
+            }
+            let ncols = ls.ncols();
+            let k = ncols.min(nd - start);
+            for c in 0..k {
+                let col = ls
+                    .col(c)
+                    .try_as_col_major()
+                    .expect("column major")
+                    .as_slice();
+                let mut sum = 0.0;
+                for r in k..ncols {
+                    sum += col[r] * x[start + r];
+                }
+                for (i, &p) in pattern.iter().enumerate() {
+                    sum += col[ncols + i] * x[p];
+                }
+                x[start + c] -= sum;
+            }
+            let top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
+            faer::linalg::triangular_solve::solve_unit_upper_triangular_in_place(
+                ls.submatrix(0, 0, k, k).transpose(),
+                top,
+                Par::Seq,
+            );
+        }
+        self.x = x;
+    }
+}
+
+/// The two halves, the separator and the dense Schur complement.
+pub struct Split {
+    pool: Arc<Pool>,
+    a: Arc<Mutex<Half>>,
+    b: Arc<Mutex<Half>>,
+    /// Global equations of the separator.
+    s_eq: Vec<usize>,
+    /// K_SS's entries: (row, column) in the separator (row >= column) and position in K.
+    kss: Vec<(usize, usize, usize)>,
+    /// LDLT of S (unit L below the diagonal, D on it).
+    schur: Mat<f64>,
+    schur_mem: MemBuffer,
+    xs: Vec<f64>,
+}
+
+impl Split {
+    /// A split of the pattern (upper CSC, n equations) when it has a small balanced
+    /// separator (None otherwise: the caller keeps the one-thread factorization). Runs the
+    /// symbolic analysis of both halves; every buffer is allocated fallibly.
+    pub fn try_new(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        rank: Option<&[usize]>,
+        pool: Arc<Pool>,
+    ) -> Result<Option<Split>, OutOfMemory> {
+        if pool.helpers() == 0 {
+            return Ok(None);
+        }
+        let Some(level) = separator_levels(n, col_ptr, row_idx)? else {
+            return Ok(None);
+        };
+        let (sep, levels) = level;
+        let what = "the two-domain factorization";
+        let side = |l: usize| {
+            if l < sep {
+                0
+            } else if l == sep {
+                2
+            } else {
+                1
+            }
+        };
+        let s_eq = select(n, |i| side(levels[i]) == 2)?;
+        let ns = s_eq.len();
+        let mut halves = Vec::new();
+        for h in 0..2 {
+            let domain = select(n, |i| side(levels[i]) == h)?;
+            match Half::try_new(n, col_ptr, row_idx, &domain, &s_eq, rank)? {
+                Some(half) => halves.push(Arc::new(Mutex::new(half))),
+                None => return Ok(None),
+            }
+        }
+        let mut pos = memory::filled(n, usize::MAX, what)?;
+        for (k, &g) in s_eq.iter().enumerate() {
+            pos[g] = k;
+        }
+        let entries: usize = s_eq.iter().map(|&j| col_ptr[j + 1] - col_ptr[j]).sum();
+        let mut kss = memory::with_capacity(entries, what)?;
+        for j in 0..n {
+            if pos[j] == usize::MAX {
+                continue;
+            }
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[p];
+                if pos[i] != usize::MAX {
+                    kss.push((pos[i].max(pos[j]), pos[i].min(pos[j]), p));
+                }
+            }
+        }
+        let schur_mem = MemBuffer::try_new(
+            faer::linalg::cholesky::ldlt::factor::cholesky_in_place_scratch::<f64>(
+                ns,
+                Par::Seq,
+                Default::default(),
+            ),
+        )
+        .map_err(|_| OutOfMemory {
+            what,
+            bytes: (ns * 8) as u64,
+        })?;
+        let b = halves.pop().expect("two halves");
+        let a = halves.pop().expect("two halves");
+        let job = Arc::clone(&b);
+        pool.set_job(0, Box::new(move || lock(&job).run()));
+        Ok(Some(Split {
+            pool,
+            a,
+            b,
+            s_eq,
+            kss,
+            schur: dense(ns, what)?,
+            schur_mem,
+            xs: memory::zeros(ns, what)?,
+        }))
+    }
+
+    /// Equations in (A, B, S).
+    pub fn sizes(&self) -> (usize, usize, usize) {
+        (lock(&self.a).nd, lock(&self.b).nd, self.s_eq.len())
+    }
+
+    /// Stored entries of both halves' factors.
+    pub fn factor_nonzeros(&self) -> usize {
+        lock(&self.a).symbolic.len_val() + lock(&self.b).symbolic.len_val()
+    }
+
+    /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon).
+    pub fn factor(&mut self, k: &[f64], reg: (f64, f64)) -> Result<(), String> {
+        {
+            let mut b = lock(&self.b);
+            gather(&mut b, k);
+            b.reg = reg;
+            b.phase = Phase::Factor;
+        }
+        self.pool.start(0);
+        let mine = {
+            let mut a = lock(&self.a);
+            gather(&mut a, k);
+            a.reg = reg;
+            a.phase = Phase::Factor;
+            a.run();
+            std::mem::replace(&mut a.status, Ok(()))
+        };
+        self.pool.wait(0)?;
+        mine?;
+        let a = lock(&self.a);
+        let b = lock(&self.b);
+        b.status.clone()?;
+        let ns = self.s_eq.len();
+        for j in 0..ns {
+            for i in j..ns {
+                self.schur[(i, j)] = a.s_block[(i, j)] + b.s_block[(i, j)];
+            }
+        }
+        for &(i, j, p) in &self.kss {
+            self.schur[(i, j)] -= k[p];
+        }
+        faer::linalg::cholesky::ldlt::factor::cholesky_in_place(
+            self.schur.as_mut(),
+            LdltRegularization {
+                dynamic_regularization_signs: None,
+                dynamic_regularization_delta: reg.0,
+                dynamic_regularization_epsilon: reg.1,
+            },
+            Par::Seq,
+            MemStack::new(&mut self.schur_mem),
+            Default::default(),
+        )
+        .map_err(|e| format!("LDLT factorization of the separator failed: {e:?}"))?;
+        Ok(())
+    }
+
+    /// Solve K x = rhs in place with the last factorization.
+    pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+        let ns = self.s_eq.len();
+        {
+            let mut b = lock(&self.b);
+            load(&mut b, rhs);
+            b.phase = Phase::Forward;
+        }
+        self.pool.start(0);
+        {
+            let mut a = lock(&self.a);
+            load(&mut a, rhs);
+            a.forward();
+        }
+        self.pool.wait(0)?;
+        {
+            let a = lock(&self.a);
+            let b = lock(&self.b);
+            for (k, &g) in self.s_eq.iter().enumerate() {
+                self.xs[k] = rhs[g] + a.x[a.nd + k] + b.x[b.nd + k];
+            }
+        }
+        faer::linalg::cholesky::ldlt::solve::solve_in_place_with_conj(
+            self.schur.as_ref(),
+            self.schur.as_ref().diagonal(),
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut self.xs, ns, 1),
+            Par::Seq,
+            MemStack::new(&mut MemBuffer::new(StackReq::EMPTY)),
+        );
+        {
+            let mut b = lock(&self.b);
+            let nd = b.nd;
+            b.x[nd..].copy_from_slice(&self.xs);
+            b.phase = Phase::Backward;
+        }
+        self.pool.start(0);
+        {
+            let mut a = lock(&self.a);
+            let nd = a.nd;
+            a.x[nd..].copy_from_slice(&self.xs);
+            a.backward();
+            store(&a, rhs);
+        }
+        self.pool.wait(0)?;
+        store(&lock(&self.b), rhs);
+        for (k, &g) in self.s_eq.iter().enumerate() {
+            rhs[g] = self.xs[k];
+        }
+        Ok(())
+    }
+}
+
+/// The equations 0..n for which `keep` holds, ascending (allocated fallibly).
+fn select(n: usize, keep: impl Fn(usize) -> bool) -> Result<Vec<usize>, OutOfMemory> {
+    let count = (0..n).filter(|&i| keep(i)).count();
+    let mut v = memory::with_capacity(count, "the two-domain factorization")?;
+    v.extend((0..n).filter(|&i| keep(i)));
+    Ok(v)
+}
+
+fn gather(h: &mut Half, k: &[f64]) {
+    let Half { matrix, map, .. } = h;
+    for (v, &p) in matrix.val_mut().iter_mut().zip(map.iter()) {
+        *v = k[p];
+    }
+}
+
+/// The half's right-hand side: its domain's entries, 0 in the separator.
+fn load(h: &mut Half, rhs: &[f64]) {
+    let nd = h.nd;
+    let Half { x, eq, .. } = h;
+    for (xi, &g) in x[..nd].iter_mut().zip(eq.iter()) {
+        *xi = rhs[g];
+    }
+    x[nd..].fill(0.0);
+}
+
+fn store(h: &Half, rhs: &mut [f64]) {
+    for (xi, &g) in h.x[..h.nd].iter().zip(h.eq.iter()) {
+        rhs[g] = *xi;
+    }
+}
+
+fn dense(n: usize, what: &'static str) -> Result<Mat<f64>, OutOfMemory> {
+    // Mat::zeros aborts on a failed allocation: probe the bytes fallibly first.
+    memory::probe((n as u64).saturating_mul(n as u64).saturating_mul(8), what)?;
+    Ok(Mat::zeros(n, n))
+}
+
+impl Half {
+    /// The half of `domain` (ascending global equations) and the separator `s_eq`; None when
+    /// an entry couples the domain with the other half (not a separator) or faer chose a
+    /// simplicial factor.
+    fn try_new(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        domain: &[usize],
+        s_eq: &[usize],
+        rank: Option<&[usize]>,
+    ) -> Result<Option<Half>, OutOfMemory> {
+        let what = "the two-domain factorization";
+        let (nd, ns) = (domain.len(), s_eq.len());
+        if let Some(rank) = rank {
+            let mut eq = memory::with_capacity(nd + ns, what)?;
+            eq.extend_from_slice(domain);
+            eq.sort_unstable_by_key(|&g| rank[g]);
+            eq.extend_from_slice(s_eq);
+            return Half::numbered(n, col_ptr, row_idx, eq, nd);
+        }
+        // Domain-local numbering for AMD: the domain block's upper CSC.
+        let mut local = memory::filled(n, usize::MAX, what)?;
+        for (k, &g) in domain.iter().enumerate() {
+            local[g] = k;
+        }
+        let mut dcol = memory::with_capacity(nd + 1, what)?;
+        let entries: usize = domain.iter().map(|&g| col_ptr[g + 1] - col_ptr[g]).sum();
+        let mut drow = memory::with_capacity(entries, what)?;
+        dcol.push(0);
+        for &g in domain {
+            for p in col_ptr[g]..col_ptr[g + 1] {
+                if local[row_idx[p]] != usize::MAX {
+                    drow.push(local[row_idx[p]]);
+                }
+            }
+            dcol.push(drow.len());
+        }
+        let mut perm = memory::zeros::<usize>(nd, what)?;
+        let mut perm_inv = memory::zeros::<usize>(nd, what)?;
+        let sym = SymbolicSparseColMat::new_checked(nd, nd, dcol, None, drow);
+        let mut amd_mem = MemBuffer::try_new(faer::sparse::linalg::amd::order_scratch::<usize>(
+            nd,
+            sym.compute_nnz(),
+        ))
+        .map_err(|_| OutOfMemory {
+            what,
+            bytes: (nd as u64) * 64,
+        })?;
+        faer::sparse::linalg::amd::order(
+            &mut perm,
+            &mut perm_inv,
+            sym.as_ref(),
+            Default::default(),
+            MemStack::new(&mut amd_mem),
+        )
+        .map_err(|_| OutOfMemory {
+            what,
+            bytes: (nd as u64) * 64,
+        })?;
+        drop(amd_mem);
+        // The half's numbering: the domain in AMD order, then the separator.
+        let mut eq = memory::with_capacity(nd + ns, what)?;
+        eq.extend(perm.iter().map(|&k| domain[k]));
+        eq.extend_from_slice(s_eq);
+        drop(local);
+        Half::numbered(n, col_ptr, row_idx, eq, nd)
+    }
+
+    /// The half with equations `eq` (the domain's `nd` first, then the separator).
+    fn numbered(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        eq: Vec<usize>,
+        nd: usize,
+    ) -> Result<Option<Half>, OutOfMemory> {
+        let what = "the two-domain factorization";
+        let ns = eq.len() - nd;
+        let mut local = memory::filled(n, usize::MAX, what)?;
+        for (k, &g) in eq.iter().enumerate() {
+            local[g] = k;
+        }
+        // Its upper CSC: every entry of K between two of its equations, placed at
+        // (min, max) of their local numbers, with its position in K.
+        let m = nd + ns;
+        let mut count = memory::zeros::<usize>(m + 1, what)?;
+        for j in 0..n {
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                let (li, lj) = (local[row_idx[p]], local[j]);
+                match (li == usize::MAX, lj == usize::MAX) {
+                    (false, false) => count[li.max(lj) + 1] += 1,
+                    (true, true) => {}
+                    // An entry between the half and the rest: it must lie in the separator.
+                    (false, true) if li >= nd => {}
+                    (true, false) if lj >= nd => {}
+                    _ => return Ok(None),
+                }
+            }
+        }
+        for j in 0..m {
+            count[j + 1] += count[j];
+        }
+        let nnz = count[m];
+        let mut next = memory::copy(&count[..m], what)?;
+        let mut rows = memory::zeros::<usize>(nnz, what)?;
+        let mut map = memory::zeros::<usize>(nnz, what)?;
+        for j in 0..n {
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                let (li, lj) = (local[row_idx[p]], local[j]);
+                if li != usize::MAX && lj != usize::MAX {
+                    let c = li.max(lj);
+                    rows[next[c]] = li.min(lj);
+                    map[next[c]] = p;
+                    next[c] += 1;
+                }
+            }
+        }
+        drop(next);
+        drop(local);
+        for c in 0..m {
+            let (lo, hi) = (count[c], count[c + 1]);
+            let mut pairs: Vec<(usize, usize)> = rows[lo..hi]
+                .iter()
+                .copied()
+                .zip(map[lo..hi].iter().copied())
+                .collect();
+            pairs.sort_unstable();
+            for (k, (r, p)) in pairs.into_iter().enumerate() {
+                rows[lo + k] = r;
+                map[lo + k] = p;
+            }
+        }
+        let sym = SymbolicSparseColMat::new_checked(m, m, count, None, rows);
+        let matrix = SparseColMat::new(sym, memory::zeros(nnz, what)?);
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let symbolic = factorize_symbolic_cholesky(
+            matrix.symbolic(),
+            Side::Upper,
+            SymmetricOrdering::Identity,
+            params,
+        )
+        .map_err(|_| OutOfMemory {
+            what,
+            bytes: (nnz as u64).saturating_mul(32),
+        })?;
+        if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
+            return Ok(None);
+        }
+        let l_values = memory::zeros(symbolic.len_val(), what)?;
+        let mem = MemBuffer::try_new(
+            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+        )
+        .map_err(|_| OutOfMemory {
+            what,
+            bytes: (nnz as u64).saturating_mul(8),
+        })?;
+        Ok(Some(Half {
+            eq,
+            nd,
+            map,
+            matrix,
+            symbolic,
+            l_values,
+            mem,
+            lss: dense(ns, what)?,
+            w: dense(ns, what)?,
+            s_block: dense(ns, what)?,
+            d: memory::zeros(ns, what)?,
+            x: memory::zeros(m, what)?,
+            reg: (0.0, 0.0),
+            phase: Phase::Factor,
+            status: Ok(()),
+        }))
+    }
+}
+
+/// Breadth-first levels from a pseudo-peripheral equation and the level chosen as the
+/// separator; None when the graph is not connected or no level is small and balanced.
+fn separator_levels(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+) -> Result<Option<(usize, Vec<usize>)>, OutOfMemory> {
+    let what = "the two-domain factorization";
+    // Symmetric adjacency (without the diagonal) from the upper pattern.
+    let mut ptr = memory::zeros::<usize>(n + 1, what)?;
+    for j in 0..n {
+        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
+            if i != j {
+                ptr[i + 1] += 1;
+                ptr[j + 1] += 1;
+            }
+        }
+    }
+    for i in 0..n {
+        ptr[i + 1] += ptr[i];
+    }
+    let mut next = memory::copy(&ptr[..n], what)?;
+    let mut adj = memory::zeros::<usize>(ptr[n], what)?;
+    for j in 0..n {
+        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
+            if i != j {
+                adj[next[i]] = j;
+                next[i] += 1;
+                adj[next[j]] = i;
+                next[j] += 1;
+            }
+        }
+    }
+    drop(next);
+    let mut levels = memory::filled(n, usize::MAX, what)?;
+    let mut queue = memory::with_capacity(n, what)?;
+    let mut bfs = |root: usize, levels: &mut Vec<usize>| -> (usize, usize) {
+        levels.fill(usize::MAX);
+        queue.clear();
+        queue.push(root);
+        levels[root] = 0;
+        let mut head = 0;
+        while head < queue.len() {
+            let v = queue[head];
+            head += 1;
+            for &w in &adj[ptr[v]..ptr[v + 1]] {
+                if levels[w] == usize::MAX {
+                    levels[w] = levels[v] + 1;
+                    queue.push(w);
+                }
+            }
+        }
+        let last = *queue.last().expect("root");
+        (queue.len(), last)
+    };
+    let (_, far) = bfs(0, &mut levels);
+    let (_, far) = bfs(far, &mut levels);
+    let (reached, _) = bfs(far, &mut levels);
+    if reached < n {
+        return Ok(None);
+    }
+    let depth = levels.iter().max().copied().unwrap_or(0) + 1;
+    let mut size = memory::zeros::<usize>(depth, what)?;
+    for &l in levels.iter() {
+        size[l] += 1;
+    }
+    let mut before = 0;
+    let mut best: Option<(usize, usize)> = None;
+    for l in 0..depth {
+        let after = n - before - size[l];
+        let least = (BALANCE * n as f64) as usize;
+        if before >= least && after >= least && best.is_none_or(|(_, m)| before.max(after) < m) {
+            best = Some((l, before.max(after)));
+        }
+        before += size[l];
+    }
+    Ok(match best {
+        Some((l, _)) if size[l] <= MAX_SEPARATOR => Some((l, levels)),
+        _ => None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The 5-point Laplacian of an nx x ny grid plus a shift (SPD), upper CSC.
+    fn grid(nx: usize, ny: usize) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>) {
+        let n = nx * ny;
+        let (mut cp, mut ri, mut v) = (vec![0], vec![], vec![]);
+        for j in 0..n {
+            let (x, y) = (j % nx, j / nx);
+            if y > 0 {
+                ri.push(j - nx);
+                v.push(-1.0);
+            }
+            if x > 0 {
+                ri.push(j - 1);
+                v.push(-1.0);
+            }
+            ri.push(j);
+            v.push(4.1 + (j % 7) as f64 * 0.01);
+            cp.push(ri.len());
+        }
+        (n, cp, ri, v)
+    }
+
+    fn multiply(n: usize, cp: &[usize], ri: &[usize], v: &[f64], x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; n];
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                let i = ri[p];
+                y[i] += v[p] * x[j];
+                if i != j {
+                    y[j] += v[p] * x[i];
+                }
+            }
+        }
+        y
+    }
+
+    #[test]
+    fn the_split_solves_a_grid_laplacian() {
+        let (n, cp, ri, v) = grid(60, 40);
+        let pool = Arc::new(Pool::try_new(2).unwrap());
+        let mut split = Split::try_new(n, &cp, &ri, None, pool)
+            .unwrap()
+            .expect("a separator");
+        let (na, nb, ns) = split.sizes();
+        assert_eq!(na + nb + ns, n);
+        assert!(ns <= 60, "separator {ns}");
+        assert!(na >= n / 3 && nb >= n / 3, "{na} {nb}");
+        split.factor(&v, (1e-9, 1e-13)).unwrap();
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let mut b = multiply(n, &cp, &ri, &v, &x);
+        split.solve(&mut b).unwrap();
+        let err = x
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-12, "{err:e}");
+        // A second right-hand side with the same factor.
+        let mut b = multiply(n, &cp, &ri, &v, &vec![1.0; n]);
+        split.solve(&mut b).unwrap();
+        let err = b.iter().map(|b| (b - 1.0).abs()).fold(0.0, f64::max);
+        assert!(err < 1e-12, "{err:e}");
+    }
+
+    #[test]
+    fn no_split_without_a_helper_or_without_a_small_separator() {
+        let (n, cp, ri, _) = grid(30, 20);
+        let one = Arc::new(Pool::try_new(1).unwrap());
+        assert!(Split::try_new(n, &cp, &ri, None, one).unwrap().is_none());
+        // A dense 5 x 5 block: every level set is too unbalanced.
+        let cp: Vec<usize> = (0..=5).map(|j| j * (j + 1) / 2).collect();
+        let ri: Vec<usize> = (0..5).flat_map(|j| 0..=j).collect();
+        let two = Arc::new(Pool::try_new(2).unwrap());
+        assert!(Split::try_new(5, &cp, &ri, None, two).unwrap().is_none());
+    }
+}
