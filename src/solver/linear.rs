@@ -176,27 +176,17 @@ impl Ldlt {
             ));
         }
         self.factorizations += 1;
-        let reg = LdltRegularization {
-            dynamic_regularization_signs: None,
-            dynamic_regularization_delta: PIVOT_DELTA * max_diag,
-            dynamic_regularization_epsilon: PIVOT_EPSILON * max_diag,
-        };
+        let reg = (PIVOT_DELTA * max_diag, PIVOT_EPSILON * max_diag);
         if let Some(split) = self.split.as_mut() {
-            let reg = (PIVOT_DELTA * max_diag, PIVOT_EPSILON * max_diag);
             return split.factor(self.matrix.val(), reg);
         }
-        self.symbolic
-            .factorize_numeric_ldlt(
-                &mut self.l_values,
-                self.matrix.as_ref(),
-                Side::Upper,
-                reg,
-                Par::Seq,
-                MemStack::new(&mut self.factor_mem),
-                Default::default(),
-            )
-            .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
-        Ok(())
+        numeric_ldlt(
+            &self.symbolic,
+            &mut self.l_values,
+            &self.matrix,
+            reg,
+            &mut self.factor_mem,
+        )
     }
 
     /// Solve with the last factorization, in place (one more forward/back substitution).
@@ -241,4 +231,33 @@ impl Ldlt {
         }
         m
     }
+}
+
+/// faer's numeric LDLT of the upper triangle of `matrix` on the calling thread, tiny pivots
+/// replaced as (delta, epsilon) say (`PIVOT_DELTA`, `PIVOT_EPSILON` times the largest diagonal
+/// entry); the whole tangent here, one half in `split.rs`.
+pub(super) fn numeric_ldlt(
+    symbolic: &SymbolicCholesky<usize>,
+    l_values: &mut [f64],
+    matrix: &SparseColMat<usize, f64>,
+    (delta, epsilon): (f64, f64),
+    mem: &mut MemBuffer,
+) -> Result<(), String> {
+    let reg = LdltRegularization {
+        dynamic_regularization_signs: None,
+        dynamic_regularization_delta: delta,
+        dynamic_regularization_epsilon: epsilon,
+    };
+    symbolic
+        .factorize_numeric_ldlt(
+            l_values,
+            matrix.as_ref(),
+            Side::Upper,
+            reg,
+            Par::Seq,
+            MemStack::new(mem),
+            Default::default(),
+        )
+        .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
+    Ok(())
 }

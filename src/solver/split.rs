@@ -131,22 +131,13 @@ impl Half {
     }
 
     fn factor(&mut self) -> Result<(), String> {
-        let reg = LdltRegularization {
-            dynamic_regularization_signs: None,
-            dynamic_regularization_delta: self.reg.0,
-            dynamic_regularization_epsilon: self.reg.1,
-        };
-        self.symbolic
-            .factorize_numeric_ldlt(
-                &mut self.l_values,
-                self.matrix.as_ref(),
-                Side::Upper,
-                reg,
-                Par::Seq,
-                MemStack::new(&mut self.mem),
-                Default::default(),
-            )
-            .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
+        super::linear::numeric_ldlt(
+            &self.symbolic,
+            &mut self.l_values,
+            &self.matrix,
+            self.reg,
+            &mut self.mem,
+        )?;
         // L_SS and D_S of the separator block, then S_h = L_SS D_S L_SS^T.
         let (nd, ns) = (self.nd, self.eq.len() - self.nd);
         let mut lss = std::mem::replace(&mut self.lss, Mat::new());
