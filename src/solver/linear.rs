@@ -68,23 +68,11 @@ impl Ldlt {
         let nnz = row_idx.len();
         let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let matrix = SparseColMat::new(sym, memory::zeros(nnz, "the tangent matrix")?);
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
-        // A square pattern with sorted, in-range indices always has a symbolic factorization;
-        // faer's only other failure is its own allocation (or an index overflow, which the
-        // size limits rule out).
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.symbolic(),
-            Side::Upper,
+        let symbolic = symbolic_ldlt(
+            &matrix,
             SymmetricOrdering::Amd,
-            params,
-        )
-        .map_err(|_| OutOfMemory {
-            what: "the symbolic factorization of the tangent",
-            bytes: (nnz as u64).saturating_mul(8 * 4),
-        })?;
+            "the symbolic factorization of the tangent",
+        )?;
         let split = match pool {
             Some(pool) if n >= SPLIT_MIN_EQUATIONS => {
                 let sym = matrix.symbolic();
@@ -260,4 +248,25 @@ pub(super) fn numeric_ldlt(
         )
         .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
     Ok(())
+}
+
+/// faer's supernodal symbolic factorization of the upper triangle of `matrix` in `ordering`.
+/// A square pattern with sorted, in-range indices always has one; faer's only other failure is
+/// its own allocation (or an index overflow, which the size limits rule out), reported as
+/// `what` running out of memory.
+pub(super) fn symbolic_ldlt(
+    matrix: &SparseColMat<usize, f64>,
+    ordering: SymmetricOrdering<'_, usize>,
+    what: &'static str,
+) -> Result<SymbolicCholesky<usize>, OutOfMemory> {
+    let params = CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+        ..Default::default()
+    };
+    factorize_symbolic_cholesky(matrix.symbolic(), Side::Upper, ordering, params).map_err(|_| {
+        OutOfMemory {
+            what,
+            bytes: (matrix.val().len() as u64).saturating_mul(8 * 4),
+        }
+    })
 }

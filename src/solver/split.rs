@@ -39,13 +39,9 @@ use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
-    SymmetricOrdering,
-};
-use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side};
+use faer::{Accum, Conj, Mat, MatMut, MatRef, Par};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// Largest separator (equations) the dense Schur complement is built for: its buffers take
@@ -642,20 +638,7 @@ impl Half {
         }
         let sym = SymbolicSparseColMat::new_checked(m, m, count, None, rows);
         let matrix = SparseColMat::new(sym, memory::zeros(nnz, what)?);
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.symbolic(),
-            Side::Upper,
-            SymmetricOrdering::Identity,
-            params,
-        )
-        .map_err(|_| OutOfMemory {
-            what,
-            bytes: (nnz as u64).saturating_mul(32),
-        })?;
+        let symbolic = super::linear::symbolic_ldlt(&matrix, SymmetricOrdering::Identity, what)?;
         if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
             return Ok(None);
         }
