@@ -1,6 +1,6 @@
 //! Scaling benchmark, printed (not asserted; issue 15 item 6):
 //! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--problem=disc,square] [--threads=N]
-//! [--order=rings,rcm,hilbert,given]`.
+//! [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]`.
 //!
 //! Two problems, each flat start to full load in one step:
 //! - `disc`: the Hencky disc (docs/mechanics.md §4a, follower pressure 40 Pa);
@@ -18,8 +18,14 @@
 //! a fixed-seed xorshift generator, as a user's mesher might number it), solved in every
 //! internal node order asked for (`--order`, default the solver's default).
 //!
+//! `--inexact=` (a list, default `auto`) runs every case with `solver.inexact_newton` set to
+//! each value in turn (`on,off,on,off` gives alternating pairs on a shared machine).
+//!
 //! Printed per case: free DOF, numbering/internal order, stored entries of the LDLT factor,
-//! numeric factorizations and Newton iterations of the solve, the floor's parts (one assembly,
+//! inexact Newton (`inx`: on or off for this tangent), numeric factorizations and Newton
+//! iterations of the solve, the directions taken by preconditioned conjugate gradients
+//! instead of a factorization and the preconditioner solves they took (`inx/pcg`), the
+//! process's CPU seconds of the solve (user + system, all threads), the floor's parts (one assembly,
 //! one numeric LDLT factorization, one solve, each the best of 3 at the solution,
 //! `Engine::time_floor_parts`), the solve's wall time, the peak resident set of the case
 //! (VmHWM from /proc/self/status, reset through /proc/self/clear_refs before each case; the
@@ -31,13 +37,24 @@
 
 use std::time::Instant;
 use velarium::scene::generate::resolve;
-use velarium::scene::{Generator, Geometry, NodeOrder, OneNode, Scene};
+use velarium::scene::{Generator, Geometry, InexactNewton, NodeOrder, OneNode, Scene};
 use velarium::Engine;
 
 const W_FOLLOWER: f64 = 0.065404;
 
 /// The square's fabric prestress by default, N/m (`--square-prestress=` changes it).
 const SQUARE_PRESTRESS: f64 = 0.0;
+
+/// CPU seconds (user + system) of the process so far, every thread included.
+fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage writes one rusage into the zeroed struct it is given.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
+        return f64::NAN;
+    }
+    let secs = |t: libc::timeval| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64;
+    secs(usage.ru_utime) + secs(usage.ru_stime)
+}
 
 fn peak_rss_mib() -> f64 {
     velarium::memory::peak_resident().map_or(f64::NAN, |b| b as f64 / (1024.0 * 1024.0))
@@ -163,12 +180,20 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
     }
     let vr = value_reference(&engine, problem.input);
     let out = value_reference(&engine, "center_uz");
-    let factorizations = engine.factorizations();
+    let counts = engine.linear_counts();
+    let cpu = cpu_seconds();
     let t = Instant::now();
     engine.set_real(vr, problem.value).unwrap();
     let report = engine.solve();
     let time = t.elapsed().as_secs_f64();
-    let factorizations = engine.factorizations() - factorizations;
+    let cpu = cpu_seconds() - cpu;
+    let after = engine.linear_counts();
+    let factorizations = after.factorizations - counts.factorizations;
+    let inexact = format!(
+        "{}/{}",
+        after.inexact - counts.inexact,
+        after.pcg_solves - counts.pcg_solves
+    );
     let peak = peak_rss_mib();
     if !report.converged() {
         println!(
@@ -185,18 +210,21 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
     let (assembly, factor, solve) = engine.time_floor_parts(3);
     let floor = assembly + factor + solve;
     println!(
-        "{:>7} {:>8} {:>13} {:>11} {:>5} {:>5} {:>8.4} {:>8.4} {:>8.4} {:>7.2} {:>8.3} {:>8.0}{} {:>8.0} {:>3} {:>6.2} {:>11}",
+        "{:>7} {:>8} {:>13} {:>11} {:>3} {:>5} {:>5} {:>7} {:>8.4} {:>8.4} {:>8.4} {:>7.2} {:>8.3} {:>7.2} {:>8.0}{} {:>8.0} {:>3} {:>6.2} {:>11}",
         problem.name,
         engine.free_dofs(),
         label,
         engine.factor_nonzeros(),
+        if engine.inexact_newton() { "on" } else { "off" },
         factorizations,
         report.iterations,
+        inexact,
         assembly,
         factor,
         solve,
         setup,
         time,
+        cpu,
         peak,
         if reset { " " } else { "*" },
         engine.memory_estimate() as f64 / (1024.0 * 1024.0),
@@ -267,6 +295,21 @@ fn main() {
     if orders.is_empty() {
         orders.push(NodeOrder::default());
     }
+    // `--inexact=auto,on,off`: `solver.inexact_newton` for each run in turn.
+    let mut inexact: Vec<InexactNewton> = args
+        .iter()
+        .filter_map(|a| a.strip_prefix("--inexact="))
+        .flat_map(|list| list.split(','))
+        .map(|name| match name {
+            "auto" => InexactNewton::Auto,
+            "on" => InexactNewton::On,
+            "off" => InexactNewton::Off,
+            other => panic!("unknown --inexact {other}: auto, on or off"),
+        })
+        .collect();
+    if inexact.is_empty() {
+        inexact.push(InexactNewton::default());
+    }
     let problems: Vec<&Problem> = args
         .iter()
         .filter_map(|a| a.strip_prefix("--problem="))
@@ -303,18 +346,21 @@ fn main() {
         std::fs::read_to_string("/proc/loadavg").unwrap_or_default().trim()
     );
     println!(
-        "{:>7} {:>8} {:>13} {:>11} {:>5} {:>5} {:>8} {:>8} {:>8} {:>7} {:>8} {:>9} {:>8} {:>3} {:>6} {:>11}",
+        "{:>7} {:>8} {:>13} {:>11} {:>3} {:>5} {:>5} {:>7} {:>8} {:>8} {:>8} {:>7} {:>8} {:>7} {:>9} {:>8} {:>3} {:>6} {:>11}",
         "problem",
         "DOF",
         "numbering",
         "factor nnz",
+        "inx",
         "facts",
         "iters",
+        "inx/pcg",
         "assem s",
         "factor s",
         "solve s",
         "setup s",
         "total s",
+        "cpu s",
         "peak MiB",
         "est MiB",
         "thr",
@@ -345,13 +391,17 @@ fn main() {
                 _ => shuffled_square(&scene),
             });
             for &order in &orders {
-                let name = format!("{order:?}").to_lowercase();
-                scene.solver.node_order = order;
-                run(problem, &format!("gen/{name}"), scene.clone());
-                if let Some(s) = &shuffled_scene {
-                    let mut s = s.clone();
-                    s.solver.node_order = order;
-                    run(problem, &format!("shuf/{name}"), s);
+                for &inexact in &inexact {
+                    let name = format!("{order:?}").to_lowercase();
+                    scene.solver.node_order = order;
+                    scene.solver.inexact_newton = inexact;
+                    run(problem, &format!("gen/{name}"), scene.clone());
+                    if let Some(s) = &shuffled_scene {
+                        let mut s = s.clone();
+                        s.solver.node_order = order;
+                        s.solver.inexact_newton = inexact;
+                        run(problem, &format!("shuf/{name}"), s);
+                    }
                 }
             }
         }

@@ -652,6 +652,18 @@ impl Engine {
         self.solver.factorizations()
     }
 
+    /// Factorizations, inexact-Newton directions, their preconditioner solves and failed
+    /// attempts since the engine was built (the scaling benchmark's columns).
+    pub fn linear_counts(&self) -> crate::solver::linear::Counts {
+        self.solver.linear_counts()
+    }
+
+    /// Whether this model's Newton directions may come from conjugate gradients on an earlier
+    /// factorization (`solver.inexact_newton`, `auto` decided by the tangent's size).
+    pub fn inexact_newton(&self) -> bool {
+        self.solver.inexact_newton()
+    }
+
     /// Outputs, membrane evaluations, wrinkle codes and tension angles of the committed state.
     /// Its working memory (element evaluations, residual and load vectors) is probed first
     /// (always, also with `debug.skip_memory_probes`); on failure nothing is changed.
@@ -736,6 +748,11 @@ fn settings(scene: &Scene) -> Settings {
             crate::scene::NodeOrder::Rcm => crate::solver::renumber::NodeOrder::Rcm,
             crate::scene::NodeOrder::Hilbert => crate::solver::renumber::NodeOrder::Hilbert,
             crate::scene::NodeOrder::Given => crate::solver::renumber::NodeOrder::Given,
+        },
+        inexact_newton: match s.inexact_newton {
+            crate::scene::InexactNewton::Auto => crate::solver::InexactNewton::Auto,
+            crate::scene::InexactNewton::On => crate::solver::InexactNewton::On,
+            crate::scene::InexactNewton::Off => crate::solver::InexactNewton::Off,
         },
         ..Settings::default()
     }

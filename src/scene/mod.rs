@@ -762,6 +762,26 @@ impl NodeOrder {
     }
 }
 
+/// When a Newton direction may come from conjugate gradients preconditioned by an earlier
+/// factorization (`solver.inexact_newton`, `solver::linear::Ldlt::pcg`).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum InexactNewton {
+    /// On for tangents of at least 100 000 equations, off below.
+    #[default]
+    Auto,
+    /// On at every size.
+    On,
+    /// Off: a fresh factorization for every direction (exact Newton).
+    Off,
+}
+
+impl InexactNewton {
+    fn is_default(&self) -> bool {
+        *self == InexactNewton::Auto
+    }
+}
+
 /// Form finding settings (docs/mechanics.md §10). Every membrane group needs a `prestress`
 /// and every cable a `pretension`: these are the prescribed stress state whose equilibrium
 /// shape is sought. Supported components stay where `place` (or the geometry) puts them.
@@ -886,6 +906,13 @@ pub struct SolverSettings {
     /// round-off (docs/performance.md).
     #[serde(skip_serializing_if = "is_one")]
     pub threads: usize,
+    /// Inexact Newton (`auto`, the default, `on` or `off`): near the solution a Newton
+    /// direction by conjugate gradients on the current tangent preconditioned by the last
+    /// factorization, a fresh factorization only when they do not converge. `auto`: on for
+    /// tangents of at least 100 000 equations. The convergence test is unchanged; answers
+    /// agree with `off` within the tolerance (docs/performance.md).
+    #[serde(default, skip_serializing_if = "InexactNewton::is_default")]
+    pub inexact_newton: InexactNewton,
 }
 
 fn is_one(n: &usize) -> bool {
@@ -907,6 +934,7 @@ impl Default for SolverSettings {
             node_order: NodeOrder::Rings,
             limits: limits::Limits::default(),
             threads: 1,
+            inexact_newton: InexactNewton::Auto,
         }
     }
 }

@@ -36,11 +36,28 @@ pub struct Ldlt {
     l_values: Vec<f64>,
     factor_mem: MemBuffer,
     solve_mem: MemBuffer,
-    /// Numeric factorizations done so far (the scaling benchmark's count).
-    factorizations: usize,
+    /// Whether a numeric factorization is held ([`Ldlt::pcg`]'s preconditioner).
+    factored: bool,
+    /// Numeric factorizations and inexact-Newton solves so far (the scaling benchmark's
+    /// counts).
+    pub counts: Counts,
     /// Two halves factored side by side on the solver's threads (`split.rs`); None: the
     /// whole tangent on the caller's thread.
     split: Option<Split>,
+}
+
+/// Work counters of one [`Ldlt`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Numeric factorizations.
+    pub factorizations: usize,
+    /// Newton directions taken from preconditioned conjugate gradients on an earlier
+    /// factorization ([`Ldlt::pcg`]).
+    pub inexact: usize,
+    /// Preconditioner solves those took, failed attempts included.
+    pub pcg_solves: usize,
+    /// Attempts that did not converge (a factorization followed).
+    pub pcg_failed: usize,
 }
 
 impl Ldlt {
@@ -109,7 +126,8 @@ impl Ldlt {
             l_values,
             factor_mem,
             solve_mem,
-            factorizations: 0,
+            factored: false,
+            counts: Counts::default(),
             split,
         })
     }
@@ -129,7 +147,13 @@ impl Ldlt {
 
     /// Numeric factorizations done since this factorization object was made.
     pub fn factorizations(&self) -> usize {
-        self.factorizations
+        self.counts.factorizations
+    }
+
+    /// Whether a numeric factorization is held (of the values at some earlier
+    /// [`Ldlt::factor`]).
+    pub fn has_factor(&self) -> bool {
+        self.factored
     }
 
     /// The matrix values (upper triangle, CSC order) as last filled.
@@ -163,18 +187,21 @@ impl Ldlt {
                 "tangent diagonal is not positive and finite (max {max_diag:e})"
             ));
         }
-        self.factorizations += 1;
+        self.counts.factorizations += 1;
+        self.factored = false;
         let reg = (PIVOT_DELTA * max_diag, PIVOT_EPSILON * max_diag);
-        if let Some(split) = self.split.as_mut() {
-            return split.factor(self.matrix.val(), reg);
+        match self.split.as_mut() {
+            Some(split) => split.factor(self.matrix.val(), reg)?,
+            None => numeric_ldlt(
+                &self.symbolic,
+                &mut self.l_values,
+                &self.matrix,
+                reg,
+                &mut self.factor_mem,
+            )?,
         }
-        numeric_ldlt(
-            &self.symbolic,
-            &mut self.l_values,
-            &self.matrix,
-            reg,
-            &mut self.factor_mem,
-        )
+        self.factored = true;
+        Ok(())
     }
 
     /// Solve with the last factorization, in place (one more forward/back substitution).
@@ -206,6 +233,91 @@ impl Ldlt {
         }
     }
 
+    /// Inexact solve of K x = b with the current values K, preconditioned by the last
+    /// factorization (of an earlier tangent; whole or split, whichever [`Ldlt::solve`] uses):
+    /// conjugate gradients from x = 0 until the recurred residual ‖b − K x‖₂ ≤
+    /// `reduction`·‖b‖₂. Some(preconditioner solves) with x on success; None when it does not
+    /// get there within `max_solves` solves, or K or the old factor is not positive definite
+    /// along the way, or x is not finite (the caller then factors afresh; x is then scratch).
+    /// `work` holds four vectors of length n between calls (allocated once, `work.rs`' rule).
+    pub fn pcg(
+        &mut self,
+        b: &[f64],
+        x: &mut [f64],
+        reduction: f64,
+        max_solves: usize,
+        work: &mut Vec<f64>,
+    ) -> Option<usize> {
+        let n = b.len();
+        if !self.factored || n == 0 || n != self.matrix.ncols() || x.len() != n {
+            return None;
+        }
+        work.clear();
+        work.resize(4 * n, 0.0);
+        let (r, rest) = work.split_at_mut(n);
+        let (z, rest) = rest.split_at_mut(n);
+        let (p, q) = rest.split_at_mut(n);
+        r.copy_from_slice(b);
+        x.fill(0.0);
+        let target = reduction * dot(r, r).sqrt();
+        z.copy_from_slice(r);
+        self.counts.pcg_solves += 1;
+        self.solve(z).ok()?;
+        p.copy_from_slice(z);
+        let mut rz = dot(r, z);
+        let mut solves = 1;
+        loop {
+            if !(rz > 0.0 && rz.is_finite()) {
+                return None;
+            }
+            self.multiply(p, q);
+            let pq = dot(p, q);
+            if !(pq > 0.0 && pq.is_finite()) {
+                return None;
+            }
+            let alpha = rz / pq;
+            for i in 0..n {
+                x[i] += alpha * p[i];
+                r[i] -= alpha * q[i];
+            }
+            if dot(r, r).sqrt() <= target {
+                return x.iter().all(|v| v.is_finite()).then_some(solves);
+            }
+            if solves >= max_solves {
+                return None;
+            }
+            self.counts.pcg_solves += 1;
+            z.copy_from_slice(r);
+            self.solve(z).ok()?;
+            solves += 1;
+            let rz_next = dot(r, z);
+            let beta = rz_next / rz;
+            rz = rz_next;
+            for i in 0..n {
+                p[i] = z[i] + beta * p[i];
+            }
+        }
+    }
+
+    /// y = K x with the current values (upper triangle stored, symmetric).
+    fn multiply(&self, x: &[f64], y: &mut [f64]) {
+        let sym = self.matrix.symbolic();
+        let (cp, ri) = (sym.col_ptr(), sym.row_idx());
+        let v = self.matrix.val();
+        y.fill(0.0);
+        for j in 0..sym.ncols() {
+            let (mut acc, xj) = (0.0, x[j]);
+            for k in cp[j]..cp[j + 1] {
+                let i = ri[k];
+                acc += v[k] * x[i];
+                if i != j {
+                    y[i] += v[k] * xj;
+                }
+            }
+            y[j] += acc;
+        }
+    }
+
     fn max_diagonal(&self) -> f64 {
         let sym = self.matrix.symbolic();
         let (cp, ri) = (sym.col_ptr(), sym.row_idx());
@@ -219,6 +331,10 @@ impl Ldlt {
         }
         m
     }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// faer's numeric LDLT of the upper triangle of `matrix` on the calling thread, tiny pivots

@@ -164,7 +164,33 @@ pub struct Settings {
     /// Internal node numbering of the tangent (`renumber.rs`). Default rings from a central
     /// node: any numbering of the same mesh then costs the same (docs/performance.md).
     pub node_order: renumber::NodeOrder,
+    /// Inexact Newton (`slip.rs`, [`linear::Ldlt::pcg`]): once the residual falls at least 4x
+    /// per iteration (the quadratic regime), the direction is first sought by conjugate
+    /// gradients on the current tangent preconditioned by the last factorization, and the
+    /// tangent is factored afresh only when that fails. Default [`InexactNewton::Auto`]: on
+    /// for tangents of at least [`INEXACT_MIN_EQUATIONS`] equations (the scene's
+    /// `solver.inexact_newton`; docs/performance.md).
+    pub inexact_newton: InexactNewton,
 }
+
+/// When Newton directions may come from conjugate gradients on an earlier factorization
+/// (`Settings::inexact_newton`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InexactNewton {
+    /// On for tangents of at least [`INEXACT_MIN_EQUATIONS`] equations, off below.
+    #[default]
+    Auto,
+    /// On at every size.
+    On,
+    /// Off: every direction from a fresh factorization (exact Newton).
+    Off,
+}
+
+/// Smallest tangent (equations) on which [`InexactNewton::Auto`] uses inexact Newton: below
+/// it a factorization is cheap against the conjugate-gradient iterations that replace it
+/// (nothing gained at 36k equations, 9 % CPU at 300k, 15-20 % at 1M: docs/performance.md), and
+/// every verification and hard case, all far smaller, keeps exact Newton's path.
+pub const INEXACT_MIN_EQUATIONS: usize = 100_000;
 
 impl Default for Settings {
     fn default() -> Settings {
@@ -201,6 +227,7 @@ impl Default for Settings {
             arc_length: 0.0,
             threads: 1,
             node_order: renumber::NodeOrder::Rings,
+            inexact_newton: InexactNewton::Auto,
         }
     }
 }
@@ -286,6 +313,11 @@ pub struct Solver {
     probe_states: Option<Vec<Option<WrinkleState>>>,
     /// The Newton loop's reused work buffers (`work.rs`).
     work: work::Work,
+    /// |R|∞ on the equations at the last Newton direction (inexact Newton's gate, `slip.rs`).
+    last_direction_residual: f64,
+    /// Conjugate-gradient vectors of inexact Newton (four of the equations' length, allocated
+    /// at the first inexact direction and reused).
+    pcg_work: Vec<f64>,
 }
 
 impl Solver {
@@ -298,6 +330,22 @@ impl Solver {
     /// direction, prescribed-displacement predictor, sensitivity and timing included).
     pub fn factorizations(&self) -> usize {
         self.linear.factorizations()
+    }
+
+    /// Factorizations and inexact-Newton directions and solves so far.
+    pub fn linear_counts(&self) -> linear::Counts {
+        self.linear.counts
+    }
+
+    /// Whether Newton directions may come from conjugate gradients on an earlier
+    /// factorization (`Settings::inexact_newton`, decided by the tangent's size under
+    /// [`InexactNewton::Auto`]).
+    pub fn inexact_newton(&self) -> bool {
+        match self.settings.inexact_newton {
+            InexactNewton::On => true,
+            InexactNewton::Off => false,
+            InexactNewton::Auto => self.pattern.n >= INEXACT_MIN_EQUATIONS,
+        }
     }
 
     /// (A, B, separator) equations of the two-domain factorization, if it is used.
@@ -353,6 +401,8 @@ impl Solver {
             prestress_factor: 1.0,
             probe_states: None,
             work: work::Work::default(),
+            last_direction_residual: f64::INFINITY,
+            pcg_work: Vec::new(),
             pattern,
         })
     }

@@ -46,7 +46,65 @@ pub(super) struct Row {
     pub damped: bool,
 }
 
+/// Inexact Newton (`Settings::inexact_newton`) is tried when |R|∞ fell to this share of its
+/// value at the last direction: the quadratic regime, where the tangent changes little and
+/// the last factorization is a close preconditioner.
+const INEXACT_CONTRACTION: f64 = 0.25;
+/// Bounds of the residual reduction the conjugate gradients must reach, ‖K Δx + R‖₂ ≤ η ‖R‖₂
+/// with η = (|R|∞ / |R|∞ at the last direction)² (Eisenstat and Walker's second choice, γ = 1)
+/// clamped to [`INEXACT_FORCING_MIN`, `INEXACT_FORCING_MAX`]: η shrinks with the residual, so
+/// the direction's error (η |R|) stays below the quadratic term and the convergence stays
+/// quadratic; the floor is kept above the recursion's round-off.
+const INEXACT_FORCING_MAX: f64 = 1e-6;
+const INEXACT_FORCING_MIN: f64 = 1e-10;
+/// Preconditioner solves before the attempt gives up and the tangent is factored.
+const INEXACT_SOLVES: usize = 8;
+
 impl Solver {
+    /// Inexact Newton (`Settings::inexact_newton`): the direction Δx of K Δx = −R for a plain
+    /// system (no slip, volume or arc rows, no damping) by conjugate gradients on the current
+    /// tangent preconditioned by the last factorization, tried when |R|∞ fell to
+    /// `INEXACT_CONTRACTION` of its value at the last direction. None: not tried, or it did
+    /// not converge (the caller factors). `residual` holds R on the equations and is left
+    /// unchanged.
+    fn inexact_direction(
+        &mut self,
+        residual: &mut [f64],
+        m: usize,
+        damping: f64,
+    ) -> Option<Vec<f64>> {
+        if !self.inexact_newton() {
+            return None;
+        }
+        let norm = residual.iter().fold(0.0f64, |a, r| a.max(r.abs()));
+        let gate = std::mem::replace(&mut self.last_direction_residual, norm);
+        if !(m == 0 && damping == 0.0 && gate.is_finite() && norm <= INEXACT_CONTRACTION * gate) {
+            return None;
+        }
+        let forcing = ((norm / gate).powi(2)).clamp(INEXACT_FORCING_MIN, INEXACT_FORCING_MAX);
+        let mut x = std::mem::take(&mut self.work.ds);
+        x.clear();
+        x.resize(residual.len(), 0.0);
+        // −R, negated back (exactly) when the attempt fails.
+        residual.iter_mut().for_each(|r| *r = -*r);
+        let solved = self.linear.pcg(
+            residual,
+            &mut x,
+            forcing,
+            INEXACT_SOLVES,
+            &mut self.pcg_work,
+        );
+        residual.iter_mut().for_each(|r| *r = -*r);
+        if solved.is_some() {
+            self.linear.counts.inexact += 1;
+            Some(x)
+        } else {
+            self.linear.counts.pcg_failed += 1;
+            self.work.ds = x;
+            None
+        }
+    }
+
     /// Newton direction (Δx on equations, Δs per slip) of the damped system: the tangent's
     /// values must be assembled; `damping` τ adds τ·D on the diagonal (D the reference
     /// stiffness, `Solver::reference_diagonal`). Errs when the factorization fails or the
@@ -67,6 +125,12 @@ impl Solver {
             if e != NONE {
                 residual[e] = self.residual[d];
             }
+        }
+        let m = rows.len() + usize::from(extra.is_some());
+        if let Some(dx) = self.inexact_direction(&mut residual, m, damping) {
+            // No rows: Δs is empty. R's buffer is kept as the next direction's (`work.rs`).
+            self.work.ds = residual;
+            return Ok((dx, Vec::new()));
         }
         self.solve_bordered(model, u, rows, damping, extra, residual)
     }
