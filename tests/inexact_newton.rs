@@ -1,0 +1,304 @@
+//! Inexact Newton (issue 15 item 1: `solver.inexact_newton`, `Ldlt::pcg`, `slip.rs`).
+//!
+//! GOAL: (1) forcing inexact Newton on (`"on"`: in the quadratic regime the direction by
+//!       conjugate gradients on the current tangent, preconditioned by the last
+//!       factorization) reaches the same equilibria as exact Newton (`"off"`) in the same
+//!       number of Newton iterations, with fewer factorizations on a plain system (Hencky
+//!       disc, wrinkled shear, and the load-controlled increments of an arc-length path, which
+//!       the path takes across wrinkle switches: LiftedMembrane); (2) systems bordered by slip
+//!       rows (SlidingCable) or a volume row (balloon) keep the exact path: no inexact
+//!       direction is taken and the answers are bit for bit those of `"off"`;
+//!       (3) with 2 threads on a tangent of more than 20 000 equations the preconditioner is the
+//!       two-domain factorization (split.rs) and the answer is again the exact one; (4) `"auto"`
+//!       (the default) is off below 100 000 equations and on from there; (5) a bad value is
+//!       named in the error.
+//! MESH, BOUNDARY CONDITIONS, PARAMETERS: the shipped scenes as they are (HenckyDisc at its 32
+//!       rings, WrinkledShear, SlidingCable, LiftedMembrane with `solver.path: arc_length`),
+//!       the octahedral balloon of verify_volume_control.rs at 6 divisions per edge, and the
+//!       HenckyDisc at 50 rings (22 053 equations) with `solver.threads: 2`; HenckyDisc at 106
+//!       rings (100 809 equations) for the `auto` threshold (built, not solved).
+//! LOADING: HenckyDisc pressure 40 Pa (flat start); WrinkledShear shear 0.75, 1.5 mm
+//!       (wrinkled); SlidingCable p = 10 N, P = 100 N, p = 20 N, P = 200 N; balloon stretch 1.2
+//!       (volume input); LiftedMembrane lift 10, 20 N.
+//! REFERENCE: the exact-Newton solve of the same scene (`"off"`), itself verified against
+//!       closed forms in verify_hencky_disc.rs, verify_wrinkled_shear.rs and friends. Both
+//!       runs stop on the same true-residual test (relative 1e-9); the inexact directions
+//!       solve K Δx = −R to ‖K Δx + R‖ ≤ η ‖R‖ with η ≤ 1e-6, and the last iterations of
+//!       both runs are quadratic, so both land far below the test and differ by round-off of
+//!       the last correction. Tolerance: every output relative to the larger of its size and
+//!       1e-3 SI (a slip of 1e-10 m is round-off of a 1 m cable), and every displacement
+//!       relative to the largest: 1e-10 (measured worst 3.2e-13 on the 32-ring disc, 4.4e-14
+//!       on the 50-ring disc with 2 threads, 1.7e-12 on WrinkledShear, 1.1e-13 on the
+//!       arc-length path; printed per case).
+//!       Bordered systems: 0 (bit for bit). Iteration counts: equal.
+mod common;
+use common::*;
+use nalgebra::Vector3;
+use serde_json::json;
+use velarium::scene::{Generator, InexactNewton, PathMethod};
+use velarium::solver::linear::Counts;
+use velarium::{Engine, Scene};
+
+const TOLERANCE: f64 = 1e-10;
+/// Outputs are compared relative to the larger of their magnitude and this (SI units).
+const OUTPUT_FLOOR: f64 = 1e-3;
+
+fn build(scene: &Scene, inexact: InexactNewton) -> Engine {
+    let mut scene = scene.clone();
+    scene.solver.inexact_newton = inexact;
+    engine(scene)
+}
+
+/// What one comparison found.
+struct Compared {
+    worst: f64,
+    exact: Counts,
+    inexact: Counts,
+}
+
+/// Solve `scene` through `steps` (input, value) with inexact Newton forced off and on; after
+/// every step the outputs and displacements must agree within `tolerance` and the Newton
+/// iterations must be equal.
+fn compare(name: &str, scene: &Scene, steps: &[(&str, f64)], tolerance: f64) -> Compared {
+    let mut exact = build(scene, InexactNewton::Off);
+    let mut inexact = build(scene, InexactNewton::On);
+    assert!(!exact.inexact_newton() && inexact.inexact_newton());
+    let mut worst = 0.0f64;
+    for &(input, value) in steps {
+        set(&mut exact, input, value);
+        set(&mut inexact, input, value);
+        let a = solve(&mut exact);
+        let b = solve(&mut inexact);
+        assert_eq!(
+            a.iterations, b.iterations,
+            "{name}: Newton iterations at {input} = {value}"
+        );
+        for ((out, x), (_, y)) in exact.outputs().iter().zip(inexact.outputs()) {
+            let d = (x - y).abs() / x.abs().max(OUTPUT_FLOOR);
+            assert!(
+                d <= tolerance,
+                "{name}: {out} at {input} = {value}: {x} vs {y} ({d:.2e})"
+            );
+            worst = worst.max(d);
+        }
+        let d = field_difference(&exact.state().displacement, &inexact.state().displacement);
+        assert!(
+            d <= tolerance,
+            "{name}: displacements at {input} = {value} differ by {d:.2e}"
+        );
+        worst = worst.max(d);
+    }
+    let c = Compared {
+        worst,
+        exact: exact.linear_counts(),
+        inexact: inexact.linear_counts(),
+    };
+    println!(
+        "{name}: inexact against exact Newton: worst difference {:.2e}; exact {:?}; inexact {:?}",
+        c.worst, c.exact, c.inexact
+    );
+    c
+}
+
+#[test]
+fn hencky_disc_same_answers_fewer_factorizations() {
+    let scene = read_scene(&shipped("HenckyDisc"));
+    let c = compare("HenckyDisc", &scene, &[("pressure", 40.0)], TOLERANCE);
+    assert_eq!(c.exact.inexact, 0, "{:?}", c.exact);
+    assert!(c.inexact.inexact >= 1, "{:?}", c.inexact);
+    assert!(
+        c.inexact.factorizations < c.exact.factorizations,
+        "{:?} vs {:?}",
+        c.inexact,
+        c.exact
+    );
+}
+
+#[test]
+fn wrinkled_shear_same_answers() {
+    let scene = read_scene(&shipped("WrinkledShear"));
+    let c = compare(
+        "WrinkledShear",
+        &scene,
+        &[("shear", 0.75e-3), ("shear", 1.5e-3)],
+        TOLERANCE,
+    );
+    assert!(c.inexact.inexact >= 1, "{:?}", c.inexact);
+}
+
+#[test]
+fn sliding_cable_keeps_the_exact_path() {
+    let scene = read_scene(&shipped("SlidingCable"));
+    let c = compare(
+        "SlidingCable",
+        &scene,
+        &[("p", 10.0), ("P", 100.0), ("p", 20.0), ("P", 200.0)],
+        0.0,
+    );
+    assert_eq!(c.inexact, c.exact);
+}
+
+#[test]
+fn arc_length_path_same_answers() {
+    let mut scene = read_scene(&shipped("LiftedMembrane"));
+    scene.solver.path = PathMethod::ArcLength;
+    scene.solver.arc_length = Some(2e-4);
+    let c = compare(
+        "LiftedMembrane (arc length)",
+        &scene,
+        &[("lift_force", 10.0), ("lift_force", 20.0)],
+        TOLERANCE,
+    );
+    assert_eq!(c.exact.inexact, 0, "{:?}", c.exact);
+}
+
+/// An octahedron subdivided `n` times per edge, projected on the unit sphere (outward
+/// triangles), as in verify_volume_control.rs.
+fn octasphere(n: usize) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let axes = [
+        Vector3::x(),
+        -Vector3::x(),
+        Vector3::y(),
+        -Vector3::y(),
+        Vector3::z(),
+        -Vector3::z(),
+    ];
+    let mut nodes: Vec<Vector3<f64>> = Vec::new();
+    let mut index = |p: Vector3<f64>| -> usize {
+        let p = p.normalize();
+        match nodes.iter().position(|q| (q - p).norm() < 1e-9) {
+            Some(k) => k,
+            None => {
+                nodes.push(p);
+                nodes.len() - 1
+            }
+        }
+    };
+    let mut triangles = Vec::new();
+    for &a in &axes[0..2] {
+        for &b in &axes[2..4] {
+            for &c in &axes[4..6] {
+                let at = |i: usize, j: usize| {
+                    a + (b - a) * (i as f64 / n as f64) + (c - a) * (j as f64 / n as f64)
+                };
+                for i in 0..n {
+                    for j in 0..n - i {
+                        let mut tris = vec![[at(i, j), at(i + 1, j), at(i, j + 1)]];
+                        if i + j + 1 < n {
+                            tris.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+                        }
+                        for [p, q, s] in tris {
+                            triangles.push([index(p), index(q), index(s)]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let nodes: Vec<[f64; 3]> = nodes.iter().map(|p| [p.x, p.y, p.z]).collect();
+    for t in &mut triangles {
+        let [p, q, s] = t.map(|k| Vector3::from(nodes[k]));
+        if (q - p).cross(&(s - p)).dot(&(p + q + s)) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+    (nodes, triangles)
+}
+
+#[test]
+fn volume_controlled_balloon_keeps_the_exact_path() {
+    let (nodes, triangles) = octasphere(6);
+    let on = |c: usize| -> Vec<usize> {
+        (0..nodes.len())
+            .filter(|&k| nodes[k][c].abs() < 1e-12)
+            .collect()
+    };
+    let json = json!({
+        "format": 1, "name": "VolumeBalloon",
+        "geometry": {"nodes": nodes, "triangles": triangles,
+                     "node_sets": {"px": on(0), "py": on(1), "pz": on(2)},
+                     "triangle_sets": {"all": (0..triangles.len()).collect::<Vec<_>>()}},
+        "membranes": [{"name": "rubber", "triangles": "all", "thickness": 1e-3,
+                       "material": {"kind": "neo_hookean", "mu": 1e5}}],
+        "supports": [{"nodes": "px", "fix": ["x"]}, {"nodes": "py", "fix": ["y"]}, {"nodes": "pz", "fix": ["z"]}],
+        "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "rubber"}}],
+        "outputs": [
+            {"name": "p", "probe": {"kind": "enclosed_pressure", "input": "dV"}},
+            {"name": "V", "probe": {"kind": "enclosed_volume", "membrane": "rubber"}}
+        ]
+    });
+    let scene = Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{p}"));
+    let v0 = engine(scene.clone()).outputs()[1].1;
+    let c = compare(
+        "balloon (volume)",
+        &scene,
+        &[("dV", (1.2f64.powi(3) - 1.0) * v0)],
+        0.0,
+    );
+    assert_eq!(c.inexact, c.exact);
+}
+
+fn disc(rings: usize) -> Scene {
+    let mut scene = read_scene(&shipped("HenckyDisc"));
+    if let Generator::Disc { rings: r, .. } = &mut scene.geometry.generators[0] {
+        *r = rings;
+    }
+    scene
+}
+
+#[test]
+fn two_threads_the_split_factorization_preconditions() {
+    let mut scene = disc(50);
+    scene.solver.threads = 2;
+    let probe = build(&scene, InexactNewton::On);
+    let (a, b, s) = probe
+        .split_sizes()
+        .expect("2 threads on 22 053 equations factor in two halves");
+    println!(
+        "50 rings, 2 threads: {} equations, halves {a} + {b}, separator {s}",
+        probe.free_dofs()
+    );
+    assert!(probe.free_dofs() >= 20_000);
+    let c = compare(
+        "HenckyDisc 50 rings, 2 threads",
+        &scene,
+        &[("pressure", 40.0)],
+        TOLERANCE,
+    );
+    assert!(c.inexact.inexact >= 1, "{:?}", c.inexact);
+    assert!(
+        c.inexact.factorizations < c.exact.factorizations,
+        "{:?} vs {:?}",
+        c.inexact,
+        c.exact
+    );
+}
+
+#[test]
+fn auto_is_off_below_100k_equations_and_on_from_there() {
+    assert_eq!(
+        velarium::scene::SolverSettings::default().inexact_newton,
+        InexactNewton::Auto
+    );
+    let small = build(&disc(32), InexactNewton::Auto);
+    assert!(!small.inexact_newton(), "{} equations", small.free_dofs());
+    let large = build(&disc(106), InexactNewton::Auto);
+    println!("106 rings: {} equations", large.free_dofs());
+    assert!(large.free_dofs() >= velarium::solver::INEXACT_MIN_EQUATIONS);
+    assert!(large.inexact_newton(), "{} equations", large.free_dofs());
+    assert!(!build(&disc(106), InexactNewton::Off).inexact_newton());
+}
+
+#[test]
+fn bad_value_is_named() {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(shipped("HenckyDisc")).unwrap()).unwrap();
+    v["solver"] = json!({"inexact_newton": "sometimes"});
+    let err = Scene::from_json(&v.to_string())
+        .err()
+        .expect("an unknown value is refused")
+        .to_string();
+    println!("{err}");
+    assert!(err.contains("inexact_newton"), "{err}");
+    assert!(err.contains("sometimes"), "{err}");
+}
