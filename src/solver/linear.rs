@@ -239,7 +239,8 @@ impl Ldlt {
     /// `reduction`·‖b‖₂. Some(preconditioner solves) with x on success; None when it does not
     /// get there within `max_solves` solves, or K or the old factor is not positive definite
     /// along the way, or x is not finite (the caller then factors afresh; x is then scratch).
-    /// `work` holds four vectors of length n between calls (allocated once, `work.rs`' rule).
+    /// `work` holds four vectors of length n between calls (allocated
+    /// fallibly at the first call and reused, `work.rs`' rule).
     pub fn pcg(
         &mut self,
         b: &[f64],
@@ -253,6 +254,10 @@ impl Ldlt {
             return None;
         }
         work.clear();
+        // Allocated once, fallibly: short of memory the caller factors instead.
+        if work.try_reserve_exact(4 * n).is_err() {
+            return None;
+        }
         work.resize(4 * n, 0.0);
         let (r, rest) = work.split_at_mut(n);
         let (z, rest) = rest.split_at_mut(n);
