@@ -27,7 +27,7 @@
 //!       both runs are quadratic, so both land far below the test and differ by round-off of
 //!       the last correction. Tolerance: every output relative to the larger of its size and
 //!       1e-3 SI (a slip of 1e-10 m is round-off of a 1 m cable), and every displacement
-//!       relative to the largest: 1e-10 (measured worst 3.2e-13 on the 32-ring disc, 4.4e-14
+//!       relative to the largest: 1e-10 (measured worst 2.7e-14 on the 32-ring disc, 4.7e-14
 //!       on the 50-ring disc with 2 threads, 1.7e-12 on WrinkledShear, 1.1e-13 on the
 //!       arc-length path; printed per case).
 //!       Bordered systems: 0 (bit for bit). Iteration counts: equal.
