@@ -27,9 +27,10 @@
 //!       both runs are quadratic, so both land far below the test and differ by round-off of
 //!       the last correction. Tolerance: every output relative to the larger of its size and
 //!       1e-3 SI (a slip of 1e-10 m is round-off of a 1 m cable), and every displacement
-//!       relative to the largest: 1e-10 (measured worst 2.7e-14 on the 32-ring disc, 4.7e-14
-//!       on the 50-ring disc with 2 threads, 1.7e-12 on WrinkledShear, 1.1e-13 on the
-//!       arc-length path; printed per case).
+//!       relative to the largest, per case (measured worst, printed per case): the 32-ring
+//!       disc 1e-12 (2.7e-14), the 50-ring disc with 2 threads 1e-12 (4.7e-14), the
+//!       arc-length path 1e-11 (1.1e-13), WrinkledShear 1e-10 (1.7e-12: wrinkled elements
+//!       make the worst-conditioned tangent, as in tests/threads.rs).
 //!       Bordered systems: 0 (bit for bit). Iteration counts: equal.
 mod common;
 use common::*;
@@ -39,7 +40,10 @@ use velarium::scene::{Generator, InexactNewton, PathMethod};
 use velarium::solver::linear::Counts;
 use velarium::{Engine, Scene};
 
-const TOLERANCE: f64 = 1e-10;
+/// Tolerances per case (header): plain membrane, arc-length path, wrinkled film.
+const MEMBRANE: f64 = 1e-12;
+const ARC: f64 = 1e-11;
+const WRINKLED: f64 = 1e-10;
 /// Outputs are compared relative to the larger of their magnitude and this (SI units).
 const OUTPUT_FLOOR: f64 = 1e-3;
 
@@ -103,7 +107,7 @@ fn compare(name: &str, scene: &Scene, steps: &[(&str, f64)], tolerance: f64) -> 
 #[test]
 fn hencky_disc_same_answers_fewer_factorizations() {
     let scene = read_scene(&shipped("HenckyDisc"));
-    let c = compare("HenckyDisc", &scene, &[("pressure", 40.0)], TOLERANCE);
+    let c = compare("HenckyDisc", &scene, &[("pressure", 40.0)], MEMBRANE);
     assert_eq!(c.exact.inexact, 0, "{:?}", c.exact);
     assert!(c.inexact.inexact >= 1, "{:?}", c.inexact);
     assert!(
@@ -121,7 +125,7 @@ fn wrinkled_shear_same_answers() {
         "WrinkledShear",
         &scene,
         &[("shear", 0.75e-3), ("shear", 1.5e-3)],
-        TOLERANCE,
+        WRINKLED,
     );
     assert!(c.inexact.inexact >= 1, "{:?}", c.inexact);
 }
@@ -147,7 +151,7 @@ fn arc_length_path_same_answers() {
         "LiftedMembrane (arc length)",
         &scene,
         &[("lift_force", 10.0), ("lift_force", 20.0)],
-        TOLERANCE,
+        ARC,
     );
     assert_eq!(c.exact.inexact, 0, "{:?}", c.exact);
 }
@@ -263,7 +267,7 @@ fn two_threads_the_split_factorization_preconditions() {
         "HenckyDisc 50 rings, 2 threads",
         &scene,
         &[("pressure", 40.0)],
-        TOLERANCE,
+        MEMBRANE,
     );
     assert!(c.inexact.inexact >= 1, "{:?}", c.inexact);
     assert!(
