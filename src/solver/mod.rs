@@ -164,7 +164,7 @@ pub struct Settings {
     /// Internal node numbering of the tangent (`renumber.rs`). Default rings from a central
     /// node: any numbering of the same mesh then costs the same (docs/performance.md).
     pub node_order: renumber::NodeOrder,
-    /// Inexact Newton (`slip.rs`, [`linear::Ldlt::pcg`]): once the residual falls at least 4x
+    /// Inexact Newton (`slip.rs`, [`linear::Ldlt::pcg`]): once the residual falls at least 10x
     /// per iteration (the quadratic regime), the direction is first sought by conjugate
     /// gradients on the current tangent preconditioned by the last factorization, and the
     /// tangent is factored afresh only when that fails. Default [`InexactNewton::Auto`]: on
@@ -186,10 +186,10 @@ pub enum InexactNewton {
     Off,
 }
 
-/// Smallest tangent (equations) on which [`InexactNewton::Auto`] uses inexact Newton: below
-/// it a factorization is cheap against the conjugate-gradient iterations that replace it
-/// (nothing gained at 36k equations, 9 % CPU at 300k, 15-20 % at 1M: docs/performance.md), and
-/// every verification and hard case, all far smaller, keeps exact Newton's path.
+/// Smallest tangent (equations) on which [`InexactNewton::Auto`] uses inexact Newton: from
+/// here up it gained CPU time in every measured pair (6-14 % at 100k, 8-10 % at 300k, 9 % at
+/// 1M on 1 thread: docs/performance.md); below it the gain was within the noise, and every
+/// verification and hard case, all far smaller, keeps exact Newton's path.
 pub const INEXACT_MIN_EQUATIONS: usize = 100_000;
 
 impl Default for Settings {
