@@ -1013,6 +1013,11 @@ impl Parallel {
         }))
     }
 
+    /// Triangles evaluated by (the solving thread, the helper).
+    pub fn halves(&self) -> (usize, usize) {
+        (self.first, self.pattern.tri_order.len() - self.first)
+    }
+
     /// Whether this is the helper's half of `pattern`.
     fn serves(&self, pattern: &Pattern) -> bool {
         std::ptr::eq(Arc::as_ptr(&self.pattern), pattern)

@@ -306,6 +306,12 @@ impl Solver {
         self.linear.split_sizes()
     }
 
+    /// Triangles the assembly evaluates on (the solving thread, the helper) when it runs on
+    /// two threads (`assemble::Parallel`); None when it runs on one.
+    pub fn assembly_halves(&self) -> Option<(usize, usize)> {
+        self.work.scratch.parallel.as_ref().map(|p| p.halves())
+    }
+
     /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
