@@ -5,8 +5,8 @@
 //!       nothing, bit for bit; and a bad count is a validation error naming `solver.threads`.
 //! MESH: HenckyDisc at 50 rings (22 053 free DOF: the two-domain factorization, src/solver/
 //!       split.rs, and the two-thread assembly run; the separator is printed), WrinkledShear at
-//!       152 x 52 divisions
-//!       (23 409 free DOF, wrinkled and slack states, prescribed displacements), the shipped
+//!       152 x 52 divisions (23 409 free DOF, wrinkled and slack states, prescribed
+//!       displacements), CabledSquare at 84 x 84 cells (21 663 free DOF), the shipped
 //!       HenckyDisc (2163 DOF) and SlidingCable (18 unknowns) below the threshold.
 //! BOUNDARY CONDITIONS / PARAMETERS: the scenes' own; HenckyDisc to q = 40 Pa in one step (the
 //!       flat start), WrinkledShear sheared to 3 mm in 5 rows, SlidingCable loaded to P = 200 N,
@@ -132,8 +132,9 @@ fn hencky_disc_two_threads_agree_with_one() {
     let scene = disc(50);
     let e = with_threads(scene.clone(), 2);
     let split = e.split_sizes().expect("factored in two halves");
+    let halves = e.assembly_halves().expect("assembled on two threads");
     println!(
-        "HenckyDisc 50 rings: {} free DOF, split {split:?}",
+        "HenckyDisc 50 rings: {} free DOF, split {split:?}, assembly halves {halves:?}",
         e.free_dofs()
     );
     drop(e);
