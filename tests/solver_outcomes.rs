@@ -56,28 +56,38 @@ fn newton_converges_quadratically_near_the_solution() {
     solve(&mut e);
     set(&mut e, "pressure", 40.0);
     let report = solve(&mut e);
-    let residuals: Vec<f64> = report
+    // (|R|, scale) of every iteration and of the converged iterate, as the log prints them.
+    let field = |l: &str, key: &str| -> Option<f64> {
+        l.split(key).nth(1)?.split([' ', ')']).next()?.parse().ok()
+    };
+    let relative: Vec<f64> = report
         .log
         .iter()
-        .filter_map(|l| {
-            l.split("|R| = ")
-                .nth(1)?
-                .split_whitespace()
-                .next()?
-                .parse()
-                .ok()
-        })
+        .filter_map(|l| Some(field(l, "|R| = ")? / field(l, "(scale ")?))
         .collect();
-    assert!(residuals.len() >= 3, "{:?}", report.log);
-    // The last three residuals before convergence: r_{k+1} <= C r_k² with a modest C relative
-    // to the first residual's scale (quadratic), not r_{k+1} ≈ ρ r_k (linear).
-    let n = residuals.len();
-    let (a, b, c) = (residuals[n - 3], residuals[n - 2], residuals[n - 1]);
-    let (ra, rb) = (b / a, c / b);
+    // Quadratic: r_{k+1} <= C r_k² in residuals relative to the force scale, with C = 100 (the
+    // disc's measured constants are 0.1-14 along the path, with the line search on the slope
+    // before and after it bracketed the minimum); linear convergence at a rate ρ fails it once
+    // r_k < ρ/100, which any linear sequence reaches before its residual drops below 1e-10 (a
+    // rate of 0.1 fails at 1e-3). Measured only on pairs whose second residual is
+    // above 1e-10 of the scale: below that the residual is round-off (the floor of the
+    // convergence test is 16 ε of the element forces, 1e-12 to 1e-11 of the scale here), and a
+    // residual at the floor falls no further whatever the rate.
+    let pairs: Vec<(f64, f64)> = relative
+        .windows(2)
+        .map(|w| (w[0], w[1]))
+        .filter(|&(a, b)| a < 1e-2 && b > 1e-10)
+        .collect();
     assert!(
-        rb < ra * 0.5 && rb < 1e-2,
-        "convergence rate not quadratic: {residuals:?}"
+        !pairs.is_empty(),
+        "no iterate in the quadratic range: {relative:?}"
     );
+    for (a, b) in pairs {
+        assert!(
+            b <= 100.0 * a * a,
+            "convergence rate not quadratic: {a:.3e} -> {b:.3e} in {relative:?}"
+        );
+    }
 }
 
 #[test]

@@ -7,7 +7,8 @@
 //!             Π(α) <= max(last 5 Π) + c α (Δu·R + Δs·r), quadratic interpolation between
 //!             tries, α from the same fraction-to-boundary limit as below
 //! Slope       follower pressure (no potential), no slip unknowns: s(α) = Δu·R(u + αΔu); full
-//!             step unless it overshoots the minimum, then regula falsi between 0 and α
+//!             step unless it overshoots the minimum, then regula falsi inside the bracket
+//!             (largest α with s < 0, smallest with s > 0) until |s| <= ½|s(0)|
 //! Residual    friction, stuck or merged sleeve points, volume unknowns, arc length (the
 //!             loads move with λ inside the step, so no potential at fixed loads applies; the
 //!             trial point takes the loads of λ + αΔλ): non-monotone Armijo
@@ -230,7 +231,9 @@ impl Solver {
     }
 
     /// Full step unless the slope s(α) = Δu·R(u + αΔu) at it is positive and larger than half
-    /// the initial one; then regula falsi between 0 and the last overshooting α.
+    /// the initial one; then regula falsi inside the bracket of the line's minimum (the largest
+    /// α with s < 0, the smallest with s > 0 or an inverted trial) until |s| <= ½|s(0)|, or
+    /// the bracket's lower end when the tries run out.
     fn slope_search(
         &mut self,
         model: &Model,
@@ -242,22 +245,45 @@ impl Solver {
         if !(s0 < 0.0) {
             return (1.0, true);
         }
+        // The bracket: (α, s) with s < 0 below the minimum along the line, s > 0 above it.
+        let mut lo = (0.0, s0);
+        let mut hi: Option<(f64, f64)> = None;
         let mut alpha = 1.0;
         for _ in 0..self.settings.line_search_tries {
             let (_, inverted) = self.trial_point(model, u, dir, at, alpha);
             let s = self.direction_dot_residual(dir.dx);
             if inverted || !s.is_finite() {
-                alpha *= 0.5;
+                hi = Some((alpha, f64::INFINITY));
+                alpha = 0.5 * (lo.0 + alpha);
                 continue;
             }
-            if s.abs() <= SLOPE_RATIO * s0.abs() || s < 0.0 {
-                // Close enough to the minimum, or still descending: take it.
+            if s.abs() <= SLOPE_RATIO * s0.abs() {
                 return (alpha, true);
             }
-            // Overshoot (s > 0): secant between (0, s0) and (α, s).
-            alpha = (alpha * s0 / (s0 - s)).max(0.05 * alpha);
+            if s < 0.0 {
+                lo = (alpha, s);
+                if hi.is_none() {
+                    // Still descending at the full step: take it.
+                    return (alpha, true);
+                }
+            } else {
+                hi = Some((alpha, s));
+            }
+            let (a, b) = (lo, hi.expect("bracketed"));
+            // Secant between the bracket's ends, kept off both ends by a twentieth of its width.
+            let secant = if b.1.is_finite() {
+                a.0 - a.1 * (b.0 - a.0) / (b.1 - a.1)
+            } else {
+                0.5 * (a.0 + b.0)
+            };
+            let margin = 0.05 * (b.0 - a.0);
+            alpha = secant.clamp(a.0 + margin, b.0 - margin);
         }
-        (alpha, false)
+        if lo.0 > 0.0 {
+            (lo.0, true)
+        } else {
+            (alpha, false)
+        }
     }
 
     /// Non-monotone Armijo on the residual norm, halving from the fraction-to-boundary limit.
