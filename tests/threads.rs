@@ -19,10 +19,11 @@
 //!       Why round-off and not bits: with 2 threads the tangent is eliminated in another order
 //!       (two halves, then their separator: split.rs), so the factor's sums are grouped
 //!       differently. Tolerance on every output, relative to the output's size over the whole
-//!       run: HenckyDisc 1e-13 (measured 3.9e-14; 3.7e-15 before the assembly ran on two
+//!       run: HenckyDisc 3e-13 (measured 6.4e-14; 3.7e-15 before the assembly ran on two
 //!       threads too: its sums along the cut between the halves are grouped differently,
-//!       see below), WrinkledShear 1e-12 (measured 8.2e-14: the worse conditioned tangent of
-//!       wrinkled elements), CabledSquare 1e-13 (measured 2.6e-15). Below the threshold: 0. The
+//!       see below, and the last Newton correction carries that round-off of R through the
+//!       tangent's conditioning), WrinkledShear 1e-12 (measured 8.2e-14: the worse
+//!       conditioned tangent of wrinkled elements), CabledSquare 1e-13 (measured 5.5e-15). Below the threshold: 0. The
 //!       differences are printed. Iteration counts: equal, step by step.
 //!       CabledSquare: the scale example's 4 m square with four edge cables (EA 2 MN,
 //!       pretension 2 kN), fabric prestress 1 kN/m, at 84 x 84 cells (21 663 free DOF), follower
@@ -140,7 +141,7 @@ fn hencky_disc_two_threads_agree_with_one() {
     drop(e);
     let one = run(&scene, 1, &hencky_steps());
     let two = run(&scene, 2, &hencky_steps());
-    compare("HenckyDisc", &one, &two, 1e-13);
+    compare("HenckyDisc", &one, &two, 3e-13);
     let w = two[1].1.iter().find(|o| o.0 == "center_uz").unwrap().1 / 0.5;
     let error = rel(w, 0.065404);
     println!("HenckyDisc 2 threads: w0/a = {w:.6}, error {error:.2e}");
