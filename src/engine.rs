@@ -622,6 +622,13 @@ impl Engine {
         self.solver.split_sizes()
     }
 
+    /// Triangles the assembly evaluates on (the solving thread, the helper) when it runs on
+    /// two threads (the same gate as [`Engine::split_sizes`]'s pool, with the internal node
+    /// numbering); None when it runs on one.
+    pub fn assembly_halves(&self) -> Option<(usize, usize)> {
+        self.solver.assembly_halves()
+    }
+
     /// Seconds of one assembly and of one numeric factorization + solve at the committed
     /// state (best of `repeats`): the per-iteration floor the benchmark compares against.
     pub fn time_floor(&mut self, repeats: usize) -> (f64, f64) {

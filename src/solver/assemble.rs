@@ -13,7 +13,10 @@ use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{cable, membrane, pressure, sleeve, LoadModel, Model};
 use crate::solver::renumber::{self, NodeOrder};
+use crate::solver::threads::{Pool, ASSEMBLE};
 use nalgebra::{SMatrix, Vector3};
+use std::ops::Range;
+use std::sync::{Arc, Mutex, MutexGuard, RwLock};
 
 pub const NONE: usize = usize::MAX;
 
@@ -264,11 +267,21 @@ const UNEVALUATED: Evaluation = Evaluation {
 };
 
 fn scatter<const N: usize>(k: &SMatrix<f64, N, N>, map: &[usize], values: &mut [f64]) {
+    scatter_at(k, map, values, 0);
+}
+
+/// [`scatter`] into `values` holding K's values from position `offset` on.
+fn scatter_at<const N: usize>(
+    k: &SMatrix<f64, N, N>,
+    map: &[usize],
+    values: &mut [f64],
+    offset: usize,
+) {
     for a in 0..N {
         for b in 0..N {
             let p = map[a * N + b];
             if p != NONE {
-                values[p] += k[(a, b)];
+                values[p - offset] += k[(a, b)];
             }
         }
     }
@@ -307,6 +320,19 @@ pub struct AssemblyScratch {
     ri: Vec<f64>,
     mi: Vec<f64>,
     fext: Vec<f64>,
+    /// The helper thread's half of the triangles (`solver.threads` >= 2 on a large model):
+    /// an assembly given this scratch evaluates the two halves side by side.
+    pub parallel: Option<Parallel>,
+}
+
+impl AssemblyScratch {
+    /// Empty buffers, and the helper's half of the triangles if any.
+    pub fn with_parallel(parallel: Option<Parallel>) -> AssemblyScratch {
+        AssemblyScratch {
+            parallel,
+            ..Default::default()
+        }
+    }
 }
 
 /// What an assembly computes besides R (and K when a matrix is given).
@@ -477,6 +503,15 @@ pub fn assemble_with(
     mut k: Option<&mut [f64]>,
     mut extra: Membranes,
 ) -> AssemblyInfo {
+    let mut own = AssemblyScratch::default();
+    let scratch = extra.scratch.take().unwrap_or(&mut own);
+    // Two threads when the scratch has a helper's half for this very pattern (the solver's,
+    // renumbered); the held-DOF coupling (a prescribed displacement's predictor) stays on one.
+    let two =
+        scratch.parallel.as_ref().is_some_and(|p| p.serves(pattern)) && extra.held_step.is_none();
+    if two {
+        return assemble_two(model, pattern, u, loads, r, k, extra, scratch);
+    }
     r.fill(0.0);
     if let Some(k) = k.as_deref_mut() {
         k.fill(0.0);
@@ -489,8 +524,7 @@ pub fn assemble_with(
         ..Default::default()
     };
     if let Some(out) = extra.out.as_deref_mut() {
-        out.clear();
-        out.resize(model.triangles.len(), UNEVALUATED);
+        size_evaluations(out, model.triangles.len());
     }
     let want_k = k.is_some() || extra.held_step.is_some();
     let factor = extra.prestress_factor.unwrap_or(1.0);
@@ -500,8 +534,9 @@ pub fn assemble_with(
     // added to R (and the magnitudes) node by node at the end, so the element loop reads and
     // writes memory front to back whatever the user's numbering.
     let internal = !pattern.triangles.is_empty();
-    let mut own = AssemblyScratch::default();
-    let AssemblyScratch { xi, ri, mi, fext } = extra.scratch.take().unwrap_or(&mut own);
+    let AssemblyScratch {
+        xi, ri, mi, fext, ..
+    } = scratch;
     xi.clear();
     ri.clear();
     mi.clear();
@@ -541,19 +576,69 @@ pub fn assemble_with(
         info.min_area_ratio = info.min_area_ratio.min(ratio);
     }
     if internal {
-        for (k, &i) in pattern.node_of.iter().enumerate() {
-            for c in 0..3 {
-                r[3 * i + c] += ri[3 * k + c];
-            }
-        }
+        to_user_order(pattern, ri, r);
         if let Some(m) = extra.magnitude.as_deref_mut() {
-            for (k, &i) in pattern.node_of.iter().enumerate() {
-                for c in 0..3 {
-                    m[3 * i + c] += mi[3 * k + c];
-                }
-            }
+            to_user_order(pattern, mi, m);
         }
     }
+    lines_into(
+        model,
+        pattern,
+        u,
+        r,
+        &mut k,
+        &mut extra.magnitude,
+        &mut extra.held_step,
+        &mut info,
+    );
+    fext.clear();
+    fext.resize(r.len(), 0.0);
+    external_loads(
+        model,
+        pattern,
+        u,
+        loads,
+        xi,
+        fext,
+        &mut k,
+        &mut extra.held_step,
+        want_k,
+        true,
+        |l| 0..pattern.pressed_order[l].len(),
+    );
+    finish(model, u, r, fext, &mut extra.magnitude, &mut info);
+    info
+}
+
+/// `out` sized to one evaluation per triangle (every assembly writes every entry).
+fn size_evaluations(out: &mut Vec<Evaluation>, triangles: usize) {
+    if out.len() != triangles {
+        out.clear();
+        out.resize(triangles, UNEVALUATED);
+    }
+}
+
+/// Add `internal` (3 values per internal node position) into `user` (the user's DOFs).
+fn to_user_order(pattern: &Pattern, internal: &[f64], user: &mut [f64]) {
+    for (k, &i) in pattern.node_of.iter().enumerate() {
+        for c in 0..3 {
+            user[3 * i + c] += internal[3 * k + c];
+        }
+    }
+}
+
+/// Cable segments and sleeve ties: forces into R (and the magnitudes), tangents into K.
+#[allow(clippy::too_many_arguments)]
+fn lines_into(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    r: &mut [f64],
+    k: &mut Option<&mut [f64]>,
+    magnitude: &mut Option<&mut [f64]>,
+    held_step: &mut Option<(&[f64], &mut [f64])>,
+    info: &mut AssemblyInfo,
+) {
     let ns = model.segments.len();
     let lines = (0..ns).map(|e| {
         (
@@ -565,40 +650,60 @@ pub fn assemble_with(
     let ties =
         (0..model.ties.len()).map(|e| (ns + e, tie_contribution(model, e, u), model.ties[e].nodes));
     for (m, (f, ke, w), nodes) in lines.chain(ties) {
-        add_force(r, &nodes, f.as_slice(), &mut extra.magnitude);
+        add_force(r, &nodes, f.as_slice(), magnitude);
         info.carried = info.carried.max(largest(f.as_slice()));
         info.potential += w;
         if let Some(k) = k.as_deref_mut() {
             scatter(&ke, &pattern.seg_map[m], k);
         }
-        if let Some((du, out)) = extra.held_step.as_mut() {
+        if let Some((du, out)) = held_step.as_mut() {
             couple(&ke, &nodes, du, out);
         }
     }
-    // External loads: R −= f_ext.
-    fext.clear();
-    fext.resize(r.len(), 0.0);
+}
+
+/// External loads into `fext` (the user's DOFs), load by load: the point forces if `points`,
+/// and of every pressure load `l` its pressed triangles `pressed(l)` (a range of
+/// `pattern.pressed_order[l]`), with their follower stiffness into K. `xi`: the positions in
+/// internal order (renumbered patterns).
+#[allow(clippy::too_many_arguments)]
+fn external_loads(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    loads: &[f64],
+    xi: &[Vector3<f64>],
+    fext: &mut [f64],
+    k: &mut Option<&mut [f64]>,
+    held_step: &mut Option<(&[f64], &mut [f64])>,
+    want_k: bool,
+    points: bool,
+    pressed: impl Fn(usize) -> Range<usize>,
+) {
+    let internal = !pattern.triangles.is_empty();
     for (l, load) in model.loads.iter().enumerate() {
-        // A volume input's load is the follower pressure held in its unknown.
-        let value = model.load_value(l, u, loads);
-        let pressed = match load {
-            LoadModel::Pressure {
-                triangles,
-                follower,
-            } => Some((triangles, *follower)),
-            LoadModel::Volume { triangles, .. } => Some((triangles, true)),
-            _ => None,
-        };
         match load {
             LoadModel::PointForce(dofs) => {
-                for &(d, f) in dofs {
-                    fext[d] += f * value;
+                if points {
+                    let value = model.load_value(l, u, loads);
+                    for &(d, f) in dofs {
+                        fext[d] += f * value;
+                    }
                 }
             }
-            LoadModel::Pressure { .. } | LoadModel::Volume { .. } => {
-                let (triangles, follower) = pressed.expect("a pressure load");
+            LoadModel::Pressure { triangles, .. } | LoadModel::Volume { triangles, .. } => {
+                let follower = match load {
+                    LoadModel::Pressure { follower, .. } => *follower,
+                    _ => true,
+                };
+                let range = pressed(l);
+                if range.is_empty() {
+                    continue;
+                }
+                // A volume input's load is the follower pressure held in its unknown.
+                let value = model.load_value(l, u, loads);
                 debug_assert_eq!(triangles.len(), pattern.pressed_order[l].len());
-                for &e in &pattern.pressed_order[l] {
+                for &e in &pattern.pressed_order[l][range] {
                     let slot = pattern.tri_slot[e];
                     let (f, kp, nodes) = if internal {
                         let t = &pattern.triangles[slot];
@@ -618,7 +723,7 @@ pub fn assemble_with(
                         if let Some(k) = k.as_deref_mut() {
                             scatter(&kp, &pattern.tri_map[slot], k);
                         }
-                        if let Some((du, out)) = extra.held_step.as_mut() {
+                        if let Some((du, out)) = held_step.as_mut() {
                             couple(&kp, &nodes, du, out);
                         }
                     }
@@ -627,6 +732,18 @@ pub fn assemble_with(
             LoadModel::Displacement(_) => {}
         }
     }
+}
+
+/// R −= f_ext, the dead loads' work off the potential, |f_ext|∞, and |f_ext| into the
+/// magnitudes.
+fn finish(
+    model: &Model,
+    u: &[f64],
+    r: &mut [f64],
+    fext: &[f64],
+    magnitude: &mut Option<&mut [f64]>,
+    info: &mut AssemblyInfo,
+) {
     for (d, f) in fext.iter().enumerate() {
         r[d] -= f;
         if !model.held[d] {
@@ -634,10 +751,479 @@ pub fn assemble_with(
         }
         info.external = info.external.max(f.abs());
     }
-    if let Some(m) = extra.magnitude.as_deref_mut() {
+    if let Some(m) = magnitude.as_deref_mut() {
         for (m, f) in m.iter_mut().zip(fext.iter()) {
             *m += f.abs();
         }
     }
+}
+
+/// What one thread's share of the triangles found besides forces and tangents.
+#[derive(Clone, Copy, Debug)]
+struct Sums {
+    potential: f64,
+    carried: f64,
+    min_ratio: f64,
+}
+
+impl Default for Sums {
+    fn default() -> Sums {
+        Sums {
+            potential: 0.0,
+            carried: 0.0,
+            min_ratio: f64::INFINITY,
+        }
+    }
+}
+
+/// The renumbered triangles in `slots` at internal positions `x`: forces into `r` (and their
+/// magnitudes into `m`), 3 values per internal node from node `base` on; tangents into K's
+/// values `k.0` held from position `k.1` on; every evaluation to `out` with its slot.
+#[allow(clippy::too_many_arguments)]
+fn triangles_into(
+    pattern: &Pattern,
+    slots: Range<usize>,
+    x: &[Vector3<f64>],
+    factor: f64,
+    forced: impl Fn(usize) -> Option<WrinkleState>,
+    base: usize,
+    r: &mut [f64],
+    mut m: Option<&mut [f64]>,
+    mut k: Option<(&mut [f64], usize)>,
+    mut out: impl FnMut(usize, &Evaluation),
+) -> Sums {
+    let want_k = k.is_some();
+    let mut ke = membrane::Mat9::zeros();
+    let mut sums = Sums::default();
+    for slot in slots {
+        let t = &pattern.triangles[slot];
+        let kk = want_k.then_some(&mut ke);
+        let (f, eval, ratio) = triangle_at(t, &t.nodes.map(|i| x[i]), factor, forced(slot), kk);
+        add_force(r, &t.nodes.map(|i| i - base), f.as_slice(), &mut m);
+        sums.carried = sums.carried.max(largest(f.as_slice()));
+        if let Some((k, offset)) = k.as_mut() {
+            scatter_at(&ke, &pattern.tri_map[slot], k, *offset);
+        }
+        out(slot, &eval);
+        sums.potential += eval.energy;
+        sums.min_ratio = sums.min_ratio.min(ratio);
+    }
+    sums
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The assembly on two threads (`solver.threads` >= 2, a tangent of at least
+/// `linear::SPLIT_MIN_EQUATIONS` equations, renumbered nodes): the triangles in visit order
+/// (by their lowest internal node, `renumber.rs`) are cut in two halves of equal count. The
+/// solving thread evaluates the first half into R's internal-order buffer and straight into
+/// K's values; the helper evaluates the second half into buffers of its own that cover only
+/// the nodes and the K positions its triangles touch (the visit order keeps those at the back
+/// of both, overlapping the first half's only along the cut). Each half does its own pressed
+/// triangles too. Then the solving thread adds the helper's buffers in (a fixed order: the
+/// answer of a given thread count is the same bit for bit on every run) and does the cable
+/// segments, sleeve ties and point loads as one thread does. Sums that meet along the cut are
+/// grouped differently from one thread's single pass, so the result equals one thread's to
+/// round-off, not bit for bit.
+pub struct Parallel {
+    pool: Arc<Pool>,
+    job: Arc<Mutex<HelperHalf>>,
+    positions: Arc<RwLock<Vec<Vector3<f64>>>>,
+    /// The pattern the helper's half belongs to.
+    pattern: Arc<Pattern>,
+    /// First triangle slot of the helper's half.
+    first: usize,
+    /// One past the last K position the first half writes.
+    k_first_end: usize,
+    /// First K position the helper's half writes (its buffer holds K from here on).
+    k_lo: usize,
+    /// Lowest internal node of the helper's half (its force buffers start here).
+    node_lo: usize,
+}
+
+/// The helper's half: its inputs for one assembly, its buffers and what it found.
+struct HelperHalf {
+    pattern: Arc<Pattern>,
+    positions: Arc<RwLock<Vec<Vector3<f64>>>>,
+    first: usize,
+    node_lo: usize,
+    k_lo: usize,
+    want_k: bool,
+    want_m: bool,
+    want_out: bool,
+    factor: f64,
+    use_forced: bool,
+    /// Frozen states of the helper's slots (when `use_forced`).
+    forced: Vec<Option<WrinkleState>>,
+    /// Per pressure load: (load, value, follower, first index of `pattern.pressed_order[l]`
+    /// in the helper's half).
+    pressures: Vec<(usize, f64, bool, usize)>,
+    /// K's values from position `k_lo` on.
+    k: Vec<f64>,
+    /// Forces, force magnitudes and pressure loads per internal node from `node_lo` on.
+    r: Vec<f64>,
+    m: Vec<f64>,
+    fp: Vec<f64>,
+    /// Evaluations of the helper's slots in slot order (when `want_out`).
+    evals: Vec<Evaluation>,
+    sums: Sums,
+}
+
+impl HelperHalf {
+    fn run(&mut self) {
+        let positions = Arc::clone(&self.positions);
+        let x = positions.read().unwrap_or_else(|e| e.into_inner());
+        let HelperHalf {
+            pattern,
+            first,
+            node_lo,
+            k_lo,
+            want_k,
+            want_m,
+            want_out,
+            factor,
+            use_forced,
+            forced,
+            pressures,
+            k,
+            r,
+            m,
+            fp,
+            evals,
+            sums,
+            ..
+        } = self;
+        let (first, node_lo, k_lo, want_k, want_out) =
+            (*first, *node_lo, *k_lo, *want_k, *want_out);
+        r.fill(0.0);
+        if *want_m {
+            m.fill(0.0);
+        }
+        if want_k {
+            k.fill(0.0);
+        }
+        evals.clear();
+        let use_forced = *use_forced;
+        *sums = triangles_into(
+            pattern,
+            first..pattern.tri_order.len(),
+            &x,
+            *factor,
+            |slot| {
+                if use_forced {
+                    forced[slot - first]
+                } else {
+                    None
+                }
+            },
+            node_lo,
+            r,
+            want_m.then_some(&mut m[..]),
+            want_k.then_some((&mut k[..], k_lo)),
+            |_, eval| {
+                if want_out {
+                    evals.push(*eval)
+                }
+            },
+        );
+        if !pressures.is_empty() {
+            fp.fill(0.0);
+        }
+        for &(l, value, follower, start) in pressures.iter() {
+            for &e in &pattern.pressed_order[l][start..] {
+                let slot = pattern.tri_slot[e];
+                let t = &pattern.triangles[slot];
+                let (f, kp) = pressure_at(t, &t.nodes.map(|i| x[i]), value, follower, want_k);
+                for &i in &t.nodes {
+                    for c in 0..3 {
+                        fp[3 * (i - node_lo) + c] += f[c];
+                    }
+                }
+                if let Some(kp) = kp {
+                    scatter_at(&kp, &pattern.tri_map[slot], k, k_lo);
+                }
+            }
+        }
+    }
+}
+
+impl Parallel {
+    /// The helper's half of `pattern`'s triangles on `pool`'s first helper (its
+    /// [`ASSEMBLE`] job), with every buffer allocated here, fallibly: an assembly then
+    /// allocates nothing. None when the pool has no helper or the pattern is in the user's
+    /// order (`NodeOrder::Given`: no visit order to cut).
+    pub fn try_new(pool: Arc<Pool>, pattern: &Arc<Pattern>) -> Result<Option<Self>, OutOfMemory> {
+        let count = pattern.triangles.len();
+        if pool.helpers() == 0 || count < 2 {
+            return Ok(None);
+        }
+        let first = count / 2;
+        let nodes = pattern.node_of.len();
+        let nnz = pattern.row_idx.len();
+        let written = |slot: usize| pattern.tri_map[slot].into_iter().filter(|&p| p != NONE);
+        let k_first_end = (0..first)
+            .filter_map(|s| written(s).max())
+            .max()
+            .map_or(0, |p| p + 1);
+        let k_lo = (first..count)
+            .filter_map(|s| written(s).min())
+            .min()
+            .unwrap_or(nnz);
+        let node_lo = (first..count)
+            .filter_map(|s| pattern.triangles[s].nodes.into_iter().min())
+            .min()
+            .unwrap_or(nodes);
+        let what = "the parallel assembly's buffers";
+        let helper_nodes = 3 * (nodes - node_lo);
+        let positions = Arc::new(RwLock::new(memory::with_capacity(nodes, what)?));
+        let half = HelperHalf {
+            pattern: Arc::clone(pattern),
+            positions: Arc::clone(&positions),
+            first,
+            node_lo,
+            k_lo,
+            want_k: false,
+            want_m: false,
+            want_out: false,
+            factor: 1.0,
+            use_forced: false,
+            forced: memory::with_capacity(count - first, what)?,
+            pressures: memory::with_capacity(pattern.pressed_order.len(), what)?,
+            k: memory::zeros(nnz - k_lo, what)?,
+            r: memory::zeros(helper_nodes, what)?,
+            m: memory::zeros(helper_nodes, what)?,
+            fp: memory::zeros(helper_nodes, what)?,
+            evals: memory::with_capacity(count - first, what)?,
+            sums: Sums::default(),
+        };
+        let job = Arc::new(Mutex::new(half));
+        let mine = Arc::clone(&job);
+        pool.set_job_in(0, ASSEMBLE, Box::new(move || lock(&mine).run()));
+        Ok(Some(Parallel {
+            pool,
+            job,
+            positions,
+            pattern: Arc::clone(pattern),
+            first,
+            k_first_end,
+            k_lo,
+            node_lo,
+        }))
+    }
+
+    /// Triangles evaluated by (the solving thread, the helper).
+    pub fn halves(&self) -> (usize, usize) {
+        (self.first, self.pattern.tri_order.len() - self.first)
+    }
+
+    /// Whether this is the helper's half of `pattern`.
+    fn serves(&self, pattern: &Pattern) -> bool {
+        std::ptr::eq(Arc::as_ptr(&self.pattern), pattern)
+    }
+
+    /// Bytes of the buffers it holds (the helper's K, forces and evaluations).
+    pub fn bytes(&self) -> u64 {
+        let h = lock(&self.job);
+        let f = std::mem::size_of::<f64>();
+        let words = h.k.capacity() + h.r.capacity() + h.m.capacity() + h.fp.capacity();
+        let positions = self
+            .positions
+            .read()
+            .unwrap_or_else(|e| e.into_inner())
+            .capacity();
+        (words * f
+            + positions * std::mem::size_of::<Vector3<f64>>()
+            + h.evals.capacity() * std::mem::size_of::<Evaluation>()
+            + h.forced.capacity() * std::mem::size_of::<Option<WrinkleState>>()) as u64
+    }
+}
+
+/// [`assemble_with`] on two threads ([`Parallel`]).
+#[allow(clippy::too_many_arguments)]
+fn assemble_two(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    loads: &[f64],
+    r: &mut [f64],
+    mut k: Option<&mut [f64]>,
+    mut extra: Membranes,
+    scratch: &mut AssemblyScratch,
+) -> AssemblyInfo {
+    let AssemblyScratch {
+        ri,
+        mi,
+        fext,
+        parallel,
+        ..
+    } = scratch;
+    let par = parallel.as_ref().expect("a parallel assembly");
+    let count = pattern.tri_order.len();
+    let nodes = pattern.node_of.len();
+    let first = par.first;
+    let want_k = k.is_some();
+    let want_m = extra.magnitude.is_some();
+    let factor = extra.prestress_factor.unwrap_or(1.0);
+    {
+        let mut x = par.positions.write().unwrap_or_else(|e| e.into_inner());
+        x.clear();
+        x.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
+    }
+    {
+        let mut h = lock(&par.job);
+        h.want_k = want_k;
+        h.want_m = want_m;
+        h.want_out = extra.out.is_some();
+        h.factor = factor;
+        h.use_forced = extra.forced.is_some();
+        h.forced.clear();
+        if let Some(f) = extra.forced {
+            h.forced
+                .extend(pattern.tri_order[first..].iter().map(|&e| f[e]));
+        }
+        h.pressures.clear();
+        for (l, load) in model.loads.iter().enumerate() {
+            let follower = match load {
+                LoadModel::Pressure { follower, .. } => *follower,
+                LoadModel::Volume { .. } => true,
+                _ => continue,
+            };
+            let list = &pattern.pressed_order[l];
+            let start = list.partition_point(|&e| pattern.tri_slot[e] < first);
+            h.pressures
+                .push((l, model.load_value(l, u, loads), follower, start));
+        }
+    }
+    par.pool.start_in(0, ASSEMBLE);
+    // The first half, side by side with the helper's.
+    let x = par.positions.read().unwrap_or_else(|e| e.into_inner());
+    let k_split = par.k_first_end.max(par.k_lo);
+    if let Some(k) = k.as_deref_mut() {
+        k[..k_split].fill(0.0);
+    }
+    r.fill(0.0);
+    if let Some(m) = extra.magnitude.as_deref_mut() {
+        m.fill(0.0);
+    }
+    ri.clear();
+    ri.resize(3 * nodes, 0.0);
+    mi.clear();
+    if want_m {
+        mi.resize(3 * nodes, 0.0);
+    }
+    let mut out = extra.out.take();
+    if let Some(out) = out.as_deref_mut() {
+        size_evaluations(out, count);
+    }
+    let forced = extra.forced;
+    let sums = triangles_into(
+        pattern,
+        0..first,
+        &x,
+        factor,
+        |slot| forced.and_then(|f| f[pattern.tri_order[slot]]),
+        0,
+        ri,
+        want_m.then_some(&mut mi[..]),
+        k.as_deref_mut().map(|k| (k, 0)),
+        |slot, eval| {
+            if let Some(out) = out.as_deref_mut() {
+                out[pattern.tri_order[slot]] = *eval;
+            }
+        },
+    );
+    fext.clear();
+    fext.resize(r.len(), 0.0);
+    let mut no_held: Option<(&[f64], &mut [f64])> = None;
+    external_loads(
+        model,
+        pattern,
+        u,
+        loads,
+        &x,
+        fext,
+        &mut k,
+        &mut no_held,
+        want_k,
+        false,
+        |l| {
+            let list = &pattern.pressed_order[l];
+            0..list.partition_point(|&e| pattern.tri_slot[e] < first)
+        },
+    );
+    drop(x);
+    let waited = par.pool.wait(0);
+    let mut h = lock(&par.job);
+    if waited.is_err() {
+        // The helper failed (a panic in its half): its half again on this thread, where a
+        // second failure is this thread's own, as with one thread.
+        h.run();
+    }
+    // The helper's half added in: K's overlap along the cut, then the rest of K copied.
+    if let Some(k) = k.as_deref_mut() {
+        let lo = par.k_lo;
+        for (a, b) in k[lo..k_split].iter_mut().zip(&h.k) {
+            *a += b;
+        }
+        k[k_split..].copy_from_slice(&h.k[k_split - lo..]);
+    }
+    let lo = 3 * par.node_lo;
+    for (a, b) in ri[lo..].iter_mut().zip(&h.r) {
+        *a += b;
+    }
+    if want_m {
+        for (a, b) in mi[lo..].iter_mut().zip(&h.m) {
+            *a += b;
+        }
+    }
+    if !h.pressures.is_empty() {
+        for (j, &i) in pattern.node_of[par.node_lo..].iter().enumerate() {
+            for c in 0..3 {
+                fext[3 * i + c] += h.fp[3 * j + c];
+            }
+        }
+    }
+    if let Some(out) = out.as_deref_mut() {
+        for (j, eval) in h.evals.iter().enumerate() {
+            out[pattern.tri_order[first + j]] = *eval;
+        }
+    }
+    let mut info = AssemblyInfo {
+        potential: sums.potential + h.sums.potential,
+        external: 0.0,
+        min_area_ratio: sums.min_ratio.min(h.sums.min_ratio),
+        carried: sums.carried.max(h.sums.carried),
+    };
+    drop(h);
+    to_user_order(pattern, ri, r);
+    if let Some(m) = extra.magnitude.as_deref_mut() {
+        to_user_order(pattern, mi, m);
+    }
+    lines_into(
+        model,
+        pattern,
+        u,
+        r,
+        &mut k,
+        &mut extra.magnitude,
+        &mut no_held,
+        &mut info,
+    );
+    external_loads(
+        model,
+        pattern,
+        u,
+        loads,
+        &[],
+        fext,
+        &mut k,
+        &mut no_held,
+        want_k,
+        true,
+        |_| 0..0,
+    );
+    finish(model, u, r, fext, &mut extra.magnitude, &mut info);
     info
 }

@@ -287,7 +287,8 @@ const MAX_LOG_LINES: usize = 2000;
 
 pub struct Solver {
     settings: Settings,
-    pattern: Pattern,
+    /// Shared with the helper thread's half of the assembly (`assemble::Parallel`).
+    pattern: std::sync::Arc<Pattern>,
     linear: Ldlt,
     residual: Vec<f64>,
     trial: Vec<f64>,
@@ -353,6 +354,12 @@ impl Solver {
         self.linear.split_sizes()
     }
 
+    /// Triangles the assembly evaluates on (the solving thread, the helper) when it runs on
+    /// two threads (`assemble::Parallel`); None when it runs on one.
+    pub fn assembly_halves(&self) -> Option<(usize, usize)> {
+        self.work.scratch.parallel.as_ref().map(|p| p.halves())
+    }
+
     /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
@@ -369,6 +376,13 @@ impl Solver {
             Some(std::sync::Arc::new(pool))
         } else {
             None
+        };
+        let pattern = std::sync::Arc::new(pattern);
+        // The same gate as the factorization's split: with a pool, the assembly's element loop
+        // runs in two halves too (`assemble::Parallel`).
+        let parallel = match &pool {
+            Some(pool) => assemble::Parallel::try_new(std::sync::Arc::clone(pool), &pattern)?,
+            None => None,
         };
         let linear = Ldlt::try_with_pool(
             pattern.n,
@@ -400,7 +414,10 @@ impl Solver {
             adjacency: relax::Adjacency::try_new(model)?,
             prestress_factor: 1.0,
             probe_states: None,
-            work: work::Work::default(),
+            work: work::Work {
+                scratch: assemble::AssemblyScratch::with_parallel(parallel),
+                ..Default::default()
+            },
             last_direction_residual: f64::INFINITY,
             pcg_work: Vec::new(),
             pattern,
@@ -546,13 +563,18 @@ impl Solver {
         let (mut assembly, mut factor, mut solve) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
         for _ in 0..repeats.max(1) {
             let t = std::time::Instant::now();
-            assemble::assemble(
+            let membranes = assemble::Membranes {
+                scratch: Some(&mut self.work.scratch),
+                ..Default::default()
+            };
+            assemble::assemble_with(
                 model,
                 &self.pattern,
                 u,
                 loads,
                 &mut self.residual,
                 Some(self.linear.values_mut()),
+                membranes,
             );
             assembly = assembly.min(t.elapsed().as_secs_f64());
             for (d, &e) in self.pattern.eq.iter().enumerate() {

@@ -2,7 +2,8 @@
 //! joined when it is dropped. The solving thread itself is the first of the `threads`; the
 //! pool holds the others (`threads - 1` helpers). Used by the two-domain factorization
 //! (`split.rs`): the solving thread factors one half of the tangent while a helper factors the
-//! other.
+//! other; and by the assembly (`assemble.rs`): the solving thread evaluates one half of the
+//! triangles while a helper evaluates the other. Each has its own job slot on the helper.
 //!
 //! No global pool and no rayon: a thread that outlives the instance (rayon's global pool does)
 //! keeps the FMU's shared library mapped after `dlclose` (the 2000-run tests of
@@ -67,9 +68,19 @@ fn start_std(body: Box<dyn FnOnce() + Send>) -> std::io::Result<Joiner> {
 /// A job a helper runs each time it is started.
 pub type Job = Box<dyn FnMut() + Send>;
 
+/// Jobs a helper can hold at once, each in its own slot: the two-domain factorization's
+/// ([`FACTOR`], `split.rs`) and the assembly's ([`ASSEMBLE`], `assemble.rs`).
+pub const SLOTS: usize = 2;
+/// The slot of the two-domain factorization's job ([`Pool::set_job`], [`Pool::start`]).
+pub const FACTOR: usize = 0;
+/// The slot of the parallel assembly's job.
+pub const ASSEMBLE: usize = 1;
+
 #[derive(Default)]
 struct State {
-    job: Option<Job>,
+    jobs: [Option<Job>; SLOTS],
+    /// The slot whose job the current (or last) start runs.
+    slot: usize,
     /// Started and not yet finished.
     running: bool,
     /// The last run panicked (reported by [`Pool::wait`]).
@@ -116,14 +127,15 @@ fn helper_loop(shared: Arc<Shared>) {
         if state.exit {
             return;
         }
-        let mut job = state.job.take();
+        let slot = state.slot;
+        let mut job = state.jobs[slot].take();
         drop(state);
         let panicked = match job.as_mut() {
             Some(job) => catch_unwind(AssertUnwindSafe(|| job())).is_err(),
             None => false,
         };
         state = shared.lock();
-        state.job = job;
+        state.jobs[slot] = job;
         state.panicked = panicked;
         state.running = false;
         shared.changed.notify_all();
@@ -171,18 +183,31 @@ impl Pool {
         self.helpers.len()
     }
 
-    /// Install the job helper `i` runs on each [`Pool::start`] (replacing any earlier one).
-    /// The helper must be idle (no start without its wait).
+    /// Install the job helper `i` runs on each [`Pool::start`] (slot [`FACTOR`], replacing any
+    /// earlier one). The helper must be idle (no start without its wait).
     pub fn set_job(&self, i: usize, job: Job) {
-        let mut state = self.helpers[i].shared.lock();
-        debug_assert!(!state.running);
-        state.job = Some(job);
+        self.set_job_in(i, FACTOR, job);
     }
 
-    /// Run helper `i`'s job once, on the helper (returns at once).
+    /// Install the job of helper `i`'s `slot` (< [`SLOTS`]), run by [`Pool::start_in`].
+    pub fn set_job_in(&self, i: usize, slot: usize, job: Job) {
+        let mut state = self.helpers[i].shared.lock();
+        debug_assert!(!state.running);
+        state.jobs[slot] = Some(job);
+    }
+
+    /// Run helper `i`'s [`FACTOR`] job once, on the helper (returns at once).
     pub fn start(&self, i: usize) {
+        self.start_in(i, FACTOR);
+    }
+
+    /// Run the job of helper `i`'s `slot` once, on the helper (returns at once). The helper
+    /// must be idle (every start is followed by its [`Pool::wait`]).
+    pub fn start_in(&self, i: usize, slot: usize) {
         let shared = &self.helpers[i].shared;
         let mut state = shared.lock();
+        debug_assert!(!state.running);
+        state.slot = slot;
         state.running = true;
         shared.changed.notify_all();
     }
@@ -217,8 +242,8 @@ impl Drop for Pool {
             if let Some(j) = joiner {
                 (j.0)();
             }
-            // The job (and what it holds) goes with the helper.
-            h.shared.lock().job = None;
+            // The jobs (and what they hold) go with the helper.
+            h.shared.lock().jobs = Default::default();
         }
     }
 }
