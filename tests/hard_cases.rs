@@ -1194,61 +1194,6 @@ fn l2_slack_segment_beside_a_taut_one() {
     assert_eq!(get(&e, "Tb"), 0.0, "the slack segment carries nothing");
 }
 
-/// An octahedron subdivided `n` times per edge and projected on the sphere of radius `r`:
-/// nodes and outward (counter-clockwise seen from outside) triangles. Mirror-symmetric about
-/// the three coordinate planes, with nodes on each of them.
-fn octasphere(n: usize, r: f64) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
-    let axes = [
-        Vector3::x(),
-        -Vector3::x(),
-        Vector3::y(),
-        -Vector3::y(),
-        Vector3::z(),
-        -Vector3::z(),
-    ];
-    let mut nodes: Vec<Vector3<f64>> = Vec::new();
-    let mut index = |p: Vector3<f64>| -> usize {
-        let p = p.normalize() * r;
-        match nodes.iter().position(|q| (q - p).norm() < 1e-9) {
-            Some(k) => k,
-            None => {
-                nodes.push(p);
-                nodes.len() - 1
-            }
-        }
-    };
-    let mut triangles = Vec::new();
-    for &a in &axes[0..2] {
-        for &b in &axes[2..4] {
-            for &c in &axes[4..6] {
-                let at = |i: usize, j: usize| {
-                    a + (b - a) * (i as f64 / n as f64) + (c - a) * (j as f64 / n as f64)
-                };
-                for i in 0..n {
-                    for j in 0..n - i {
-                        let mut tris = vec![[at(i, j), at(i + 1, j), at(i, j + 1)]];
-                        if i + j + 1 < n {
-                            tris.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
-                        }
-                        for [p, q, s] in tris {
-                            let (ip, iq, is) = (index(p), index(q), index(s));
-                            triangles.push([ip, iq, is]);
-                        }
-                    }
-                }
-            }
-        }
-    }
-    let nodes: Vec<[f64; 3]> = nodes.iter().map(|p| [p.x, p.y, p.z]).collect();
-    for t in &mut triangles {
-        let [p, q, s] = t.map(|k| Vector3::from(nodes[k]));
-        if (q - p).cross(&(s - p)).dot(&(p + q + s)) < 0.0 {
-            t.swap(1, 2);
-        }
-    }
-    (nodes, triangles)
-}
-
 const SPHERE_MU: f64 = 1e5;
 const SPHERE_H: f64 = 1e-3;
 /// p_max R/(μH) of the incompressible neo-Hookean thin sphere (docs/mechanics.md §4i).

@@ -33,7 +33,6 @@
 //!       Bordered systems: 0 (bit for bit). Iteration counts: equal.
 mod common;
 use common::*;
-use nalgebra::Vector3;
 use serde_json::json;
 use velarium::scene::{Generator, InexactNewton, PathMethod};
 use velarium::solver::linear::Counts;
@@ -155,62 +154,9 @@ fn arc_length_path_same_answers() {
     assert_eq!(c.exact.inexact, 0, "{:?}", c.exact);
 }
 
-/// An octahedron subdivided `n` times per edge, projected on the unit sphere (outward
-/// triangles), as in verify_volume_control.rs.
-fn octasphere(n: usize) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
-    let axes = [
-        Vector3::x(),
-        -Vector3::x(),
-        Vector3::y(),
-        -Vector3::y(),
-        Vector3::z(),
-        -Vector3::z(),
-    ];
-    let mut nodes: Vec<Vector3<f64>> = Vec::new();
-    let mut index = |p: Vector3<f64>| -> usize {
-        let p = p.normalize();
-        match nodes.iter().position(|q| (q - p).norm() < 1e-9) {
-            Some(k) => k,
-            None => {
-                nodes.push(p);
-                nodes.len() - 1
-            }
-        }
-    };
-    let mut triangles = Vec::new();
-    for &a in &axes[0..2] {
-        for &b in &axes[2..4] {
-            for &c in &axes[4..6] {
-                let at = |i: usize, j: usize| {
-                    a + (b - a) * (i as f64 / n as f64) + (c - a) * (j as f64 / n as f64)
-                };
-                for i in 0..n {
-                    for j in 0..n - i {
-                        let mut tris = vec![[at(i, j), at(i + 1, j), at(i, j + 1)]];
-                        if i + j + 1 < n {
-                            tris.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
-                        }
-                        for [p, q, s] in tris {
-                            triangles.push([index(p), index(q), index(s)]);
-                        }
-                    }
-                }
-            }
-        }
-    }
-    let nodes: Vec<[f64; 3]> = nodes.iter().map(|p| [p.x, p.y, p.z]).collect();
-    for t in &mut triangles {
-        let [p, q, s] = t.map(|k| Vector3::from(nodes[k]));
-        if (q - p).cross(&(s - p)).dot(&(p + q + s)) < 0.0 {
-            t.swap(1, 2);
-        }
-    }
-    (nodes, triangles)
-}
-
 #[test]
 fn volume_controlled_balloon_keeps_the_exact_path() {
-    let (nodes, triangles) = octasphere(6);
+    let (nodes, triangles) = octasphere(6, 1.0);
     let on = |c: usize| -> Vec<usize> {
         (0..nodes.len())
             .filter(|&k| nodes[k][c].abs() < 1e-12)

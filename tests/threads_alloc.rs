@@ -160,4 +160,8 @@ fn a_two_thread_newton_iteration_allocates_nothing_but_its_log_line() {
         b.bytes <= a.bytes + 1024 * extra,
         "under 1 KiB per iteration"
     );
+    assert_eq!(
+        b.elsewhere, a.elsewhere,
+        "the helper thread allocates nothing per iteration"
+    );
 }

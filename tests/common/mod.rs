@@ -104,3 +104,58 @@ pub fn field_difference(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
         / scale
 }
+
+/// An octahedron subdivided `n` times per edge and projected on the sphere of radius `r`:
+/// nodes and outward (counter-clockwise seen from outside) triangles. Mirror-symmetric about
+/// the three coordinate planes, with nodes on each of them.
+pub fn octasphere(n: usize, r: f64) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let axes = [
+        Vector3::x(),
+        -Vector3::x(),
+        Vector3::y(),
+        -Vector3::y(),
+        Vector3::z(),
+        -Vector3::z(),
+    ];
+    let mut nodes: Vec<Vector3<f64>> = Vec::new();
+    let mut index = |p: Vector3<f64>| -> usize {
+        let p = p.normalize() * r;
+        match nodes.iter().position(|q| (q - p).norm() < 1e-9) {
+            Some(k) => k,
+            None => {
+                nodes.push(p);
+                nodes.len() - 1
+            }
+        }
+    };
+    let mut triangles = Vec::new();
+    for &a in &axes[0..2] {
+        for &b in &axes[2..4] {
+            for &c in &axes[4..6] {
+                let at = |i: usize, j: usize| {
+                    a + (b - a) * (i as f64 / n as f64) + (c - a) * (j as f64 / n as f64)
+                };
+                for i in 0..n {
+                    for j in 0..n - i {
+                        let mut tris = vec![[at(i, j), at(i + 1, j), at(i, j + 1)]];
+                        if i + j + 1 < n {
+                            tris.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+                        }
+                        for [p, q, s] in tris {
+                            let (ip, iq, is) = (index(p), index(q), index(s));
+                            triangles.push([ip, iq, is]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let nodes: Vec<[f64; 3]> = nodes.iter().map(|p| [p.x, p.y, p.z]).collect();
+    for t in &mut triangles {
+        let [p, q, s] = t.map(|k| Vector3::from(nodes[k]));
+        if (q - p).cross(&(s - p)).dot(&(p + q + s)) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+    (nodes, triangles)
+}
