@@ -396,27 +396,7 @@ pub(super) fn symbolic_ldlt(
 mod tests {
     use super::*;
 
-    /// Upper triangle (CSC) of a shifted 5-point Laplacian on an nx x ny grid: symmetric
-    /// positive definite.
-    fn grid(nx: usize, ny: usize) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>) {
-        let n = nx * ny;
-        let (mut cp, mut ri, mut v) = (vec![0], vec![], vec![]);
-        for j in 0..n {
-            let (x, y) = (j % nx, j / nx);
-            if y > 0 {
-                ri.push(j - nx);
-                v.push(-1.0);
-            }
-            if x > 0 {
-                ri.push(j - 1);
-                v.push(-1.0);
-            }
-            ri.push(j);
-            v.push(4.1 + (j % 7) as f64 * 0.01);
-            cp.push(ri.len());
-        }
-        (n, cp, ri, v)
-    }
+    use crate::solver::split::tests::grid;
 
     fn diagonal_scaled(ldlt: &mut Ldlt, cp: &[usize], factor: impl Fn(usize) -> f64) {
         let values = ldlt.values_mut();

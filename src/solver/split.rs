@@ -753,11 +753,15 @@ fn separator_levels(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    /// The 5-point Laplacian of an nx x ny grid plus a shift (SPD), upper CSC.
-    fn grid(nx: usize, ny: usize) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>) {
+    /// The 5-point Laplacian of an nx x ny grid plus a shift (SPD), upper CSC (also used by
+    /// linear.rs's tests).
+    pub(in crate::solver) fn grid(
+        nx: usize,
+        ny: usize,
+    ) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>) {
         let n = nx * ny;
         let (mut cp, mut ri, mut v) = (vec![0], vec![], vec![]);
         for j in 0..n {
