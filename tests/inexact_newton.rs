@@ -156,27 +156,12 @@ fn arc_length_path_same_answers() {
 
 #[test]
 fn volume_controlled_balloon_keeps_the_exact_path() {
-    let (nodes, triangles) = octasphere(6, 1.0);
-    let on = |c: usize| -> Vec<usize> {
-        (0..nodes.len())
-            .filter(|&k| nodes[k][c].abs() < 1e-12)
-            .collect()
-    };
-    let json = json!({
-        "format": 1, "name": "VolumeBalloon",
-        "geometry": {"nodes": nodes, "triangles": triangles,
-                     "node_sets": {"px": on(0), "py": on(1), "pz": on(2)},
-                     "triangle_sets": {"all": (0..triangles.len()).collect::<Vec<_>>()}},
-        "membranes": [{"name": "rubber", "triangles": "all", "thickness": 1e-3,
-                       "material": {"kind": "neo_hookean", "mu": 1e5}}],
-        "supports": [{"nodes": "px", "fix": ["x"]}, {"nodes": "py", "fix": ["y"]}, {"nodes": "pz", "fix": ["z"]}],
-        "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "rubber"}}],
-        "outputs": [
-            {"name": "p", "probe": {"kind": "enclosed_pressure", "input": "dV"}},
-            {"name": "V", "probe": {"kind": "enclosed_volume", "membrane": "rubber"}}
-        ]
-    });
-    let scene = Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{p}"));
+    let scene = balloon_scene(
+        6,
+        1e-3,
+        1e5,
+        json!({"kind": "volume", "membrane": "rubber"}),
+    );
     let v0 = engine(scene.clone()).outputs()[1].1;
     let c = compare(
         "balloon (volume)",

@@ -45,27 +45,7 @@ fn balloon(divisions: usize) -> Scene {
 }
 
 fn balloon_with(divisions: usize, load: serde_json::Value) -> Scene {
-    let (nodes, triangles) = octasphere(divisions, 1.0);
-    let on = |c: usize| -> Vec<usize> {
-        (0..nodes.len())
-            .filter(|&k| nodes[k][c].abs() < 1e-12)
-            .collect()
-    };
-    let json = json!({
-        "format": 1, "name": "VolumeBalloon",
-        "geometry": {"nodes": nodes, "triangles": triangles,
-                     "node_sets": {"px": on(0), "py": on(1), "pz": on(2)},
-                     "triangle_sets": {"all": (0..triangles.len()).collect::<Vec<_>>()}},
-        "membranes": [{"name": "rubber", "triangles": "all", "thickness": H,
-                       "material": {"kind": "neo_hookean", "mu": MU}}],
-        "supports": [{"nodes": "px", "fix": ["x"]}, {"nodes": "py", "fix": ["y"]}, {"nodes": "pz", "fix": ["z"]}],
-        "inputs": [{"name": "dV", "load": load}],
-        "outputs": [
-            {"name": "p", "probe": {"kind": "enclosed_pressure", "input": "dV"}},
-            {"name": "V", "probe": {"kind": "enclosed_volume", "membrane": "rubber"}}
-        ]
-    });
-    Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{p}"))
+    balloon_scene(divisions, H, MU, load)
 }
 
 /// p R/(μH) of the thin neo-Hookean sphere at stretch λ.

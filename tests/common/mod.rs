@@ -159,3 +159,30 @@ pub fn octasphere(n: usize, r: f64) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
     }
     (nodes, triangles)
 }
+
+/// The octasphere balloon of radius 1 m (rubber: incompressible neo-Hookean, thickness `h`,
+/// shear modulus `mu`) held by its three mirror planes, with one input `dV` of the given load
+/// and outputs `p` (the enclosed pressure of `dV`) and `V` (the enclosed volume).
+pub fn balloon_scene(divisions: usize, h: f64, mu: f64, load: serde_json::Value) -> Scene {
+    let (nodes, triangles) = octasphere(divisions, 1.0);
+    let on = |c: usize| -> Vec<usize> {
+        (0..nodes.len())
+            .filter(|&k| nodes[k][c].abs() < 1e-12)
+            .collect()
+    };
+    let json = serde_json::json!({
+        "format": 1, "name": "VolumeBalloon",
+        "geometry": {"nodes": nodes, "triangles": triangles,
+                     "node_sets": {"px": on(0), "py": on(1), "pz": on(2)},
+                     "triangle_sets": {"all": (0..triangles.len()).collect::<Vec<_>>()}},
+        "membranes": [{"name": "rubber", "triangles": "all", "thickness": h,
+                       "material": {"kind": "neo_hookean", "mu": mu}}],
+        "supports": [{"nodes": "px", "fix": ["x"]}, {"nodes": "py", "fix": ["y"]}, {"nodes": "pz", "fix": ["z"]}],
+        "inputs": [{"name": "dV", "load": load}],
+        "outputs": [
+            {"name": "p", "probe": {"kind": "enclosed_pressure", "input": "dV"}},
+            {"name": "V", "probe": {"kind": "enclosed_volume", "membrane": "rubber"}}
+        ]
+    });
+    Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{p}"))
+}
