@@ -1,5 +1,5 @@
 //! Scaling benchmark, printed (not asserted; issue 15 item 6):
-//! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--problem=disc,square] [--threads=N]
+//! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N] [--problem=disc,square] [--threads=N]
 //! [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]`.
 //!
 //! Two problems, each flat start to full load in one step:
@@ -180,6 +180,23 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
     }
     let vr = value_reference(&engine, problem.input);
     let out = value_reference(&engine, "center_uz");
+    if let Some(repeats) = std::env::args().find_map(|a| {
+        a.strip_prefix("--floor-only=")
+            .map(|n| n.parse::<usize>().expect("--floor-only=N"))
+    }) {
+        engine.set_real(vr, problem.value).unwrap();
+        let (assembly, factor, solve) = engine.time_floor_parts(repeats);
+        println!(
+            "{:>7} {:>8} {:>13} floor (best of {repeats}, flat start): assembly {:.4} s, factor {:.4} s, solve {:.4} s",
+            problem.name,
+            engine.free_dofs(),
+            label,
+            assembly,
+            factor,
+            solve
+        );
+        return;
+    }
     let counts = engine.linear_counts();
     let cpu = cpu_seconds();
     let t = Instant::now();
@@ -274,6 +291,8 @@ fn sizes(args: &[String]) -> Vec<(usize, usize)> {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let no_shuffle = args.iter().any(|a| a == "--no-shuffle");
+    // `--shuffled-only`: skip the generator's numbering (to profile the shuffled case alone).
+    let shuffled_only = args.iter().any(|a| a == "--shuffled-only");
     // `--threads=N`: the solver's threads (`solver.threads`; 2 or more factor a large tangent
     // in two halves at once, docs/performance.md).
     let threads: usize = args
@@ -395,7 +414,9 @@ fn main() {
                     let name = format!("{order:?}").to_lowercase();
                     scene.solver.node_order = order;
                     scene.solver.inexact_newton = inexact;
-                    run(problem, &format!("gen/{name}"), scene.clone());
+                    if !shuffled_only {
+                        run(problem, &format!("gen/{name}"), scene.clone());
+                    }
                     if let Some(s) = &shuffled_scene {
                         let mut s = s.clone();
                         s.solver.node_order = order;

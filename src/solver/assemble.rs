@@ -44,6 +44,10 @@ pub struct Pattern {
     /// Per load, its pressed triangles in visit order (empty for other loads): the pressure
     /// loop streams through `tri_map` too.
     pressed_order: Vec<Vec<usize>>,
+    /// `pressed_order` as slots (positions in `tri_order`, ascending): the pressure loop reads
+    /// its triangles' data and maps front to back without a lookup by the user's triangle
+    /// number (which in a shuffled numbering lands anywhere).
+    pressed_slots: Vec<Vec<usize>>,
 }
 
 /// What one assembly found besides R and K.
@@ -122,6 +126,12 @@ impl Pattern {
             };
             list.sort_unstable_by_key(|&e| tri_slot[e]);
             pressed_order.push(list);
+        }
+        let mut pressed_slots = memory::with_capacity(model.loads.len(), "the element order")?;
+        for list in &pressed_order {
+            let mut slots = memory::with_capacity(list.len(), "the element order")?;
+            slots.extend(list.iter().map(|&e| tri_slot[e]));
+            pressed_slots.push(slots);
         }
         // Every element's DOFs (equation numbers, NONE where held), 9 for a triangle, 6 for a
         // segment or tie; triangles first, then segments and ties (the maps' order).
@@ -252,6 +262,7 @@ impl Pattern {
             triangles,
             node_of,
             pressed_order,
+            pressed_slots,
         })
     }
 }
@@ -319,6 +330,8 @@ pub struct AssemblyScratch {
     xi: Vec<Vector3<f64>>,
     ri: Vec<f64>,
     mi: Vec<f64>,
+    /// The pressure loads' nodal forces in internal order (renumbered patterns, one thread).
+    fi: Vec<f64>,
     fext: Vec<f64>,
     /// The helper thread's half of the triangles (`solver.threads` >= 2 on a large model):
     /// an assembly given this scratch evaluates the two halves side by side.
@@ -535,11 +548,17 @@ pub fn assemble_with(
     // writes memory front to back whatever the user's numbering.
     let internal = !pattern.triangles.is_empty();
     let AssemblyScratch {
-        xi, ri, mi, fext, ..
+        xi,
+        ri,
+        mi,
+        fi,
+        fext,
+        ..
     } = scratch;
     xi.clear();
     ri.clear();
     mi.clear();
+    fi.clear();
     if internal {
         xi.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
         ri.resize(3 * xi.len(), 0.0);
@@ -593,19 +612,27 @@ pub fn assemble_with(
     );
     fext.clear();
     fext.resize(r.len(), 0.0);
-    external_loads(
+    // Pressure forces summed node by node in internal order and added to f_ext once per node.
+    if internal {
+        fi.resize(ri.len(), 0.0);
+    }
+    external_loads_into(
         model,
         pattern,
         u,
         loads,
         xi,
         fext,
+        internal.then_some(&mut fi[..]),
         &mut k,
         &mut extra.held_step,
         want_k,
         true,
         |l| 0..pattern.pressed_order[l].len(),
     );
+    if internal {
+        to_user_order(pattern, fi, fext);
+    }
     finish(model, u, r, fext, &mut extra.magnitude, &mut info);
     info
 }
@@ -680,6 +707,28 @@ fn external_loads(
     points: bool,
     pressed: impl Fn(usize) -> Range<usize>,
 ) {
+    external_loads_into(
+        model, pattern, u, loads, xi, fext, None, k, held_step, want_k, points, pressed,
+    );
+}
+
+/// [`external_loads`] with the pressure loads' nodal forces into `fi` (3 values per internal
+/// node position; renumbered patterns) instead of `fext` when it is given.
+#[allow(clippy::too_many_arguments)]
+fn external_loads_into(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    loads: &[f64],
+    xi: &[Vector3<f64>],
+    fext: &mut [f64],
+    mut fi: Option<&mut [f64]>,
+    k: &mut Option<&mut [f64]>,
+    held_step: &mut Option<(&[f64], &mut [f64])>,
+    want_k: bool,
+    points: bool,
+    pressed: impl Fn(usize) -> Range<usize>,
+) {
     let internal = !pattern.triangles.is_empty();
     for (l, load) in model.loads.iter().enumerate() {
         match load {
@@ -703,28 +752,47 @@ fn external_loads(
                 // A volume input's load is the follower pressure held in its unknown.
                 let value = model.load_value(l, u, loads);
                 debug_assert_eq!(triangles.len(), pattern.pressed_order[l].len());
-                for &e in &pattern.pressed_order[l][range] {
-                    let slot = pattern.tri_slot[e];
-                    let (f, kp, nodes) = if internal {
+                for (&slot, &e) in pattern.pressed_slots[l][range.clone()]
+                    .iter()
+                    .zip(&pattern.pressed_order[l][range])
+                {
+                    let kp = if internal {
                         let t = &pattern.triangles[slot];
                         let x = t.nodes.map(|i| xi[i]);
                         let (f, kp) = pressure_at(t, &x, value, follower, want_k);
-                        (f, kp, t.nodes.map(|i| pattern.node_of[i]))
+                        match fi.as_deref_mut() {
+                            Some(fi) => {
+                                for &i in &t.nodes {
+                                    for c in 0..3 {
+                                        fi[3 * i + c] += f[c];
+                                    }
+                                }
+                            }
+                            None => {
+                                for &i in &t.nodes {
+                                    let i = pattern.node_of[i];
+                                    for c in 0..3 {
+                                        fext[3 * i + c] += f[c];
+                                    }
+                                }
+                            }
+                        }
+                        kp
                     } else {
                         let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
-                        (f, kp, model.triangles[e].nodes)
-                    };
-                    for &i in &nodes {
-                        for c in 0..3 {
-                            fext[3 * i + c] += f[c];
+                        for &i in &model.triangles[e].nodes {
+                            for c in 0..3 {
+                                fext[3 * i + c] += f[c];
+                            }
                         }
-                    }
+                        kp
+                    };
                     if let Some(kp) = kp {
                         if let Some(k) = k.as_deref_mut() {
                             scatter(&kp, &pattern.tri_map[slot], k);
                         }
                         if let Some((du, out)) = held_step.as_mut() {
-                            couple(&kp, &nodes, du, out);
+                            couple(&kp, &model.triangles[e].nodes, du, out);
                         }
                     }
                 }
