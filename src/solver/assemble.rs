@@ -332,6 +332,9 @@ pub struct AssemblyScratch {
     mi: Vec<f64>,
     /// The pressure loads' nodal forces in internal order (renumbered patterns, one thread).
     fi: Vec<f64>,
+    /// The triangles' evaluations in visit order (renumbered patterns, one thread), handed
+    /// to the caller's list (the user's triangle order) in one pass after the element loop.
+    ei: Vec<Evaluation>,
     fext: Vec<f64>,
     /// The helper thread's half of the triangles (`solver.threads` >= 2 on a large model):
     /// an assembly given this scratch evaluates the two halves side by side.
@@ -552,6 +555,7 @@ pub fn assemble_with(
         ri,
         mi,
         fi,
+        ei,
         fext,
         ..
     } = scratch;
@@ -564,6 +568,9 @@ pub fn assemble_with(
         ri.resize(3 * xi.len(), 0.0);
         if extra.magnitude.is_some() {
             mi.resize(3 * xi.len(), 0.0);
+        }
+        if extra.out.is_some() {
+            size_evaluations(ei, model.triangles.len());
         }
     }
     for (slot, &e) in pattern.tri_order.iter().enumerate() {
@@ -588,7 +595,11 @@ pub fn assemble_with(
         if let Some((du, out)) = extra.held_step.as_mut() {
             couple(&ke, &user.nodes, du, out);
         }
-        if let Some(out) = extra.out.as_deref_mut() {
+        if internal && extra.out.is_some() {
+            // In visit order here (a write to the user's triangle number would land anywhere
+            // in the list under a shuffled numbering); handed over after the loop.
+            ei[slot] = eval;
+        } else if let Some(out) = extra.out.as_deref_mut() {
             out[e] = eval;
         }
         info.potential += eval.energy;
@@ -598,6 +609,11 @@ pub fn assemble_with(
         to_user_order(pattern, ri, r);
         if let Some(m) = extra.magnitude.as_deref_mut() {
             to_user_order(pattern, mi, m);
+        }
+        if let Some(out) = extra.out.as_deref_mut() {
+            for (eval, &e) in ei.iter().zip(&pattern.tri_order) {
+                out[e] = *eval;
+            }
         }
     }
     lines_into(
