@@ -66,6 +66,14 @@ pub struct AssemblyInfo {
 }
 
 impl Pattern {
+    /// The model's nodes in internal order (`renumber.rs`; the user's order under
+    /// `NodeOrder::Given`): a sweep over nodes that walks this order does not depend on the
+    /// user's numbering (nodal relaxation's Gauss-Seidel order).
+    pub fn nodes_in_order(&self, nodes: usize) -> impl Iterator<Item = usize> + '_ {
+        let given = self.node_of.is_empty();
+        (0..if given { nodes } else { 0 }).chain(self.node_of.iter().copied())
+    }
+
     /// Pattern and position maps of `model` in the default internal node order
     /// (`NodeOrder::Rings`).
     pub fn try_new(model: &Model) -> Result<Pattern, OutOfMemory> {
@@ -92,10 +100,18 @@ impl Pattern {
         }
         let mut tri_order = memory::collect(0..model.triangles.len(), "the element order")?;
         if order != NodeOrder::Given {
-            let first = |e: usize| model.triangles[e].nodes.iter().map(|&i| rank[i]).min();
-            // In place (a stable sort would allocate its buffer infallibly); ties by triangle
-            // number, the order the stable sort gave.
-            tri_order.sort_unstable_by_key(|&e| (first(e), e));
+            // By the lowest internal node, then the next and the highest: a property of the
+            // mesh, not of its numbering, so a shuffled numbering of the same mesh visits its
+            // triangles in the same order and forms every sum in the same order (the same
+            // answers to the last bit, and the same Newton path on a sensitive problem). In
+            // place (a stable sort would allocate its buffer infallibly); the triangle number
+            // breaks the remaining ties (two triangles on the same three nodes).
+            let ranks = |e: usize| {
+                let mut r = model.triangles[e].nodes.map(|i| rank[i]);
+                r.sort_unstable();
+                r
+            };
+            tri_order.sort_unstable_by_key(|&e| (ranks(e), e));
         }
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {

@@ -666,7 +666,12 @@ impl Solver {
                 });
             }
             nodes.clear();
-            nodes.extend((0..patch.len()).filter(|&i| patch[i]));
+            // In internal order: the sweep's result does not depend on the user's numbering.
+            nodes.extend(
+                self.pattern
+                    .nodes_in_order(patch.len())
+                    .filter(|&i| patch[i]),
+            );
             if nodes.len() as f64 > s.relax_max_share * model.reference.len() as f64 {
                 // The residual is spread over the mesh: a global, not a local, difficulty.
                 break;
