@@ -427,7 +427,8 @@ impl Solver {
     /// Working memory of one step beyond what the solver and the state already hold, in
     /// bytes: a generous bound on the vectors the path, Newton loop, line search and slip
     /// block allocate while a step runs (about 16 copies of the unknowns and the forces, the
-    /// element evaluations three times, and with m slip and volume unknowns the m solved
+    /// element evaluations four times (one the assembly's copy in visit order,
+    /// `assemble::AssemblyScratch`), and with m slip and volume unknowns the m solved
     /// columns and the dense m x m block; 4 more vectors of the equations under inexact
     /// Newton). Probed before every step (`crate::memory::probe`).
     pub fn step_bytes(&self, model: &Model) -> u64 {
@@ -436,7 +437,7 @@ impl Solver {
         // Slips and volume pressures: the unknowns eliminated in the dense block.
         let m = (model.unknown_count() - model.dof_count()) as u64;
         let vectors = copies.saturating_mul(unknowns).saturating_mul(8);
-        let evaluations = 3u64
+        let evaluations = 4u64
             .saturating_mul(model.triangles.len() as u64)
             .saturating_mul(std::mem::size_of::<Evaluation>() as u64 + 8);
         let slip = m
