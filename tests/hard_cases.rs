@@ -942,8 +942,8 @@ fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
 /// REFERENCE: as case (i) (the homogeneous tension field at the centre, same tolerances: the
 /// residual stiffness moves the centre's stresses by about ρ E |e₂| ≈ 1e-4 · 3.5e9 · 1e-3 =
 /// 350 Pa, 4e-5 of S11); every step converges in one increment.
-/// Measured: median 6, largest 12 Newton iterations per step (case (i) without the option: 7 /
-/// 11 now, 18.5 / 2797 before nodal relaxation's patch Newton).
+/// Measured: median 5, largest 8 Newton iterations per step (6 / 12 before nodal relaxation's
+/// patch Newton; case (i) without the option: 7 / 11 now, 18.5 / 2797 before).
 #[test]
 fn i2_sheared_film_with_a_residual_stiffness() {
     let separation = 1e-4;
