@@ -695,6 +695,8 @@ impl Solver {
             // stress-free directions may lead away (the corner-pulled rubber sheet, hard case j).
             let near = free <= s.relax_patch_below * (tolerance / s.tolerance);
             if near && nodes.len() <= s.relax_patch_nodes {
+                // The sweeps went in internal order; the patch wants its nodes sorted.
+                nodes.sort_unstable();
                 let outcome = relax_patch(
                     model,
                     &self.adjacency,
