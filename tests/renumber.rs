@@ -492,6 +492,9 @@ fn element_rows(csv: &str) -> Vec<(usize, u8, Vec<f64>)> {
 /// and relaxation swept in internal order, the shuffled square at 57 x 57 cells took 23 Newton
 /// iterations against 24 and at 100k DOF 39 against 33 (docs/performance.md).
 #[test]
+#[ignore = "needs nodal relaxation to sweep in internal order (Pattern::nodes_in_order), which \
+            hard case j and alloc_per_iteration's WrinkledShear did not survive after main's \
+            patch Newton (f040edf); docs/performance.md, What is not done"]
 fn a_shuffled_square_with_edge_cables_takes_the_generators_newton_path() {
     let generated = square(57);
     let mesh = resolve(&Scene::from_json(&generated.to_string()).unwrap().geometry);

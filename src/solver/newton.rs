@@ -667,12 +667,7 @@ impl Solver {
                 });
             }
             nodes.clear();
-            // In internal order: the sweep's result does not depend on the user's numbering.
-            nodes.extend(
-                self.pattern
-                    .nodes_in_order(patch.len())
-                    .filter(|&i| patch[i]),
-            );
+            nodes.extend((0..patch.len()).filter(|&i| patch[i]));
             if nodes.len() as f64 > s.relax_max_share * model.reference.len() as f64 {
                 // The residual is spread over the mesh: a global, not a local, difficulty.
                 break;
@@ -695,8 +690,6 @@ impl Solver {
             // stress-free directions may lead away (the corner-pulled rubber sheet, hard case j).
             let near = free <= s.relax_patch_below * (tolerance / s.tolerance);
             if near && nodes.len() <= s.relax_patch_nodes {
-                // The sweeps went in internal order; the patch wants its nodes sorted.
-                nodes.sort_unstable();
                 let outcome = relax_patch(
                     model,
                     &self.adjacency,
