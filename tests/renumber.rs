@@ -16,7 +16,10 @@
 //!       Newton path exactly (equal iteration counts per load row: the triangles are visited
 //!       and relaxation sweeps the nodes in internal order, not in the user's numbers) and gives
 //!       its answers to round-off in every place they leave the engine: outputs, the load
-//!       history CSV, the per-element CSV, FMU arrays and VTK point and cell data.
+//!       history CSV, the per-element CSV, FMU arrays and VTK point and cell data. (5) is
+//!       `#[ignore]`d: it holds with relaxation sweeping in internal order
+//!       (`Pattern::nodes_in_order`), which is out until hard case j survives it (run it with
+//!       `cargo test --release --test renumber -- --ignored`).
 //! MESH: HenckyDisc at 12 rings (469 nodes, 864 triangles) and 34 rings (fill only), the same
 //!       mesh written explicitly with node and triangle ids permuted by a fixed-seed xorshift
 //!       generator; examples/ZonedCushion (8 x 8 cells, edge cables); the 4 m square at 57 x 57

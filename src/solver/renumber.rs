@@ -10,17 +10,16 @@
 //! triangle order  triangles are visited by their lowest-ranked node (ties by the highest, then
 //!                 the middle one), so one assembly walks the mesh front to back and scatters
 //!                 into nearby columns of K
-//! relaxation      nodal relaxation sweeps its nodes in rank order
 //! ```
 //!
 //! Nothing user-visible changes: the displacement vector, reactions, element evaluations,
 //! outputs, probes, CSV, VTK, FMU arrays, node sets and messages stay in the user's numbering
 //! (node `i` is always DOFs 3i..3i+3 of every vector outside the linear solve). Only the
-//! equation numbering inside [`super::assemble::Pattern`], the element visit order and the
-//! relaxation's sweep order change, and with them the order in which floating-point sums are
-//! formed (results agree to round-off). None of the three depends on the user's numbering, so
-//! two numberings of one mesh form the assembly's sums in the same order and take the same
-//! Newton path (tests/renumber.rs).
+//! equation numbering inside [`super::assemble::Pattern`] and the element visit order change,
+//! and with them the order in which floating-point sums are formed (results agree to
+//! round-off). Neither depends on the user's numbering, so two numberings of one mesh form the
+//! assembly's sums in the same order; nodal relaxation still sweeps in the user's order, so
+//! where it runs their Newton paths can differ (docs/performance.md, What is not done).
 //!
 //! Three orderings (`solver.node_order`; docs/performance.md has the measurements):
 //! - **Rings** (the default): breadth first from a central node of each connected part (the
