@@ -63,8 +63,9 @@ struct Half {
     /// Global equation of each local one: the domain's `nd`, then the separator's.
     eq: Vec<usize>,
     nd: usize,
-    /// Position in K's values (upper CSC) of each stored value of `matrix`.
-    map: Vec<usize>,
+    /// Position in K's values (upper CSC) of each stored value of `matrix` (`u32`: K's
+    /// entries are counted against `u32` in [`Split::try_new`]).
+    map: Vec<u32>,
     matrix: SparseColMat<usize, f64>,
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
@@ -286,7 +287,9 @@ impl Split {
         rank: Option<&[usize]>,
         pool: Arc<Pool>,
     ) -> Result<Option<Split>, OutOfMemory> {
-        if pool.helpers() == 0 {
+        // The halves' maps hold K's positions as u32 (as the assembly's do): a larger K
+        // stays on one thread.
+        if pool.helpers() == 0 || row_idx.len() as u64 > u32::MAX as u64 {
             return Ok(None);
         }
         let Some(level) = separator_levels(n, col_ptr, row_idx)? else {
@@ -477,7 +480,7 @@ fn select(n: usize, keep: impl Fn(usize) -> bool) -> Result<Vec<usize>, OutOfMem
 fn gather(h: &mut Half, k: &[f64]) {
     let Half { matrix, map, .. } = h;
     for (v, &p) in matrix.val_mut().iter_mut().zip(map.iter()) {
-        *v = k[p];
+        *v = k[p as usize];
     }
 }
 
@@ -609,14 +612,14 @@ impl Half {
         let nnz = count[m];
         let mut next = memory::copy(&count[..m], what)?;
         let mut rows = memory::zeros::<usize>(nnz, what)?;
-        let mut map = memory::zeros::<usize>(nnz, what)?;
+        let mut map = memory::zeros::<u32>(nnz, what)?;
         for j in 0..n {
             for p in col_ptr[j]..col_ptr[j + 1] {
                 let (li, lj) = (local[row_idx[p]], local[j]);
                 if li != usize::MAX && lj != usize::MAX {
                     let c = li.max(lj);
                     rows[next[c]] = li.min(lj);
-                    map[next[c]] = p;
+                    map[next[c]] = p as u32;
                     next[c] += 1;
                 }
             }
@@ -625,7 +628,7 @@ impl Half {
         drop(local);
         for c in 0..m {
             let (lo, hi) = (count[c], count[c + 1]);
-            let mut pairs: Vec<(usize, usize)> = rows[lo..hi]
+            let mut pairs: Vec<(usize, u32)> = rows[lo..hi]
                 .iter()
                 .copied()
                 .zip(map[lo..hi].iter().copied())
