@@ -39,6 +39,7 @@ use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Accum, Conj, Mat, MatMut, MatRef, Par};
@@ -77,6 +78,8 @@ struct Half {
     d: Vec<f64>,
     /// Local right-hand side / solution.
     x: Vec<f64>,
+    /// A supernode's rows below its domain columns in a solve (as long as the longest).
+    tmp: Vec<f64>,
     reg: (f64, f64),
     phase: Phase,
     status: Result<(), String>,
@@ -180,10 +183,13 @@ impl Half {
     }
 
     /// x := D_hh^-1 L_hh^-1 x over the domain's columns; the separator rows receive
-    /// -L_Sh L_hh^-1 x_h (= -K_Sh K_hh^-1 b_h when they start at 0).
+    /// -L_Sh L_hh^-1 x_h (= -K_Sh K_hh^-1 b_h when they start at 0). Supernode by supernode as
+    /// faer's own solve: a dense triangular solve of its top block, one dense product of the
+    /// rows below (into `tmp`), then those rows updated.
     fn forward(&mut self) {
         let nd = self.nd;
         let mut x = std::mem::take(&mut self.x);
+        let mut tmp = std::mem::take(&mut self.tmp);
         for s in 0..self.supernodal().n_supernodes() {
             let (start, ls, pattern) = self.supernode(s);
             if start >= nd {
@@ -191,43 +197,46 @@ impl Half {
             }
             let ncols = ls.ncols();
             let k = ncols.min(nd - start);
-            {
-                let top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
-                faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place(
-                    ls.submatrix(0, 0, k, k),
-                    top,
-                    Par::Seq,
-                );
+            let (top, rest) = x[start..].split_at_mut(k);
+            let mut top = MatMut::from_column_major_slice_mut(top, k, 1);
+            faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place(
+                ls.submatrix(0, 0, k, k),
+                top.rb_mut(),
+                Par::Seq,
+            );
+            // Rows below the domain's columns: the supernode's own separator columns
+            // (k..ncols), then its pattern.
+            let below = ls.nrows() - k;
+            let t = MatMut::from_column_major_slice_mut(&mut tmp[..below], below, 1);
+            faer::linalg::matmul::matmul(
+                t,
+                Accum::Replace,
+                ls.submatrix(k, 0, below, k),
+                top.rb(),
+                1.0,
+                Par::Seq,
+            );
+            let inner = ncols - k;
+            for (xi, t) in rest[..inner].iter_mut().zip(&tmp[..inner]) {
+                *xi -= t;
             }
-            for c in 0..k {
-                let xc = x[start + c];
-                if xc == 0.0 {
-                    continue;
-                }
-                let col = ls
-                    .col(c)
-                    .try_as_col_major()
-                    .expect("column major")
-                    .as_slice();
-                for r in k..ncols {
-                    x[start + r] -= col[r] * xc;
-                }
-                for (i, &p) in pattern.iter().enumerate() {
-                    x[p] -= col[ncols + i] * xc;
-                }
+            for (&p, t) in pattern.iter().zip(&tmp[inner..below]) {
+                x[p] -= t;
             }
             for c in 0..k {
                 x[start + c] /= ls[(c, c)];
             }
         }
         self.x = x;
+        self.tmp = tmp;
     }
 
     /// With the separator's solution in x[nd..]: x_h := L_hh^-T (x_h - L_Sh^T x_S) over the
-    /// domain's columns, last to first.
+    /// domain's columns, last to first (dense blocks per supernode, as [`Half::forward`]).
     fn backward(&mut self) {
         let nd = self.nd;
         let mut x = std::mem::take(&mut self.x);
+        let mut tmp = std::mem::take(&mut self.tmp);
         for s in (0..self.supernodal().n_supernodes()).rev() {
             let (start, ls, pattern) = self.supernode(s);
             if start >= nd {
@@ -235,22 +244,21 @@ impl Half {
             }
             let ncols = ls.ncols();
             let k = ncols.min(nd - start);
-            for c in 0..k {
-                let col = ls
-                    .col(c)
-                    .try_as_col_major()
-                    .expect("column major")
-                    .as_slice();
-                let mut sum = 0.0;
-                for r in k..ncols {
-                    sum += col[r] * x[start + r];
-                }
-                for (i, &p) in pattern.iter().enumerate() {
-                    sum += col[ncols + i] * x[p];
-                }
-                x[start + c] -= sum;
+            let below = ls.nrows() - k;
+            let inner = ncols - k;
+            tmp[..inner].copy_from_slice(&x[start + k..start + ncols]);
+            for (t, &p) in tmp[inner..below].iter_mut().zip(pattern) {
+                *t = x[p];
             }
-            let top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
+            let mut top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
+            faer::linalg::matmul::matmul(
+                top.rb_mut(),
+                Accum::Add,
+                ls.submatrix(k, 0, below, k).transpose(),
+                MatRef::from_column_major_slice(&tmp[..below], below, 1),
+                -1.0,
+                Par::Seq,
+            );
             faer::linalg::triangular_solve::solve_unit_upper_triangular_in_place(
                 ls.submatrix(0, 0, k, k).transpose(),
                 top,
@@ -258,6 +266,7 @@ impl Half {
             );
         }
         self.x = x;
+        self.tmp = tmp;
     }
 }
 
@@ -646,6 +655,13 @@ impl Half {
             return Ok(None);
         }
         let l_values = memory::zeros(symbolic.len_val(), what)?;
+        let tallest = match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(sym) => (0..sym.n_supernodes())
+                .map(|s| sym.col_ptr_for_row_idx()[s + 1] - sym.col_ptr_for_row_idx()[s])
+                .max()
+                .unwrap_or(0),
+            SymbolicCholeskyRaw::Simplicial(_) => 0,
+        };
         let mem = MemBuffer::try_new(
             symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
         )
@@ -666,6 +682,8 @@ impl Half {
             s_block: dense(ns, what)?,
             d: memory::zeros(ns, what)?,
             x: memory::zeros(m, what)?,
+            // Below the domain columns: the rest of the supernode's columns and its pattern.
+            tmp: memory::zeros(tallest + ns, what)?,
             reg: (0.0, 0.0),
             phase: Phase::Factor,
             status: Ok(()),
