@@ -459,8 +459,10 @@ impl Solver {
     /// Residual R = f_int − f_ext on all DOFs (reactions at held DOFs) at `u` under `loads`.
     pub fn residual(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<f64> {
         let mut r = vec![0.0; model.dof_count()];
+        // With the solver's scratch: on two threads when it has a helper's half.
         let membranes = assemble::Membranes {
             forced: self.probe_states.as_deref(),
+            scratch: Some(&mut self.work.scratch),
             ..Default::default()
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
@@ -486,6 +488,7 @@ impl Solver {
         let membranes = assemble::Membranes {
             out: Some(&mut out),
             forced: self.probe_states.as_deref(),
+            scratch: Some(&mut self.work.scratch),
             ..Default::default()
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
