@@ -299,6 +299,10 @@ pub struct Split {
     schur: Mat<f64>,
     schur_mem: MemBuffer,
     xs: Vec<f64>,
+    /// Factorization flops of the two halves at the level that balances their equations.
+    counted: [f64; 2],
+    /// The same of the halves kept (the solving thread's, the helper's).
+    flops: [f64; 2],
 }
 
 impl Split {
@@ -354,6 +358,7 @@ impl Split {
         // equations before the separator, root found by the secant method (the first step
         // takes each side's flops per equation as constant), at most 3 more splits analysed;
         // the split whose larger half has the fewest flops is kept.
+        let counted = [chosen.1.flops(), chosen.2.flops()];
         let heavier = |c: &(Vec<usize>, Half, Half)| c.1.flops().max(c.2.flops());
         let difference = |c: &(Vec<usize>, Half, Half)| c.1.flops() - c.2.flops();
         let mut tried = vec![levels.sep];
@@ -433,6 +438,7 @@ impl Split {
             what,
             bytes: (ns * 8) as u64,
         })?;
+        let flops = [lock(&a).flops(), lock(&b).flops()];
         let job = Arc::clone(&b);
         pool.set_job(0, Box::new(move || lock(&job).run()));
         Ok(Some(Split {
@@ -444,12 +450,20 @@ impl Split {
             schur: dense(ns, what)?,
             schur_mem,
             xs: memory::zeros(ns, what)?,
+            counted,
+            flops,
         }))
     }
 
     /// Equations in (A, B, S).
     pub fn sizes(&self) -> (usize, usize, usize) {
         (lock(&self.a).nd, lock(&self.b).nd, self.s_eq.len())
+    }
+
+    /// Factorization flops (sums of squared column counts) of the halves kept (the solving
+    /// thread's, the helper's) and of the halves at the level that balanced their equations.
+    pub fn flops(&self) -> ([f64; 2], [f64; 2]) {
+        (self.flops, self.counted)
     }
 
     /// Stored entries of both halves' factors.
@@ -964,6 +978,77 @@ pub(super) mod tests {
         let mut b = multiply(n, &cp, &ri, &v, &vec![1.0; n]);
         split.solve(&mut b).unwrap();
         let err = b.iter().map(|b| (b - 1.0).abs()).fold(0.0, f64::max);
+        assert!(err < 1e-12, "{err:e}");
+    }
+
+    /// A strip of a 5-point grid whose width grows from 10 to 70 along its length: the level
+    /// that halves the equations leaves the wide end with more flops (its fronts are
+    /// longer). The separator moves until the halves' flops agree, the solving thread takes
+    /// the lighter, and the split still solves exactly. Measured: 6322 equations, the
+    /// count-balanced halves 22.3 % apart in flops, the kept ones 5.4 % (separator 43).
+    #[test]
+    fn the_separator_balances_the_halves_flops() {
+        let length = 160;
+        let width = |x: usize| 10 + 60 * x / (length - 1);
+        let mut id = vec![vec![usize::MAX; 70]; length];
+        let mut n = 0;
+        for (x, column) in id.iter_mut().enumerate() {
+            for slot in column.iter_mut().take(width(x)) {
+                *slot = n;
+                n += 1;
+            }
+        }
+        let (mut cp, mut ri, mut v) = (vec![0], vec![], vec![]);
+        for x in 0..length {
+            for y in 0..width(x) {
+                let j = id[x][y];
+                let mut column = vec![(j, 4.1 + (j % 7) as f64 * 0.01)];
+                if x > 0 && y < width(x - 1) {
+                    column.push((id[x - 1][y], -1.0));
+                }
+                if y > 0 {
+                    column.push((id[x][y - 1], -1.0));
+                }
+                column.sort_by_key(|e| e.0);
+                for (i, value) in column {
+                    ri.push(i);
+                    v.push(value);
+                }
+                cp.push(ri.len());
+            }
+        }
+        let pool = Arc::new(Pool::try_new(2).unwrap());
+        let mut split = Split::try_new(n, &cp, &ri, None, pool)
+            .unwrap()
+            .expect("a separator");
+        let (kept, counted) = split.flops();
+        let imbalance = |f: [f64; 2]| f[0].max(f[1]) / f[0].min(f[1]) - 1.0;
+        println!(
+            "{n} equations, sizes {:?}: flops {kept:?} ({:.3}), count-balanced {counted:?} ({:.3})",
+            split.sizes(),
+            imbalance(kept),
+            imbalance(counted)
+        );
+        assert!(
+            imbalance(counted) > 0.1,
+            "the test needs an unbalanced start"
+        );
+        assert!(imbalance(kept) < 0.1, "{}", imbalance(kept));
+        assert!(
+            kept[0] <= kept[1],
+            "the solving thread takes the lighter half"
+        );
+        split.factor(&v, (1e-9, 1e-13)).unwrap();
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let mut b = multiply(n, &cp, &ri, &v, &x);
+        split.solve(&mut b).unwrap();
+        let err = x
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(err < 1e-12, "{err:e}");
     }
 
