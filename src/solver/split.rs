@@ -299,9 +299,12 @@ pub struct Split {
     schur: Mat<f64>,
     schur_mem: MemBuffer,
     xs: Vec<f64>,
-    /// Factorization flops of the two halves at the level that balances their equations.
+    /// Factorization flops of the two halves at the level that balances their equations
+    /// (read by the unit tests).
+    #[cfg(test)]
     counted: [f64; 2],
     /// The same of the halves kept (the solving thread's, the helper's).
+    #[cfg(test)]
     flops: [f64; 2],
 }
 
@@ -358,6 +361,7 @@ impl Split {
         // equations before the separator, root found by the secant method (the first step
         // takes each side's flops per equation as constant), at most 3 more splits analysed;
         // the split whose larger half has the fewest flops is kept.
+        #[cfg(test)]
         let counted = [chosen.1.flops(), chosen.2.flops()];
         let heavier = |c: &(Vec<usize>, Half, Half)| c.1.flops().max(c.2.flops());
         let difference = |c: &(Vec<usize>, Half, Half)| c.1.flops() - c.2.flops();
@@ -438,6 +442,7 @@ impl Split {
             what,
             bytes: (ns * 8) as u64,
         })?;
+        #[cfg(test)]
         let flops = [lock(&a).flops(), lock(&b).flops()];
         let job = Arc::clone(&b);
         pool.set_job(0, Box::new(move || lock(&job).run()));
@@ -450,7 +455,9 @@ impl Split {
             schur: dense(ns, what)?,
             schur_mem,
             xs: memory::zeros(ns, what)?,
+            #[cfg(test)]
             counted,
+            #[cfg(test)]
             flops,
         }))
     }
@@ -462,6 +469,7 @@ impl Split {
 
     /// Factorization flops (sums of squared column counts) of the halves kept (the solving
     /// thread's, the helper's) and of the halves at the level that balanced their equations.
+    #[cfg(test)]
     pub fn flops(&self) -> ([f64; 2], [f64; 2]) {
         (self.flops, self.counted)
     }
