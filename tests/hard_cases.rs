@@ -900,7 +900,11 @@ const SHEAR_CENTRE: [usize; 2] = [494, 495];
 /// so it is the model, not the iteration), and at δ = 3 mm, reached by another path (shear at
 /// 1 mm separation, then lower the separation to 0.1 mm), S11 1.18 %, S22 1.05 %, S12 0.09 %,
 /// tension direction 0.31° off. Onset δ_c = 1.5649 ε0 H = 0.1565 mm, so step 1 (0.15 mm) is taut.
-/// Iterations per step (issue target median <= 8, max <= 40) are printed, not asserted.
+/// ITERATIONS (issue 9's target: median <= 8, at most 40 per step): every step must converge in
+/// one increment, in at most 40 Newton iterations. Measured with the patch Newton of nodal
+/// relaxation (docs/solver.md): median 7, at most 11 (rings order); 8 and at most 17-19 with the
+/// rcm, hilbert and given orders, whose round-off differs. Before it: median 18.5, up to 2797
+/// iterations and 7 steps cut back. The median is printed, not asserted (its margin is 0-1).
 #[test]
 fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
     let separation = 1e-4;
@@ -913,14 +917,21 @@ fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
         set(&mut e, "shear", shear);
         let report = e.solve();
         assert!(
-            report.converged(),
-            "step {k} (δ = {shear}): {}",
+            report.converged() && report.increments == 1 && report.iterations <= 40,
+            "step {k} (δ = {shear}): {} increments, {} iterations, {}",
+            report.increments,
+            report.iterations,
             report.message
         );
         iterations.push(report.iterations);
         check_shear_centre(&e, shear, separation);
     }
-    println!("(i) Newton iterations per step: {iterations:?}");
+    let mut sorted = iterations.clone();
+    sorted.sort();
+    println!(
+        "(i) Newton iterations per step: {iterations:?}, median {}",
+        0.5 * (sorted[9] + sorted[10]) as f64
+    );
 }
 
 /// CASE (i'), issue 9: case (i) with the film's `residual_stiffness` set to 1e-4 (a wrinkled or
@@ -931,8 +942,8 @@ fn i_sheared_film_with_a_tenth_of_a_millimetre_separation() {
 /// REFERENCE: as case (i) (the homogeneous tension field at the centre, same tolerances: the
 /// residual stiffness moves the centre's stresses by about ρ E |e₂| ≈ 1e-4 · 3.5e9 · 1e-3 =
 /// 350 Pa, 4e-5 of S11); every step converges in one increment.
-/// Measured: median 6, largest 12 Newton iterations per step (the issue's target 8 / 40 holds
-/// here, with the option; case (i) without it: 47 / 2842).
+/// Measured: median 5, largest 8 Newton iterations per step (6 / 12 before nodal relaxation's
+/// patch Newton; case (i) without the option: 7 / 11 now, 18.5 / 2797 before).
 #[test]
 fn i2_sheared_film_with_a_residual_stiffness() {
     let separation = 1e-4;

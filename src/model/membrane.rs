@@ -81,8 +81,19 @@ pub struct Material {
 impl Material {
     /// Stress, tangent and energy density at a strain; `forced` overrides the wrinkle state.
     pub fn response(&self, strain: &Vector3<f64>, forced: Option<WrinkleState>) -> Response {
+        self.response_with(strain, forced, REGULARIZATION)
+    }
+
+    /// [`Material::response`] with the tangent-only regularisation `eps` of wrinkled and slack
+    /// states in place of [`REGULARIZATION`] (`Law::response_with`).
+    pub fn response_with(
+        &self,
+        strain: &Vector3<f64>,
+        forced: Option<WrinkleState>,
+        eps: f64,
+    ) -> Response {
         if self.wrinkling {
-            let r = self.law.response(strain, forced);
+            let r = self.law.response_with(strain, forced, eps);
             if self.residual > 0.0 && r.state != WrinkleState::Taut {
                 // W = (1 − ρ) W_tf + ρ ½ Eᵀ D0 E: the law's tangent-only ε·D0 is replaced by
                 // the consistent ρ·D0 (the blend is continuous at the slack border, and at the
@@ -92,7 +103,7 @@ impl Material {
                 let linear = d0 * strain;
                 Response {
                     stress: r.stress * (1.0 - rho) + linear * rho,
-                    tangent: (r.tangent - d0 * REGULARIZATION) * (1.0 - rho) + d0 * rho,
+                    tangent: (r.tangent - d0 * eps) * (1.0 - rho) + d0 * rho,
                     energy: r.energy * (1.0 - rho) + 0.5 * rho * strain.dot(&linear),
                     ..r
                 }
@@ -185,7 +196,6 @@ pub struct Evaluation {
 /// Internal force, tangent (if `tangent` is given, written there) and evaluation of one
 /// triangle at current positions `x`. `prestress` (Pa) enters the tangent only; `forced`
 /// freezes the wrinkle state.
-#[allow(non_snake_case)]
 pub fn triangle(
     r: &TriangleRef,
     mat: &Material,
@@ -194,12 +204,28 @@ pub fn triangle(
     forced: Option<WrinkleState>,
     tangent: Option<&mut Mat9>,
 ) -> (Vec9, Evaluation) {
+    triangle_with(r, mat, prestress, x, forced, tangent, REGULARIZATION)
+}
+
+/// [`triangle`] with the tangent-only regularisation `eps` of wrinkled and slack states in
+/// place of [`REGULARIZATION`] (`Material::response_with`); force and evaluation do not
+/// depend on it.
+#[allow(non_snake_case)]
+pub fn triangle_with(
+    r: &TriangleRef,
+    mat: &Material,
+    prestress: f64,
+    x: &[Vector3<f64>; 3],
+    forced: Option<WrinkleState>,
+    tangent: Option<&mut Mat9>,
+    eps: f64,
+) -> (Vec9, Evaluation) {
     let F = deformation_gradient(r, x);
     // The prestress enters here, and only here: the law (wrinkling included) sees the total
     // strain E + E0, so the stress is the total stress S0 + ΔS and the tension-field criterion
     // acts on it.
     let E = green_lagrange(&F) + r.initial_strain;
-    let resp = mat.response(&E, forced);
+    let resp = mat.response_with(&E, forced, eps);
     let S = resp.stress;
     let vol = r.area * mat.thickness;
     let Smat = Matrix2::new(S[0], S[2], S[2], S[1]);

@@ -130,11 +130,22 @@ impl Orthotropic {
     /// Response with wrinkling: the state from the criterion, or `forced`. A forced wrinkled
     /// state outside the wrinkled region continues the same formulas (β may change sign).
     pub fn response(&self, strain: &Vector3<f64>, forced: Option<WrinkleState>) -> Response {
+        self.response_with(strain, forced, REGULARIZATION)
+    }
+
+    /// [`Orthotropic::response`] with the tangent-only regularisation `eps` in place of
+    /// [`REGULARIZATION`].
+    pub fn response_with(
+        &self,
+        strain: &Vector3<f64>,
+        forced: Option<WrinkleState>,
+        eps: f64,
+    ) -> Response {
         let (state, found) = match forced {
             Some(s) => (s, None),
             None => self.classify_with(strain),
         };
-        let reg = self.d * REGULARIZATION;
+        let reg = self.d * eps;
         let (_, _, principal_angle) = principal(strain);
         match state {
             WrinkleState::Taut => {

@@ -153,12 +153,24 @@ impl Law {
     /// Response with wrinkling: the state from the mixed criterion, or `forced` (a state frozen
     /// by the solver against chatter).
     pub fn response(&self, strain: &Vector3<f64>, forced: Option<WrinkleState>) -> Response {
+        self.response_with(strain, forced, REGULARIZATION)
+    }
+
+    /// [`Law::response`] with the tangent-only regularisation `eps` in place of
+    /// [`REGULARIZATION`] (the patch Newton of nodal relaxation takes a smaller one,
+    /// `solver/relax.rs`). Stress and energy do not depend on it.
+    pub fn response_with(
+        &self,
+        strain: &Vector3<f64>,
+        forced: Option<WrinkleState>,
+        eps: f64,
+    ) -> Response {
         if let Law::Orthotropic(o) = self {
-            return o.response(strain, forced);
+            return o.response_with(strain, forced, eps);
         }
         let state = forced.unwrap_or_else(|| self.classify(strain));
         let (e1, e2, angle) = principal(strain);
-        let reg = self.small_strain() * REGULARIZATION;
+        let reg = self.small_strain() * eps;
         let (stress, tangent, energy) = match state {
             WrinkleState::Taut => self.elastic(strain),
             WrinkleState::Slack => (Vector3::zeros(), reg, 0.0),

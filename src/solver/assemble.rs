@@ -391,8 +391,10 @@ fn couple<const N: usize>(k: &SMatrix<f64, N, N>, nodes: &[usize], du: &[f64], o
     }
 }
 
-/// One membrane triangle's internal force, tangent (into `ke` when given) and evaluation at `u`:
-/// the element routine every assembly (global or per node) goes through.
+/// One membrane triangle's internal force, tangent (into `ke` when given, with the tangent-only
+/// regularisation `regularization` of wrinkled and slack states) and evaluation at `u`: nodal
+/// relaxation's element routine (`relax.rs`), the same `membrane::triangle` as the global
+/// assembly's.
 pub(super) fn triangle_contribution(
     model: &Model,
     e: usize,
@@ -400,8 +402,20 @@ pub(super) fn triangle_contribution(
     prestress_factor: f64,
     forced: Option<WrinkleState>,
     ke: Option<&mut membrane::Mat9>,
+    regularization: f64,
 ) -> (membrane::Vec9, Evaluation, f64) {
-    triangle_of(model, &model.triangles[e], u, prestress_factor, forced, ke)
+    let t = &model.triangles[e];
+    let x = gather(model, u, t.nodes);
+    let (f, eval) = membrane::triangle_with(
+        &t.reference,
+        &t.material,
+        t.prestress * prestress_factor,
+        &x,
+        forced,
+        ke,
+        regularization,
+    );
+    (f, eval, membrane::signed_area_ratio(&t.reference, &x))
 }
 
 /// [`triangle_contribution`] of triangle data `t` (the model's, or the pattern's copy in

@@ -135,6 +135,23 @@ pub struct Settings {
     pub relax_rounds: usize,
     /// Gauss-Seidel sweeps over the nodes of one round. Default 3.
     pub relax_sweeps: usize,
+    /// After the sweeps, a round whose patch has at most this many nodes also runs Newton on
+    /// the patch as a whole (`relax.rs`, dense: 3 unknowns per node), once the relative
+    /// residual is below `relax_patch_below`. Default 64 (a 192 x 192 solve per iteration); 0
+    /// switches the patch Newton off.
+    pub relax_patch_nodes: usize,
+    /// The patch Newton runs only below this relative residual (|R|∞ over the force scale).
+    /// Default 1e-4: it is for the last drift of a few nearly stress-free nodes; further from
+    /// equilibrium its long steps can lead away (measured: the corner-pulled rubber sheet of
+    /// hard case j fails with it at 1e-3 and above, converges at 1e-4 and below).
+    pub relax_patch_below: f64,
+    /// Iterations of one patch Newton. Default 200 (each costs the patch's elements and one
+    /// dense solve, microseconds for the free-edge patches of a sheared film).
+    pub relax_patch_iterations: usize,
+    /// The patch Newton's tangent-only regularisation of wrinkled and slack triangles, in
+    /// place of the global tangent's 1e-6 (`wrinkling::REGULARIZATION`). Default 1e-8: small
+    /// enough that the patch moves along its nearly stress-free directions in a few steps.
+    pub relax_patch_regularization: f64,
     /// Smallest fraction of its current unstretched length a sleeved segment may keep in one
     /// step (fraction to the boundary L > 0). Default 0.1.
     pub keep_length: f64,
@@ -219,6 +236,10 @@ impl Default for Settings {
             relax_max_share: 0.1,
             relax_rounds: 20,
             relax_sweeps: 3,
+            relax_patch_nodes: 64,
+            relax_patch_below: 1e-4,
+            relax_patch_iterations: 200,
+            relax_patch_regularization: 1e-8,
             keep_length: 0.1,
             merge_gap: 1e-3,
             reopen_gap: 1e-2,

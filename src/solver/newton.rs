@@ -49,7 +49,7 @@
 use super::active_set::{ActiveSet, Recheck};
 use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
 use super::line_search::{Direction, Merit, Trial};
-use super::relax::relax_nodes;
+use super::relax::{relax_nodes, relax_patch};
 use super::slip::{largest_gap, slip_rows_into, step_limit, Row, MAX_GAP};
 use super::{push_log, Solver};
 use crate::model::sleeve::Contact;
@@ -237,7 +237,8 @@ impl Solver {
                 self.settings.prestress_fade,
             );
             if !check.within_floor && stalled(it, check.free, last_free, last_alpha) {
-                let moved = self.relax(model, inc.loads, u, check.free, tolerance);
+                let (moved, patch_iterations) =
+                    self.relax(model, inc.loads, u, check.free, tolerance);
                 if moved > 0 {
                     let info = self.assemble_at(model, inc.loads, u);
                     let before = check.free;
@@ -245,7 +246,7 @@ impl Solver {
                     push_log(
                         log,
                         format!(
-                            "  stalled: relaxed {moved} nodes, |R| {before:.3e} -> {:.3e}",
+                            "  stalled: relaxed {moved} nodes ({patch_iterations} patch Newton iterations), |R| {before:.3e} -> {:.3e}",
                             check.free
                         ),
                     );
@@ -640,7 +641,7 @@ impl Solver {
 
     /// Relax, one at a time with all others held, the nodes with a free DOF whose residual is
     /// at least `relax_share` · |R|∞ (`free`), when they are few (at most `relax_max_share` of
-    /// the nodes); returns how many moved.
+    /// the nodes); returns how many moved and the patch Newton's iterations.
     fn relax(
         &mut self,
         model: &Model,
@@ -648,9 +649,9 @@ impl Solver {
         u: &mut [f64],
         free: f64,
         tolerance: f64,
-    ) -> usize {
+    ) -> (usize, usize) {
         let s = self.settings.clone();
-        let (mut free, mut moved_total) = (free, 0);
+        let (mut free, mut moved_total, mut patch_iterations) = (free, 0, 0);
         // The patch and its node list in reused buffers (`work.rs`).
         let mut patch = std::mem::take(&mut self.work.patch);
         patch.clear();
@@ -684,6 +685,28 @@ impl Solver {
                     0.1 * tolerance,
                 ));
             }
+            // Near equilibrium, the patch as a whole (relax.rs: neighbours that drift together
+            // under Gauss-Seidel). Far from it, the patch's long steps along its nearly
+            // stress-free directions may lead away (the corner-pulled rubber sheet, hard case j).
+            let near = free <= s.relax_patch_below * (tolerance / s.tolerance);
+            if near && nodes.len() <= s.relax_patch_nodes {
+                let outcome = relax_patch(
+                    model,
+                    &self.adjacency,
+                    u,
+                    loads,
+                    &nodes,
+                    forced,
+                    0.1 * tolerance,
+                    s.relax_patch_iterations,
+                    s.relax_patch_regularization,
+                    &mut self.work.patch_newton,
+                );
+                patch_iterations += outcome.iterations;
+                if outcome.iterations > 0 {
+                    moved = moved.max(nodes.len());
+                }
+            }
             if moved == 0 {
                 break;
             }
@@ -710,7 +733,7 @@ impl Solver {
         }
         self.work.patch = patch;
         self.work.nodes = nodes;
-        moved_total
+        (moved_total, patch_iterations)
     }
 
     /// |R|∞ over the free DOFs of the last assembly.

@@ -9,6 +9,7 @@
 //! schur        the dense (D − C Y) block, its right-hand side and the pivots   (m x m)
 //! trial_rows   the slip rows at a line-search trial point and their residuals
 //! patch, nodes nodal relaxation's patch
+//! patch_newton the patch Newton's element lists, dense tangent and vectors (relax.rs)
 //! ```
 //! Buffers only grow (to the largest size asked), never shrink, while the solver lives.
 
@@ -28,6 +29,7 @@ pub(super) struct Work {
     pub trial_slip: Vec<f64>,
     pub patch: Vec<bool>,
     pub nodes: Vec<usize>,
+    pub patch_newton: super::relax::PatchWork,
 }
 
 impl Work {
