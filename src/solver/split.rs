@@ -26,9 +26,12 @@
 //! known gives x_h = K_hh^-1 (b_h - K_hS x_S).
 //!
 //! The separator is a level set of a breadth-first search from a pseudo-peripheral equation
-//! (a level set separates the levels before it from those after it): the smallest level with at
-//! least 35 % of the equations on each side. Where there is none, or it is too large
-//! ([`MAX_SEPARATOR`]), the solver keeps the one-thread factorization.
+//! (a level set separates the levels before it from those after it): first the level that
+//! balances the equations best with at least 35 % of them on each side, then moved (secant
+//! steps, at most 3 more symbolic analyses) until the two halves' factorization flops agree,
+//! since the factorization waits for the heavier half; the solving thread takes the lighter.
+//! Where there is no admissible level, or it is too large ([`MAX_SEPARATOR`]), the solver keeps
+//! the one-thread factorization.
 //!
 //! Pivots: each half regularizes its tiny pivots like the one-thread factorization
 //! (`linear.rs`), and so does the dense LDLT of S. Results agree with one thread to
