@@ -47,7 +47,9 @@ pub fn check_addressable(entries: u64) -> Result<(), OutOfMemory> {
 pub struct Pattern {
     pub eq: Vec<usize>,
     pub n: usize,
+    /// K's upper CSC pattern: column starts (`col_ptr[n]` entries in all) and row indices.
     pub col_ptr: Vec<usize>,
+    /// Empty in a solver's pattern: `Solver::try_new` hands them to the factorization.
     pub row_idx: Vec<usize>,
     /// Per triangle in visit order (`tri_order`), the position in K's values of each of its
     /// 81 entries (UNMAPPED: held or lower triangle).
@@ -1001,7 +1003,7 @@ impl Parallel {
         }
         let first = count / 2;
         let nodes = pattern.node_of.len();
-        let nnz = pattern.row_idx.len();
+        let nnz = pattern.col_ptr[pattern.n];
         let written = |slot: usize| {
             pattern.tri_map[slot]
                 .into_iter()
