@@ -36,7 +36,7 @@ pub mod mechanism;
 mod newton;
 mod order;
 mod path;
-mod relax;
+pub mod relax;
 pub mod renumber;
 pub mod sensitivity;
 pub mod slip;
