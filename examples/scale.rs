@@ -1,6 +1,7 @@
 //! Scaling benchmark, printed (not asserted; issue 15 item 6):
-//! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N] [--problem=disc,square] [--threads=N]
-//! [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]`.
+//! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N]
+//! [--problem=disc,square] [--threads=N] [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]
+//! [--thread-cpu]`.
 //!
 //! Two problems, each flat start to full load in one step:
 //! - `disc`: the Hencky disc (docs/mechanics.md §4a, follower pressure 40 Pa);
@@ -17,6 +18,10 @@
 //! same mesh written as explicit nodes and triangles, node ids and triangle order permuted by
 //! a fixed-seed xorshift generator, as a user's mesher might number it), solved in every
 //! internal node order asked for (`--order`, default the solver's default).
+//!
+//! `--thread-cpu` prints, per case on stderr, the CPU seconds of the solve on every thread of
+//! the process (the solving thread has the lowest id): on an idle machine the solving
+//! thread's share bounds the two-thread wall time from below.
 //!
 //! `--inexact=` (a list, default `auto`) runs every case with `solver.inexact_newton` set to
 //! each value in turn (`on,off,on,off` gives alternating pairs on a shared machine).
@@ -54,6 +59,35 @@ fn cpu_seconds() -> f64 {
     }
     let secs = |t: libc::timeval| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64;
     secs(usage.ru_utime) + secs(usage.ru_stime)
+}
+
+/// CPU seconds (user + system) of every thread of the process, by thread id
+/// (/proc/self/task/*/stat; empty where that is missing).
+fn thread_cpu() -> Vec<(u64, f64)> {
+    let ticks = 100.0; // USER_HZ on Linux
+    let mut out = Vec::new();
+    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
+        return out;
+    };
+    for entry in dir.flatten() {
+        let Ok(tid) = entry.file_name().to_string_lossy().parse::<u64>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(entry.path().join("stat")) else {
+            continue;
+        };
+        // Fields after the command name in parentheses: utime and stime are the 12th and 13th.
+        let Some(close) = stat.rfind(')') else {
+            continue;
+        };
+        let fields: Vec<&str> = stat[close + 1..].split_whitespace().collect();
+        let time = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok());
+        if let (Some(u), Some(s)) = (time(11), time(12)) {
+            out.push((tid, (u + s) / ticks));
+        }
+    }
+    out.sort_by_key(|&(tid, _)| tid);
+    out
 }
 
 fn peak_rss_mib() -> f64 {
@@ -198,11 +232,28 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
         return;
     }
     let counts = engine.linear_counts();
+    let per_thread = std::env::args().any(|a| a == "--thread-cpu");
+    let tasks = if per_thread { thread_cpu() } else { Vec::new() };
     let cpu = cpu_seconds();
     let t = Instant::now();
     engine.set_real(vr, problem.value).unwrap();
     let report = engine.solve();
     let time = t.elapsed().as_secs_f64();
+    if per_thread {
+        // Per thread of the process: CPU seconds of this solve (the solving thread first).
+        let line: Vec<String> = thread_cpu()
+            .iter()
+            .map(|(tid, c)| {
+                let before = tasks.iter().find(|(t, _)| t == tid).map_or(0.0, |x| x.1);
+                format!("{tid} {:.2}", c - before)
+            })
+            .collect();
+        eprintln!(
+            "{:>7} {label}: solve CPU s per thread: {}",
+            problem.name,
+            line.join(", ")
+        );
+    }
     let cpu = cpu_seconds() - cpu;
     let after = engine.linear_counts();
     let factorizations = after.factorizations - counts.factorizations;

@@ -27,8 +27,19 @@ pub struct OutOfMemory {
     pub bytes: u64,
 }
 
+/// The size of an [`OutOfMemory`] that is no allocation's failure: what it names is larger
+/// than the solver's indices address (its message then says so and names the limit).
+pub const UNADDRESSABLE: u64 = u64::MAX;
+
 impl fmt::Display for OutOfMemory {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.bytes == UNADDRESSABLE {
+            return write!(
+                f,
+                "too large: {} (the scene passed its size limits, but the solver cannot index that much); nothing was changed",
+                self.what
+            );
+        }
         write!(
             f,
             "out of memory: {:.1} MB for {} could not be allocated (the scene passed its size limits, but this process cannot get that much memory now: the machine's free memory or the process's address-space limit is lower); nothing was changed",

@@ -19,11 +19,13 @@
 //!       Why round-off and not bits: with 2 threads the tangent is eliminated in another order
 //!       (two halves, then their separator: split.rs), so the factor's sums are grouped
 //!       differently. Tolerance on every output, relative to the output's size over the whole
-//!       run: HenckyDisc 3e-13 (measured 6.4e-14; 3.7e-15 before the assembly ran on two
+//!       run: HenckyDisc 3e-13 (measured 5.6e-14, 6.4e-14 before branch i15u balanced the halves'
+//!       flops; 3.7e-15 before the assembly ran on two
 //!       threads too: its sums along the cut between the halves are grouped differently,
 //!       see below, and the last Newton correction carries that round-off of R through the
-//!       tangent's conditioning), WrinkledShear 1e-12 (measured 8.2e-14: the worse
-//!       conditioned tangent of wrinkled elements), CabledSquare 1e-13 (measured 5.5e-15). Below the threshold: 0. The
+//!       tangent's conditioning), WrinkledShear 1e-12 (measured 2.1e-13 after main's wrinkling changes of f040edf, 8.2e-14
+//!       with the count-balanced separator: the worse
+//!       conditioned tangent of wrinkled elements), CabledSquare 1e-13 (measured 3.6e-15). Below the threshold: 0. The
 //!       differences are printed. Iteration counts: equal, step by step.
 //!       CabledSquare: the scale example's 4 m square with four edge cables (EA 2 MN,
 //!       pretension 2 kN), fabric prestress 1 kN/m, at 84 x 84 cells (21 663 free DOF), follower

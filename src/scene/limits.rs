@@ -339,6 +339,11 @@ pub fn memory_bytes(size: &Size, matrix_entries: u64) -> u64 {
         .saturating_add(split_bytes(size, matrix_entries))
 }
 
+/// Most stored entries of the tangent (the solver's `assemble::MAX_ENTRIES`: its position
+/// maps hold positions as `u32`; a copy, as for [`SPLIT_MIN_UNKNOWNS`]). Only limits raised
+/// far above the defaults (about 130 million entries at 4 million unknowns) reach it.
+pub const MAX_MATRIX_ENTRIES: u64 = u32::MAX as u64;
+
 /// Equations from which 2 threads factor the tangent in two halves (the solver's
 /// `linear::SPLIT_MIN_EQUATIONS`; the scene keeps its own copy: it imports nothing from the
 /// solver). Counted here against the upper bound of the unknowns: generous.
@@ -393,6 +398,14 @@ pub fn check_memory(
     size.memory_bytes = memory_bytes(size, matrix_entries);
     let gb = size.memory_bytes as f64 / 1e9;
     let mut out = Vec::new();
+    if matrix_entries > MAX_MATRIX_ENTRIES {
+        out.push(Problem {
+            path: "geometry".into(),
+            message: format!(
+                "the tangent would have about {matrix_entries} stored entries, more than the {MAX_MATRIX_ENTRIES} the solver's 32-bit position maps address; coarsen the mesh"
+            ),
+        });
+    }
     if gb > limits.max_memory_gb {
         out.push(Problem {
             path: "geometry".into(),

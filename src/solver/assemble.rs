@@ -20,16 +20,42 @@ use std::sync::{Arc, Mutex, MutexGuard, RwLock};
 
 pub const NONE: usize = usize::MAX;
 
+/// A position map's entry with no place in K (a held DOF or the lower triangle).
+pub const UNMAPPED: u32 = u32::MAX;
+
+/// The most stored entries K may have: the position maps hold K's positions as `u32` (4
+/// bytes an entry instead of 8: 81 per triangle, about 217 MB less at 1M DOF), with
+/// [`UNMAPPED`] kept free. The default size limits (`scene/limits.rs`: 4 million unknowns,
+/// about 130 million entries) stay far below; a scene whose raised limits let K grow past it
+/// is refused by its validation, and a model given here directly by [`check_addressable`].
+pub const MAX_ENTRIES: u64 = u32::MAX as u64;
+
+/// Whether K with `entries` stored entries fits the position maps ([`MAX_ENTRIES`]); the
+/// error names the limit (an [`OutOfMemory`] whose size is [`memory::UNADDRESSABLE`]: too
+/// large to index, not a failed allocation).
+pub fn check_addressable(entries: u64) -> Result<(), OutOfMemory> {
+    if entries > MAX_ENTRIES {
+        return Err(OutOfMemory {
+            what: "the tangent's position maps: K has more stored entries than the 4294967295 a 32-bit position addresses; coarsen the mesh",
+            bytes: memory::UNADDRESSABLE,
+        });
+    }
+    Ok(())
+}
+
 /// Pattern and position maps of one model.
 pub struct Pattern {
     pub eq: Vec<usize>,
     pub n: usize,
+    /// K's upper CSC pattern: column starts (`col_ptr[n]` entries in all) and row indices.
     pub col_ptr: Vec<usize>,
+    /// Empty in a solver's pattern: `Solver::try_new` hands them to the factorization.
     pub row_idx: Vec<usize>,
     /// Per triangle in visit order (`tri_order`), the position in K's values of each of its
-    /// 81 entries (NONE: held or lower triangle).
-    tri_map: Vec<[usize; 81]>,
-    seg_map: Vec<[usize; 36]>,
+    /// 81 entries (UNMAPPED: held or lower triangle).
+    tri_map: Vec<[u32; 81]>,
+    /// Per cable segment, then per sleeve tie, the same for its 36 entries.
+    seg_map: Vec<[u32; 36]>,
     /// The order in which an assembly visits the triangles: by their lowest internal node
     /// (`renumber.rs`), so the scatter into K walks the mesh; the user's order under
     /// `NodeOrder::Given`.
@@ -233,17 +259,19 @@ impl Pattern {
         let mut row_idx = memory::copy(&rows[..kept], "the tangent's pattern")?;
         drop(rows);
         row_idx.shrink_to_fit();
-        let position = |i: usize, j: usize| -> usize {
+        check_addressable(kept as u64)?;
+        // Every position is below `kept` <= MAX_ENTRIES, so below UNMAPPED.
+        let position = |i: usize, j: usize| -> u32 {
             if i == NONE || j == NONE || i > j {
-                return NONE;
+                return UNMAPPED;
             }
             let col = &row_idx[col_ptr[j]..col_ptr[j + 1]];
-            col_ptr[j]
+            (col_ptr[j]
                 + col
                     .binary_search(&i)
-                    .expect("pattern holds every element pair")
+                    .expect("pattern holds every element pair")) as u32
         };
-        let map = |dofs: &[usize], out: &mut [usize]| {
+        let map = |dofs: &[usize], out: &mut [u32]| {
             let m = dofs.len();
             for a in 0..m {
                 for b in 0..m {
@@ -256,7 +284,7 @@ impl Pattern {
             memory::with_capacity(model.triangles.len(), "the element position maps")?;
         for &e in &tri_order {
             dofs_of(&model.triangles[e].nodes, &mut d);
-            let mut m = [NONE; 81];
+            let mut m = [UNMAPPED; 81];
             map(&d, &mut m);
             tri_map.push(m);
         }
@@ -266,7 +294,7 @@ impl Pattern {
         )?;
         for nodes in lines() {
             dofs_of(&nodes, &mut d);
-            let mut m = [NONE; 36];
+            let mut m = [UNMAPPED; 36];
             map(&d[..6], &mut m);
             seg_map.push(m);
         }
@@ -297,22 +325,22 @@ const UNEVALUATED: Evaluation = Evaluation {
     area_ratio: 1.0,
 };
 
-fn scatter<const N: usize>(k: &SMatrix<f64, N, N>, map: &[usize], values: &mut [f64]) {
+fn scatter<const N: usize>(k: &SMatrix<f64, N, N>, map: &[u32], values: &mut [f64]) {
     scatter_at(k, map, values, 0);
 }
 
 /// [`scatter`] into `values` holding K's values from position `offset` on.
 fn scatter_at<const N: usize>(
     k: &SMatrix<f64, N, N>,
-    map: &[usize],
+    map: &[u32],
     values: &mut [f64],
     offset: usize,
 ) {
     for a in 0..N {
         for b in 0..N {
             let p = map[a * N + b];
-            if p != NONE {
-                values[p - offset] += k[(a, b)];
+            if p != UNMAPPED {
+                values[p as usize - offset] += k[(a, b)];
             }
         }
     }
@@ -1079,8 +1107,13 @@ impl Parallel {
         }
         let first = count / 2;
         let nodes = pattern.node_of.len();
-        let nnz = pattern.row_idx.len();
-        let written = |slot: usize| pattern.tri_map[slot].into_iter().filter(|&p| p != NONE);
+        let nnz = pattern.col_ptr[pattern.n];
+        let written = |slot: usize| {
+            pattern.tri_map[slot]
+                .into_iter()
+                .filter(|&p| p != UNMAPPED)
+                .map(|p| p as usize)
+        };
         let k_first_end = (0..first)
             .filter_map(|s| written(s).max())
             .max()
@@ -1344,4 +1377,29 @@ fn assemble_two(
     );
     finish(model, u, r, fext, &mut extra.magnitude, &mut info);
     info
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The position maps' limit, checked with counts alone (no 4e9-entry model): at the limit
+    /// K fits, one entry more is a named error (not a panic, not a truncated position).
+    #[test]
+    fn more_entries_than_a_u32_position_addresses_is_a_named_error() {
+        assert!(check_addressable(0).is_ok());
+        assert!(check_addressable(MAX_ENTRIES).is_ok());
+        // The largest position of a K at the limit is MAX_ENTRIES - 1: never UNMAPPED.
+        assert!(MAX_ENTRIES - 1 < UNMAPPED as u64);
+        let e = check_addressable(MAX_ENTRIES + 1).unwrap_err();
+        assert_eq!(e.bytes, memory::UNADDRESSABLE);
+        let message = e.to_string();
+        assert!(
+            message.starts_with("too large: the tangent's position maps"),
+            "{message}"
+        );
+        assert!(message.contains("4294967295"), "{message}");
+        assert!(!message.contains("out of memory"), "{message}");
+        assert!(check_addressable(u64::MAX).is_err());
+    }
 }

@@ -385,7 +385,11 @@ impl Solver {
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
-        let pattern = Pattern::try_ordered(model, settings.node_order)?;
+        let mut pattern = Pattern::try_ordered(model, settings.node_order)?;
+        // The factorization takes over the pattern's row indices: nothing reads them from the
+        // solver's pattern once its position maps are built, and a copy would be K's largest
+        // index array twice (88 MB at 1M DOF).
+        let row_idx = std::mem::take(&mut pattern.row_idx);
         let pool = if settings.threads > 1 && pattern.n >= linear::SPLIT_MIN_EQUATIONS {
             // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
             // Two threads at most: the factorization has two halves (`split.rs`).
@@ -408,7 +412,7 @@ impl Solver {
         let linear = Ldlt::try_with_pool(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
-            memory::copy(&pattern.row_idx, "the tangent's pattern")?,
+            row_idx,
             pool,
         )?;
         let n = model.dof_count();
@@ -481,8 +485,10 @@ impl Solver {
     /// Residual R = f_int − f_ext on all DOFs (reactions at held DOFs) at `u` under `loads`.
     pub fn residual(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<f64> {
         let mut r = vec![0.0; model.dof_count()];
+        // With the solver's scratch: on two threads when it has a helper's half.
         let membranes = assemble::Membranes {
             forced: self.probe_states.as_deref(),
+            scratch: Some(&mut self.work.scratch),
             ..Default::default()
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
@@ -508,6 +514,7 @@ impl Solver {
         let membranes = assemble::Membranes {
             out: Some(&mut out),
             forced: self.probe_states.as_deref(),
+            scratch: Some(&mut self.work.scratch),
             ..Default::default()
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);

@@ -26,9 +26,12 @@
 //! known gives x_h = K_hh^-1 (b_h - K_hS x_S).
 //!
 //! The separator is a level set of a breadth-first search from a pseudo-peripheral equation
-//! (a level set separates the levels before it from those after it): the smallest level with at
-//! least 35 % of the equations on each side. Where there is none, or it is too large
-//! ([`MAX_SEPARATOR`]), the solver keeps the one-thread factorization.
+//! (a level set separates the levels before it from those after it): first the level that
+//! balances the equations best with at least 35 % of them on each side, then moved (secant
+//! steps, at most 3 more symbolic analyses) until the two halves' factorization flops agree,
+//! since the factorization waits for the heavier half; the solving thread takes the lighter.
+//! Where there is no admissible level, or it is too large ([`MAX_SEPARATOR`]), the solver keeps
+//! the one-thread factorization.
 //!
 //! Pivots: each half regularizes its tiny pivots like the one-thread factorization
 //! (`linear.rs`), and so does the dense LDLT of S. Results agree with one thread to
@@ -39,6 +42,7 @@ use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Accum, Conj, Mat, MatMut, MatRef, Par};
@@ -63,8 +67,9 @@ struct Half {
     /// Global equation of each local one: the domain's `nd`, then the separator's.
     eq: Vec<usize>,
     nd: usize,
-    /// Position in K's values (upper CSC) of each stored value of `matrix`.
-    map: Vec<usize>,
+    /// Position in K's values (upper CSC) of each stored value of `matrix` (`u32`: K's
+    /// entries are counted against `u32` in [`Split::try_new`]).
+    map: Vec<u32>,
     matrix: SparseColMat<usize, f64>,
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
@@ -76,6 +81,8 @@ struct Half {
     d: Vec<f64>,
     /// Local right-hand side / solution.
     x: Vec<f64>,
+    /// A supernode's rows below its domain columns in a solve (as long as the longest).
+    tmp: Vec<f64>,
     reg: (f64, f64),
     phase: Phase,
     status: Result<(), String>,
@@ -98,6 +105,22 @@ impl Half {
                 Ok(())
             }
         };
+    }
+
+    /// Flops of the half's numeric factorization (sum of column counts squared).
+    fn flops(&self) -> f64 {
+        let sym = self.supernodal();
+        let mut f = 0.0;
+        for s in 0..sym.n_supernodes() {
+            let b = sym.supernode_begin()[s];
+            let e = sym.supernode_end()[s];
+            let p = (sym.col_ptr_for_row_idx()[s + 1] - sym.col_ptr_for_row_idx()[s]) as f64;
+            for j in b..e {
+                let c = (e - j) as f64 + p;
+                f += c * c;
+            }
+        }
+        f
     }
 
     fn supernodal(
@@ -179,10 +202,13 @@ impl Half {
     }
 
     /// x := D_hh^-1 L_hh^-1 x over the domain's columns; the separator rows receive
-    /// -L_Sh L_hh^-1 x_h (= -K_Sh K_hh^-1 b_h when they start at 0).
+    /// -L_Sh L_hh^-1 x_h (= -K_Sh K_hh^-1 b_h when they start at 0). Supernode by supernode as
+    /// faer's own solve: a dense triangular solve of its top block, one dense product of the
+    /// rows below (into `tmp`), then those rows updated.
     fn forward(&mut self) {
         let nd = self.nd;
         let mut x = std::mem::take(&mut self.x);
+        let mut tmp = std::mem::take(&mut self.tmp);
         for s in 0..self.supernodal().n_supernodes() {
             let (start, ls, pattern) = self.supernode(s);
             if start >= nd {
@@ -190,43 +216,46 @@ impl Half {
             }
             let ncols = ls.ncols();
             let k = ncols.min(nd - start);
-            {
-                let top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
-                faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place(
-                    ls.submatrix(0, 0, k, k),
-                    top,
-                    Par::Seq,
-                );
+            let (top, rest) = x[start..].split_at_mut(k);
+            let mut top = MatMut::from_column_major_slice_mut(top, k, 1);
+            faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place(
+                ls.submatrix(0, 0, k, k),
+                top.rb_mut(),
+                Par::Seq,
+            );
+            // Rows below the domain's columns: the supernode's own separator columns
+            // (k..ncols), then its pattern.
+            let below = ls.nrows() - k;
+            let t = MatMut::from_column_major_slice_mut(&mut tmp[..below], below, 1);
+            faer::linalg::matmul::matmul(
+                t,
+                Accum::Replace,
+                ls.submatrix(k, 0, below, k),
+                top.rb(),
+                1.0,
+                Par::Seq,
+            );
+            let inner = ncols - k;
+            for (xi, t) in rest[..inner].iter_mut().zip(&tmp[..inner]) {
+                *xi -= t;
             }
-            for c in 0..k {
-                let xc = x[start + c];
-                if xc == 0.0 {
-                    continue;
-                }
-                let col = ls
-                    .col(c)
-                    .try_as_col_major()
-                    .expect("column major")
-                    .as_slice();
-                for r in k..ncols {
-                    x[start + r] -= col[r] * xc;
-                }
-                for (i, &p) in pattern.iter().enumerate() {
-                    x[p] -= col[ncols + i] * xc;
-                }
+            for (&p, t) in pattern.iter().zip(&tmp[inner..below]) {
+                x[p] -= t;
             }
             for c in 0..k {
                 x[start + c] /= ls[(c, c)];
             }
         }
         self.x = x;
+        self.tmp = tmp;
     }
 
     /// With the separator's solution in x[nd..]: x_h := L_hh^-T (x_h - L_Sh^T x_S) over the
-    /// domain's columns, last to first.
+    /// domain's columns, last to first (dense blocks per supernode, as [`Half::forward`]).
     fn backward(&mut self) {
         let nd = self.nd;
         let mut x = std::mem::take(&mut self.x);
+        let mut tmp = std::mem::take(&mut self.tmp);
         for s in (0..self.supernodal().n_supernodes()).rev() {
             let (start, ls, pattern) = self.supernode(s);
             if start >= nd {
@@ -234,22 +263,21 @@ impl Half {
             }
             let ncols = ls.ncols();
             let k = ncols.min(nd - start);
-            for c in 0..k {
-                let col = ls
-                    .col(c)
-                    .try_as_col_major()
-                    .expect("column major")
-                    .as_slice();
-                let mut sum = 0.0;
-                for r in k..ncols {
-                    sum += col[r] * x[start + r];
-                }
-                for (i, &p) in pattern.iter().enumerate() {
-                    sum += col[ncols + i] * x[p];
-                }
-                x[start + c] -= sum;
+            let below = ls.nrows() - k;
+            let inner = ncols - k;
+            tmp[..inner].copy_from_slice(&x[start + k..start + ncols]);
+            for (t, &p) in tmp[inner..below].iter_mut().zip(pattern) {
+                *t = x[p];
             }
-            let top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
+            let mut top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
+            faer::linalg::matmul::matmul(
+                top.rb_mut(),
+                Accum::Add,
+                ls.submatrix(k, 0, below, k).transpose(),
+                MatRef::from_column_major_slice(&tmp[..below], below, 1),
+                -1.0,
+                Par::Seq,
+            );
             faer::linalg::triangular_solve::solve_unit_upper_triangular_in_place(
                 ls.submatrix(0, 0, k, k).transpose(),
                 top,
@@ -257,6 +285,7 @@ impl Half {
             );
         }
         self.x = x;
+        self.tmp = tmp;
     }
 }
 
@@ -273,6 +302,13 @@ pub struct Split {
     schur: Mat<f64>,
     schur_mem: MemBuffer,
     xs: Vec<f64>,
+    /// Factorization flops of the two halves at the level that balances their equations
+    /// (read by the unit tests).
+    #[cfg(test)]
+    counted: [f64; 2],
+    /// The same of the halves kept (the solving thread's, the helper's).
+    #[cfg(test)]
+    flops: [f64; 2],
 }
 
 impl Split {
@@ -286,33 +322,101 @@ impl Split {
         rank: Option<&[usize]>,
         pool: Arc<Pool>,
     ) -> Result<Option<Split>, OutOfMemory> {
-        if pool.helpers() == 0 {
+        // The halves' maps hold K's positions as u32 (as the assembly's do): a larger K
+        // stays on one thread.
+        if pool.helpers() == 0 || row_idx.len() as u64 > u32::MAX as u64 {
             return Ok(None);
         }
-        let Some(level) = separator_levels(n, col_ptr, row_idx)? else {
+        let Some(levels) = separator_levels(n, col_ptr, row_idx)? else {
             return Ok(None);
         };
-        let (sep, levels) = level;
         let what = "the two-domain factorization";
-        let side = |l: usize| {
-            if l < sep {
-                0
-            } else if l == sep {
-                2
-            } else {
-                1
+        // The two halves (symbolic analysis only) with level `sep` as the separator.
+        let pair = |sep: usize| -> Result<Option<(Vec<usize>, Half, Half)>, OutOfMemory> {
+            let side = |l: usize| {
+                if l < sep {
+                    0
+                } else if l == sep {
+                    2
+                } else {
+                    1
+                }
+            };
+            let s_eq = select(n, |i| side(levels.level[i]) == 2)?;
+            let mut halves = Vec::new();
+            for h in 0..2 {
+                let domain = select(n, |i| side(levels.level[i]) == h)?;
+                match Half::try_new(n, col_ptr, row_idx, &domain, &s_eq, rank)? {
+                    Some(half) => halves.push(half),
+                    None => return Ok(None),
+                }
             }
+            let b = halves.pop().expect("two halves");
+            let a = halves.pop().expect("two halves");
+            Ok(Some((s_eq, a, b)))
         };
-        let s_eq = select(n, |i| side(levels[i]) == 2)?;
-        let ns = s_eq.len();
-        let mut halves = Vec::new();
-        for h in 0..2 {
-            let domain = select(n, |i| side(levels[i]) == h)?;
-            match Half::try_new(n, col_ptr, row_idx, &domain, &s_eq, rank)? {
-                Some(half) => halves.push(Arc::new(Mutex::new(half))),
-                None => return Ok(None),
+        let Some(mut chosen) = pair(levels.sep)? else {
+            return Ok(None);
+        };
+        // Equal equation counts do not make equal work: the factorization waits for the
+        // slower half (17 % more flops on one side of the 300k-DOF disc). The separator moves
+        // towards the heavier half: the difference of the halves' flops as a function of the
+        // equations before the separator, root found by the secant method (the first step
+        // takes each side's flops per equation as constant), at most 3 more splits analysed;
+        // the split whose larger half has the fewest flops is kept.
+        #[cfg(test)]
+        let counted = [chosen.1.flops(), chosen.2.flops()];
+        let heavier = |c: &(Vec<usize>, Half, Half)| c.1.flops().max(c.2.flops());
+        let difference = |c: &(Vec<usize>, Half, Half)| c.1.flops() - c.2.flops();
+        let mut tried = vec![levels.sep];
+        let mut points = vec![(levels.before(levels.sep) as f64, difference(&chosen))];
+        let total = chosen.1.flops() + chosen.2.flops();
+        for _ in 0..3 {
+            let (x1, d1) = points[points.len() - 1];
+            if d1.abs() <= 0.02 * total {
+                break;
+            }
+            let target = if points.len() == 1 {
+                let (na, nb) = (chosen.1.nd as f64, chosen.2.nd as f64);
+                let (fa, fb) = (chosen.1.flops(), chosen.2.flops());
+                x1 - (fa - fb) / (fa / na + fb / nb)
+            } else {
+                // Secant through the two points that bracket the root, else the last two.
+                let (x0, d0) = points
+                    .iter()
+                    .copied()
+                    .filter(|&(_, d)| d.signum() != d1.signum())
+                    .min_by(|p, q| (p.0 - x1).abs().total_cmp(&(q.0 - x1).abs()))
+                    .unwrap_or(points[points.len() - 2]);
+                if d1 == d0 {
+                    break;
+                }
+                x1 - d1 * (x1 - x0) / (d1 - d0)
+            };
+            let next = (0..levels.size.len())
+                .filter(|&l| !tried.contains(&l) && levels.admissible(l))
+                .min_by(|&x, &y| {
+                    let d = |l: usize| (levels.before(l) as f64 - target).abs();
+                    d(x).total_cmp(&d(y))
+                });
+            let Some(l) = next else { break };
+            tried.push(l);
+            let Some(other) = pair(l)? else { break };
+            points.push((levels.before(l) as f64, difference(&other)));
+            if heavier(&other) < heavier(&chosen) {
+                chosen = other;
             }
         }
+        let (s_eq, mut a, mut b) = chosen;
+        // The solving thread gathers its half's values after starting the helper and forms
+        // the separator's Schur complement after both: it takes the lighter half.
+        if a.flops() > b.flops() {
+            std::mem::swap(&mut a, &mut b);
+        }
+        a.allocate()?;
+        b.allocate()?;
+        let (a, b) = (Arc::new(Mutex::new(a)), Arc::new(Mutex::new(b)));
+        let ns = s_eq.len();
         let mut pos = memory::filled(n, usize::MAX, what)?;
         for (k, &g) in s_eq.iter().enumerate() {
             pos[g] = k;
@@ -341,8 +445,8 @@ impl Split {
             what,
             bytes: (ns * 8) as u64,
         })?;
-        let b = halves.pop().expect("two halves");
-        let a = halves.pop().expect("two halves");
+        #[cfg(test)]
+        let flops = [lock(&a).flops(), lock(&b).flops()];
         let job = Arc::clone(&b);
         pool.set_job(0, Box::new(move || lock(&job).run()));
         Ok(Some(Split {
@@ -354,12 +458,23 @@ impl Split {
             schur: dense(ns, what)?,
             schur_mem,
             xs: memory::zeros(ns, what)?,
+            #[cfg(test)]
+            counted,
+            #[cfg(test)]
+            flops,
         }))
     }
 
     /// Equations in (A, B, S).
     pub fn sizes(&self) -> (usize, usize, usize) {
         (lock(&self.a).nd, lock(&self.b).nd, self.s_eq.len())
+    }
+
+    /// Factorization flops (sums of squared column counts) of the halves kept (the solving
+    /// thread's, the helper's) and of the halves at the level that balanced their equations.
+    #[cfg(test)]
+    pub fn flops(&self) -> ([f64; 2], [f64; 2]) {
+        (self.flops, self.counted)
     }
 
     /// Stored entries of both halves' factors.
@@ -477,7 +592,7 @@ fn select(n: usize, keep: impl Fn(usize) -> bool) -> Result<Vec<usize>, OutOfMem
 fn gather(h: &mut Half, k: &[f64]) {
     let Half { matrix, map, .. } = h;
     for (v, &p) in matrix.val_mut().iter_mut().zip(map.iter()) {
-        *v = k[p];
+        *v = k[p as usize];
     }
 }
 
@@ -609,14 +724,14 @@ impl Half {
         let nnz = count[m];
         let mut next = memory::copy(&count[..m], what)?;
         let mut rows = memory::zeros::<usize>(nnz, what)?;
-        let mut map = memory::zeros::<usize>(nnz, what)?;
+        let mut map = memory::zeros::<u32>(nnz, what)?;
         for j in 0..n {
             for p in col_ptr[j]..col_ptr[j + 1] {
                 let (li, lj) = (local[row_idx[p]], local[j]);
                 if li != usize::MAX && lj != usize::MAX {
                     let c = li.max(lj);
                     rows[next[c]] = li.min(lj);
-                    map[next[c]] = p;
+                    map[next[c]] = p as u32;
                     next[c] += 1;
                 }
             }
@@ -625,7 +740,7 @@ impl Half {
         drop(local);
         for c in 0..m {
             let (lo, hi) = (count[c], count[c + 1]);
-            let mut pairs: Vec<(usize, usize)> = rows[lo..hi]
+            let mut pairs: Vec<(usize, u32)> = rows[lo..hi]
                 .iter()
                 .copied()
                 .zip(map[lo..hi].iter().copied())
@@ -642,31 +757,55 @@ impl Half {
         if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
             return Ok(None);
         }
-        let l_values = memory::zeros(symbolic.len_val(), what)?;
-        let mem = MemBuffer::try_new(
-            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
-        )
-        .map_err(|_| OutOfMemory {
-            what,
-            bytes: (nnz as u64).saturating_mul(8),
-        })?;
         Ok(Some(Half {
             eq,
             nd,
             map,
             matrix,
             symbolic,
-            l_values,
-            mem,
-            lss: dense(ns, what)?,
-            w: dense(ns, what)?,
-            s_block: dense(ns, what)?,
-            d: memory::zeros(ns, what)?,
-            x: memory::zeros(m, what)?,
+            l_values: Vec::new(),
+            mem: MemBuffer::new(StackReq::EMPTY),
+            lss: Mat::new(),
+            w: Mat::new(),
+            s_block: Mat::new(),
+            d: Vec::new(),
+            x: Vec::new(),
+            tmp: Vec::new(),
             reg: (0.0, 0.0),
             phase: Phase::Factor,
             status: Ok(()),
         }))
+    }
+
+    /// The numeric buffers (factor values, workspaces, the separator's dense blocks), once
+    /// the split is chosen.
+    fn allocate(&mut self) -> Result<(), OutOfMemory> {
+        let what = "the two-domain factorization";
+        let (m, ns) = (self.eq.len(), self.eq.len() - self.nd);
+        let symbolic = &self.symbolic;
+        self.l_values = memory::zeros(symbolic.len_val(), what)?;
+        let tallest = match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(sym) => (0..sym.n_supernodes())
+                .map(|s| sym.col_ptr_for_row_idx()[s + 1] - sym.col_ptr_for_row_idx()[s])
+                .max()
+                .unwrap_or(0),
+            SymbolicCholeskyRaw::Simplicial(_) => 0,
+        };
+        self.mem = MemBuffer::try_new(
+            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+        )
+        .map_err(|_| OutOfMemory {
+            what,
+            bytes: (self.map.len() as u64).saturating_mul(8),
+        })?;
+        self.lss = dense(ns, what)?;
+        self.w = dense(ns, what)?;
+        self.s_block = dense(ns, what)?;
+        self.d = memory::zeros(ns, what)?;
+        self.x = memory::zeros(m, what)?;
+        // Below the domain columns: the rest of the supernode's columns and its pattern.
+        self.tmp = memory::zeros(tallest + ns, what)?;
+        Ok(())
     }
 }
 
@@ -676,7 +815,7 @@ fn separator_levels(
     n: usize,
     col_ptr: &[usize],
     row_idx: &[usize],
-) -> Result<Option<(usize, Vec<usize>)>, OutOfMemory> {
+) -> Result<Option<Levels>, OutOfMemory> {
     let what = "the two-domain factorization";
     // Symmetric adjacency (without the diagonal) from the upper pattern.
     let mut ptr = memory::zeros::<usize>(n + 1, what)?;
@@ -747,9 +886,37 @@ fn separator_levels(
         before += size[l];
     }
     Ok(match best {
-        Some((l, _)) if size[l] <= MAX_SEPARATOR => Some((l, levels)),
+        Some((l, _)) if size[l] <= MAX_SEPARATOR => Some(Levels {
+            sep: l,
+            level: levels,
+            size,
+        }),
         _ => None,
     })
+}
+
+/// Breadth-first levels of the equations and the level chosen as the separator.
+struct Levels {
+    sep: usize,
+    /// Level of every equation.
+    level: Vec<usize>,
+    /// Equations per level.
+    size: Vec<usize>,
+}
+
+impl Levels {
+    /// Equations before level `l` (the first domain's when `l` is the separator).
+    fn before(&self, l: usize) -> usize {
+        self.size[..l].iter().sum()
+    }
+
+    /// Whether level `l` may separate: small enough, and each side at least [`BALANCE`].
+    fn admissible(&self, l: usize) -> bool {
+        let n = self.level.len();
+        let least = (BALANCE * n as f64) as usize;
+        let before = self.before(l);
+        self.size[l] <= MAX_SEPARATOR && before >= least && n - before - self.size[l] >= least
+    }
 }
 
 #[cfg(test)]
@@ -822,6 +989,77 @@ pub(super) mod tests {
         let mut b = multiply(n, &cp, &ri, &v, &vec![1.0; n]);
         split.solve(&mut b).unwrap();
         let err = b.iter().map(|b| (b - 1.0).abs()).fold(0.0, f64::max);
+        assert!(err < 1e-12, "{err:e}");
+    }
+
+    /// A strip of a 5-point grid whose width grows from 10 to 70 along its length: the level
+    /// that halves the equations leaves the wide end with more flops (its fronts are
+    /// longer). The separator moves until the halves' flops agree, the solving thread takes
+    /// the lighter, and the split still solves exactly. Measured: 6322 equations, the
+    /// count-balanced halves 22.3 % apart in flops, the kept ones 5.4 % (separator 43).
+    #[test]
+    fn the_separator_balances_the_halves_flops() {
+        let length = 160;
+        let width = |x: usize| 10 + 60 * x / (length - 1);
+        let mut id = vec![vec![usize::MAX; 70]; length];
+        let mut n = 0;
+        for (x, column) in id.iter_mut().enumerate() {
+            for slot in column.iter_mut().take(width(x)) {
+                *slot = n;
+                n += 1;
+            }
+        }
+        let (mut cp, mut ri, mut v) = (vec![0], vec![], vec![]);
+        for x in 0..length {
+            for y in 0..width(x) {
+                let j = id[x][y];
+                let mut column = vec![(j, 4.1 + (j % 7) as f64 * 0.01)];
+                if x > 0 && y < width(x - 1) {
+                    column.push((id[x - 1][y], -1.0));
+                }
+                if y > 0 {
+                    column.push((id[x][y - 1], -1.0));
+                }
+                column.sort_by_key(|e| e.0);
+                for (i, value) in column {
+                    ri.push(i);
+                    v.push(value);
+                }
+                cp.push(ri.len());
+            }
+        }
+        let pool = Arc::new(Pool::try_new(2).unwrap());
+        let mut split = Split::try_new(n, &cp, &ri, None, pool)
+            .unwrap()
+            .expect("a separator");
+        let (kept, counted) = split.flops();
+        let imbalance = |f: [f64; 2]| f[0].max(f[1]) / f[0].min(f[1]) - 1.0;
+        println!(
+            "{n} equations, sizes {:?}: flops {kept:?} ({:.3}), count-balanced {counted:?} ({:.3})",
+            split.sizes(),
+            imbalance(kept),
+            imbalance(counted)
+        );
+        assert!(
+            imbalance(counted) > 0.1,
+            "the test needs an unbalanced start"
+        );
+        assert!(imbalance(kept) < 0.1, "{}", imbalance(kept));
+        assert!(
+            kept[0] <= kept[1],
+            "the solving thread takes the lighter half"
+        );
+        split.factor(&v, (1e-9, 1e-13)).unwrap();
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let mut b = multiply(n, &cp, &ri, &v, &x);
+        split.solve(&mut b).unwrap();
+        let err = x
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(err < 1e-12, "{err:e}");
     }
 
