@@ -12,14 +12,11 @@
 //!       name the scene's node ids whatever the internal order (the mechanism diagnosis);
 //!       (4) the default order fills the factor no more than the generator's own ring order;
 //!       (5) on a sensitive path (the scaling benchmark's square with edge cables: wrinkling,
-//!       frozen chattering states, nodal relaxation) a shuffled numbering takes the generator's
-//!       Newton path exactly (equal iteration counts per load row: the triangles are visited
-//!       and relaxation sweeps the nodes in internal order, not in the user's numbers) and gives
-//!       its answers to round-off in every place they leave the engine: outputs, the load
-//!       history CSV, the per-element CSV, FMU arrays and VTK point and cell data. (5) is
-//!       `#[ignore]`d: it holds with relaxation sweeping in internal order
-//!       (`Pattern::nodes_in_order`), which is out until hard case j survives it (run it with
-//!       `cargo test --release --test renumber -- --ignored`).
+//!       frozen chattering states, nodal relaxation) a shuffled numbering gives the generator's
+//!       answers in every place they leave the engine: outputs, the load history CSV, the
+//!       per-element CSV, FMU arrays and VTK point and cell data. Its Newton path may differ
+//!       (nodal relaxation sweeps its nodes in the user's order: 26 / 7 iterations per load row
+//!       against 27 / 6), so there the answers agree to the solver's tolerance, not round-off.
 //! MESH: HenckyDisc at 12 rings (469 nodes, 864 triangles) and 34 rings (fill only), the same
 //!       mesh written explicitly with node and triangle ids permuted by a fixed-seed xorshift
 //!       generator; examples/ZonedCushion (8 x 8 cells, edge cables); the 4 m square at 57 x 57
@@ -36,8 +33,10 @@
 //!            principal stresses 1.2e-12 (array output and VTK cell data alike), centre
 //!            deflection 1.1e-15, rim reaction 1.7e-14; internal orders vs given, worst field or
 //!            VTK number 1.1e-12 on the disc, 3.3e-13 on the cushion; shuffled vs generated
-//!            square, scalar outputs 7.4e-15, displacements 1.4e-14, stresses 4.0e-13, VTK
-//!            cable tensions 2.4e-12, per-element CSV 4.0e-13: stresses against the largest
+//!            square on the same path (with relaxation in internal order, no longer in),
+//!            scalar outputs 7.4e-15, displacements 1.4e-14, stresses 4.0e-13, VTK
+//!            cable tensions 2.4e-12, per-element CSV 4.0e-13; on today's two paths see (5)
+//!            and its test's header, 1e-7: stresses against the largest
 //!            stress, the tension direction (a line: its sign is free) as its angle times the
 //!            principal-stress gap over the largest stress, because an eigenvector is only as
 //!            well defined as that gap; at the flat start both stresses are round-off and the
@@ -58,6 +57,8 @@ use velarium::{Engine, Scene};
 const Q: f64 = 40.0;
 /// Round-off tolerance relative to a field's largest magnitude.
 const ROUND_OFF: f64 = 1e-11;
+/// Answers at the ends of two Newton paths (the shuffled square, its header).
+const PATHS: f64 = 1e-7;
 
 /// A fixed-seed permutation of 0..n (Fisher-Yates on xorshift64*): old id -> new id.
 fn permutation(n: usize, seed: u64) -> Vec<usize> {
@@ -485,20 +486,21 @@ fn element_rows(csv: &str) -> Vec<(usize, u8, Vec<f64>)> {
 }
 
 /// A sensitive path: the square with edge cables wrinkles, its wrinkle states chatter and are
-/// frozen, and nodal relaxation (block Gauss-Seidel over the nodes that carry the residual)
-/// rescues stalled iterations, so any difference in the order of a sweep or a sum grows into
-/// a different Newton path. The same mesh in a shuffled numbering must take the generator's
-/// path exactly (equal iteration counts per load row) and give its answers to round-off in
-/// every place they leave the engine in the user's numbering: the outputs, the load history's
-/// CSV (`velarium solve --out`), the per-element CSV (`--elements`), the FMU arrays and the
-/// VTK file. Before the triangles were visited by their internal nodes (not their numbers)
-/// and relaxation swept in internal order, the shuffled square at 57 x 57 cells took 23 Newton
-/// iterations against 24 and at 100k DOF 39 against 33 (docs/performance.md).
+/// frozen, and nodal relaxation (Gauss-Seidel and Newton over the nodes that carry the
+/// residual) rescues stalled iterations, so any difference in the order of a sweep or a sum can
+/// grow into a different Newton path. The same mesh in a shuffled numbering must give the
+/// generator's answers in every place they leave the engine in the user's numbering: the
+/// outputs, the load history's CSV (`velarium solve --out`), the per-element CSV
+/// (`--elements`), the FMU arrays and the VTK file, with the same wrinkle state in every
+/// triangle. The triangles are visited by their internal nodes, but relaxation sweeps in the
+/// user's order (in internal order it cost hard case j after the patch Newton, f040edf), so
+/// the paths differ by one iteration per load row (26 / 7 against 27 / 6, measured).
+/// TOLERANCE: two end points of different Newton paths, each within tolerance (1e-9 of the
+/// force scale) of the equilibrium: measured 1.2e-8 of each field's largest value (corner
+/// reaction; displacements 5.9e-9, stresses 2.0e-9, cable tensions 7.0e-9), so 1e-7. A wrong
+/// mapping of ids would show as O(1).
 #[test]
-#[ignore = "needs nodal relaxation to sweep in internal order (Pattern::nodes_in_order), which \
-            hard case j and alloc_per_iteration's WrinkledShear did not survive after main's \
-            patch Newton (f040edf); docs/performance.md, What is not done"]
-fn a_shuffled_square_with_edge_cables_takes_the_generators_newton_path() {
+fn a_shuffled_square_with_edge_cables_gives_the_generators_answers_everywhere() {
     let generated = square(57);
     let mesh = resolve(&Scene::from_json(&generated.to_string()).unwrap().geometry);
     let (n, nt) = (mesh.nodes.len(), mesh.triangles.len());
@@ -531,7 +533,6 @@ fn a_shuffled_square_with_edge_cables_takes_the_generators_newton_path() {
     let mut worst = 0.0f64;
     assert_eq!(ha.rows.len(), 3);
     for (ra, rb) in ha.rows.iter().zip(&hb.rows) {
-        assert_eq!(ra[it], rb[it], "Newton iterations at time {}", ra[0]);
         for &k in &scalars {
             let (x, y) = (ra[k], rb[k]);
             let d = if x == y { 0.0 } else { rel(y, x) };
@@ -539,8 +540,10 @@ fn a_shuffled_square_with_edge_cables_takes_the_generators_newton_path() {
                 "t = {}: {} {x:e} vs {y:e}, relative {d:.1e}",
                 ra[0], ha.header[k]
             );
-            worst = worst.max(d);
-            assert!(d <= ROUND_OFF, "{}: {x} vs {y}", ha.header[k]);
+            if k != it {
+                worst = worst.max(d);
+            }
+            assert!(k == it || d <= PATHS, "{}: {x} vs {y}", ha.header[k]);
         }
     }
     // From the flat start to 150 Pa: the path with wrinkling, freezing and relaxation.
@@ -628,6 +631,6 @@ fn a_shuffled_square_with_edge_cables_takes_the_generators_newton_path() {
         ("VTK sigma_max", dc),
         ("VTK cable_tension", dt),
     ] {
-        assert!(d <= ROUND_OFF, "{what}: {d:e}");
+        assert!(d <= PATHS, "{what}: {d:e}");
     }
 }

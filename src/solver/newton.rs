@@ -690,6 +690,7 @@ impl Solver {
             // stress-free directions may lead away (the corner-pulled rubber sheet, hard case j).
             let near = free <= s.relax_patch_below * (tolerance / s.tolerance);
             if near && nodes.len() <= s.relax_patch_nodes {
+                self.work.patch_newton.reserve(s.relax_patch_nodes);
                 let outcome = relax_patch(
                     model,
                     &self.adjacency,

@@ -322,6 +322,26 @@ pub struct PatchWork {
     start: Vec<f64>,
 }
 
+impl PatchWork {
+    /// Room for patches of up to `nodes` nodes (the dense block and vectors; 8 elements of each
+    /// kind per node), so that a larger patch met in a later iteration does not allocate
+    /// there (`tests/alloc_per_iteration.rs`). Only grows.
+    pub fn reserve(&mut self, nodes: usize) {
+        let n = 3 * nodes;
+        for (v, len) in [
+            (&mut self.k, n * n),
+            (&mut self.r, n),
+            (&mut self.step, n),
+            (&mut self.start, n),
+        ] {
+            v.reserve(len.saturating_sub(v.len()));
+        }
+        for v in [&mut self.triangles, &mut self.segments, &mut self.ties] {
+            v.reserve((8 * nodes).saturating_sub(v.len()));
+        }
+    }
+}
+
 /// What a patch Newton did: its iterations and the patch's residual |r|∞ at the end.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PatchOutcome {
