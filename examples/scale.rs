@@ -239,6 +239,12 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
     engine.set_real(vr, problem.value).unwrap();
     let report = engine.solve();
     let time = t.elapsed().as_secs_f64();
+    if std::env::args().any(|a| a == "--log") {
+        // The solve's per-iteration log (what an FMU shows on logSolver), on stderr.
+        for l in &report.log {
+            eprintln!("{label}: {l}");
+        }
+    }
     if per_thread {
         // Per thread of the process: CPU seconds of this solve (the solving thread first).
         let line: Vec<String> = thread_cpu()

@@ -294,7 +294,13 @@ fn line_search(
     step: &Vector3<f64>,
 ) -> bool {
     let start = displacement(u, node);
-    let (alpha, met) = bracket_slope(here.r.dot(step), LOCAL_TRIES, LOCAL_SLOPE_RATIO, |alpha| {
+    let s0 = here.r.dot(step);
+    if s0.is_nan() || s0 >= 0.0 {
+        // Not a descent direction (an indefinite block: a wrinkled triangle's tangent, a
+        // follower pressure's unsymmetric part): the search would take the full step untried.
+        return false;
+    }
+    let (alpha, met) = bracket_slope(s0, LOCAL_TRIES, LOCAL_SLOPE_RATIO, |alpha| {
         for c in 0..3 {
             u[3 * node + c] = start[c] + alpha * step[c];
         }
