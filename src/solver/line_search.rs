@@ -279,7 +279,9 @@ impl Solver {
 /// (the largest α with s < 0, the smallest with s > 0 or not admissible), each try at least a
 /// twentieth of the bracket's width from either end, until |s(α)| <= `ratio`·|s(0)|, at most
 /// `tries` evaluations. Returns (α, met); when the tries run out, the bracket's lower end if it
-/// moved off 0 (met: the step still descends), else the last try (not met). The global search
+/// moved off 0 (met: the step still descends), else the last admissible try, or 0 when no try
+/// was admissible (not met: never a step to a point where a triangle turned over, which would
+/// end the increment; the caller damps the next iteration instead). The global search
 /// (`Merit::Slope`) and the nodal relaxation (`relax.rs`) use it.
 pub(super) fn bracket_slope(
     s0: f64,
@@ -293,12 +295,14 @@ pub(super) fn bracket_slope(
     let mut lo = (0.0, s0);
     let mut hi: Option<(f64, f64)> = None;
     let mut alpha = 1.0;
+    let mut admissible = 0.0;
     for _ in 0..tries {
         let Some(s) = slope_at(alpha) else {
             hi = Some((alpha, f64::INFINITY));
             alpha = 0.5 * (lo.0 + alpha);
             continue;
         };
+        admissible = alpha;
         if s.abs() <= ratio * s0.abs() {
             return (alpha, true);
         }
@@ -324,7 +328,7 @@ pub(super) fn bracket_slope(
     if lo.0 > 0.0 {
         (lo.0, true)
     } else {
-        (alpha, false)
+        (admissible, false)
     }
 }
 
@@ -361,6 +365,30 @@ mod tests {
             Some(-1.0 + 0.1 * a)
         });
         assert_eq!((full, tries), ((1.0, true), 1));
+    }
+
+    /// When the tries run out without a descending point, the search returns the last
+    /// admissible try, and 0 when every try was inadmissible (a triangle turned over at every
+    /// α tried, here above 1e-12): never an inadmissible step. Before, it returned the last
+    /// try whatever it was, and the Newton loop stepped to an inverted mesh (the square with
+    /// edge cables at 1M DOF, its first increment).
+    #[test]
+    fn a_failed_search_never_returns_an_inadmissible_step() {
+        let (alpha, met) = bracket_slope(-1.0, 30, 0.1, |a| (a < 1e-12).then_some(1.0));
+        assert_eq!((alpha, met), (0.0, false));
+        // Overshooting everywhere it is admissible (s > 0 below 1e-3): the last admissible try.
+        let mut last_ok = 0.0;
+        let (alpha, met) = bracket_slope(-1.0, 30, 0.1, |a| {
+            let ok = a < 1e-3;
+            if ok {
+                last_ok = a;
+            }
+            ok.then_some(1.0)
+        });
+        assert!(
+            !met && alpha == last_ok && alpha > 0.0 && alpha < 1e-3,
+            "α = {alpha}"
+        );
     }
 
     /// With the global search's 8 tries the secant steps, kept a twentieth of the bracket's
