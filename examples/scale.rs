@@ -1,7 +1,12 @@
 //! Scaling benchmark, printed (not asserted; issue 15 item 6):
 //! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N]
 //! [--problem=disc,square] [--threads=N] [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]
-//! [--thread-cpu]`.
+//! [--thread-cpu] [--log] [--max-iterations=N] [--min-increment=X]`.
+//!
+//! `--log` prints each solve's per-iteration log on stderr; `--max-iterations=N` and
+//! `--min-increment=X` set `solver.max_iterations` and `solver.min_increment` (with X = 1 a
+//! failed first increment ends the step at once instead of being cut back: to look at one
+//! increment of a case that fails).
 //!
 //! Two problems, each flat start to full load in one step:
 //! - `disc`: the Hencky disc (docs/mechanics.md §4a, follower pressure 40 Pa);
@@ -356,6 +361,14 @@ fn main() {
         .iter()
         .find_map(|a| a.strip_prefix("--threads="))
         .map_or(1, |v| v.parse().expect("--threads=N"));
+    let max_iterations: Option<usize> = args
+        .iter()
+        .find_map(|a| a.strip_prefix("--max-iterations="))
+        .map(|v| v.parse().expect("--max-iterations=N"));
+    let min_increment: Option<f64> = args
+        .iter()
+        .find_map(|a| a.strip_prefix("--min-increment="))
+        .map(|v| v.parse().expect("--min-increment=X"));
     let mut orders: Vec<NodeOrder> = args
         .iter()
         .filter_map(|a| a.strip_prefix("--order="))
@@ -459,6 +472,13 @@ fn main() {
             // a 1M DOF scene on a machine with less free memory than the estimate.
             scene.solver.limits.max_memory_gb = 64.0;
             scene.solver.threads = threads;
+            if let Some(n) = max_iterations {
+                scene.solver.max_iterations = n;
+            }
+            if let Some(x) = min_increment {
+                scene.solver.min_increment = x;
+                scene.solver.initial_increment = scene.solver.initial_increment.max(x);
+            }
             let shuffled_scene = (!no_shuffle).then(|| match problem.name {
                 "disc" => {
                     let engine = Engine::try_new(scene.clone()).expect("valid scene");

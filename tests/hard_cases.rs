@@ -1122,6 +1122,56 @@ fn j_rubber_sheet_pulled_at_one_corner() {
     );
 }
 
+/// CASE (j2), docs/solver.md ("A release of frozen ... states restarts the count"): case (j) with
+/// `solver.max_iterations` 40. Its increment meets the tolerance with chattering wrinkle states
+/// frozen at iteration 32, the re-check finds them wrong there, they are released, and the
+/// law's own problem converges 12 iterations later (44 in all, measured; case j's log). The
+/// iterations after a release count from it, so the increment converges whole, with case j's
+/// reactions (-1, 0) N to 1e-7 as there. Before, the budget counted from the increment's start
+/// and the increment was cut back at iteration 40 (this test then fails: more than one
+/// increment).
+#[test]
+fn j2_a_release_of_frozen_states_restarts_the_iteration_budget() {
+    let scene = scene_of(json!({
+        "format": 1, "name": "CornerPull",
+        "geometry": {"generators": [{"kind": "rectangle", "name": "sheet", "origin": [0.0, 0.0, 0.0],
+                                     "size": [0.08, 0.08], "divisions": [8, 8]}]},
+        "membranes": [{"name": "rubber", "triangles": "sheet", "thickness": 5e-4,
+                       "material": {"kind": "neo_hookean", "mu": 3e5}}],
+        "supports": [{"nodes": "sheet.edge_left", "fix": ["x", "y", "z"]}, {"nodes": "sheet.all", "fix": ["z"]}],
+        "inputs": [{"name": "F", "load": {"kind": "point_force", "nodes": "sheet.corner_tr", "direction": [1.0, 0.0, 0.0]}}],
+        "outputs": [
+            {"name": "Rx", "probe": {"kind": "reaction", "nodes": "sheet.edge_left", "component": "x"}},
+            {"name": "Ry", "probe": {"kind": "reaction", "nodes": "sheet.edge_left", "component": "y"}}
+        ],
+        "solver": {"max_iterations": 40}
+    }));
+    let mut e = engine(scene);
+    set(&mut e, "F", 1.0);
+    let report = e.solve();
+    let released = report
+        .log
+        .iter()
+        .any(|l| l.contains("frozen states were wrong at convergence"));
+    println!(
+        "(j2) {} increments, {} iterations, released: {released}",
+        report.increments, report.iterations
+    );
+    assert!(released, "the path no longer releases frozen states");
+    assert!(
+        report.converged() && report.increments == 1 && report.iterations > 40,
+        "{} increments, {} iterations: {}",
+        report.increments,
+        report.iterations,
+        report.message
+    );
+    let (rx, ry) = (get(&e, "Rx"), get(&e, "Ry"));
+    assert!(
+        (rx + 1.0).abs() < 1e-7 && ry.abs() < 1e-7,
+        "reactions ({rx}, {ry}) vs (−1, 0)"
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // (l) docs/solver.md hard-case list.
 // ---------------------------------------------------------------------------------------------

@@ -60,7 +60,8 @@ pub struct Settings {
     /// residual within tolerance · F (F the applied and carried force scale) plus its
     /// round-off floor. Default 1e-9.
     pub tolerance: f64,
-    /// Newton iterations per increment before it is cut back. Default 50 (the scene's
+    /// Newton iterations per increment before it is cut back, counted again from a release of
+    /// frozen states found wrong at convergence (`newton.rs`). Default 50 (the scene's
     /// `solver.max_iterations`).
     pub max_iterations: usize,
     /// Iterations an increment may continue past `max_iterations` while its residual, already

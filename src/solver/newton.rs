@@ -188,6 +188,8 @@ impl Solver {
         let hard_max = max.max(self.settings.max_iterations_progressing);
         // Allocated once per increment, reused by every iteration (`work.rs`).
         let mut history: Vec<f64> = Vec::with_capacity(hard_max + 1);
+        // The iteration from which `max` counts: 0, or the last release of frozen states.
+        let mut budget_from = 0;
         let mut loads: Vec<f64> = Vec::with_capacity(step.loads.len());
         let mut rows: Vec<Row> = Vec::new();
         for it in 0..=hard_max {
@@ -347,14 +349,21 @@ impl Solver {
                         return Ok(it);
                     }
                     Recheck::IterateOn => {
+                        // The frozen states' equilibrium is the start of a new solve of the
+                        // law's own problem: its iterations get the whole budget again, and
+                        // the progress test compares residuals of that problem only (the
+                        // frozen one's, far smaller, would make a steady descent from the
+                        // jump look like stagnation). `hard_max` still bounds the increment.
                         last_free = f64::INFINITY;
+                        budget_from = it;
+                        history.clear();
                         continue;
                     }
                 }
             }
             last_free = check.free;
             history.push(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
-            if it >= max && !(it < hard_max && progressing(&history)) {
+            if it - budget_from >= max && !(it < hard_max && progressing(&history)) {
                 return Err((
                     it,
                     format!(
