@@ -1027,6 +1027,26 @@ fn check_shear_centre(e: &Engine, shear: f64, separation: f64) {
 // (j) A rubber sheet pulled in-plane at one corner node.
 // ---------------------------------------------------------------------------------------------
 
+/// The rubber sheet of cases j and j2 (8 x 8 cells, 80 mm, neo-Hookean mu 3e5 Pa, 0.5 mm, its
+/// left edge clamped, every node held in z, a point force F in +x at the top right corner, the
+/// left edge's reactions as outputs), with `solver` as its solver section.
+fn corner_pull(solver: serde_json::Value) -> Scene {
+    scene_of(json!({
+        "format": 1, "name": "CornerPull",
+        "geometry": {"generators": [{"kind": "rectangle", "name": "sheet", "origin": [0.0, 0.0, 0.0],
+                                     "size": [0.08, 0.08], "divisions": [8, 8]}]},
+        "membranes": [{"name": "rubber", "triangles": "sheet", "thickness": 5e-4,
+                       "material": {"kind": "neo_hookean", "mu": 3e5}}],
+        "supports": [{"nodes": "sheet.edge_left", "fix": ["x", "y", "z"]}, {"nodes": "sheet.all", "fix": ["z"]}],
+        "inputs": [{"name": "F", "load": {"kind": "point_force", "nodes": "sheet.corner_tr", "direction": [1.0, 0.0, 0.0]}}],
+        "outputs": [
+            {"name": "Rx", "probe": {"kind": "reaction", "nodes": "sheet.edge_left", "component": "x"}},
+            {"name": "Ry", "probe": {"kind": "reaction", "nodes": "sheet.edge_left", "component": "y"}}
+        ],
+        "solver": solver
+    }))
+}
+
 /// CASE (j), issue 9: an 80 mm rubber sheet (8 x 8 cells, crossed, neo-Hookean μ = 300 kPa,
 /// t = 0.5 mm, wrinkling on), left edge clamped, all nodes held in z, pulled at its top-right
 /// corner node by F = 1 N in +x (a point load: large local stretch, slack and wrinkled regions).
@@ -1047,19 +1067,7 @@ fn check_shear_centre(e: &Engine, shear: f64, separation: f64) {
 /// the rest of the increment (docs/solver.md, chatter).
 #[test]
 fn j_rubber_sheet_pulled_at_one_corner() {
-    let scene = scene_of(json!({
-        "format": 1, "name": "CornerPull",
-        "geometry": {"generators": [{"kind": "rectangle", "name": "sheet", "origin": [0.0, 0.0, 0.0],
-                                     "size": [0.08, 0.08], "divisions": [8, 8]}]},
-        "membranes": [{"name": "rubber", "triangles": "sheet", "thickness": 5e-4,
-                       "material": {"kind": "neo_hookean", "mu": 3e5}}],
-        "supports": [{"nodes": "sheet.edge_left", "fix": ["x", "y", "z"]}, {"nodes": "sheet.all", "fix": ["z"]}],
-        "inputs": [{"name": "F", "load": {"kind": "point_force", "nodes": "sheet.corner_tr", "direction": [1.0, 0.0, 0.0]}}],
-        "outputs": [
-            {"name": "Rx", "probe": {"kind": "reaction", "nodes": "sheet.edge_left", "component": "x"}},
-            {"name": "Ry", "probe": {"kind": "reaction", "nodes": "sheet.edge_left", "component": "y"}}
-        ]
-    }));
+    let scene = corner_pull(json!({}));
     let mut e = engine(scene);
     set(&mut e, "F", 1.0);
     let report = e.solve();
@@ -1132,20 +1140,7 @@ fn j_rubber_sheet_pulled_at_one_corner() {
 /// increment).
 #[test]
 fn j2_a_release_of_frozen_states_restarts_the_iteration_budget() {
-    let scene = scene_of(json!({
-        "format": 1, "name": "CornerPull",
-        "geometry": {"generators": [{"kind": "rectangle", "name": "sheet", "origin": [0.0, 0.0, 0.0],
-                                     "size": [0.08, 0.08], "divisions": [8, 8]}]},
-        "membranes": [{"name": "rubber", "triangles": "sheet", "thickness": 5e-4,
-                       "material": {"kind": "neo_hookean", "mu": 3e5}}],
-        "supports": [{"nodes": "sheet.edge_left", "fix": ["x", "y", "z"]}, {"nodes": "sheet.all", "fix": ["z"]}],
-        "inputs": [{"name": "F", "load": {"kind": "point_force", "nodes": "sheet.corner_tr", "direction": [1.0, 0.0, 0.0]}}],
-        "outputs": [
-            {"name": "Rx", "probe": {"kind": "reaction", "nodes": "sheet.edge_left", "component": "x"}},
-            {"name": "Ry", "probe": {"kind": "reaction", "nodes": "sheet.edge_left", "component": "y"}}
-        ],
-        "solver": {"max_iterations": 40}
-    }));
+    let scene = corner_pull(json!({"max_iterations": 40}));
     let mut e = engine(scene);
     set(&mut e, "F", 1.0);
     let report = e.solve();
