@@ -677,11 +677,11 @@ impl Solver {
             }
             nodes.clear();
             nodes.extend((0..patch.len()).filter(|&i| patch[i]));
-            self.pattern.sweep_order(model, &mut nodes);
             if nodes.len() as f64 > s.relax_max_share * model.reference.len() as f64 {
                 // The residual is spread over the mesh: a global, not a local, difficulty.
                 break;
             }
+            self.pattern.sweep_order(model, &mut nodes);
             let forced = self.frozen.as_deref();
             let mut moved = 0;
             for _ in 0..s.relax_sweeps {
