@@ -17,6 +17,7 @@ use velarium::solver::relax::{relax_nodes, relax_patch, Adjacency, PatchWork};
 /// sweeps leave nearly all of P unbalanced; Newton on the pair solves the (linear) system
 /// at once. Tolerances: |r| within 1e-9 P and u within 1e-9 of the closed form (round-off
 /// of forces of size T0 = 10 N against a stiffness of 1e6 N/m: about 1e-15 · 10 / 110 m).
+/// The patch Newton is run with the pair given in both orders.
 #[test]
 fn the_patch_newton_moves_a_pair_that_gauss_seidel_only_drifts() {
     let scene = Scene::parse(
@@ -71,6 +72,31 @@ fn the_patch_newton_moves_a_pair_that_gauss_seidel_only_drifts() {
     assert!(
         error(&u) <= 1e-9 * exact[0],
         "error {:e} of {:e}",
+        error(&u),
+        exact[0]
+    );
+
+    // The same patch given in another order (relaxation passes its patch in the sweep order
+    // of the geometry, `Pattern::sweep_order`, not by node number): the same equilibrium, to
+    // the same tolerance. Before, the patch was looked up by binary search in the list as
+    // given, which only works sorted: node 2 was not found and its rows were lost.
+    let mut u = vec![0.0; model.unknown_count()];
+    let out = relax_patch(
+        &model,
+        &adj,
+        &mut u,
+        &loads,
+        &[2, 1],
+        None,
+        1e-9 * p,
+        10,
+        1e-8,
+        &mut work,
+    );
+    assert!(out.residual <= 1e-9 * p && out.iterations <= 2, "{out:?}");
+    assert!(
+        error(&u) <= 1e-9 * exact[0],
+        "in another order: error {:e} of {:e}",
         error(&u),
         exact[0]
     );

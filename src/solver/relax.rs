@@ -326,6 +326,9 @@ pub struct PatchWork {
     r: Vec<f64>,
     step: Vec<f64>,
     start: Vec<f64>,
+    /// (node, its place in the patch) sorted by node: where each node's rows go, for a patch
+    /// given in any order (the sweep order, `Pattern::sweep_order`).
+    slots: Vec<(usize, usize)>,
 }
 
 impl PatchWork {
@@ -345,6 +348,7 @@ impl PatchWork {
         for v in [&mut self.triangles, &mut self.segments, &mut self.ties] {
             v.reserve((8 * nodes).saturating_sub(v.len()));
         }
+        self.slots.reserve(nodes.saturating_sub(self.slots.len()));
     }
 }
 
@@ -371,8 +375,9 @@ pub struct PatchOutcome {
 /// sweep, against the tolerance 4.6e-9 N). Newton on the pair moves it along that direction at
 /// once.
 ///
-/// `nodes` must be sorted (a node's place in the patch is found by binary search). Allocates
-/// only when `work`'s buffers must grow.
+/// `nodes` in any order, each once: the unknowns are numbered in that order (a node's place
+/// is looked up in `work`'s list sorted by node). Allocates only when `work`'s buffers must
+/// grow.
 #[allow(clippy::too_many_arguments)]
 pub fn relax_patch(
     model: &Model,
@@ -386,7 +391,6 @@ pub fn relax_patch(
     regularization: f64,
     work: &mut PatchWork,
 ) -> PatchOutcome {
-    debug_assert!(nodes.windows(2).all(|w| w[0] < w[1]));
     let n = 3 * nodes.len();
     let PatchWork {
         triangles,
@@ -396,12 +400,18 @@ pub fn relax_patch(
         r,
         step,
         start,
+        slots,
     } = work;
+    slots.clear();
+    slots.extend(nodes.iter().enumerate().map(|(p, &i)| (i, p)));
+    slots.sort_unstable();
+    debug_assert!(slots.windows(2).all(|w| w[0].0 < w[1].0));
     touching(triangles, nodes, &adj.triangles);
     touching(segments, nodes, &adj.segments);
     touching(ties, nodes, &adj.ties);
     let elements = PatchElements {
         nodes,
+        slots,
         triangles,
         segments,
         ties,
@@ -466,6 +476,8 @@ fn touching(list: &mut Vec<usize>, nodes: &[usize], of: &Lists<(usize, usize)>) 
 /// The elements of a patch and how they are evaluated.
 struct PatchElements<'a> {
     nodes: &'a [usize],
+    /// (node, place in `nodes`) sorted by node.
+    slots: &'a [(usize, usize)],
     triangles: &'a [usize],
     segments: &'a [usize],
     ties: &'a [usize],
@@ -487,7 +499,13 @@ impl PatchElements<'_> {
         mut k: Option<&mut Vec<f64>>,
     ) -> bool {
         let n = r.len();
-        let slot = |i: usize| self.nodes.binary_search(&i).ok();
+        let slots = self.slots;
+        let slot = |i: usize| {
+            slots
+                .binary_search_by_key(&i, |&(node, _)| node)
+                .ok()
+                .map(|k| slots[k].1)
+        };
         r.fill(0.0);
         if let Some(k) = k.as_deref_mut() {
             k.fill(0.0);
