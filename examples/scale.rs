@@ -1,13 +1,16 @@
 //! Scaling benchmark, printed (not asserted; issue 15 item 6):
 //! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N]
 //! [--problem=disc,square] [--threads=N] [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]
-//! [--thread-cpu] [--log] [--max-iterations=N] [--min-increment=X] [--artificial-prestress=PA]`.
+//! [--thread-cpu] [--log] [--max-iterations=N] [--min-increment=X] [--artificial-prestress=PA]
+//! [--continuation=H]`.
 //!
 //! `--log` prints each solve's per-iteration log on stderr; `--max-iterations=N` and
 //! `--min-increment=X` set `solver.max_iterations` and `solver.min_increment` (with X = 1 a
 //! failed first increment ends the step at once instead of being cut back: to look at one
 //! increment of a case that fails); `--artificial-prestress=PA` sets
-//! `solver.artificial_prestress` (the tangent-only start, docs/solver.md).
+//! `solver.artificial_prestress` (the tangent-only start, docs/solver.md);
+//! `--continuation=H` sets `solver.prestress_continuation` (0: off; docs/solver.md, "Prestress
+//! continuation").
 //!
 //! Two problems, each flat start to full load in one step:
 //! - `disc`: the Hencky disc (docs/mechanics.md §4a, follower pressure 40 Pa);
@@ -370,6 +373,10 @@ fn main() {
         .iter()
         .find_map(|a| a.strip_prefix("--min-increment="))
         .map(|v| v.parse().expect("--min-increment=X"));
+    let continuation: Option<f64> = args
+        .iter()
+        .find_map(|a| a.strip_prefix("--continuation="))
+        .map(|v| v.parse().expect("--continuation=H"));
     let artificial_prestress: Option<f64> = args
         .iter()
         .find_map(|a| a.strip_prefix("--artificial-prestress="))
@@ -479,6 +486,9 @@ fn main() {
             scene.solver.threads = threads;
             if let Some(n) = max_iterations {
                 scene.solver.max_iterations = n;
+            }
+            if let Some(h) = continuation {
+                scene.solver.prestress_continuation = h;
             }
             if artificial_prestress.is_some() {
                 scene.solver.artificial_prestress = artificial_prestress;

@@ -746,6 +746,7 @@ fn settings(scene: &Scene) -> Settings {
         initial_increment: s.initial_increment,
         min_increment: s.min_increment,
         target_iterations: s.target_iterations,
+        continuation_strain: s.prestress_continuation,
         line_search: s.line_search,
         arc_length_path: s.path == crate::scene::PathMethod::ArcLength,
         arc_length: s.arc_length.unwrap_or(0.0),

@@ -204,13 +204,15 @@ pub fn triangle(
     forced: Option<WrinkleState>,
     tangent: Option<&mut Mat9>,
 ) -> (Vec9, Evaluation) {
-    triangle_with(r, mat, prestress, x, forced, tangent, REGULARIZATION)
+    triangle_with(r, mat, prestress, x, forced, tangent, REGULARIZATION, 0.0)
 }
 
 /// [`triangle`] with the tangent-only regularisation `eps` of wrinkled and slack states in
-/// place of [`REGULARIZATION`] (`Material::response_with`); force and evaluation do not
-/// depend on it.
-#[allow(non_snake_case)]
+/// place of [`REGULARIZATION`] (`Material::response_with`; force and evaluation do not
+/// depend on it) and an isotropic pre-strain `pre_strain` added to the strain the law sees:
+/// E + E0 + h (1, 1, 0). The pre-strain is the solver's prestress continuation (a real,
+/// energy-consistent prestress of an intermediate problem, `solver/path.rs`), 0 otherwise.
+#[allow(non_snake_case, clippy::too_many_arguments)]
 pub fn triangle_with(
     r: &TriangleRef,
     mat: &Material,
@@ -219,12 +221,13 @@ pub fn triangle_with(
     forced: Option<WrinkleState>,
     tangent: Option<&mut Mat9>,
     eps: f64,
+    pre_strain: f64,
 ) -> (Vec9, Evaluation) {
     let F = deformation_gradient(r, x);
     // The prestress enters here, and only here: the law (wrinkling included) sees the total
     // strain E + E0, so the stress is the total stress S0 + ΔS and the tension-field criterion
-    // acts on it.
-    let E = green_lagrange(&F) + r.initial_strain;
+    // acts on it. The same holds for the continuation's pre-strain.
+    let E = green_lagrange(&F) + r.initial_strain + Vector3::new(pre_strain, pre_strain, 0.0);
     let resp = mat.response_with(&E, forced, eps);
     let S = resp.stress;
     let vol = r.area * mat.thickness;

@@ -877,6 +877,14 @@ pub struct SolverSettings {
     /// group (about 1 % of the stress at qa/Eh = 1e-3); 0 switches it off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub artificial_prestress: Option<f64>,
+    /// Starting isotropic pre-strain of the prestress continuation: an increment that fails
+    /// from an unstressed membrane (the flat start) is solved again through problems with every
+    /// triangle pre-strained by h = this, a quarter of it, ..., down to a thousandth, then 0,
+    /// each from the last one's equilibrium, before it is cut back. The last problem is the
+    /// scene's own, so it changes the path, not the equilibrium (docs/solver.md). 0 switches
+    /// it off; at most 0.1.
+    #[serde(skip_serializing_if = "is_default_continuation")]
+    pub prestress_continuation: f64,
     /// Energy (slope) line search on every Newton correction.
     pub line_search: bool,
     /// How a step follows its path: `load_control` (load increments, the default) or
@@ -919,6 +927,10 @@ fn is_one(n: &usize) -> bool {
     *n == 1
 }
 
+fn is_default_continuation(h: &f64) -> bool {
+    *h == SolverSettings::default().prestress_continuation
+}
+
 impl Default for SolverSettings {
     fn default() -> Self {
         SolverSettings {
@@ -928,6 +940,7 @@ impl Default for SolverSettings {
             min_increment: 1e-4,
             target_iterations: 6,
             artificial_prestress: None,
+            prestress_continuation: 1e-3,
             line_search: true,
             path: PathMethod::LoadControl,
             arc_length: None,

@@ -1619,6 +1619,13 @@ impl Validator {
                 );
             }
         }
+        let h = st.prestress_continuation;
+        if !(h.is_finite() && (0.0..=0.1).contains(&h)) {
+            self.push(
+                "solver.prestress_continuation",
+                format!("{h} must be a strain from 0 (off) to 0.1"),
+            );
+        }
         if let Some(p) = st.artificial_prestress {
             if !(p.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&p)) {
                 self.push(

@@ -10,7 +10,7 @@
 
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
-use crate::model::wrinkling::WrinkleState;
+use crate::model::wrinkling::{WrinkleState, REGULARIZATION};
 use crate::model::{cable, membrane, pressure, sleeve, LoadModel, Model};
 use crate::solver::renumber::{self, NodeOrder};
 use crate::solver::threads::{Pool, ASSEMBLE};
@@ -429,11 +429,38 @@ pub struct Membranes<'a> {
     pub held_step: Option<(&'a [f64], &'a mut [f64])>,
     /// Factor on every triangle's artificial prestress (None: 1).
     pub prestress_factor: Option<f64>,
+    /// The prestress continuation's isotropic pre-strain of every triangle (`path.rs`; 0:
+    /// none, the scene's own problem).
+    pub pre_strain: f64,
     /// Per DOF, the sum of the magnitudes of every force that meets there (element forces and
     /// loads): the size of the terms whose sum is R, for its round-off floor. Zeroed here.
     pub magnitude: Option<&'a mut [f64]>,
     /// Reused work buffers (None: allocated for this assembly).
     pub scratch: Option<&'a mut AssemblyScratch>,
+}
+
+/// What the iteration adds to every membrane triangle: the factor on its tangent-only
+/// artificial prestress, and the prestress continuation's isotropic pre-strain (`path.rs`,
+/// `membrane::triangle_with`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Aid {
+    pub prestress_factor: f64,
+    pub pre_strain: f64,
+}
+
+impl Aid {
+    /// The full artificial prestress, no pre-strain.
+    pub const PLAIN: Aid = Aid {
+        prestress_factor: 1.0,
+        pre_strain: 0.0,
+    };
+
+    fn of(extra: &Membranes) -> Aid {
+        Aid {
+            prestress_factor: extra.prestress_factor.unwrap_or(1.0),
+            pre_strain: extra.pre_strain,
+        }
+    }
 }
 
 /// Add K_e·du_e (the element's rows) to `out` for an element with `nodes`.
@@ -455,7 +482,7 @@ pub(super) fn triangle_contribution(
     model: &Model,
     e: usize,
     u: &[f64],
-    prestress_factor: f64,
+    aid: Aid,
     forced: Option<WrinkleState>,
     ke: Option<&mut membrane::Mat9>,
     regularization: f64,
@@ -465,11 +492,12 @@ pub(super) fn triangle_contribution(
     let (f, eval) = membrane::triangle_with(
         &t.reference,
         &t.material,
-        t.prestress * prestress_factor,
+        t.prestress * aid.prestress_factor,
         &x,
         forced,
         ke,
         regularization,
+        aid.pre_strain,
     );
     (f, eval, membrane::signed_area_ratio(&t.reference, &x))
 }
@@ -480,28 +508,30 @@ fn triangle_of(
     model: &Model,
     t: &crate::model::Triangle,
     u: &[f64],
-    prestress_factor: f64,
+    aid: Aid,
     forced: Option<WrinkleState>,
     ke: Option<&mut membrane::Mat9>,
 ) -> (membrane::Vec9, Evaluation, f64) {
-    triangle_at(t, &gather(model, u, t.nodes), prestress_factor, forced, ke)
+    triangle_at(t, &gather(model, u, t.nodes), aid, forced, ke)
 }
 
 /// One triangle's force, evaluation and area ratio at current node positions `x`.
 fn triangle_at(
     t: &crate::model::Triangle,
     x: &[Vector3<f64>; 3],
-    prestress_factor: f64,
+    aid: Aid,
     forced: Option<WrinkleState>,
     ke: Option<&mut membrane::Mat9>,
 ) -> (membrane::Vec9, Evaluation, f64) {
-    let (f, eval) = membrane::triangle(
+    let (f, eval) = membrane::triangle_with(
         &t.reference,
         &t.material,
-        t.prestress * prestress_factor,
+        t.prestress * aid.prestress_factor,
         x,
         forced,
         ke,
+        REGULARIZATION,
+        aid.pre_strain,
     );
     (f, eval, membrane::signed_area_ratio(&t.reference, x))
 }
@@ -623,7 +653,7 @@ pub fn assemble_with(
         size_evaluations(out, model.triangles.len());
     }
     let want_k = k.is_some() || extra.held_step.is_some();
-    let factor = extra.prestress_factor.unwrap_or(1.0);
+    let factor = Aid::of(&extra);
     let mut ke = membrane::Mat9::zeros();
     // Renumbered (`pattern.triangles` holds the triangles in visit order with internal node
     // numbers): positions gathered once in internal order, forces summed in internal order and
@@ -948,7 +978,7 @@ fn triangles_into(
     pattern: &Pattern,
     slots: Range<usize>,
     x: &[Vector3<f64>],
-    factor: f64,
+    factor: Aid,
     forced: impl Fn(usize) -> Option<WrinkleState>,
     base: usize,
     r: &mut [f64],
@@ -1017,7 +1047,7 @@ struct HelperHalf {
     want_k: bool,
     want_m: bool,
     want_out: bool,
-    factor: f64,
+    factor: Aid,
     use_forced: bool,
     /// Frozen states of the helper's slots (when `use_forced`).
     forced: Vec<Option<WrinkleState>>,
@@ -1156,7 +1186,7 @@ impl Parallel {
             want_k: false,
             want_m: false,
             want_out: false,
-            factor: 1.0,
+            factor: Aid::PLAIN,
             use_forced: false,
             forced: memory::with_capacity(count - first, what)?,
             pressures: memory::with_capacity(pattern.pressed_order.len(), what)?,
@@ -1234,7 +1264,7 @@ fn assemble_two(
     let first = par.first;
     let want_k = k.is_some();
     let want_m = extra.magnitude.is_some();
-    let factor = extra.prestress_factor.unwrap_or(1.0);
+    let factor = Aid::of(&extra);
     {
         let mut x = par.positions.write().unwrap_or_else(|e| e.into_inner());
         x.clear();

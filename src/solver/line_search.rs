@@ -152,6 +152,7 @@ impl Solver {
             None,
             Membranes {
                 forced: self.frozen.as_deref(),
+                pre_strain: self.pre_strain,
                 scratch: Some(&mut self.work.scratch),
                 ..Default::default()
             },

@@ -125,6 +125,14 @@ pub struct Settings {
     /// 1e-2: the over-stiff out-of-plane tangent it gives a nearly unstressed membrane (a flat
     /// sheet unloaded) would otherwise make the last iterations converge only linearly.
     pub prestress_fade: f64,
+    /// Starting pre-strain of the prestress continuation (`path.rs`): an increment that fails
+    /// from an unstressed membrane (no triangle carrying more tension than its artificial
+    /// prestress, the flat start) is solved again through a sequence of problems in which every
+    /// triangle carries an isotropic pre-strain h0, h0/4, h0/16, ... (down to h0/1000), then 0,
+    /// each from the last one's equilibrium; the last is the scene's own problem, so the
+    /// equilibrium is unchanged. 0 switches it off. Default 1e-3 (a tension of about
+    /// 1.4e-3 E: of the order of the stress of a pressurised sheet at qa/Eh = 1e-3).
+    pub continuation_strain: f64,
     /// Nodal relaxation takes the nodes whose residual is at least this share of the largest.
     /// Default 0.1.
     pub relax_share: f64,
@@ -233,6 +241,7 @@ impl Default for Settings {
             nonmonotone_memory: 5,
             armijo: 1e-4,
             prestress_fade: 1e-2,
+            continuation_strain: 1e-3,
             relax_share: 0.1,
             relax_max_share: 0.1,
             relax_rounds: 20,
@@ -332,6 +341,9 @@ pub struct Solver {
     adjacency: relax::Adjacency,
     /// Factor on the artificial prestress in the tangent of the current Newton iteration.
     prestress_factor: f64,
+    /// The prestress continuation's isotropic pre-strain of every membrane triangle while one
+    /// of its intermediate problems is solved (`path.rs`); 0 otherwise.
+    pre_strain: f64,
     /// States held by the probe evaluations ([`Solver::hold_states`]).
     probe_states: Option<Vec<Option<WrinkleState>>>,
     /// The Newton loop's reused work buffers (`work.rs`).
@@ -439,6 +451,7 @@ impl Solver {
             frozen: None,
             adjacency: relax::Adjacency::try_new(model)?,
             prestress_factor: 1.0,
+            pre_strain: 0.0,
             probe_states: None,
             work: work::Work {
                 scratch: assemble::AssemblyScratch::with_parallel(parallel),

@@ -49,7 +49,7 @@
 use super::active_set::{ActiveSet, Recheck};
 use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
 use super::line_search::{Direction, Merit, Trial};
-use super::relax::{relax_nodes, relax_patch};
+use super::relax::{relax_nodes, relax_patch, Frozen};
 use super::slip::{largest_gap, slip_rows_into, step_limit, Row, MAX_GAP};
 use super::{push_log, Solver};
 use crate::model::sleeve::Contact;
@@ -603,6 +603,7 @@ impl Solver {
             out: Some(&mut self.evaluations),
             held_step: None,
             prestress_factor: Some(self.prestress_factor),
+            pre_strain: self.pre_strain,
             magnitude: Some(&mut self.magnitude),
             scratch: Some(&mut self.work.scratch),
         };
@@ -631,6 +632,7 @@ impl Solver {
             forced: None,
             out: Some(&mut self.evaluations),
             magnitude: Some(&mut self.magnitude),
+            pre_strain: self.pre_strain,
             scratch: Some(&mut self.work.scratch),
             ..Default::default()
         };
@@ -682,7 +684,10 @@ impl Solver {
                 break;
             }
             self.pattern.sweep_order(model, &mut nodes);
-            let forced = self.frozen.as_deref();
+            let forced = Frozen {
+                states: self.frozen.as_deref(),
+                pre_strain: self.pre_strain,
+            };
             let mut moved = 0;
             for _ in 0..s.relax_sweeps {
                 moved = moved.max(relax_nodes(
@@ -723,7 +728,8 @@ impl Solver {
             }
             moved_total += moved;
             let membranes = Membranes {
-                forced,
+                forced: forced.states,
+                pre_strain: self.pre_strain,
                 scratch: Some(&mut self.work.scratch),
                 ..Default::default()
             };

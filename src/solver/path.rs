@@ -6,7 +6,29 @@
 //!   each increment: predictor (prescribed DOFs moved), then Newton from the last converged u;
 //!   on failure Δλ ← Δλ/4 (down to min_increment); on success Δλ ← 2 Δλ if N_iter <= N_target,
 //!   1.5 Δλ if N_iter <= 3/4 N_max, else Δλ
+//!   an increment that fails from an unstressed membrane is first solved again through the
+//!   prestress continuation (below, at most once per step), and cut back only if that fails
+//!   too
 //! ```
+//!
+//! # The prestress continuation
+//! A flat, stress-free membrane loaded normal to its plane has no stiffness out of its plane:
+//! the artificial prestress (tangent only) starts the iteration, but from flat the problem
+//! is self-similar in the load (a pure membrane's deflection grows as q^(1/3)), so a smaller
+//! increment is as hard as the whole one and cutting back does not help. On fine meshes the
+//! wrinkled regions then form and dissolve across many elements at once, and the first
+//! increment can stall (the 4 m square with edge cables at 1M DOF: |R| between 0.3 and 7 N for
+//! 50 iterations, force scale 7.5e3 N). The continuation solves instead a sequence of
+//! problems in which every triangle carries an isotropic pre-strain h (the law sees
+//! E + E0 + h (1, 1, 0): a real, energy-consistent prestress, wrinkling acting on the total
+//! stress), h = h0, h0/4, h0/16, ... while h >= h0/1000, then h = 0, each Newton solve
+//! starting from the last one's equilibrium. With h0 the membrane is taut almost everywhere
+//! and the wrinkled regions grow stage by stage as the pre-strain is withdrawn; the last
+//! problem is the scene's own, solved by the same Newton iteration and convergence test, so
+//! the equilibrium is the one a direct solve would find. Only the path changes. If any stage
+//! fails the increment is cut back as before. (A homotopy in the sense of Allgower & Georg
+//! 2003, *Introduction to Numerical Continuation Methods*, ch. 1, followed in a few discrete
+//! stages; the seed paper's artificial prestress, here in the residual and withdrawn.)
 
 use super::assemble::{self, Membranes, NONE};
 use super::newton::Increment;
@@ -63,6 +85,11 @@ impl Solver {
             .map(|&c| Contact::from_code(c).unwrap_or_default())
             .collect();
         let (mut lambda, mut dl) = (0.0, s.initial_increment);
+        // The prestress continuation runs at most once per step: where it failed, a smaller
+        // increment from a start as unstressed meets the same difficulty.
+        let mut continued = false;
+        // Why the continuation failed, for the step's message if the step fails.
+        let mut continuation_failed: Option<String> = None;
         while lambda < 1.0 {
             if report.increments + report.cutbacks >= s.max_increments {
                 report.reached = lambda;
@@ -102,6 +129,36 @@ impl Solver {
                 )
                 .map(|i| i + predicted)
                 .map_err(|(i, why)| (i + predicted, why));
+            let result = match result {
+                Err((iters, why)) if !continued && self.unstressed(model, &converged, &loads) => {
+                    continued = true;
+                    report.iterations += iters;
+                    push_log(
+                        &mut report.log,
+                        format!("increment λ {lambda:.6} -> {target:.6}: {why}; from an unstressed membrane: prestress continuation from pre-strain {:.1e}", s.continuation_strain),
+                    );
+                    trial = converged.clone();
+                    let predicted = self.predict(model, &loads, &mut trial);
+                    trial_states = converged_states.clone();
+                    self.continuation(
+                        model,
+                        &increment,
+                        &mut trial,
+                        &mut trial_states,
+                        &mut report.log,
+                    )
+                    .map(|i| i + predicted)
+                    .map_err(|(i, later)| {
+                        continuation_failed =
+                            Some(format!("from load fraction {lambda:.6} it failed {later}"));
+                        (
+                            i + predicted,
+                            format!("{why}; the prestress continuation failed too, {later}"),
+                        )
+                    })
+                }
+                other => other,
+            };
             match result {
                 Ok(iters) => {
                     report.iterations += iters;
@@ -131,6 +188,11 @@ impl Solver {
                             .zip(to)
                             .map(|(a, b)| a + target * (b - a))
                             .collect();
+                        if let Some(note) = &continuation_failed {
+                            report.message.push_str(&format!(
+                                "; the prestress continuation was tried: {note}"
+                            ));
+                        }
                         let f_ext = external_forces(model, &reached);
                         if let Some(why) = super::mechanism::diagnose(model, &f_ext) {
                             report.message.push_str(&format!("; {why}"));
@@ -145,6 +207,64 @@ impl Solver {
         report.outcome = Outcome::Converged;
         report.reached = 1.0;
         report
+    }
+
+    /// Whether an increment that failed from `u` goes to the prestress continuation: it is on
+    /// (`continuation_strain` > 0), the model has membrane triangles, and none of them carries
+    /// more tension at `u` than its artificial prestress (the singular flat start, where a
+    /// cut-back meets the same difficulty again).
+    fn unstressed(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> bool {
+        if self.settings.continuation_strain <= 0.0 || model.triangles.is_empty() {
+            return false;
+        }
+        let held = self.probe_states.take();
+        let evaluations = self.evaluate_membranes(model, u, loads);
+        self.probe_states = held;
+        evaluations
+            .iter()
+            .zip(&model.triangles)
+            .all(|(e, t)| e.cauchy.0 <= t.prestress)
+    }
+
+    /// The prestress continuation (module docs) of one increment from `u` (its start, the
+    /// prescribed displacements set): Newton at pre-strain h0, h0/4, ... (while >= h0/1000),
+    /// then 0, each from the last equilibrium. Returns the iterations of every stage, or where
+    /// it failed; the pre-strain is 0 again on return.
+    fn continuation(
+        &mut self,
+        model: &Model,
+        increment: &Increment,
+        u: &mut [f64],
+        states: &mut Vec<Contact>,
+        log: &mut Vec<String>,
+    ) -> Result<usize, (usize, String)> {
+        let start = self.settings.continuation_strain;
+        let (mut h, mut total) = (start, 0);
+        let outcome = loop {
+            self.pre_strain = h;
+            match self.newton(model, increment, u, states, None, log) {
+                Ok(n) => {
+                    total += n;
+                    push_log(
+                        log,
+                        format!("  prestress continuation: pre-strain {h:.2e} converged in {n} iterations"),
+                    );
+                }
+                Err((n, why)) => {
+                    break Err((total + n, format!("at pre-strain {h:.2e}: {why}")));
+                }
+            }
+            if h == 0.0 {
+                break Ok(total);
+            }
+            h = if h / 4.0 >= 1e-3 * start {
+                h / 4.0
+            } else {
+                0.0
+            };
+        };
+        self.pre_strain = 0.0;
+        outcome
     }
 
     /// Start an increment whose prescribed displacements change: one Newton step linearized at

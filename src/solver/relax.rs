@@ -21,7 +21,7 @@
 //! smoothing); docs/mechanics.md (slack and wrinkled near-mechanisms).
 
 use super::assemble::{
-    pressure_contribution, segment_contribution, tie_contribution, triangle_contribution,
+    pressure_contribution, segment_contribution, tie_contribution, triangle_contribution, Aid,
 };
 use super::line_search::bracket_slope;
 use super::work::dense_solve;
@@ -157,7 +157,7 @@ fn local(
     u: &[f64],
     loads: &[f64],
     node: usize,
-    forced: Option<&[Option<WrinkleState>]>,
+    forced: Frozen,
 ) -> Local {
     let mut out = Local {
         r: Vector3::zeros(),
@@ -167,9 +167,16 @@ fn local(
     };
     let mut ke = Mat9::zeros();
     for &(e, a) in &adj.triangles[node] {
-        let state = forced.and_then(|f| f[e]);
-        let (f, eval, ratio) =
-            triangle_contribution(model, e, u, 1.0, state, Some(&mut ke), REGULARIZATION);
+        let state = forced.states.and_then(|f| f[e]);
+        let (f, eval, ratio) = triangle_contribution(
+            model,
+            e,
+            u,
+            forced.aid(),
+            state,
+            Some(&mut ke),
+            REGULARIZATION,
+        );
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
         out.potential = out.potential.map(|p| p + eval.energy);
@@ -206,6 +213,24 @@ fn local(
     out
 }
 
+/// What the global iteration holds for the relaxation: its frozen wrinkle states (None: the
+/// law decides) and the prestress continuation's pre-strain (`path.rs`; 0: none), so that
+/// relaxation balances the same problem as the Newton iteration around it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Frozen<'a> {
+    pub states: Option<&'a [Option<WrinkleState>]>,
+    pub pre_strain: f64,
+}
+
+impl Frozen<'_> {
+    fn aid(&self) -> Aid {
+        Aid {
+            prestress_factor: 1.0,
+            pre_strain: self.pre_strain,
+        }
+    }
+}
+
 fn displacement(u: &[f64], node: usize) -> Vector3<f64> {
     Vector3::new(u[3 * node], u[3 * node + 1], u[3 * node + 2])
 }
@@ -218,7 +243,7 @@ pub fn relax_nodes(
     u: &mut [f64],
     loads: &[f64],
     nodes: &[usize],
-    forced: Option<&[Option<WrinkleState>]>,
+    forced: Frozen,
     target: f64,
 ) -> usize {
     let mut moved = 0;
@@ -289,7 +314,7 @@ fn line_search(
     u: &mut [f64],
     loads: &[f64],
     node: usize,
-    forced: Option<&[Option<WrinkleState>]>,
+    forced: Frozen,
     here: &Local,
     step: &Vector3<f64>,
 ) -> bool {
@@ -385,7 +410,7 @@ pub fn relax_patch(
     u: &mut [f64],
     loads: &[f64],
     nodes: &[usize],
-    forced: Option<&[Option<WrinkleState>]>,
+    forced: Frozen,
     target: f64,
     iterations: usize,
     regularization: f64,
@@ -481,7 +506,7 @@ struct PatchElements<'a> {
     triangles: &'a [usize],
     segments: &'a [usize],
     ties: &'a [usize],
-    forced: Option<&'a [Option<WrinkleState>]>,
+    forced: Frozen<'a>,
     regularization: f64,
 }
 
@@ -537,12 +562,12 @@ impl PatchElements<'_> {
         let mut inverted = false;
         let mut ke = Mat9::zeros();
         for &e in self.triangles {
-            let state = self.forced.and_then(|f| f[e]);
+            let state = self.forced.states.and_then(|f| f[e]);
             let (f, _, ratio) = triangle_contribution(
                 model,
                 e,
                 u,
-                1.0,
+                self.forced.aid(),
                 state,
                 want_k.then_some(&mut ke),
                 self.regularization,
