@@ -881,8 +881,9 @@ pub struct SolverSettings {
     /// from an unstressed membrane (the flat start) is solved again through problems with every
     /// triangle pre-strained by h = this, a quarter of it, ..., down to a thousandth, then 0,
     /// each from the last one's equilibrium, before it is cut back. The last problem is the
-    /// scene's own, so it changes the path, not the equilibrium (docs/solver.md). 0 switches
-    /// it off; at most 0.1.
+    /// scene's own, so it changes the path, not the equilibrium (docs/solver.md). Not with
+    /// friction in a sleeve (its history would take in the intermediate slips). 0 switches it
+    /// off; at most 0.1.
     #[serde(skip_serializing_if = "is_default_continuation")]
     pub prestress_continuation: f64,
     /// Energy (slope) line search on every Newton correction.

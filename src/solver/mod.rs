@@ -130,8 +130,9 @@ pub struct Settings {
     /// prestress, the flat start) is solved again through a sequence of problems in which every
     /// triangle carries an isotropic pre-strain h0, h0/4, h0/16, ... (down to h0/1000), then 0,
     /// each from the last one's equilibrium; the last is the scene's own problem, so the
-    /// equilibrium is unchanged. 0 switches it off. Default 1e-3 (a tension of about
-    /// 1.4e-3 E: of the order of the stress of a pressurised sheet at qa/Eh = 1e-3).
+    /// equilibrium is unchanged. Not with friction in a sleeve (history). 0 switches it off.
+    /// Default 1e-3 (a tension of about 1.4e-3 E for SVK: of the order of the stress of a
+    /// pressurised sheet at qa/Eh = 1e-3).
     pub continuation_strain: f64,
     /// Nodal relaxation takes the nodes whose residual is at least this share of the largest.
     /// Default 0.1.

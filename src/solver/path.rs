@@ -26,7 +26,9 @@
 //! and the wrinkled regions grow stage by stage as the pre-strain is withdrawn; the last
 //! problem is the scene's own, solved by the same Newton iteration and convergence test, so
 //! the equilibrium is the one a direct solve would find. Only the path changes. If any stage
-//! fails the increment is cut back as before. (A homotopy in the sense of Allgower & Georg
+//! fails the increment is cut back as before. Not with friction in a sleeve: the stick/slip
+//! history would take in the pre-strained problems' slips, and the answer would then depend on
+//! the continuation. (A homotopy in the sense of Allgower & Georg
 //! 2003, *Introduction to Numerical Continuation Methods*, ch. 1, followed in a few discrete
 //! stages; the seed paper's artificial prestress, here in the residual and withdrawn.)
 
@@ -210,11 +212,16 @@ impl Solver {
     }
 
     /// Whether an increment that failed from `u` goes to the prestress continuation: it is on
-    /// (`continuation_strain` > 0), the model has membrane triangles, and none of them carries
-    /// more tension at `u` than its artificial prestress (the singular flat start, where a
-    /// cut-back meets the same difficulty again).
+    /// (`continuation_strain` > 0), the model has membrane triangles and no sleeve point with
+    /// friction, and none of the triangles carries more tension at `u` than its artificial
+    /// prestress (the singular flat start, where a cut-back meets the same difficulty again).
+    /// Friction is excluded because its stick/slip history would take in the pre-strained
+    /// problems' slips: the equilibrium would then depend on the continuation, not only the path.
     fn unstressed(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> bool {
-        if self.settings.continuation_strain <= 0.0 || model.triangles.is_empty() {
+        if self.settings.continuation_strain <= 0.0
+            || model.triangles.is_empty()
+            || model.slips.iter().any(|p| p.mu > 0.0)
+        {
             return false;
         }
         let held = self.probe_states.take();
