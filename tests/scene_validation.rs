@@ -170,3 +170,36 @@ fn residual_stiffness_out_of_range_or_without_wrinkling_is_named() {
     );
     assert!(problems(&scene("1e-4", true)).is_empty());
 }
+
+/// `solver.prestress_continuation` (docs/scenes.md): a starting pre-strain in [0, 0.1]; a value
+/// outside is named with its path and the value; a string is a type error at the same path;
+/// 0 (off) and the default are accepted.
+#[test]
+fn a_bad_prestress_continuation_is_named() {
+    let scene = |value: &str| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}},
+              "membranes": [{{"name": "m", "triangles": [0], "thickness": 1e-4,
+                             "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}}}}],
+              "supports": [{{"nodes": [0, 1, 2], "fix": ["x", "y", "z"]}}],
+              "solver": {{"prestress_continuation": {value}}}}}"#
+        )
+    };
+    for bad in ["-1e-3", "0.5", "1e300"] {
+        let p = problems(&scene(bad));
+        assert!(
+            p.iter().any(|m| m.contains("solver.prestress_continuation")
+                && m.contains("from 0 (off) to 0.1")),
+            "{bad}: {p:?}"
+        );
+    }
+    let p = problems(&scene("\"high\""));
+    assert!(
+        p.iter().any(|m| m.contains("prestress_continuation")),
+        "{p:?}"
+    );
+    for good in ["0", "1e-3", "0.1"] {
+        assert!(problems(&scene(good)).is_empty(), "{good}");
+    }
+}
