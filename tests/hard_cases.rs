@@ -1546,11 +1546,13 @@ fn m_flat_square_with_edge_cables_inflated_from_a_stress_free_start() {
 }
 
 /// (m2) The prestress continuation (docs/solver.md, "Prestress continuation"). The square of
-/// (m) with `max_iterations` 16: its direct flat start needs 24 iterations, so every increment
-/// fails, cut back to 1e-4 of the load, and the step fails (asserted with the continuation
-/// switched off: an outcome, nothing committed). With the continuation (default pre-strain
-/// 1e-3, then 2.5e-4, ..., 3.9e-6, 0) the failed first increment is solved again through the
-/// pre-strained problems, each within 16 iterations, and the step converges in one increment.
+/// (m) with `max_iterations` 16: its direct flat start needs 26 iterations (hard case m), so
+/// every increment fails, cut back to 1e-4 of the load, and the step fails (asserted with the
+/// continuation switched off: an outcome, nothing committed). With the continuation (default
+/// pre-strain 1e-3, then 2.5e-4, ..., 3.9e-6, 0) the failed first increment is solved again
+/// through the pre-strained problems, each within its iteration budget (the first stage took
+/// 20: a release of frozen states restarts the count, docs/solver.md), and the step converges
+/// in one increment.
 /// REFERENCES: the exact statics of (m) (corner reactions = −p A, tolerance 1e-8 as there) and
 /// the equilibrium of (m)'s direct path: the last problem of the continuation is the scene's
 /// own, so only the path differs. Every node's position agrees with the direct path's within
