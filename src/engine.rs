@@ -392,15 +392,7 @@ impl Engine {
                 *out = 0.0;
             }
         }
-        Some(StepReport {
-            outcome: crate::solver::Outcome::Converged,
-            iterations: 0,
-            increments: 0,
-            cutbacks: 0,
-            reached: 1.0,
-            message: String::new(),
-            log: Vec::new(),
-        })
+        Some(StepReport::unchanged())
     }
 
     /// The first non-finite value of the committed state or outputs, named; None if all are
@@ -726,15 +718,7 @@ impl Engine {
 
 /// A step that did not start (its memory could not be had): nothing was changed.
 fn failed(message: String) -> StepReport {
-    StepReport {
-        outcome: crate::solver::Outcome::Failed,
-        iterations: 0,
-        increments: 0,
-        cutbacks: 0,
-        reached: 0.0,
-        message,
-        log: Vec::new(),
-    }
+    StepReport::failed_with(message)
 }
 
 /// The solver's settings from the scene's solver section.

@@ -65,15 +65,7 @@ impl Engine {
             u: self.state.displacement.clone(),
             slip_state: self.state.slip_state.clone(),
             failed: false,
-            report: StepReport {
-                outcome: Outcome::Failed,
-                iterations: 0,
-                increments: 0,
-                cutbacks: 0,
-                reached: 0.0,
-                message: String::new(),
-                log: Vec::new(),
-            },
+            report: StepReport::failed(),
         };
         if let Err(message) = rebuilt {
             step.failed = true;

@@ -27,7 +27,7 @@ use super::{Status, FMI2_COSIMULATION};
 use crate::description;
 use crate::engine::{Engine, EngineState};
 use crate::scene::Scene;
-use crate::solver::{Outcome as StepOutcome, StepReport};
+use crate::solver::StepReport;
 use crate::variables::{Causality, VarType};
 
 /// Relative tolerance on communication points: |t - expected| <= TIME_TOLERANCE · max(1, |t|).
@@ -593,15 +593,8 @@ impl Instance {
         if let Some(at) = after(debug.panic_after_time) {
             panic!("debug.panic_after_time = {at}: forced panic in the step to t = {end}");
         }
-        after(debug.fail_after_time).map(|at| StepReport {
-            outcome: StepOutcome::Failed,
-            iterations: 0,
-            increments: 0,
-            cutbacks: 0,
-            reached: 0.0,
-            message: format!("forced by debug.fail_after_time = {at}"),
-            log: Vec::new(),
-        })
+        after(debug.fail_after_time)
+            .map(|at| StepReport::failed_with(format!("forced by debug.fail_after_time = {at}")))
     }
 
     /// The time rules of a step (README, FMU behaviour):

@@ -31,7 +31,8 @@
 //! restores them.
 
 use super::slip::return_map;
-use super::{push_log, Settings};
+use super::report::push_log;
+use super::settings::Settings;
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;

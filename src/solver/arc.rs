@@ -54,12 +54,14 @@
 //! §9.3–9.4 (arc length, bordered systems by two solves, the sign of the predictor).
 
 use super::assemble::{assemble_with, Membranes, NONE};
-use super::newton::{ArcRow, Increment};
+use super::core::Solver;
+use super::loads::{load_change, loads_at, prescribed_rate};
+use super::report::{push_log, Outcome, StepReport};
+use super::rows::{ArcRow, Increment};
 use super::slip::slip_rows;
-use super::{push_log, Outcome, Solver, StepReport};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
-use crate::model::{LoadModel, Model};
+use crate::model::Model;
 
 /// One converged point of a traced path.
 #[derive(Clone, Debug)]
@@ -91,45 +93,6 @@ fn not_applicable(_model: &Model, from: &[f64], to: &[f64]) -> Option<&'static s
         return Some("the loads do not change");
     }
     None
-}
-
-pub(super) fn loads_at(from: &[f64], to: &[f64], lambda: f64) -> Vec<f64> {
-    from.iter()
-        .zip(to)
-        .map(|(a, b)| a + lambda * (b - a))
-        .collect()
-}
-
-/// du/dλ of the prescribed DOFs at λ (zero elsewhere), None when no prescribed displacement
-/// moves in the step.
-fn prescribed_rate(
-    model: &Model,
-    from: &[f64],
-    to: &[f64],
-    lambda: f64,
-    u: &[f64],
-) -> Option<Vec<f64>> {
-    let moves = model
-        .loads
-        .iter()
-        .zip(from.iter().zip(to))
-        .any(|(load, (a, b))| a != b && matches!(load, LoadModel::Displacement(_)));
-    if !moves {
-        return None;
-    }
-    let eps = 1e-6;
-    let (mut plus, mut minus) = (u.to_vec(), u.to_vec());
-    super::path::prescribe(model, &loads_at(from, to, lambda + eps), &mut plus);
-    super::path::prescribe(model, &loads_at(from, to, lambda - eps), &mut minus);
-    let mut rate = vec![0.0; model.dof_count()];
-    for load in &model.loads {
-        if let LoadModel::Displacement(p) = load {
-            for &d in &p.dofs {
-                rate[d] = (plus[d] - minus[d]) / (2.0 * eps);
-            }
-        }
-    }
-    Some(rate)
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -380,7 +343,7 @@ impl Solver {
         if let Some(why) = not_applicable(model, from, to) {
             return Err(format!("arc length does not apply: {why}"));
         }
-        let change = super::path::load_change(model, from, to);
+        let change = load_change(model, from, to);
         let mut log = Vec::new();
         let (mut u_n, mut lambda_n) = (u.to_vec(), 0.0);
         let mut contact = vec![Contact::default(); model.slips.len()];
@@ -441,20 +404,12 @@ impl Solver {
         u: &mut Vec<f64>,
         states: &mut Vec<u8>,
     ) -> Option<StepReport> {
-        let mut report = StepReport {
-            outcome: Outcome::Failed,
-            iterations: 0,
-            increments: 0,
-            cutbacks: 0,
-            reached: 0.0,
-            message: String::new(),
-            log: Vec::new(),
-        };
+        let mut report = StepReport::failed();
         if not_applicable(model, from, to).is_some() {
             return None;
         }
         let s = self.settings.clone();
-        let step = (from, to, super::path::load_change(model, from, to));
+        let step = (from, to, load_change(model, from, to));
         let mut at = Committed {
             u: u.clone(),
             lambda: 0.0,

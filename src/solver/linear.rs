@@ -1,23 +1,19 @@
 //! Sparse symmetric solve: faer 0.24 supernodal LDLT, symbolic factorization once per pattern,
-//! numeric factorization into reused buffers every Newton iteration (LINEAR_ALGEBRA.md).
+//! numeric factorization into reused buffers every Newton iteration (docs/performance.md).
 //!
 //! LDLT does not pivot. Pivots with |d| <= ε·max|K_ii| are replaced by ±δ (dynamic
 //! regularization): a slack or unrestrained direction then gets a tiny spring in the tangent
 //! only, and Newton's residual check decides whether the step is good. A non-finite solution
 //! is reported as a failure, never returned.
 
+use super::factor::{numeric_ldlt, symbolic_ldlt};
 use super::split::Split;
 use super::threads::Pool;
 use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky,
-    SymmetricOrdering,
-};
-use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{LdltRef, SymbolicCholesky, SymmetricOrdering};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, MatMut, Par, Side};
+use faer::{Conj, MatMut, Par};
 use std::sync::Arc;
 
 /// Regularization threshold relative to the largest diagonal entry.
@@ -340,56 +336,6 @@ impl Ldlt {
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// faer's numeric LDLT of the upper triangle of `matrix` on the calling thread, tiny pivots
-/// replaced as (delta, epsilon) say (`PIVOT_DELTA`, `PIVOT_EPSILON` times the largest diagonal
-/// entry); the whole tangent here, one half in `split.rs`.
-pub(super) fn numeric_ldlt(
-    symbolic: &SymbolicCholesky<usize>,
-    l_values: &mut [f64],
-    matrix: &SparseColMat<usize, f64>,
-    (delta, epsilon): (f64, f64),
-    mem: &mut MemBuffer,
-) -> Result<(), String> {
-    let reg = LdltRegularization {
-        dynamic_regularization_signs: None,
-        dynamic_regularization_delta: delta,
-        dynamic_regularization_epsilon: epsilon,
-    };
-    symbolic
-        .factorize_numeric_ldlt(
-            l_values,
-            matrix.as_ref(),
-            Side::Upper,
-            reg,
-            Par::Seq,
-            MemStack::new(mem),
-            Default::default(),
-        )
-        .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
-    Ok(())
-}
-
-/// faer's supernodal symbolic factorization of the upper triangle of `matrix` in `ordering`.
-/// A square pattern with sorted, in-range indices always has one; faer's only other failure is
-/// its own allocation (or an index overflow, which the size limits rule out), reported as
-/// `what` running out of memory.
-pub(super) fn symbolic_ldlt(
-    matrix: &SparseColMat<usize, f64>,
-    ordering: SymmetricOrdering<'_, usize>,
-    what: &'static str,
-) -> Result<SymbolicCholesky<usize>, OutOfMemory> {
-    let params = CholeskySymbolicParams {
-        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-        ..Default::default()
-    };
-    factorize_symbolic_cholesky(matrix.symbolic(), Side::Upper, ordering, params).map_err(|_| {
-        OutOfMemory {
-            what,
-            bytes: (matrix.val().len() as u64).saturating_mul(8 * 4),
-        }
-    })
 }
 
 #[cfg(test)]

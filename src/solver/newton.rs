@@ -50,8 +50,10 @@ use super::active_set::{ActiveSet, Recheck};
 use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
 use super::line_search::{Direction, Merit, Trial};
 use super::relax::{relax_nodes, relax_patch, Frozen};
-use super::slip::{largest_gap, slip_rows_into, step_limit, Row, MAX_GAP};
-use super::{push_log, Solver};
+use super::core::{check_inversion, Solver};
+use super::report::push_log;
+use super::rows::{ArcRow, Increment, Row};
+use super::slip::{largest_gap, slip_rows_into, step_limit, MAX_GAP};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
@@ -110,45 +112,6 @@ pub(super) struct Check {
     pub scale: f64,
 }
 
-/// The arc-length constraint of an increment (`arc.rs`): the load factor λ of the step is one
-/// more unknown of the loop, held by the row h = t·(u − u_n) − Δs = 0 on the free
-/// displacements, whose column is ∂R/∂λ = −q (eliminated with the slip and volume rows).
-pub(super) struct ArcRow<'a> {
-    pub from: &'a [f64],
-    pub to: &'a [f64],
-    /// Unit tangent on the equations.
-    pub t: &'a [f64],
-    /// The last converged displacements (unknown vector).
-    pub u_n: &'a [f64],
-    /// Δs·√n: the constraint's distance on the equations (m).
-    pub length: f64,
-    /// The load factor: in, the predictor's; out, the last iterate's (the converged one on
-    /// success).
-    pub lambda: f64,
-}
-
-impl ArcRow<'_> {
-    /// h = t·(u − u_n) − Δs·√n.
-    fn residual(&self, eq: &[usize], u: &[f64]) -> f64 {
-        let mut h = -self.length;
-        for (d, &e) in eq.iter().enumerate() {
-            if e != NONE {
-                h += self.t[e] * (u[d] - self.u_n[d]);
-            }
-        }
-        h
-    }
-}
-
-/// Where a Newton loop starts and what it knows of its step.
-pub(super) struct Increment<'a> {
-    pub loads: &'a [f64],
-    /// |Δf_ext|∞ of the whole step (0 when only prescribed displacements or nothing changed).
-    pub change: f64,
-    /// Whether the loads or prescribed displacements of the step changed at all.
-    pub moved: bool,
-}
-
 impl Solver {
     /// Iterate to equilibrium at fixed loads. `u` holds displacements then slips, `contact` the
     /// stick/slip states (in: last converged, out: this increment's). Ok(iterations) or
@@ -195,8 +158,8 @@ impl Solver {
         for it in 0..=hard_max {
             match arc.as_deref() {
                 Some(a) => {
-                    loads = super::arc::loads_at(a.from, a.to, a.lambda);
-                    super::path::prescribe(model, &loads, u);
+                    loads = super::loads::loads_at(a.from, a.to, a.lambda);
+                    super::loads::prescribe(model, &loads, u);
                 }
                 None => {
                     loads.clear();
@@ -212,7 +175,7 @@ impl Solver {
             let info = self.assemble_at(model, inc.loads, u);
             active.observe_wrinkles(it, self.evaluations.iter().map(|e| e.state), log);
             self.frozen.clone_from(&active.wrinkle_frozen);
-            super::check_inversion(model, &info).map_err(|why| (it, why))?;
+            check_inversion(model, &info).map_err(|why| (it, why))?;
             // The return map runs only once the iterate is near equilibrium (`contact_settle`):
             // the cone test at a far iterate (a linear step that overshoots the kinks) flips
             // sticking points to slip and sends Newton wandering (active_set.rs).

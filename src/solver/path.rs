@@ -33,10 +33,12 @@
 //! stages; the seed paper's artificial prestress, here in the residual and withdrawn.)
 
 use super::assemble::{self, Membranes, NONE};
-use super::newton::Increment;
-use super::{push_log, Outcome, Solver, StepReport};
+use super::core::Solver;
+use super::loads::{external_forces, load_change, prescribe};
+use super::report::{push_log, Outcome, StepReport};
+use super::rows::Increment;
 use crate::model::sleeve::Contact;
-use crate::model::{LoadModel, Model};
+use crate::model::Model;
 
 impl Solver {
     /// Apply the load change `from` → `to` starting from the equilibrium `u`. On convergence
@@ -69,15 +71,7 @@ impl Solver {
                 return report;
             }
         }
-        let mut report = StepReport {
-            outcome: Outcome::Failed,
-            iterations: 0,
-            increments: 0,
-            cutbacks: 0,
-            reached: 0.0,
-            message: String::new(),
-            log: Vec::new(),
-        };
+        let mut report = StepReport::failed();
         let s = self.settings.clone();
         let step_change = load_change(model, from, to);
         let moved = from != to;
@@ -337,83 +331,5 @@ fn growth(iterations: usize, target: usize, max_iterations: usize) -> f64 {
         1.5
     } else {
         1.0
-    }
-}
-
-/// |Δf_ext|∞ of the load change `from` → `to` (pressures on the reference areas): the part of
-/// the convergence test's force scale that makes a changed load count.
-pub(super) fn load_change(model: &Model, from: &[f64], to: &[f64]) -> f64 {
-    let mut f = vec![0.0f64; model.dof_count()];
-    for ((load, a), b) in model.loads.iter().zip(from).zip(to) {
-        let delta = b - a;
-        if delta == 0.0 {
-            continue;
-        }
-        match load {
-            LoadModel::PointForce(dofs) => {
-                for &(d, unit) in dofs {
-                    f[d] += unit * delta;
-                }
-            }
-            LoadModel::Pressure { triangles, .. } => {
-                for &e in triangles {
-                    let t = &model.triangles[e];
-                    let share = (delta * t.reference.area / 3.0).abs();
-                    for &i in &t.nodes {
-                        for c in 0..3 {
-                            f[3 * i + c] += share * t.reference.normal[c].abs();
-                        }
-                    }
-                }
-            }
-            // A volume's pressure is an unknown: its forces count once assembled (|f_ext|∞).
-            LoadModel::Displacement(_) | LoadModel::Volume { .. } => {}
-        }
-    }
-    f.iter().fold(0.0, |m, v| m.max(v.abs()))
-}
-
-/// External forces per DOF under `loads`, pressures on the reference geometry (the loads a
-/// mechanism diagnosis weighs against the rigid motions).
-fn external_forces(model: &Model, loads: &[f64]) -> Vec<f64> {
-    let mut f = vec![0.0f64; model.dof_count()];
-    for (load, &value) in model.loads.iter().zip(loads) {
-        match load {
-            LoadModel::PointForce(dofs) => {
-                for &(d, unit) in dofs {
-                    f[d] += unit * value;
-                }
-            }
-            LoadModel::Pressure { triangles, .. } => {
-                for &e in triangles {
-                    let t = &model.triangles[e];
-                    let share = t.reference.normal * (value * t.reference.area / 3.0);
-                    for &i in &t.nodes {
-                        for c in 0..3 {
-                            f[3 * i + c] += share[c];
-                        }
-                    }
-                }
-            }
-            LoadModel::Displacement(_) | LoadModel::Volume { .. } => {}
-        }
-    }
-    f
-}
-
-/// Set prescribed DOFs to their load values: the sum of what every input prescribing the DOF
-/// gives it (a rotation plus a translation, a radial plus a tangential component).
-pub(super) fn prescribe(model: &Model, loads: &[f64], u: &mut [f64]) {
-    for load in &model.loads {
-        if let LoadModel::Displacement(p) = load {
-            for &d in &p.dofs {
-                u[d] = 0.0;
-            }
-        }
-    }
-    for (load, &value) in model.loads.iter().zip(loads) {
-        if let LoadModel::Displacement(p) = load {
-            p.add(&model.reference, value, u);
-        }
     }
 }

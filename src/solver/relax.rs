@@ -20,11 +20,12 @@
 //! elimination*, SIAM J. Sci. Comput. 33:746-762; Brandt 1977 (nonlinear Gauss-Seidel
 //! smoothing); docs/mechanics.md (slack and wrinkled near-mechanisms).
 
+use super::settings::MIN_AREA_RATIO;
 use super::assemble::{
     pressure_contribution, segment_contribution, tie_contribution, triangle_contribution, Aid,
 };
-use super::line_search::bracket_slope;
-use super::work::dense_solve;
+use super::slope::bracket_slope;
+use super::dense::dense_solve;
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Mat9;
 use crate::model::wrinkling::{WrinkleState, REGULARIZATION};
@@ -180,7 +181,7 @@ fn local(
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
         out.potential = out.potential.map(|p| p + eval.energy);
-        out.inverted |= !(ratio > super::MIN_AREA_RATIO);
+        out.inverted |= !(ratio > MIN_AREA_RATIO);
         for &(l, follower) in &adj.pressures[e] {
             let value = model.load_value(l, u, loads);
             let (f, kp) = pressure_contribution(model, e, u, value, follower, true);
@@ -572,7 +573,7 @@ impl PatchElements<'_> {
                 want_k.then_some(&mut ke),
                 self.regularization,
             );
-            inverted |= !(ratio > super::MIN_AREA_RATIO);
+            inverted |= !(ratio > MIN_AREA_RATIO);
             let on = &model.triangles[e].nodes;
             add(on, f.as_slice(), want_k.then_some(ke.as_slice()), &mut k);
             for &(l, follower) in &adj.pressures[e] {

@@ -30,8 +30,9 @@
 //! Gürdal 1992, ch. 7 (direct and adjoint sensitivity of static equilibria).
 
 use super::assemble::{self, Membranes, NONE};
-use super::slip::{slip_rows, Row};
-use super::Solver;
+use super::core::Solver;
+use super::rows::Row;
+use super::slip::slip_rows;
 use crate::model::membrane::{self, Mat9};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;

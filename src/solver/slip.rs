@@ -22,7 +22,8 @@
 //! Loan 2013, §3.2 (block elimination / Schur complement).
 
 use super::assemble::NONE;
-use super::Solver;
+use super::core::Solver;
+use super::rows::Row;
 use crate::model::sleeve::{self, Contact, SegmentLaw};
 use crate::model::Model;
 use nalgebra::DMatrix;
@@ -30,21 +31,6 @@ use nalgebra::DMatrix;
 /// Largest tie gap, relative to the shorter adjacent segment, before the log warns (the
 /// penetration bound of docs/mechanics.md, sleeves: below 1e-3 of the element size).
 pub const MAX_GAP: f64 = 1e-3;
-
-/// One slip row: residual and its non-zero couplings.
-#[derive(Clone, Debug, Default)]
-pub(super) struct Row {
-    pub r: f64,
-    /// (equation of a free displacement DOF, ∂r/∂x)
-    pub dx: Vec<(usize, f64)>,
-    /// (slip index, ∂r/∂s)
-    pub ds: Vec<(usize, f64)>,
-    /// Size of the forces the row balances (N): its round-off scale.
-    pub magnitude: f64,
-    /// Whether the globalisation's damping applies (not to a closure row, which is linear and
-    /// must hold its segment closed exactly).
-    pub damped: bool,
-}
 
 /// Inexact Newton (`Settings::inexact_newton`) is tried when |R|∞ fell to this share of its
 /// value at the last direction: the quadratic regime, where the tangent changes little and
@@ -224,7 +210,7 @@ impl Solver {
                 schur[i * m + i] += 1e-9 * big.max(f64::MIN_POSITIVE);
             }
         }
-        if !super::work::dense_solve(schur, rhs) {
+        if !super::dense::dense_solve(schur, rhs) {
             return Err("the slip block of the tangent is singular".to_string());
         }
         let ds = &work.schur_rhs;

@@ -150,7 +150,7 @@ impl Half {
     }
 
     fn factor(&mut self) -> Result<(), String> {
-        super::linear::numeric_ldlt(
+        super::factor::numeric_ldlt(
             &self.symbolic,
             &mut self.l_values,
             &self.matrix,
@@ -753,7 +753,7 @@ impl Half {
         }
         let sym = SymbolicSparseColMat::new_checked(m, m, count, None, rows);
         let matrix = SparseColMat::new(sym, memory::zeros(nnz, what)?);
-        let symbolic = super::linear::symbolic_ldlt(&matrix, SymmetricOrdering::Identity, what)?;
+        let symbolic = super::factor::symbolic_ldlt(&matrix, SymmetricOrdering::Identity, what)?;
         if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
             return Ok(None);
         }

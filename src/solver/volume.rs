@@ -30,7 +30,7 @@
 //! (gas-filled membranes, volume as the control).
 
 use super::assemble::NONE;
-use super::slip::Row;
+use super::rows::Row;
 use crate::model::{pressure, LoadModel, Model};
 
 /// One row per volume input: h = k_V (V(u) − V⁰ − ΔV) and its derivative k_V g on the free

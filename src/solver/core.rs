@@ -1,0 +1,350 @@
+//! The solver's workspace: the tangent's pattern and factorization, the assembly buffers and
+//! the per-increment state every phase of the iteration reads (newton.rs, line_search.rs,
+//! slip.rs, path.rs, arc.rs, sensitivity.rs add their methods to [`Solver`]).
+
+use super::assemble::{self, Pattern, NONE};
+use super::linear::{self, Ldlt};
+use super::settings::{InexactNewton, Settings, INEXACT_MIN_EQUATIONS, MIN_AREA_RATIO};
+use super::{relax, threads, work};
+use crate::memory::{self, OutOfMemory};
+use crate::model::membrane::Evaluation;
+use crate::model::wrinkling::WrinkleState;
+use crate::model::Model;
+
+/// Err with the reason when an assembly found an inverted or collapsed membrane triangle.
+pub(super) fn check_inversion(model: &Model, info: &assemble::AssemblyInfo) -> Result<(), String> {
+    if model.triangles.is_empty() || info.min_area_ratio > MIN_AREA_RATIO {
+        Ok(())
+    } else {
+        Err(format!(
+            "a membrane element inverted or collapsed (area ratio {:.2e})",
+            info.min_area_ratio
+        ))
+    }
+}
+
+pub struct Solver {
+    pub(super) settings: Settings,
+    /// Shared with the helper thread's half of the assembly (`assemble::Parallel`).
+    pub(super) pattern: std::sync::Arc<Pattern>,
+    pub(super) linear: Ldlt,
+    pub(super) residual: Vec<f64>,
+    pub(super) trial: Vec<f64>,
+    pub(super) rhs: Vec<f64>,
+    /// Per DOF, the magnitudes of the forces meeting there (last assembly).
+    pub(super) magnitude: Vec<f64>,
+    /// Position of every equation's diagonal entry in the tangent's values.
+    pub(super) diagonal_positions: Vec<usize>,
+    /// D of the damped system: per equation the diagonal stiffness of the structure with every
+    /// element taut and elastic, then one entry per slip.
+    pub(super) reference_diagonal: Vec<f64>,
+    /// Largest coordinate magnitude of the reference nodes.
+    pub(super) reference_size: f64,
+    /// Per-triangle evaluations of the last assembly.
+    pub(super) evaluations: Vec<Evaluation>,
+    /// Wrinkle states frozen against chatter inside the current increment.
+    pub(super) frozen: Option<Vec<Option<WrinkleState>>>,
+    /// Elements and loads at each node, for nodal relaxation.
+    pub(super) adjacency: relax::Adjacency,
+    /// Factor on the artificial prestress in the tangent of the current Newton iteration.
+    pub(super) prestress_factor: f64,
+    /// The prestress continuation's isotropic pre-strain of every membrane triangle while one
+    /// of its intermediate problems is solved (`path.rs`); 0 otherwise.
+    pub(super) pre_strain: f64,
+    /// States held by the probe evaluations ([`Solver::hold_states`]).
+    pub(super) probe_states: Option<Vec<Option<WrinkleState>>>,
+    /// The Newton loop's reused work buffers (`work.rs`).
+    pub(super) work: work::Work,
+    /// |R|∞ on the equations at the last Newton direction (inexact Newton's gate, `slip.rs`).
+    pub(super) last_direction_residual: f64,
+    /// Conjugate-gradient vectors of inexact Newton (four of the equations' length, allocated
+    /// at the first inexact direction and reused).
+    pub(super) pcg_work: Vec<f64>,
+}
+
+impl Solver {
+    /// Stored entries of the tangent's LDLT factor.
+    pub fn factor_nonzeros(&self) -> usize {
+        self.linear.factor_nonzeros()
+    }
+
+    /// Numeric factorizations of the tangent since the solver was made (every Newton
+    /// direction, prescribed-displacement predictor, sensitivity and timing included).
+    pub fn factorizations(&self) -> usize {
+        self.linear.factorizations()
+    }
+
+    /// Factorizations and inexact-Newton directions and solves so far.
+    pub fn linear_counts(&self) -> linear::Counts {
+        self.linear.counts
+    }
+
+    /// Whether Newton directions may come from conjugate gradients on an earlier
+    /// factorization (`Settings::inexact_newton`, decided by the tangent's size under
+    /// [`InexactNewton::Auto`]).
+    pub fn inexact_newton(&self) -> bool {
+        match self.settings.inexact_newton {
+            InexactNewton::On => true,
+            InexactNewton::Off => false,
+            InexactNewton::Auto => self.pattern.n >= INEXACT_MIN_EQUATIONS,
+        }
+    }
+
+    /// (A, B, separator) equations of the two-domain factorization, if it is used.
+    pub fn split_sizes(&self) -> Option<(usize, usize, usize)> {
+        self.linear.split_sizes()
+    }
+
+    /// Triangles the assembly evaluates on (the solving thread, the helper) when it runs on
+    /// two threads (`assemble::Parallel`); None when it runs on one.
+    pub fn assembly_halves(&self) -> Option<(usize, usize)> {
+        self.work.scratch.parallel.as_ref().map(|p| p.halves())
+    }
+
+    /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
+    /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
+    /// [`OutOfMemory`], never an abort.
+    pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
+        let mut pattern = Pattern::try_ordered(model, settings.node_order)?;
+        // The factorization takes over the pattern's row indices: nothing reads them from the
+        // solver's pattern once its position maps are built, and a copy would be K's largest
+        // index array twice (88 MB at 1M DOF).
+        let row_idx = std::mem::take(&mut pattern.row_idx);
+        let pool = if settings.threads > 1 && pattern.n >= linear::SPLIT_MIN_EQUATIONS {
+            // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
+            // Two threads at most: the factorization has two halves (`split.rs`).
+            let pool =
+                threads::Pool::try_new(settings.threads.min(2)).map_err(|_| OutOfMemory {
+                    what: "the solver's threads (their stacks)",
+                    bytes: (settings.threads as u64).saturating_mul(2 << 20),
+                })?;
+            Some(std::sync::Arc::new(pool))
+        } else {
+            None
+        };
+        let pattern = std::sync::Arc::new(pattern);
+        // The same gate as the factorization's split: with a pool, the assembly's element loop
+        // runs in two halves too (`assemble::Parallel`).
+        let parallel = match &pool {
+            Some(pool) => assemble::Parallel::try_new(std::sync::Arc::clone(pool), &pattern)?,
+            None => None,
+        };
+        let linear = Ldlt::try_with_pool(
+            pattern.n,
+            memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
+            row_idx,
+            pool,
+        )?;
+        let n = model.dof_count();
+        let trial_len = model.unknown_count();
+        let diagonal_positions = memory::collect(
+            (0..pattern.n).map(|j| pattern.col_ptr[j + 1] - 1),
+            "the solver's vectors",
+        )?;
+        let reference_diagonal = reference_diagonal(model, &pattern)?;
+        let reference_size = model.reference.iter().fold(0.0f64, |m, x| m.max(x.amax()));
+        let vector = |len| memory::zeros(len, "the solver's vectors");
+        Ok(Solver {
+            settings,
+            linear,
+            residual: vector(n)?,
+            trial: vector(trial_len)?,
+            rhs: vector(pattern.n)?,
+            magnitude: vector(n)?,
+            diagonal_positions,
+            reference_diagonal,
+            reference_size,
+            evaluations: memory::with_capacity(model.triangles.len(), "the element evaluations")?,
+            frozen: None,
+            adjacency: relax::Adjacency::try_new(model)?,
+            prestress_factor: 1.0,
+            pre_strain: 0.0,
+            probe_states: None,
+            work: work::Work {
+                scratch: assemble::AssemblyScratch::with_parallel(parallel),
+                ..Default::default()
+            },
+            last_direction_residual: f64::INFINITY,
+            pcg_work: Vec::new(),
+            pattern,
+        })
+    }
+
+    /// Working memory of one step beyond what the solver and the state already hold, in
+    /// bytes: a generous bound on the vectors the path, Newton loop, line search and slip
+    /// block allocate while a step runs (about 16 copies of the unknowns and the forces, the
+    /// element evaluations four times (one the assembly's copy in visit order,
+    /// `assemble::AssemblyScratch`), and with m slip and volume unknowns the m solved
+    /// columns and the dense m x m block; 4 more vectors of the equations under inexact
+    /// Newton). Probed before every step (`crate::memory::probe`).
+    pub fn step_bytes(&self, model: &Model) -> u64 {
+        let unknowns = model.unknown_count() as u64;
+        let copies = if self.inexact_newton() { 20u64 } else { 16 };
+        // Slips and volume pressures: the unknowns eliminated in the dense block.
+        let m = (model.unknown_count() - model.dof_count()) as u64;
+        let vectors = copies.saturating_mul(unknowns).saturating_mul(8);
+        let evaluations = 4u64
+            .saturating_mul(model.triangles.len() as u64)
+            .saturating_mul(std::mem::size_of::<Evaluation>() as u64 + 8);
+        let slip = m
+            .saturating_mul(self.pattern.n as u64 + m + 8)
+            .saturating_mul(8);
+        vectors.saturating_add(evaluations).saturating_add(slip)
+    }
+
+    /// The settings, to change for the next solves (the engine's increment-by-increment
+    /// driver, `engine/stepping.rs`, runs one increment per solve).
+    pub fn settings_mut(&mut self) -> &mut Settings {
+        &mut self.settings
+    }
+
+    /// Number of unknowns (free DOFs).
+    pub fn free_dofs(&self) -> usize {
+        self.pattern.n
+    }
+
+    /// Residual R = f_int − f_ext on all DOFs (reactions at held DOFs) at `u` under `loads`.
+    pub fn residual(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<f64> {
+        let mut r = vec![0.0; model.dof_count()];
+        // With the solver's scratch: on two threads when it has a helper's half.
+        let membranes = assemble::Membranes {
+            forced: self.probe_states.as_deref(),
+            scratch: Some(&mut self.work.scratch),
+            ..Default::default()
+        };
+        assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
+        r
+    }
+
+    /// Wrinkle states that [`Solver::residual`] and [`Solver::evaluate_membranes`] hold instead
+    /// of the law's own (None: the law decides). The derivatives evaluate their probe
+    /// differences on the branch of the committed equilibrium with them (`engine/derivatives.rs`).
+    pub fn hold_states(&mut self, states: Option<Vec<Option<WrinkleState>>>) {
+        self.probe_states = states;
+    }
+
+    /// Evaluation (state, tension angle, stress, energy) of every membrane triangle at `u`.
+    pub fn evaluate_membranes(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+    ) -> Vec<Evaluation> {
+        let mut r = vec![0.0; model.dof_count()];
+        let mut out = Vec::with_capacity(model.triangles.len());
+        let membranes = assemble::Membranes {
+            out: Some(&mut out),
+            forced: self.probe_states.as_deref(),
+            scratch: Some(&mut self.work.scratch),
+            ..Default::default()
+        };
+        assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
+        out
+    }
+}
+
+/// D of the damped system (`newton.rs`): per free equation, the diagonal stiffness its node
+/// would have if every element at it were taut and elastic and unstressed (membranes E t A
+/// |∇N_a|², cables EA/L, ties k; the same for x, y, z), and per slip the axial stiffness of
+/// its two segments. Positive wherever an element touches; 1 N/m elsewhere.
+fn reference_diagonal(model: &Model, pattern: &Pattern) -> Result<Vec<f64>, OutOfMemory> {
+    let mut node: Vec<f64> = memory::zeros(model.reference.len(), "the solver's vectors")?;
+    for t in &model.triangles {
+        let k = t.material.modulus() * t.material.thickness * t.reference.area;
+        for (a, &i) in t.nodes.iter().enumerate() {
+            node[i] += k * t.reference.grad[a].norm_squared();
+        }
+    }
+    for s in &model.segments {
+        for &i in &s.nodes {
+            node[i] += s.ea / s.l0;
+        }
+    }
+    for t in &model.ties {
+        for &i in &t.nodes {
+            node[i] += t.k;
+        }
+    }
+    let mut d: Vec<f64> = memory::zeros(pattern.n + model.slips.len(), "the solver's vectors")?;
+    for (dof, &e) in pattern.eq.iter().enumerate() {
+        if e != NONE {
+            d[e] = node[dof / 3];
+        }
+    }
+    for (j, p) in model.slips.iter().enumerate() {
+        d[pattern.n + j] = p
+            .segments
+            .iter()
+            .map(|&s| model.segments[s].ea / model.segments[s].l0)
+            .sum();
+    }
+    for v in &mut d {
+        if !(*v > 0.0 && v.is_finite()) {
+            *v = 1.0;
+        }
+    }
+    Ok(d)
+}
+
+impl Solver {
+    /// Wall time in seconds of one assembly (residual and tangent) and of one numeric
+    /// factorization plus solve at `u`: the floor a Newton iteration cannot beat. Best of
+    /// `repeats`.
+    pub fn time_floor(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        repeats: usize,
+    ) -> (f64, f64) {
+        let (assembly, factor, solve) = self.time_floor_parts(model, u, loads, repeats);
+        (assembly, factor + solve)
+    }
+
+    /// [`Solver::time_floor`] with the numeric factorization and the solve (forward and back
+    /// substitution) timed apart, each the best of `repeats`.
+    pub fn time_floor_parts(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        repeats: usize,
+    ) -> (f64, f64, f64) {
+        let (mut assembly, mut factor, mut solve) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        for _ in 0..repeats.max(1) {
+            let t = std::time::Instant::now();
+            let membranes = assemble::Membranes {
+                scratch: Some(&mut self.work.scratch),
+                ..Default::default()
+            };
+            assemble::assemble_with(
+                model,
+                &self.pattern,
+                u,
+                loads,
+                &mut self.residual,
+                Some(self.linear.values_mut()),
+                membranes,
+            );
+            assembly = assembly.min(t.elapsed().as_secs_f64());
+            for (d, &e) in self.pattern.eq.iter().enumerate() {
+                if e != assemble::NONE {
+                    self.rhs[e] = -self.residual[d];
+                }
+            }
+            // A failed factorization or solve still costs its time; the floor is about cost
+            // only.
+            let t = std::time::Instant::now();
+            let factored = self.linear.factor().is_ok();
+            factor = factor.min(t.elapsed().as_secs_f64());
+            if factored && !self.rhs.is_empty() {
+                let t = std::time::Instant::now();
+                let _ = self.linear.solve(&mut self.rhs);
+                solve = solve.min(t.elapsed().as_secs_f64());
+            } else {
+                solve = 0.0;
+            }
+        }
+        (assembly, factor, solve)
+    }
+}
