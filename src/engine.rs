@@ -294,80 +294,9 @@ impl Engine {
     /// with cut-back. On convergence the new equilibrium is committed; otherwise the committed
     /// state is unchanged and the report says how far the increments got.
     pub fn solve(&mut self) -> StepReport {
-        self.tangent = None;
-        if self.model_stale {
-            if let Err(e) = self.rebuild() {
-                return failed(e.to_string());
-            }
-        }
-        // The step's working memory and the copies kept to undo it, probed before it starts:
-        // an allocation failure inside a step would abort the host.
-        let state_bytes = 8 * (self.state.displacement.len() + self.state.slip_state.len()) as u64
-            + 9 * self.state.wrinkle.len() as u64;
-        let step_bytes = self
-            .solver
-            .step_bytes(&self.model)
-            .saturating_add(2 * state_bytes);
-        if !self.scene.debug.skip_memory_probes {
-            if let Err(e) = memory::probe(step_bytes, "the step's working memory") {
-                return failed(e.to_string());
-            }
-        }
-        let before = (
-            self.state.displacement.clone(),
-            self.state.slip_state.clone(),
-        );
-        // Under arc length a step the arc-length corrector cannot take is load-controlled as a
-        // whole: the log says so (docs/solver.md, arc length).
-        let fallback = if self.scene.solver.path == crate::scene::PathMethod::ArcLength
-            && self.state.applied != self.state.inputs
-        {
-            crate::solver::Solver::arc_length_fallback(
-                &self.model,
-                &self.state.applied,
-                &self.state.inputs,
-            )
-        } else {
-            None
-        };
-        let mut report = self.solver.solve_step_with(
-            &self.model,
-            &self.state.applied,
-            &self.state.inputs,
-            &mut self.state.displacement,
-            &mut self.state.slip_state,
-        );
-        if let Some(why) = fallback {
-            report.log.insert(
-                0,
-                format!("arc length does not apply ({why}): the step is load-controlled"),
-            );
-        }
-        if report.converged() {
-            let previous = self.state.clone();
-            self.state.applied = self.state.inputs.clone();
-            self.state.last_iterations = report.iterations as u32;
-            if let Err(e) = self.refresh_outputs() {
-                // Nothing of the outputs was changed: back to the state they belong to.
-                self.state = previous;
-                (self.state.displacement, self.state.slip_state) = before;
-                return failed(e.to_string());
-            }
-            // A converged answer is never returned non-finite: loads so large that a position,
-            // a length or a stress overflows are a failed step, and nothing is committed.
-            if let Some(what) = self.non_finite() {
-                self.state = previous;
-                (self.state.displacement, self.state.slip_state) = before;
-                // The memory of the refresh just made is there again.
-                let _ = self.refresh_outputs();
-                report.outcome = crate::solver::Outcome::Failed;
-                report.reached = 0.0;
-                report.message = format!("the equilibrium found is not finite ({what}); the loads overflow the model's numbers");
-            } else {
-                self.converged = true;
-            }
-        }
-        report
+        let mut step = self.begin_step();
+        while self.advance(&mut step).is_some() {}
+        self.end_step(step)
     }
 
     /// Whether a step to the current inputs has nothing to do: the committed state is an
@@ -714,11 +643,6 @@ impl Engine {
         self.model_stale = false;
         Ok(())
     }
-}
-
-/// A step that did not start (its memory could not be had): nothing was changed.
-fn failed(message: String) -> StepReport {
-    StepReport::failed_with(message)
 }
 
 /// The solver's settings from the scene's solver section.

@@ -1,32 +1,27 @@
-//! A step driven one load increment at a time, for a caller that reports each increment and
-//! may stop after one (FMI 3's intermediate update and early return).
+//! A step of the engine, one increment at a time: the solver's [`Stepper`] over the committed
+//! state, for every driver. [`Engine::solve`] (the CLI, FMI 2) runs it to the end; FMI 3's
+//! intermediate update reports each increment and may stop after one (early return).
 //!
 //! ```text
-//! begin_step()        the load change applied → inputs, from the committed equilibrium
-//! advance(&mut step)  one increment attempt on the solver: λ → λ + Δλ; converged: λ moves and
-//!                     Δλ grows as the solver's own path does (×2 at or below the target
-//!                     iterations, ×1.5 up to 3/4 of the limit); not: Δλ / 4, and below
-//!                     min_increment the step has failed
+//! begin_step()        the load change applied → inputs, from the committed equilibrium (the
+//!                     model rebuilt if a parameter changed, the step's memory probed)
+//! advance(&mut step)  one increment attempt of the stepper (accepted: λ moves; rejected: cut
+//!                     back, and below the smallest increment the step has failed)
 //! end_step(step)      commit at the λ reached (all of the step, or where the caller stopped);
 //!                     a failed step commits nothing
 //! ```
-//! [`Engine::solve`] lets the solver run all increments in one call; this path runs the same
-//! increments one call each, so the convergence test's load scale is the increment's rather
-//! than the step's: the equilibria agree to the solver's tolerance, not bit for bit.
+//! Both drivers take the same increments, so they reach the same equilibrium bit for bit.
 
 use super::Engine;
-use crate::solver::{Outcome, StepReport};
+use crate::memory;
+use crate::solver::{Attempt, Outcome, StepReport, Stepper};
 
 /// One step in progress.
 pub struct Step {
-    from: Vec<f64>,
-    to: Vec<f64>,
-    lambda: f64,
-    increment: f64,
-    u: Vec<f64>,
-    slip_state: Vec<u8>,
-    failed: bool,
-    report: StepReport,
+    stepper: Stepper,
+    /// Why arc length does not apply to this step, for the log (None: it does, or the scene
+    /// asks for load control).
+    fallback: Option<&'static str>,
 }
 
 /// What one increment attempt did.
@@ -44,7 +39,7 @@ pub struct Increment {
 impl Step {
     /// The load fraction of the step reached so far.
     pub fn lambda(&self) -> f64 {
-        self.lambda
+        self.stepper.lambda()
     }
 }
 
@@ -57,148 +52,111 @@ impl Engine {
         } else {
             Ok(())
         };
-        let mut step = Step {
-            from: self.state.applied.clone(),
-            to: self.state.inputs.clone(),
-            lambda: 0.0,
-            increment: self.scene.solver.initial_increment,
-            u: self.state.displacement.clone(),
-            slip_state: self.state.slip_state.clone(),
-            failed: false,
-            report: StepReport::failed(),
+        let s = &self.state;
+        let mut stepper = Stepper::begin(
+            &self.solver,
+            &self.model,
+            &s.applied,
+            &s.inputs,
+            &s.displacement,
+            &s.slip_state,
+        );
+        // Under arc length a step the arc-length corrector cannot take is load-controlled as a
+        // whole: the log says so (docs/solver.md, arc length).
+        let fallback = if self.scene.solver.path == crate::scene::PathMethod::ArcLength
+            && s.applied != s.inputs
+        {
+            crate::solver::Solver::arc_length_fallback(&self.model, &s.applied, &s.inputs)
+        } else {
+            None
         };
-        if let Err(message) = rebuilt {
-            step.failed = true;
-            step.report.message = message;
+        if let Err(message) = rebuilt.and_then(|()| self.probe_step()) {
+            stepper.fail(message);
         }
-        step
+        Step { stepper, fallback }
+    }
+
+    /// The step's working memory and the copies kept to undo it, probed before it starts: an
+    /// allocation failure inside a step would abort the host.
+    fn probe_step(&self) -> Result<(), String> {
+        if self.scene.debug.skip_memory_probes {
+            return Ok(());
+        }
+        let state_bytes = 8 * (self.state.displacement.len() + self.state.slip_state.len()) as u64
+            + 9 * self.state.wrinkle.len() as u64;
+        let step_bytes = self
+            .solver
+            .step_bytes(&self.model)
+            .saturating_add(2 * state_bytes);
+        memory::probe(step_bytes, "the step's working memory").map_err(|e| e.to_string())
     }
 
     /// One increment attempt; None once the step is complete or has failed.
     pub fn advance(&mut self, step: &mut Step) -> Option<Increment> {
-        if step.failed || step.lambda >= 1.0 {
-            return None;
-        }
         self.tangent = None;
-        let settings = &self.scene.solver;
-        let dl = step.increment.min(1.0 - step.lambda);
-        let target = if 1.0 - (step.lambda + dl) < 1e-12 {
-            1.0
-        } else {
-            step.lambda + dl
-        };
-        let at = |l: f64| -> Vec<f64> {
-            step.from
-                .iter()
-                .zip(&step.to)
-                .map(|(a, b)| a + l * (b - a))
-                .collect()
-        };
-        let (a, b) = (at(step.lambda), at(target));
-        let mut u = step.u.clone();
-        let mut slip_state = step.slip_state.clone();
-        // One attempt per call: the solver takes the whole interval as one increment and
-        // reports a failure instead of cutting back itself.
-        let saved = self.solver.settings_mut().clone();
-        {
-            let s = self.solver.settings_mut();
-            s.initial_increment = 1.0;
-            s.max_increments = 1;
-        }
-        let r = self
-            .solver
-            .solve_step_with(&self.model, &a, &b, &mut u, &mut slip_state);
-        *self.solver.settings_mut() = saved;
-        step.report.iterations += r.iterations;
-        step.report.log.extend(r.log.iter().cloned());
-        if r.converged() {
-            step.u = u;
-            step.slip_state = slip_state;
-            step.lambda = target;
-            step.report.increments += 1;
-            step.increment *= growth(
-                r.iterations,
-                settings.target_iterations,
-                settings.max_iterations,
-            );
-            return Some(Increment {
-                lambda: target,
+        let attempt = step.stepper.advance(&mut self.solver, &self.model)?;
+        Some(match attempt {
+            Attempt::Accepted { lambda, iterations } => Increment {
+                lambda,
                 converged: true,
                 failed: false,
-                iterations: r.iterations,
-            });
-        }
-        step.report.cutbacks += 1;
-        step.increment *= 0.25;
-        if step.increment < settings.min_increment {
-            step.failed = true;
-            step.report.reached = step.lambda;
-            step.report.message = format!(
-                "no equilibrium found beyond load fraction {:.6} of the step (smallest increment {:.1e} failed: {})",
-                step.lambda, settings.min_increment, r.message
-            );
-        }
-        Some(Increment {
-            lambda: step.lambda,
-            converged: false,
-            failed: step.failed,
-            iterations: r.iterations,
+                iterations,
+            },
+            Attempt::Rejected {
+                lambda,
+                iterations,
+                failed,
+            } => Increment {
+                lambda,
+                converged: false,
+                failed,
+                iterations,
+            },
         })
     }
 
     /// Commit the step at the load fraction it reached (nothing if it failed). The report's
-    /// `reached` is that fraction; `outcome` is Converged unless the step failed.
+    /// `reached` is that fraction; `outcome` is Converged unless the step failed or its
+    /// equilibrium cannot be committed (outputs that cannot be evaluated, a non-finite state).
     pub fn end_step(&mut self, step: Step) -> StepReport {
         self.tangent = None;
-        let mut report = step.report;
-        if step.failed {
+        let applied = step.stepper.applied();
+        let previous = self.state.clone();
+        let mut report = step
+            .stepper
+            .finish(&mut self.state.displacement, &mut self.state.slip_state);
+        if let Some(why) = step.fallback {
+            report.log.insert(
+                0,
+                format!("arc length does not apply ({why}): the step is load-controlled"),
+            );
+        }
+        if !report.converged() {
             return report;
         }
-        let lambda = step.lambda;
-        let applied: Vec<f64> = if lambda >= 1.0 {
-            step.to.clone()
-        } else {
-            step.from
-                .iter()
-                .zip(&step.to)
-                .map(|(a, b)| a + lambda * (b - a))
-                .collect()
-        };
-        let previous = self.state.clone();
-        self.state.displacement = step.u;
-        self.state.slip_state = step.slip_state;
         self.state.applied = applied;
         self.state.last_iterations = report.iterations as u32;
         if let Err(e) = self.refresh_outputs() {
+            // Nothing of the outputs was changed: back to the state they belong to.
             self.state = previous;
-            report.message = e.to_string();
-            return report;
+            return StepReport::failed_with(e.to_string());
         }
+        // A converged answer is never returned non-finite: loads so large that a position, a
+        // length or a stress overflows are a failed step, and nothing is committed.
         if let Some(what) = self.non_finite() {
             self.state = previous;
+            // The memory of the refresh just made is there again.
             let _ = self.refresh_outputs();
+            report.outcome = Outcome::Failed;
+            report.reached = 0.0;
             report.message = format!(
                 "the equilibrium found is not finite ({what}); the loads overflow the model's numbers"
             );
             return report;
         }
-        report.outcome = Outcome::Converged;
-        report.reached = lambda;
         // Short of the end (early return) the inputs are not yet the applied ones, so the
         // engine is settled only after a whole step.
         self.converged = true;
         report
-    }
-}
-
-/// Increment growth after a converged increment: the rule of the solver's own path
-/// (`solver/path.rs`, private there), so both drivers grow alike.
-fn growth(iterations: usize, target: usize, max_iterations: usize) -> f64 {
-    if iterations <= target {
-        2.0
-    } else if 4 * iterations <= 3 * max_iterations {
-        1.5
-    } else {
-        1.0
     }
 }

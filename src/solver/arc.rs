@@ -56,7 +56,9 @@
 use super::assemble::{assemble_with, Membranes, NONE};
 use super::core::Solver;
 use super::loads::{load_change, loads_at, prescribed_rate};
-use super::report::{push_log, Outcome, StepReport};
+use super::path::Attempt;
+use super::report::{push_log, StepReport};
+use super::settings::Settings;
 use super::rows::{ArcRow, Increment};
 use super::slip::slip_rows;
 use crate::model::sleeve::Contact;
@@ -392,267 +394,383 @@ impl Solver {
         }
         out
     }
+}
 
-    /// Solve one step by arc length (module docs); None where arc length does not apply
-    /// (then [`Solver::solve_step_with`]'s load control runs). `states`: the stick/slip
-    /// codes of the sleeve points, advanced on convergence.
-    pub(super) fn solve_step_arc(
-        &mut self,
+/// Arc length of one step in progress (module docs): the path's last converged point, the
+/// arc length Δs and the step's bounds.
+pub struct ArcPath {
+    from: Vec<f64>,
+    to: Vec<f64>,
+    change: f64,
+    at: Committed,
+    /// Δs (RMS metres); 0 before the first, load-controlled, increment sets it; NaN when that
+    /// increment moved nothing (load control for the whole step).
+    ds: f64,
+    /// The first increment's load fraction while Δs is unknown.
+    first_dl: f64,
+    /// The smallest Δs before the step fails.
+    smallest: f64,
+    /// The step's target was reached.
+    done: bool,
+    /// (iterations, increments) of the report when the current attempt began.
+    before: (usize, usize),
+}
+
+impl ArcPath {
+    /// The step `from` → `to` from the equilibrium `u` with the stick/slip states `contact`;
+    /// None where arc length does not apply (the loads do not change): load control then.
+    pub fn begin(
         model: &Model,
+        settings: &Settings,
         from: &[f64],
         to: &[f64],
-        u: &mut Vec<f64>,
-        states: &mut Vec<u8>,
-    ) -> Option<StepReport> {
-        let mut report = StepReport::failed();
+        u: &[f64],
+        contact: Vec<Contact>,
+    ) -> Option<ArcPath> {
         if not_applicable(model, from, to).is_some() {
             return None;
         }
-        let s = self.settings.clone();
-        let step = (from, to, load_change(model, from, to));
-        let mut at = Committed {
-            u: u.clone(),
-            lambda: 0.0,
-            contact: states
-                .iter()
-                .map(|&c| Contact::from_code(c).unwrap_or_default())
-                .collect(),
-            previous: None,
-            lambda_max: 0.0,
-        };
-        let mut ds = s.arc_length;
-        let mut first_dl = s.initial_increment;
-        let mut smallest = f64::INFINITY;
-        loop {
-            let (lambda_n, lambda_max) = (at.lambda, at.lambda_max);
-            if report.increments + report.cutbacks >= s.max_increments {
-                report.reached = lambda_max;
-                report.message = format!(
-                    "no equilibrium found at the step's target by arc length ({} increments used, now at load fraction {lambda_n:.6}; largest load fraction reached {lambda_max:.6})",
-                    s.max_increments
-                );
-                return Some(report);
-            }
-            if ds <= 0.0 {
-                // No size given: the first increment is load-controlled and sets Δs.
-                let target = first_dl.min(1.0);
-                match self.load_increment(model, step, &at, target, &mut report.log) {
-                    Ok((u_new, contact, iters)) => {
-                        report.iterations += iters;
-                        report.increments += 1;
-                        self.commit(&mut at, u_new, target, contact);
-                        let d = at.previous.as_deref().unwrap_or_default();
-                        ds = (dot(d, d) / self.pattern.n as f64).sqrt();
-                        push_log(&mut report.log, format!("increment λ 0 -> {target:.6} (load control): converged in {iters} iterations; arc length {ds:.3e} m"));
-                        smallest = ds * s.min_increment;
-                        if target >= 1.0 {
-                            break;
-                        }
-                        if ds <= 0.0 {
-                            // Nothing moved: load control for the rest.
-                            ds = f64::NAN;
-                        }
-                    }
-                    Err((iters, why)) => {
-                        report.iterations += iters;
-                        report.cutbacks += 1;
-                        first_dl *= 0.25;
-                        if first_dl < s.min_increment {
-                            report.message = format!(
-                                "no equilibrium found beyond load fraction 0 of the step ({why})"
-                            );
-                            return Some(report);
-                        }
-                    }
-                }
-                continue;
-            }
-            if ds.is_nan() {
-                return None;
-            }
-            if !smallest.is_finite() {
-                smallest = ds * s.min_increment;
-            }
-            let tangent = self.arc_tangent(
-                model,
-                from,
-                to,
-                lambda_n,
-                &at.u,
-                &at.contact,
-                at.previous.as_deref(),
+        Some(ArcPath {
+            from: from.to_vec(),
+            to: to.to_vec(),
+            change: load_change(model, from, to),
+            at: Committed {
+                u: u.to_vec(),
+                lambda: 0.0,
+                contact,
+                previous: None,
+                lambda_max: 0.0,
+            },
+            ds: settings.arc_length,
+            first_dl: settings.initial_increment,
+            smallest: f64::INFINITY,
+            done: false,
+            before: (0, 0),
+        })
+    }
+
+    /// The last converged point: displacements, load fraction and stick/slip states.
+    pub fn converged(&self) -> (&[f64], f64, &[Contact]) {
+        (&self.at.u, self.at.lambda, &self.at.contact)
+    }
+
+    /// One attempt of the path (an arc-length increment, or the load-controlled increment that
+    /// stands for one: the first, where the path tangent is undefined, after a state switch or
+    /// a failed corrector, and the last to the target). Ok(None) once the target is reached;
+    /// Err(()) when the step must be load-controlled as a whole instead (the first increment
+    /// moved nothing).
+    pub fn advance(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        report: &mut StepReport,
+    ) -> Result<Option<Attempt>, ()> {
+        if self.done {
+            return Ok(None);
+        }
+        self.before = (report.iterations, report.increments);
+        let s = solver.settings.clone();
+        let (lambda_n, lambda_max) = (self.at.lambda, self.at.lambda_max);
+        if report.increments + report.cutbacks >= s.max_increments {
+            report.reached = lambda_max;
+            report.message = format!(
+                "no equilibrium found at the step's target by arc length ({} increments used, now at load fraction {lambda_n:.6}; largest load fraction reached {lambda_max:.6})",
+                s.max_increments
             );
-            let (t, dlds, w) = match tangent {
-                Ok(x) => x,
-                Err(why) => {
-                    // No path tangent at this point (a singular bordered tangent: sleeve points
-                    // free to slide along a straight cable at zero load): the next increment is
-                    // load-controlled, from the remaining load down to `min_increment` of it.
-                    let mut fraction = s.initial_increment.min(1.0);
-                    let mut done = false;
-                    while fraction >= s.min_increment {
-                        let target = (lambda_n + fraction * (1.0 - lambda_n)).min(1.0);
-                        match self.load_increment(model, step, &at, target, &mut report.log) {
-                            Ok((u_lc, redone, it2)) => {
-                                report.iterations += it2;
-                                report.increments += 1;
-                                push_log(
-                                    &mut report.log,
-                                    format!(
-                                        "  arc length: no path tangent at λ {lambda_n:.6} ({why})"
-                                    ),
-                                );
-                                push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {target:.6} (load control where the path tangent is not defined): converged in {it2} iterations"));
-                                self.commit(&mut at, u_lc, target, redone);
-                                done = true;
-                                break;
-                            }
-                            Err((it2, _)) => {
-                                report.iterations += it2;
-                                report.cutbacks += 1;
-                                fraction *= 0.25;
-                            }
-                        }
-                    }
-                    if !done {
-                        report.message = format!("arc length at load fraction {lambda_n:.6}: {why}; load control from there failed too");
-                        report.reached = lambda_n;
-                        return Some(report);
-                    }
-                    if at.lambda >= 1.0 {
-                        break;
-                    }
-                    continue;
-                }
-            };
-            let predicted = lambda_n + ds * dlds;
-            let mut contact = at.contact.clone();
-            let outcome = if predicted >= 1.0 {
-                Err((0, String::from("the predictor passes the target")))
-            } else {
-                self.arc_increment(
-                    model,
-                    step,
-                    &at.u,
-                    lambda_n,
-                    (&t, dlds, &w),
-                    ds,
-                    &mut contact,
-                    &mut report.log,
-                )
-            };
-            let mut finish = predicted >= 1.0;
-            match outcome {
-                Ok((u_new, lambda, iters)) => {
-                    report.iterations += iters + 1;
-                    if lambda >= 1.0 {
-                        finish = true;
-                    } else {
-                        let before =
-                            self.wrinkle_states(model, &loads_at(from, to, lambda_n), &at.u);
-                        let after = self.wrinkle_states(model, &loads_at(from, to, lambda), &u_new);
-                        let wrinkles = before.iter().zip(&after).filter(|(a, b)| a != b).count();
-                        let sleeves = at
-                            .contact
-                            .iter()
-                            .zip(&contact)
-                            .filter(|(a, b)| a != b)
-                            .count();
-                        let mut accepted = (u_new, lambda, iters, "arc length", contact);
-                        if (wrinkles > 0 || sleeves > 0) && lambda > lambda_n {
-                            let what = format!(
-                                "{wrinkles} wrinkle states and {sleeves} stick/slip states switch"
-                            );
-                            match self.load_increment(model, step, &at, lambda, &mut report.log) {
-                                Ok((u_lc, redone, it2)) => {
-                                    report.iterations += it2;
-                                    push_log(&mut report.log, format!("  {what}: increment redone by load control in {it2} iterations"));
-                                    accepted = (u_lc, lambda, it2, "load control", redone);
-                                }
-                                Err((it2, why)) => {
-                                    report.iterations += it2;
-                                    push_log(&mut report.log, format!("  {what}; load control failed ({why}): the arc-length point is kept"));
-                                }
-                            }
-                        }
-                        let (u_new, lambda, iters, how, contact) = accepted;
-                        report.increments += 1;
-                        push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {lambda:.6} ({how}, Δs {ds:.3e} m): converged in {iters} iterations"));
-                        self.commit(&mut at, u_new, lambda, contact);
-                        if lambda < 0.0 && at.lambda_max > 0.0 {
-                            let lambda_max = at.lambda_max;
-                            report.reached = lambda_max;
-                            report.message = format!("no equilibrium found at the step's target by arc length: the path passed a limit point and its load fell back below the step's start (largest load fraction reached {lambda_max:.6})");
-                            return Some(report);
-                        }
-                        ds *= if iters <= s.target_iterations {
-                            1.5
-                        } else if 4 * iters > 3 * s.max_iterations {
-                            0.5
-                        } else {
-                            1.0
-                        };
-                        continue;
-                    }
-                }
-                Err((iters, why)) if !finish => {
-                    report.iterations += iters;
-                    // A corrector that fails while the load rises is retried once by load
-                    // control to the predictor's λ: the path can be non-smooth inside the
-                    // increment (a state switch, or sleeve points that slide along a straight
-                    // cable at zero load, where the normal plane cuts no equilibrium).
-                    if predicted > lambda_n {
-                        if let Ok((u_lc, redone, it2)) =
-                            self.load_increment(model, step, &at, predicted, &mut report.log)
-                        {
-                            report.iterations += it2;
-                            report.increments += 1;
-                            push_log(&mut report.log, format!("  arc length: {why}"));
-                            push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {predicted:.6} (load control after the arc-length corrector failed, Δs {ds:.3e} m): converged in {it2} iterations"));
-                            self.commit(&mut at, u_lc, predicted, redone);
-                            continue;
-                        }
-                    }
-                    report.cutbacks += 1;
-                    push_log(&mut report.log, format!("increment from λ {lambda_n:.6} (arc length, Δs {ds:.3e} m): {why}; cutting back"));
-                    ds *= 0.25;
-                    if ds < smallest {
-                        report.reached = lambda_n;
-                        report.message = format!("no equilibrium found beyond load fraction {lambda_n:.6} of the step by arc length (smallest arc length failed: {why}; largest load fraction reached {lambda_max:.6})");
-                        return Some(report);
-                    }
-                    continue;
-                }
-                Err(_) => {}
+            return Ok(Some(self.failed(report)));
+        }
+        if self.ds <= 0.0 {
+            return Ok(Some(self.first_increment(solver, model, &s, report)));
+        }
+        if self.ds.is_nan() {
+            return Err(());
+        }
+        if !self.smallest.is_finite() {
+            self.smallest = self.ds * s.min_increment;
+        }
+        let at = &self.at;
+        let tangent = solver.arc_tangent(
+            model,
+            &self.from,
+            &self.to,
+            lambda_n,
+            &at.u,
+            &at.contact,
+            at.previous.as_deref(),
+        );
+        let (t, dlds, w) = match tangent {
+            Ok(x) => x,
+            Err(why) => return Ok(Some(self.no_tangent(solver, model, &s, report, why))),
+        };
+        let predicted = lambda_n + self.ds * dlds;
+        let mut contact = self.at.contact.clone();
+        let outcome = if predicted >= 1.0 {
+            Err((0, String::from("the predictor passes the target")))
+        } else {
+            solver.arc_increment(
+                model,
+                (&self.from, &self.to, self.change),
+                &self.at.u,
+                lambda_n,
+                (&t, dlds, &w),
+                self.ds,
+                &mut contact,
+                &mut report.log,
+            )
+        };
+        match outcome {
+            Ok((u_new, lambda, iters)) if lambda < 1.0 => {
+                report.iterations += iters + 1;
+                let point = (u_new, lambda, iters, contact);
+                Ok(Some(self.corrected(solver, model, &s, report, point)))
             }
-            if finish {
-                // The target lies within this increment: reach it exactly by load control.
-                match self.load_increment(model, step, &at, 1.0, &mut report.log) {
-                    Ok((u_new, contact, iters)) => {
-                        report.iterations += iters;
-                        report.increments += 1;
-                        push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> 1 (load control to the target): converged in {iters} iterations"));
-                        self.commit(&mut at, u_new, 1.0, contact);
-                        break;
-                    }
-                    Err((iters, why)) => {
-                        report.iterations += iters;
-                        report.cutbacks += 1;
-                        push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> 1 (load control to the target): {why}; shorter arc"));
-                        ds *= 0.25;
-                        if ds < smallest {
-                            report.reached = lambda_n;
-                            report.message = format!("no equilibrium found beyond load fraction {lambda_n:.6} of the step by arc length ({why})");
-                            return Some(report);
-                        }
-                    }
+            Ok((_, _, iters)) => {
+                // The corrector passed the target: reach it exactly by load control.
+                report.iterations += iters + 1;
+                Ok(Some(self.to_target(solver, model, report)))
+            }
+            Err((iters, why)) if predicted < 1.0 => {
+                report.iterations += iters;
+                Ok(Some(
+                    self.corrector_failed(solver, model, report, predicted, why),
+                ))
+            }
+            Err(_) => Ok(Some(self.to_target(solver, model, report))),
+        }
+    }
+
+    /// The step fails here (the report says why).
+    fn failed(&self, report: &StepReport) -> Attempt {
+        Attempt::Rejected {
+            lambda: self.at.lambda,
+            iterations: report.iterations - self.before.0,
+            failed: true,
+        }
+    }
+
+    /// What the attempt did: accepted when it added a converged increment.
+    fn progress(&self, report: &StepReport) -> Attempt {
+        let iterations = report.iterations - self.before.0;
+        if report.increments > self.before.1 {
+            Attempt::Accepted {
+                lambda: self.at.lambda,
+                iterations,
+            }
+        } else {
+            Attempt::Rejected {
+                lambda: self.at.lambda,
+                iterations,
+                failed: false,
+            }
+        }
+    }
+
+    /// No arc length given: the first increment is load-controlled and sets Δs.
+    fn first_increment(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        s: &Settings,
+        report: &mut StepReport,
+    ) -> Attempt {
+        let target = self.first_dl.min(1.0);
+        let step = (&self.from[..], &self.to[..], self.change);
+        match solver.load_increment(model, step, &self.at, target, &mut report.log) {
+            Ok((u_new, contact, iters)) => {
+                report.iterations += iters;
+                report.increments += 1;
+                solver.commit(&mut self.at, u_new, target, contact);
+                let d = self.at.previous.as_deref().unwrap_or_default();
+                self.ds = (dot(d, d) / solver.pattern.n as f64).sqrt();
+                let ds = self.ds;
+                push_log(&mut report.log, format!("increment λ 0 -> {target:.6} (load control): converged in {iters} iterations; arc length {ds:.3e} m"));
+                self.smallest = self.ds * s.min_increment;
+                if target >= 1.0 {
+                    self.done = true;
+                } else if self.ds <= 0.0 {
+                    // Nothing moved: load control for the rest.
+                    self.ds = f64::NAN;
+                }
+            }
+            Err((iters, why)) => {
+                report.iterations += iters;
+                report.cutbacks += 1;
+                self.first_dl *= 0.25;
+                if self.first_dl < s.min_increment {
+                    report.message =
+                        format!("no equilibrium found beyond load fraction 0 of the step ({why})");
+                    return self.failed(report);
                 }
             }
         }
-        *u = at.u;
-        *states = at.contact.iter().map(|c| c.code()).collect();
-        report.outcome = Outcome::Converged;
-        report.reached = 1.0;
-        Some(report)
+        self.progress(report)
+    }
+
+    /// No path tangent at the last converged point (a singular bordered tangent: sleeve
+    /// points free to slide along a straight cable at zero load): the next increment is
+    /// load-controlled, from the remaining load down to `min_increment` of it.
+    fn no_tangent(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        s: &Settings,
+        report: &mut StepReport,
+        why: String,
+    ) -> Attempt {
+        let lambda_n = self.at.lambda;
+        let step = (&self.from[..], &self.to[..], self.change);
+        let mut fraction = s.initial_increment.min(1.0);
+        while fraction >= s.min_increment {
+            let target = (lambda_n + fraction * (1.0 - lambda_n)).min(1.0);
+            match solver.load_increment(model, step, &self.at, target, &mut report.log) {
+                Ok((u_lc, redone, it2)) => {
+                    report.iterations += it2;
+                    report.increments += 1;
+                    push_log(
+                        &mut report.log,
+                        format!("  arc length: no path tangent at λ {lambda_n:.6} ({why})"),
+                    );
+                    push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {target:.6} (load control where the path tangent is not defined): converged in {it2} iterations"));
+                    solver.commit(&mut self.at, u_lc, target, redone);
+                    self.done = self.at.lambda >= 1.0;
+                    return self.progress(report);
+                }
+                Err((it2, _)) => {
+                    report.iterations += it2;
+                    report.cutbacks += 1;
+                    fraction *= 0.25;
+                }
+            }
+        }
+        report.message = format!(
+            "arc length at load fraction {lambda_n:.6}: {why}; load control from there failed too"
+        );
+        report.reached = lambda_n;
+        self.failed(report)
+    }
+
+    /// A converged arc-length point short of the target: redone by load control where a
+    /// wrinkle or stick/slip state switched while the load rose, then committed; Δs grows
+    /// 1.5x within the target iterations and halves above 3/4 of the limit.
+    fn corrected(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        s: &Settings,
+        report: &mut StepReport,
+        (u_new, lambda, iters, contact): (Vec<f64>, f64, usize, Vec<Contact>),
+    ) -> Attempt {
+        let (from, to) = (&self.from[..], &self.to[..]);
+        let lambda_n = self.at.lambda;
+        let ds = self.ds;
+        let before = solver.wrinkle_states(model, &loads_at(from, to, lambda_n), &self.at.u);
+        let after = solver.wrinkle_states(model, &loads_at(from, to, lambda), &u_new);
+        let wrinkles = before.iter().zip(&after).filter(|(a, b)| a != b).count();
+        let sleeves = (self.at.contact.iter())
+            .zip(&contact)
+            .filter(|(a, b)| a != b)
+            .count();
+        let mut accepted = (u_new, lambda, iters, "arc length", contact);
+        if (wrinkles > 0 || sleeves > 0) && lambda > lambda_n {
+            let what = format!("{wrinkles} wrinkle states and {sleeves} stick/slip states switch");
+            let step = (from, to, self.change);
+            match solver.load_increment(model, step, &self.at, lambda, &mut report.log) {
+                Ok((u_lc, redone, it2)) => {
+                    report.iterations += it2;
+                    push_log(
+                        &mut report.log,
+                        format!("  {what}: increment redone by load control in {it2} iterations"),
+                    );
+                    accepted = (u_lc, lambda, it2, "load control", redone);
+                }
+                Err((it2, why)) => {
+                    report.iterations += it2;
+                    push_log(&mut report.log, format!("  {what}; load control failed ({why}): the arc-length point is kept"));
+                }
+            }
+        }
+        let (u_new, lambda, iters, how, contact) = accepted;
+        report.increments += 1;
+        push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {lambda:.6} ({how}, Δs {ds:.3e} m): converged in {iters} iterations"));
+        solver.commit(&mut self.at, u_new, lambda, contact);
+        if lambda < 0.0 && self.at.lambda_max > 0.0 {
+            let lambda_max = self.at.lambda_max;
+            report.reached = lambda_max;
+            report.message = format!("no equilibrium found at the step's target by arc length: the path passed a limit point and its load fell back below the step's start (largest load fraction reached {lambda_max:.6})");
+            return self.failed(report);
+        }
+        self.ds *= if iters <= s.target_iterations {
+            1.5
+        } else if 4 * iters > 3 * s.max_iterations {
+            0.5
+        } else {
+            1.0
+        };
+        self.progress(report)
+    }
+
+    /// A corrector that failed short of the target. While the load rises it is retried once by
+    /// load control to the predictor's λ (the path can be non-smooth inside the increment: a
+    /// state switch, or sleeve points that slide along a straight cable at zero load, where
+    /// the normal plane cuts no equilibrium); otherwise Δs is cut by 4.
+    fn corrector_failed(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        report: &mut StepReport,
+        predicted: f64,
+        why: String,
+    ) -> Attempt {
+        let (lambda_n, lambda_max, ds) = (self.at.lambda, self.at.lambda_max, self.ds);
+        if predicted > lambda_n {
+            let step = (&self.from[..], &self.to[..], self.change);
+            if let Ok((u_lc, redone, it2)) =
+                solver.load_increment(model, step, &self.at, predicted, &mut report.log)
+            {
+                report.iterations += it2;
+                report.increments += 1;
+                push_log(&mut report.log, format!("  arc length: {why}"));
+                push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {predicted:.6} (load control after the arc-length corrector failed, Δs {ds:.3e} m): converged in {it2} iterations"));
+                solver.commit(&mut self.at, u_lc, predicted, redone);
+                return self.progress(report);
+            }
+        }
+        report.cutbacks += 1;
+        push_log(&mut report.log, format!("increment from λ {lambda_n:.6} (arc length, Δs {ds:.3e} m): {why}; cutting back"));
+        self.ds *= 0.25;
+        if self.ds < self.smallest {
+            report.reached = lambda_n;
+            report.message = format!("no equilibrium found beyond load fraction {lambda_n:.6} of the step by arc length (smallest arc length failed: {why}; largest load fraction reached {lambda_max:.6})");
+            return self.failed(report);
+        }
+        self.progress(report)
+    }
+
+    /// The target lies within this increment: reach it exactly by load control (a shorter arc
+    /// when that fails).
+    fn to_target(&mut self, solver: &mut Solver, model: &Model, report: &mut StepReport) -> Attempt {
+        let lambda_n = self.at.lambda;
+        let step = (&self.from[..], &self.to[..], self.change);
+        match solver.load_increment(model, step, &self.at, 1.0, &mut report.log) {
+            Ok((u_new, contact, iters)) => {
+                report.iterations += iters;
+                report.increments += 1;
+                push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> 1 (load control to the target): converged in {iters} iterations"));
+                solver.commit(&mut self.at, u_new, 1.0, contact);
+                self.done = true;
+            }
+            Err((iters, why)) => {
+                report.iterations += iters;
+                report.cutbacks += 1;
+                push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> 1 (load control to the target): {why}; shorter arc"));
+                self.ds *= 0.25;
+                if self.ds < self.smallest {
+                    report.reached = lambda_n;
+                    report.message = format!("no equilibrium found beyond load fraction {lambda_n:.6} of the step by arc length ({why})");
+                    return self.failed(report);
+                }
+            }
+        }
+        self.progress(report)
     }
 }

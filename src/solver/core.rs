@@ -192,10 +192,9 @@ impl Solver {
         vectors.saturating_add(evaluations).saturating_add(slip)
     }
 
-    /// The settings, to change for the next solves (the engine's increment-by-increment
-    /// driver, `engine/stepping.rs`, runs one increment per solve).
-    pub fn settings_mut(&mut self) -> &mut Settings {
-        &mut self.settings
+    /// The settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
     }
 
     /// Number of unknowns (free DOFs).

@@ -47,6 +47,7 @@ mod rows;
 pub mod sensitivity;
 mod settings;
 mod slope;
+mod stepper;
 pub mod slip;
 mod split;
 pub mod threads;
@@ -54,5 +55,7 @@ mod volume;
 mod work;
 
 pub use self::core::Solver;
+pub use path::Attempt;
 pub use report::{push_log, Outcome, StepReport, MAX_LOG_LINES};
 pub use settings::{InexactNewton, Settings, INEXACT_MIN_EQUATIONS, MIN_AREA_RATIO};
+pub use stepper::Stepper;

@@ -35,108 +35,165 @@
 use super::assemble::{self, Membranes, NONE};
 use super::core::Solver;
 use super::loads::{external_forces, load_change, prescribe};
-use super::report::{push_log, Outcome, StepReport};
+use super::report::{push_log, StepReport};
 use super::rows::Increment;
+use super::settings::Settings;
 use crate::model::sleeve::Contact;
 use crate::model::Model;
 
-impl Solver {
-    /// Apply the load change `from` → `to` starting from the equilibrium `u`. On convergence
-    /// `u` is the new equilibrium; otherwise `u` is unchanged.
-    pub fn solve_step(
-        &mut self,
+/// What one increment attempt of a driver did (`stepper.rs`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Attempt {
+    /// The increment converged: the load fraction moved to `lambda`.
+    Accepted { lambda: f64, iterations: usize },
+    /// The increment was cut back (`failed`: below the smallest increment, or out of
+    /// increments: the step has failed); the load fraction stays at `lambda`.
+    Rejected {
+        lambda: f64,
+        iterations: usize,
+        failed: bool,
+    },
+}
+
+/// Load control of one step in progress: the last converged point, the next increment, and
+/// the prestress continuation's once-per-step record.
+pub struct LoadPath {
+    from: Vec<f64>,
+    to: Vec<f64>,
+    /// |Δf_ext|∞ of the whole step (the convergence test's force scale) and whether anything
+    /// changed.
+    change: f64,
+    moved: bool,
+    pub(super) lambda: f64,
+    dl: f64,
+    pub(super) converged: Vec<f64>,
+    pub(super) contact: Vec<Contact>,
+    /// The prestress continuation runs at most once per step: where it failed, a smaller
+    /// increment from a start as unstressed meets the same difficulty.
+    continued: bool,
+    /// Why the continuation failed, for the step's message if the step fails.
+    continuation_failed: Option<String>,
+}
+
+impl LoadPath {
+    /// The step `from` → `to` from the equilibrium `u` with the stick/slip states `contact`.
+    pub fn begin(
         model: &Model,
+        settings: &Settings,
         from: &[f64],
         to: &[f64],
-        u: &mut Vec<f64>,
-    ) -> StepReport {
-        let mut states = vec![0; model.slips.len()];
-        self.solve_step_with(model, from, to, u, &mut states)
+        u: &[f64],
+        contact: Vec<Contact>,
+    ) -> LoadPath {
+        LoadPath {
+            from: from.to_vec(),
+            to: to.to_vec(),
+            change: load_change(model, from, to),
+            moved: from != to,
+            lambda: 0.0,
+            dl: settings.initial_increment,
+            converged: u.to_vec(),
+            contact,
+            continued: false,
+            continuation_failed: None,
+        }
     }
 
-    /// [`Solver::solve_step`] for a model with sleeves: `u` holds displacements then slips
-    /// (`Model::unknown_count`), `states` the stick/slip code of every sleeve point
-    /// (`model::sleeve`). The history (slips, states) advances only at converged increments;
-    /// on failure both are unchanged.
-    pub fn solve_step_with(
-        &mut self,
-        model: &Model,
-        from: &[f64],
-        to: &[f64],
-        u: &mut Vec<f64>,
-        states: &mut Vec<u8>,
-    ) -> StepReport {
-        if self.settings.arc_length_path {
-            if let Some(report) = self.solve_step_arc(model, from, to, u, states) {
-                return report;
-            }
-        }
-        let mut report = StepReport::failed();
-        let s = self.settings.clone();
-        let step_change = load_change(model, from, to);
-        let moved = from != to;
-        let mut converged = u.clone();
-        let mut converged_states: Vec<Contact> = states
+    /// The loads at load fraction `lambda` of the step.
+    pub fn loads(&self, lambda: f64) -> Vec<f64> {
+        self.from
             .iter()
-            .map(|&c| Contact::from_code(c).unwrap_or_default())
-            .collect();
-        let (mut lambda, mut dl) = (0.0, s.initial_increment);
-        // The prestress continuation runs at most once per step: where it failed, a smaller
-        // increment from a start as unstressed meets the same difficulty.
-        let mut continued = false;
-        // Why the continuation failed, for the step's message if the step fails.
-        let mut continuation_failed: Option<String> = None;
-        while lambda < 1.0 {
-            if report.increments + report.cutbacks >= s.max_increments {
-                report.reached = lambda;
-                report.message = format!(
-                    "no equilibrium found beyond load fraction {lambda:.6} of the step ({} increments used)",
-                    s.max_increments
-                );
-                return report;
-            }
-            dl = dl.min(1.0 - lambda);
-            let target = if 1.0 - (lambda + dl) < 1e-12 {
-                1.0
-            } else {
-                lambda + dl
-            };
-            let loads: Vec<f64> = from
-                .iter()
-                .zip(to)
-                .map(|(a, b)| a + target * (b - a))
-                .collect();
-            let mut trial = converged.clone();
-            let predicted = self.predict(model, &loads, &mut trial);
-            let mut trial_states = converged_states.clone();
-            let increment = Increment {
-                loads: &loads,
-                change: step_change,
-                moved,
-            };
-            let result = self
-                .newton(
-                    model,
-                    &increment,
-                    &mut trial,
-                    &mut trial_states,
-                    None,
+            .zip(&self.to)
+            .map(|(a, b)| a + lambda * (b - a))
+            .collect()
+    }
+
+    /// One increment attempt: Newton from the last converged point to λ + Δλ (after a failure
+    /// from an unstressed membrane, once per step, the prestress continuation), then accept or
+    /// reject. None once the whole step is applied.
+    pub fn advance(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        report: &mut StepReport,
+    ) -> Option<Attempt> {
+        if self.lambda >= 1.0 {
+            return None;
+        }
+        let s = solver.settings.clone();
+        if report.increments + report.cutbacks >= s.max_increments {
+            report.reached = self.lambda;
+            report.message = format!(
+                "no equilibrium found beyond load fraction {:.6} of the step ({} increments used)",
+                self.lambda, s.max_increments
+            );
+            return Some(Attempt::Rejected {
+                lambda: self.lambda,
+                iterations: 0,
+                failed: true,
+            });
+        }
+        self.dl = self.dl.min(1.0 - self.lambda);
+        let target = if 1.0 - (self.lambda + self.dl) < 1e-12 {
+            1.0
+        } else {
+            self.lambda + self.dl
+        };
+        let loads = self.loads(target);
+        let (result, trial, trial_states) = self.attempt(solver, model, &loads, target, report);
+        Some(match result {
+            Ok(iters) => self.accept(&s, report, target, iters, trial, trial_states),
+            Err((iters, why)) => self.reject(model, &s, report, target, iters, why),
+        })
+    }
+
+    /// Newton (and, where it applies, the prestress continuation) for the increment to
+    /// `target`: the outcome with the trial point and its stick/slip states.
+    #[allow(clippy::type_complexity)]
+    fn attempt(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        loads: &[f64],
+        target: f64,
+        report: &mut StepReport,
+    ) -> (Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>) {
+        let lambda = self.lambda;
+        let mut trial = self.converged.clone();
+        let predicted = solver.predict(model, loads, &mut trial);
+        let mut trial_states = self.contact.clone();
+        let increment = Increment {
+            loads,
+            change: self.change,
+            moved: self.moved,
+        };
+        let result = solver
+            .newton(
+                model,
+                &increment,
+                &mut trial,
+                &mut trial_states,
+                None,
+                &mut report.log,
+            )
+            .map(|i| i + predicted)
+            .map_err(|(i, why)| (i + predicted, why));
+        let result = match result {
+            Err((iters, why))
+                if !self.continued && solver.unstressed(model, &self.converged, loads) =>
+            {
+                self.continued = true;
+                report.iterations += iters;
+                push_log(
                     &mut report.log,
-                )
-                .map(|i| i + predicted)
-                .map_err(|(i, why)| (i + predicted, why));
-            let result = match result {
-                Err((iters, why)) if !continued && self.unstressed(model, &converged, &loads) => {
-                    continued = true;
-                    report.iterations += iters;
-                    push_log(
-                        &mut report.log,
-                        format!("increment λ {lambda:.6} -> {target:.6}: {why}; from an unstressed membrane: prestress continuation from pre-strain {:.1e}", s.continuation_strain),
-                    );
-                    trial = converged.clone();
-                    let predicted = self.predict(model, &loads, &mut trial);
-                    trial_states = converged_states.clone();
-                    self.continuation(
+                    format!("increment λ {lambda:.6} -> {target:.6}: {why}; from an unstressed membrane: prestress continuation from pre-strain {:.1e}", solver.settings.continuation_strain),
+                );
+                trial = self.converged.clone();
+                let predicted = solver.predict(model, loads, &mut trial);
+                trial_states = self.contact.clone();
+                let failed = &mut self.continuation_failed;
+                solver
+                    .continuation(
                         model,
                         &increment,
                         &mut trial,
@@ -145,73 +202,99 @@ impl Solver {
                     )
                     .map(|i| i + predicted)
                     .map_err(|(i, later)| {
-                        continuation_failed =
-                            Some(format!("from load fraction {lambda:.6} it failed {later}"));
+                        *failed = Some(format!("from load fraction {lambda:.6} it failed {later}"));
                         (
                             i + predicted,
                             format!("{why}; the prestress continuation failed too, {later}"),
                         )
                     })
-                }
-                other => other,
-            };
-            match result {
-                Ok(iters) => {
-                    report.iterations += iters;
-                    report.increments += 1;
-                    push_log(&mut report.log, format!("increment λ {lambda:.6} -> {target:.6}: converged in {iters} iterations"));
-                    converged = trial;
-                    converged_states = trial_states;
-                    lambda = target;
-                    dl *= growth(iters, s.target_iterations, s.max_iterations);
-                }
-                Err((iters, why)) => {
-                    report.iterations += iters;
-                    report.cutbacks += 1;
-                    push_log(
-                        &mut report.log,
-                        format!("increment λ {lambda:.6} -> {target:.6}: {why}; cutting back"),
-                    );
-                    dl *= 0.25;
-                    if dl < s.min_increment {
-                        report.reached = lambda;
-                        report.message = format!(
-                            "no equilibrium found beyond load fraction {lambda:.6} of the step (smallest increment {:.1e} failed: {why})",
-                            s.min_increment
-                        );
-                        let reached: Vec<f64> = from
-                            .iter()
-                            .zip(to)
-                            .map(|(a, b)| a + target * (b - a))
-                            .collect();
-                        if let Some(note) = &continuation_failed {
-                            report.message.push_str(&format!(
-                                "; the prestress continuation was tried: {note}"
-                            ));
-                        }
-                        let f_ext = external_forces(model, &reached);
-                        if let Some(why) = super::mechanism::diagnose(model, &f_ext) {
-                            report.message.push_str(&format!("; {why}"));
-                        }
-                        return report;
-                    }
-                }
             }
-        }
-        *u = converged;
-        *states = converged_states.iter().map(|c| c.code()).collect();
-        report.outcome = Outcome::Converged;
-        report.reached = 1.0;
-        report
+            other => other,
+        };
+        (result, trial, trial_states)
     }
 
+    /// A converged increment: its point becomes the last converged one and Δλ grows.
+    fn accept(
+        &mut self,
+        s: &Settings,
+        report: &mut StepReport,
+        target: f64,
+        iters: usize,
+        trial: Vec<f64>,
+        trial_states: Vec<Contact>,
+    ) -> Attempt {
+        report.iterations += iters;
+        report.increments += 1;
+        push_log(
+            &mut report.log,
+            format!(
+                "increment λ {:.6} -> {target:.6}: converged in {iters} iterations",
+                self.lambda
+            ),
+        );
+        self.converged = trial;
+        self.contact = trial_states;
+        self.lambda = target;
+        self.dl *= growth(iters, s.target_iterations, s.max_iterations);
+        Attempt::Accepted {
+            lambda: target,
+            iterations: iters,
+        }
+    }
+
+    /// A failed increment: Δλ is cut by 4; below the smallest increment the step fails, with
+    /// the continuation's and a verified mechanism's note in its message.
+    fn reject(
+        &mut self,
+        model: &Model,
+        s: &Settings,
+        report: &mut StepReport,
+        target: f64,
+        iters: usize,
+        why: String,
+    ) -> Attempt {
+        let lambda = self.lambda;
+        report.iterations += iters;
+        report.cutbacks += 1;
+        push_log(
+            &mut report.log,
+            format!("increment λ {lambda:.6} -> {target:.6}: {why}; cutting back"),
+        );
+        self.dl *= 0.25;
+        let failed = self.dl < s.min_increment;
+        if failed {
+            report.reached = lambda;
+            report.message = format!(
+                "no equilibrium found beyond load fraction {lambda:.6} of the step (smallest increment {:.1e} failed: {why})",
+                s.min_increment
+            );
+            if let Some(note) = &self.continuation_failed {
+                report
+                    .message
+                    .push_str(&format!("; the prestress continuation was tried: {note}"));
+            }
+            let f_ext = external_forces(model, &self.loads(target));
+            if let Some(why) = super::mechanism::diagnose(model, &f_ext) {
+                report.message.push_str(&format!("; {why}"));
+            }
+        }
+        Attempt::Rejected {
+            lambda,
+            iterations: iters,
+            failed,
+        }
+    }
+}
+
+impl Solver {
     /// Whether an increment that failed from `u` goes to the prestress continuation: it is on
     /// (`continuation_strain` > 0), the model has membrane triangles and no sleeve point with
     /// friction, and none of the triangles carries more tension at `u` than its artificial
     /// prestress (the singular flat start, where a cut-back meets the same difficulty again).
     /// Friction is excluded because its stick/slip history would take in the pre-strained
     /// problems' slips: the equilibrium would then depend on the continuation, not only the path.
-    fn unstressed(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> bool {
+    pub(super) fn unstressed(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> bool {
         if self.settings.continuation_strain <= 0.0
             || model.triangles.is_empty()
             || model.slips.iter().any(|p| p.mu > 0.0)
@@ -231,7 +314,7 @@ impl Solver {
     /// prescribed displacements set): Newton at pre-strain h0, h0/4, ... (while >= h0/1000),
     /// then 0, each from the last equilibrium. Returns the iterations of every stage, or where
     /// it failed; the pre-strain is 0 again on return.
-    fn continuation(
+    pub(super) fn continuation(
         &mut self,
         model: &Model,
         increment: &Increment,

@@ -1,0 +1,183 @@
+//! The one stepper: every driver of a step (the CLI's and FMI 2's whole step, FMI 3's step
+//! with intermediate updates and early return) goes through it.
+//!
+//! ```text
+//! begin(from, to, u, states)   the step's path: load control (path.rs), or arc length
+//!                              (arc.rs) under `Settings::arc_length_path` where it applies
+//! advance()                    one increment attempt; the path accepts it (λ moves, Δλ or
+//!                              Δs grows) or rejects it (cut back; below the smallest
+//!                              increment the step has failed); None once λ = 1 or failed
+//! converged()                  the last converged point: what a caller commits, all of the
+//!                              step or where it stopped early
+//! ```
+//! A step is the same sequence of increments whoever drives it, so every driver reaches the
+//! same equilibrium in the same iterations.
+
+use super::arc::ArcPath;
+use super::core::Solver;
+use super::path::{Attempt, LoadPath};
+use super::report::{Outcome, StepReport};
+use crate::model::sleeve::Contact;
+use crate::model::Model;
+
+enum Path {
+    Load(LoadPath),
+    Arc(ArcPath),
+}
+
+/// One step in progress (module docs).
+pub struct Stepper {
+    path: Path,
+    report: StepReport,
+    failed: bool,
+    /// Where an arc-length step falls back to load control as a whole, its start.
+    start: (Vec<f64>, Vec<f64>, Vec<f64>, Vec<Contact>),
+}
+
+impl Stepper {
+    /// Start the step `from` → `to` from the equilibrium `u` (displacements then slips) with
+    /// the stick/slip codes `states` of the sleeve points.
+    pub fn begin(
+        solver: &Solver,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        u: &[f64],
+        states: &[u8],
+    ) -> Stepper {
+        let contact: Vec<Contact> = states
+            .iter()
+            .map(|&c| Contact::from_code(c).unwrap_or_default())
+            .collect();
+        let s = &solver.settings;
+        let arc = if s.arc_length_path {
+            ArcPath::begin(model, s, from, to, u, contact.clone())
+        } else {
+            None
+        };
+        let path = match arc {
+            Some(arc) => Path::Arc(arc),
+            None => Path::Load(LoadPath::begin(model, s, from, to, u, contact.clone())),
+        };
+        Stepper {
+            path,
+            report: StepReport::failed(),
+            failed: false,
+            start: (from.to_vec(), to.to_vec(), u.to_vec(), contact),
+        }
+    }
+
+    /// A step that cannot start (why in the report): `advance` does nothing.
+    pub fn fail(&mut self, message: String) {
+        self.failed = true;
+        self.report.message = message;
+    }
+
+    /// One increment attempt; None once the step is complete or has failed.
+    pub fn advance(&mut self, solver: &mut Solver, model: &Model) -> Option<Attempt> {
+        if self.failed {
+            return None;
+        }
+        let attempt = match &mut self.path {
+            Path::Load(p) => p.advance(solver, model, &mut self.report),
+            Path::Arc(p) => match p.advance(solver, model, &mut self.report) {
+                Ok(a) => a,
+                Err(()) => {
+                    // The arc-length path cannot start (its first increment moved nothing):
+                    // the whole step by load control, from the start, as if it had not run.
+                    let (from, to, u, contact) = &self.start;
+                    let s = &solver.settings;
+                    self.path = Path::Load(LoadPath::begin(model, s, from, to, u, contact.clone()));
+                    self.report = StepReport::failed();
+                    return self.advance(solver, model);
+                }
+            },
+        };
+        if let Some(Attempt::Rejected { failed: true, .. }) = attempt {
+            self.failed = true;
+        }
+        attempt
+    }
+
+    /// The load fraction of the last converged point.
+    pub fn lambda(&self) -> f64 {
+        self.converged().1
+    }
+
+    /// Whether the step has failed.
+    pub fn has_failed(&self) -> bool {
+        self.failed
+    }
+
+    /// The last converged point: displacements then slips, load fraction, stick/slip states.
+    pub fn converged(&self) -> (&[f64], f64, &[Contact]) {
+        match &self.path {
+            Path::Load(p) => (&p.converged, p.lambda, &p.contact),
+            Path::Arc(p) => p.converged(),
+        }
+    }
+
+    /// The loads at the last converged point.
+    pub fn applied(&self) -> Vec<f64> {
+        let (from, to, ..) = &self.start;
+        let lambda = self.lambda();
+        if lambda >= 1.0 {
+            return to.clone();
+        }
+        super::loads::loads_at(from, to, lambda)
+    }
+
+    /// The report so far (Failed until [`Stepper::finish`] says otherwise).
+    pub fn report(&self) -> &StepReport {
+        &self.report
+    }
+
+    /// End the step at the last converged point: `u` and `states` become it and the report
+    /// says Converged with the load fraction reached, unless the step failed (then nothing is
+    /// changed and the report says why).
+    pub fn finish(self, u: &mut Vec<f64>, states: &mut Vec<u8>) -> StepReport {
+        if self.failed {
+            return self.report;
+        }
+        let (point, lambda, contact) = self.converged();
+        u.clear();
+        u.extend_from_slice(point);
+        *states = contact.iter().map(|c| c.code()).collect();
+        let mut report = self.report;
+        report.outcome = Outcome::Converged;
+        report.reached = lambda;
+        report
+    }
+}
+
+impl Solver {
+    /// Apply the load change `from` → `to` starting from the equilibrium `u` (displacements
+    /// then slips, `Model::unknown_count`), `states` the stick/slip code of every sleeve point
+    /// (`model::sleeve`): the whole step through the [`Stepper`]. On convergence `u` and
+    /// `states` are the new equilibrium; otherwise both are unchanged. The history (slips,
+    /// states) advances only at converged increments.
+    pub fn solve_step_with(
+        &mut self,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        u: &mut Vec<f64>,
+        states: &mut Vec<u8>,
+    ) -> StepReport {
+        let mut stepper = Stepper::begin(self, model, from, to, u, states);
+        while stepper.advance(self, model).is_some() {}
+        stepper.finish(u, states)
+    }
+
+    /// [`Solver::solve_step_with`] for a model without sleeves.
+    pub fn solve_step(
+        &mut self,
+        model: &Model,
+        from: &[f64],
+        to: &[f64],
+        u: &mut Vec<f64>,
+    ) -> StepReport {
+        let mut states = vec![0; model.slips.len()];
+        self.solve_step_with(model, from, to, u, &mut states)
+    }
+}
