@@ -112,12 +112,70 @@ pub(super) struct Check {
     pub scale: f64,
 }
 
+/// What the Newton loop of one increment carries from one iteration to the next.
+struct Iteration {
+    /// The stick anchors: the last converged slips, except where points met in this
+    /// increment (a merged frictional group sticks from where it met, order.rs).
+    committed: Vec<f64>,
+    active: ActiveSet,
+    damping: f64,
+    /// The last non-zero damping: where the undamped tangent turns out singular again, the
+    /// damping resumes from it rather than from the start value.
+    last_damping: f64,
+    last_free: f64,
+    last_alpha: f64,
+    /// Relative residual of the last iterate (the converged one after a re-check).
+    last_relative: f64,
+    /// Partings of touching sleeve points so far.
+    reopened: usize,
+    /// The non-monotone line search's memory, and whether it holds potentials (true) or
+    /// residual norms: a sleeve point that sticks or merges switches the merit, and the memory
+    /// starts afresh.
+    recent: std::collections::VecDeque<f64>,
+    recent_potential: Option<bool>,
+    /// Relative residuals since `budget_from` (the progress test).
+    history: Vec<f64>,
+    /// The iteration from which `max_iterations` counts: 0, or the last release of frozen
+    /// states.
+    budget_from: usize,
+    /// The loads of the iterate (the load factor's under arc length).
+    loads: Vec<f64>,
+    /// The slip and volume rows of the iterate.
+    rows: Vec<Row>,
+}
+
+/// The equations of an iterate after assembly: the convergence test, and under arc length the
+/// bordered rows and the load factor's column.
+struct Assembled {
+    info: AssemblyInfo,
+    check: Check,
+    /// Stick/slip states that changed in this iteration.
+    changed: usize,
+    /// Whether the arc-length row is met (true without arc length).
+    arc_met: bool,
+    bordered: Option<(Vec<Row>, Vec<(usize, f64)>)>,
+}
+
+/// What the convergence phase decided.
+enum Verdict {
+    /// Converged: return the iterations.
+    Done(usize),
+    /// Start the next iteration at once (points parted, frozen states released).
+    Again,
+    /// Not converged: take a Newton step (with the direction already computed, if any).
+    Step(Option<(Vec<f64>, Vec<f64>)>),
+}
+
+type Failure = (usize, String);
+
 impl Solver {
     /// Iterate to equilibrium at fixed loads. `u` holds displacements then slips, `contact` the
     /// stick/slip states (in: last converged, out: this increment's). Ok(iterations) or
     /// Err((iterations, reason)); on Err `u` and `contact` are scratch.
     /// With `arc`, the loads are those of the load factor `arc.lambda`, an unknown held by the
     /// arc-length row (`step.loads` is not read; prescribed displacements follow λ).
+    /// Each iteration: assemble (and update the active set), check, decide convergence, then a
+    /// direction and a line search (module docs).
     pub(super) fn newton(
         &mut self,
         model: &Model,
@@ -126,343 +184,529 @@ impl Solver {
         contact: &mut Vec<Contact>,
         mut arc: Option<&mut ArcRow>,
         log: &mut Vec<String>,
-    ) -> Result<usize, (usize, String)> {
+    ) -> Result<usize, Failure> {
         let n3 = model.dof_count();
-        // The stick anchors: the last converged slips, except where points met in this
-        // increment (a merged frictional group sticks from where it met, order.rs).
-        let mut committed: Vec<f64> = u[n3..].to_vec();
-        let mut active = ActiveSet::new(contact.clone(), &self.settings);
-        self.frozen = None;
-        self.prestress_factor = 1.0;
-        let mut damping = 0.0f64;
-        // The last non-zero damping: where the undamped tangent turns out singular again, the
-        // damping resumes from it rather than from the start value.
-        let mut last_damping = 0.0f64;
-        let (mut last_free, mut last_alpha) = (f64::INFINITY, 1.0);
-        // Relative residual of the last iterate (the converged one after a re-check).
-        let mut last_relative = f64::INFINITY;
         let memory = self.settings.nonmonotone_memory;
-        let mut reopened = 0;
-        let mut recent = std::collections::VecDeque::with_capacity(memory + 1);
-        // Whether `recent` holds potentials (true) or residual norms: a sleeve point that
-        // sticks or merges switches the merit, and the memory starts afresh.
-        let mut recent_potential = None;
         let max = self.settings.max_iterations;
         let hard_max = max.max(self.settings.max_iterations_progressing);
+        self.frozen = None;
+        self.prestress_factor = 1.0;
         // Allocated once per increment, reused by every iteration (`work.rs`).
-        let mut history: Vec<f64> = Vec::with_capacity(hard_max + 1);
-        // The iteration from which `max` counts: 0, or the last release of frozen states.
-        let mut budget_from = 0;
-        let mut loads: Vec<f64> = Vec::with_capacity(step.loads.len());
-        let mut rows: Vec<Row> = Vec::new();
+        let mut state = Iteration {
+            committed: u[n3..].to_vec(),
+            active: ActiveSet::new(contact.clone(), &self.settings),
+            damping: 0.0,
+            last_damping: 0.0,
+            last_free: f64::INFINITY,
+            last_alpha: 1.0,
+            last_relative: f64::INFINITY,
+            reopened: 0,
+            recent: std::collections::VecDeque::with_capacity(memory + 1),
+            recent_potential: None,
+            history: Vec::with_capacity(hard_max + 1),
+            budget_from: 0,
+            loads: Vec::with_capacity(step.loads.len()),
+            rows: Vec::new(),
+        };
         for it in 0..=hard_max {
-            match arc.as_deref() {
-                Some(a) => {
-                    loads = super::loads::loads_at(a.from, a.to, a.lambda);
-                    super::loads::prescribe(model, &loads, u);
+            let eqs = self.equations(model, step, &mut state, u, arc.as_deref(), it, log)?;
+            match self.verdict(model, step, &mut state, u, &eqs, arc.as_deref(), it, log)? {
+                Verdict::Done(it) => {
+                    *contact = std::mem::take(&mut state.active.contact);
+                    return Ok(it);
                 }
-                None => {
-                    loads.clear();
-                    loads.extend_from_slice(step.loads);
-                }
-            }
-            let inc = &Increment {
-                loads: &loads,
-                change: step.change,
-                moved: step.moved,
-            };
-            self.frozen.clone_from(&active.wrinkle_frozen);
-            let info = self.assemble_at(model, inc.loads, u);
-            active.observe_wrinkles(it, self.evaluations.iter().map(|e| e.state), log);
-            self.frozen.clone_from(&active.wrinkle_frozen);
-            check_inversion(model, &info).map_err(|why| (it, why))?;
-            // The return map runs only once the iterate is near equilibrium (`contact_settle`):
-            // the cone test at a far iterate (a linear step that overshoots the kinks) flips
-            // sticking points to slip and sends Newton wandering (active_set.rs).
-            let settled = last_relative <= self.settings.contact_settle;
-            let changed = active.update_contact(it, model, u, &mut committed, settled, log);
-            slip_rows_into(
-                model,
-                &self.pattern.eq,
-                u,
-                &committed,
-                &active.contact,
-                &mut rows,
-            );
-            rows.extend(super::volume::rows(model, &self.pattern.eq, u, inc.loads));
-            let mut check = self.check(model, &info, &rows, u, inc, it);
-            if !(check.free.is_finite() && check.slip.is_finite()) {
-                return Err((it, "the residual is not finite".into()));
-            }
-            let tolerance = self.settings.tolerance * check.scale;
-            // Also for the iterations that restart at this point (a re-check, a parting).
-            last_relative = check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE);
-            self.prestress_factor = prestress_factor(
-                check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE),
-                self.settings.prestress_fade,
-            );
-            if !check.within_floor && stalled(it, check.free, last_free, last_alpha) {
-                let (moved, patch_iterations) =
-                    self.relax(model, inc.loads, u, check.free, tolerance);
-                if moved > 0 {
-                    let info = self.assemble_at(model, inc.loads, u);
-                    let before = check.free;
-                    check = self.check(model, &info, &rows, u, inc, it);
-                    push_log(
-                        log,
-                        format!(
-                            "  stalled: relaxed {moved} nodes ({patch_iterations} patch Newton iterations), |R| {before:.3e} -> {:.3e}",
-                            check.free
-                        ),
-                    );
+                Verdict::Again => continue,
+                Verdict::Step(pending) => {
+                    self.budget(model, &mut state, &eqs.check, it, hard_max)?;
+                    let (dx, ds) = self.newton_direction(model, &mut state, u, &eqs, pending, it, log)?;
+                    self.newton_step(model, &mut state, u, &eqs, arc.as_deref_mut(), (dx, ds), it, log);
                 }
             }
-            // The arc-length row and column (the border is built at every iteration: the
-            // column −q depends on u through follower loads and prescribed displacements).
-            let (arc_met, bordered) = match arc.as_deref() {
-                Some(a) => {
-                    let h = a.residual(&self.pattern.eq, u);
-                    let column = self.load_column(model, a.from, a.to, a.lambda, u);
-                    let mut all = rows.clone();
-                    let at = all.len();
-                    let rates = super::volume::load_rates(model, a.from, a.to);
-                    for (row, rate) in all[model.slips.len()..].iter_mut().zip(rates) {
-                        row.ds.push((at, rate));
-                    }
-                    all.push(Row {
-                        r: h,
-                        dx: (0..self.pattern.n)
-                            .filter(|&e| a.t[e] != 0.0)
-                            .map(|e| (e, a.t[e]))
-                            .collect(),
-                        ds: Vec::new(),
-                        magnitude: a.length,
-                        damped: false,
-                    });
-                    let met = h.abs() <= self.settings.tolerance * a.length;
-                    (met, Some((all, column)))
-                }
-                None => (true, None),
-            };
-            // Within the round-off floor but not the tolerance: converged only when the Newton
-            // correction from here is within the tolerance of the coordinates, tol · X at every
-            // unknown (a floor reached at every DOF could still leave a net force on a soft part
-            // held by stiff members; that part's correction is then large and real).
-            let mut pending = None;
-            let mut converged = check.strict && arc_met;
-            if !converged && check.within_floor && arc_met && changed == 0 {
-                if let Ok((dx, ds)) = self.direction_of(model, u, &rows, bordered.as_ref(), damping)
-                {
-                    let limit = self.settings.tolerance * self.coordinate_size(model, u);
-                    // The load factor's correction is not a coordinate (the arc row, met,
-                    // holds the path's position).
-                    converged = dx.iter().chain(&ds[..rows.len()]).all(|v| v.abs() <= limit);
-                    pending = Some((dx, ds));
-                }
-            }
-            if converged && changed == 0 && !active.contact.is_empty() {
-                // Touching sleeve points whose contact force would pull part here (order.rs).
-                let parted = super::order::open_gaps(
-                    model,
-                    u,
-                    &mut active.contact,
-                    tolerance,
-                    self.settings.reopen_gap,
-                );
-                if parted > 0 {
-                    reopened += 1;
-                    if reopened > self.settings.max_unfreeze {
-                        return Err((it, "touching sleeve points keep parting (chatter)".into()));
-                    }
-                    push_log(log, format!("  {parted} touching sleeve points part"));
-                    last_free = f64::INFINITY;
-                    continue;
-                }
-            }
-            if converged && changed == 0 {
-                let verdict = active.recheck(
-                    it,
-                    model,
-                    u,
-                    &committed,
-                    tolerance,
-                    || self.natural_states_converged(model, &rows, u, inc, it),
-                    log,
-                );
-                match verdict.map_err(|why| (it, why))? {
-                    Recheck::Accept => {
-                        if !model.slips.is_empty() {
-                            let gap = largest_gap(model, u);
-                            if gap > MAX_GAP {
-                                push_log(log, format!("  warning: a sleeve tie opened by {gap:.2e} of its segment length (more than {MAX_GAP:.0e}): the penalty is too soft for this load; set cables[].sleeve.penalty higher"));
-                            }
-                        }
-                        push_log(
-                            log,
-                            format!(
-                                "  converged: |R| = {:.3e} (scale {:.3e}){}{}",
-                                check.free,
-                                check.scale,
-                                slip_note(&check),
-                                arc.as_deref()
-                                    .map_or(String::new(), |a| format!(" at λ {:.6}", a.lambda)),
-                            ),
-                        );
-                        *contact = active.contact;
-                        return Ok(it);
-                    }
-                    Recheck::IterateOn => {
-                        // The frozen states' equilibrium is the start of a new solve of the
-                        // law's own problem: its iterations get the whole budget again, and
-                        // the progress test compares residuals of that problem only (the
-                        // frozen one's, far smaller, would make a steady descent from the
-                        // jump look like stagnation). `hard_max` still bounds the increment.
-                        last_free = f64::INFINITY;
-                        budget_from = it;
-                        history.clear();
-                        continue;
-                    }
-                }
-            }
-            last_free = check.free;
-            history.push(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
-            if it - budget_from >= max && !(it < hard_max && progressing(&history)) {
-                return Err((
-                    it,
-                    format!(
-                        "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e}){}",
-                        check.free,
-                        check.slip,
-                        check.scale,
-                        self.where_stuck(model)
-                    ),
-                ));
-            }
-            let direction = match pending.take() {
-                Some(d) => Ok(d),
-                None => self.direction_of(model, u, &rows, bordered.as_ref(), damping),
-            };
-            let (dx, mut ds) = match direction {
-                Ok(d) => d,
-                Err(why) if damping == 0.0 && self.settings.damping_start > 0.0 => {
-                    // A tangent with no stiffness at all (every cable slack, nothing stressed):
-                    // the damped system is definite.
-                    push_log(log, format!("  {why}: damping switched on"));
-                    damping = if last_damping > 0.0 {
-                        last_damping
-                    } else {
-                        self.settings.damping_start
-                    };
-                    self.direction_of(model, u, &rows, bordered.as_ref(), damping)
-                        .map_err(|why| (it + 1, why))?
-                }
-                Err(why) => return Err((it + 1, why)),
-            };
-            // Frictionless sliding points are conservative: a slip row r = f_t = c (T_b − T_a)
-            // vanishes where the potential is stationary in that slip (∂Π/∂s = T_b (1 + ε_b/2)
-            // − T_a (1 + ε_a/2), c the cosine of the half kink), so the potential is the merit,
-            // as without sleeves, with Δs·r for the slips' part of the slope. Friction, stuck or
-            // merged points and volume rows need the residual.
-            let sliding_freely =
-                rows.len() == model.slips.len()
-                    && model.slips.iter().zip(&active.contact).all(|(p, c)| {
-                        p.mu == 0.0 && matches!(c, Contact::Forward | Contact::Backward)
-                    });
-            // Under arc length the loads move with λ inside the step: no potential at fixed
-            // loads is the merit, the residual of the equilibrium and constraint rows is (the
-            // bordered Newton direction is a descent direction of ‖(R, r)‖; the arc row is
-            // linear, so it falls as (1 − α) h along any step and needs no share in the merit).
-            let dlambda = if arc.is_some() { ds.pop() } else { None };
-            let residual_merit =
-                arc.is_some() || (!rows.is_empty() && !(sliding_freely && model.is_conservative()));
-            if recent_potential.replace(!residual_merit) == Some(residual_merit) {
-                recent.clear();
-            }
-            let merit = if residual_merit {
-                let norm = self.residual_norm(rows.iter().map(|r| &r.r));
-                Merit::Residual {
-                    reference: remember(&mut recent, memory, norm),
-                }
-            } else if model.is_conservative() {
-                Merit::Potential {
-                    value: info.potential,
-                    reference: remember(&mut recent, memory, info.potential),
-                    slip_slope: rows.iter().zip(&ds).map(|(r, d)| r.r * d).sum(),
-                }
-            } else {
-                Merit::Slope
-            };
-            let (alpha, ok) = self.line_search(
-                model,
-                u,
-                &Direction { dx: &dx, ds: &ds },
-                &Trial {
-                    loads: inc.loads,
-                    committed: &committed,
-                    contact: &active.contact,
-                    arc: arc
-                        .as_deref()
-                        .zip(dlambda)
-                        .map(|(a, dl)| (a.from, a.to, a.lambda, dl)),
-                },
-                merit,
-            );
-            // A slip step that would shorten a sleeved segment by far more than its length is a
-            // sliding mechanism's step, like a line search cut to nothing.
-            let capped = !ds.is_empty()
-                && step_limit(model, u, &ds, self.settings.keep_length)
-                    < self.settings.damping_slip_cap;
-            let trouble = !ok || alpha < self.settings.damping_trigger || capped;
-            last_alpha = alpha;
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != NONE {
-                    u[d] += alpha * dx[e];
-                }
-            }
-            for (j, v) in ds.iter().enumerate() {
-                u[n3 + j] += alpha * v;
-            }
-            if let (Some(a), Some(dl)) = (arc.as_deref_mut(), dlambda) {
-                a.lambda += alpha * dl;
-            }
-            let s = &self.settings;
-            if damping > 0.0 {
-                last_damping = damping;
-            }
-            damping = if trouble {
-                if damping == 0.0 {
-                    s.damping_start
-                } else {
-                    (4.0 * damping).min(s.damping_max)
-                }
-            } else if alpha >= 1.0 {
-                let next = damping / 8.0;
-                if next < s.damping_min {
-                    0.0
-                } else {
-                    next
-                }
-            } else {
-                damping
-            };
-            push_log(
-                log,
-                format!(
-                    "  iteration {}: |R| = {:.3e} (scale {:.3e}){}, step α = {alpha:.3}, damping τ = {damping:.1e}{}",
-                    it + 1,
-                    check.free,
-                    check.scale,
-                    slip_note(&check),
-                    arc.as_deref().map_or(String::new(), |a| format!(", λ -> {:.6}", a.lambda)),
-                ),
-            );
-            self.work.recycle(dx, ds);
         }
         // Reached only when frozen states were found wrong at the last allowed iteration.
         Err((
             hard_max,
             format!("no convergence in {hard_max} iterations (states changed at the end)"),
         ))
+    }
+
+    /// Phase 1, the equations at the iterate: the loads (and under arc length the prescribed
+    /// displacements of λ), residual and tangent with the wrinkle states (law or frozen), the
+    /// stick/slip states by the return map, the slip and volume rows, the convergence test,
+    /// nodal relaxation when stalled, and the arc-length border.
+    #[allow(clippy::too_many_arguments)]
+    fn equations(
+        &mut self,
+        model: &Model,
+        step: &Increment,
+        st: &mut Iteration,
+        u: &mut [f64],
+        arc: Option<&ArcRow>,
+        it: usize,
+        log: &mut Vec<String>,
+    ) -> Result<Assembled, Failure> {
+        match arc {
+            Some(a) => {
+                st.loads = super::loads::loads_at(a.from, a.to, a.lambda);
+                super::loads::prescribe(model, &st.loads, u);
+            }
+            None => {
+                st.loads.clear();
+                st.loads.extend_from_slice(step.loads);
+            }
+        }
+        let loads = std::mem::take(&mut st.loads);
+        let inc = &Increment {
+            loads: &loads,
+            change: step.change,
+            moved: step.moved,
+        };
+        self.frozen.clone_from(&st.active.wrinkle_frozen);
+        let info = self.assemble_at(model, inc.loads, u);
+        st.active
+            .observe_wrinkles(it, self.evaluations.iter().map(|e| e.state), log);
+        self.frozen.clone_from(&st.active.wrinkle_frozen);
+        if let Err(why) = check_inversion(model, &info) {
+            st.loads = loads;
+            return Err((it, why));
+        }
+        // The return map runs only once the iterate is near equilibrium (`contact_settle`):
+        // the cone test at a far iterate (a linear step that overshoots the kinks) flips
+        // sticking points to slip and sends Newton wandering (active_set.rs).
+        let settled = st.last_relative <= self.settings.contact_settle;
+        let changed = st
+            .active
+            .update_contact(it, model, u, &mut st.committed, settled, log);
+        slip_rows_into(
+            model,
+            &self.pattern.eq,
+            u,
+            &st.committed,
+            &st.active.contact,
+            &mut st.rows,
+        );
+        st.rows
+            .extend(super::volume::rows(model, &self.pattern.eq, u, inc.loads));
+        let check = self.check(model, &info, &st.rows, u, inc, it);
+        st.loads = loads;
+        if !(check.free.is_finite() && check.slip.is_finite()) {
+            return Err((it, "the residual is not finite".into()));
+        }
+        let check = self.stalled_relaxation(model, step, st, u, check, it, log);
+        let (arc_met, bordered) = match arc {
+            Some(a) => {
+                let (met, border) = self.arc_border(model, a, &st.rows, u);
+                (met, Some(border))
+            }
+            None => (true, None),
+        };
+        Ok(Assembled {
+            info,
+            check,
+            changed,
+            arc_met,
+            bordered,
+        })
+    }
+
+    /// The relative residual of the iterate sets the artificial prestress of the next
+    /// tangent; a stalled iteration relaxes the nodes carrying the residual (relax.rs) and is
+    /// checked again.
+    #[allow(clippy::too_many_arguments)]
+    fn stalled_relaxation(
+        &mut self,
+        model: &Model,
+        step: &Increment,
+        st: &mut Iteration,
+        u: &mut [f64],
+        mut check: Check,
+        it: usize,
+        log: &mut Vec<String>,
+    ) -> Check {
+        let tolerance = self.settings.tolerance * check.scale;
+        // Also for the iterations that restart at this point (a re-check, a parting).
+        st.last_relative = check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE);
+        self.prestress_factor = prestress_factor(
+            check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE),
+            self.settings.prestress_fade,
+        );
+        if !check.within_floor && stalled(it, check.free, st.last_free, st.last_alpha) {
+            let (moved, patch_iterations) = self.relax(model, &st.loads, u, check.free, tolerance);
+            if moved > 0 {
+                let info = self.assemble_at(model, &st.loads, u);
+                let before = check.free;
+                let inc = Increment {
+                    loads: &st.loads,
+                    change: step.change,
+                    moved: step.moved,
+                };
+                check = self.check(model, &info, &st.rows, u, &inc, it);
+                push_log(
+                    log,
+                    format!(
+                        "  stalled: relaxed {moved} nodes ({patch_iterations} patch Newton iterations), |R| {before:.3e} -> {:.3e}",
+                        check.free
+                    ),
+                );
+            }
+        }
+        check
+    }
+
+    /// The arc-length row and column (the border is built at every iteration: the column −q
+    /// depends on u through follower loads and prescribed displacements), and whether the
+    /// row is met.
+    fn arc_border(
+        &mut self,
+        model: &Model,
+        a: &ArcRow,
+        rows: &[Row],
+        u: &[f64],
+    ) -> (bool, (Vec<Row>, Vec<(usize, f64)>)) {
+        let h = a.residual(&self.pattern.eq, u);
+        let column = self.load_column(model, a.from, a.to, a.lambda, u);
+        let mut all = rows.to_vec();
+        let at = all.len();
+        let rates = super::volume::load_rates(model, a.from, a.to);
+        for (row, rate) in all[model.slips.len()..].iter_mut().zip(rates) {
+            row.ds.push((at, rate));
+        }
+        all.push(Row {
+            r: h,
+            dx: (0..self.pattern.n)
+                .filter(|&e| a.t[e] != 0.0)
+                .map(|e| (e, a.t[e]))
+                .collect(),
+            ds: Vec::new(),
+            magnitude: a.length,
+            damped: false,
+        });
+        let met = h.abs() <= self.settings.tolerance * a.length;
+        (met, (all, column))
+    }
+
+    /// Phase 2, convergence: the test (within the round-off floor, the Newton correction
+    /// decides), then touching sleeve points that would pull apart, then the re-check of
+    /// frozen states.
+    #[allow(clippy::too_many_arguments)]
+    fn verdict(
+        &mut self,
+        model: &Model,
+        step: &Increment,
+        st: &mut Iteration,
+        u: &mut [f64],
+        eqs: &Assembled,
+        arc: Option<&ArcRow>,
+        it: usize,
+        log: &mut Vec<String>,
+    ) -> Result<Verdict, Failure> {
+        let check = &eqs.check;
+        let tolerance = self.settings.tolerance * check.scale;
+        // Within the round-off floor but not the tolerance: converged only when the Newton
+        // correction from here is within the tolerance of the coordinates, tol · X at every
+        // unknown (a floor reached at every DOF could still leave a net force on a soft part
+        // held by stiff members; that part's correction is then large and real).
+        let mut pending = None;
+        let mut converged = check.strict && eqs.arc_met;
+        if !converged && check.within_floor && eqs.arc_met && eqs.changed == 0 {
+            if let Ok((dx, ds)) =
+                self.direction_of(model, u, &st.rows, eqs.bordered.as_ref(), st.damping)
+            {
+                let limit = self.settings.tolerance * self.coordinate_size(model, u);
+                // The load factor's correction is not a coordinate (the arc row, met, holds
+                // the path's position).
+                converged = dx
+                    .iter()
+                    .chain(&ds[..st.rows.len()])
+                    .all(|v| v.abs() <= limit);
+                pending = Some((dx, ds));
+            }
+        }
+        if !(converged && eqs.changed == 0) {
+            return Ok(Verdict::Step(pending));
+        }
+        if !st.active.contact.is_empty() {
+            // Touching sleeve points whose contact force would pull part here (order.rs).
+            let parted = super::order::open_gaps(
+                model,
+                u,
+                &mut st.active.contact,
+                tolerance,
+                self.settings.reopen_gap,
+            );
+            if parted > 0 {
+                st.reopened += 1;
+                if st.reopened > self.settings.max_unfreeze {
+                    return Err((it, "touching sleeve points keep parting (chatter)".into()));
+                }
+                push_log(log, format!("  {parted} touching sleeve points part"));
+                st.last_free = f64::INFINITY;
+                return Ok(Verdict::Again);
+            }
+        }
+        let inc = Increment {
+            loads: &st.loads,
+            change: step.change,
+            moved: step.moved,
+        };
+        let rows = &st.rows;
+        let verdict = st.active.recheck(
+            it,
+            model,
+            u,
+            &st.committed,
+            tolerance,
+            || self.natural_states_converged(model, rows, u, &inc, it),
+            log,
+        );
+        match verdict.map_err(|why| (it, why))? {
+            Recheck::Accept => {
+                self.log_converged(model, u, check, arc, log);
+                Ok(Verdict::Done(it))
+            }
+            Recheck::IterateOn => {
+                // The frozen states' equilibrium is the start of a new solve of the law's own
+                // problem: its iterations get the whole budget again, and the progress test
+                // compares residuals of that problem only (the frozen one's, far smaller,
+                // would make a steady descent from the jump look like stagnation). `hard_max`
+                // still bounds the increment.
+                st.last_free = f64::INFINITY;
+                st.budget_from = it;
+                st.history.clear();
+                Ok(Verdict::Again)
+            }
+        }
+    }
+
+    /// The converged iterate's log line (and the warning of a sleeve tie opened too wide).
+    fn log_converged(
+        &self,
+        model: &Model,
+        u: &[f64],
+        check: &Check,
+        arc: Option<&ArcRow>,
+        log: &mut Vec<String>,
+    ) {
+        if !model.slips.is_empty() {
+            let gap = largest_gap(model, u);
+            if gap > MAX_GAP {
+                push_log(log, format!("  warning: a sleeve tie opened by {gap:.2e} of its segment length (more than {MAX_GAP:.0e}): the penalty is too soft for this load; set cables[].sleeve.penalty higher"));
+            }
+        }
+        push_log(
+            log,
+            format!(
+                "  converged: |R| = {:.3e} (scale {:.3e}){}{}",
+                check.free,
+                check.scale,
+                slip_note(check),
+                arc.map_or(String::new(), |a| format!(" at λ {:.6}", a.lambda)),
+            ),
+        );
+    }
+
+    /// Phase 3, the iteration budget: `max_iterations` from the last release of frozen
+    /// states, continued (up to `max_iterations_progressing`) while the residual still falls
+    /// steadily near the solution.
+    fn budget(
+        &self,
+        model: &Model,
+        st: &mut Iteration,
+        check: &Check,
+        it: usize,
+        hard_max: usize,
+    ) -> Result<(), Failure> {
+        st.last_free = check.free;
+        st.history
+            .push(check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE));
+        if it - st.budget_from >= self.settings.max_iterations
+            && !(it < hard_max && progressing(&st.history))
+        {
+            return Err((
+                it,
+                format!(
+                    "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e}){}",
+                    check.free,
+                    check.slip,
+                    check.scale,
+                    self.where_stuck(model)
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Phase 4, the direction: (K + τD) Δ = −R with the rows eliminated (slip.rs); a tangent
+    /// with no stiffness at all (every cable slack, nothing stressed) switches the damping
+    /// on, and the damped system is definite.
+    #[allow(clippy::too_many_arguments)]
+    fn newton_direction(
+        &mut self,
+        model: &Model,
+        st: &mut Iteration,
+        u: &[f64],
+        eqs: &Assembled,
+        pending: Option<(Vec<f64>, Vec<f64>)>,
+        it: usize,
+        log: &mut Vec<String>,
+    ) -> Result<(Vec<f64>, Vec<f64>), Failure> {
+        let bordered = eqs.bordered.as_ref();
+        let direction = match pending {
+            Some(d) => Ok(d),
+            None => self.direction_of(model, u, &st.rows, bordered, st.damping),
+        };
+        match direction {
+            Ok(d) => Ok(d),
+            Err(why) if st.damping == 0.0 && self.settings.damping_start > 0.0 => {
+                push_log(log, format!("  {why}: damping switched on"));
+                st.damping = if st.last_damping > 0.0 {
+                    st.last_damping
+                } else {
+                    self.settings.damping_start
+                };
+                self.direction_of(model, u, &st.rows, bordered, st.damping)
+                    .map_err(|why| (it + 1, why))
+            }
+            Err(why) => Err((it + 1, why)),
+        }
+    }
+
+    /// The line search's merit for this direction. Frictionless sliding points are
+    /// conservative: a slip row r = f_t = c (T_b − T_a) vanishes where the potential is
+    /// stationary in that slip (∂Π/∂s = T_b (1 + ε_b/2) − T_a (1 + ε_a/2), c the cosine of the
+    /// half kink), so the potential is the merit, as without sleeves, with Δs·r for the slips'
+    /// part of the slope. Friction, stuck or merged points and volume rows need the residual.
+    /// Under arc length the loads move with λ inside the step: no potential at fixed loads is
+    /// the merit, the residual of the equilibrium and constraint rows is (the bordered Newton
+    /// direction is a descent direction of ‖(R, r)‖; the arc row is linear, so it falls as
+    /// (1 − α) h along any step and needs no share in the merit).
+    fn merit(
+        &self,
+        model: &Model,
+        st: &mut Iteration,
+        info: &AssemblyInfo,
+        ds: &[f64],
+        arc: bool,
+    ) -> Merit {
+        let memory = self.settings.nonmonotone_memory;
+        let rows = &st.rows;
+        let sliding_freely = rows.len() == model.slips.len()
+            && model
+                .slips
+                .iter()
+                .zip(&st.active.contact)
+                .all(|(p, c)| p.mu == 0.0 && matches!(c, Contact::Forward | Contact::Backward));
+        let residual_merit =
+            arc || (!rows.is_empty() && !(sliding_freely && model.is_conservative()));
+        if st.recent_potential.replace(!residual_merit) == Some(residual_merit) {
+            st.recent.clear();
+        }
+        if residual_merit {
+            let norm = self.residual_norm(rows.iter().map(|r| &r.r));
+            Merit::Residual {
+                reference: remember(&mut st.recent, memory, norm),
+            }
+        } else if model.is_conservative() {
+            Merit::Potential {
+                value: info.potential,
+                reference: remember(&mut st.recent, memory, info.potential),
+                slip_slope: rows.iter().zip(ds).map(|(r, d)| r.r * d).sum(),
+            }
+        } else {
+            Merit::Slope
+        }
+    }
+
+    /// Phase 5, the step: the line search along the direction, u ← u + α Δ (and λ under arc
+    /// length), and the damping for the next iteration.
+    #[allow(clippy::too_many_arguments)]
+    fn newton_step(
+        &mut self,
+        model: &Model,
+        st: &mut Iteration,
+        u: &mut [f64],
+        eqs: &Assembled,
+        mut arc: Option<&mut ArcRow>,
+        (dx, mut ds): (Vec<f64>, Vec<f64>),
+        it: usize,
+        log: &mut Vec<String>,
+    ) {
+        let n3 = model.dof_count();
+        let dlambda = if arc.is_some() { ds.pop() } else { None };
+        let merit = self.merit(model, st, &eqs.info, &ds, arc.is_some());
+        let (alpha, ok) = self.line_search(
+            model,
+            u,
+            &Direction { dx: &dx, ds: &ds },
+            &Trial {
+                loads: &st.loads,
+                committed: &st.committed,
+                contact: &st.active.contact,
+                arc: arc
+                    .as_deref()
+                    .zip(dlambda)
+                    .map(|(a, dl)| (a.from, a.to, a.lambda, dl)),
+            },
+            merit,
+        );
+        // A slip step that would shorten a sleeved segment by far more than its length is a
+        // sliding mechanism's step, like a line search cut to nothing.
+        let capped = !ds.is_empty()
+            && step_limit(model, u, &ds, self.settings.keep_length) < self.settings.damping_slip_cap;
+        let trouble = !ok || alpha < self.settings.damping_trigger || capped;
+        st.last_alpha = alpha;
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                u[d] += alpha * dx[e];
+            }
+        }
+        for (j, v) in ds.iter().enumerate() {
+            u[n3 + j] += alpha * v;
+        }
+        if let (Some(a), Some(dl)) = (arc.as_deref_mut(), dlambda) {
+            a.lambda += alpha * dl;
+        }
+        st.damping = self.next_damping(st, trouble, alpha);
+        let check = &eqs.check;
+        push_log(
+            log,
+            format!(
+                "  iteration {}: |R| = {:.3e} (scale {:.3e}){}, step α = {alpha:.3}, damping τ = {:.1e}{}",
+                it + 1,
+                check.free,
+                check.scale,
+                slip_note(check),
+                st.damping,
+                arc.as_deref().map_or(String::new(), |a| format!(", λ -> {:.6}", a.lambda)),
+            ),
+        );
+        self.work.recycle(dx, ds);
+    }
+
+    /// τ for the next iteration: on (or ×4) after trouble, ÷8 after a full step (0 below
+    /// τ_min), kept otherwise (module docs, globalisation).
+    fn next_damping(&self, st: &mut Iteration, trouble: bool, alpha: f64) -> f64 {
+        let s = &self.settings;
+        let damping = st.damping;
+        if damping > 0.0 {
+            st.last_damping = damping;
+        }
+        if trouble {
+            if damping == 0.0 {
+                s.damping_start
+            } else {
+                (4.0 * damping).min(s.damping_max)
+            }
+        } else if alpha >= 1.0 {
+            let next = damping / 8.0;
+            if next < s.damping_min {
+                0.0
+            } else {
+                next
+            }
+        } else {
+            damping
+        }
     }
 
     /// The Newton direction with the slip and volume rows, and under arc length with the
