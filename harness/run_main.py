@@ -1,5 +1,5 @@
-"""The main job (README, "Two commands on a fresh machine"; run it through harness/main.sh), and
-a run of any scene or FMU (README, "Your own scene").
+"""The main job (README, "Set-up"; docs/harness.md; run it through harness/main.sh), and a run
+of any scene or FMU (README's tour, "Your own scene"; docs/harness.md, "Running one scene or FMU").
 
 1. Pack every shipped scene (modelDescription/<Name>/scene.json) into build/fmus/<Name>.fmu
    with target/release/velarium.

@@ -1,4 +1,4 @@
-"""Parameter and load-history sweeps through an FMU on Dask (README, "Sweeps"; docs/fmu.md).
+"""Parameter and load-history sweeps through an FMU on Dask (docs/fmu.md, "Sweeps").
 
     .venv/bin/python harness/sweep.py SCENE.json|MODEL.fmu [--grid NAME=V1,V2,...|NAME=LO:HI:N]...
         [--sample N --range NAME=LO:HI... --seed S] [--steps K]

@@ -51,7 +51,7 @@ def test_item14_exit_without_enter_and_setup_after_enter(unzipdir, model_descrip
 
 
 def test_item15_enter_initialization_requires_setup_experiment(unzipdir, model_description):
-    """The choice made (README): fmi2SetupExperiment is required; without it, fmi2Error."""
+    """The choice made (docs/fmu.md, "Failure policy"): fmi2SetupExperiment is required; without it, fmi2Error."""
     with fresh(unzipdir, model_description) as s:
         fs.clear_log()
         assert fs.status_of(s.enterInitializationMode) == fs.ERROR

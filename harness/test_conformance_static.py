@@ -40,7 +40,7 @@ FMI2_FUNCTIONS = sorted(
 C_RUNTIME = re.compile(
     r"^(libc\.so\.6|libm\.so\.6|libgcc_s\.so\.1|ld-linux-x86-64\.so\.2|libpthread\.so\.0|libdl\.so\.2|librt\.so\.1)$")
 
-# The oldest glibc the binary must load on; the README states it (section "FMU behaviour"):
+# The oldest glibc the binary must load on; docs/fmu.md states it (section "Threads, processes, the binary"):
 # 2.34 for the native build, 2.17 for the cargo-zigbuild one (.ci/glibc217 sets
 # VELARIUM_GLIBC_BASELINE=2.17).
 GLIBC_BASELINE = tuple(int(x) for x in os.environ.get("VELARIUM_GLIBC_BASELINE", "2.34").split("."))
@@ -105,7 +105,7 @@ def test_item03_exports_dependencies_and_glibc(fmu, model_description, tmp_path)
     versions = sorted({tuple(int(x) for x in v.split(".")) for v in re.findall(r"GLIBC_([0-9.]+)", symbols)})
     highest = versions[-1]
     print(f"{fmu.name}: highest GLIBC symbol version needed: GLIBC_{'.'.join(map(str, highest))}; dependencies: {needed}")
-    assert highest <= GLIBC_BASELINE, f"needs GLIBC_{highest}, above the baseline {GLIBC_BASELINE} stated in the README"
+    assert highest <= GLIBC_BASELINE, f"needs GLIBC_{highest}, above the baseline {GLIBC_BASELINE} stated in docs/fmu.md"
 
 
 def test_item04_model_structure(fmu):

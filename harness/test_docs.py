@@ -1,7 +1,8 @@
 """What a user reads is true of a clone: every relative link of README.md and docs/*.md points to
-a file (and heading) in the repository, nothing points to notes outside it, every complete scene
-in README.md and docs/scenes.md passes `velarium check`, and `velarium schema` states the unit
-of every load kind and the sign of pressure."""
+a file (and heading) in the repository, nothing in them, the harness, Cargo.toml or .ci/ points to
+notes outside it, docs/README.md maps every page of docs/, every complete scene in README.md and
+docs/scenes.md passes `velarium check`, and `velarium schema` states the unit of every load kind
+and the sign of pressure."""
 
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ import velarium_run as vr
 
 # Names of the founding engineers' notes, which are not in a clone (spelled in pieces so that
 # this file does not cite them itself).
-NOTES = ["MECHANICS" + ".md", "../" + "shared", "FMI" + ".md"]
+NOTES = ["MECHANICS" + ".md", "../" + "shared", "FMI" + ".md", "STYLE" + ".md", "LINEAR_ALGEBRA" + ".md",
+         "DESIGN" + ".md", "ANCHORS" + ".md"]
 DOCS = [vr.ROOT / "README.md", *sorted((vr.ROOT / "docs").glob("*.md"))]
 
 
@@ -45,9 +47,21 @@ def test_links_resolve_inside_the_repository(doc):
 
 
 def test_the_harness_cites_only_the_repository():
-    for path in (vr.ROOT / "harness").glob("*.py"):
+    paths = [*(vr.ROOT / "harness").glob("*.py"), *(vr.ROOT / "harness").glob("*.sh"),
+             vr.ROOT / "Cargo.toml", *(p for p in (vr.ROOT / ".ci").iterdir() if p.is_file())]
+    for path in paths:
         text = path.read_text()
         assert not [n for n in NOTES if n in text], path.name
+
+
+def test_the_docs_map_has_a_paragraph_for_every_page():
+    """docs/README.md is the map of docs/: each page is linked from a paragraph of its own that
+    starts with the link, and the map links to no page that does not exist."""
+    text = (vr.ROOT / "docs" / "README.md").read_text()
+    pages = {p.name for p in (vr.ROOT / "docs").glob("*.md")} - {"README.md"}
+    mapped = set(re.findall(r"^\*\*\[[^\]]+\]\(([^)#]+\.md)\)", text, re.M))
+    assert pages <= mapped, f"docs/README.md has no paragraph for {sorted(pages - mapped)}"
+    assert mapped <= pages, f"docs/README.md maps pages that do not exist: {sorted(mapped - pages)}"
 
 
 def scenes_in(path):

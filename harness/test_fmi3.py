@@ -11,8 +11,9 @@ so they must agree bit for bit (``np.array_equal``); against ``velarium solve`` 
 
 Discard: FMI 3's DoStep Discard means "nothing happened" (the FMU keeps the state it had before
 the call); fmpy's FMI 3 ``simulate_fmu`` raises ``FMICallException`` on it (unlike FMI 2, where
-Discard with Terminated ends the run gracefully). The README's FMI 3 loop handles it; the test
-``test_readme_loop_stops_at_the_discarded_step`` runs that very code from README.md.
+Discard with Terminated ends the run gracefully). The FMI 3 loop of docs/fmu.md ("FMI 3.0")
+handles it; the test ``test_documented_loop_stops_at_the_discarded_step`` runs that very code
+from docs/fmu.md.
 """
 
 from __future__ import annotations
@@ -390,20 +391,20 @@ def test_item37_simulate_fmu_raises_on_discard(model, debug_fmus, tmp_path):
     assert run.stdout.strip().splitlines()[-1] == "raised 2", run.stdout
 
 
-def readme_loop():
-    """The FMI 3 loop of README.md (the code block after the marker line)."""
-    text = (vr.ROOT / "README.md").read_text()
+def documented_loop():
+    """The FMI 3 loop of docs/fmu.md, section "FMI 3.0" (the code block after the marker line)."""
+    text = (vr.ROOT / "docs" / "fmu.md").read_text()
     match = re.search(r"<!-- fmi3-discard-loop -->\s*```python\n(.*?)```", text, re.S)
-    assert match, "README.md has no <!-- fmi3-discard-loop --> python block"
+    assert match, "docs/fmu.md has no <!-- fmi3-discard-loop --> python block"
     namespace: dict = {}
-    exec(compile(match.group(1), "README.md", "exec"), namespace)
+    exec(compile(match.group(1), "docs/fmu.md", "exec"), namespace)
     return namespace["simulate_fmi3"]
 
 
-def test_readme_loop_stops_at_the_discarded_step(model, debug_fmus, tmp_path):
-    """The README's low-level FMI 3 loop ends gracefully at the last converged time where
+def test_documented_loop_stops_at_the_discarded_step(model, debug_fmus, tmp_path):
+    """The low-level FMI 3 loop of docs/fmu.md ends gracefully at the last converged time where
     simulate_fmu raises, and without a failure gives simulate_fmu's rows."""
-    simulate_fmi3 = readme_loop()
+    simulate_fmi3 = documented_loop()
     md2 = fmpy.read_model_description(str(vr.FMU_DIR / f"{model}.fmu"))
     t_fail = failure_time(md2)
     fmu3, md, _ = fmi3_variant(debug_fmus, model, tmp_path, fail_after_time=t_fail)

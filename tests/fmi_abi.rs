@@ -1099,7 +1099,7 @@ fn declared_categories_and_flags() {
 // ---------------------------------------------------------------------------------------------
 // Issue 11: hostile input never takes the host down (FMI side).
 
-/// Time rules of fmi2DoStep (README, FMU behaviour): time must move, end finite, and a step may
+/// Time rules of fmi2DoStep (docs/fmu.md, "Stepping"): time must move, end finite, and a step may
 /// end past stopTime by at most 1e-9 · max(|stopTime|, h).
 #[test]
 fn do_step_time_rules() {

@@ -597,7 +597,7 @@ impl Instance {
             .map(|at| StepReport::failed_with(format!("forced by debug.fail_after_time = {at}")))
     }
 
-    /// The time rules of a step (README, FMU behaviour):
+    /// The time rules of a step (docs/fmu.md, "Stepping"):
     /// - t and h finite, h > 0, and t + h finite;
     /// - t is the instance's time within TIME_TOLERANCE · max(1, |t|);
     /// - time must move: t + h > t in floating point (else the loads would change at a time
