@@ -1160,6 +1160,20 @@ fn instantiate_refuses_a_scene_too_large_or_degenerate_with_a_message() {
     }
 }
 
+/// The varint (LEB128: postcard's lengths) at `*at`; moves `*at` past it.
+fn varint(bytes: &[u8], at: &mut usize) -> usize {
+    let (mut n, mut shift) = (0, 0);
+    loop {
+        let b = bytes[*at];
+        *at += 1;
+        n |= usize::from(b & 0x7f) << shift;
+        if b < 0x80 {
+            return n;
+        }
+        shift += 7;
+    }
+}
+
 /// Serialized states resealed after a value edit (checksum recomputed): NaN, inf and 1e308 in
 /// a displacement and a NaN parameter are fmi2Error naming the field, and the instance keeps
 /// its state and outputs.
@@ -1173,15 +1187,20 @@ fn resealed_states_with_bad_values_are_rejected_and_change_nothing() {
     let bytes = fmu.serialize();
     let before = fmu.outputs();
     let guid_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    let payload = 24 + guid_len;
-    let n_dofs = u64::from_le_bytes(bytes[payload..payload + 8].try_into().unwrap()) as usize;
-    // EngineState: displacement (u64 n + f64s), slip_state (u64 + u8s), applied, inputs,
-    // parameters (u64 + f64s each).
-    let slips = payload + 8 + 8 * n_dofs;
-    let n_slips = u64::from_le_bytes(bytes[slips..slips + 8].try_into().unwrap()) as usize;
-    let applied = slips + 8 + n_slips;
-    let n_in = u64::from_le_bytes(bytes[applied..applied + 8].try_into().unwrap()) as usize;
-    let params = applied + 2 * (8 + 8 * n_in);
+    // The payload (postcard) opens with EngineState: displacement (varint n + f64s),
+    // slip_state (varint n + u8s), applied, inputs, parameters (varint n + f64s each).
+    let mut at = 24 + guid_len;
+    let n_dofs = varint(&bytes, &mut at);
+    let u = at + 8 * 3; // displacement[3], node 1 x
+    at += 8 * n_dofs;
+    let n_slips = varint(&bytes, &mut at);
+    at += n_slips;
+    for _applied_then_inputs in 0..2 {
+        let n_in = varint(&bytes, &mut at);
+        at += 8 * n_in;
+    }
+    varint(&bytes, &mut at);
+    let parameter = at; // parameter[0]
     let reseal = |at: usize, value: f64| {
         let mut b = bytes.clone();
         b[at..at + 8].copy_from_slice(&value.to_le_bytes());
@@ -1192,12 +1211,11 @@ fn resealed_states_with_bad_values_are_rejected_and_change_nothing() {
         b[n - 8..].copy_from_slice(&sum.to_le_bytes());
         b
     };
-    let u = payload + 8 + 8 * 3; // displacement[3], node 1 x
     for (at, value, needle) in [
         (u, f64::NAN, "displacement[3]"),
         (u, f64::INFINITY, "displacement[3]"),
         (u, 1e308, "displacement[3]"),
-        (params + 8, f64::NAN, "parameter"),
+        (parameter, f64::NAN, "parameter"),
     ] {
         log.clear();
         assert_eq!(fmu.restore(&reseal(at, value)), ERROR, "{needle}");

@@ -20,8 +20,7 @@
 //! fsm.rs       the calling-sequence state machine: one mask of legal states per function
 //! logging.rs   log categories, the enabled set, '#' escaping; the C logger is always called
 //!              with the format "%s" and the message as its argument
-//! snapshot.rs  FMU states: what is saved, and the checked byte format
-//! codec.rs     a small binary serde format (exact f64 bits, NaN included)
+//! snapshot.rs  FMU states: what is saved, and the checked byte format (payload: postcard)
 //! uri.rs       percent-encoded file: URIs of the resource location
 //! ```
 //!
@@ -53,7 +52,6 @@
 //!   `worker.rs`).
 
 mod abi;
-mod codec;
 mod ffi;
 mod fmi3;
 mod fmi3_ffi;
