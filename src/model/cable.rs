@@ -9,8 +9,9 @@
 //! K_bb = k e eᵀ + (T/l)(I − e eᵀ),   K = [[K_bb, −K_bb], [−K_bb, K_bb]]
 //! W   engineering ½ EA (l − L0)²/L0;  Green-Lagrange ½ EA L0 ((l² − L0²)/(2 L0²))²
 //! ```
-//! A slack segment adds `ε EA/L0 I` (ε = 1e-6) to the tangent only, so a node held only by
-//! slack cables does not make the matrix singular; its force stays exactly zero.
+//! A slack segment has no force and the exact zero tangent: a node held only by slack cables
+//! is a mechanism until they tighten, which the solver's damping handles (no tangent-only
+//! spring).
 //!
 //! # References
 //! docs/mechanics.md §4g and §6 (strain measures, pretension through the unstretched length).
