@@ -10,12 +10,14 @@
 //! slips        sleeve points: one slip unknown each, stored after the 3 N displacements
 //!              (u[3 N + j]); each sleeve point is its own node, tied to its sleeve node
 //! ties         penalty springs between a cable's sleeve point and its sleeve node
+//!              (triangles, segments and ties are the element kinds: `element.rs`)
 //! loads        one per input: force per unit value, pressure triangles, prescribed DOFs
 //! probes       one per output, with node ids and DOFs resolved
 //! ```
 //! "Model only what a scene needs": only the element kinds and loads the scene declares exist.
 
 pub mod cable;
+pub mod element;
 pub mod membrane;
 pub mod orthotropic;
 pub mod pressure;
@@ -30,6 +32,8 @@ use crate::scene::{
     TriangleRef as TriSel,
 };
 use nalgebra::Vector3;
+
+pub use element::{Element, ElementKind, PerKind};
 
 /// Default artificial prestress of a membrane group, as a fraction of its E (3μ for
 /// neo-Hookean).
