@@ -11,10 +11,10 @@
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::{WrinkleState, REGULARIZATION};
-use crate::model::{cable, membrane, pressure, sleeve, LoadModel, Model};
+use crate::model::{cable, membrane, pressure, sleeve, ElementKind, LoadModel, Model, PerKind};
 use crate::solver::renumber::{self, NodeOrder};
 use crate::solver::threads::{Pool, ASSEMBLE};
-use nalgebra::{SMatrix, Vector3};
+use nalgebra::{SMatrix, SVector, Vector3};
 use std::ops::Range;
 use std::sync::{Arc, Mutex, MutexGuard, RwLock};
 
@@ -51,16 +51,16 @@ pub struct Pattern {
     pub col_ptr: Vec<usize>,
     /// Empty in a solver's pattern: `Solver::try_new` hands them to the factorization.
     pub row_idx: Vec<usize>,
-    /// Per triangle in visit order (`tri_order`), the position in K's values of each of its
-    /// 81 entries (UNMAPPED: held or lower triangle).
-    tri_map: Vec<[u32; 81]>,
-    /// Per cable segment, then per sleeve tie, the same for its 36 entries.
-    seg_map: Vec<[u32; 36]>,
-    /// The order in which an assembly visits the triangles: by their lowest internal node
-    /// (`renumber.rs`), so the scatter into K walks the mesh; the user's order under
-    /// `NodeOrder::Given`.
-    tri_order: Vec<usize>,
-    /// Position of every triangle in `tri_order` (its row of `tri_map`).
+    /// Per element kind, per element in its visit order (`order`), the position in K's values
+    /// of each entry of its tangent block (row-major, `ElementKind::block_len` entries: 81 for
+    /// a triangle, 36 for a segment or tie; UNMAPPED: held or lower triangle), flat.
+    maps: PerKind<Vec<u32>>,
+    /// Per element kind, the order in which an assembly visits its elements
+    /// ([`visit_order`]): the triangles by their lowest internal node (`renumber.rs`), so the
+    /// scatter into K walks the mesh (the user's order under `NodeOrder::Given`); segments and
+    /// ties in model order.
+    order: PerKind<Vec<usize>>,
+    /// Position of every triangle in its visit order (its slot in the maps).
     tri_slot: Vec<usize>,
     /// The model's triangles in visit order with their nodes' internal positions (empty under
     /// `NodeOrder::Given`): one assembly reads them, and the positions, front to back.
@@ -71,11 +71,11 @@ pub struct Pattern {
     /// `NodeOrder::Given`): relaxation's sweep order breaks ties of coincident nodes by it.
     rank: Vec<u32>,
     /// Per load, its pressed triangles in visit order (empty for other loads): the pressure
-    /// loop streams through `tri_map` too.
+    /// loop streams through the triangles' maps too.
     pressed_order: Vec<Vec<usize>>,
-    /// `pressed_order` as slots (positions in `tri_order`, ascending): the pressure loop reads
-    /// its triangles' data and maps front to back without a lookup by the user's triangle
-    /// number (which in a shuffled numbering lands anywhere).
+    /// `pressed_order` as slots (positions in the triangles' visit order, ascending): the
+    /// pressure loop reads its triangles' data and maps front to back without a lookup by the
+    /// user's triangle number (which in a shuffled numbering lands anywhere).
     pressed_slots: Vec<Vec<usize>>,
 }
 
@@ -126,39 +126,9 @@ impl Pattern {
     /// (`renumber.rs`), every buffer that grows with it allocated fallibly (`crate::memory`).
     pub fn try_ordered(model: &Model, order: NodeOrder) -> Result<Pattern, OutOfMemory> {
         let rank = renumber::node_rank(model, order)?;
-        let mut by_rank = memory::zeros::<usize>(rank.len(), "the equation numbers")?;
-        for (node, &r) in rank.iter().enumerate() {
-            by_rank[r] = node;
-        }
-        let mut eq = memory::filled(model.dof_count(), NONE, "the equation numbers")?;
-        let mut n = 0;
-        for &node in &by_rank {
-            for d in 3 * node..3 * node + 3 {
-                if !model.held[d] {
-                    eq[d] = n;
-                    n += 1;
-                }
-            }
-        }
-        let mut tri_order = memory::collect(0..model.triangles.len(), "the element order")?;
-        if order != NodeOrder::Given {
-            // By the lowest internal node, then the highest and the middle one: a property of
-            // the mesh, not of its numbering, so a shuffled numbering of the same mesh visits
-            // its triangles in the same order and forms every sum in the same order (the same
-            // Newton path on a sensitive problem, tests/renumber.rs). Which of the orders with
-            // the lowest node first is not otherwise important; this one because
-            // tests/derivatives.rs's difference check on AnnulusTorsion (wrinkled) moves with
-            // the order of sums: 3.9e-6 here, 4.1e-6 ties by triangle number, 7.4e-6 and
-            // 1.0e-5 (its limit) in two other orders. In place (a stable sort would allocate
-            // its buffer infallibly); the triangle number breaks the remaining ties (two
-            // triangles on the same three nodes).
-            let ranks = |e: usize| {
-                let mut r = model.triangles[e].nodes.map(|i| rank[i]);
-                r.sort_unstable();
-                [r[0], r[2], r[1]]
-            };
-            tri_order.sort_unstable_by_key(|&e| (ranks(e), e));
-        }
+        let (eq, n, by_rank) = number_equations(model, &rank)?;
+        let visits = PerKind::try_from_fn(|kind| visit_order(model, kind, order, &rank))?;
+        let tri_order = &visits[ElementKind::Membrane];
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {
             tri_slot[e] = k;
@@ -179,150 +149,16 @@ impl Pattern {
             let rank = memory::collect(rank.iter().map(|&r| r as u32), "the equation numbers")?;
             (by_rank, rank)
         };
-        let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
-        for load in &model.loads {
-            let mut list = match load {
-                LoadModel::Pressure { triangles, .. } | LoadModel::Volume { triangles, .. } => {
-                    memory::copy(triangles, "the element order")?
-                }
-                _ => Vec::new(),
-            };
-            list.sort_unstable_by_key(|&e| tri_slot[e]);
-            pressed_order.push(list);
-        }
-        let mut pressed_slots = memory::with_capacity(model.loads.len(), "the element order")?;
-        for list in &pressed_order {
-            let mut slots = memory::with_capacity(list.len(), "the element order")?;
-            slots.extend(list.iter().map(|&e| tri_slot[e]));
-            pressed_slots.push(slots);
-        }
-        // Every element's DOFs (equation numbers, NONE where held), 9 for a triangle, 6 for a
-        // segment or tie; triangles first, then segments and ties (the maps' order).
-        let eqr = &eq;
-        let dofs_of = |nodes: &[usize], out: &mut [usize; 9]| -> usize {
-            for (a, &i) in nodes.iter().enumerate() {
-                for c in 0..3 {
-                    out[3 * a + c] = eqr[3 * i + c];
-                }
-            }
-            3 * nodes.len()
-        };
-        let lines = || {
-            model
-                .segments
-                .iter()
-                .map(|s| s.nodes)
-                .chain(model.ties.iter().map(|t| t.nodes))
-        };
-        let for_each_element = |f: &mut dyn FnMut(&[usize])| {
-            let mut d = [NONE; 9];
-            for t in &model.triangles {
-                let m = dofs_of(&t.nodes, &mut d);
-                f(&d[..m]);
-            }
-            for nodes in lines() {
-                let m = dofs_of(&nodes, &mut d);
-                f(&d[..m]);
-            }
-        };
-        // Column lists (rows <= col), flat: count, place, then sort and dedup each column.
-        let mut start = memory::zeros::<usize>(n + 1, "the tangent's pattern")?;
-        for j in 0..n {
-            start[j + 1] = 1; // a diagonal entry for every equation, even one no element touches
-        }
-        for_each_element(&mut |dofs| {
-            for &i in dofs.iter().filter(|&&i| i != NONE) {
-                for &j in dofs.iter().filter(|&&j| j != NONE && i <= j) {
-                    start[j + 1] += 1;
-                }
-            }
-        });
-        for j in 0..n {
-            start[j + 1] += start[j];
-        }
-        let mut rows = memory::zeros::<usize>(start[n], "the tangent's pattern")?;
-        let mut next = memory::copy(&start[..n], "the tangent's pattern")?;
-        for (j, slot) in next.iter_mut().enumerate() {
-            rows[*slot] = j;
-            *slot += 1;
-        }
-        for_each_element(&mut |dofs| {
-            for &i in dofs.iter().filter(|&&i| i != NONE) {
-                for &j in dofs.iter().filter(|&&j| j != NONE && i <= j) {
-                    rows[next[j]] = i;
-                    next[j] += 1;
-                }
-            }
-        });
-        drop(next);
-        let mut col_ptr = memory::with_capacity(n + 1, "the tangent's pattern")?;
-        col_ptr.push(0);
-        let mut kept = 0;
-        for j in 0..n {
-            let col = &mut rows[start[j]..start[j + 1]];
-            col.sort_unstable();
-            let mut last = NONE;
-            for k in start[j]..start[j + 1] {
-                let r = rows[k];
-                if r != last {
-                    rows[kept] = r;
-                    kept += 1;
-                    last = r;
-                }
-            }
-            col_ptr.push(kept);
-        }
-        drop(start);
-        let mut row_idx = memory::copy(&rows[..kept], "the tangent's pattern")?;
-        drop(rows);
-        row_idx.shrink_to_fit();
-        check_addressable(kept as u64)?;
-        // Every position is below `kept` <= MAX_ENTRIES, so below UNMAPPED.
-        let position = |i: usize, j: usize| -> u32 {
-            if i == NONE || j == NONE || i > j {
-                return UNMAPPED;
-            }
-            let col = &row_idx[col_ptr[j]..col_ptr[j + 1]];
-            (col_ptr[j]
-                + col
-                    .binary_search(&i)
-                    .expect("pattern holds every element pair")) as u32
-        };
-        let map = |dofs: &[usize], out: &mut [u32]| {
-            let m = dofs.len();
-            for a in 0..m {
-                for b in 0..m {
-                    out[a * m + b] = position(dofs[a], dofs[b]);
-                }
-            }
-        };
-        let mut d = [NONE; 9];
-        let mut tri_map =
-            memory::with_capacity(model.triangles.len(), "the element position maps")?;
-        for &e in &tri_order {
-            dofs_of(&model.triangles[e].nodes, &mut d);
-            let mut m = [UNMAPPED; 81];
-            map(&d, &mut m);
-            tri_map.push(m);
-        }
-        let mut seg_map = memory::with_capacity(
-            model.segments.len() + model.ties.len(),
-            "the element position maps",
-        )?;
-        for nodes in lines() {
-            dofs_of(&nodes, &mut d);
-            let mut m = [UNMAPPED; 36];
-            map(&d[..6], &mut m);
-            seg_map.push(m);
-        }
+        let (pressed_order, pressed_slots) = pressed_lists(model, &tri_slot)?;
+        let (col_ptr, row_idx) = upper_pattern(model, &eq, n)?;
+        let maps = position_maps(model, &eq, &col_ptr, &row_idx, &visits)?;
         Ok(Pattern {
             eq,
             n,
             col_ptr,
             row_idx,
-            tri_map,
-            seg_map,
-            tri_order,
+            maps,
+            order: visits,
             tri_slot,
             triangles,
             node_of,
@@ -331,6 +167,222 @@ impl Pattern {
             pressed_slots,
         })
     }
+
+    /// The order in which an assembly visits the triangles (slot → triangle).
+    fn tri_order(&self) -> &[usize] {
+        &self.order[ElementKind::Membrane]
+    }
+
+    /// The position map of the element at `slot` of `kind`'s visit order.
+    fn map(&self, kind: ElementKind, slot: usize) -> &[u32] {
+        let len = kind.block_len();
+        &self.maps[kind][slot * len..(slot + 1) * len]
+    }
+}
+
+/// Equation numbers handed out node by node in internal order (`rank[node]`), held DOFs
+/// NONE: (eq per DOF, the number of equations, the node at every internal position).
+fn number_equations(
+    model: &Model,
+    rank: &[usize],
+) -> Result<(Vec<usize>, usize, Vec<usize>), OutOfMemory> {
+    let mut by_rank = memory::zeros::<usize>(rank.len(), "the equation numbers")?;
+    for (node, &r) in rank.iter().enumerate() {
+        by_rank[r] = node;
+    }
+    let mut eq = memory::filled(model.dof_count(), NONE, "the equation numbers")?;
+    let mut n = 0;
+    for &node in &by_rank {
+        for d in 3 * node..3 * node + 3 {
+            if !model.held[d] {
+                eq[d] = n;
+                n += 1;
+            }
+        }
+    }
+    Ok((eq, n, by_rank))
+}
+
+/// The order in which an assembly visits the elements of `kind` (the order of its position
+/// maps and of its sums into R and K), under the internal node ranks `rank`.
+fn visit_order(
+    model: &Model,
+    kind: ElementKind,
+    order: NodeOrder,
+    rank: &[usize],
+) -> Result<Vec<usize>, OutOfMemory> {
+    let mut list = memory::collect(0..model.element_count(kind), "the element order")?;
+    match kind {
+        // By the lowest internal node, then the highest and the middle one: a property of
+        // the mesh, not of its numbering, so a shuffled numbering of the same mesh visits
+        // its triangles in the same order and forms every sum in the same order (the same
+        // Newton path on a sensitive problem, tests/renumber.rs). Which of the orders with
+        // the lowest node first is not otherwise important; this one because
+        // tests/derivatives.rs's difference check on AnnulusTorsion (wrinkled) moves with
+        // the order of sums: 3.9e-6 here, 4.1e-6 ties by triangle number, 7.4e-6 and
+        // 1.0e-5 (its limit) in two other orders. In place (a stable sort would allocate
+        // its buffer infallibly); the triangle number breaks the remaining ties (two
+        // triangles on the same three nodes).
+        ElementKind::Membrane => {
+            if order != NodeOrder::Given {
+                let ranks = |e: usize| {
+                    let mut r = model.triangles[e].nodes.map(|i| rank[i]);
+                    r.sort_unstable();
+                    [r[0], r[2], r[1]]
+                };
+                list.sort_unstable_by_key(|&e| (ranks(e), e));
+            }
+        }
+        // Model order (cable by cable along each cable; sleeve point by sleeve point): the
+        // order of every measurement with them so far; they are few next to the triangles.
+        ElementKind::Cable | ElementKind::Tie => {}
+    }
+    Ok(list)
+}
+
+/// Per load, its pressed triangles in visit order (empty for other loads), and the same as
+/// slots (positions in the triangles' visit order).
+#[allow(clippy::type_complexity)]
+fn pressed_lists(
+    model: &Model,
+    tri_slot: &[usize],
+) -> Result<(Vec<Vec<usize>>, Vec<Vec<usize>>), OutOfMemory> {
+    let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
+    for load in &model.loads {
+        let mut list = match load {
+            LoadModel::Pressure { triangles, .. } | LoadModel::Volume { triangles, .. } => {
+                memory::copy(triangles, "the element order")?
+            }
+            _ => Vec::new(),
+        };
+        list.sort_unstable_by_key(|&e| tri_slot[e]);
+        pressed_order.push(list);
+    }
+    let mut pressed_slots = memory::with_capacity(model.loads.len(), "the element order")?;
+    for list in &pressed_order {
+        let mut slots = memory::with_capacity(list.len(), "the element order")?;
+        slots.extend(list.iter().map(|&e| tri_slot[e]));
+        pressed_slots.push(slots);
+    }
+    Ok((pressed_order, pressed_slots))
+}
+
+/// The equations of an element on `nodes` (3 per node, NONE where held) into `out`; returns
+/// how many.
+fn element_equations(eq: &[usize], nodes: &[usize], out: &mut [usize]) -> usize {
+    for (a, &i) in nodes.iter().enumerate() {
+        for c in 0..3 {
+            out[3 * a + c] = eq[3 * i + c];
+        }
+    }
+    3 * nodes.len()
+}
+
+/// Calls `f` with the equations of every element of the model (NONE where held), kind by kind.
+fn for_each_element(model: &Model, eq: &[usize], f: &mut dyn FnMut(&[usize])) {
+    let mut d = [NONE; 3 * ElementKind::MAX_NODES];
+    for (kind, e) in model.elements() {
+        let m = element_equations(eq, model.element_nodes(kind, e), &mut d);
+        f(&d[..m]);
+    }
+}
+
+/// K's upper CSC pattern (rows <= col) over the `n` equations `eq`: every pair of equations an
+/// element couples, and a diagonal entry for every equation. Column lists, flat: count, place,
+/// then sort and dedup each column.
+fn upper_pattern(
+    model: &Model,
+    eq: &[usize],
+    n: usize,
+) -> Result<(Vec<usize>, Vec<usize>), OutOfMemory> {
+    let mut start = memory::zeros::<usize>(n + 1, "the tangent's pattern")?;
+    for j in 0..n {
+        start[j + 1] = 1; // a diagonal entry for every equation, even one no element touches
+    }
+    for_each_element(model, eq, &mut |dofs| {
+        for &i in dofs.iter().filter(|&&i| i != NONE) {
+            for &j in dofs.iter().filter(|&&j| j != NONE && i <= j) {
+                start[j + 1] += 1;
+            }
+        }
+    });
+    for j in 0..n {
+        start[j + 1] += start[j];
+    }
+    let mut rows = memory::zeros::<usize>(start[n], "the tangent's pattern")?;
+    let mut next = memory::copy(&start[..n], "the tangent's pattern")?;
+    for (j, slot) in next.iter_mut().enumerate() {
+        rows[*slot] = j;
+        *slot += 1;
+    }
+    for_each_element(model, eq, &mut |dofs| {
+        for &i in dofs.iter().filter(|&&i| i != NONE) {
+            for &j in dofs.iter().filter(|&&j| j != NONE && i <= j) {
+                rows[next[j]] = i;
+                next[j] += 1;
+            }
+        }
+    });
+    drop(next);
+    let mut col_ptr = memory::with_capacity(n + 1, "the tangent's pattern")?;
+    col_ptr.push(0);
+    let mut kept = 0;
+    for j in 0..n {
+        let col = &mut rows[start[j]..start[j + 1]];
+        col.sort_unstable();
+        let mut last = NONE;
+        for k in start[j]..start[j + 1] {
+            let r = rows[k];
+            if r != last {
+                rows[kept] = r;
+                kept += 1;
+                last = r;
+            }
+        }
+        col_ptr.push(kept);
+    }
+    drop(start);
+    let mut row_idx = memory::copy(&rows[..kept], "the tangent's pattern")?;
+    drop(rows);
+    row_idx.shrink_to_fit();
+    check_addressable(kept as u64)?;
+    Ok((col_ptr, row_idx))
+}
+
+/// Per element kind, the position maps of its elements in visit order `visits`.
+fn position_maps(
+    model: &Model,
+    eq: &[usize],
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    visits: &PerKind<Vec<usize>>,
+) -> Result<PerKind<Vec<u32>>, OutOfMemory> {
+    // Every position is below the stored entries <= MAX_ENTRIES (`upper_pattern`), so below
+    // UNMAPPED.
+    let position = |i: usize, j: usize| -> u32 {
+        if i == NONE || j == NONE || i > j {
+            return UNMAPPED;
+        }
+        let col = &row_idx[col_ptr[j]..col_ptr[j + 1]];
+        (col_ptr[j]
+            + col
+                .binary_search(&i)
+                .expect("pattern holds every element pair")) as u32
+    };
+    PerKind::try_from_fn(|kind| {
+        let len = visits[kind].len().saturating_mul(kind.block_len());
+        let mut maps = memory::with_capacity(len, "the element position maps")?;
+        let mut d = [NONE; 3 * ElementKind::MAX_NODES];
+        for &e in &visits[kind] {
+            let m = element_equations(eq, model.element_nodes(kind, e), &mut d);
+            for a in 0..m {
+                for b in 0..m {
+                    maps.push(position(d[a], d[b]));
+                }
+            }
+        }
+        Ok(maps)
+    })
 }
 
 /// Placeholder of a triangle's evaluation until the assembly writes it.
@@ -653,89 +705,39 @@ pub fn assemble_with(
         size_evaluations(out, model.triangles.len());
     }
     let want_k = k.is_some() || extra.held_step.is_some();
-    let factor = Aid::of(&extra);
-    let mut ke = membrane::Mat9::zeros();
-    // Renumbered (`pattern.triangles` holds the triangles in visit order with internal node
-    // numbers): positions gathered once in internal order, forces summed in internal order and
-    // added to R (and the magnitudes) node by node at the end, so the element loop reads and
-    // writes memory front to back whatever the user's numbering.
-    let internal = !pattern.triangles.is_empty();
-    let AssemblyScratch {
-        xi,
-        ri,
-        mi,
-        fi,
-        ei,
-        fext,
-        ..
-    } = scratch;
-    xi.clear();
-    ri.clear();
-    mi.clear();
-    fi.clear();
-    if internal {
-        xi.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
-        ri.resize(3 * xi.len(), 0.0);
-        if extra.magnitude.is_some() {
-            mi.resize(3 * xi.len(), 0.0);
-        }
-        if extra.out.is_some() {
-            size_evaluations(ei, model.triangles.len());
-        }
-    }
-    for (slot, &e) in pattern.tri_order.iter().enumerate() {
-        let user = &model.triangles[e];
-        let forced = extra.forced.and_then(|f| f[e]);
-        let kk = want_k.then_some(&mut ke);
-        let (f, eval, ratio) = if internal {
-            let t = &pattern.triangles[slot];
-            let (f, eval, ratio) = triangle_at(t, &t.nodes.map(|i| xi[i]), factor, forced, kk);
-            let mut m = (!mi.is_empty()).then_some(&mut mi[..]);
-            add_force(ri, &t.nodes, f.as_slice(), &mut m);
-            (f, eval, ratio)
-        } else {
-            let (f, eval, ratio) = triangle_of(model, user, u, factor, forced, kk);
-            add_force(r, &user.nodes, f.as_slice(), &mut extra.magnitude);
-            (f, eval, ratio)
-        };
-        info.carried = info.carried.max(largest(f.as_slice()));
-        if let Some(k) = k.as_deref_mut() {
-            scatter(&ke, &pattern.tri_map[slot], k);
-        }
-        if let Some((du, out)) = extra.held_step.as_mut() {
-            couple(&ke, &user.nodes, du, out);
-        }
-        if internal && extra.out.is_some() {
-            // In visit order here (a write to the user's triangle number would land anywhere
-            // in the list under a shuffled numbering); handed over after the loop.
-            ei[slot] = eval;
-        } else if let Some(out) = extra.out.as_deref_mut() {
-            out[e] = eval;
-        }
-        info.potential += eval.energy;
-        info.min_area_ratio = info.min_area_ratio.min(ratio);
-    }
-    if internal {
-        to_user_order(pattern, ri, r);
-        if let Some(m) = extra.magnitude.as_deref_mut() {
-            to_user_order(pattern, mi, m);
-        }
-        if let Some(out) = extra.out.as_deref_mut() {
-            for (eval, &e) in ei.iter().zip(&pattern.tri_order) {
-                out[e] = *eval;
+    let internal = prepare_internal(model, pattern, u, &extra, scratch);
+    for kind in ElementKind::ALL {
+        match kind {
+            ElementKind::Membrane => {
+                triangles_one(model, pattern, u, r, &mut k, &mut extra, scratch, &mut info)
             }
+            ElementKind::Cable => elements_into(
+                model,
+                pattern,
+                kind,
+                r,
+                &mut k,
+                &mut extra.magnitude,
+                &mut extra.held_step,
+                &mut info,
+                |e| segment_contribution(model, e, u),
+            ),
+            ElementKind::Tie => elements_into(
+                model,
+                pattern,
+                kind,
+                r,
+                &mut k,
+                &mut extra.magnitude,
+                &mut extra.held_step,
+                &mut info,
+                |e| tie_contribution(model, e, u),
+            ),
         }
     }
-    lines_into(
-        model,
-        pattern,
-        u,
-        r,
-        &mut k,
-        &mut extra.magnitude,
-        &mut extra.held_step,
-        &mut info,
-    );
+    let AssemblyScratch {
+        xi, ri, fi, fext, ..
+    } = scratch;
     fext.clear();
     fext.resize(r.len(), 0.0);
     // Pressure forces summed node by node in internal order and added to f_ext once per node.
@@ -763,6 +765,104 @@ pub fn assemble_with(
     info
 }
 
+/// The scratch's internal-order buffers for one assembly of a renumbered pattern
+/// (`pattern.triangles` holds the triangles in visit order with internal node numbers):
+/// positions gathered once in internal order, forces (and magnitudes) to be summed in
+/// internal order and added to R node by node at the end, so the element loop reads and
+/// writes memory front to back whatever the user's numbering. Returns whether the pattern is
+/// renumbered (the buffers stay empty otherwise).
+fn prepare_internal(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    extra: &Membranes,
+    scratch: &mut AssemblyScratch,
+) -> bool {
+    let internal = !pattern.triangles.is_empty();
+    let AssemblyScratch {
+        xi, ri, mi, fi, ei, ..
+    } = scratch;
+    xi.clear();
+    ri.clear();
+    mi.clear();
+    fi.clear();
+    if internal {
+        xi.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
+        ri.resize(3 * xi.len(), 0.0);
+        if extra.magnitude.is_some() {
+            mi.resize(3 * xi.len(), 0.0);
+        }
+        if extra.out.is_some() {
+            size_evaluations(ei, model.triangles.len());
+        }
+    }
+    internal
+}
+
+/// The membrane triangles of a one-thread assembly, in visit order: forces into R (through
+/// the internal-order buffers of a renumbered pattern, [`prepare_internal`]), tangents into K
+/// and the held-DOF coupling, evaluations into `extra.out`.
+#[allow(clippy::too_many_arguments)]
+fn triangles_one(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    r: &mut [f64],
+    k: &mut Option<&mut [f64]>,
+    extra: &mut Membranes,
+    scratch: &mut AssemblyScratch,
+    info: &mut AssemblyInfo,
+) {
+    let want_k = k.is_some() || extra.held_step.is_some();
+    let factor = Aid::of(extra);
+    let internal = !pattern.triangles.is_empty();
+    let AssemblyScratch { xi, ri, mi, ei, .. } = scratch;
+    let mut ke = membrane::Mat9::zeros();
+    for (slot, &e) in pattern.tri_order().iter().enumerate() {
+        let user = &model.triangles[e];
+        let forced = extra.forced.and_then(|f| f[e]);
+        let kk = want_k.then_some(&mut ke);
+        let (f, eval, ratio) = if internal {
+            let t = &pattern.triangles[slot];
+            let (f, eval, ratio) = triangle_at(t, &t.nodes.map(|i| xi[i]), factor, forced, kk);
+            let mut m = (!mi.is_empty()).then_some(&mut mi[..]);
+            add_force(ri, &t.nodes, f.as_slice(), &mut m);
+            (f, eval, ratio)
+        } else {
+            let (f, eval, ratio) = triangle_of(model, user, u, factor, forced, kk);
+            add_force(r, &user.nodes, f.as_slice(), &mut extra.magnitude);
+            (f, eval, ratio)
+        };
+        info.carried = info.carried.max(largest(f.as_slice()));
+        if let Some(k) = k.as_deref_mut() {
+            scatter(&ke, pattern.map(ElementKind::Membrane, slot), k);
+        }
+        if let Some((du, out)) = extra.held_step.as_mut() {
+            couple(&ke, &user.nodes, du, out);
+        }
+        if internal && extra.out.is_some() {
+            // In visit order here (a write to the user's triangle number would land anywhere
+            // in the list under a shuffled numbering); handed over after the loop.
+            ei[slot] = eval;
+        } else if let Some(out) = extra.out.as_deref_mut() {
+            out[e] = eval;
+        }
+        info.potential += eval.energy;
+        info.min_area_ratio = info.min_area_ratio.min(ratio);
+    }
+    if internal {
+        to_user_order(pattern, ri, r);
+        if let Some(m) = extra.magnitude.as_deref_mut() {
+            to_user_order(pattern, mi, m);
+        }
+        if let Some(out) = extra.out.as_deref_mut() {
+            for (eval, &e) in ei.iter().zip(pattern.tri_order()) {
+                out[e] = *eval;
+            }
+        }
+    }
+}
+
 /// `out` sized to one evaluation per triangle (every assembly writes every entry).
 fn size_evaluations(out: &mut Vec<Evaluation>, triangles: usize) {
     if out.len() != triangles {
@@ -780,37 +880,33 @@ fn to_user_order(pattern: &Pattern, internal: &[f64], user: &mut [f64]) {
     }
 }
 
-/// Cable segments and sleeve ties: forces into R (and the magnitudes), tangents into K.
+/// The elements of `kind` in its visit order (model order: a kind with no evaluation to keep,
+/// a segment or a tie), each's force, tangent and energy from `contribution`: forces into R
+/// (and the magnitudes), tangents into K and the held-DOF coupling, energies into the
+/// potential.
 #[allow(clippy::too_many_arguments)]
-fn lines_into(
+fn elements_into<const N: usize>(
     model: &Model,
     pattern: &Pattern,
-    u: &[f64],
+    kind: ElementKind,
     r: &mut [f64],
     k: &mut Option<&mut [f64]>,
     magnitude: &mut Option<&mut [f64]>,
     held_step: &mut Option<(&[f64], &mut [f64])>,
     info: &mut AssemblyInfo,
+    contribution: impl Fn(usize) -> (SVector<f64, N>, SMatrix<f64, N, N>, f64),
 ) {
-    let ns = model.segments.len();
-    let lines = (0..ns).map(|e| {
-        (
-            e,
-            segment_contribution(model, e, u),
-            model.segments[e].nodes,
-        )
-    });
-    let ties =
-        (0..model.ties.len()).map(|e| (ns + e, tie_contribution(model, e, u), model.ties[e].nodes));
-    for (m, (f, ke, w), nodes) in lines.chain(ties) {
-        add_force(r, &nodes, f.as_slice(), magnitude);
+    for (slot, &e) in pattern.order[kind].iter().enumerate() {
+        let (f, ke, w) = contribution(e);
+        let nodes = model.element_nodes(kind, e);
+        add_force(r, nodes, f.as_slice(), magnitude);
         info.carried = info.carried.max(largest(f.as_slice()));
         info.potential += w;
         if let Some(k) = k.as_deref_mut() {
-            scatter(&ke, &pattern.seg_map[m], k);
+            scatter(&ke, pattern.map(kind, slot), k);
         }
         if let Some((du, out)) = held_step.as_mut() {
-            couple(&ke, &nodes, du, out);
+            couple(&ke, nodes, du, out);
         }
     }
 }
@@ -915,7 +1011,7 @@ fn external_loads_into(
                     };
                     if let Some(kp) = kp {
                         if let Some(k) = k.as_deref_mut() {
-                            scatter(&kp, &pattern.tri_map[slot], k);
+                            scatter(&kp, pattern.map(ElementKind::Membrane, slot), k);
                         }
                         if let Some((du, out)) = held_step.as_mut() {
                             couple(&kp, &model.triangles[e].nodes, du, out);
@@ -996,7 +1092,7 @@ fn triangles_into(
         add_force(r, &t.nodes.map(|i| i - base), f.as_slice(), &mut m);
         sums.carried = sums.carried.max(largest(f.as_slice()));
         if let Some((k, offset)) = k.as_mut() {
-            scatter_at(&ke, &pattern.tri_map[slot], k, *offset);
+            scatter_at(&ke, pattern.map(ElementKind::Membrane, slot), k, *offset);
         }
         out(slot, &eval);
         sums.potential += eval.energy;
@@ -1102,7 +1198,7 @@ impl HelperHalf {
         let use_forced = *use_forced;
         *sums = triangles_into(
             pattern,
-            first..pattern.tri_order.len(),
+            first..pattern.tri_order().len(),
             &x,
             *factor,
             |slot| {
@@ -1136,7 +1232,7 @@ impl HelperHalf {
                     }
                 }
                 if let Some(kp) = kp {
-                    scatter_at(&kp, &pattern.tri_map[slot], k, k_lo);
+                    scatter_at(&kp, pattern.map(ElementKind::Membrane, slot), k, k_lo);
                 }
             }
         }
@@ -1157,8 +1253,10 @@ impl Parallel {
         let nodes = pattern.node_of.len();
         let nnz = pattern.col_ptr[pattern.n];
         let written = |slot: usize| {
-            pattern.tri_map[slot]
-                .into_iter()
+            pattern
+                .map(ElementKind::Membrane, slot)
+                .iter()
+                .copied()
                 .filter(|&p| p != UNMAPPED)
                 .map(|p| p as usize)
         };
@@ -1214,7 +1312,7 @@ impl Parallel {
 
     /// Triangles evaluated by (the solving thread, the helper).
     pub fn halves(&self) -> (usize, usize) {
-        (self.first, self.pattern.tri_order.len() - self.first)
+        (self.first, self.pattern.tri_order().len() - self.first)
     }
 
     /// Whether this is the helper's half of `pattern`.
@@ -1251,6 +1349,91 @@ fn assemble_two(
     mut extra: Membranes,
     scratch: &mut AssemblyScratch,
 ) -> AssemblyInfo {
+    r.fill(0.0);
+    if let Some(m) = extra.magnitude.as_deref_mut() {
+        m.fill(0.0);
+    }
+    scratch.fext.clear();
+    scratch.fext.resize(r.len(), 0.0);
+    let mut info = AssemblyInfo {
+        min_area_ratio: f64::INFINITY,
+        ..Default::default()
+    };
+    let mut no_held: Option<(&[f64], &mut [f64])> = None;
+    for kind in ElementKind::ALL {
+        match kind {
+            // With their pressure loads: each half does its own pressed triangles.
+            ElementKind::Membrane => {
+                triangles_two(model, pattern, u, loads, r, &mut k, &mut extra, scratch, &mut info)
+            }
+            ElementKind::Cable => elements_into(
+                model,
+                pattern,
+                kind,
+                r,
+                &mut k,
+                &mut extra.magnitude,
+                &mut no_held,
+                &mut info,
+                |e| segment_contribution(model, e, u),
+            ),
+            ElementKind::Tie => elements_into(
+                model,
+                pattern,
+                kind,
+                r,
+                &mut k,
+                &mut extra.magnitude,
+                &mut no_held,
+                &mut info,
+                |e| tie_contribution(model, e, u),
+            ),
+        }
+    }
+    let want_k = k.is_some();
+    external_loads(
+        model,
+        pattern,
+        u,
+        loads,
+        &[],
+        &mut scratch.fext,
+        &mut k,
+        &mut no_held,
+        want_k,
+        true,
+        |_| 0..0,
+    );
+    finish(model, u, r, &scratch.fext, &mut extra.magnitude, &mut info);
+    info
+}
+
+/// The membrane triangles and their pressure loads on two threads: the helper's half handed
+/// over and started, the first half here, the helper's added in; forces into R (and the
+/// magnitudes), pressure into `scratch.fext`, tangents into K, evaluations into `extra.out`.
+#[allow(clippy::too_many_arguments)]
+fn triangles_two(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    loads: &[f64],
+    r: &mut [f64],
+    k: &mut Option<&mut [f64]>,
+    extra: &mut Membranes,
+    scratch: &mut AssemblyScratch,
+    info: &mut AssemblyInfo,
+) {
+    let par = scratch.parallel.as_ref().expect("a parallel assembly");
+    {
+        let mut x = par.positions.write().unwrap_or_else(|e| e.into_inner());
+        x.clear();
+        x.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
+    }
+    hand_over(model, pattern, u, loads, k.is_some(), extra, par);
+    par.pool.start_in(0, ASSEMBLE);
+    // The first half, side by side with the helper's.
+    let mut out = extra.out.take();
+    let sums = first_half(model, pattern, u, loads, k, extra, &mut out, scratch);
     let AssemblyScratch {
         ri,
         mi,
@@ -1259,82 +1442,117 @@ fn assemble_two(
         ..
     } = scratch;
     let par = parallel.as_ref().expect("a parallel assembly");
-    let count = pattern.tri_order.len();
-    let nodes = pattern.node_of.len();
+    let waited = par.pool.wait(0);
+    let mut h = lock(&par.job);
+    if waited.is_err() {
+        // The helper failed (a panic in its half): its half again on this thread, where a
+        // second failure is this thread's own, as with one thread.
+        h.run();
+    }
+    add_helper(pattern, par, &h, k, ri, mi, fext, &mut out);
+    info.potential += sums.potential + h.sums.potential;
+    info.min_area_ratio = info.min_area_ratio.min(sums.min_ratio.min(h.sums.min_ratio));
+    info.carried = info.carried.max(sums.carried.max(h.sums.carried));
+    drop(h);
+    to_user_order(pattern, ri, r);
+    if let Some(m) = extra.magnitude.as_deref_mut() {
+        to_user_order(pattern, mi, m);
+    }
+    extra.out = out;
+}
+
+/// The helper's inputs of one assembly: what to compute, the frozen states of its triangles,
+/// and its pressure loads' values.
+fn hand_over(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    loads: &[f64],
+    want_k: bool,
+    extra: &Membranes,
+    par: &Parallel,
+) {
+    let first = par.first;
+    let mut h = lock(&par.job);
+    h.want_k = want_k;
+    h.want_m = extra.magnitude.is_some();
+    h.want_out = extra.out.is_some();
+    h.factor = Aid::of(extra);
+    h.use_forced = extra.forced.is_some();
+    h.forced.clear();
+    if let Some(f) = extra.forced {
+        h.forced
+            .extend(pattern.tri_order()[first..].iter().map(|&e| f[e]));
+    }
+    h.pressures.clear();
+    for (l, load) in model.loads.iter().enumerate() {
+        let follower = match load {
+            LoadModel::Pressure { follower, .. } => *follower,
+            LoadModel::Volume { .. } => true,
+            _ => continue,
+        };
+        let list = &pattern.pressed_order[l];
+        let start = list.partition_point(|&e| pattern.tri_slot[e] < first);
+        h.pressures
+            .push((l, model.load_value(l, u, loads), follower, start));
+    }
+}
+
+/// The first half of the triangles on the solving thread: forces into the internal-order
+/// buffers, tangents straight into K (zeroed up to the helper's exclusive part), evaluations
+/// into `out`, and the first half's pressed triangles into `scratch.fext` and K.
+#[allow(clippy::too_many_arguments)]
+fn first_half(
+    model: &Model,
+    pattern: &Pattern,
+    u: &[f64],
+    loads: &[f64],
+    k: &mut Option<&mut [f64]>,
+    extra: &Membranes,
+    out: &mut Option<&mut Vec<Evaluation>>,
+    scratch: &mut AssemblyScratch,
+) -> Sums {
+    let AssemblyScratch {
+        ri,
+        mi,
+        fext,
+        parallel,
+        ..
+    } = scratch;
+    let par = parallel.as_ref().expect("a parallel assembly");
     let first = par.first;
     let want_k = k.is_some();
     let want_m = extra.magnitude.is_some();
-    let factor = Aid::of(&extra);
-    {
-        let mut x = par.positions.write().unwrap_or_else(|e| e.into_inner());
-        x.clear();
-        x.extend(pattern.node_of.iter().map(|&i| model.position(u, i)));
-    }
-    {
-        let mut h = lock(&par.job);
-        h.want_k = want_k;
-        h.want_m = want_m;
-        h.want_out = extra.out.is_some();
-        h.factor = factor;
-        h.use_forced = extra.forced.is_some();
-        h.forced.clear();
-        if let Some(f) = extra.forced {
-            h.forced
-                .extend(pattern.tri_order[first..].iter().map(|&e| f[e]));
-        }
-        h.pressures.clear();
-        for (l, load) in model.loads.iter().enumerate() {
-            let follower = match load {
-                LoadModel::Pressure { follower, .. } => *follower,
-                LoadModel::Volume { .. } => true,
-                _ => continue,
-            };
-            let list = &pattern.pressed_order[l];
-            let start = list.partition_point(|&e| pattern.tri_slot[e] < first);
-            h.pressures
-                .push((l, model.load_value(l, u, loads), follower, start));
-        }
-    }
-    par.pool.start_in(0, ASSEMBLE);
-    // The first half, side by side with the helper's.
     let x = par.positions.read().unwrap_or_else(|e| e.into_inner());
-    let k_split = par.k_first_end.max(par.k_lo);
     if let Some(k) = k.as_deref_mut() {
-        k[..k_split].fill(0.0);
-    }
-    r.fill(0.0);
-    if let Some(m) = extra.magnitude.as_deref_mut() {
-        m.fill(0.0);
+        k[..par.k_first_end.max(par.k_lo)].fill(0.0);
     }
     ri.clear();
-    ri.resize(3 * nodes, 0.0);
+    ri.resize(3 * pattern.node_of.len(), 0.0);
     mi.clear();
     if want_m {
-        mi.resize(3 * nodes, 0.0);
+        mi.resize(3 * pattern.node_of.len(), 0.0);
     }
-    let mut out = extra.out.take();
     if let Some(out) = out.as_deref_mut() {
-        size_evaluations(out, count);
+        size_evaluations(out, pattern.tri_order().len());
     }
     let forced = extra.forced;
     let sums = triangles_into(
         pattern,
         0..first,
         &x,
-        factor,
-        |slot| forced.and_then(|f| f[pattern.tri_order[slot]]),
+        Aid::of(extra),
+        |slot| forced.and_then(|f| f[pattern.tri_order()[slot]]),
         0,
         ri,
         want_m.then_some(&mut mi[..]),
         k.as_deref_mut().map(|k| (k, 0)),
         |slot, eval| {
             if let Some(out) = out.as_deref_mut() {
-                out[pattern.tri_order[slot]] = *eval;
+                out[pattern.tri_order()[slot]] = *eval;
             }
         },
     );
-    fext.clear();
-    fext.resize(r.len(), 0.0);
     let mut no_held: Option<(&[f64], &mut [f64])> = None;
     external_loads(
         model,
@@ -1343,7 +1561,7 @@ fn assemble_two(
         loads,
         &x,
         fext,
-        &mut k,
+        k,
         &mut no_held,
         want_k,
         false,
@@ -1352,17 +1570,25 @@ fn assemble_two(
             0..list.partition_point(|&e| pattern.tri_slot[e] < first)
         },
     );
-    drop(x);
-    let waited = par.pool.wait(0);
-    let mut h = lock(&par.job);
-    if waited.is_err() {
-        // The helper failed (a panic in its half): its half again on this thread, where a
-        // second failure is this thread's own, as with one thread.
-        h.run();
-    }
-    // The helper's half added in: K's overlap along the cut, then the rest of K copied.
+    sums
+}
+
+/// The helper's half added in: K's overlap along the cut, then the rest of K copied; its
+/// forces, magnitudes, pressure loads and evaluations.
+#[allow(clippy::too_many_arguments)]
+fn add_helper(
+    pattern: &Pattern,
+    par: &Parallel,
+    h: &HelperHalf,
+    k: &mut Option<&mut [f64]>,
+    ri: &mut [f64],
+    mi: &mut [f64],
+    fext: &mut [f64],
+    out: &mut Option<&mut Vec<Evaluation>>,
+) {
     if let Some(k) = k.as_deref_mut() {
         let lo = par.k_lo;
+        let k_split = par.k_first_end.max(par.k_lo);
         for (a, b) in k[lo..k_split].iter_mut().zip(&h.k) {
             *a += b;
         }
@@ -1372,7 +1598,7 @@ fn assemble_two(
     for (a, b) in ri[lo..].iter_mut().zip(&h.r) {
         *a += b;
     }
-    if want_m {
+    if h.want_m {
         for (a, b) in mi[lo..].iter_mut().zip(&h.m) {
             *a += b;
         }
@@ -1386,45 +1612,9 @@ fn assemble_two(
     }
     if let Some(out) = out.as_deref_mut() {
         for (j, eval) in h.evals.iter().enumerate() {
-            out[pattern.tri_order[first + j]] = *eval;
+            out[pattern.tri_order()[par.first + j]] = *eval;
         }
     }
-    let mut info = AssemblyInfo {
-        potential: sums.potential + h.sums.potential,
-        external: 0.0,
-        min_area_ratio: sums.min_ratio.min(h.sums.min_ratio),
-        carried: sums.carried.max(h.sums.carried),
-    };
-    drop(h);
-    to_user_order(pattern, ri, r);
-    if let Some(m) = extra.magnitude.as_deref_mut() {
-        to_user_order(pattern, mi, m);
-    }
-    lines_into(
-        model,
-        pattern,
-        u,
-        r,
-        &mut k,
-        &mut extra.magnitude,
-        &mut no_held,
-        &mut info,
-    );
-    external_loads(
-        model,
-        pattern,
-        u,
-        loads,
-        &[],
-        fext,
-        &mut k,
-        &mut no_held,
-        want_k,
-        true,
-        |_| 0..0,
-    );
-    finish(model, u, r, fext, &mut extra.magnitude, &mut info);
-    info
 }
 
 #[cfg(test)]
