@@ -243,25 +243,16 @@ impl Solver {
 }
 
 /// D of the damped system (`newton.rs`): per free equation, the diagonal stiffness its node
-/// would have if every element at it were taut and elastic and unstressed (membranes E t A
-/// |∇N_a|², cables EA/L, ties k; the same for x, y, z), and per slip the axial stiffness of
-/// its two segments. Positive wherever an element touches; 1 N/m elsewhere.
+/// would have if every element at it were taut and elastic and unstressed
+/// (`Element::reference_stiffness`: membranes E t A |∇N_a|², cables EA/L, ties k; the same for
+/// x, y, z), and per slip the axial stiffness of its two segments. Positive wherever an element
+/// touches; 1 N/m elsewhere.
 fn reference_diagonal(model: &Model, pattern: &Pattern) -> Result<Vec<f64>, OutOfMemory> {
     let mut node: Vec<f64> = memory::zeros(model.reference.len(), "the solver's vectors")?;
-    for t in &model.triangles {
-        let k = t.material.modulus() * t.material.thickness * t.reference.area;
-        for (a, &i) in t.nodes.iter().enumerate() {
-            node[i] += k * t.reference.grad[a].norm_squared();
-        }
-    }
-    for s in &model.segments {
-        for &i in &s.nodes {
-            node[i] += s.ea / s.l0;
-        }
-    }
-    for t in &model.ties {
-        for &i in &t.nodes {
-            node[i] += t.k;
+    for (kind, e) in model.elements() {
+        let element = model.element(kind, e);
+        for (a, &i) in element.nodes().iter().enumerate() {
+            node[i] += element.reference_stiffness(a);
         }
     }
     let mut d: Vec<f64> = memory::zeros(pattern.n + model.slips.len(), "the solver's vectors")?;

@@ -3,7 +3,8 @@
 //! globalisation can find one; the step's failure then says which nodes are free.
 //!
 //! ```text
-//! part        a connected set of nodes (triangles, cable segments and sleeve ties connect)
+//! part        a connected set of nodes (every element connects its nodes: triangles, cable
+//!             segments, sleeve ties)
 //! rigid modes v(x) = t + ω × (x − c): 6 columns per node, [I, −[(x − c)/L]×] (L: part size)
 //! free        rank of the modes over all the part's DOFs > rank over its held DOFs
 //!             (a rigid motion that moves the part but no held DOF)
@@ -37,17 +38,13 @@ pub fn diagnose(model: &Model, f_ext: &[f64]) -> Option<String> {
         }
     };
     let mut used = vec![false; n];
-    for t in &model.triangles {
-        join(&mut parent, t.nodes[0], t.nodes[1]);
-        join(&mut parent, t.nodes[0], t.nodes[2]);
-        t.nodes.iter().for_each(|&i| used[i] = true);
-    }
-    for s in &model.segments {
-        join(&mut parent, s.nodes[0], s.nodes[1]);
-        s.nodes.iter().for_each(|&i| used[i] = true);
-    }
-    for t in &model.ties {
-        join(&mut parent, t.nodes[0], t.nodes[1]);
+    // Every element joins its nodes into one part, whatever its kind.
+    for (kind, e) in model.elements() {
+        let nodes = model.element_nodes(kind, e);
+        for &i in &nodes[1..] {
+            join(&mut parent, nodes[0], i);
+        }
+        nodes.iter().for_each(|&i| used[i] = true);
     }
     let mut parts: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
     for i in (0..n).filter(|&i| used[i]) {

@@ -27,17 +27,16 @@ use super::assemble::{
 use super::slope::bracket_slope;
 use super::dense::dense_solve;
 use crate::memory::{self, OutOfMemory};
+use crate::model::cable::{Mat6, Vec6};
 use crate::model::membrane::Mat9;
 use crate::model::wrinkling::{WrinkleState, REGULARIZATION};
-use crate::model::{LoadModel, Model};
+use crate::model::{ElementKind, LoadModel, Model, PerKind};
 use nalgebra::{Matrix3, Vector3};
 
-/// What touches a node: (element, local index) for triangles, segments and ties.
+/// What touches a node: per element kind, (element, local index) of every element at it.
 #[derive(Clone, Debug, Default)]
 pub struct Adjacency {
-    triangles: Lists<(usize, usize)>,
-    segments: Lists<(usize, usize)>,
-    ties: Lists<(usize, usize)>,
+    elements: PerKind<Lists<(usize, usize)>>,
     /// Per triangle: (load index, follower) of the pressures acting on it.
     pressures: Lists<(usize, bool)>,
     /// Per node: (load index, component, force per unit load value).
@@ -93,26 +92,13 @@ impl Adjacency {
     pub fn try_new(model: &Model) -> Result<Adjacency, OutOfMemory> {
         let n = model.reference.len();
         Ok(Adjacency {
-            triangles: Lists::try_build(n, || {
-                model
-                    .triangles
-                    .iter()
-                    .enumerate()
-                    .flat_map(|(e, t)| t.nodes.iter().enumerate().map(move |(k, &i)| (i, (e, k))))
-            })?,
-            segments: Lists::try_build(n, || {
-                model
-                    .segments
-                    .iter()
-                    .enumerate()
-                    .flat_map(|(e, s)| s.nodes.iter().enumerate().map(move |(k, &i)| (i, (e, k))))
-            })?,
-            ties: Lists::try_build(n, || {
-                model
-                    .ties
-                    .iter()
-                    .enumerate()
-                    .flat_map(|(e, t)| t.nodes.iter().enumerate().map(move |(k, &i)| (i, (e, k))))
+            elements: PerKind::try_from_fn(|kind| {
+                Lists::try_build(n, || {
+                    (0..model.element_count(kind)).flat_map(move |e| {
+                        let nodes = model.element_nodes(kind, e);
+                        nodes.iter().enumerate().map(move |(k, &i)| (i, (e, k)))
+                    })
+                })
             })?,
             pressures: Lists::try_build(model.triangles.len(), || {
                 model.loads.iter().enumerate().flat_map(|(l, load)| {
@@ -166,8 +152,42 @@ fn local(
         potential: Some(0.0),
         inverted: false,
     };
+    for kind in ElementKind::ALL {
+        let at = &adj.elements[kind][node];
+        match kind {
+            ElementKind::Membrane => local_triangles(model, adj, u, loads, node, forced, at, &mut out),
+            ElementKind::Cable => {
+                let lines = at.iter().map(|&(e, a)| (segment_contribution(model, e, u), a));
+                local_lines(lines, &mut out)
+            }
+            ElementKind::Tie => {
+                let lines = at.iter().map(|&(e, a)| (tie_contribution(model, e, u), a));
+                local_lines(lines, &mut out)
+            }
+        }
+    }
+    for &(l, c, f) in &adj.forces[node] {
+        out.r[c] -= f * loads[l];
+        out.potential = out.potential.map(|p| p - f * loads[l] * u[3 * node + c]);
+    }
+    out
+}
+
+/// The triangles at `node` (`at`: (triangle, the node's local index)) and their pressure
+/// loads into the node's rows and block.
+#[allow(clippy::too_many_arguments)]
+fn local_triangles(
+    model: &Model,
+    adj: &Adjacency,
+    u: &[f64],
+    loads: &[f64],
+    node: usize,
+    forced: Frozen,
+    at: &[(usize, usize)],
+    out: &mut Local,
+) {
     let mut ke = Mat9::zeros();
-    for &(e, a) in &adj.triangles[node] {
+    for &(e, a) in at {
         let state = forced.states.and_then(|f| f[e]);
         let (f, eval, ratio) = triangle_contribution(
             model,
@@ -194,24 +214,16 @@ fn local(
             }
         }
     }
-    let lines = adj.segments[node]
-        .iter()
-        .map(|&(e, a)| (segment_contribution(model, e, u), a))
-        .chain(
-            adj.ties[node]
-                .iter()
-                .map(|&(e, a)| (tie_contribution(model, e, u), a)),
-        );
+}
+
+/// Two-node elements at a node ((force, tangent, energy), the node's local index) into its
+/// rows and block.
+fn local_lines(lines: impl Iterator<Item = ((Vec6, Mat6, f64), usize)>, out: &mut Local) {
     for ((f, k, w), a) in lines {
         out.r += f.fixed_rows::<3>(3 * a);
         out.k += k.fixed_view::<3, 3>(3 * a, 3 * a);
         out.potential = out.potential.map(|p| p + w);
     }
-    for &(l, c, f) in &adj.forces[node] {
-        out.r[c] -= f * loads[l];
-        out.potential = out.potential.map(|p| p - f * loads[l] * u[3 * node + c]);
-    }
-    out
 }
 
 /// What the global iteration holds for the relaxation: its frozen wrinkle states (None: the
@@ -344,9 +356,8 @@ fn line_search(
 /// Buffers of the patch Newton, reused from call to call (they only grow).
 #[derive(Default)]
 pub struct PatchWork {
-    triangles: Vec<usize>,
-    segments: Vec<usize>,
-    ties: Vec<usize>,
+    /// Per element kind, the elements that touch the patch.
+    elements: PerKind<Vec<usize>>,
     /// The patch's tangent, row-major (3m x 3m), factored in place by each solve.
     k: Vec<f64>,
     r: Vec<f64>,
@@ -371,7 +382,7 @@ impl PatchWork {
         ] {
             v.reserve(len.saturating_sub(v.len()));
         }
-        for v in [&mut self.triangles, &mut self.segments, &mut self.ties] {
+        for v in &mut self.elements.0 {
             v.reserve((8 * nodes).saturating_sub(v.len()));
         }
         self.slots.reserve(nodes.saturating_sub(self.slots.len()));
@@ -419,9 +430,7 @@ pub fn relax_patch(
 ) -> PatchOutcome {
     let n = 3 * nodes.len();
     let PatchWork {
-        triangles,
-        segments,
-        ties,
+        elements,
         k,
         r,
         step,
@@ -432,15 +441,13 @@ pub fn relax_patch(
     slots.extend(nodes.iter().enumerate().map(|(p, &i)| (i, p)));
     slots.sort_unstable();
     debug_assert!(slots.windows(2).all(|w| w[0].0 < w[1].0));
-    touching(triangles, nodes, &adj.triangles);
-    touching(segments, nodes, &adj.segments);
-    touching(ties, nodes, &adj.ties);
+    for kind in ElementKind::ALL {
+        touching(&mut elements[kind], nodes, &adj.elements[kind]);
+    }
     let elements = PatchElements {
         nodes,
         slots,
-        triangles,
-        segments,
-        ties,
+        elements,
         forced,
         regularization,
     };
@@ -504,9 +511,8 @@ struct PatchElements<'a> {
     nodes: &'a [usize],
     /// (node, place in `nodes`) sorted by node.
     slots: &'a [(usize, usize)],
-    triangles: &'a [usize],
-    segments: &'a [usize],
-    ties: &'a [usize],
+    /// Per element kind, the elements that touch the patch (sorted, each once).
+    elements: &'a PerKind<Vec<usize>>,
     forced: Frozen<'a>,
     regularization: f64,
 }
@@ -562,44 +568,47 @@ impl PatchElements<'_> {
         let want_k = k.is_some();
         let mut inverted = false;
         let mut ke = Mat9::zeros();
-        for &e in self.triangles {
-            let state = self.forced.states.and_then(|f| f[e]);
-            let (f, _, ratio) = triangle_contribution(
-                model,
-                e,
-                u,
-                self.forced.aid(),
-                state,
-                want_k.then_some(&mut ke),
-                self.regularization,
-            );
-            inverted |= !(ratio > MIN_AREA_RATIO);
-            let on = &model.triangles[e].nodes;
-            add(on, f.as_slice(), want_k.then_some(ke.as_slice()), &mut k);
-            for &(l, follower) in &adj.pressures[e] {
-                let value = model.load_value(l, u, loads);
-                let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
-                let f = [-f.x, -f.y, -f.z, -f.x, -f.y, -f.z, -f.x, -f.y, -f.z];
-                add(on, &f, kp.as_ref().map(|kp| kp.as_slice()), &mut k);
+        for kind in ElementKind::ALL {
+            let list = &self.elements[kind];
+            match kind {
+                ElementKind::Membrane => {
+                    for &e in list {
+                        let state = self.forced.states.and_then(|f| f[e]);
+                        let (f, _, ratio) = triangle_contribution(
+                            model,
+                            e,
+                            u,
+                            self.forced.aid(),
+                            state,
+                            want_k.then_some(&mut ke),
+                            self.regularization,
+                        );
+                        inverted |= !(ratio > MIN_AREA_RATIO);
+                        let on = &model.triangles[e].nodes;
+                        add(on, f.as_slice(), want_k.then_some(ke.as_slice()), &mut k);
+                        for &(l, follower) in &adj.pressures[e] {
+                            let value = model.load_value(l, u, loads);
+                            let (f, kp) =
+                                pressure_contribution(model, e, u, value, follower, want_k);
+                            let f = [-f.x, -f.y, -f.z, -f.x, -f.y, -f.z, -f.x, -f.y, -f.z];
+                            add(on, &f, kp.as_ref().map(|kp| kp.as_slice()), &mut k);
+                        }
+                    }
+                }
+                ElementKind::Cable => {
+                    for &e in list {
+                        let (f, ks, _) = segment_contribution(model, e, u);
+                        let on = &model.segments[e].nodes;
+                        add(on, f.as_slice(), Some(ks.as_slice()), &mut k);
+                    }
+                }
+                ElementKind::Tie => {
+                    for &e in list {
+                        let (f, kt, _) = tie_contribution(model, e, u);
+                        add(&model.ties[e].nodes, f.as_slice(), Some(kt.as_slice()), &mut k);
+                    }
+                }
             }
-        }
-        for &e in self.segments {
-            let (f, ks, _) = segment_contribution(model, e, u);
-            add(
-                &model.segments[e].nodes,
-                f.as_slice(),
-                Some(ks.as_slice()),
-                &mut k,
-            );
-        }
-        for &e in self.ties {
-            let (f, kt, _) = tie_contribution(model, e, u);
-            add(
-                &model.ties[e].nodes,
-                f.as_slice(),
-                Some(kt.as_slice()),
-                &mut k,
-            );
         }
         for (p, &i) in self.nodes.iter().enumerate() {
             for &(l, c, f) in &adj.forces[i] {

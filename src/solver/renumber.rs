@@ -44,7 +44,7 @@
 //! finder", ACM TOMS 5(3); Skilling 2004, "Programming the Hilbert curve", AIP Conf. Proc. 707.
 
 use crate::memory::{self, OutOfMemory};
-use crate::model::Model;
+use crate::model::{ElementKind, Model};
 use nalgebra::Vector3;
 
 const WHAT: &str = "the node renumbering";
@@ -81,18 +81,18 @@ pub fn node_rank(model: &Model, order: NodeOrder) -> Result<Vec<usize>, OutOfMem
     Ok(rank)
 }
 
-/// The node graph: every pair of nodes joined by a triangle, a segment or a tie (CSR, sorted,
-/// no self loops, no duplicates).
+/// The node graph: every pair of nodes joined by an element of any kind (CSR, sorted, no self
+/// loops, no duplicates).
 fn node_graph(model: &Model) -> Result<(Vec<usize>, Vec<usize>), OutOfMemory> {
     let n = model.reference.len();
     let edges = || {
-        let tri = model.triangles.iter().flat_map(|t| {
-            let [a, b, c] = t.nodes;
-            [(a, b), (b, c), (c, a)]
-        });
-        let seg = model.segments.iter().map(|s| (s.nodes[0], s.nodes[1]));
-        let tie = model.ties.iter().map(|t| (t.nodes[0], t.nodes[1]));
-        tri.chain(seg).chain(tie).filter(|(a, b)| a != b)
+        model
+            .elements()
+            .flat_map(|(kind, e)| {
+                let nodes = model.element_nodes(kind, e);
+                (0..nodes.len()).flat_map(move |a| (a + 1..nodes.len()).map(move |b| (nodes[a], nodes[b])))
+            })
+            .filter(|(a, b)| a != b)
     };
     let mut start = memory::zeros::<usize>(n + 1, WHAT)?;
     for (a, b) in edges() {
@@ -132,6 +132,33 @@ fn node_graph(model: &Model) -> Result<(Vec<usize>, Vec<usize>), OutOfMemory> {
     Ok((ptr, adj))
 }
 
+/// Unit normal of the membrane at every node (area-weighted over its triangles; zero at a
+/// node no triangle touches).
+fn node_normals(model: &Model) -> Result<Vec<Vector3<f64>>, OutOfMemory> {
+    let mut normal = memory::filled(model.reference.len(), Vector3::zeros(), WHAT)?;
+    for kind in ElementKind::ALL {
+        match kind {
+            ElementKind::Membrane => {
+                for t in &model.triangles {
+                    let [a, b, c] = t.nodes.map(|i| model.reference[i]);
+                    let w = (b - a).cross(&(c - a));
+                    for &i in &t.nodes {
+                        normal[i] += w;
+                    }
+                }
+            }
+            // Lines have no surface: a node only on cables has no normal, and its neighbours
+            // go by degree (as in Cuthill-McKee).
+            ElementKind::Cable | ElementKind::Tie => {}
+        }
+    }
+    for v in &mut normal {
+        let l = v.norm();
+        *v = if l > 0.0 { *v / l } else { Vector3::zeros() };
+    }
+    Ok(normal)
+}
+
 /// Cuthill-McKee order of the node graph, component by component (every node once). Every
 /// choice (the start of each component, the order of a node's neighbours) is broken by the
 /// nodes' Hilbert keys, never by their numbers, so the order does not depend on the user's
@@ -156,20 +183,7 @@ fn cuthill_mckee(model: &Model, central: bool) -> Result<Vec<usize>, OutOfMemory
     let mut far_level: Vec<usize> = Vec::new();
     let mut neighbours: Vec<usize> = Vec::new();
     let mut parent = memory::filled(n, NONE, WHAT)?;
-    // Unit normal of the membrane at every node (area-weighted over its triangles; zero at a
-    // node no triangle touches).
-    let mut normal = memory::filled(n, Vector3::zeros(), WHAT)?;
-    for t in &model.triangles {
-        let [a, b, c] = t.nodes.map(|i| model.reference[i]);
-        let w = (b - a).cross(&(c - a));
-        for &i in &t.nodes {
-            normal[i] += w;
-        }
-    }
-    for v in &mut normal {
-        let l = v.norm();
-        *v = if l > 0.0 { *v / l } else { Vector3::zeros() };
-    }
+    let normal = node_normals(model)?;
     let clear = |level: &mut [usize], reached: &[usize]| {
         for &i in reached {
             level[i] = usize::MAX;
