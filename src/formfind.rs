@@ -61,7 +61,7 @@
 //! Linhard, Wüchner & Bletzinger 2009 (URS for membranes with cables); Schek 1974, *The force
 //! density method for form finding and computation of general networks*, CMAME 3:115-134.
 
-use crate::model::{membrane, node_ids, triangle_ids, Model};
+use crate::model::{membrane, node_ids, triangle_ids, ElementKind, Model};
 use crate::scene::generate::resolve;
 use crate::scene::{FormFinding, Geometry, OneNode, Prestress, Problem, Scene};
 use crate::solver::assemble::{Pattern, NONE};
@@ -158,6 +158,7 @@ pub fn form_find_keeping(
     // Held DOFs and the element lists come from the model of the scene; the reference data of
     // each iteration is formed here.
     let model = Model::try_build(&start_scene)?;
+    check_kinds(&model)?;
     let mut x: Vec<Vector3<f64>> = mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
     for pl in &settings.place {
         let id = match &pl.node {
@@ -802,4 +803,26 @@ fn found_scene(
         generators: Vec::new(),
     };
     found
+}
+
+/// Every element kind of `model` is one form finding prescribes a stress on: a membrane
+/// triangle its group's prestress (a PK2 stress in each iterate, `TriangleStress`), a cable
+/// segment its cable's pretension (a force density T/L). A kind it does not handle is refused
+/// by the scene's validation first; here it is a located error, not a silent omission.
+fn check_kinds(model: &Model) -> Result<(), crate::Error> {
+    for kind in ElementKind::ALL {
+        let (handled, path) = match kind {
+            ElementKind::Membrane => (true, "membranes"),
+            ElementKind::Cable => (true, "cables"),
+            // Validation refuses sleeved cables in a scene to form-find.
+            ElementKind::Tie => (false, "cables[].sleeve"),
+        };
+        if !handled && model.element_count(kind) > 0 {
+            return Err(crate::Error::Scene(vec![Problem {
+                path: path.to_string(),
+                message: format!("form finding does not take a {}", kind.name()),
+            }]));
+        }
+    }
+    Ok(())
 }

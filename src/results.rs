@@ -221,6 +221,53 @@ pub fn segment_tensions(model: &Model, u: &[f64], cable: usize) -> Vec<f64> {
         .collect()
 }
 
+/// What one element shows as a cell of a ParaView file (`vtk.rs`); NaN (None for the state)
+/// where its kind has no such value.
+#[derive(Clone, Copy, Debug)]
+pub struct ElementData {
+    /// Wrinkle state of a membrane triangle.
+    pub state: Option<WrinkleState>,
+    /// Principal Cauchy stresses (largest, smallest), Pa.
+    pub principal: (f64, f64),
+    /// Unit tension direction in the current configuration: a triangle's major principal
+    /// direction, a segment's axis (zero where it has collapsed).
+    pub direction: nalgebra::Vector3<f64>,
+    /// Axial force of a segment, N (`Model::segment_tension`).
+    pub tension: f64,
+    /// Unstretched length that flowed into a segment through its sleeve points
+    /// (s_end − s_start), m.
+    pub slip: f64,
+}
+
+/// [`ElementData`] of a membrane triangle with its evaluation at `u`.
+pub fn triangle_data(
+    model: &Model,
+    u: &[f64],
+    triangle: &crate::model::Triangle,
+    evaluation: &Evaluation,
+) -> ElementData {
+    ElementData {
+        state: Some(evaluation.state),
+        principal: evaluation.cauchy,
+        direction: tension_direction(model, u, triangle, evaluation),
+        tension: f64::NAN,
+        slip: f64::NAN,
+    }
+}
+
+/// [`ElementData`] of cable segment `s` at `u`.
+pub fn segment_data(model: &Model, u: &[f64], s: usize) -> ElementData {
+    let [a, b] = model.segments[s].nodes;
+    let d = model.position(u, b) - model.position(u, a);
+    ElementData {
+        state: None,
+        principal: (f64::NAN, f64::NAN),
+        direction: if d.norm() > 0.0 { d.normalize() } else { d },
+        tension: model.segment_tension(u, s),
+        slip: model.segment_l0(u, s) - model.segments[s].l0,
+    }
+}
+
 /// Unit tension direction of a membrane triangle in the current configuration: the major
 /// principal direction of its evaluation (an angle in the element's reference frame) pushed
 /// forward by the deformation gradient (zero if the triangle has collapsed onto it).

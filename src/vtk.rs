@@ -29,6 +29,7 @@
 use crate::description::xs_double;
 use crate::engine::Engine;
 use crate::error::Error;
+use crate::model::ElementKind;
 use crate::pack::write_atomically;
 use crate::results;
 use std::fmt::Write;
@@ -93,32 +94,79 @@ impl Series {
     }
 }
 
+/// One cell of the grid: an element drawn in ParaView.
+struct Cell<'m> {
+    nodes: &'m [usize],
+    /// VTK cell type (5 triangle, 3 line).
+    vtk_type: i64,
+    /// The `kind` cell data: 0 triangle, 1 cable segment.
+    kind: i64,
+    /// Mesh triangle id / segment index within its cable.
+    id: i64,
+    /// Cable index (scene order), -1 for triangles.
+    cable: i64,
+    data: results::ElementData,
+}
+
+/// The cells of `engine`'s committed state, kind by kind (`ElementKind::ALL`), each kind in
+/// model order.
+fn cells(engine: &Engine) -> Vec<Cell<'_>> {
+    let model = engine.model();
+    let u = &engine.state().displacement;
+    let mut cells = Vec::with_capacity(model.triangles.len() + model.segments.len());
+    for kind in ElementKind::ALL {
+        match kind {
+            ElementKind::Membrane => {
+                for (t, m) in model.triangles.iter().zip(engine.membranes()) {
+                    cells.push(Cell {
+                        nodes: &t.nodes,
+                        vtk_type: 5,
+                        kind: 0,
+                        id: t.id as i64,
+                        cable: -1,
+                        data: results::triangle_data(model, u, t, m),
+                    });
+                }
+            }
+            ElementKind::Cable => {
+                for (c, cable) in model.cables.iter().enumerate() {
+                    for (k, s) in cable.segments.clone().enumerate() {
+                        cells.push(Cell {
+                            nodes: &model.segments[s].nodes,
+                            vtk_type: 3,
+                            kind: 1,
+                            id: k as i64,
+                            cable: c as i64,
+                            data: results::segment_data(model, u, s),
+                        });
+                    }
+                }
+            }
+            // Not drawn: a tie joins a sleeve's cable point to its sleeve node, at the same
+            // place to the tie's gap; its force and gap are the sleeve probes'.
+            ElementKind::Tie => {}
+        }
+    }
+    cells
+}
+
 /// The committed state of `engine` as a VTK XML UnstructuredGrid document (ASCII).
 pub fn unstructured_grid(engine: &Engine) -> String {
     let model = engine.model();
     let u = &engine.state().displacement;
     let nodes = model.reference.len();
-    let triangles = model.triangles.len();
-    let segments = model.segments.len();
-    let membranes = engine.membranes();
+    let cells = cells(engine);
 
     let mut slip_at_node = vec![0.0; nodes];
     for (j, point) in model.slips.iter().enumerate() {
         slip_at_node[point.node] = 0.0 - u[model.dof_count() + j];
     }
-    // Cable index and position along the cable of every segment.
-    let mut segment_cable = vec![(0usize, 0usize); segments];
-    for (c, cable) in model.cables.iter().enumerate() {
-        for (k, s) in cable.segments.clone().enumerate() {
-            segment_cable[s] = (c, k);
-        }
-    }
 
-    let mut x = String::with_capacity(64 * (nodes + triangles + segments));
+    let mut x = String::with_capacity(64 * (nodes + cells.len()));
     let _ = write!(
         x,
         "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{nodes}\" NumberOfCells=\"{}\">\n",
-        triangles + segments
+        cells.len()
     );
 
     x.push_str("      <Points>\n");
@@ -135,38 +183,25 @@ pub fn unstructured_grid(engine: &Engine) -> String {
     x.push_str("      </Points>\n");
 
     x.push_str("      <Cells>\n");
+    let ints = |f: fn(&Cell) -> i64| cells.iter().map(f);
     int_array(
         &mut x,
         "Int64",
         "connectivity",
         1,
-        model
-            .triangles
-            .iter()
-            .flat_map(|t| t.nodes.iter().map(|&n| n as i64))
-            .chain(
-                model
-                    .segments
-                    .iter()
-                    .flat_map(|s| s.nodes.iter().map(|&n| n as i64)),
-            ),
+        cells.iter().flat_map(|c| c.nodes.iter().map(|&n| n as i64)),
     );
     int_array(
         &mut x,
         "Int64",
         "offsets",
         1,
-        (1..=triangles)
-            .map(|k| 3 * k as i64)
-            .chain((1..=segments).map(|k| (3 * triangles + 2 * k) as i64)),
+        cells.iter().scan(0i64, |end, c| {
+            *end += c.nodes.len() as i64;
+            Some(*end)
+        }),
     );
-    int_array(
-        &mut x,
-        "UInt8",
-        "types",
-        1,
-        std::iter::repeat_n(5i64, triangles).chain(std::iter::repeat_n(3i64, segments)),
-    );
+    int_array(&mut x, "UInt8", "types", 1, ints(|c| c.vtk_type));
     x.push_str("      </Cells>\n");
 
     x.push_str("      <PointData Vectors=\"displacement\">\n");
@@ -187,104 +222,31 @@ pub fn unstructured_grid(engine: &Engine) -> String {
     x.push_str("      </PointData>\n");
 
     x.push_str("      <CellData Scalars=\"wrinkle_state\" Vectors=\"tension_direction\">\n");
-    int_array(
-        &mut x,
-        "Int32",
-        "kind",
-        1,
-        std::iter::repeat_n(0i64, triangles).chain(std::iter::repeat_n(1i64, segments)),
-    );
-    int_array(
-        &mut x,
-        "Int32",
-        "id",
-        1,
-        model
-            .triangles
-            .iter()
-            .map(|t| t.id as i64)
-            .chain(segment_cable.iter().map(|&(_, k)| k as i64)),
-    );
-    int_array(
-        &mut x,
-        "Int32",
-        "cable",
-        1,
-        std::iter::repeat_n(-1i64, triangles).chain(segment_cable.iter().map(|&(c, _)| c as i64)),
-    );
+    let floats = |f: fn(&results::ElementData) -> f64| cells.iter().map(move |c| f(&c.data));
+    int_array(&mut x, "Int32", "kind", 1, ints(|c| c.kind));
+    int_array(&mut x, "Int32", "id", 1, ints(|c| c.id));
+    int_array(&mut x, "Int32", "cable", 1, ints(|c| c.cable));
     int_array(
         &mut x,
         "Int32",
         "wrinkle_state",
         1,
-        membranes
-            .iter()
-            .map(|m| results::state_code(m.state) as i64)
-            .chain(std::iter::repeat_n(-1i64, segments)),
+        ints(|c| c.data.state.map_or(-1, |s| results::state_code(s) as i64)),
     );
-    array(
-        &mut x,
-        "Float64",
-        "sigma_max",
-        1,
-        membranes
-            .iter()
-            .map(|m| m.cauchy.0)
-            .chain(std::iter::repeat_n(f64::NAN, segments)),
-    );
-    array(
-        &mut x,
-        "Float64",
-        "sigma_min",
-        1,
-        membranes
-            .iter()
-            .map(|m| m.cauchy.1)
-            .chain(std::iter::repeat_n(f64::NAN, segments)),
-    );
-    let segment_axis = |s: usize| {
-        let [a, b] = model.segments[s].nodes;
-        let d = model.position(u, b) - model.position(u, a);
-        if d.norm() > 0.0 {
-            d.normalize()
-        } else {
-            d
-        }
-    };
+    array(&mut x, "Float64", "sigma_max", 1, floats(|d| d.principal.0));
+    array(&mut x, "Float64", "sigma_min", 1, floats(|d| d.principal.1));
     array(
         &mut x,
         "Float64",
         "tension_direction",
         3,
-        model
-            .triangles
-            .iter()
-            .zip(membranes)
-            .flat_map(|(t, m)| {
-                let d = results::tension_direction(model, u, t, m);
-                [d.x, d.y, d.z]
-            })
-            .chain((0..segments).flat_map(|s| {
-                let d = segment_axis(s);
-                [d.x, d.y, d.z]
-            })),
+        cells.iter().flat_map(|c| {
+            let d = c.data.direction;
+            [d.x, d.y, d.z]
+        }),
     );
-    array(
-        &mut x,
-        "Float64",
-        "cable_tension",
-        1,
-        std::iter::repeat_n(f64::NAN, triangles)
-            .chain((0..segments).map(|s| model.segment_tension(u, s))),
-    );
-    array(
-        &mut x,
-        "Float64",
-        "slip",
-        1,
-        std::iter::repeat_n(f64::NAN, triangles)
-            .chain((0..segments).map(|s| model.segment_l0(u, s) - model.segments[s].l0)),
-    );
+    array(&mut x, "Float64", "cable_tension", 1, floats(|d| d.tension));
+    array(&mut x, "Float64", "slip", 1, floats(|d| d.slip));
     x.push_str("      </CellData>\n");
 
     x.push_str("    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");

@@ -37,7 +37,7 @@ use crate::model::membrane::{self, Mat9};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::wrinkling::REGULARIZATION;
-use crate::model::{pressure, LoadModel, Model};
+use crate::model::{pressure, ElementKind, LoadModel, Model};
 use nalgebra::{DMatrix, DVector};
 
 /// Rounds of the skew fixed point before the solve is declared failed.
@@ -422,16 +422,35 @@ fn skew_parts(model: &Model, u: &[f64], loads: &[f64]) -> Vec<([usize; 3], Mat9)
     out
 }
 
-/// The regularisation ε·D0 that the wrinkled and slack triangles add to the factored tangent
-/// (`wrinkling::REGULARIZATION`, tangent only): vol·Bᵀ ε D0 B per triangle, B the variation of
-/// the Green-Lagrange strain at the current deformation (the material part of
-/// `membrane::triangle`'s tangent).
+/// The tangent-only parts that the factored tangent holds and the true one lacks, per element
+/// kind: the regularisation ε·D0 of the wrinkled and slack triangles.
 fn regularisation_parts(
     model: &Model,
     u: &[f64],
     wrinkle: &[WrinkleState],
 ) -> Vec<([usize; 3], Mat9)> {
     let mut out = Vec::new();
+    for kind in ElementKind::ALL {
+        match kind {
+            ElementKind::Membrane => triangle_regularisation(model, u, wrinkle, &mut out),
+            // The exact tangent: a slack segment has none (`cable::segment`), a closed
+            // segment's link and a tie are linear springs.
+            ElementKind::Cable | ElementKind::Tie => {}
+        }
+    }
+    out
+}
+
+/// The regularisation ε·D0 that the wrinkled and slack triangles add to the factored tangent
+/// (`wrinkling::REGULARIZATION`, tangent only): vol·Bᵀ ε D0 B per triangle, B the variation of
+/// the Green-Lagrange strain at the current deformation (the material part of
+/// `membrane::triangle`'s tangent).
+fn triangle_regularisation(
+    model: &Model,
+    u: &[f64],
+    wrinkle: &[WrinkleState],
+    out: &mut Vec<([usize; 3], Mat9)>,
+) {
     for (t, state) in model.triangles.iter().zip(wrinkle) {
         if !t.material.wrinkling || t.material.residual > 0.0 || *state == WrinkleState::Taut {
             continue;
@@ -454,7 +473,6 @@ fn regularisation_parts(
         let vol = r.area * t.material.thickness;
         out.push((t.nodes, b.transpose() * d * b * vol));
     }
-    out
 }
 
 /// (N − Reg) z on the free DOFs (per unknown; transposed: Nᵀ z = −N z, Reg symmetric): the
