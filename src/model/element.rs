@@ -113,8 +113,11 @@ impl<T> PerKind<T> {
     pub fn try_from_fn<E>(
         mut f: impl FnMut(ElementKind) -> Result<T, E>,
     ) -> Result<PerKind<T>, E> {
-        let [a, b, c] = ElementKind::ALL;
-        Ok(PerKind([f(a)?, f(b)?, f(c)?]))
+        let mut values: [Option<T>; ElementKind::COUNT] = std::array::from_fn(|_| None);
+        for kind in ElementKind::ALL {
+            values[kind.index()] = Some(f(kind)?);
+        }
+        Ok(PerKind(values.map(|v| v.expect("ALL holds every kind"))))
     }
 }
 
@@ -243,6 +246,10 @@ mod tests {
             assert_eq!(kind.index(), k, "{kind:?} is not at its index in ALL");
             assert!(kind.node_count() <= ElementKind::MAX_NODES);
             assert_eq!(kind.block_len(), 9 * kind.node_count() * kind.node_count());
+        }
+        let per = PerKind::try_from_fn(|kind| Ok::<_, ()>(kind.index())).unwrap();
+        for kind in ElementKind::ALL {
+            assert_eq!(per[kind], kind.index());
         }
         let model = model_with_every_kind();
         let nodes = model.reference.len();
