@@ -110,9 +110,7 @@ pub struct PerKind<T>(pub [T; ElementKind::COUNT]);
 impl<T> PerKind<T> {
     /// The value of every kind from `f`, in the order of [`ElementKind::ALL`]; the first error
     /// stops it.
-    pub fn try_from_fn<E>(
-        mut f: impl FnMut(ElementKind) -> Result<T, E>,
-    ) -> Result<PerKind<T>, E> {
+    pub fn try_from_fn<E>(mut f: impl FnMut(ElementKind) -> Result<T, E>) -> Result<PerKind<T>, E> {
         let mut values: [Option<T>; ElementKind::COUNT] = std::array::from_fn(|_| None);
         for kind in ElementKind::ALL {
             values[kind.index()] = Some(f(kind)?);
@@ -287,8 +285,7 @@ mod tests {
             let start = at + found;
             at = start + 6;
             // A whole word, not the tail of an identifier (`matches!` does not match this).
-            if start > 0 && (bytes[start - 1].is_ascii_alphanumeric() || bytes[start - 1] == b'_')
-            {
+            if start > 0 && (bytes[start - 1].is_ascii_alphanumeric() || bytes[start - 1] == b'_') {
                 continue;
             }
             // The match's block: the first `{` after the scrutinee at nesting depth 0.
@@ -499,7 +496,11 @@ mod tests {
         let guard = "match kind { ElementKind::Cable if x => 1, ElementKind::Tie => 2 }";
         assert_eq!(loose_arms(guard).len(), 1);
         let exhaustive = "match (kind) {\n    ElementKind::Membrane => f(\"_ => {\", '{'),\n    ElementKind::Cable | ElementKind::Tie => {\n        match x { Some(_) => 1, _ => 2 }\n    }\n}";
-        assert!(loose_arms(exhaustive).is_empty(), "{:?}", loose_arms(exhaustive));
+        assert!(
+            loose_arms(exhaustive).is_empty(),
+            "{:?}",
+            loose_arms(exhaustive)
+        );
         let other = "match x { Some(y) => y, _ => 0 }";
         assert!(loose_arms(other).is_empty());
     }

@@ -1363,9 +1363,9 @@ fn assemble_two(
     for kind in ElementKind::ALL {
         match kind {
             // With their pressure loads: each half does its own pressed triangles.
-            ElementKind::Membrane => {
-                triangles_two(model, pattern, u, loads, r, &mut k, &mut extra, scratch, &mut info)
-            }
+            ElementKind::Membrane => triangles_two(
+                model, pattern, u, loads, r, &mut k, &mut extra, scratch, &mut info,
+            ),
             ElementKind::Cable => elements_into(
                 model,
                 pattern,
@@ -1451,7 +1451,9 @@ fn triangles_two(
     }
     add_helper(pattern, par, &h, k, ri, mi, fext, &mut out);
     info.potential += sums.potential + h.sums.potential;
-    info.min_area_ratio = info.min_area_ratio.min(sums.min_ratio.min(h.sums.min_ratio));
+    info.min_area_ratio = info
+        .min_area_ratio
+        .min(sums.min_ratio.min(h.sums.min_ratio));
     info.carried = info.carried.max(sums.carried.max(h.sums.carried));
     drop(h);
     to_user_order(pattern, ri, r);

@@ -155,9 +155,13 @@ fn local(
     for kind in ElementKind::ALL {
         let at = &adj.elements[kind][node];
         match kind {
-            ElementKind::Membrane => local_triangles(model, adj, u, loads, node, forced, at, &mut out),
+            ElementKind::Membrane => {
+                local_triangles(model, adj, u, loads, node, forced, at, &mut out)
+            }
             ElementKind::Cable => {
-                let lines = at.iter().map(|&(e, a)| (segment_contribution(model, e, u), a));
+                let lines = at
+                    .iter()
+                    .map(|&(e, a)| (segment_contribution(model, e, u), a));
                 local_lines(lines, &mut out)
             }
             ElementKind::Tie => {
@@ -605,7 +609,12 @@ impl PatchElements<'_> {
                 ElementKind::Tie => {
                     for &e in list {
                         let (f, kt, _) = tie_contribution(model, e, u);
-                        add(&model.ties[e].nodes, f.as_slice(), Some(kt.as_slice()), &mut k);
+                        add(
+                            &model.ties[e].nodes,
+                            f.as_slice(),
+                            Some(kt.as_slice()),
+                            &mut k,
+                        );
                     }
                 }
             }

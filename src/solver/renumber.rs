@@ -90,7 +90,8 @@ fn node_graph(model: &Model) -> Result<(Vec<usize>, Vec<usize>), OutOfMemory> {
             .elements()
             .flat_map(|(kind, e)| {
                 let nodes = model.element_nodes(kind, e);
-                (0..nodes.len()).flat_map(move |a| (a + 1..nodes.len()).map(move |b| (nodes[a], nodes[b])))
+                (0..nodes.len())
+                    .flat_map(move |a| (a + 1..nodes.len()).map(move |b| (nodes[a], nodes[b])))
             })
             .filter(|(a, b)| a != b)
     };
