@@ -506,8 +506,8 @@ mod tests {
     }
 
     /// No `match` on `ElementKind` in `src/` has a wildcard (or binding, or guarded) arm, and
-    /// no code tests a kind by comparison or `matches!` or imports the variants bare: adding a
-    /// kind must make the compiler name every kind-specific place.
+    /// no code tests a kind by comparison, `if let` or `matches!` or imports the variants
+    /// bare: adding a kind must make the compiler name every kind-specific place.
     #[test]
     fn no_match_on_element_kind_has_a_wildcard_arm() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
@@ -532,10 +532,17 @@ mod tests {
                 "== ElementKind::",
                 "!= ElementKind::",
                 "ElementKind::*",
-                "matches!(kind",
+                "let ElementKind::",
             ] {
                 if code.contains(bad) {
                     problems.push(format!("{}: `{bad}`", f.display()));
+                }
+            }
+            for (k, _) in code.match_indices("matches!(") {
+                let call = &code[k..];
+                let call = &call[..call.find(')').unwrap_or(call.len())];
+                if call.contains("ElementKind::") {
+                    problems.push(format!("{}: `{call})`", f.display()));
                 }
             }
         }
