@@ -242,7 +242,6 @@ fn visit_order(
 
 /// Per load, its pressed triangles in visit order (empty for other loads), and the same as
 /// slots (positions in the triangles' visit order).
-#[allow(clippy::type_complexity)]
 fn pressed_lists(
     model: &Model,
     tri_slot: &[usize],
