@@ -39,7 +39,7 @@
 
 mod common;
 use common::*;
-use velarium::engine::Known;
+use velarium::engine::derivatives::Known;
 use velarium::variables::{Binding, Causality, VarType, Variable};
 use velarium::Engine;
 

@@ -53,16 +53,15 @@
 //! Riks 1979, Int. J. Solids Struct. 15:529–551 (the normal plane); Crisfield 1991, vol. 1,
 //! §9.3–9.4 (arc length, bordered systems by two solves, the sign of the predictor).
 
-use super::assemble::{assemble_with, Membranes, NONE};
+use super::assemble::NONE;
 use super::core::Solver;
-use super::loads::{load_change, loads_at, prescribed_rate};
+use super::loads::{load_change, loads_at};
 use super::path::Attempt;
 use super::report::{push_log, StepReport};
 use super::settings::Settings;
 use super::rows::{ArcRow, Increment};
 use super::slip::slip_rows;
 use crate::model::sleeve::Contact;
-use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 
 /// One converged point of a traced path.
@@ -106,93 +105,6 @@ impl Solver {
     /// whole (unchanged loads); None when arc length follows it.
     pub fn arc_length_fallback(model: &Model, from: &[f64], to: &[f64]) -> Option<&'static str> {
         not_applicable(model, from, to)
-    }
-
-    /// q = R(u, from) − R(u, to) on the equations (−∂R/∂λ), with the coupling of moving
-    /// prescribed displacements.
-    fn load_direction(
-        &mut self,
-        model: &Model,
-        from: &[f64],
-        to: &[f64],
-        lambda: f64,
-        u: &[f64],
-    ) -> Vec<f64> {
-        let mut r0 = vec![0.0; model.dof_count()];
-        let mut r1 = vec![0.0; model.dof_count()];
-        assemble_with(
-            model,
-            &self.pattern,
-            u,
-            from,
-            &mut r0,
-            None,
-            Membranes::default(),
-        );
-        assemble_with(
-            model,
-            &self.pattern,
-            u,
-            to,
-            &mut r1,
-            None,
-            Membranes::default(),
-        );
-        let mut q = vec![0.0; self.pattern.n];
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            if e != NONE {
-                q[e] = r0[d] - r1[d];
-            }
-        }
-        // Prescribed displacements that move with λ: −K_fp du_p/dλ (du_p/dλ by a central
-        // difference: exact for translations, to about 1e-10 for rotations), through the held-step
-        // coupling of the assembly (the tangent's values are not touched).
-        if let Some(rate) = prescribed_rate(model, from, to, lambda, u) {
-            let mut coupling = vec![0.0; model.dof_count()];
-            let mut r = vec![0.0; model.dof_count()];
-            let membranes = Membranes {
-                held_step: Some((&rate, &mut coupling)),
-                ..Default::default()
-            };
-            let loads = loads_at(from, to, lambda);
-            assemble_with(model, &self.pattern, u, &loads, &mut r, None, membranes);
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != NONE {
-                    q[e] -= coupling[d];
-                }
-            }
-        }
-        q
-    }
-
-    /// The load factor's column of the bordered Newton system, ∂R/∂λ = −q, as (equation,
-    /// value) pairs (`newton.rs`).
-    pub(super) fn load_column(
-        &mut self,
-        model: &Model,
-        from: &[f64],
-        to: &[f64],
-        lambda: f64,
-        u: &[f64],
-    ) -> Vec<(usize, f64)> {
-        self.load_direction(model, from, to, lambda, u)
-            .iter()
-            .enumerate()
-            .filter(|(_, v)| **v != 0.0)
-            .map(|(e, v)| (e, -v))
-            .collect()
-    }
-
-    /// Wrinkle states of the membranes at `u` (natural, no freezing).
-    fn wrinkle_states(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> Vec<WrinkleState> {
-        self.frozen = None;
-        let mut r = vec![0.0; model.dof_count()];
-        let membranes = Membranes {
-            out: Some(&mut self.evaluations),
-            ..Default::default()
-        };
-        assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
-        self.evaluations.iter().map(|e| e.state).collect()
     }
 
     /// The path's tangent at the converged point: dz/dλ from the bordered tangent (slip and

@@ -14,7 +14,7 @@
 //! ```
 
 use super::Instance;
-use crate::engine::Known;
+use crate::engine::derivatives::Known;
 use crate::fmi::fsm::Func;
 use crate::fmi::Status;
 use crate::variables::{Binding, Causality, VarType, Variable};
