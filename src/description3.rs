@@ -19,9 +19,10 @@
 //! FMI 2 GUID of the same scene: an FMU state serialized by one archive is rejected by the
 //! other (its bytes carry the GUID or token they were made with).
 
-use crate::description::{causality, document, escape, token, variability, xs_double, Version};
+use crate::description::{causality, document, escape, token, variability, Version};
 use crate::engine::Engine;
 use crate::fmi;
+use crate::format::xs_double;
 use crate::variables::{Causality, VarType, Variable};
 use std::fmt::Write;
 

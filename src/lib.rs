@@ -23,6 +23,7 @@ pub mod description3;
 pub mod engine;
 pub mod error;
 pub mod fmi;
+pub mod format;
 pub mod formfind;
 pub mod history;
 pub mod memory;
