@@ -17,7 +17,6 @@
 //! scene and crate version give the same GUID on every machine, any change to the description
 //! gives a different one, and the FMU binary compares it at instantiation.
 
-use crate::engine::Engine;
 use crate::fmi;
 use crate::format::xs_double;
 use crate::scene::Scene;
@@ -37,14 +36,20 @@ const DISPLAY_UNITS: &[(&str, &str, f64)] = &[
     ("rad", "deg", 57.29577951308232),
 ];
 
-/// The complete modelDescription.xml of the engine's scene.
-pub fn model_description(engine: &Engine) -> String {
-    document(engine, Version::Fmi2)
+/// The complete FMI 2.0 modelDescription.xml of a scene.
+///
+/// `scene` is the scene the FMU builds its model from, which for a scene with `form_finding`
+/// is the found one (`Engine::scene`), not the one given: its geometry and prestress, and so
+/// parameter start values and array sizes, are the found ones. `variables` is that scene's
+/// table as FMI 2 sees it, arrays as scalars (`variables::scalars` of `variables::try_table`,
+/// or `Engine::variables`). Nothing else goes into the document: no solved state.
+pub fn model_description(scene: &Scene, variables: &[Variable]) -> String {
+    document(scene, variables, Version::Fmi2)
 }
 
-/// The GUID of the engine's scene, `{8-4-4-4-12}` lowercase hex.
-pub fn guid(engine: &Engine) -> String {
-    token(engine, Version::Fmi2)
+/// The GUID of [`model_description`] of the same arguments, `{8-4-4-4-12}` lowercase hex.
+pub fn guid(scene: &Scene, variables: &[Variable]) -> String {
+    token(scene, variables, Version::Fmi2)
 }
 
 /// The FMI version a description is written for: what differs between the two documents.
@@ -70,14 +75,6 @@ impl Version {
         }
     }
 
-    /// FMI 2 declares arrays as scalars, FMI 3 as arrays.
-    fn variables(self, engine: &Engine) -> &[Variable] {
-        match self {
-            Version::Fmi2 => engine.variables(),
-            Version::Fmi3 => engine.arrays(),
-        }
-    }
-
     fn capability_flags(self) -> &'static [(&'static str, bool)] {
         match self {
             Version::Fmi2 => fmi::capability_flags(),
@@ -87,14 +84,14 @@ impl Version {
 }
 
 /// The document of `version` with its hash filled in.
-pub(crate) fn document(engine: &Engine, version: Version) -> String {
-    let draft = render(engine.scene(), version.variables(engine), version);
+pub(crate) fn document(scene: &Scene, variables: &[Variable], version: Version) -> String {
+    let draft = render(scene, variables, version);
     draft.replacen(GUID_PLACEHOLDER, &guid_of(&draft), 1)
 }
 
 /// The hash of the document of `version` (the GUID or the instantiation token).
-pub(crate) fn token(engine: &Engine, version: Version) -> String {
-    guid_of(&render(engine.scene(), version.variables(engine), version))
+pub(crate) fn token(scene: &Scene, variables: &[Variable], version: Version) -> String {
+    guid_of(&render(scene, variables, version))
 }
 
 /// The document with [`GUID_PLACEHOLDER`] where its hash goes.

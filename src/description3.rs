@@ -20,23 +20,28 @@
 //! other (its bytes carry the GUID or token they were made with).
 
 use crate::description::{causality, document, escape, token, variability, Version};
-use crate::engine::Engine;
 use crate::fmi;
 use crate::format::xs_double;
+use crate::scene::Scene;
 use crate::variables::{Causality, VarType, Variable};
 use std::fmt::Write;
 
 /// The name of the independent variable (value reference [`fmi::TIME_VALUE_REFERENCE`]).
 pub const TIME_NAME: &str = "time";
 
-/// The complete FMI 3.0 modelDescription.xml of the engine's scene.
-pub fn model_description_fmi3(engine: &Engine) -> String {
-    document(engine, Version::Fmi3)
+/// The complete FMI 3.0 modelDescription.xml of a scene.
+///
+/// `scene` is the scene the FMU builds its model from (for a scene with `form_finding`, the
+/// found one: `Engine::scene`), as for [`crate::description::model_description`]; `arrays` is
+/// its table with arrays as arrays (`variables::try_table`, or `Engine::arrays`).
+pub fn model_description_fmi3(scene: &Scene, arrays: &[Variable]) -> String {
+    document(scene, arrays, Version::Fmi3)
 }
 
-/// The instantiation token of the engine's scene, `{8-4-4-4-12}` lowercase hex.
-pub fn instantiation_token(engine: &Engine) -> String {
-    token(engine, Version::Fmi3)
+/// The instantiation token of [`model_description_fmi3`] of the same arguments,
+/// `{8-4-4-4-12}` lowercase hex.
+pub fn instantiation_token(scene: &Scene, arrays: &[Variable]) -> String {
+    token(scene, arrays, Version::Fmi3)
 }
 
 /// `time`, then every variable of the table.
@@ -143,11 +148,12 @@ mod tests {
             "outputs": [{"name": "t", "probe": {"kind": "cable_tension", "cable": "c"}}]}"#,
         )
         .unwrap();
-        let engine = Engine::try_new(scene).unwrap();
-        let xml = model_description_fmi3(&engine);
-        let token = instantiation_token(&engine);
+        let engine = crate::Engine::try_new(scene).unwrap();
+        let (scene, arrays) = (engine.scene(), engine.arrays());
+        let xml = model_description_fmi3(scene, arrays);
+        let token = instantiation_token(scene, arrays);
         assert!(xml.contains(&format!("instantiationToken=\"{token}\"")));
-        assert_ne!(token, crate::description::guid(&engine));
+        assert_ne!(token, crate::description::guid(scene, engine.variables()));
         assert!(xml.contains("causality=\"independent\""));
         assert!(xml.contains("<Output valueReference=\"1\"/>"));
         assert!(xml.contains("<InitialUnknown valueReference=\"1\"/>"));

@@ -96,8 +96,8 @@ pub fn pack_versions(
     let mut archives = Vec::with_capacity(versions.len());
     for &version in versions {
         let description = match version {
-            FmiVersion::Fmi2 => model_description(&engine),
-            FmiVersion::Fmi3 => model_description_fmi3(&engine),
+            FmiVersion::Fmi2 => model_description(engine.scene(), engine.variables()),
+            FmiVersion::Fmi3 => model_description_fmi3(engine.scene(), engine.arrays()),
         };
         let bytes =
             archive(scene, version, &description, &binary, reference.as_deref()).map_err(|e| {

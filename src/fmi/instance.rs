@@ -711,7 +711,7 @@ fn build_engine(args: &InstantiateArgs) -> Result<(Engine, String), String> {
         .resource_location
         .ok_or("fmuResourceLocation is NULL")?;
     let engine = load_engine(location)?;
-    let guid = description::guid(&engine);
+    let guid = description::guid(engine.scene(), engine.variables());
     if given_guid != guid {
         return Err(format!(
             "GUID mismatch: the master passed {given_guid}, but this binary and its resources have {guid} (was the FMU repackaged with another modelDescription.xml?)"
@@ -793,7 +793,7 @@ impl Instance {
     /// An instance of [`TEST_SCENE`] without a logger.
     pub(crate) fn for_tests() -> Instance {
         let engine = Engine::try_new(Scene::from_json(TEST_SCENE).unwrap()).unwrap();
-        let guid = description::guid(&engine);
+        let guid = description::guid(engine.scene(), engine.variables());
         Instance::new(
             engine,
             guid,

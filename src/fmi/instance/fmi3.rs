@@ -453,7 +453,7 @@ fn build_fmi3(args: &Instantiate3Args) -> Result<(crate::Engine, String), String
         .resource_path
         .ok_or("resourcePath is NULL; this FMU reads its scene from resources/scene.json")?;
     let engine = load_engine_from(std::path::Path::new(path))?;
-    let token = description3::instantiation_token(&engine);
+    let token = description3::instantiation_token(engine.scene(), engine.arrays());
     if given != token {
         return Err(format!(
             "instantiationToken mismatch: the importer passed {given}, but this binary and its resources have {token} (was the FMU repackaged with another modelDescription.xml?)"
