@@ -12,13 +12,12 @@
 
 use super::ffi::{
     free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
-    store_new_state, store_state, text, texts, with_instance, write_out, CallbackFunctions,
-    Component, FmuState,
+    store_new_state, store_state, text, texts, with_instance, write_out,
 };
+use super::fmi2_ffi::{CallbackFunctions, Component, FmuState, Status};
 use super::fsm::Func;
 use super::instance::{Instance, InstantiateArgs};
 use super::logging::Logger;
-use super::Status;
 use std::ffi::{c_char, c_int, c_uint};
 use std::ptr::null_mut;
 

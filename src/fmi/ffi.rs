@@ -14,32 +14,12 @@
 //! Instances and FMU states are `Box`es handed out as raw pointers, tagged with a magic word
 //! so that a wrong kind of pointer is rejected instead of misread.
 
+use super::fmi2_ffi::{Component, FmuState, Status};
 use super::instance::Instance;
 use super::snapshot::Snapshot;
-use super::Status;
 use std::any::Any;
-use std::ffi::{c_char, c_int, c_void, CStr};
+use std::ffi::{c_char, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
-
-/// `fmi2Component`.
-pub type Component = *mut c_void;
-/// `fmi2FMUstate`.
-pub type FmuState = *mut c_void;
-
-/// `fmi2CallbackLogger`: `void logger(env, instanceName, status, category, message, ...)`.
-pub type LoggerFn =
-    unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
-
-/// `fmi2CallbackFunctions`. Only the logger and the environment are used
-/// (`canNotUseMemoryManagementFunctions = true`).
-#[repr(C)]
-pub struct CallbackFunctions {
-    pub logger: Option<LoggerFn>,
-    pub allocate_memory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
-    pub free_memory: Option<unsafe extern "C" fn(*mut c_void)>,
-    pub step_finished: Option<unsafe extern "C" fn(*mut c_void, c_int)>,
-    pub component_environment: *mut c_void,
-}
 
 const INSTANCE_TAG: u64 = 0x5645_4c41_5249_4e53; // "VELARINS"
 const STATE_TAG: u64 = 0x5645_4c41_5253_5441; // "VELARSTA"
@@ -280,29 +260,6 @@ pub(crate) unsafe fn write_out<T>(ptr: *mut T, value: T, name: &str) -> Result<(
     }
 }
 
-/// Call the master's variadic logger as `logger(env, name, status, category, "%s", message)`.
-pub(crate) fn call_logger(
-    logger: LoggerFn,
-    environment: *mut c_void,
-    instance_name: &CStr,
-    status: Status,
-    category: &CStr,
-    message: &CStr,
-) {
-    // SAFETY: the master gave this function pointer for exactly this call signature; every
-    // string is NUL-terminated and outlives the call; "%s" consumes exactly one char* argument.
-    unsafe {
-        logger(
-            environment,
-            instance_name.as_ptr(),
-            status,
-            category.as_ptr(),
-            c"%s".as_ptr(),
-            message.as_ptr(),
-        )
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -323,7 +280,7 @@ mod tests {
 
     #[test]
     fn a_panic_becomes_an_error_and_reset_recovers() {
-        use crate::fmi::FsmState;
+        use crate::fmi::fsm::FsmState;
         let c = into_component(Instance::for_tests());
         let state_is = |want: FsmState| unsafe {
             with_instance(c, "check", |i| {

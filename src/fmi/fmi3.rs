@@ -31,8 +31,9 @@
 
 use super::ffi::{
     free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
-    store_new_state, store_state, text, texts, with_instance, write_out, Component, FmuState,
+    store_new_state, store_state, text, texts, with_instance, write_out,
 };
+use super::fmi2_ffi::{Component, FmuState, Status};
 use super::fmi3_ffi::{
     Fmi3ClockUpdateFn, Fmi3Enum, Fmi3IntermediateUpdateFn, Fmi3LoggerFn, Fmi3PreemptionFn,
     IntermediateUpdate,
@@ -40,45 +41,9 @@ use super::fmi3_ffi::{
 use super::instance::fmi3::{DoStepOut, Instantiate3Args};
 use super::instance::Instance;
 use super::logging::{Callback, Category, Logger};
-use super::Status;
 use crate::variables::VarType;
 use std::ffi::{c_char, c_void};
 use std::ptr::null_mut;
-
-pub use super::fmi3_ffi::TIME_VALUE_REFERENCE;
-
-/// FMI 3 `CoSimulation` capability flags (booleans), consistent with what the binary does, as
-/// (XML attribute, value) in the order of the FMI 3.0 schema. `maxOutputDerivativeOrder` is
-/// [`super::MAX_OUTPUT_DERIVATIVE_ORDER`].
-pub fn capability_flags_fmi3() -> &'static [(&'static str, bool)] {
-    &[
-        ("needsExecutionTool", super::NEEDS_EXECUTION_TOOL),
-        (
-            "canBeInstantiatedOnlyOncePerProcess",
-            super::CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS,
-        ),
-        ("canGetAndSetFMUState", super::CAN_GET_AND_SET_FMU_STATE),
-        ("canSerializeFMUState", super::CAN_SERIALIZE_FMU_STATE),
-        (
-            "providesDirectionalDerivatives",
-            super::PROVIDES_DIRECTIONAL_DERIVATIVE,
-        ),
-        (
-            "providesAdjointDerivatives",
-            super::PROVIDES_DIRECTIONAL_DERIVATIVE,
-        ),
-        ("providesPerElementDependencies", false),
-        (
-            "canHandleVariableCommunicationStepSize",
-            super::CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
-        ),
-        ("providesIntermediateUpdate", true),
-        ("mightReturnEarlyFromDoStep", true),
-        ("canReturnEarlyAfterIntermediateUpdate", true),
-        ("hasEventMode", false),
-        ("providesEvaluateDiscreteStates", false),
-    ]
-}
 
 const NO_EVENT_MODE: &str =
     "this FMU has no event mode (hasEventMode=\"false\"); after fmi3ExitInitializationMode it is in Step Mode";

@@ -18,12 +18,12 @@ pub(crate) mod fmi3;
 mod fmu_state;
 mod status;
 
+use super::fmi2_ffi::{Status, FMI2_COSIMULATION};
 use super::fsm::{FsmState, Func};
 use super::logging::{escape, Category, Logger};
 use super::snapshot::Experiment;
 use super::uri::file_uri_to_path;
 use super::worker::Worker;
-use super::{Status, FMI2_COSIMULATION};
 use crate::description;
 use crate::engine::{Engine, EngineState};
 use crate::scene::Scene;

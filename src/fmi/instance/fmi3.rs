@@ -23,10 +23,12 @@
 
 use super::{load_engine_from, reached, shown, Instance};
 use crate::description3;
-use crate::fmi::fmi3_ffi::{IntermediateUpdate, TIME_VALUE_REFERENCE};
+use crate::description3::TIME_VALUE_REFERENCE;
+use crate::fmi::fmi2_ffi::Status;
+use crate::fmi::fmi3_ffi::IntermediateUpdate;
 use crate::fmi::fsm::Func;
 use crate::fmi::logging::{Category, Logger};
-use crate::fmi::Status;
+use crate::fmi::worker::Worker;
 use crate::variables::{Causality, VarType, Variable};
 
 /// The arguments of `fmi3InstantiateCoSimulation` that matter, as Rust values.
@@ -55,7 +57,7 @@ impl Instance {
     /// the token is wrong, or when the master wants event mode (`hasEventMode="false"`).
     pub fn instantiate_fmi3(args: &Instantiate3Args, logger: Logger) -> Option<Instance> {
         // Built on the instance's worker, as in fmi2Instantiate (form finding factorizes).
-        let worker = super::Worker::new();
+        let worker = Worker::new();
         match worker.run(|| build_fmi3(args)) {
             Ok((engine, token)) => {
                 let mut instance = Instance::new(engine, token, logger, worker);
