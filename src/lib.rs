@@ -22,6 +22,10 @@
 //! ```
 //! Units are SI throughout: m, N, Pa.
 
+// Functions marked `unsafe` (the C ABI in src/fmi) still put each operation that needs it in a
+// block of its own, with a `SAFETY:` comment naming the precondition it relies on.
+#![deny(unsafe_op_in_unsafe_fn)]
+
 pub mod description;
 pub mod description3;
 pub mod engine;
