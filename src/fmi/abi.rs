@@ -8,6 +8,8 @@
 //! elements; strings are NUL-terminated; FMU states come from this FMU. Within that contract
 //! no call crashes or unwinds into the caller.
 
+// The names are the standard's (fmi2GetReal, ...), and every function's `# Safety` is the one
+// contract above, stated once.
 #![allow(non_snake_case, clippy::missing_safety_doc)]
 
 use super::ffi::{

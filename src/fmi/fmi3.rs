@@ -27,7 +27,9 @@
 //! (rejected) or holds `n` elements; strings are NUL-terminated; FMU states come from this FMU.
 //! Within that contract no call crashes or unwinds into the caller.
 
-#![allow(non_snake_case, clippy::missing_safety_doc, clippy::too_many_arguments)]
+// The names are the standard's (fmi3GetFloat64, ...), and every function's `# Safety` is the one
+// contract above, stated once.
+#![allow(non_snake_case, clippy::missing_safety_doc)]
 
 use super::ffi::{
     free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
@@ -142,6 +144,7 @@ pub unsafe extern "C" fn fmi3InstantiateModelExchange(
 }
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
     instance_name: *const c_char,
     instantiation_token: *const c_char,
@@ -188,6 +191,7 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
 }
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3InstantiateScheduledExecution(
     instance_name: *const c_char,
     _instantiation_token: *const c_char,
@@ -649,6 +653,7 @@ pub unsafe extern "C" fn fmi3DeserializeFMUState(
 // Partial derivatives
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
     instance: Component,
     unknowns: *const u32,
@@ -678,6 +683,7 @@ pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
 }
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3GetAdjointDerivative(
     instance: Component,
     unknowns: *const u32,
@@ -982,6 +988,7 @@ pub unsafe extern "C" fn fmi3GetOutputDerivatives(
 }
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3DoStep(
     instance: Component,
     current_communication_point: f64,

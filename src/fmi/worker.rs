@@ -222,7 +222,7 @@ fn start_pool_thread(
 extern "C" fn pool_main(arg: *mut c_void) -> *mut c_void {
     // SAFETY: `start_pool_thread` passes a boxed closure and gives up ownership of it.
     let body = unsafe { Box::from_raw(arg as *mut Box<dyn FnOnce() + Send>) };
-    let _ = catch_unwind(AssertUnwindSafe(move || body()));
+    let _ = catch_unwind(AssertUnwindSafe(body));
     null_mut()
 }
 

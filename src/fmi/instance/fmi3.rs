@@ -313,7 +313,7 @@ impl Instance {
     /// `lastSuccessfulTime = currentCommunicationPoint`; the master may change inputs and try
     /// again, restore a state, or terminate. `eventHandlingNeeded` and `terminateSimulation` are
     /// false (no event mode); `earlyReturn` is true only when the master asked for it through
-    /// its intermediate-update callback and allowed it at instantiation ([`Instance::step_reported`]).
+    /// its intermediate-update callback and allowed it at instantiation (`step_reported`).
     pub fn do_step_fmi3(
         &mut self,
         t: f64,
