@@ -24,6 +24,7 @@
 use super::{load_engine_from, reached, shown, Instance};
 use crate::description3;
 use crate::description3::TIME_VALUE_REFERENCE;
+use crate::engine::Engine;
 use crate::fmi::fmi2_ffi::Status;
 use crate::fmi::fmi3_ffi::IntermediateUpdate;
 use crate::fmi::fsm::Func;
@@ -437,7 +438,7 @@ impl Instance {
 
 /// Check the instantiation arguments, read the scene from the resource path, compare the
 /// token.
-fn build_fmi3(args: &Instantiate3Args) -> Result<(crate::Engine, String), String> {
+fn build_fmi3(args: &Instantiate3Args) -> Result<(Engine, String), String> {
     match args.instance_name {
         None => return Err("instanceName is NULL".into()),
         Some("") => return Err("instanceName is empty".into()),
