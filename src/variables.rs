@@ -81,6 +81,11 @@ impl Variable {
         element_count(&self.dims)
     }
 
+    /// Whether it has no elements (an array with a zero dimension).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
     pub fn is_array(&self) -> bool {
         !self.dims.is_empty()
     }

@@ -275,7 +275,10 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
     assert_eq!(shipped, Scene::from_json(TINY).unwrap());
     let engine = velarium::Engine::try_new(shipped).unwrap();
     let xml = text(&read(&mut zip, "modelDescription.xml"));
-    assert_eq!(xml, velarium::description3::model_description_fmi3(&engine));
+    assert_eq!(
+        xml,
+        velarium::description3::model_description_fmi3(engine.scene(), engine.arrays())
+    );
     assert!(xml.contains("fmiVersion=\"3.0\""), "{xml}");
 }
 

@@ -84,8 +84,16 @@ impl Fixture {
         std::fs::create_dir_all(&resources).unwrap();
         std::fs::write(resources.join("scene.json"), scene).unwrap();
         let engine = Engine::try_new(Scene::from_json(scene).unwrap()).unwrap();
-        let token = CString::new(velarium::description3::instantiation_token(&engine)).unwrap();
-        let guid = CString::new(velarium::description::guid(&engine)).unwrap();
+        let token = CString::new(velarium::description3::instantiation_token(
+            engine.scene(),
+            engine.arrays(),
+        ))
+        .unwrap();
+        let guid = CString::new(velarium::description::guid(
+            engine.scene(),
+            engine.variables(),
+        ))
+        .unwrap();
         let path = CString::new(format!("{}/", resources.display())).unwrap();
         let uri = CString::new(file_uri(&resources)).unwrap();
         Fixture {

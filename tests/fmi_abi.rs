@@ -93,7 +93,11 @@ impl Fixture {
         std::fs::create_dir_all(&resources).unwrap();
         std::fs::write(resources.join("scene.json"), scene).unwrap();
         let engine = Engine::try_new(Scene::from_json(scene).unwrap()).unwrap();
-        let guid = CString::new(velarium::description::guid(&engine)).unwrap();
+        let guid = CString::new(velarium::description::guid(
+            engine.scene(),
+            engine.variables(),
+        ))
+        .unwrap();
         let uri = CString::new(file_uri(&resources)).unwrap();
         Fixture {
             root,

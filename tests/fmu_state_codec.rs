@@ -96,7 +96,7 @@ impl Fmu {
         );
         let text = std::fs::read_to_string(path).unwrap();
         let engine = Engine::try_new(Scene::from_json(&text).unwrap()).unwrap();
-        let guid = CString::new(velarium::description::guid(&engine)).unwrap();
+        let guid = CString::new(velarium::description::guid(engine.scene(), engine.variables())).unwrap();
         let root =
             std::env::temp_dir().join(format!("velarium-state-codec-{tag}-{}", std::process::id()));
         let resources = root.join("resources");

@@ -42,7 +42,7 @@ fn committed_model_descriptions_are_current() {
         );
         let engine =
             Engine::try_new(scene).unwrap_or_else(|e| panic!("{}: {e}", scene_path.display()));
-        let generated = model_description(&engine);
+        let generated = model_description(engine.scene(), engine.variables());
         let committed_path = dir.join("modelDescription.xml");
         let regenerate = format!(
             "regenerate it with\n  cargo run --release -- describe modelDescription/{name}/scene.json \

@@ -40,7 +40,11 @@ impl Fmu {
         std::fs::create_dir_all(&resources).unwrap();
         std::fs::write(resources.join("scene.json"), scene.to_json()).unwrap();
         let engine = Engine::try_new(scene).unwrap();
-        let guid = CString::new(velarium::description::guid(&engine)).unwrap();
+        let guid = CString::new(velarium::description::guid(
+            engine.scene(),
+            engine.variables(),
+        ))
+        .unwrap();
         let uri = CString::new(format!("file://{}", resources.display())).unwrap();
         let cb = CallbackFunctions {
             logger: None,
