@@ -145,9 +145,9 @@ impl Pattern {
             // By the lowest internal node, then the highest and the middle one: a property of
             // the mesh, not of its numbering, so a shuffled numbering of the same mesh visits
             // its triangles in the same order and forms every sum in the same order (the same
-            // Newton path on a sensitive problem, tests/renumber.rs). Which of the orders with
+            // Newton path on a sensitive problem, tests/solver/renumber.rs). Which of the orders with
             // the lowest node first is not otherwise important; this one because
-            // tests/derivatives.rs's difference check on AnnulusTorsion (wrinkled) moves with
+            // tests/fmi/derivatives.rs's difference check on AnnulusTorsion (wrinkled) moves with
             // the order of sums: 3.9e-6 here, 4.1e-6 ties by triangle number, 7.4e-6 and
             // 1.0e-5 (its limit) in two other orders. In place (a stable sort would allocate
             // its buffer infallibly); the triangle number breaks the remaining ties (two

@@ -360,7 +360,7 @@ pub struct PatchWork {
 impl PatchWork {
     /// Room for patches of up to `nodes` nodes (the dense block and vectors; 8 elements of each
     /// kind per node), so that a larger patch met in a later iteration does not allocate
-    /// there (`tests/alloc_per_iteration.rs`). Only grows.
+    /// there (`tests/guards/alloc_per_iteration.rs`). Only grows.
     pub fn reserve(&mut self, nodes: usize) {
         let n = 3 * nodes;
         for (v, len) in [
