@@ -58,11 +58,19 @@ use super::core::Solver;
 use super::loads::{load_change, loads_at};
 use super::path::Attempt;
 use super::report::{push_log, StepReport};
-use super::settings::Settings;
 use super::rows::{ArcRow, Increment};
+use super::settings::Settings;
 use super::slip::slip_rows;
 use crate::model::sleeve::Contact;
 use crate::model::Model;
+
+/// A converged load-controlled increment: displacements, stick/slip states, iterations.
+type Converged = (Vec<f64>, Vec<Contact>, usize);
+
+/// Arc length cannot start this step (its first increment moved nothing): load control for the
+/// whole step instead.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadControlInstead;
 
 /// One converged point of a traced path.
 #[derive(Clone, Debug)]
@@ -214,7 +222,7 @@ impl Solver {
         at: &Committed,
         lambda: f64,
         log: &mut Vec<String>,
-    ) -> Result<(Vec<f64>, Vec<Contact>, usize), (usize, String)> {
+    ) -> Result<Converged, (usize, String)> {
         let loads = loads_at(from, to, lambda);
         let mut trial = at.u.clone();
         let mut contact = at.contact.clone();
@@ -369,14 +377,14 @@ impl ArcPath {
     /// One attempt of the path (an arc-length increment, or the load-controlled increment that
     /// stands for one: the first, where the path tangent is undefined, after a state switch or
     /// a failed corrector, and the last to the target). Ok(None) once the target is reached;
-    /// Err(()) when the step must be load-controlled as a whole instead (the first increment
+    /// Err(LoadControlInstead) when the step must be load-controlled as a whole instead (the first increment
     /// moved nothing).
     pub fn advance(
         &mut self,
         solver: &mut Solver,
         model: &Model,
         report: &mut StepReport,
-    ) -> Result<Option<Attempt>, ()> {
+    ) -> Result<Option<Attempt>, LoadControlInstead> {
         if self.done {
             return Ok(None);
         }
@@ -395,7 +403,7 @@ impl ArcPath {
             return Ok(Some(self.first_increment(solver, model, &s, report)));
         }
         if self.ds.is_nan() {
-            return Err(());
+            return Err(LoadControlInstead);
         }
         if !self.smallest.is_finite() {
             self.smallest = self.ds * s.min_increment;
@@ -439,7 +447,7 @@ impl ArcPath {
             Ok((_, _, iters)) => {
                 // The corrector passed the target: reach it exactly by load control.
                 report.iterations += iters + 1;
-                Ok(Some(self.to_target(solver, model, report)))
+                Ok(Some(self.reach_target(solver, model, report)))
             }
             Err((iters, why)) if predicted < 1.0 => {
                 report.iterations += iters;
@@ -447,7 +455,7 @@ impl ArcPath {
                     self.corrector_failed(solver, model, report, predicted, why),
                 ))
             }
-            Err(_) => Ok(Some(self.to_target(solver, model, report))),
+            Err(_) => Ok(Some(self.reach_target(solver, model, report))),
         }
     }
 
@@ -597,7 +605,12 @@ impl ArcPath {
                 }
                 Err((it2, why)) => {
                     report.iterations += it2;
-                    push_log(&mut report.log, format!("  {what}; load control failed ({why}): the arc-length point is kept"));
+                    push_log(
+                        &mut report.log,
+                        format!(
+                            "  {what}; load control failed ({why}): the arc-length point is kept"
+                        ),
+                    );
                 }
             }
         }
@@ -648,7 +661,12 @@ impl ArcPath {
             }
         }
         report.cutbacks += 1;
-        push_log(&mut report.log, format!("increment from λ {lambda_n:.6} (arc length, Δs {ds:.3e} m): {why}; cutting back"));
+        push_log(
+            &mut report.log,
+            format!(
+                "increment from λ {lambda_n:.6} (arc length, Δs {ds:.3e} m): {why}; cutting back"
+            ),
+        );
         self.ds *= 0.25;
         if self.ds < self.smallest {
             report.reached = lambda_n;
@@ -660,7 +678,12 @@ impl ArcPath {
 
     /// The target lies within this increment: reach it exactly by load control (a shorter arc
     /// when that fails).
-    fn to_target(&mut self, solver: &mut Solver, model: &Model, report: &mut StepReport) -> Attempt {
+    fn reach_target(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        report: &mut StepReport,
+    ) -> Attempt {
         let lambda_n = self.at.lambda;
         let step = (&self.from[..], &self.to[..], self.change);
         match solver.load_increment(model, step, &self.at, 1.0, &mut report.log) {

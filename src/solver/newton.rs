@@ -42,12 +42,12 @@
 
 use super::active_set::{ActiveSet, Recheck};
 use super::assemble::{AssemblyInfo, NONE};
-use super::line_search::{Direction, Merit, Trial};
 use super::core::{check_inversion, Solver};
+use super::line_search::{Direction, Merit, Trial};
 use super::report::push_log;
-use super::rows::{ArcRow, Increment, Row};
-use super::system::Check;
+use super::rows::{ArcRow, Border, Increment, Row};
 use super::slip::{largest_gap, slip_rows_into, step_limit, MAX_GAP};
+use super::system::Check;
 use crate::model::sleeve::Contact;
 use crate::model::Model;
 
@@ -132,7 +132,7 @@ struct Assembled {
     changed: usize,
     /// Whether the arc-length row is met (true without arc length).
     arc_met: bool,
-    bordered: Option<(Vec<Row>, Vec<(usize, f64)>)>,
+    bordered: Option<Border>,
 }
 
 /// What the convergence phase decided.
@@ -197,8 +197,18 @@ impl Solver {
                 Verdict::Again => continue,
                 Verdict::Step(pending) => {
                     self.budget(model, &mut state, &eqs.check, it, hard_max)?;
-                    let (dx, ds) = self.newton_direction(model, &mut state, u, &eqs, pending, it, log)?;
-                    self.newton_step(model, &mut state, u, &eqs, arc.as_deref_mut(), (dx, ds), it, log);
+                    let (dx, ds) =
+                        self.newton_direction(model, &mut state, u, &eqs, pending, it, log)?;
+                    self.newton_step(
+                        model,
+                        &mut state,
+                        u,
+                        &eqs,
+                        arc.as_deref_mut(),
+                        (dx, ds),
+                        it,
+                        log,
+                    );
                 }
             }
         }
@@ -544,7 +554,7 @@ impl Solver {
                 .zip(&st.active.contact)
                 .all(|(p, c)| p.mu == 0.0 && matches!(c, Contact::Forward | Contact::Backward));
         let residual_merit =
-            arc || (!rows.is_empty() && !(sliding_freely && model.is_conservative()));
+            arc || (!rows.is_empty() && (!sliding_freely || !model.is_conservative()));
         if st.recent_potential.replace(!residual_merit) == Some(residual_merit) {
             st.recent.clear();
         }
@@ -599,7 +609,8 @@ impl Solver {
         // A slip step that would shorten a sleeved segment by far more than its length is a
         // sliding mechanism's step, like a line search cut to nothing.
         let capped = !ds.is_empty()
-            && step_limit(model, u, &ds, self.settings.keep_length) < self.settings.damping_slip_cap;
+            && step_limit(model, u, &ds, self.settings.keep_length)
+                < self.settings.damping_slip_cap;
         let trouble = !ok || alpha < self.settings.damping_trigger || capped;
         st.last_alpha = alpha;
         for (d, &e) in self.pattern.eq.iter().enumerate() {
@@ -655,7 +666,6 @@ impl Solver {
             damping
         }
     }
-
 }
 
 /// ", |r_slip| = …" when the model has slip rows (their largest residual is then not 0).

@@ -20,12 +20,12 @@
 //! elimination*, SIAM J. Sci. Comput. 33:746-762; Brandt 1977 (nonlinear Gauss-Seidel
 //! smoothing); docs/mechanics.md (slack and wrinkled near-mechanisms).
 
-use super::settings::MIN_AREA_RATIO;
 use super::assemble::{
     pressure_contribution, segment_contribution, tie_contribution, triangle_contribution, Aid,
 };
-use super::slope::bracket_slope;
 use super::dense::dense_solve;
+use super::settings::MIN_AREA_RATIO;
+use super::slope::bracket_slope;
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Mat9;
 use crate::model::wrinkling::{WrinkleState, REGULARIZATION};

@@ -24,7 +24,7 @@
 use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
 use super::core::Solver;
 use super::loads::{loads_at, prescribed_rate};
-use super::rows::{ArcRow, Increment, Row};
+use super::rows::{ArcRow, Border, Increment, Row};
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 
@@ -52,7 +52,7 @@ impl Solver {
         a: &ArcRow,
         rows: &[Row],
         u: &[f64],
-    ) -> (bool, (Vec<Row>, Vec<(usize, f64)>)) {
+    ) -> (bool, Border) {
         let h = a.residual(&self.pattern.eq, u);
         let column = self.load_column(model, a.from, a.to, a.lambda, u);
         let mut all = rows.to_vec();
@@ -82,7 +82,7 @@ impl Solver {
         model: &Model,
         u: &[f64],
         rows: &[Row],
-        bordered: Option<&(Vec<Row>, Vec<(usize, f64)>)>,
+        bordered: Option<&Border>,
         damping: f64,
     ) -> Result<(Vec<f64>, Vec<f64>), String> {
         match bordered {
@@ -342,7 +342,12 @@ impl Solver {
     }
 
     /// Wrinkle states of the membranes at `u` (natural, no freezing).
-    pub(super) fn wrinkle_states(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> Vec<WrinkleState> {
+    pub(super) fn wrinkle_states(
+        &mut self,
+        model: &Model,
+        loads: &[f64],
+        u: &[f64],
+    ) -> Vec<WrinkleState> {
         self.frozen = None;
         let mut r = vec![0.0; model.dof_count()];
         let membranes = Membranes {

@@ -1048,7 +1048,11 @@ fn derivatives_through_the_c_functions_are_the_engines() {
     };
     let (sw, st, sp) = (slot(w), slot(t), slot(p));
     let expected = engine
-        .directional_derivative(&[velarium::engine::derivatives::Known::Input(sp)], &[1.0], &[sw, st])
+        .directional_derivative(
+            &[velarium::engine::derivatives::Known::Input(sp)],
+            &[1.0],
+            &[sw, st],
+        )
         .unwrap();
     assert_eq!(forward.to_vec(), expected);
     assert!(forward[0] < 0.0 && forward[1] > 0.0, "{forward:?}");

@@ -18,8 +18,8 @@ use std::path::{Path, PathBuf};
 /// `error` and `format` are leaves used across the layers: they import only what is listed
 /// before them.
 const LAYERS: &[&str] = &[
-    "memory",
     "format",
+    "memory",
     "scene",
     "error",
     "variables",
@@ -51,8 +51,15 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 /// The module path of a source file relative to src/ (`solver/newton.rs` -> [solver, newton];
 /// `solver/mod.rs` -> [solver]; `lib.rs` and `main.rs` -> []).
 fn module_of(rel: &str) -> Vec<String> {
-    let mut parts: Vec<String> = rel.trim_end_matches(".rs").split('/').map(String::from).collect();
-    if matches!(parts.last().map(String::as_str), Some("mod" | "lib" | "main")) {
+    let mut parts: Vec<String> = rel
+        .trim_end_matches(".rs")
+        .split('/')
+        .map(String::from)
+        .collect();
+    if matches!(
+        parts.last().map(String::as_str),
+        Some("mod" | "lib" | "main")
+    ) {
         parts.pop();
     }
     parts
@@ -189,7 +196,11 @@ fn paths_in(code: &str) -> Vec<Vec<String>> {
                     j += 1;
                 }
                 segs.push(chars[s..j].iter().collect::<String>());
-                if j + 2 < chars.len() && chars[j] == ':' && chars[j + 1] == ':' && is_ident(chars[j + 2]) {
+                if j + 2 < chars.len()
+                    && chars[j] == ':'
+                    && chars[j + 1] == ':'
+                    && is_ident(chars[j + 2])
+                {
                     j += 2;
                 } else {
                     break;
@@ -209,7 +220,10 @@ fn paths_in(code: &str) -> Vec<Vec<String>> {
 /// File-level import graph: module path -> the module paths of the files it imports.
 fn graph(files: &BTreeMap<Vec<String>, String>) -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
     let resolve = |segs: &[String]| -> Option<Vec<String>> {
-        (1..=segs.len()).rev().map(|k| segs[..k].to_vec()).find(|p| files.contains_key(p))
+        (1..=segs.len())
+            .rev()
+            .map(|k| segs[..k].to_vec())
+            .find(|p| files.contains_key(p))
     };
     let mut edges = BTreeMap::new();
     for (me, text) in files {
@@ -218,8 +232,13 @@ fn graph(files: &BTreeMap<Vec<String>, String>) -> BTreeMap<Vec<String>, BTreeSe
             .lines()
             .filter_map(|l| {
                 let l = l.trim();
-                let l = l.strip_prefix("pub ").or_else(|| l.strip_prefix("pub(crate) ")).unwrap_or(l);
-                l.strip_prefix("mod ").and_then(|r| r.strip_suffix(';')).map(|s| s.trim().to_string())
+                let l = l
+                    .strip_prefix("pub ")
+                    .or_else(|| l.strip_prefix("pub(crate) "))
+                    .unwrap_or(l);
+                l.strip_prefix("mod ")
+                    .and_then(|r| r.strip_suffix(';'))
+                    .map(|s| s.trim().to_string())
             })
             .collect();
         let mut out = BTreeSet::new();
@@ -250,64 +269,74 @@ fn graph(files: &BTreeMap<Vec<String>, String>) -> BTreeMap<Vec<String>, BTreeSe
     edges
 }
 
-/// Strongly connected components with more than one file (Tarjan).
+/// Strongly connected components with more than one file (Tarjan's algorithm).
 fn cycles(edges: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>) -> Vec<Vec<String>> {
-    let nodes: Vec<&Vec<String>> = edges.keys().collect();
-    let index_of: BTreeMap<&Vec<String>, usize> = nodes.iter().enumerate().map(|(i, n)| (*n, i)).collect();
-    let n = nodes.len();
-    let (mut index, mut low, mut on) = (vec![usize::MAX; n], vec![0; n], vec![false; n]);
-    let (mut stack, mut out, mut counter) = (Vec::new(), Vec::new(), 0);
-    fn visit(
-        v: usize,
-        nodes: &[&Vec<String>],
-        edges: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>,
-        index_of: &BTreeMap<&Vec<String>, usize>,
-        st: &mut (Vec<usize>, Vec<usize>, Vec<bool>, Vec<usize>, Vec<Vec<String>>, usize),
-    ) {
-        st.0[v] = st.5;
-        st.1[v] = st.5;
-        st.5 += 1;
-        st.3.push(v);
-        st.2[v] = true;
-        for w in &edges[nodes[v]] {
-            let Some(&w) = index_of.get(w) else { continue };
-            if st.0[w] == usize::MAX {
-                visit(w, nodes, edges, index_of, st);
-                st.1[v] = st.1[v].min(st.1[w]);
-            } else if st.2[w] {
-                st.1[v] = st.1[v].min(st.0[w]);
-            }
-        }
-        if st.1[v] == st.0[v] {
-            let mut comp = Vec::new();
-            loop {
-                let w = st.3.pop().unwrap();
-                st.2[w] = false;
-                comp.push(nodes[w].join("::"));
-                if w == v {
-                    break;
+    struct Tarjan<'a> {
+        nodes: Vec<&'a Vec<String>>,
+        index_of: BTreeMap<&'a Vec<String>, usize>,
+        edges: &'a BTreeMap<Vec<String>, BTreeSet<Vec<String>>>,
+        index: Vec<usize>,
+        low: Vec<usize>,
+        on_stack: Vec<bool>,
+        stack: Vec<usize>,
+        next: usize,
+        found: Vec<Vec<String>>,
+    }
+    impl Tarjan<'_> {
+        fn visit(&mut self, v: usize) {
+            self.index[v] = self.next;
+            self.low[v] = self.next;
+            self.next += 1;
+            self.stack.push(v);
+            self.on_stack[v] = true;
+            let targets: Vec<usize> = self.edges[self.nodes[v]]
+                .iter()
+                .filter_map(|w| self.index_of.get(w).copied())
+                .collect();
+            for w in targets {
+                if self.index[w] == usize::MAX {
+                    self.visit(w);
+                    self.low[v] = self.low[v].min(self.low[w]);
+                } else if self.on_stack[w] {
+                    self.low[v] = self.low[v].min(self.index[w]);
                 }
             }
-            if comp.len() > 1 {
-                comp.sort();
-                st.4.push(comp);
+            if self.low[v] == self.index[v] {
+                let mut component = Vec::new();
+                loop {
+                    let w = self.stack.pop().unwrap();
+                    self.on_stack[w] = false;
+                    component.push(self.nodes[w].join("::"));
+                    if w == v {
+                        break;
+                    }
+                }
+                if component.len() > 1 {
+                    component.sort();
+                    self.found.push(component);
+                }
             }
         }
     }
-    let mut st = (
-        std::mem::take(&mut index),
-        std::mem::take(&mut low),
-        std::mem::take(&mut on),
-        std::mem::take(&mut stack),
-        std::mem::take(&mut out),
-        std::mem::take(&mut counter),
-    );
+    let nodes: Vec<&Vec<String>> = edges.keys().collect();
+    let n = nodes.len();
+    let mut t = Tarjan {
+        index_of: nodes.iter().enumerate().map(|(i, m)| (*m, i)).collect(),
+        nodes,
+        edges,
+        index: vec![usize::MAX; n],
+        low: vec![0; n],
+        on_stack: vec![false; n],
+        stack: Vec::new(),
+        next: 0,
+        found: Vec::new(),
+    };
     for v in 0..n {
-        if st.0[v] == usize::MAX {
-            visit(v, &nodes, edges, &index_of, &mut st);
+        if t.index[v] == usize::MAX {
+            t.visit(v);
         }
     }
-    st.4
+    t.found
 }
 
 fn sources(root: &Path) -> BTreeMap<Vec<String>, String> {
@@ -317,7 +346,11 @@ fn sources(root: &Path) -> BTreeMap<Vec<String>, String> {
         .iter()
         .filter(|f| !f.ends_with("main.rs"))
         .map(|f| {
-            let rel = f.strip_prefix(root.join("src")).unwrap().to_string_lossy().replace('\\', "/");
+            let rel = f
+                .strip_prefix(root.join("src"))
+                .unwrap()
+                .to_string_lossy()
+                .replace('\\', "/");
             (module_of(&rel), std::fs::read_to_string(f).unwrap())
         })
         .collect()
@@ -332,7 +365,11 @@ fn no_import_cycle_among_src_files() {
     assert!(
         found.is_empty(),
         "import cycles among src files (each line one strongly connected set):\n{}",
-        found.iter().map(|c| c.join(", ")).collect::<Vec<_>>().join("\n")
+        found
+            .iter()
+            .map(|c| c.join(", "))
+            .collect::<Vec<_>>()
+            .join("\n")
     );
 }
 
@@ -341,7 +378,10 @@ fn modules_import_only_what_is_above_them() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let files = sources(root);
     let edges = graph(&files);
-    let rank = |m: &Vec<String>| m.first().and_then(|top| LAYERS.iter().position(|l| l == top));
+    let rank = |m: &Vec<String>| {
+        m.first()
+            .and_then(|top| LAYERS.iter().position(|l| l == top))
+    };
     let mut violations = Vec::new();
     let mut unranked = BTreeSet::new();
     for (from, tos) in &edges {
@@ -353,7 +393,9 @@ fn modules_import_only_what_is_above_them() {
         };
         for to in tos {
             match rank(to) {
-                Some(b) if b > a => violations.push(format!("{} imports {}", from.join("::"), to.join("::"))),
+                Some(b) if b > a => {
+                    violations.push(format!("{} imports {}", from.join("::"), to.join("::")))
+                }
                 None if !to.is_empty() => {
                     unranked.insert(to[0].clone());
                 }
@@ -361,8 +403,15 @@ fn modules_import_only_what_is_above_them() {
             }
         }
     }
-    assert!(unranked.is_empty(), "top-level modules missing from LAYERS: {unranked:?}");
-    assert!(violations.is_empty(), "imports against the layering of src/lib.rs:\n{}", violations.join("\n"));
+    assert!(
+        unranked.is_empty(),
+        "top-level modules missing from LAYERS: {unranked:?}"
+    );
+    assert!(
+        violations.is_empty(),
+        "imports against the layering of src/lib.rs:\n{}",
+        violations.join("\n")
+    );
 }
 
 #[test]
@@ -371,10 +420,17 @@ fn the_layers_are_the_ones_lib_rs_states() {
     let lib = std::fs::read_to_string(root.join("src/lib.rs")).unwrap();
     let declared: BTreeSet<String> = lib
         .lines()
-        .filter_map(|l| l.strip_prefix("pub mod ").and_then(|r| r.strip_suffix(';')).map(String::from))
+        .filter_map(|l| {
+            l.strip_prefix("pub mod ")
+                .and_then(|r| r.strip_suffix(';'))
+                .map(String::from)
+        })
         .collect();
     let listed: BTreeSet<String> = LAYERS.iter().map(|s| s.to_string()).collect();
-    assert_eq!(declared, listed, "src/lib.rs's modules and this test's LAYERS differ");
+    assert_eq!(
+        declared, listed,
+        "src/lib.rs's modules and this test's LAYERS differ"
+    );
 }
 
 #[test]
@@ -387,7 +443,11 @@ fn unsafe_code_lives_only_in_the_fmi_layer() {
             continue;
         }
         let text = std::fs::read_to_string(&f).unwrap();
-        assert!(!text.contains("unsafe "), "{} uses unsafe outside src/fmi", f.display());
+        assert!(
+            !text.contains("unsafe "),
+            "{} uses unsafe outside src/fmi",
+            f.display()
+        );
     }
 }
 
@@ -395,11 +455,22 @@ fn unsafe_code_lives_only_in_the_fmi_layer() {
 /// a child that imports only its sibling (no cycle), a test module's imports ignored.
 #[test]
 fn the_checker_finds_a_known_cycle_and_nothing_else() {
-    let file = |m: &str, t: &str| (m.split("::").filter(|s| !s.is_empty()).map(String::from).collect::<Vec<_>>(), t.to_string());
+    let file = |m: &str, t: &str| {
+        (
+            m.split("::")
+                .filter(|s| !s.is_empty())
+                .map(String::from)
+                .collect::<Vec<_>>(),
+            t.to_string(),
+        )
+    };
     let clean: BTreeMap<_, _> = [
         file("a", "mod b;\nmod c;\npub use b::Thing;\n"),
         file("a::b", "use super::c::Other;\npub struct Thing;\n"),
-        file("a::c", "pub struct Other;\n#[cfg(test)]\nmod tests {\n    use super::super::b::Thing;\n}\n"),
+        file(
+            "a::c",
+            "pub struct Other;\n#[cfg(test)]\nmod tests {\n    use super::super::b::Thing;\n}\n",
+        ),
     ]
     .into_iter()
     .collect();
@@ -411,5 +482,8 @@ fn the_checker_finds_a_known_cycle_and_nothing_else() {
     ]
     .into_iter()
     .collect();
-    assert_eq!(cycles(&graph(&cyclic)), vec![vec!["a".to_string(), "a::b".to_string()]]);
+    assert_eq!(
+        cycles(&graph(&cyclic)),
+        vec![vec!["a".to_string(), "a::b".to_string()]]
+    );
 }

@@ -84,7 +84,11 @@ impl Fmu {
         );
         let text = std::fs::read_to_string(path).unwrap();
         let engine = Engine::try_new(Scene::from_json(&text).unwrap()).unwrap();
-        let guid = CString::new(velarium::description::guid(engine.scene(), engine.variables())).unwrap();
+        let guid = CString::new(velarium::description::guid(
+            engine.scene(),
+            engine.variables(),
+        ))
+        .unwrap();
         let root =
             std::env::temp_dir().join(format!("velarium-state-codec-{tag}-{}", std::process::id()));
         let resources = root.join("resources");
@@ -203,7 +207,10 @@ fn varint(mut n: u64) -> Vec<u8> {
     not(target_vendor = "apple")
 ))]
 fn hostile_payloads_are_refused_within_a_bounded_allocation() {
-    if !crate::alone(module_path!(), "hostile_payloads_are_refused_within_a_bounded_allocation") {
+    if !crate::alone(
+        module_path!(),
+        "hostile_payloads_are_refused_within_a_bounded_allocation",
+    ) {
         return;
     }
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());

@@ -355,7 +355,7 @@ fn a_bom_is_accepted_in_scenes_and_load_tables_and_comments_after_hash() {
     assert_eq!(run(&["check", &path]).status.code(), Some(0));
     let loads = write(
         "bom.csv",
-        format!("\u{feff}time,P # header comment\n0,0 # start\n1,50 # half\n").as_bytes(),
+        "\u{feff}time,P # header comment\n0,0 # start\n1,50 # half\n".as_bytes(),
     );
     let out = run(&["solve", &path, "--loads", &loads]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));

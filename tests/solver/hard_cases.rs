@@ -320,9 +320,9 @@ fn d_unloaded_sliding_nodes_drift_along_the_cable() {
         m.y,
         yr - 100.0 / k
     );
-    for s in 0..4 {
+    for (s, &t_s) in t.iter().enumerate().take(4) {
         assert!(
-            rel(t[s], t_ref) < 1e-6,
+            rel(t_s, t_ref) < 1e-6,
             "segment {s}: T = {} vs {t_ref}",
             t[s]
         );

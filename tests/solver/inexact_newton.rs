@@ -229,8 +229,7 @@ fn bad_value_is_named() {
         serde_json::from_str(&std::fs::read_to_string(shipped("HenckyDisc")).unwrap()).unwrap();
     v["solver"] = json!({"inexact_newton": "sometimes"});
     let err = Scene::from_json(&v.to_string())
-        .err()
-        .expect("an unknown value is refused")
+        .expect_err("an unknown value is refused")
         .to_string();
     println!("{err}");
     assert!(err.contains("inexact_newton"), "{err}");

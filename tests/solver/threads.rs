@@ -352,7 +352,7 @@ fn one_and_two_assemble(name: &str, scene: &Scene, frozen: bool) -> (f64, f64) {
     let (a, b) = parallel.halves();
     assert_eq!(a + b, model.triangles.len());
     let mut scratch = AssemblyScratch::with_parallel(Some(parallel));
-    let mut rng = Rng(0x5eed_0f_7e4d);
+    let mut rng = Rng(0x5e_ed0f_7e4d);
     let mut u = vec![0.0; model.unknown_count()];
     for (d, x) in u.iter_mut().enumerate().take(model.dof_count()) {
         if !model.held[d] {

@@ -19,6 +19,7 @@
 //!   - A cable of force T bounding a membrane of isotropic prestress n is a circular arc of
 //!     radius R = T/n (equilibrium of the cable under the normal edge load n; e.g. Bletzinger &
 //!     Ramm 1999, Linhard et al. 2009).
+//!
 //! TOLERANCES: the shapes carry the discretisation error of linear triangles, O(h²):
 //!   catenoid neck measured 8.5e-4 (48 x 16) and 2.0e-4 (96 x 32) relative: tolerance 5e-3 (the
 //!   issue's target 0.5 %) at 48 x 16 and a > 3x fall per halving of h. Scherk: largest

@@ -249,8 +249,8 @@ fn assembled_tangent_matches_finite_differences() {
         let n = pattern.n;
         let mut dense = vec![0.0; n * n];
         for j in 0..n {
-            for p in pattern.col_ptr[j]..pattern.col_ptr[j + 1] {
-                let i = pattern.row_idx[p];
+            let column = pattern.col_ptr[j]..pattern.col_ptr[j + 1];
+            for (p, &i) in column.clone().zip(&pattern.row_idx[column]) {
                 dense[i * n + j] = k[p];
                 dense[j * n + i] = k[p];
             }
