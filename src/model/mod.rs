@@ -18,6 +18,7 @@
 pub mod cable;
 pub mod membrane;
 pub mod orthotropic;
+pub mod plane_stress;
 pub mod pressure;
 pub mod sleeve;
 pub mod wrinkling;
