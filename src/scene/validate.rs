@@ -1,7 +1,7 @@
 //! Semantic checks of a parsed scene. Every problem is reported (not only the first), each with
 //! the JSON path of the field and a sentence a user can act on.
 
-use super::generate::{try_resolve, Mesh};
+use super::generate::{generator_counts, try_resolve, Mesh};
 use super::limits;
 use super::{
     Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
@@ -44,9 +44,9 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
             .generators
             .iter()
             .enumerate()
-            .max_by_key(|(_, g)| limits::generator_counts(g).0);
+            .max_by_key(|(_, g)| generator_counts(g).0);
         if let Some((k, g)) = biggest {
-            if limits::generator_counts(g).0 * 2 > size.nodes {
+            if generator_counts(g).0 * 2 > size.nodes {
                 let field = match g {
                     Generator::Rectangle { .. } => "divisions",
                     _ => "rings",
