@@ -1070,34 +1070,7 @@ pub struct Problem {
     pub message: String,
 }
 
-impl std::fmt::Display for Problem {
-    /// `path: message`, every echoed value cut to about 80 characters (`read::clip`).
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.path.is_empty() {
-            write!(f, "{}", read::clip(&self.message))
-        } else {
-            write!(
-                f,
-                "{}",
-                read::clip(&format!("{}: {}", self.path, self.message))
-            )
-        }
-    }
-}
-
 impl Scene {
-    /// Parse a scene from JSON text; the first problem found (see [`Scene::parse`]).
-    pub fn from_json(text: &str) -> Result<Scene, Problem> {
-        Scene::parse(text.as_bytes()).map_err(|mut p| p.swap_remove(0))
-    }
-
-    /// Parse scene bytes (a UTF-8 byte-order mark is skipped). Every problem of the JSON layer
-    /// is listed with its path: syntax, invalid UTF-8 (by byte offset), keys given twice,
-    /// unknown fields and wrong types (see `read.rs`).
-    pub fn parse(bytes: &[u8]) -> Result<Scene, Vec<Problem>> {
-        read::parse(bytes).map_err(|(problems, _)| problems)
-    }
-
     /// Pretty JSON text of the scene (what is stored in an FMU's resources).
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a scene always serializes")
