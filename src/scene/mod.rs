@@ -1082,14 +1082,3 @@ impl Scene {
         serde_json::to_string_pretty(&schema).expect("a schema always serializes")
     }
 }
-
-/// Sleeve node ids of a cable with node ids `ids` (every interior node unless the sleeve lists
-/// them); None when a listed set does not exist.
-pub fn sleeve_nodes(ids: &[usize], sleeve: &Sleeve, mesh: &generate::Mesh) -> Option<Vec<usize>> {
-    match &sleeve.nodes {
-        None if ids.len() < 3 => Some(Vec::new()),
-        None => Some(ids[1..ids.len() - 1].to_vec()),
-        Some(NodeRef::Ids(list)) => Some(list.clone()),
-        Some(NodeRef::Set(name)) => mesh.node_sets.get(name).cloned(),
-    }
-}

@@ -922,7 +922,7 @@ impl Validator {
     fn sleeve_ids(s: &Scene, mesh: &Mesh, cable: &str) -> Option<Vec<usize>> {
         let c = s.cables.iter().find(|c| c.name == cable)?;
         let ids = cable_ids(mesh, &c.nodes)?;
-        super::sleeve_nodes(&ids, c.sleeve.as_ref()?, mesh)
+        super::shape::sleeve_nodes(&ids, c.sleeve.as_ref()?, mesh)
     }
 
     /// Probe checks of a sleeve: the cable has one, and `node` (if any) is one of its nodes.
