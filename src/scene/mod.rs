@@ -22,6 +22,7 @@ pub mod generate;
 pub mod limits;
 pub mod read;
 pub mod shape;
+pub mod target;
 pub mod validate;
 
 use schemars::JsonSchema;

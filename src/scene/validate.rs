@@ -3,10 +3,10 @@
 
 use super::generate::{generator_counts, try_resolve, Mesh};
 use super::limits;
+use super::target::parameter_value;
 use super::{
     Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
 };
-use crate::variables;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// All problems of a scene; empty means valid.
@@ -1396,7 +1396,7 @@ impl Validator {
     fn parameters(&mut self, s: &Scene) {
         for (i, p) in s.parameters.iter().enumerate() {
             let path = format!("parameters[{i}].target");
-            match variables::parameter_value(s, &p.target) {
+            match parameter_value(s, &p.target) {
                 None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|E_warp|E_fill|nu_wf|G|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
                 Some(v) if !v.is_finite() => self.push(path, format!("{} must be given a value in the scene to be exposed as a parameter", p.target)),
                 Some(_) => {}
