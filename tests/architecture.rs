@@ -8,6 +8,7 @@ const RULES: &[(&str, &[&str])] = &[
     (
         "src/scene",
         &[
+            "variables",
             "model",
             "solver",
             "results",
