@@ -18,6 +18,7 @@
 pub mod cable;
 pub mod membrane;
 pub mod orthotropic;
+pub mod plane_stress;
 pub mod pressure;
 pub mod sleeve;
 pub mod wrinkling;
@@ -599,7 +600,7 @@ fn build_cables(
         let sleeved = c
             .sleeve
             .as_ref()
-            .and_then(|sl| crate::scene::sleeve_nodes(&ids, sl, mesh))
+            .and_then(|sl| crate::scene::shape::sleeve_nodes(&ids, sl, mesh))
             .unwrap_or_default();
         // Cable points: a sleeve node gets its own point (a new node at the same place).
         let mut points = ids.clone();

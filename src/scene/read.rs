@@ -64,6 +64,31 @@ pub fn parse(bytes: &[u8]) -> Result<Scene, (Vec<Problem>, Option<Scene>)> {
     Err((problems, recovered))
 }
 
+impl Scene {
+    /// Parse a scene from JSON text; the first problem found (see [`Scene::parse`]).
+    pub fn from_json(text: &str) -> Result<Scene, Problem> {
+        Scene::parse(text.as_bytes()).map_err(|mut p| p.swap_remove(0))
+    }
+
+    /// Parse scene bytes (a UTF-8 byte-order mark is skipped). Every problem of the JSON layer
+    /// is listed with its path: syntax, invalid UTF-8 (by byte offset), keys given twice,
+    /// unknown fields and wrong types (see the module doc).
+    pub fn parse(bytes: &[u8]) -> Result<Scene, Vec<Problem>> {
+        parse(bytes).map_err(|(problems, _)| problems)
+    }
+}
+
+impl std::fmt::Display for Problem {
+    /// `path: message`, every echoed value cut to about 80 characters ([`clip`]).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.path.is_empty() {
+            write!(f, "{}", clip(&self.message))
+        } else {
+            write!(f, "{}", clip(&format!("{}: {}", self.path, self.message)))
+        }
+    }
+}
+
 fn problem(path: impl Into<String>, message: impl Into<String>) -> Problem {
     Problem {
         path: path.into(),
