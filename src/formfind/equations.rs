@@ -3,10 +3,13 @@
 //! X_{k+1} with the finishing step's refinement.
 
 use super::measure::crossings;
-use super::{
-    membrane, FormFinding, Halt, Matrix2, Matrix3, Pattern, Problem, Report, Setup, State,
-    TriangleStress, Vector3, AXIAL_KEPT, COLLAPSE, MESH_SPRING, NONE, REFINEMENTS,
+use super::state::{
+    Halt, Report, Setup, State, TriangleStress, AXIAL_KEPT, COLLAPSE, MESH_SPRING, REFINEMENTS,
 };
+use crate::model::membrane;
+use crate::scene::{FormFinding, Problem};
+use crate::solver::assemble::{Pattern, NONE};
+use nalgebra::{Matrix2, Matrix3, Vector3};
 
 /// Membrane blocks of the matrix between two cable nodes, summed per node pair.
 type CableMembrane = std::collections::HashMap<(usize, usize), Matrix3<f64>>;

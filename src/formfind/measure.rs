@@ -2,7 +2,9 @@
 //! the surface, across the cables), the stress state that balances the new positions and its
 //! deviation from the prescribed one, and the crossing nodes of cable nets.
 
-use super::{membrane, Halt, Matrix2, Report, Setup, State, TriangleStress, Vector3};
+use super::state::{Halt, Report, Setup, State, TriangleStress};
+use crate::model::membrane;
+use nalgebra::{Matrix2, Vector3};
 
 /// Per triangle: a membrane force tensor (global [xx, yy, zz, xy, yz, xz], N/m) and its
 /// largest deviation from the prescribed one, relative to the largest prescribed force.
