@@ -165,8 +165,8 @@ pub fn triangle_ref(x: [Vector3<f64>; 3]) -> Option<TriangleRef> {
 #[allow(non_snake_case)]
 pub fn deformation_gradient(r: &TriangleRef, x: &[Vector3<f64>; 3]) -> SMatrix<f64, 3, 2> {
     let mut F = SMatrix::<f64, 3, 2>::zeros();
-    for a in 0..3 {
-        F += x[a] * r.grad[a].transpose();
+    for (xa, ga) in x.iter().zip(&r.grad) {
+        F += xa * ga.transpose();
     }
     F
 }

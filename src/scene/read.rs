@@ -40,6 +40,7 @@ pub fn decode_text(bytes: &[u8]) -> Result<&str, String> {
 /// Parse scene bytes into a scene, or list every problem found at the JSON level. The second
 /// value is the scene read without the unknown fields when they were the only problems (so
 /// `velarium check` can go on to the semantic checks in the same run).
+#[allow(clippy::result_large_err)] // once per scene read; the error carries what could be read
 pub fn parse(bytes: &[u8]) -> Result<Scene, (Vec<Problem>, Option<Scene>)> {
     let text = decode_text(bytes).map_err(|m| (vec![problem("", m)], None))?;
     let mut value: Value = serde_json::from_str(text).map_err(|e| {

@@ -882,7 +882,7 @@ impl Validator {
         };
         if ids.len() < 3 {
             self.push(
-                format!("{p}"),
+                p.to_string(),
                 "a sleeve needs a cable with at least one interior node to slide through",
             );
             return;
@@ -908,7 +908,7 @@ impl Validator {
         for (k, id) in ids.iter().enumerate() {
             if ids[..k].contains(id) {
                 self.push(
-                    format!("{p}"),
+                    p.to_string(),
                     format!(
                         "cable \"{}\" passes node {id} twice; a sleeved cable may not",
                         c.name
