@@ -235,7 +235,7 @@ fn hencky() {
 }
 
 fn hencky_derivatives() {
-    use velarium::engine::Known;
+    use velarium::engine::derivatives::Known;
     use velarium::variables::Binding;
     let path = format!(
         "{}/modelDescription/HenckyDisc/scene.json",

@@ -13,7 +13,7 @@ Operating point: the inputs ramped half way from their start to their ramp targe
   along the ramp only), on the scene packed with a residual tolerance of 1e-12 so that the
   difference measures the derivative: 1e-5 of the largest derivative among the outputs of the
   same unit (1e-4 on scenes with wrinkling on: the wrinkled tangent's ε·D0), δ = 1e-5 of the
-  ramp (1e-3 with friction), as tests/derivatives.rs does for the engine. Measured worst per
+  ramp (1e-3 with friction), as tests/fmi/derivatives.rs does for the engine. Measured worst per
   scene: printed (``-s``).
 """
 

@@ -5,14 +5,14 @@ test_sleeve_readings.py).
 Claims checked, each from the numbers the script wrote (build/seed_experiments.json), not from
 its verdict strings:
 - Fig. 4-5: both prestress runs converge on all ten rows; lift, reaction and cable tension
-  agree row by row within 1e-8 relative (tests/verify_lifted_membrane.rs measures the whole
+  agree row by row within 1e-8 relative (tests/verification/lifted_membrane.rs measures the whole
   field to 1.1e-10); the two residual histories differ (the prestress changes the path);
 - Fig. 6 frictionless: all ten rows converge, |x7 - x8| and |x9 - x8| below 1e-6 of the 4 m
   span recomputed from the recorded last row, median iterations per row <= 15 (issue 10 target);
 - Fig. 6 with mu = 0.3: nodes 7 and 9 stay more than 0.4 m (a tenth of the span) from node 8,
   and the contact forces are the loads the ties carry (10 N at node 7, 200 N at node 8, 1e-6 N);
 - Fig. 6 with mu = 0.1, 0.15, 0.2: all ten rows converge, 7 and 9 meet node 8 (within 1e-6 of
-  the span) in rows 2, 4 and 6 (tests/verify_sliding_cable.rs measures the same path), median
+  the span) in rows 2, 4 and 6 (tests/verification/sliding_cable.rs measures the same path), median
   iterations per row <= 15;
 - the summary table has one row per experiment and the three plots are written.
 """

@@ -3,9 +3,9 @@
 //!
 //! ```text
 //! fmiModelDescription  fmiVersion 2.0, modelName = scene.name, guid = hash of this document
-//!   CoSimulation       modelIdentifier = scene.name, the capability flags of crate::fmi
+//!   CoSimulation       modelIdentifier = scene.name, [`capability_flags`]
 //!   UnitDefinitions    only the units some variable uses, with SI base-unit exponents
-//!   LogCategories      crate::fmi::log_categories(): every category the binary logs under
+//!   LogCategories      [`LOG_CATEGORIES`]: every category the binary logs under
 //!   DefaultExperiment  scene.experiment
 //!   ModelVariables     parameters (fixed | tunable, start), inputs (continuous, start, no
 //!                      `initial`), outputs (Real continuous | Integer discrete, no start)
@@ -16,9 +16,13 @@
 //! The GUID is a 128-bit FNV-1a hash of the document rendered with a placeholder GUID: the same
 //! scene and crate version give the same GUID on every machine, any change to the description
 //! gives a different one, and the FMU binary compares it at instantiation.
+//!
+//! What the FMU declares about itself (capability flags, log categories) is defined here and
+//! implemented by `crate::fmi`, which imports it: the adapter depends on the description, never
+//! the other way round. `crate::description3` writes the FMI 3.0 document with the skeleton of
+//! this one (see `Version`).
 
-use crate::engine::Engine;
-use crate::fmi;
+use crate::format::xs_double;
 use crate::scene::Scene;
 use crate::variables::{Causality, VarType, Variability, Variable, UNITS};
 use std::fmt::Write;
@@ -36,68 +40,135 @@ const DISPLAY_UNITS: &[(&str, &str, f64)] = &[
     ("rad", "deg", 57.29577951308232),
 ];
 
-/// The complete modelDescription.xml of the engine's scene.
-pub fn model_description(engine: &Engine) -> String {
-    document(engine, Version::Fmi2)
+/// `CoSimulation` capability flags, consistent with what the binary (`crate::fmi`) does.
+pub const CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE: bool = true;
+pub const CAN_GET_AND_SET_FMU_STATE: bool = true;
+pub const CAN_SERIALIZE_FMU_STATE: bool = true;
+pub const CAN_NOT_USE_MEMORY_MANAGEMENT_FUNCTIONS: bool = true;
+pub const CAN_INTERPOLATE_INPUTS: bool = false;
+/// `providesDirectionalDerivative` (FMI 2) and `providesDirectionalDerivatives` /
+/// `providesAdjointDerivatives` (FMI 3): derivatives at the committed equilibrium.
+pub const PROVIDES_DIRECTIONAL_DERIVATIVE: bool = true;
+pub const CAN_RUN_ASYNCHRONUOUSLY: bool = false;
+pub const CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS: bool = false;
+pub const NEEDS_EXECUTION_TOOL: bool = false;
+/// `maxOutputDerivativeOrder`: `fmi2GetRealOutputDerivatives` is not supported.
+pub const MAX_OUTPUT_DERIVATIVE_ORDER: u32 = 0;
+
+/// The boolean FMI 2 `CoSimulation` attributes as (XML attribute name, value), in the order
+/// the FMI 2.0 schema lists them.
+const CAPABILITY_FLAGS: &[(&str, bool)] = &[
+    ("needsExecutionTool", NEEDS_EXECUTION_TOOL),
+    (
+        "canHandleVariableCommunicationStepSize",
+        CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
+    ),
+    ("canInterpolateInputs", CAN_INTERPOLATE_INPUTS),
+    ("canRunAsynchronuously", CAN_RUN_ASYNCHRONUOUSLY),
+    (
+        "canBeInstantiatedOnlyOncePerProcess",
+        CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS,
+    ),
+    (
+        "canNotUseMemoryManagementFunctions",
+        CAN_NOT_USE_MEMORY_MANAGEMENT_FUNCTIONS,
+    ),
+    ("canGetAndSetFMUstate", CAN_GET_AND_SET_FMU_STATE),
+    ("canSerializeFMUstate", CAN_SERIALIZE_FMU_STATE),
+    (
+        "providesDirectionalDerivative",
+        PROVIDES_DIRECTIONAL_DERIVATIVE,
+    ),
+];
+
+/// The boolean FMI 2 `CoSimulation` attributes as (XML attribute name, value), in the order
+/// the FMI 2.0 schema lists them. The description writes them as they are.
+pub fn capability_flags() -> &'static [(&'static str, bool)] {
+    CAPABILITY_FLAGS
 }
 
-/// The GUID of the engine's scene, `{8-4-4-4-12}` lowercase hex.
-pub fn guid(engine: &Engine) -> String {
-    token(engine, Version::Fmi2)
+/// The log categories declared in `<LogCategories>`, as (name, description), in order. The
+/// binary logs under these and no other (`crate::fmi::logging::Category` indexes this list).
+pub const LOG_CATEGORIES: &[(&str, &str)] = &[
+    (
+        "logStatusWarning",
+        "Warnings: the call succeeded, but something deserves attention",
+    ),
+    (
+        "logStatusDiscard",
+        "Discarded steps: the load increments did not converge (reached fraction and reason)",
+    ),
+    (
+        "logStatusError",
+        "Errors: illegal calls, invalid arguments, rejected states (always logged)",
+    ),
+    ("logStatusFatal", "Fatal errors (always logged)"),
+    (
+        "logSolver",
+        "Solver progress: Newton iterations and residuals per load increment",
+    ),
+    (
+        "logCalls",
+        "A trace of the FMI function calls and their arguments",
+    ),
+];
+
+/// The complete FMI 2.0 modelDescription.xml of a scene.
+///
+/// `scene` is the scene the FMU builds its model from, which for a scene with `form_finding`
+/// is the found one (`Engine::scene`), not the one given: its geometry and prestress, and so
+/// parameter start values and array sizes, are the found ones. `variables` is that scene's
+/// table as FMI 2 sees it, arrays as scalars (`variables::scalars` of `variables::try_table`,
+/// or `Engine::variables`). Nothing else goes into the document: no solved state.
+pub fn model_description(scene: &Scene, variables: &[Variable]) -> String {
+    document(scene, variables, &FMI2)
 }
 
-/// The FMI version a description is written for: what differs between the two documents.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Version {
-    Fmi2,
-    Fmi3,
+/// The GUID of [`model_description`] of the same arguments, `{8-4-4-4-12}` lowercase hex.
+pub fn guid(scene: &Scene, variables: &[Variable]) -> String {
+    token(scene, variables, &FMI2)
 }
 
-impl Version {
-    fn number(self) -> &'static str {
-        match self {
-            Version::Fmi2 => "2.0",
-            Version::Fmi3 => "3.0",
-        }
-    }
-
+/// What differs between the FMI 2 and the FMI 3 document. [`FMI2`] is here,
+/// `description3::FMI3` beside its own variable sections; the skeleton ([`render`]) is shared.
+pub(crate) struct Version {
+    /// `fmiVersion`.
+    pub(crate) number: &'static str,
     /// The attribute that carries the document's hash.
-    fn token_attribute(self) -> &'static str {
-        match self {
-            Version::Fmi2 => "guid",
-            Version::Fmi3 => "instantiationToken",
-        }
-    }
-
-    /// FMI 2 declares arrays as scalars, FMI 3 as arrays.
-    fn variables(self, engine: &Engine) -> &[Variable] {
-        match self {
-            Version::Fmi2 => engine.variables(),
-            Version::Fmi3 => engine.arrays(),
-        }
-    }
-
-    fn capability_flags(self) -> &'static [(&'static str, bool)] {
-        match self {
-            Version::Fmi2 => fmi::capability_flags(),
-            Version::Fmi3 => fmi::capability_flags_fmi3(),
-        }
-    }
+    pub(crate) token_attribute: &'static str,
+    /// What closes the root element's start tag.
+    pub(crate) header_end: &'static str,
+    /// The boolean `CoSimulation` attributes, in schema order.
+    pub(crate) capability_flags: &'static [(&'static str, bool)],
+    /// Writes `<ModelVariables>`.
+    pub(crate) model_variables: fn(&mut String, &[Variable]),
+    /// Writes `<ModelStructure>`.
+    pub(crate) model_structure: fn(&mut String, &[Variable]),
 }
+
+/// The FMI 2.0 document: variables as `<ScalarVariable>`s (arrays as their scalars).
+const FMI2: Version = Version {
+    number: "2.0",
+    token_attribute: "guid",
+    header_end: "\n  numberOfEventIndicators=\"0\">\n",
+    capability_flags: CAPABILITY_FLAGS,
+    model_variables,
+    model_structure,
+};
 
 /// The document of `version` with its hash filled in.
-pub(crate) fn document(engine: &Engine, version: Version) -> String {
-    let draft = render(engine.scene(), version.variables(engine), version);
+pub(crate) fn document(scene: &Scene, variables: &[Variable], version: &Version) -> String {
+    let draft = render(scene, variables, version);
     draft.replacen(GUID_PLACEHOLDER, &guid_of(&draft), 1)
 }
 
 /// The hash of the document of `version` (the GUID or the instantiation token).
-pub(crate) fn token(engine: &Engine, version: Version) -> String {
-    guid_of(&render(engine.scene(), version.variables(engine), version))
+pub(crate) fn token(scene: &Scene, variables: &[Variable], version: &Version) -> String {
+    guid_of(&render(scene, variables, version))
 }
 
 /// The document with [`GUID_PLACEHOLDER`] where its hash goes.
-fn render(scene: &Scene, variables: &[Variable], version: Version) -> String {
+fn render(scene: &Scene, variables: &[Variable], version: &Version) -> String {
     let mut x = String::new();
     x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
     header(&mut x, scene, variables, version);
@@ -112,30 +183,22 @@ fn render(scene: &Scene, variables: &[Variable], version: Version) -> String {
         xs_double(e.stop_time),
         xs_double(e.step_size)
     );
-    match version {
-        Version::Fmi2 => {
-            model_variables(&mut x, variables);
-            model_structure(&mut x, variables);
-        }
-        Version::Fmi3 => {
-            crate::description3::model_variables(&mut x, variables);
-            crate::description3::model_structure(&mut x, variables);
-        }
-    }
+    (version.model_variables)(&mut x, variables);
+    (version.model_structure)(&mut x, variables);
     x.push_str("</fmiModelDescription>\n");
     x
 }
 
-fn header(x: &mut String, scene: &Scene, variables: &[Variable], version: Version) {
+fn header(x: &mut String, scene: &Scene, variables: &[Variable], version: &Version) {
     let structured = variables.iter().any(|v| v.name.contains(['.', '[']))
         && variables.iter().all(|v| is_structured_name(&v.name));
     let _ = writeln!(
         x,
         "<fmiModelDescription\n  fmiVersion=\"{}\"",
-        version.number()
+        version.number
     );
     let _ = writeln!(x, "  modelName=\"{}\"", escape(&scene.name));
-    let _ = writeln!(x, "  {}=\"{GUID_PLACEHOLDER}\"", version.token_attribute());
+    let _ = writeln!(x, "  {}=\"{GUID_PLACEHOLDER}\"", version.token_attribute);
     if !scene.description.is_empty() {
         let _ = writeln!(x, "  description=\"{}\"", escape(&scene.description));
     }
@@ -146,25 +209,22 @@ fn header(x: &mut String, scene: &Scene, variables: &[Variable], version: Versio
     );
     let convention = if structured { "structured" } else { "flat" };
     let _ = write!(x, "  variableNamingConvention=\"{convention}\"");
-    match version {
-        Version::Fmi2 => x.push_str("\n  numberOfEventIndicators=\"0\">\n"),
-        Version::Fmi3 => x.push_str(">\n"),
-    }
+    x.push_str(version.header_end);
 }
 
-fn co_simulation(x: &mut String, scene: &Scene, version: Version) {
+fn co_simulation(x: &mut String, scene: &Scene, version: &Version) {
     let _ = write!(
         x,
         "  <CoSimulation\n    modelIdentifier=\"{}\"",
         escape(&scene.name)
     );
-    for (flag, value) in version.capability_flags() {
+    for (flag, value) in version.capability_flags {
         let _ = write!(x, "\n    {flag}=\"{value}\"");
     }
     let _ = writeln!(
         x,
         "\n    maxOutputDerivativeOrder=\"{}\"/>",
-        fmi::MAX_OUTPUT_DERIVATIVE_ORDER
+        MAX_OUTPUT_DERIVATIVE_ORDER
     );
 }
 
@@ -199,9 +259,9 @@ pub(crate) fn unit_definitions(x: &mut String, variables: &[Variable]) {
     x.push_str("  </UnitDefinitions>\n");
 }
 
-pub(crate) fn log_categories(x: &mut String) {
+fn log_categories(x: &mut String) {
     x.push_str("  <LogCategories>\n");
-    for (name, description) in fmi::log_categories() {
+    for (name, description) in LOG_CATEGORIES {
         let _ = writeln!(
             x,
             "    <Category name=\"{}\" description=\"{}\"/>",
@@ -302,20 +362,6 @@ pub(crate) fn variability(v: Variability) -> &'static str {
     }
 }
 
-/// A number as an `xs:double`: Rust's shortest round-trip text without a trailing `.0`
-/// (exponent form for very large or small magnitudes), `NaN`, `INF`, `-INF`. Python's `float`
-/// reads it back exactly too.
-pub fn xs_double(value: f64) -> String {
-    if value.is_nan() {
-        "NaN".into()
-    } else if value.is_infinite() {
-        if value > 0.0 { "INF" } else { "-INF" }.into()
-    } else {
-        let text = format!("{value:?}");
-        text.strip_suffix(".0").map(str::to_owned).unwrap_or(text)
-    }
-}
-
 /// Text for an XML attribute value in double quotes.
 pub(crate) fn escape(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
@@ -396,17 +442,6 @@ mod tests {
         for bad in ["a..b", "a[", "a[]", "1a", "a.[1]", "a]b", ".a", "a."] {
             assert!(!is_structured_name(bad), "{bad}");
         }
-    }
-
-    #[test]
-    fn reals_are_xs_doubles() {
-        assert_eq!(xs_double(1.0), "1");
-        assert_eq!(xs_double(0.1), "0.1");
-        assert_eq!(xs_double(1e-9), "1e-9");
-        assert_eq!(xs_double(2.1e11), "210000000000");
-        assert_eq!(xs_double(1e20), "1e20");
-        assert_eq!(xs_double(f64::NAN), "NaN");
-        assert_eq!(xs_double(f64::NEG_INFINITY), "-INF");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! ```text
 //! fmiModelDescription  fmiVersion 3.0, modelName = scene.name, instantiationToken = hash of
 //!                      this document (the binary compares it in fmi3InstantiateCoSimulation)
-//!   CoSimulation       modelIdentifier = scene.name, crate::fmi::capability_flags_fmi3()
+//!   CoSimulation       modelIdentifier = scene.name, [`capability_flags_fmi3`]
 //!   UnitDefinitions    as in FMI 2 (only the units some variable uses)
 //!   LogCategories      as in FMI 2
 //!   DefaultExperiment  scene.experiment
@@ -19,32 +19,93 @@
 //! FMI 2 GUID of the same scene: an FMU state serialized by one archive is rejected by the
 //! other (its bytes carry the GUID or token they were made with).
 
-use crate::description::{causality, document, escape, token, variability, xs_double, Version};
-use crate::engine::Engine;
-use crate::fmi;
+use crate::description::{
+    causality, document, escape, token, variability, Version,
+    CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS, CAN_GET_AND_SET_FMU_STATE,
+    CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE, CAN_SERIALIZE_FMU_STATE, NEEDS_EXECUTION_TOOL,
+    PROVIDES_DIRECTIONAL_DERIVATIVE,
+};
+use crate::format::xs_double;
+use crate::scene::Scene;
 use crate::variables::{Causality, VarType, Variable};
 use std::fmt::Write;
 
-/// The name of the independent variable (value reference [`fmi::TIME_VALUE_REFERENCE`]).
+/// The name of the independent variable (value reference [`TIME_VALUE_REFERENCE`]).
 pub const TIME_NAME: &str = "time";
 
-/// The complete FMI 3.0 modelDescription.xml of the engine's scene.
-pub fn model_description_fmi3(engine: &Engine) -> String {
-    document(engine, Version::Fmi3)
+/// The value reference of the one `causality="independent"` variable, `time` (FMI 3 requires
+/// exactly one; the variable table starts at 1, so 0 is free).
+pub const TIME_VALUE_REFERENCE: u32 = 0;
+
+/// FMI 3 `CoSimulation` capability flags (booleans), consistent with what the binary does, as
+/// (XML attribute, value) in the order of the FMI 3.0 schema. `maxOutputDerivativeOrder` is
+/// [`crate::description::MAX_OUTPUT_DERIVATIVE_ORDER`].
+const CAPABILITY_FLAGS: &[(&str, bool)] = &[
+    ("needsExecutionTool", NEEDS_EXECUTION_TOOL),
+    (
+        "canBeInstantiatedOnlyOncePerProcess",
+        CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS,
+    ),
+    ("canGetAndSetFMUState", CAN_GET_AND_SET_FMU_STATE),
+    ("canSerializeFMUState", CAN_SERIALIZE_FMU_STATE),
+    (
+        "providesDirectionalDerivatives",
+        PROVIDES_DIRECTIONAL_DERIVATIVE,
+    ),
+    (
+        "providesAdjointDerivatives",
+        PROVIDES_DIRECTIONAL_DERIVATIVE,
+    ),
+    ("providesPerElementDependencies", false),
+    (
+        "canHandleVariableCommunicationStepSize",
+        CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
+    ),
+    ("providesIntermediateUpdate", true),
+    ("mightReturnEarlyFromDoStep", true),
+    ("canReturnEarlyAfterIntermediateUpdate", true),
+    ("hasEventMode", false),
+    ("providesEvaluateDiscreteStates", false),
+];
+
+/// FMI 3 `CoSimulation` capability flags (booleans), consistent with what the binary does, as
+/// (XML attribute, value) in the order of the FMI 3.0 schema.
+pub fn capability_flags_fmi3() -> &'static [(&'static str, bool)] {
+    CAPABILITY_FLAGS
 }
 
-/// The instantiation token of the engine's scene, `{8-4-4-4-12}` lowercase hex.
-pub fn instantiation_token(engine: &Engine) -> String {
-    token(engine, Version::Fmi3)
+/// The FMI 3.0 document: `time`, then the table with arrays as arrays.
+const FMI3: Version = Version {
+    number: "3.0",
+    token_attribute: "instantiationToken",
+    header_end: ">\n",
+    capability_flags: CAPABILITY_FLAGS,
+    model_variables,
+    model_structure,
+};
+
+/// The complete FMI 3.0 modelDescription.xml of a scene.
+///
+/// `scene` is the scene the FMU builds its model from (for a scene with `form_finding`, the
+/// found one: `Engine::scene`), as for [`crate::description::model_description`]; `arrays` is
+/// its table with arrays as arrays (`variables::try_table`, or `Engine::arrays`).
+pub fn model_description_fmi3(scene: &Scene, arrays: &[Variable]) -> String {
+    document(scene, arrays, &FMI3)
+}
+
+/// The instantiation token of [`model_description_fmi3`] of the same arguments,
+/// `{8-4-4-4-12}` lowercase hex.
+pub fn instantiation_token(scene: &Scene, arrays: &[Variable]) -> String {
+    token(scene, arrays, &FMI3)
 }
 
 /// `time`, then every variable of the table.
-pub(crate) fn model_variables(x: &mut String, variables: &[Variable]) {
+fn model_variables(x: &mut String, variables: &[Variable]) {
     x.push_str("  <ModelVariables>\n");
     let _ = writeln!(
         x,
         "    <Float64 name=\"{TIME_NAME}\" valueReference=\"{}\" causality=\"independent\" variability=\"continuous\" description=\"Simulation time\"/>",
-        fmi::TIME_VALUE_REFERENCE
+        TIME_VALUE_REFERENCE
     );
     for v in variables {
         variable(x, v);
@@ -111,7 +172,7 @@ fn variable(x: &mut String, v: &Variable) {
 /// Every output is listed in Outputs and in InitialUnknowns (all `initial="calculated"`; no
 /// calculated parameters), by value reference, in table order; no `dependencies` attribute
 /// (= depends on every input and parameter).
-pub(crate) fn model_structure(x: &mut String, variables: &[Variable]) {
+fn model_structure(x: &mut String, variables: &[Variable]) {
     x.push_str("  <ModelStructure>\n");
     for element in ["Output", "InitialUnknown"] {
         for v in variables
@@ -142,11 +203,12 @@ mod tests {
             "outputs": [{"name": "t", "probe": {"kind": "cable_tension", "cable": "c"}}]}"#,
         )
         .unwrap();
-        let engine = Engine::try_new(scene).unwrap();
-        let xml = model_description_fmi3(&engine);
-        let token = instantiation_token(&engine);
+        let engine = crate::Engine::try_new(scene).unwrap();
+        let (scene, arrays) = (engine.scene(), engine.arrays());
+        let xml = model_description_fmi3(scene, arrays);
+        let token = instantiation_token(scene, arrays);
         assert!(xml.contains(&format!("instantiationToken=\"{token}\"")));
-        assert_ne!(token, crate::description::guid(&engine));
+        assert_ne!(token, crate::description::guid(scene, engine.variables()));
         assert!(xml.contains("causality=\"independent\""));
         assert!(xml.contains("<Output valueReference=\"1\"/>"));
         assert!(xml.contains("<InitialUnknown valueReference=\"1\"/>"));

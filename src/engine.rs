@@ -23,10 +23,8 @@ use crate::solver::{Settings, Solver, StepReport};
 use crate::variables::{self, Binding, Causality, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 
-mod derivatives;
-mod stepping;
-pub use derivatives::Known;
-pub use stepping::{Increment, Step};
+pub mod derivatives;
+pub mod stepping;
 
 /// Everything needed to continue a run: plain data, `Clone + Serialize`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

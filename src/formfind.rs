@@ -62,78 +62,21 @@
 //! density method for form finding and computation of general networks*, CMAME 3:115-134.
 
 use crate::model::{membrane, node_ids, triangle_ids, ElementKind, Model};
-use crate::scene::generate::resolve;
-use crate::scene::{FormFinding, Geometry, OneNode, Prestress, Problem, Scene};
-use crate::solver::assemble::{Pattern, NONE};
+use crate::scene::generate::{resolve, Mesh};
+use crate::scene::{FormFinding, Geometry, OneNode, Prestress, Scene};
+use crate::solver::assemble::Pattern;
 use crate::solver::linear::Ldlt;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix2, Vector3};
 
-/// A triangle whose area falls below this fraction of its start area has collapsed: the
-/// prestress has no equilibrium between the supports.
-pub const COLLAPSE: f64 = 1e-3;
+mod equations;
+mod measure;
+mod state;
 
-/// A shape move ratio between iterations above this marks the mesh creeping within the surface
-/// (the shape itself converges at about 0.4 per iteration): the mesh control switches on.
-pub const CREEP_RATE: f64 = 0.7;
+use equations::{assemble_cables, assemble_membranes, control_mesh, solve_step};
+use measure::{balancing_stress, shape_move};
+use state::{Halt, Setup, State, TriangleStress};
+pub use state::{Report, ACROSS_CABLE_KEPT, AXIAL_KEPT, COLLAPSE, CREEP_RATE, MESH_SPRING};
 
-/// Stiffness of the mesh-control springs relative to a node's own stiffness.
-pub const MESH_SPRING: f64 = 100.0;
-
-/// Share of the membrane's in-surface stiffness across an edge cable kept in the matrix while
-/// the mesh control is on (the rest is a linear-model artefact that slows the cable arcs; a
-/// tenth is kept so that the matrix stays positive definite with margin: the neighbouring
-/// membrane nodes' springs leave about 1 % of it coupled).
-pub const ACROSS_CABLE_KEPT: f64 = 0.1;
-
-/// Share of a cable-net segment's force-density stiffness along the segment kept in the
-/// matrix, between nodes that cannot slide (the true stiffness of a constant-force cable has
-/// none along it; with none kept each iteration is a Newton step on Σ T L, a hundredth is kept
-/// as a margin for the pivots of odd nets). A 7 x 7 hypar net with forces 1 and 3 kN: 10
-/// iterations (0.1 kept: 29; all kept: no convergence in 200).
-pub const AXIAL_KEPT: f64 = 0.01;
-
-/// Iterative refinement solves of the last step.
-const REFINEMENTS: usize = 3;
-
-/// What form finding did.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Report {
-    /// The scene with the found geometry (explicit nodes, triangles and sets; no generators,
-    /// no `form_finding` section). Present when converged.
-    pub scene: Option<Scene>,
-    /// Iterations (linear solves) done.
-    pub iterations: usize,
-    /// Largest shape move of the last iteration (normal to the surface at membrane nodes, the
-    /// whole move at cable nodes), relative to the span.
-    pub last_move: f64,
-    /// Largest relative deviation of the stress state that balances the found shape from the
-    /// prescribed one (membrane force components over the group's largest prescribed force;
-    /// cable forces over their prescribed force).
-    pub deviation: f64,
-    /// Wall time, s.
-    pub seconds: f64,
-    /// One line per iteration.
-    pub log: Vec<String>,
-    /// Why it failed (empty when converged).
-    pub message: String,
-}
-
-impl Report {
-    pub fn converged(&self) -> bool {
-        self.scene.is_some()
-    }
-}
-
-/// Prescribed stress of one triangle: group prestress (warp, fill in N/m, warp direction) and
-/// thickness.
-struct TriangleStress {
-    nodes: [usize; 3],
-    warp: f64,
-    fill: f64,
-    direction: Vector3<f64>,
-    thickness: f64,
-    group: usize,
-}
 
 /// Form-find a validated scene that has a `form_finding` section (or use `settings`). Err for a
 /// scene problem found on the way (a degenerate start triangle, a warp direction normal to a
@@ -152,77 +95,7 @@ pub fn form_find_keeping(
     kept: f64,
 ) -> Result<Report, crate::Error> {
     let start = std::time::Instant::now();
-    let mesh = resolve(&scene.geometry);
-    let mut start_scene = scene.clone();
-    start_scene.form_finding = None;
-    // Held DOFs and the element lists come from the model of the scene; the reference data of
-    // each iteration is formed here.
-    let model = Model::try_build(&start_scene)?;
-    check_kinds(&model)?;
-    let mut x: Vec<Vector3<f64>> = mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
-    for pl in &settings.place {
-        let id = match &pl.node {
-            OneNode::Id(id) => *id,
-            OneNode::Set(name) => mesh.node_sets[name][0],
-        };
-        x[id] = Vector3::from(pl.position);
-    }
-    let mut tris = Vec::new();
-    for (g, m) in scene.membranes.iter().enumerate() {
-        let (warp, fill, dir) =
-            m.prestress
-                .as_ref()
-                .map(|p| p.components())
-                .unwrap_or((0.0, 0.0, [1.0, 0.0, 0.0]));
-        for &t in triangle_ids(&mesh, &m.triangles) {
-            tris.push(TriangleStress {
-                nodes: mesh.triangles[t],
-                warp,
-                fill,
-                direction: Vector3::from(dir),
-                thickness: m.thickness,
-                group: g,
-            });
-        }
-    }
-    let mut segments = Vec::new();
-    let mut seg_cable = Vec::new();
-    for (ci, c) in scene.cables.iter().enumerate() {
-        let ids = node_ids(&mesh, &c.nodes);
-        let t = c.pretension.unwrap_or(0.0);
-        for w in ids.windows(2) {
-            segments.push((w[0], w[1], t));
-            seg_cable.push(ci);
-        }
-    }
-    let pattern = Pattern::try_new(&model)?;
-    let mut linear = Ldlt::try_new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone())?;
-    let position = |i: usize, j: usize| -> usize {
-        let col = &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]];
-        pattern.col_ptr[j]
-            + col
-                .binary_search(&i)
-                .expect("pattern holds every element pair")
-    };
-    let mut used = vec![false; x.len()];
-    for t in &tris {
-        t.nodes.iter().for_each(|&i| used[i] = true);
-    }
-    for &(a, b, _) in &segments {
-        used[a] = true;
-        used[b] = true;
-    }
-    let span = span(&x, &used);
-    let mut on_membrane = vec![false; x.len()];
-    for t in &tris {
-        t.nodes.iter().for_each(|&i| on_membrane[i] = true);
-    }
-    let mut on_cable = vec![false; x.len()];
-    for &(a, b, _) in &segments {
-        on_cable[a] = true;
-        on_cable[b] = true;
-    }
-    let start_area: Vec<f64> = tris.iter().map(|t| area(&x, t.nodes)).collect::<Vec<_>>();
+    let (setup, mut state) = Setup::try_new(scene, settings)?;
     let mut report = Report {
         scene: None,
         iterations: 0,
@@ -232,336 +105,11 @@ pub fn form_find_keeping(
         log: Vec::new(),
         message: String::new(),
     };
-    let n_dof = 3 * x.len();
-    let mut r = vec![0.0; n_dof];
-    let mut rhs = vec![0.0; pattern.n];
-    let mut stage: Vec<(membrane::TriangleRef, nalgebra::Matrix2<f64>)> =
-        Vec::with_capacity(tris.len());
-    if let Some(r0) = tris
-        .first()
-        .and_then(|t| membrane::triangle_ref(t.nodes.map(|i| x[i])))
-    {
-        stage.resize(tris.len(), (r0, nalgebra::Matrix2::zeros()));
+    match iterate(scene, settings, kept, &setup, &mut state, &mut report) {
+        Ok(found) => report.scene = Some(found),
+        Err(Halt::Failed(message)) => report.message = message,
+        Err(Halt::Invalid(error)) => return Err(error),
     }
-    let mut lengths = vec![0.0; segments.len()];
-    let mut previous_move = 0.0f64;
-    let mut finishing = false;
-    let mut projecting = false;
-    for k in 1..=settings.max_iterations + 1 {
-        // K(X_k) and the residual R = K X_k of the current positions.
-        let values = linear.values_mut();
-        values.fill(0.0);
-        r.fill(0.0);
-        let mut cable_membrane: std::collections::HashMap<(usize, usize), Matrix3<f64>> =
-            std::collections::HashMap::new();
-        for (e, t) in tris.iter().enumerate() {
-            let Some(reference) = membrane::triangle_ref(t.nodes.map(|i| x[i])) else {
-                report.message = format!(
-                    "iteration {k}: triangle {e} (nodes {:?}) has collapsed to zero area; the prestress has no equilibrium between these supports",
-                    t.nodes
-                );
-                return Ok(finish(report, start));
-            };
-            let ratio = reference.area / start_area[e];
-            if ratio < COLLAPSE {
-                report.message = format!(
-                    "iteration {k}: triangle {e} (nodes {:?}) shrank to {ratio:.1e} of its start area and keeps contracting: the prestress has no equilibrium between these supports (a soap film between rings too far apart pinches off)",
-                    t.nodes
-                );
-                return Ok(finish(report, start));
-            }
-            let Some(s0) =
-                membrane::initial_stress(&reference, t.warp, t.fill, &t.direction, t.thickness)
-            else {
-                return Err(crate::Error::Scene(vec![Problem {
-                    path: format!("membranes[{}].prestress.warp_direction", t.group),
-                    message: format!(
-                        "is normal to triangle {e} (nodes {:?}) of the iterate {k}",
-                        t.nodes
-                    ),
-                }]));
-            };
-            let smat = nalgebra::Matrix2::new(s0[0], s0[2], s0[2], s0[1]);
-            stage[e] = (reference.clone(), smat);
-            let vol = reference.area * t.thickness;
-            // Isotropic groups: λ times the material part of the surface-tension tangent at
-            // the reference (C = I): D = (n/t) (1⊗1 − 2 I_sym), Voigt [[-1, 1, 0], [1, -1, 0],
-            // [0, 0, -1]]; it does not enter the residual.
-            let material = (t.warp == t.fill && settings.homotopy > 0.0 && !finishing).then(|| {
-                let [e1, e2] = reference.frame;
-                let b: [Matrix3<f64>; 3] = [0, 1, 2].map(|a| {
-                    let (n1, n2) = (reference.grad[a].x, reference.grad[a].y);
-                    Matrix3::from_rows(&[
-                        (e1 * n1).transpose(),
-                        (e2 * n2).transpose(),
-                        (e1 * n2 + e2 * n1).transpose(),
-                    ])
-                });
-                let k = t.warp / t.thickness;
-                let d = Matrix3::new(-k, k, 0.0, k, -k, 0.0, 0.0, 0.0, -k);
-                (b, d * (settings.homotopy * vol))
-            });
-            for a in 0..3 {
-                for b in 0..3 {
-                    let kab = reference.grad[a].dot(&(smat * reference.grad[b])) * vol;
-                    let mut block = Matrix3::identity() * kab;
-                    if let Some((bm, d)) = &material {
-                        block += bm[a].transpose() * d * bm[b];
-                    }
-                    add_full_block(&pattern, values, &position, t.nodes[a], t.nodes[b], &block);
-                    if on_cable[t.nodes[a]] && on_cable[t.nodes[b]] {
-                        *cable_membrane
-                            .entry((t.nodes[a], t.nodes[b]))
-                            .or_insert_with(Matrix3::zeros) += block;
-                    }
-                    for c in 0..3 {
-                        r[3 * t.nodes[a] + c] += kab * x[t.nodes[b]][c];
-                    }
-                }
-            }
-        }
-        let fixed_net: Vec<bool> = crossings(&segments, &seg_cable, &on_membrane, &x)
-            .iter()
-            .enumerate()
-            .map(|(i, &crossing)| crossing || (0..3).all(|c| pattern.eq[3 * i + c] == NONE))
-            .collect();
-        for (si, &(a, b, t)) in segments.iter().enumerate() {
-            let l = (x[b] - x[a]).norm();
-            if !(l > 0.0) {
-                report.message = format!(
-                    "iteration {k}: cable segment between nodes {a} and {b} has zero length"
-                );
-                return Ok(finish(report, start));
-            }
-            lengths[si] = l;
-            let q = t / l;
-            // A segment of a cable net between nodes that cannot slide (crossings of cables
-            // without membrane, or held nodes): the force density's stiffness along the
-            // segment is an artefact of the linear model (a cable of constant force T has the
-            // stiffness (T/L)(I − d dᵀ), none along d), which slows a net to 0.78 per
-            // iteration; all but AXIAL_KEPT of it leaves the matrix (not the residual). Where
-            // a node can slide along its cable (one cable, or a membrane node) it stays: there
-            // the along-cable direction has no stiffness at all but this.
-            let net = !finishing && fixed_net[a] && fixed_net[b];
-            let d = (x[b] - x[a]) / l;
-            let relief = d * d.transpose() * (-(1.0 - AXIAL_KEPT) * q);
-            for (i, j, s) in [(a, a, q), (b, b, q), (a, b, -q), (b, a, -q)] {
-                add_block(&pattern, values, &position, i, j, s);
-                if net {
-                    add_full_block(&pattern, values, &position, i, j, &(relief * s.signum()));
-                }
-                for c in 0..3 {
-                    r[3 * i + c] += s * x[j][c];
-                }
-            }
-        }
-        // Mesh control (once the mesh creeps, until the shape has converged): the residual
-        // keeps only its shape part at free nodes (along the surface normal; across the cable
-        // at cable nodes) and a stiff spring (MESH_SPRING times the node's own stiffness)
-        // holds the other directions, so the fixed point is the equilibrium of the shape and
-        // the mesh stays put within the surface.
-        let mut g = r.clone();
-        if projecting && !finishing {
-            let (normal_k, tangent_k) = directions(&tris, &segments, &x);
-            let crossing_k = crossings(&segments, &seg_cable, &on_membrane, &x);
-            let values = linear.values_mut();
-            for i in 0..x.len() {
-                if !(0..3).all(|c| pattern.eq[3 * i + c] != NONE) || crossing_k[i] {
-                    continue;
-                }
-                let shape = if on_cable[i] {
-                    let t = tangent_k[i];
-                    (t.norm() > 0.0).then(|| {
-                        let t = t.normalize();
-                        Matrix3::identity() - t * t.transpose()
-                    })
-                } else {
-                    let n = normal_k[i];
-                    (n.norm() > 0.0).then(|| {
-                        let n = n.normalize();
-                        n * n.transpose()
-                    })
-                };
-                let Some(shape) = shape else { continue };
-                let own = (0..3)
-                    .map(|c| values[position(pattern.eq[3 * i + c], pattern.eq[3 * i + c])])
-                    .sum::<f64>()
-                    / 3.0;
-                let spring = (Matrix3::identity() - shape) * (MESH_SPRING * own);
-                add_full_block(&pattern, values, &position, i, i, &spring);
-                let gi = shape * Vector3::new(r[3 * i], r[3 * i + 1], r[3 * i + 2]);
-                g[3 * i..3 * i + 3].copy_from_slice(gi.as_slice());
-            }
-            // At cable nodes the membrane's stiffness across the cable within the surface is
-            // an artefact of the linear model (a fixed stress moves a node's force not at all
-            // when the node moves in the triangle's plane: A ∇N_a depends only on the opposite
-            // edge); with the neighbouring membrane nodes held by the springs it makes the
-            // edge cables' arcs converge at 0.78 per iteration on the FourPointSail. All but
-            // ACROSS_CABLE_KEPT of it is taken out of the matrix (the residual, and so the fixed
-            // point, is unchanged).
-            if kept < 1.0 {
-                let across = |i: usize| -> Option<Vector3<f64>> {
-                    let (n, t) = (normal_k[i], tangent_k[i]);
-                    let m = n.cross(&t);
-                    (m.norm() > 0.0).then(|| m.normalize())
-                };
-                for (&(i, j), block) in &cable_membrane {
-                    let (Some(mi), Some(mj)) = (across(i), across(j)) else {
-                        continue;
-                    };
-                    let s = mi.dot(&(block * mj));
-                    let sub = mi * mj.transpose() * (-(1.0 - kept) * s);
-                    add_full_block(&pattern, values, &position, i, j, &sub);
-                }
-            }
-        }
-        let mut unbalanced = 0.0f64;
-        for (d, &e) in pattern.eq.iter().enumerate() {
-            if e != NONE {
-                rhs[e] = -g[d];
-                unbalanced = unbalanced.max(r[d].abs());
-            }
-        }
-        report
-            .log
-            .push(format!("iteration {k}: residual {:.3e} N", unbalanced));
-        if let Err(why) = linear.factor_solve(&mut rhs) {
-            report.message = format!("iteration {k}: {why}");
-            return Ok(finish(report, start));
-        }
-        let mut step = vec![Vector3::zeros(); x.len()];
-        for (d, &e) in pattern.eq.iter().enumerate() {
-            if e != NONE {
-                step[d / 3][d % 3] = rhs[e];
-            }
-        }
-        if finishing {
-            // The last step solves the plain equations L_k x = 0 (no homotopy, no springs);
-            // iterative refinement takes its residual to round-off so that the found stress
-            // state balances the found shape.
-            for _ in 0..REFINEMENTS {
-                let moved_to: Vec<Vector3<f64>> = x.iter().zip(&step).map(|(p, d)| p + d).collect();
-                let rr = plain_residual(&tris, &stage, &segments, &lengths, &moved_to);
-                for (d, &e) in pattern.eq.iter().enumerate() {
-                    if e != NONE {
-                        rhs[e] = -rr[d];
-                    }
-                }
-                if linear.solve(&mut rhs).is_err() {
-                    break;
-                }
-                for (d, &e) in pattern.eq.iter().enumerate() {
-                    if e != NONE {
-                        step[d / 3][d % 3] += rhs[e];
-                    }
-                }
-            }
-        }
-        for (p, d) in x.iter_mut().zip(&step) {
-            *p += d;
-        }
-        // The shape's move: along the surface normal at membrane nodes (a move within the
-        // surface changes the mesh, not the shape), across the cable at cable nodes (an edge
-        // cable's shape is its move within the surface).
-        let mut normal = vec![Vector3::zeros(); x.len()];
-        for t in &tris {
-            let [a, b, c] = t.nodes.map(|i| x[i]);
-            let n = (b - a).cross(&(c - a));
-            t.nodes.iter().for_each(|&i| normal[i] += n);
-        }
-        // Along a cable of constant force its nodes are free to slide too: a cable node's
-        // move counts without its component along the cable.
-        let mut tangent = vec![Vector3::zeros(); x.len()];
-        for &(a, b, _) in &segments {
-            let d = (x[b] - x[a]).normalize();
-            tangent[a] += d;
-            tangent[b] += d;
-        }
-        let crossing = crossings(&segments, &seg_cable, &on_membrane, &x);
-        let moved = (0..x.len())
-            .map(|i| {
-                if crossing[i] {
-                    step[i].norm()
-                } else if on_cable[i] {
-                    let t = tangent[i];
-                    if t.norm() > 0.0 {
-                        let t = t.normalize();
-                        (step[i] - t * step[i].dot(&t)).norm()
-                    } else {
-                        step[i].norm()
-                    }
-                } else if normal[i].norm() == 0.0 {
-                    step[i].norm()
-                } else {
-                    step[i].dot(&normal[i].normalize()).abs()
-                }
-            })
-            .fold(0.0f64, f64::max);
-        report.iterations = k;
-        report.last_move = moved / span;
-        // The stress that balances X_{k+1} exactly: each S0 pushed forward from X_k, each cable
-        // force T L_{k+1}/L_k; and its largest deviation from the prescribed state.
-        let Some(field) = pushed_forward(&tris, &stage, &x) else {
-            report.message = format!("iteration {k}: a triangle collapsed to zero area");
-            return Ok(finish(report, start));
-        };
-        let forces: Vec<f64> = segments
-            .iter()
-            .zip(&lengths)
-            .map(|(&(a, b, t), l)| t * (x[b] - x[a]).norm() / l)
-            .collect();
-        let deviation = field
-            .iter()
-            .map(|f| f.1)
-            .chain(
-                forces
-                    .iter()
-                    .zip(&segments)
-                    .map(|(f, s)| (f - s.2).abs() / s.2),
-            )
-            .fold(0.0f64, f64::max);
-        report.deviation = deviation;
-        report.log.push(format!(
-            "iteration {k}: shape moved {:.3e} of the span; balancing stress within {deviation:.3e} of the prescribed",
-            moved / span
-        ));
-        // Iterates converge linearly: the distance left is about move·ρ/(1 − ρ), ρ the ratio
-        // of the last two moves. Converged when that estimate is within the tolerance.
-        let rate = if previous_move > 0.0 {
-            moved / previous_move
-        } else {
-            1.0
-        };
-        previous_move = moved;
-        if k >= 3 && rate > CREEP_RATE {
-            projecting = true;
-        }
-        if moved > span {
-            report.message = format!(
-                "iteration {k}: the shape moved {:.1e} times the span in one iteration: the iteration diverges (lower form_finding.homotopy)",
-                moved / span
-            );
-            return Ok(finish(report, start));
-        }
-        let left = if rate < 1.0 {
-            moved * rate / (1.0 - rate)
-        } else {
-            f64::INFINITY
-        };
-        if !finishing && moved <= settings.tolerance * span && left <= settings.tolerance * span {
-            finishing = true;
-            continue;
-        }
-        if finishing {
-            let tensors: Vec<[f64; 6]> = field.iter().map(|f| f.0).collect();
-            report.scene = Some(found_scene(scene, &mesh, &x, &tensors, &forces));
-            return Ok(finish(report, start));
-        }
-    }
-    report.message = format!(
-        "form finding did not converge in {} iterations (last shape move {:.2e} of the span, tolerance {:.0e}); raise form_finding.max_iterations or check that the prestress can be in equilibrium between the supports",
-        settings.max_iterations, report.last_move, settings.tolerance
-    );
     Ok(finish(report, start))
 }
 
@@ -580,176 +128,232 @@ pub fn run(scene: &Scene) -> Result<Report, crate::Error> {
     form_find(&asked, &settings)
 }
 
+/// The report with the wall time since `start`.
 fn finish(mut report: Report, start: std::time::Instant) -> Report {
     report.seconds = start.elapsed().as_secs_f64();
     report
 }
 
-/// Area-weighted node normals of the membranes and summed unit tangents of the cables at `x`.
-fn directions(
-    tris: &[TriangleStress],
-    segments: &[(usize, usize, f64)],
-    x: &[Vector3<f64>],
-) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
-    let mut normal = vec![Vector3::zeros(); x.len()];
-    for t in tris {
-        let [a, b, c] = t.nodes.map(|i| x[i]);
-        let n = (b - a).cross(&(c - a));
-        t.nodes.iter().for_each(|&i| normal[i] += n);
-    }
-    let mut tangent = vec![Vector3::zeros(); x.len()];
-    for &(a, b, _) in segments {
-        let d = x[b] - x[a];
-        if d.norm() > 0.0 {
-            tangent[a] += d.normalize();
-            tangent[b] += d.normalize();
-        }
-    }
-    (normal, tangent)
-}
 
-/// Nodes of a cable net where cables cross (no membrane at the node; the summed unit tangents
-/// of two of its cables at an angle of more than about 11°). Such a node cannot slide: moving
-/// it along one cable lengthens the other, so its whole move is shape and the mesh control
-/// leaves it alone. A node on one cable (or on cables meeting in line) can slide along it.
-fn crossings(
-    segments: &[(usize, usize, f64)],
-    seg_cable: &[usize],
-    on_membrane: &[bool],
-    x: &[Vector3<f64>],
-) -> Vec<bool> {
-    let mut per_node: Vec<Vec<(usize, Vector3<f64>)>> = vec![Vec::new(); x.len()];
-    for (&(a, b, _), &c) in segments.iter().zip(seg_cable) {
-        let d = x[b] - x[a];
-        if d.norm() == 0.0 {
-            continue;
+impl Setup {
+    /// The fixed data of form-finding `scene` and the state before the first iteration (X_0:
+    /// the geometry with `settings.place` applied). Err if the scene's model, its matrix
+    /// pattern or the factorization's storage cannot be had.
+    fn try_new(scene: &Scene, settings: &FormFinding) -> Result<(Setup, State), crate::Error> {
+        let mesh = resolve(&scene.geometry);
+        let mut start_scene = scene.clone();
+        start_scene.form_finding = None;
+        // Held DOFs and the element lists come from the model of the scene; the reference data
+        // of each iteration is formed here.
+        let model = Model::try_build(&start_scene)?;
+        check_kinds(&model)?;
+        let x = start_positions(&mesh, settings);
+        let tris = triangle_stresses(scene, &mesh);
+        let (segments, seg_cable) = cable_segments(scene, &mesh);
+        let pattern = Pattern::try_new(&model)?;
+        let linear = Ldlt::try_new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone())?;
+        let mut on_membrane = vec![false; x.len()];
+        for t in &tris {
+            t.nodes.iter().for_each(|&i| on_membrane[i] = true);
         }
-        let d = d.normalize();
-        for i in [a, b] {
-            match per_node[i].iter_mut().find(|(k, _)| *k == c) {
-                Some((_, t)) => *t += d,
-                None => per_node[i].push((c, d)),
-            }
+        let mut on_cable = vec![false; x.len()];
+        for &(a, b, _) in &segments {
+            on_cable[a] = true;
+            on_cable[b] = true;
         }
-    }
-    per_node
-        .iter()
-        .zip(on_membrane)
-        .map(|(tangents, &membrane)| {
-            !membrane
-                && tangents.iter().enumerate().any(|(j, (_, t))| {
-                    tangents[j + 1..].iter().any(|(_, u)| {
-                        let (t, u) = (t.normalize(), u.normalize());
-                        t.cross(&u).norm() > 0.2
-                    })
-                })
-        })
-        .collect()
-}
-
-/// The plain URS residual L_k x at positions `x` (reference data and stresses of iteration
-/// k in `stage`, cable force densities T/L_k).
-fn plain_residual(
-    tris: &[TriangleStress],
-    stage: &[(membrane::TriangleRef, nalgebra::Matrix2<f64>)],
-    segments: &[(usize, usize, f64)],
-    lengths: &[f64],
-    x: &[Vector3<f64>],
-) -> Vec<f64> {
-    let mut r = vec![0.0; 3 * x.len()];
-    for (t, (reference, smat)) in tris.iter().zip(stage) {
-        let vol = reference.area * t.thickness;
-        for a in 0..3 {
-            for b in 0..3 {
-                let kab = reference.grad[a].dot(&(smat * reference.grad[b])) * vol;
-                for c in 0..3 {
-                    r[3 * t.nodes[a] + c] += kab * x[t.nodes[b]][c];
-                }
-            }
+        let used: Vec<bool> = on_membrane
+            .iter()
+            .zip(&on_cable)
+            .map(|(m, c)| m | c)
+            .collect();
+        let mut stage = Vec::with_capacity(tris.len());
+        if let Some(r0) = tris
+            .first()
+            .and_then(|t| membrane::triangle_ref(t.nodes.map(|i| x[i])))
+        {
+            stage.resize(tris.len(), (r0, Matrix2::zeros()));
         }
-    }
-    for (&(a, b, t), l) in segments.iter().zip(lengths) {
-        let q = t / l;
-        for c in 0..3 {
-            let f = q * (x[b][c] - x[a][c]);
-            r[3 * a + c] -= f;
-            r[3 * b + c] += f;
-        }
-    }
-    r
-}
-
-/// Per triangle: the membrane force tensor (global [xx, yy, zz, xy, yz, xz], N/m) on the new
-/// positions `x` of the PK2 stress S0 prescribed on the reference of the iteration
-/// (N = t (A_k/A_{k+1}) F S0 Fᵀ), and its largest deviation from the prescribed tensor on the
-/// new triangle, relative to the largest prescribed force. None if a triangle has no area.
-fn pushed_forward(
-    tris: &[TriangleStress],
-    stage: &[(membrane::TriangleRef, nalgebra::Matrix2<f64>)],
-    x: &[Vector3<f64>],
-) -> Option<Vec<([f64; 6], f64)>> {
-    tris.iter()
-        .zip(stage)
-        .map(|(t, (r, s0))| {
-            let xs = t.nodes.map(|i| x[i]);
-            let f = membrane::deformation_gradient(r, &xs);
-            let now = membrane::triangle_ref(xs)?;
-            let n = f * s0 * f.transpose() * (t.thickness * r.area / now.area);
-            let wanted = membrane::initial_stress(&now, t.warp, t.fill, &t.direction, 1.0)?;
-            let [e1, e2] = now.frame;
-            let local = Vector3::new(e1.dot(&(n * e1)), e2.dot(&(n * e2)), e1.dot(&(n * e2)));
-            let deviation = (local - wanted).amax() / t.warp.max(t.fill);
-            Some((
-                [
-                    n[(0, 0)],
-                    n[(1, 1)],
-                    n[(2, 2)],
-                    n[(0, 1)],
-                    n[(1, 2)],
-                    n[(0, 2)],
-                ],
-                deviation,
-            ))
-        })
-        .collect()
-}
-
-/// Add a 3x3 block to (node i, node j) of the upper-triangular free-free matrix.
-fn add_full_block(
-    pattern: &Pattern,
-    values: &mut [f64],
-    position: &impl Fn(usize, usize) -> usize,
-    i: usize,
-    j: usize,
-    k: &Matrix3<f64>,
-) {
-    for c in 0..3 {
-        for d in 0..3 {
-            let (ei, ej) = (pattern.eq[3 * i + c], pattern.eq[3 * j + d]);
-            if ei != NONE && ej != NONE && ei <= ej {
-                values[position(ei, ej)] += k[(c, d)];
-            }
-        }
+        let state = State {
+            linear,
+            r: vec![0.0; 3 * x.len()],
+            rhs: vec![0.0; pattern.n],
+            stage,
+            lengths: vec![0.0; segments.len()],
+            previous_move: 0.0,
+            finishing: false,
+            projecting: false,
+            x,
+        };
+        let setup = Setup {
+            start_area: tris.iter().map(|t| area(&state.x, t.nodes)).collect(),
+            span: span(&state.x, &used),
+            mesh,
+            pattern,
+            tris,
+            segments,
+            seg_cable,
+            on_membrane,
+            on_cable,
+        };
+        Ok((setup, state))
     }
 }
 
-/// Add s·I (3x3) to the block (node i, node j) of the upper-triangular free-free matrix.
-fn add_block(
-    pattern: &Pattern,
-    values: &mut [f64],
-    position: &impl Fn(usize, usize) -> usize,
-    i: usize,
-    j: usize,
-    s: f64,
-) {
-    for c in 0..3 {
-        let (ei, ej) = (pattern.eq[3 * i + c], pattern.eq[3 * j + c]);
-        if ei != NONE && ej != NONE && ei <= ej {
-            values[position(ei, ej)] += s;
+/// Every element kind of `model` is one form finding prescribes a stress on: a membrane
+/// triangle its group's prestress (a PK2 stress in each iterate, [`triangle_stresses`]), a
+/// cable segment its cable's pretension (a force density T/L, [`cable_segments`]). A kind it
+/// does not handle is refused by the scene's validation first; here it is a located error, not
+/// a silent omission.
+fn check_kinds(model: &Model) -> Result<(), crate::Error> {
+    for kind in ElementKind::ALL {
+        let (handled, path) = match kind {
+            ElementKind::Membrane => (true, "membranes"),
+            ElementKind::Cable => (true, "cables"),
+            // Validation refuses sleeved cables in a scene to form-find.
+            ElementKind::Tie => (false, "cables[].sleeve"),
+        };
+        if !handled && model.element_count(kind) > 0 {
+            return Err(crate::Error::Scene(vec![crate::scene::Problem {
+                path: path.to_string(),
+                message: format!("form finding does not take a {}", kind.name()),
+            }]));
         }
     }
+    Ok(())
 }
 
+/// The nodes of the resolved mesh, each node of `settings.place` moved to its position.
+fn start_positions(mesh: &Mesh, settings: &FormFinding) -> Vec<Vector3<f64>> {
+    let mut x: Vec<Vector3<f64>> = mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
+    for pl in &settings.place {
+        let id = match &pl.node {
+            OneNode::Id(id) => *id,
+            OneNode::Set(name) => mesh.node_sets[name][0],
+        };
+        x[id] = Vector3::from(pl.position);
+    }
+    x
+}
+
+/// The prescribed stress of every triangle, membrane group by group (a group without
+/// prestress: none).
+fn triangle_stresses(scene: &Scene, mesh: &Mesh) -> Vec<TriangleStress> {
+    let mut tris = Vec::new();
+    for (g, m) in scene.membranes.iter().enumerate() {
+        let (warp, fill, dir) =
+            m.prestress
+                .as_ref()
+                .map(|p| p.components())
+                .unwrap_or((0.0, 0.0, [1.0, 0.0, 0.0]));
+        for &t in triangle_ids(mesh, &m.triangles) {
+            tris.push(TriangleStress {
+                nodes: mesh.triangles[t],
+                warp,
+                fill,
+                direction: Vector3::from(dir),
+                thickness: m.thickness,
+                group: g,
+            });
+        }
+    }
+    tris
+}
+
+/// The segments of every cable (end nodes, prescribed force: the cable's `pretension`, 0
+/// without) and the cable of each.
+fn cable_segments(scene: &Scene, mesh: &Mesh) -> (Vec<(usize, usize, f64)>, Vec<usize>) {
+    let mut segments = Vec::new();
+    let mut seg_cable = Vec::new();
+    for (ci, c) in scene.cables.iter().enumerate() {
+        let ids = node_ids(mesh, &c.nodes);
+        let t = c.pretension.unwrap_or(0.0);
+        for w in ids.windows(2) {
+            segments.push((w[0], w[1], t));
+            seg_cable.push(ci);
+        }
+    }
+    (segments, seg_cable)
+}
+
+/// The URS iterations (at most `max_iterations`, then the finishing one): each assembles
+/// L_k at X_k, applies the mesh control, solves for X_{k+1}, measures the shape's move and
+/// the stress that balances X_{k+1}, and decides. The found scene, or why there is none; the
+/// report gets each iteration's log lines, move and deviation.
+fn iterate(
+    scene: &Scene,
+    settings: &FormFinding,
+    kept: f64,
+    setup: &Setup,
+    state: &mut State,
+    report: &mut Report,
+) -> Result<Scene, Halt> {
+    for k in 1..=settings.max_iterations + 1 {
+        state.linear.values_mut().fill(0.0);
+        state.r.fill(0.0);
+        let cable_membrane = assemble_membranes(setup, settings, state, k)?;
+        assemble_cables(setup, state, k)?;
+        let g = control_mesh(setup, state, &cable_membrane, kept);
+        let step = solve_step(setup, state, &g, report, k)?;
+        for (p, d) in state.x.iter_mut().zip(&step) {
+            *p += d;
+        }
+        let moved = shape_move(setup, &state.x, &step);
+        report.iterations = k;
+        report.last_move = moved / setup.span;
+        let (field, forces) = balancing_stress(setup, state, report, k, moved)?;
+        if decide(settings, setup.span, state, k, moved)? {
+            let tensors: Vec<[f64; 6]> = field.iter().map(|f| f.0).collect();
+            return Ok(found_scene(scene, &setup.mesh, &state.x, &tensors, &forces));
+        }
+    }
+    Err(Halt::Failed(format!(
+        "form finding did not converge in {} iterations (last shape move {:.2e} of the span, tolerance {:.0e}); raise form_finding.max_iterations or check that the prestress can be in equilibrium between the supports",
+        settings.max_iterations, report.last_move, settings.tolerance
+    )))
+}
+
+/// After iteration k moved the shape by `moved`: the mesh control switches on once the mesh
+/// creeps (a move ratio above [`CREEP_RATE`] from the third iteration), a move above the span
+/// fails (divergence), and once the move and the distance left are within the tolerance the
+/// next iteration is the finishing one. True when this iteration was the finishing one: the
+/// shape is found.
+fn decide(
+    settings: &FormFinding,
+    span: f64,
+    state: &mut State,
+    k: usize,
+    moved: f64,
+) -> Result<bool, Halt> {
+    // Iterates converge linearly: the distance left is about move·ρ/(1 − ρ), ρ the ratio
+    // of the last two moves. Converged when that estimate is within the tolerance.
+    let rate = if state.previous_move > 0.0 {
+        moved / state.previous_move
+    } else {
+        1.0
+    };
+    state.previous_move = moved;
+    if k >= 3 && rate > CREEP_RATE {
+        state.projecting = true;
+    }
+    if moved > span {
+        return Err(Halt::Failed(format!(
+            "iteration {k}: the shape moved {:.1e} times the span in one iteration: the iteration diverges (lower form_finding.homotopy)",
+            moved / span
+        )));
+    }
+    let left = if rate < 1.0 {
+        moved * rate / (1.0 - rate)
+    } else {
+        f64::INFINITY
+    };
+    if !state.finishing && moved <= settings.tolerance * span && left <= settings.tolerance * span {
+        state.finishing = true;
+        return Ok(false);
+    }
+    Ok(state.finishing)
+}
+
+/// Area of the triangle `t` at positions `x`.
 fn area(x: &[Vector3<f64>], t: [usize; 3]) -> f64 {
     0.5 * (x[t[1]] - x[t[0]]).cross(&(x[t[2]] - x[t[0]])).norm()
 }
@@ -775,7 +379,7 @@ fn span(x: &[Vector3<f64>], used: &[bool]) -> f64 {
 /// finding section. Ids do not change, so every reference of the scene still holds.
 fn found_scene(
     scene: &Scene,
-    mesh: &crate::scene::generate::Mesh,
+    mesh: &Mesh,
     x: &[Vector3<f64>],
     tensors: &[[f64; 6]],
     forces: &[f64],
@@ -803,26 +407,4 @@ fn found_scene(
         generators: Vec::new(),
     };
     found
-}
-
-/// Every element kind of `model` is one form finding prescribes a stress on: a membrane
-/// triangle its group's prestress (a PK2 stress in each iterate, `TriangleStress`), a cable
-/// segment its cable's pretension (a force density T/L). A kind it does not handle is refused
-/// by the scene's validation first; here it is a located error, not a silent omission.
-fn check_kinds(model: &Model) -> Result<(), crate::Error> {
-    for kind in ElementKind::ALL {
-        let (handled, path) = match kind {
-            ElementKind::Membrane => (true, "membranes"),
-            ElementKind::Cable => (true, "cables"),
-            // Validation refuses sleeved cables in a scene to form-find.
-            ElementKind::Tie => (false, "cables[].sleeve"),
-        };
-        if !handled && model.element_count(kind) > 0 {
-            return Err(crate::Error::Scene(vec![Problem {
-                path: path.to_string(),
-                message: format!("form finding does not take a {}", kind.name()),
-            }]));
-        }
-    }
-    Ok(())
 }

@@ -14,9 +14,9 @@
 //! row fmpy records at t_{k+1} (docs/fmu.md, "The one-step lag"). Numbers are written in Rust's
 //! shortest round-trip form, so a reader gets the exact f64 back.
 
-use crate::description::xs_double;
 use crate::engine::Engine;
 use crate::error::Error;
+use crate::format::{csv_quoted, xs_double};
 use crate::solver::StepReport;
 use crate::variables::{Causality, VarType};
 use std::fmt::Write;
@@ -285,7 +285,7 @@ fn header_cells(line: &str) -> Vec<String> {
 /// A header cell: quoted when the name holds a comma or a quote.
 pub fn csv_name(name: &str) -> String {
     if name.contains([',', '"']) {
-        format!("\"{}\"", name.replace('"', "\"\""))
+        csv_quoted(name)
     } else {
         name.to_string()
     }

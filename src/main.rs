@@ -668,6 +668,7 @@ fn count(n: usize, what: &str) -> String {
 }
 
 fn cmd_describe(path: &str) -> Result<ExitCode, Stop> {
-    out!("{}", model_description(&engine_for(path)?));
+    let engine = engine_for(path)?;
+    out!("{}", model_description(engine.scene(), engine.variables()));
     Ok(ExitCode::SUCCESS)
 }

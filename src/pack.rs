@@ -36,6 +36,7 @@ use crate::description::model_description;
 use crate::description3::model_description_fmi3;
 use crate::engine::Engine;
 use crate::error::Error;
+use crate::format::{csv_quoted, xs_double};
 use crate::scene::Scene;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -95,8 +96,8 @@ pub fn pack_versions(
     let mut archives = Vec::with_capacity(versions.len());
     for &version in versions {
         let description = match version {
-            FmiVersion::Fmi2 => model_description(&engine),
-            FmiVersion::Fmi3 => model_description_fmi3(&engine),
+            FmiVersion::Fmi2 => model_description(engine.scene(), engine.variables()),
+            FmiVersion::Fmi3 => model_description_fmi3(engine.scene(), engine.arrays()),
         };
         let bytes =
             archive(scene, version, &description, &binary, reference.as_deref()).map_err(|e| {
@@ -201,7 +202,7 @@ pub fn reference_result(scene: &Scene) -> Result<Option<String>, Error> {
         .max(0.0) as usize;
     let quoted: Vec<String> = std::iter::once("time".to_string())
         .chain(outputs.iter().map(|(n, _)| n.clone()))
-        .map(|n| format!("\"{}\"", n.replace('"', "\"\"")))
+        .map(|n| csv_quoted(&n))
         .collect();
     let mut csv = quoted.join(",");
     csv.push('\n');
@@ -214,11 +215,11 @@ pub fn reference_result(scene: &Scene) -> Result<Option<String>, Error> {
         } else {
             e.start_time + k as f64 * e.step_size
         };
-        csv.push_str(&crate::description::xs_double(t));
+        csv.push_str(&xs_double(t));
         for (_, vr) in &outputs {
             let value = engine.get_real(*vr)?;
             csv.push(',');
-            csv.push_str(&crate::description::xs_double(value));
+            csv.push_str(&xs_double(value));
         }
         csv.push('\n');
     }

@@ -26,9 +26,9 @@
 //! Every file is written through a temporary file and renamed into place: a reader never sees
 //! a half-written file, and a failed write leaves none behind.
 
-use crate::description::xs_double;
 use crate::engine::Engine;
 use crate::error::Error;
+use crate::format::{vtk_double, xs_double};
 use crate::model::ElementKind;
 use crate::pack::write_atomically;
 use crate::results;
@@ -269,15 +269,7 @@ fn array(
         if k > 0 && k % (3 * components.max(1)) == 0 {
             out.push_str("\n         ");
         }
-        // VTK's ASCII reader takes nan/inf spelled this way.
-        let text = if v.is_nan() {
-            "nan".to_string()
-        } else if v.is_infinite() {
-            if v > 0.0 { "inf" } else { "-inf" }.to_string()
-        } else {
-            xs_double(v)
-        };
-        let _ = write!(out, " {text}");
+        let _ = write!(out, " {}", vtk_double(v));
     }
     out.push_str("\n        </DataArray>\n");
 }

@@ -40,6 +40,10 @@ pub enum Known {
     Parameter(usize),
 }
 
+/// What one seed changes: dz (per unknown, held DOFs included), dv (per input slot), dp (per
+/// parameter).
+type Seeded = (Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// Step of the central differences of the probes, relative to the model's length scale.
 const STEP: f64 = 1e-6;
 /// Relative step of the central differences over a parameter: the residual is a difference of
@@ -116,11 +120,7 @@ impl Engine {
     }
 
     /// dz (per unknown, held DOFs included), dv (per input slot), dp (per parameter) of a seed.
-    fn forward(
-        &mut self,
-        knowns: &[Known],
-        seed: &[f64],
-    ) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), Error> {
+    fn forward(&mut self, knowns: &[Known], seed: &[f64]) -> Result<Seeded, Error> {
         let nu = self.model.unknown_count();
         let mut dv = vec![0.0; self.state.inputs.len()];
         let mut dp = vec![0.0; self.state.parameters.len()];

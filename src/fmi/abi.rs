@@ -8,17 +8,18 @@
 //! elements; strings are NUL-terminated; FMU states come from this FMU. Within that contract
 //! no call crashes or unwinds into the caller.
 
+// The names are the standard's (fmi2GetReal, ...), and every function's `# Safety` is the one
+// contract above, stated once.
 #![allow(non_snake_case, clippy::missing_safety_doc)]
 
 use super::ffi::{
     free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
-    store_new_state, store_state, text, texts, with_instance, write_out, CallbackFunctions,
-    Component, FmuState,
+    store_new_state, store_state, text, texts, with_instance, write_out,
 };
+use super::fmi2_ffi::{CallbackFunctions, Component, FmuState, Status};
 use super::fsm::Func;
 use super::instance::{Instance, InstantiateArgs};
 use super::logging::Logger;
-use super::Status;
 use std::ffi::{c_char, c_int, c_uint};
 use std::ptr::null_mut;
 
@@ -42,12 +43,16 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
     n_categories: usize,
     categories: *const *const c_char,
 ) -> Status {
-    with_instance(c, "fmi2SetDebugLogging", |i| {
-        i.set_debug_logging(
-            logging_on != 0,
-            texts(categories, n_categories, "categories"),
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU;
+    // `categories` is NULL or holds `n_categories` pointers, each NULL or NUL-terminated.
+    unsafe {
+        with_instance(c, "fmi2SetDebugLogging", |i| {
+            i.set_debug_logging(
+                logging_on != 0,
+                texts(categories, n_categories, "categories"),
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -60,33 +65,42 @@ pub unsafe extern "C" fn fmi2Instantiate(
     _visible: Fmi2Boolean,
     logging_on: Fmi2Boolean,
 ) -> Component {
-    guard(null_mut(), || {
-        let callbacks = functions.as_ref();
-        let (name, guid, location) = (
-            text(instance_name),
-            text(fmu_guid),
-            text(fmu_resource_location),
-        );
-        let logger = Logger::new(
-            callbacks.and_then(|f| f.logger),
-            callbacks.map_or(null_mut(), |f| f.component_environment),
-            name.as_deref().unwrap_or_default(),
-            logging_on != 0,
-        );
-        let args = InstantiateArgs {
-            instance_name: name.as_deref(),
-            fmu_type,
-            guid: guid.as_deref(),
-            resource_location: location.as_deref(),
-        };
-        Instance::instantiate(&args, logger).map_or(null_mut(), into_component)
-    })
+    // SAFETY: the FMI contract (module doc): `instance_name`, `fmu_guid` and
+    // `fmu_resource_location` are NULL or NUL-terminated; `functions` is NULL or points to an
+    // fmi2CallbackFunctions.
+    unsafe {
+        guard(null_mut(), || {
+            let callbacks = functions.as_ref();
+            let (name, guid, location) = (
+                text(instance_name),
+                text(fmu_guid),
+                text(fmu_resource_location),
+            );
+            let logger = Logger::new(
+                callbacks.and_then(|f| f.logger),
+                callbacks.map_or(null_mut(), |f| f.component_environment),
+                name.as_deref().unwrap_or_default(),
+                logging_on != 0,
+            );
+            let args = InstantiateArgs {
+                instance_name: name.as_deref(),
+                fmu_type,
+                guid: guid.as_deref(),
+                resource_location: location.as_deref(),
+            };
+            Instance::instantiate(&args, logger).map_or(null_mut(), into_component)
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeInstance(c: Component) {
-    with_instance(c, "fmi2FreeInstance", Instance::freeing);
-    free_component(c);
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU,
+    // which the master gives up with this call.
+    unsafe {
+        with_instance(c, "fmi2FreeInstance", Instance::freeing);
+        free_component(c);
+    }
 }
 
 #[no_mangle]
@@ -100,37 +114,48 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 ) -> Status {
     let tolerance = (tolerance_defined != 0).then_some(tolerance);
     let stop_time = (stop_time_defined != 0).then_some(stop_time);
-    with_instance(c, "fmi2SetupExperiment", |i| {
-        i.setup_experiment(tolerance, start_time, stop_time)
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(c, "fmi2SetupExperiment", |i| {
+            i.setup_experiment(tolerance, start_time, stop_time)
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Component) -> Status {
-    with_instance(
-        c,
-        "fmi2EnterInitializationMode",
-        Instance::enter_initialization_mode,
-    )
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(
+            c,
+            "fmi2EnterInitializationMode",
+            Instance::enter_initialization_mode,
+        )
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Component) -> Status {
-    with_instance(
-        c,
-        "fmi2ExitInitializationMode",
-        Instance::exit_initialization_mode,
-    )
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(
+            c,
+            "fmi2ExitInitializationMode",
+            Instance::exit_initialization_mode,
+        )
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Terminate(c: Component) -> Status {
-    with_instance(c, "fmi2Terminate", Instance::terminate)
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe { with_instance(c, "fmi2Terminate", Instance::terminate) }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Reset(c: Component) -> Status {
-    with_instance(c, "fmi2Reset", Instance::reset)
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe { with_instance(c, "fmi2Reset", Instance::reset) }
 }
 
 #[no_mangle]
@@ -140,9 +165,13 @@ pub unsafe extern "C" fn fmi2GetReal(
     nvr: usize,
     value: *mut f64,
 ) -> Status {
-    with_instance(c, "fmi2GetReal", |i| {
-        i.get_real(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `vr` and
+    // `value` are NULL or hold `nvr` elements.
+    unsafe {
+        with_instance(c, "fmi2GetReal", |i| {
+            i.get_real(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -152,9 +181,13 @@ pub unsafe extern "C" fn fmi2GetInteger(
     nvr: usize,
     value: *mut c_int,
 ) -> Status {
-    with_instance(c, "fmi2GetInteger", |i| {
-        i.get_integer(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `vr` and
+    // `value` are NULL or hold `nvr` elements.
+    unsafe {
+        with_instance(c, "fmi2GetInteger", |i| {
+            i.get_integer(slice_in(vr, nvr, "vr"), slice_out(value, nvr, "value"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -164,9 +197,13 @@ pub unsafe extern "C" fn fmi2GetBoolean(
     nvr: usize,
     _value: *mut Fmi2Boolean,
 ) -> Status {
-    with_instance(c, "fmi2GetBoolean", |i| {
-        i.no_such_variables(Func::GetBoolean, "Boolean", slice_in(vr, nvr, "vr"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `vr` is
+    // NULL or holds `nvr` elements.
+    unsafe {
+        with_instance(c, "fmi2GetBoolean", |i| {
+            i.no_such_variables(Func::GetBoolean, "Boolean", slice_in(vr, nvr, "vr"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -176,9 +213,13 @@ pub unsafe extern "C" fn fmi2GetString(
     nvr: usize,
     _value: *mut *const c_char,
 ) -> Status {
-    with_instance(c, "fmi2GetString", |i| {
-        i.no_such_variables(Func::GetString, "String", slice_in(vr, nvr, "vr"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `vr` is
+    // NULL or holds `nvr` elements.
+    unsafe {
+        with_instance(c, "fmi2GetString", |i| {
+            i.no_such_variables(Func::GetString, "String", slice_in(vr, nvr, "vr"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -188,9 +229,13 @@ pub unsafe extern "C" fn fmi2SetReal(
     nvr: usize,
     value: *const f64,
 ) -> Status {
-    with_instance(c, "fmi2SetReal", |i| {
-        i.set_real(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `vr` and
+    // `value` are NULL or hold `nvr` elements.
+    unsafe {
+        with_instance(c, "fmi2SetReal", |i| {
+            i.set_real(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -200,9 +245,13 @@ pub unsafe extern "C" fn fmi2SetInteger(
     nvr: usize,
     value: *const c_int,
 ) -> Status {
-    with_instance(c, "fmi2SetInteger", |i| {
-        i.set_integer(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `vr` and
+    // `value` are NULL or hold `nvr` elements.
+    unsafe {
+        with_instance(c, "fmi2SetInteger", |i| {
+            i.set_integer(slice_in(vr, nvr, "vr"), slice_in(value, nvr, "value"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -212,9 +261,13 @@ pub unsafe extern "C" fn fmi2SetBoolean(
     nvr: usize,
     _value: *const Fmi2Boolean,
 ) -> Status {
-    with_instance(c, "fmi2SetBoolean", |i| {
-        i.no_such_variables(Func::SetBoolean, "Boolean", slice_in(vr, nvr, "vr"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `vr` is
+    // NULL or holds `nvr` elements.
+    unsafe {
+        with_instance(c, "fmi2SetBoolean", |i| {
+            i.no_such_variables(Func::SetBoolean, "Boolean", slice_in(vr, nvr, "vr"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -224,30 +277,46 @@ pub unsafe extern "C" fn fmi2SetString(
     nvr: usize,
     _value: *const *const c_char,
 ) -> Status {
-    with_instance(c, "fmi2SetString", |i| {
-        i.no_such_variables(Func::SetString, "String", slice_in(vr, nvr, "vr"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `vr` is
+    // NULL or holds `nvr` elements.
+    unsafe {
+        with_instance(c, "fmi2SetString", |i| {
+            i.no_such_variables(Func::SetString, "String", slice_in(vr, nvr, "vr"))
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetFMUstate(c: Component, state: *mut FmuState) -> Status {
-    with_instance(c, "fmi2GetFMUstate", |i| {
-        i.get_fmu_state(|s| store_state(state, s))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `state` is
+    // NULL or valid for reads and writes, and `*state` NULL or an FMU state of this FMU.
+    unsafe {
+        with_instance(c, "fmi2GetFMUstate", |i| {
+            i.get_fmu_state(|s| store_state(state, s))
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetFMUstate(c: Component, state: FmuState) -> Status {
-    with_instance(c, "fmi2SetFMUstate", |i| {
-        i.set_fmu_state(state_mut(state).map(|s| &*s))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `state` is
+    // NULL or an FMU state of this FMU.
+    unsafe {
+        with_instance(c, "fmi2SetFMUstate", |i| {
+            i.set_fmu_state(state_mut(state).map(|s| &*s))
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: Component, state: *mut FmuState) -> Status {
-    with_instance(c, "fmi2FreeFMUstate", |i| {
-        i.free_fmu_state(|| release_state(state))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `state` is
+    // NULL or valid for reads and writes, and `*state` NULL or an FMU state of this FMU.
+    unsafe {
+        with_instance(c, "fmi2FreeFMUstate", |i| {
+            i.free_fmu_state(|| release_state(state))
+        })
+    }
 }
 
 #[no_mangle]
@@ -256,11 +325,15 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
     state: FmuState,
     size: *mut usize,
 ) -> Status {
-    with_instance(c, "fmi2SerializedFMUstateSize", |i| {
-        i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| {
-            write_out(size, n, "size")
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `state` is
+    // NULL or an FMU state of this FMU; `size` is NULL or valid for a write.
+    unsafe {
+        with_instance(c, "fmi2SerializedFMUstateSize", |i| {
+            i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| {
+                write_out(size, n, "size")
+            })
         })
-    })
+    }
 }
 
 #[no_mangle]
@@ -270,12 +343,16 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
     bytes: *mut c_char,
     size: usize,
 ) -> Status {
-    with_instance(c, "fmi2SerializeFMUstate", |i| {
-        i.serialize_fmu_state(
-            state_mut(state).map(|s| &*s),
-            slice_out(bytes.cast::<u8>(), size, "serializedState"),
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `bytes` is
+    // NULL or holds `size` elements; `state` is NULL or an FMU state of this FMU.
+    unsafe {
+        with_instance(c, "fmi2SerializeFMUstate", |i| {
+            i.serialize_fmu_state(
+                state_mut(state).map(|s| &*s),
+                slice_out(bytes.cast::<u8>(), size, "serializedState"),
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -285,11 +362,15 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     size: usize,
     state: *mut FmuState,
 ) -> Status {
-    with_instance(c, "fmi2DeSerializeFMUstate", |i| {
-        i.deserialize_fmu_state(slice_in(bytes.cast::<u8>(), size, "serializedState"), |s| {
-            store_new_state(state, s)
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `bytes` is
+    // NULL or holds `size` elements; `state` is NULL or valid for writes.
+    unsafe {
+        with_instance(c, "fmi2DeSerializeFMUstate", |i| {
+            i.deserialize_fmu_state(slice_in(bytes.cast::<u8>(), size, "serializedState"), |s| {
+                store_new_state(state, s)
+            })
         })
-    })
+    }
 }
 
 #[no_mangle]
@@ -302,14 +383,19 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     dv_known: *const f64,
     dv_unknown: *mut f64,
 ) -> Status {
-    with_instance(c, "fmi2GetDirectionalDerivative", |i| {
-        i.directional_derivative_fmi2(
-            slice_in(unknown, n_unknown, "vUnknown_ref"),
-            slice_in(known, n_known, "vKnown_ref"),
-            slice_in(dv_known, n_known, "dvKnown"),
-            slice_out(dv_unknown, n_unknown, "dvUnknown"),
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `unknown`
+    // and `dv_unknown` are NULL or hold `n_unknown` elements; `known` and `dv_known` are NULL or
+    // hold `n_known` elements.
+    unsafe {
+        with_instance(c, "fmi2GetDirectionalDerivative", |i| {
+            i.directional_derivative_fmi2(
+                slice_in(unknown, n_unknown, "vUnknown_ref"),
+                slice_in(known, n_known, "vKnown_ref"),
+                slice_in(dv_known, n_known, "dvKnown"),
+                slice_out(dv_unknown, n_unknown, "dvUnknown"),
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -320,12 +406,15 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     _order: *const c_int,
     _value: *const f64,
 ) -> Status {
-    with_instance(c, "fmi2SetRealInputDerivatives", |i| {
-        i.unsupported(
-            Func::SetRealInputDerivatives,
-            "canInterpolateInputs is false; inputs are held over each step",
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(c, "fmi2SetRealInputDerivatives", |i| {
+            i.unsupported(
+                Func::SetRealInputDerivatives,
+                "canInterpolateInputs is false; inputs are held over each step",
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -336,12 +425,15 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     _order: *const c_int,
     _value: *mut f64,
 ) -> Status {
-    with_instance(c, "fmi2GetRealOutputDerivatives", |i| {
-        i.unsupported(
-            Func::GetRealOutputDerivatives,
-            "maxOutputDerivativeOrder is 0",
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(c, "fmi2GetRealOutputDerivatives", |i| {
+            i.unsupported(
+                Func::GetRealOutputDerivatives,
+                "maxOutputDerivativeOrder is 0",
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -351,29 +443,38 @@ pub unsafe extern "C" fn fmi2DoStep(
     h: f64,
     no_set_prior: Fmi2Boolean,
 ) -> Status {
-    with_instance(c, "fmi2DoStep", |i| i.do_step(t, h, no_set_prior != 0))
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe { with_instance(c, "fmi2DoStep", |i| i.do_step(t, h, no_set_prior != 0)) }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2CancelStep(c: Component) -> Status {
-    with_instance(c, "fmi2CancelStep", |i| {
-        i.unsupported(
-            Func::CancelStep,
-            "fmi2DoStep never runs asynchronously, so there is no step to cancel",
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(c, "fmi2CancelStep", |i| {
+            i.unsupported(
+                Func::CancelStep,
+                "fmi2DoStep never runs asynchronously, so there is no step to cancel",
+            )
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetStatus(c: Component, kind: c_int, _value: *mut Status) -> Status {
-    with_instance(c, "fmi2GetStatus", |i| i.get_status(kind))
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe { with_instance(c, "fmi2GetStatus", |i| i.get_status(kind)) }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetRealStatus(c: Component, kind: c_int, value: *mut f64) -> Status {
-    with_instance(c, "fmi2GetRealStatus", |i| {
-        i.get_real_status(kind, |v| write_out(value, v, "value"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `value` is
+    // NULL or valid for a write.
+    unsafe {
+        with_instance(c, "fmi2GetRealStatus", |i| {
+            i.get_real_status(kind, |v| write_out(value, v, "value"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -382,9 +483,12 @@ pub unsafe extern "C" fn fmi2GetIntegerStatus(
     kind: c_int,
     _value: *mut c_int,
 ) -> Status {
-    with_instance(c, "fmi2GetIntegerStatus", |i| {
-        i.no_such_status(Func::GetIntegerStatus, kind)
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(c, "fmi2GetIntegerStatus", |i| {
+            i.no_such_status(Func::GetIntegerStatus, kind)
+        })
+    }
 }
 
 #[no_mangle]
@@ -393,9 +497,13 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(
     kind: c_int,
     value: *mut Fmi2Boolean,
 ) -> Status {
-    with_instance(c, "fmi2GetBooleanStatus", |i| {
-        i.get_boolean_status(kind, |v| write_out(value, v as Fmi2Boolean, "value"))
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `value` is
+    // NULL or valid for a write.
+    unsafe {
+        with_instance(c, "fmi2GetBooleanStatus", |i| {
+            i.get_boolean_status(kind, |v| write_out(value, v as Fmi2Boolean, "value"))
+        })
+    }
 }
 
 #[no_mangle]
@@ -404,7 +512,10 @@ pub unsafe extern "C" fn fmi2GetStringStatus(
     kind: c_int,
     _value: *mut *const c_char,
 ) -> Status {
-    with_instance(c, "fmi2GetStringStatus", |i| {
-        i.no_such_status(Func::GetStringStatus, kind)
-    })
+    // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(c, "fmi2GetStringStatus", |i| {
+            i.no_such_status(Func::GetStringStatus, kind)
+        })
+    }
 }

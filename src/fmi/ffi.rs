@@ -14,32 +14,12 @@
 //! Instances and FMU states are `Box`es handed out as raw pointers, tagged with a magic word
 //! so that a wrong kind of pointer is rejected instead of misread.
 
+use super::fmi2_ffi::{Component, FmuState, Status};
 use super::instance::Instance;
 use super::snapshot::Snapshot;
-use super::Status;
 use std::any::Any;
-use std::ffi::{c_char, c_int, c_void, CStr};
+use std::ffi::{c_char, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
-
-/// `fmi2Component`.
-pub type Component = *mut c_void;
-/// `fmi2FMUstate`.
-pub type FmuState = *mut c_void;
-
-/// `fmi2CallbackLogger`: `void logger(env, instanceName, status, category, message, ...)`.
-pub type LoggerFn =
-    unsafe extern "C" fn(*mut c_void, *const c_char, Status, *const c_char, *const c_char, ...);
-
-/// `fmi2CallbackFunctions`. Only the logger and the environment are used
-/// (`canNotUseMemoryManagementFunctions = true`).
-#[repr(C)]
-pub struct CallbackFunctions {
-    pub logger: Option<LoggerFn>,
-    pub allocate_memory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
-    pub free_memory: Option<unsafe extern "C" fn(*mut c_void)>,
-    pub step_finished: Option<unsafe extern "C" fn(*mut c_void, c_int)>,
-    pub component_environment: *mut c_void,
-}
 
 const INSTANCE_TAG: u64 = 0x5645_4c41_5249_4e53; // "VELARINS"
 const STATE_TAG: u64 = 0x5645_4c41_5253_5441; // "VELARSTA"
@@ -72,10 +52,14 @@ pub(crate) unsafe fn with_instance(
     function: &'static str,
     body: impl FnOnce(&mut Instance) -> Status,
 ) -> Status {
-    if !has_tag(c, INSTANCE_TAG) {
+    // SAFETY: a non-NULL `c` came from `into_component` (the caller's precondition): its tag
+    // word is readable.
+    if unsafe { !has_tag(c, INSTANCE_TAG) } {
         return Status::Error;
     }
-    let instance = &mut (*(c as *mut InstanceBox)).instance;
+    // SAFETY: `c` came from `into_component` and is not yet freed (the caller's precondition),
+    // so it is a live `InstanceBox`; FMI calls on one instance do not overlap.
+    let instance = unsafe { &mut (*(c as *mut InstanceBox)).instance };
     match catch_unwind(AssertUnwindSafe(|| body(&mut *instance))) {
         Ok(status) => status,
         Err(payload) => {
@@ -91,7 +75,9 @@ pub(crate) unsafe fn with_instance(
 /// # Safety
 /// A non-NULL `p` points to at least 8 readable, aligned bytes.
 unsafe fn has_tag(p: *mut c_void, tag: u64) -> bool {
-    !p.is_null() && (p as *const u64).read() == tag
+    // SAFETY: `p` is not NULL, and a non-NULL `p` points to 8 readable, aligned bytes (the
+    // caller's precondition).
+    !p.is_null() && unsafe { (p as *const u64).read() } == tag
 }
 
 fn panic_message(payload: &(dyn Any + Send)) -> String {
@@ -117,10 +103,16 @@ pub(crate) fn into_component(instance: Instance) -> Component {
 /// # Safety
 /// `c` is NULL or a pointer returned by [`into_component`] and not yet freed.
 pub(crate) unsafe fn free_component(c: Component) {
-    if has_tag(c, INSTANCE_TAG) {
+    // SAFETY: a non-NULL `c` came from `into_component` (the caller's precondition): its tag
+    // word is readable.
+    if unsafe { has_tag(c, INSTANCE_TAG) } {
         let boxed = c as *mut InstanceBox;
-        (*boxed).tag = 0;
-        guard((), || drop(Box::from_raw(boxed)));
+        // SAFETY: the tag matched and `c` is not yet freed (the caller's precondition), so
+        // `boxed` is the box `into_component` leaked, dropped exactly once here.
+        unsafe {
+            (*boxed).tag = 0;
+            guard((), || drop(Box::from_raw(boxed)));
+        }
     }
 }
 
@@ -138,11 +130,16 @@ pub(crate) fn into_state(snapshot: Snapshot) -> FmuState {
 /// `s` is NULL or a pointer returned by [`into_state`] and not yet freed.
 pub(crate) unsafe fn state_mut<'a>(s: FmuState) -> Result<&'a mut Snapshot, String> {
     if s.is_null() {
-        Err("the FMU state is NULL".into())
-    } else if !has_tag(s, STATE_TAG) {
-        Err("the pointer is not an FMU state of this FMU (or was already freed)".into())
-    } else {
-        Ok(&mut (*(s as *mut StateBox)).snapshot)
+        return Err("the FMU state is NULL".into());
+    }
+    // SAFETY: `s` is not NULL, so it came from `into_state` and is not yet freed (the caller's
+    // precondition): its tag is readable, and with the tag it is a live `StateBox`.
+    unsafe {
+        if !has_tag(s, STATE_TAG) {
+            Err("the pointer is not an FMU state of this FMU (or was already freed)".into())
+        } else {
+            Ok(&mut (*(s as *mut StateBox)).snapshot)
+        }
     }
 }
 
@@ -154,10 +151,14 @@ pub(crate) unsafe fn free_state(s: FmuState) -> Result<(), String> {
     if s.is_null() {
         return Ok(());
     }
-    state_mut(s)?;
-    let boxed = s as *mut StateBox;
-    (*boxed).tag = 0;
-    guard((), || drop(Box::from_raw(boxed)));
+    // SAFETY: `s` is not NULL, so it came from `into_state` and is not yet freed (the caller's
+    // precondition); `state_mut` has checked its tag; the box is dropped exactly once here.
+    unsafe {
+        state_mut(s)?;
+        let boxed = s as *mut StateBox;
+        (*boxed).tag = 0;
+        guard((), || drop(Box::from_raw(boxed)));
+    }
     Ok(())
 }
 
@@ -167,11 +168,13 @@ pub(crate) unsafe fn free_state(s: FmuState) -> Result<(), String> {
 /// # Safety
 /// `slot` is NULL or valid for reads and writes; `*slot` is NULL or as in [`state_mut`].
 pub(crate) unsafe fn store_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), String> {
-    let slot = slot.as_mut().ok_or("argument FMUstate is NULL")?;
+    // SAFETY: `slot` is NULL or valid for reads and writes (the caller's precondition).
+    let slot = unsafe { slot.as_mut() }.ok_or("argument FMUstate is NULL")?;
     if slot.is_null() {
         *slot = into_state(snapshot);
     } else {
-        *state_mut(*slot)? = snapshot;
+        // SAFETY: a non-NULL `*slot` came from `into_state` (the caller's precondition).
+        *unsafe { state_mut(*slot) }? = snapshot;
     }
     Ok(())
 }
@@ -184,7 +187,8 @@ pub(crate) unsafe fn store_new_state(
     slot: *mut FmuState,
     snapshot: Snapshot,
 ) -> Result<(), String> {
-    let slot = slot.as_mut().ok_or("argument FMUstate is NULL")?;
+    // SAFETY: `slot` is NULL or valid for writes (the caller's precondition).
+    let slot = unsafe { slot.as_mut() }.ok_or("argument FMUstate is NULL")?;
     *slot = into_state(snapshot);
     Ok(())
 }
@@ -194,10 +198,12 @@ pub(crate) unsafe fn store_new_state(
 /// # Safety
 /// `slot` is NULL or valid for reads and writes; `*slot` as in [`state_mut`].
 pub(crate) unsafe fn release_state(slot: *mut FmuState) -> Result<(), String> {
-    let Some(slot) = slot.as_mut() else {
+    // SAFETY: `slot` is NULL or valid for reads and writes (the caller's precondition).
+    let Some(slot) = (unsafe { slot.as_mut() }) else {
         return Ok(());
     };
-    free_state(*slot)?;
+    // SAFETY: `*slot` is NULL or came from `into_state` (the caller's precondition).
+    unsafe { free_state(*slot) }?;
     *slot = std::ptr::null_mut();
     Ok(())
 }
@@ -216,7 +222,9 @@ pub(crate) unsafe fn slice_in<'a, T>(
     } else if ptr.is_null() {
         Err(format!("argument {name} is NULL but its length is {n}"))
     } else {
-        Ok(std::slice::from_raw_parts(ptr, n))
+        // SAFETY: `ptr` is not NULL, so it points to `n` readable, initialized elements (the
+        // caller's precondition).
+        Ok(unsafe { std::slice::from_raw_parts(ptr, n) })
     }
 }
 
@@ -234,7 +242,9 @@ pub(crate) unsafe fn slice_out<'a, T>(
     } else if ptr.is_null() {
         Err(format!("argument {name} is NULL but its length is {n}"))
     } else {
-        Ok(std::slice::from_raw_parts_mut(ptr, n))
+        // SAFETY: `ptr` is not NULL, so it points to `n` writable elements (the caller's
+        // precondition).
+        Ok(unsafe { std::slice::from_raw_parts_mut(ptr, n) })
     }
 }
 
@@ -243,7 +253,8 @@ pub(crate) unsafe fn slice_out<'a, T>(
 /// # Safety
 /// A non-NULL `ptr` points to a NUL-terminated string.
 pub(crate) unsafe fn text<'a>(ptr: *const c_char) -> Option<std::borrow::Cow<'a, str>> {
-    (!ptr.is_null()).then(|| CStr::from_ptr(ptr).to_string_lossy())
+    // SAFETY: `ptr` is not NULL, so it is NUL-terminated (the caller's precondition).
+    (!ptr.is_null()).then(|| unsafe { CStr::from_ptr(ptr) }.to_string_lossy())
 }
 
 /// An array of C strings (`fmi2String[]`) as text; any NULL entry is an error.
@@ -255,11 +266,14 @@ pub(crate) unsafe fn texts(
     n: usize,
     name: &str,
 ) -> Result<Vec<String>, String> {
-    slice_in(ptr, n, name)?
+    // SAFETY: `ptr` is NULL or holds `n` pointers, each NULL or NUL-terminated (the caller's
+    // precondition).
+    unsafe { slice_in(ptr, n, name) }?
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            text(*p)
+            // SAFETY: as above, `*p` is NULL or NUL-terminated.
+            unsafe { text(*p) }
                 .map(|s| s.into_owned())
                 .ok_or(format!("{name}[{i}] is NULL"))
         })
@@ -271,35 +285,13 @@ pub(crate) unsafe fn texts(
 /// # Safety
 /// A non-NULL `ptr` is valid for a write of `T`.
 pub(crate) unsafe fn write_out<T>(ptr: *mut T, value: T, name: &str) -> Result<(), String> {
-    match ptr.as_mut() {
+    // SAFETY: `ptr` is NULL or valid for a write of `T` (the caller's precondition).
+    match unsafe { ptr.as_mut() } {
         Some(p) => {
             *p = value;
             Ok(())
         }
         None => Err(format!("argument {name} is NULL")),
-    }
-}
-
-/// Call the master's variadic logger as `logger(env, name, status, category, "%s", message)`.
-pub(crate) fn call_logger(
-    logger: LoggerFn,
-    environment: *mut c_void,
-    instance_name: &CStr,
-    status: Status,
-    category: &CStr,
-    message: &CStr,
-) {
-    // SAFETY: the master gave this function pointer for exactly this call signature; every
-    // string is NUL-terminated and outlives the call; "%s" consumes exactly one char* argument.
-    unsafe {
-        logger(
-            environment,
-            instance_name.as_ptr(),
-            status,
-            category.as_ptr(),
-            c"%s".as_ptr(),
-            message.as_ptr(),
-        )
     }
 }
 
@@ -323,7 +315,7 @@ mod tests {
 
     #[test]
     fn a_panic_becomes_an_error_and_reset_recovers() {
-        use crate::fmi::FsmState;
+        use crate::fmi::fsm::FsmState;
         let c = into_component(Instance::for_tests());
         let state_is = |want: FsmState| unsafe {
             with_instance(c, "check", |i| {

@@ -27,12 +27,15 @@
 //! (rejected) or holds `n` elements; strings are NUL-terminated; FMU states come from this FMU.
 //! Within that contract no call crashes or unwinds into the caller.
 
-#![allow(non_snake_case, clippy::missing_safety_doc, clippy::too_many_arguments)]
+// The names are the standard's (fmi3GetFloat64, ...), and every function's `# Safety` is the one
+// contract above, stated once.
+#![allow(non_snake_case, clippy::missing_safety_doc)]
 
 use super::ffi::{
     free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
-    store_new_state, store_state, text, texts, with_instance, write_out, Component, FmuState,
+    store_new_state, store_state, text, texts, with_instance, write_out,
 };
+use super::fmi2_ffi::{Component, FmuState, Status};
 use super::fmi3_ffi::{
     Fmi3ClockUpdateFn, Fmi3Enum, Fmi3IntermediateUpdateFn, Fmi3LoggerFn, Fmi3PreemptionFn,
     IntermediateUpdate,
@@ -40,45 +43,9 @@ use super::fmi3_ffi::{
 use super::instance::fmi3::{DoStepOut, Instantiate3Args};
 use super::instance::Instance;
 use super::logging::{Callback, Category, Logger};
-use super::Status;
 use crate::variables::VarType;
 use std::ffi::{c_char, c_void};
 use std::ptr::null_mut;
-
-pub use super::fmi3_ffi::TIME_VALUE_REFERENCE;
-
-/// FMI 3 `CoSimulation` capability flags (booleans), consistent with what the binary does, as
-/// (XML attribute, value) in the order of the FMI 3.0 schema. `maxOutputDerivativeOrder` is
-/// [`super::MAX_OUTPUT_DERIVATIVE_ORDER`].
-pub fn capability_flags_fmi3() -> &'static [(&'static str, bool)] {
-    &[
-        ("needsExecutionTool", super::NEEDS_EXECUTION_TOOL),
-        (
-            "canBeInstantiatedOnlyOncePerProcess",
-            super::CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS,
-        ),
-        ("canGetAndSetFMUState", super::CAN_GET_AND_SET_FMU_STATE),
-        ("canSerializeFMUState", super::CAN_SERIALIZE_FMU_STATE),
-        (
-            "providesDirectionalDerivatives",
-            super::PROVIDES_DIRECTIONAL_DERIVATIVE,
-        ),
-        (
-            "providesAdjointDerivatives",
-            super::PROVIDES_DIRECTIONAL_DERIVATIVE,
-        ),
-        ("providesPerElementDependencies", false),
-        (
-            "canHandleVariableCommunicationStepSize",
-            super::CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
-        ),
-        ("providesIntermediateUpdate", true),
-        ("mightReturnEarlyFromDoStep", true),
-        ("canReturnEarlyAfterIntermediateUpdate", true),
-        ("hasEventMode", false),
-        ("providesEvaluateDiscreteStates", false),
-    ]
-}
 
 const NO_EVENT_MODE: &str =
     "this FMU has no event mode (hasEventMode=\"false\"); after fmi3ExitInitializationMode it is in Step Mode";
@@ -89,33 +56,43 @@ const NO_DEPENDENCIES: &str =
 const NO_CONFIGURATION: &str = "this FMU has no structural parameters to configure";
 
 /// The shim of a function this FMU does not support.
+///
+/// # Safety
+/// `instance` is NULL or a live instance of this FMU.
 unsafe fn unsupported(instance: Component, name: &'static str, why: &str) -> Status {
-    with_instance(instance, name, |i| i.unsupported_fmi3(name, why))
+    // SAFETY: as this function requires: `instance` is NULL or a live instance of this FMU.
+    unsafe { with_instance(instance, name, |i| i.unsupported_fmi3(name, why)) }
 }
 
 /// Instantiation of an interface type this FMU does not provide: log, return NULL.
+///
+/// # Safety
+/// `instance_name` is NULL or NUL-terminated.
 unsafe fn refuse_instantiation(
     function: &str,
     instance_name: *const c_char,
     environment: *mut c_void,
     log_message: Option<Fmi3LoggerFn>,
 ) -> Component {
-    guard(null_mut(), || {
-        let name = text(instance_name);
-        let logger = Logger::with_callback(
-            log_message.map(Callback::Fmi3),
-            environment,
-            name.as_deref().unwrap_or_default(),
-            false,
-        );
-        logger.log(
-            Category::StatusError,
-            &format!(
-                "{function}: this FMU supports Co-Simulation only (fmi3InstantiateCoSimulation)"
-            ),
-        );
-        null_mut()
-    })
+    // SAFETY: as this function requires: `instance_name` is NULL or NUL-terminated.
+    unsafe {
+        guard(null_mut(), || {
+            let name = text(instance_name);
+            let logger = Logger::with_callback(
+                log_message.map(Callback::Fmi3),
+                environment,
+                name.as_deref().unwrap_or_default(),
+                false,
+            );
+            logger.log(
+                Category::StatusError,
+                &format!(
+                    "{function}: this FMU supports Co-Simulation only (fmi3InstantiateCoSimulation)"
+                ),
+            );
+            null_mut()
+        })
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -133,9 +110,13 @@ pub unsafe extern "C" fn fmi3SetDebugLogging(
     n_categories: usize,
     categories: *const *const c_char,
 ) -> Status {
-    with_instance(instance, "fmi3SetDebugLogging", |i| {
-        i.set_debug_logging(logging_on, texts(categories, n_categories, "categories"))
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `categories` is NULL or holds `n_categories` pointers, each NULL or NUL-terminated.
+    unsafe {
+        with_instance(instance, "fmi3SetDebugLogging", |i| {
+            i.set_debug_logging(logging_on, texts(categories, n_categories, "categories"))
+        })
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -151,15 +132,19 @@ pub unsafe extern "C" fn fmi3InstantiateModelExchange(
     instance_environment: *mut c_void,
     log_message: Option<Fmi3LoggerFn>,
 ) -> Component {
-    refuse_instantiation(
-        "fmi3InstantiateModelExchange",
-        instance_name,
-        instance_environment,
-        log_message,
-    )
+    // SAFETY: the FMI contract (module doc): `instance_name` is NULL or NUL-terminated.
+    unsafe {
+        refuse_instantiation(
+            "fmi3InstantiateModelExchange",
+            instance_name,
+            instance_environment,
+            log_message,
+        )
+    }
 }
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
     instance_name: *const c_char,
     instantiation_token: *const c_char,
@@ -174,31 +159,39 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
     log_message: Option<Fmi3LoggerFn>,
     intermediate_update: Option<Fmi3IntermediateUpdateFn>,
 ) -> Component {
-    guard(null_mut(), || {
-        let (name, token, path) = (
-            text(instance_name),
-            text(instantiation_token),
-            text(resource_path),
-        );
-        let logger = Logger::with_callback(
-            log_message.map(Callback::Fmi3),
-            instance_environment,
-            name.as_deref().unwrap_or_default(),
-            logging_on,
-        );
-        let args = Instantiate3Args {
-            instance_name: name.as_deref(),
-            instantiation_token: token.as_deref(),
-            resource_path: path.as_deref(),
-            event_mode_used,
-            early_return_allowed,
-            intermediate_update: IntermediateUpdate::new(intermediate_update, instance_environment),
-        };
-        Instance::instantiate_fmi3(&args, logger).map_or(null_mut(), into_component)
-    })
+    // SAFETY: the FMI contract (module doc): `instance_name`, `instantiation_token` and
+    // `resource_path` are NULL or NUL-terminated.
+    unsafe {
+        guard(null_mut(), || {
+            let (name, token, path) = (
+                text(instance_name),
+                text(instantiation_token),
+                text(resource_path),
+            );
+            let logger = Logger::with_callback(
+                log_message.map(Callback::Fmi3),
+                instance_environment,
+                name.as_deref().unwrap_or_default(),
+                logging_on,
+            );
+            let args = Instantiate3Args {
+                instance_name: name.as_deref(),
+                instantiation_token: token.as_deref(),
+                resource_path: path.as_deref(),
+                event_mode_used,
+                early_return_allowed,
+                intermediate_update: IntermediateUpdate::new(
+                    intermediate_update,
+                    instance_environment,
+                ),
+            };
+            Instance::instantiate_fmi3(&args, logger).map_or(null_mut(), into_component)
+        })
+    }
 }
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3InstantiateScheduledExecution(
     instance_name: *const c_char,
     _instantiation_token: *const c_char,
@@ -211,18 +204,25 @@ pub unsafe extern "C" fn fmi3InstantiateScheduledExecution(
     _lock_preemption: Option<Fmi3PreemptionFn>,
     _unlock_preemption: Option<Fmi3PreemptionFn>,
 ) -> Component {
-    refuse_instantiation(
-        "fmi3InstantiateScheduledExecution",
-        instance_name,
-        instance_environment,
-        log_message,
-    )
+    // SAFETY: the FMI contract (module doc): `instance_name` is NULL or NUL-terminated.
+    unsafe {
+        refuse_instantiation(
+            "fmi3InstantiateScheduledExecution",
+            instance_name,
+            instance_environment,
+            log_message,
+        )
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3FreeInstance(instance: Component) {
-    with_instance(instance, "fmi3FreeInstance", Instance::freeing);
-    free_component(instance);
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU,
+    // which the master gives up with this call.
+    unsafe {
+        with_instance(instance, "fmi3FreeInstance", Instance::freeing);
+        free_component(instance);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -239,33 +239,42 @@ pub unsafe extern "C" fn fmi3EnterInitializationMode(
 ) -> Status {
     let tolerance = tolerance_defined.then_some(tolerance);
     let stop_time = stop_time_defined.then_some(stop_time);
-    with_instance(instance, "fmi3EnterInitializationMode", |i| {
-        i.enter_initialization_mode_fmi3(tolerance, start_time, stop_time)
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(instance, "fmi3EnterInitializationMode", |i| {
+            i.enter_initialization_mode_fmi3(tolerance, start_time, stop_time)
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3ExitInitializationMode(instance: Component) -> Status {
-    with_instance(
-        instance,
-        "fmi3ExitInitializationMode",
-        Instance::exit_initialization_mode,
-    )
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        with_instance(
+            instance,
+            "fmi3ExitInitializationMode",
+            Instance::exit_initialization_mode,
+        )
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3EnterEventMode(instance: Component) -> Status {
-    unsupported(instance, "fmi3EnterEventMode", NO_EVENT_MODE)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3EnterEventMode", NO_EVENT_MODE) }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3Terminate(instance: Component) -> Status {
-    with_instance(instance, "fmi3Terminate", Instance::terminate)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { with_instance(instance, "fmi3Terminate", Instance::terminate) }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3Reset(instance: Component) -> Status {
-    with_instance(instance, "fmi3Reset", Instance::reset)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { with_instance(instance, "fmi3Reset", Instance::reset) }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -279,13 +288,17 @@ pub unsafe extern "C" fn fmi3GetFloat64(
     values: *mut f64,
     n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetFloat64", |i| {
-        i.get_float64(
-            slice_in(vr, n_vr, "valueReferences"),
-            slice_out(values, n_values, "values"),
-            n_values,
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements; `values` is NULL or holds `n_values` elements.
+    unsafe {
+        with_instance(instance, "fmi3GetFloat64", |i| {
+            i.get_float64(
+                slice_in(vr, n_vr, "valueReferences"),
+                slice_out(values, n_values, "values"),
+                n_values,
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -296,13 +309,17 @@ pub unsafe extern "C" fn fmi3SetFloat64(
     values: *const f64,
     n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3SetFloat64", |i| {
-        i.set_float64(
-            slice_in(vr, n_vr, "valueReferences"),
-            slice_in(values, n_values, "values"),
-            n_values,
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements; `values` is NULL or holds `n_values` elements.
+    unsafe {
+        with_instance(instance, "fmi3SetFloat64", |i| {
+            i.set_float64(
+                slice_in(vr, n_vr, "valueReferences"),
+                slice_in(values, n_values, "values"),
+                n_values,
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -313,13 +330,17 @@ pub unsafe extern "C" fn fmi3GetInt32(
     values: *mut i32,
     n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetInt32", |i| {
-        i.get_int32(
-            slice_in(vr, n_vr, "valueReferences"),
-            slice_out(values, n_values, "values"),
-            n_values,
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements; `values` is NULL or holds `n_values` elements.
+    unsafe {
+        with_instance(instance, "fmi3GetInt32", |i| {
+            i.get_int32(
+                slice_in(vr, n_vr, "valueReferences"),
+                slice_out(values, n_values, "values"),
+                n_values,
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -330,14 +351,18 @@ pub unsafe extern "C" fn fmi3SetInt32(
     _values: *const i32,
     n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3SetInt32", |i| {
-        i.set_integer_fmi3(
-            "fmi3SetInt32",
-            VarType::Integer,
-            slice_in(vr, n_vr, "valueReferences"),
-            n_values,
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements.
+    unsafe {
+        with_instance(instance, "fmi3SetInt32", |i| {
+            i.set_integer_fmi3(
+                "fmi3SetInt32",
+                VarType::Integer,
+                slice_in(vr, n_vr, "valueReferences"),
+                n_values,
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -348,13 +373,17 @@ pub unsafe extern "C" fn fmi3GetUInt8(
     values: *mut u8,
     n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetUInt8", |i| {
-        i.get_uint8(
-            slice_in(vr, n_vr, "valueReferences"),
-            slice_out(values, n_values, "values"),
-            n_values,
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements; `values` is NULL or holds `n_values` elements.
+    unsafe {
+        with_instance(instance, "fmi3GetUInt8", |i| {
+            i.get_uint8(
+                slice_in(vr, n_vr, "valueReferences"),
+                slice_out(values, n_values, "values"),
+                n_values,
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -365,14 +394,18 @@ pub unsafe extern "C" fn fmi3SetUInt8(
     _values: *const u8,
     n_values: usize,
 ) -> Status {
-    with_instance(instance, "fmi3SetUInt8", |i| {
-        i.set_integer_fmi3(
-            "fmi3SetUInt8",
-            VarType::UInt8,
-            slice_in(vr, n_vr, "valueReferences"),
-            n_values,
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements.
+    unsafe {
+        with_instance(instance, "fmi3SetUInt8", |i| {
+            i.set_integer_fmi3(
+                "fmi3SetUInt8",
+                VarType::UInt8,
+                slice_in(vr, n_vr, "valueReferences"),
+                n_values,
+            )
+        })
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -390,7 +423,9 @@ macro_rules! no_variables {
             _values: *mut $value,
             _n_values: usize,
         ) -> Status {
-            no_such_variables(instance, stringify!($get), $kind, true, vr, n_vr)
+            // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this
+            // FMU; `vr` is NULL or holds `n_vr` elements.
+            unsafe { no_such_variables(instance, stringify!($get), $kind, true, vr, n_vr) }
         }
 
         #[no_mangle]
@@ -401,12 +436,17 @@ macro_rules! no_variables {
             _values: *const $value,
             _n_values: usize,
         ) -> Status {
-            no_such_variables(instance, stringify!($set), $kind, false, vr, n_vr)
+            // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this
+            // FMU; `vr` is NULL or holds `n_vr` elements.
+            unsafe { no_such_variables(instance, stringify!($set), $kind, false, vr, n_vr) }
         }
     };
 }
 
 /// The shim of a getter or setter of a type without variables.
+///
+/// # Safety
+/// `instance` is NULL or a live instance of this FMU; `vr` is NULL or holds `n_vr` elements.
 unsafe fn no_such_variables(
     instance: Component,
     name: &'static str,
@@ -415,9 +455,13 @@ unsafe fn no_such_variables(
     vr: *const u32,
     n_vr: usize,
 ) -> Status {
-    with_instance(instance, name, |i| {
-        i.no_such_variables_fmi3(name, kind, getter, slice_in(vr, n_vr, "valueReferences"))
-    })
+    // SAFETY: as this function requires: `instance` is NULL or a live instance of this FMU; `vr` is
+    // NULL or holds `n_vr` elements.
+    unsafe {
+        with_instance(instance, name, |i| {
+            i.no_such_variables_fmi3(name, kind, getter, slice_in(vr, n_vr, "valueReferences"))
+        })
+    }
 }
 
 no_variables!(fmi3GetFloat32, fmi3SetFloat32, "Float32", f32);
@@ -439,7 +483,9 @@ pub unsafe extern "C" fn fmi3GetBinary(
     _values: *mut *const u8,
     _n_values: usize,
 ) -> Status {
-    no_such_variables(instance, "fmi3GetBinary", "Binary", true, vr, n_vr)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements.
+    unsafe { no_such_variables(instance, "fmi3GetBinary", "Binary", true, vr, n_vr) }
 }
 
 #[no_mangle]
@@ -451,7 +497,9 @@ pub unsafe extern "C" fn fmi3SetBinary(
     _values: *const *const u8,
     _n_values: usize,
 ) -> Status {
-    no_such_variables(instance, "fmi3SetBinary", "Binary", false, vr, n_vr)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements.
+    unsafe { no_such_variables(instance, "fmi3SetBinary", "Binary", false, vr, n_vr) }
 }
 
 #[no_mangle]
@@ -461,7 +509,9 @@ pub unsafe extern "C" fn fmi3GetClock(
     n_vr: usize,
     _values: *mut bool,
 ) -> Status {
-    no_such_variables(instance, "fmi3GetClock", "Clock", true, vr, n_vr)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements.
+    unsafe { no_such_variables(instance, "fmi3GetClock", "Clock", true, vr, n_vr) }
 }
 
 #[no_mangle]
@@ -471,7 +521,9 @@ pub unsafe extern "C" fn fmi3SetClock(
     n_vr: usize,
     _values: *const bool,
 ) -> Status {
-    no_such_variables(instance, "fmi3SetClock", "Clock", false, vr, n_vr)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `vr` is NULL or holds `n_vr` elements.
+    unsafe { no_such_variables(instance, "fmi3SetClock", "Clock", false, vr, n_vr) }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -483,11 +535,14 @@ pub unsafe extern "C" fn fmi3GetNumberOfVariableDependencies(
     _vr: u32,
     _n_dependencies: *mut usize,
 ) -> Status {
-    unsupported(
-        instance,
-        "fmi3GetNumberOfVariableDependencies",
-        NO_DEPENDENCIES,
-    )
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        unsupported(
+            instance,
+            "fmi3GetNumberOfVariableDependencies",
+            NO_DEPENDENCIES,
+        )
+    }
 }
 
 #[no_mangle]
@@ -500,7 +555,8 @@ pub unsafe extern "C" fn fmi3GetVariableDependencies(
     _dependency_kinds: *mut Fmi3Enum,
     _n_dependencies: usize,
 ) -> Status {
-    unsupported(instance, "fmi3GetVariableDependencies", NO_DEPENDENCIES)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3GetVariableDependencies", NO_DEPENDENCIES) }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -508,23 +564,35 @@ pub unsafe extern "C" fn fmi3GetVariableDependencies(
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetFMUState(instance: Component, state: *mut FmuState) -> Status {
-    with_instance(instance, "fmi3GetFMUState", |i| {
-        i.get_fmu_state(|s| store_state(state, s))
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `state` is NULL or valid for reads and writes, and `*state` NULL or an FMU state of this FMU.
+    unsafe {
+        with_instance(instance, "fmi3GetFMUState", |i| {
+            i.get_fmu_state(|s| store_state(state, s))
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3SetFMUState(instance: Component, state: FmuState) -> Status {
-    with_instance(instance, "fmi3SetFMUState", |i| {
-        i.set_fmu_state(state_mut(state).map(|s| &*s))
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `state` is NULL or an FMU state of this FMU.
+    unsafe {
+        with_instance(instance, "fmi3SetFMUState", |i| {
+            i.set_fmu_state(state_mut(state).map(|s| &*s))
+        })
+    }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3FreeFMUState(instance: Component, state: *mut FmuState) -> Status {
-    with_instance(instance, "fmi3FreeFMUState", |i| {
-        i.free_fmu_state(|| release_state(state))
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `state` is NULL or valid for reads and writes, and `*state` NULL or an FMU state of this FMU.
+    unsafe {
+        with_instance(instance, "fmi3FreeFMUState", |i| {
+            i.free_fmu_state(|| release_state(state))
+        })
+    }
 }
 
 #[no_mangle]
@@ -533,11 +601,15 @@ pub unsafe extern "C" fn fmi3SerializedFMUStateSize(
     state: FmuState,
     size: *mut usize,
 ) -> Status {
-    with_instance(instance, "fmi3SerializedFMUStateSize", |i| {
-        i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| {
-            write_out(size, n, "size")
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `state` is NULL or an FMU state of this FMU; `size` is NULL or valid for a write.
+    unsafe {
+        with_instance(instance, "fmi3SerializedFMUStateSize", |i| {
+            i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| {
+                write_out(size, n, "size")
+            })
         })
-    })
+    }
 }
 
 #[no_mangle]
@@ -547,12 +619,16 @@ pub unsafe extern "C" fn fmi3SerializeFMUState(
     bytes: *mut u8,
     size: usize,
 ) -> Status {
-    with_instance(instance, "fmi3SerializeFMUState", |i| {
-        i.serialize_fmu_state(
-            state_mut(state).map(|s| &*s),
-            slice_out(bytes, size, "serializedState"),
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `bytes` is NULL or holds `size` elements; `state` is NULL or an FMU state of this FMU.
+    unsafe {
+        with_instance(instance, "fmi3SerializeFMUState", |i| {
+            i.serialize_fmu_state(
+                state_mut(state).map(|s| &*s),
+                slice_out(bytes, size, "serializedState"),
+            )
+        })
+    }
 }
 
 #[no_mangle]
@@ -562,17 +638,22 @@ pub unsafe extern "C" fn fmi3DeserializeFMUState(
     size: usize,
     state: *mut FmuState,
 ) -> Status {
-    with_instance(instance, "fmi3DeserializeFMUState", |i| {
-        i.deserialize_fmu_state(slice_in(bytes, size, "serializedState"), |s| {
-            store_new_state(state, s)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `bytes` is NULL or holds `size` elements; `state` is NULL or valid for writes.
+    unsafe {
+        with_instance(instance, "fmi3DeserializeFMUState", |i| {
+            i.deserialize_fmu_state(slice_in(bytes, size, "serializedState"), |s| {
+                store_new_state(state, s)
+            })
         })
-    })
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
 // Partial derivatives
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
     instance: Component,
     unknowns: *const u32,
@@ -584,18 +665,25 @@ pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
     sensitivity: *mut f64,
     n_sensitivity: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetDirectionalDerivative", |i| {
-        i.derivative_fmi3(
-            false,
-            slice_in(unknowns, n_unknowns, "unknowns"),
-            slice_in(knowns, n_knowns, "knowns"),
-            slice_in(seed, n_seed, "seed"),
-            slice_out(sensitivity, n_sensitivity, "sensitivity"),
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `unknowns` is NULL or holds `n_unknowns` elements; `knowns` is NULL or holds `n_knowns`
+    // elements; `seed` is NULL or holds `n_seed` elements; `sensitivity` is NULL or holds
+    // `n_sensitivity` elements.
+    unsafe {
+        with_instance(instance, "fmi3GetDirectionalDerivative", |i| {
+            i.derivative_fmi3(
+                false,
+                slice_in(unknowns, n_unknowns, "unknowns"),
+                slice_in(knowns, n_knowns, "knowns"),
+                slice_in(seed, n_seed, "seed"),
+                slice_out(sensitivity, n_sensitivity, "sensitivity"),
+            )
+        })
+    }
 }
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3GetAdjointDerivative(
     instance: Component,
     unknowns: *const u32,
@@ -607,15 +695,21 @@ pub unsafe extern "C" fn fmi3GetAdjointDerivative(
     sensitivity: *mut f64,
     n_sensitivity: usize,
 ) -> Status {
-    with_instance(instance, "fmi3GetAdjointDerivative", |i| {
-        i.derivative_fmi3(
-            true,
-            slice_in(unknowns, n_unknowns, "unknowns"),
-            slice_in(knowns, n_knowns, "knowns"),
-            slice_in(seed, n_seed, "seed"),
-            slice_out(sensitivity, n_sensitivity, "sensitivity"),
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `unknowns` is NULL or holds `n_unknowns` elements; `knowns` is NULL or holds `n_knowns`
+    // elements; `seed` is NULL or holds `n_seed` elements; `sensitivity` is NULL or holds
+    // `n_sensitivity` elements.
+    unsafe {
+        with_instance(instance, "fmi3GetAdjointDerivative", |i| {
+            i.derivative_fmi3(
+                true,
+                slice_in(unknowns, n_unknowns, "unknowns"),
+                slice_in(knowns, n_knowns, "knowns"),
+                slice_in(seed, n_seed, "seed"),
+                slice_out(sensitivity, n_sensitivity, "sensitivity"),
+            )
+        })
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -623,12 +717,14 @@ pub unsafe extern "C" fn fmi3GetAdjointDerivative(
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3EnterConfigurationMode(instance: Component) -> Status {
-    unsupported(instance, "fmi3EnterConfigurationMode", NO_CONFIGURATION)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3EnterConfigurationMode", NO_CONFIGURATION) }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3ExitConfigurationMode(instance: Component) -> Status {
-    unsupported(instance, "fmi3ExitConfigurationMode", NO_CONFIGURATION)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3ExitConfigurationMode", NO_CONFIGURATION) }
 }
 
 #[no_mangle]
@@ -639,7 +735,8 @@ pub unsafe extern "C" fn fmi3GetIntervalDecimal(
     _intervals: *mut f64,
     _qualifiers: *mut Fmi3Enum,
 ) -> Status {
-    unsupported(instance, "fmi3GetIntervalDecimal", NO_CLOCKS)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3GetIntervalDecimal", NO_CLOCKS) }
 }
 
 #[no_mangle]
@@ -651,7 +748,8 @@ pub unsafe extern "C" fn fmi3GetIntervalFraction(
     _resolutions: *mut u64,
     _qualifiers: *mut Fmi3Enum,
 ) -> Status {
-    unsupported(instance, "fmi3GetIntervalFraction", NO_CLOCKS)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3GetIntervalFraction", NO_CLOCKS) }
 }
 
 #[no_mangle]
@@ -661,7 +759,8 @@ pub unsafe extern "C" fn fmi3GetShiftDecimal(
     _n_vr: usize,
     _shifts: *mut f64,
 ) -> Status {
-    unsupported(instance, "fmi3GetShiftDecimal", NO_CLOCKS)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3GetShiftDecimal", NO_CLOCKS) }
 }
 
 #[no_mangle]
@@ -672,7 +771,8 @@ pub unsafe extern "C" fn fmi3GetShiftFraction(
     _counters: *mut u64,
     _resolutions: *mut u64,
 ) -> Status {
-    unsupported(instance, "fmi3GetShiftFraction", NO_CLOCKS)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3GetShiftFraction", NO_CLOCKS) }
 }
 
 #[no_mangle]
@@ -682,7 +782,8 @@ pub unsafe extern "C" fn fmi3SetIntervalDecimal(
     _n_vr: usize,
     _intervals: *const f64,
 ) -> Status {
-    unsupported(instance, "fmi3SetIntervalDecimal", NO_CLOCKS)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3SetIntervalDecimal", NO_CLOCKS) }
 }
 
 #[no_mangle]
@@ -693,7 +794,8 @@ pub unsafe extern "C" fn fmi3SetIntervalFraction(
     _counters: *const u64,
     _resolutions: *const u64,
 ) -> Status {
-    unsupported(instance, "fmi3SetIntervalFraction", NO_CLOCKS)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3SetIntervalFraction", NO_CLOCKS) }
 }
 
 #[no_mangle]
@@ -703,7 +805,8 @@ pub unsafe extern "C" fn fmi3SetShiftDecimal(
     _n_vr: usize,
     _shifts: *const f64,
 ) -> Status {
-    unsupported(instance, "fmi3SetShiftDecimal", NO_CLOCKS)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3SetShiftDecimal", NO_CLOCKS) }
 }
 
 #[no_mangle]
@@ -714,12 +817,14 @@ pub unsafe extern "C" fn fmi3SetShiftFraction(
     _counters: *const u64,
     _resolutions: *const u64,
 ) -> Status {
-    unsupported(instance, "fmi3SetShiftFraction", NO_CLOCKS)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3SetShiftFraction", NO_CLOCKS) }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3EvaluateDiscreteStates(instance: Component) -> Status {
-    unsupported(instance, "fmi3EvaluateDiscreteStates", NO_EVENT_MODE)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3EvaluateDiscreteStates", NO_EVENT_MODE) }
 }
 
 #[no_mangle]
@@ -732,7 +837,8 @@ pub unsafe extern "C" fn fmi3UpdateDiscreteStates(
     _next_event_time_defined: *mut bool,
     _next_event_time: *mut f64,
 ) -> Status {
-    unsupported(instance, "fmi3UpdateDiscreteStates", NO_EVENT_MODE)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3UpdateDiscreteStates", NO_EVENT_MODE) }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -740,7 +846,8 @@ pub unsafe extern "C" fn fmi3UpdateDiscreteStates(
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3EnterContinuousTimeMode(instance: Component) -> Status {
-    unsupported(instance, "fmi3EnterContinuousTimeMode", CO_SIMULATION_ONLY)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3EnterContinuousTimeMode", CO_SIMULATION_ONLY) }
 }
 
 #[no_mangle]
@@ -750,12 +857,14 @@ pub unsafe extern "C" fn fmi3CompletedIntegratorStep(
     _enter_event_mode: *mut bool,
     _terminate_simulation: *mut bool,
 ) -> Status {
-    unsupported(instance, "fmi3CompletedIntegratorStep", CO_SIMULATION_ONLY)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3CompletedIntegratorStep", CO_SIMULATION_ONLY) }
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3SetTime(instance: Component, _time: f64) -> Status {
-    unsupported(instance, "fmi3SetTime", CO_SIMULATION_ONLY)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3SetTime", CO_SIMULATION_ONLY) }
 }
 
 #[no_mangle]
@@ -764,7 +873,8 @@ pub unsafe extern "C" fn fmi3SetContinuousStates(
     _states: *const f64,
     _n: usize,
 ) -> Status {
-    unsupported(instance, "fmi3SetContinuousStates", CO_SIMULATION_ONLY)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3SetContinuousStates", CO_SIMULATION_ONLY) }
 }
 
 #[no_mangle]
@@ -773,11 +883,14 @@ pub unsafe extern "C" fn fmi3GetContinuousStateDerivatives(
     _derivatives: *mut f64,
     _n: usize,
 ) -> Status {
-    unsupported(
-        instance,
-        "fmi3GetContinuousStateDerivatives",
-        CO_SIMULATION_ONLY,
-    )
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        unsupported(
+            instance,
+            "fmi3GetContinuousStateDerivatives",
+            CO_SIMULATION_ONLY,
+        )
+    }
 }
 
 #[no_mangle]
@@ -786,7 +899,8 @@ pub unsafe extern "C" fn fmi3GetEventIndicators(
     _indicators: *mut f64,
     _n: usize,
 ) -> Status {
-    unsupported(instance, "fmi3GetEventIndicators", CO_SIMULATION_ONLY)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3GetEventIndicators", CO_SIMULATION_ONLY) }
 }
 
 #[no_mangle]
@@ -795,7 +909,8 @@ pub unsafe extern "C" fn fmi3GetContinuousStates(
     _states: *mut f64,
     _n: usize,
 ) -> Status {
-    unsupported(instance, "fmi3GetContinuousStates", CO_SIMULATION_ONLY)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3GetContinuousStates", CO_SIMULATION_ONLY) }
 }
 
 #[no_mangle]
@@ -804,11 +919,14 @@ pub unsafe extern "C" fn fmi3GetNominalsOfContinuousStates(
     _nominals: *mut f64,
     _n: usize,
 ) -> Status {
-    unsupported(
-        instance,
-        "fmi3GetNominalsOfContinuousStates",
-        CO_SIMULATION_ONLY,
-    )
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        unsupported(
+            instance,
+            "fmi3GetNominalsOfContinuousStates",
+            CO_SIMULATION_ONLY,
+        )
+    }
 }
 
 #[no_mangle]
@@ -816,11 +934,14 @@ pub unsafe extern "C" fn fmi3GetNumberOfEventIndicators(
     instance: Component,
     _n: *mut usize,
 ) -> Status {
-    unsupported(
-        instance,
-        "fmi3GetNumberOfEventIndicators",
-        CO_SIMULATION_ONLY,
-    )
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        unsupported(
+            instance,
+            "fmi3GetNumberOfEventIndicators",
+            CO_SIMULATION_ONLY,
+        )
+    }
 }
 
 #[no_mangle]
@@ -828,11 +949,14 @@ pub unsafe extern "C" fn fmi3GetNumberOfContinuousStates(
     instance: Component,
     _n: *mut usize,
 ) -> Status {
-    unsupported(
-        instance,
-        "fmi3GetNumberOfContinuousStates",
-        CO_SIMULATION_ONLY,
-    )
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        unsupported(
+            instance,
+            "fmi3GetNumberOfContinuousStates",
+            CO_SIMULATION_ONLY,
+        )
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -840,7 +964,8 @@ pub unsafe extern "C" fn fmi3GetNumberOfContinuousStates(
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3EnterStepMode(instance: Component) -> Status {
-    unsupported(instance, "fmi3EnterStepMode", NO_EVENT_MODE)
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe { unsupported(instance, "fmi3EnterStepMode", NO_EVENT_MODE) }
 }
 
 #[no_mangle]
@@ -852,14 +977,18 @@ pub unsafe extern "C" fn fmi3GetOutputDerivatives(
     _values: *mut f64,
     _n_values: usize,
 ) -> Status {
-    unsupported(
-        instance,
-        "fmi3GetOutputDerivatives",
-        "maxOutputDerivativeOrder is 0",
-    )
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        unsupported(
+            instance,
+            "fmi3GetOutputDerivatives",
+            "maxOutputDerivativeOrder is 0",
+        )
+    }
 }
 
 #[no_mangle]
+#[allow(clippy::too_many_arguments)] // the signature is fmi3Functions.h's
 pub unsafe extern "C" fn fmi3DoStep(
     instance: Component,
     current_communication_point: f64,
@@ -870,28 +999,33 @@ pub unsafe extern "C" fn fmi3DoStep(
     early_return: *mut bool,
     last_successful_time: *mut f64,
 ) -> Status {
-    with_instance(instance, "fmi3DoStep", |i| {
-        let out = match (
-            event_handling_needed.as_mut(),
-            terminate_simulation.as_mut(),
-            early_return.as_mut(),
-            last_successful_time.as_mut(),
-        ) {
-            (Some(e), Some(t), Some(r), Some(l)) => Ok(DoStepOut {
-                event_handling_needed: e,
-                terminate_simulation: t,
-                early_return: r,
-                last_successful_time: l,
-            }),
-            _ => Err("an out-argument (eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime) is NULL".to_string()),
-        };
-        i.do_step_fmi3(
-            current_communication_point,
-            communication_step_size,
-            no_set_fmu_state_prior_to_current_point,
-            out,
-        )
-    })
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
+    // `event_handling_needed`, `terminate_simulation`, `early_return` and `last_successful_time`
+    // are NULL or valid for a write.
+    unsafe {
+        with_instance(instance, "fmi3DoStep", |i| {
+            let out = match (
+                event_handling_needed.as_mut(),
+                terminate_simulation.as_mut(),
+                early_return.as_mut(),
+                last_successful_time.as_mut(),
+            ) {
+                (Some(e), Some(t), Some(r), Some(l)) => Ok(DoStepOut {
+                    event_handling_needed: e,
+                    terminate_simulation: t,
+                    early_return: r,
+                    last_successful_time: l,
+                }),
+                _ => Err("an out-argument (eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime) is NULL".to_string()),
+            };
+            i.do_step_fmi3(
+                current_communication_point,
+                communication_step_size,
+                no_set_fmu_state_prior_to_current_point,
+                out,
+            )
+        })
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -903,9 +1037,12 @@ pub unsafe extern "C" fn fmi3ActivateModelPartition(
     _clock_reference: u32,
     _activation_time: f64,
 ) -> Status {
-    unsupported(
-        instance,
-        "fmi3ActivateModelPartition",
-        "this is a Scheduled Execution function; the FMU is Co-Simulation only",
-    )
+    // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU.
+    unsafe {
+        unsupported(
+            instance,
+            "fmi3ActivateModelPartition",
+            "this is a Scheduled Execution function; the FMU is Co-Simulation only",
+        )
+    }
 }

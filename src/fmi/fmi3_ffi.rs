@@ -15,7 +15,7 @@
 //! Everything else (the panic boundary, pointer helpers, instance and state boxes) is shared
 //! with FMI 2 in `ffi.rs`.
 
-use super::Status;
+use super::fmi2_ffi::Status;
 use std::ffi::{c_char, c_void, CStr};
 
 /// `fmi3LogMessageCallback`.
@@ -84,10 +84,6 @@ pub type Fmi3PreemptionFn = unsafe extern "C" fn();
 
 /// `fmi3IntervalQualifier`, `fmi3DependencyKind`: C enums (int).
 pub type Fmi3Enum = std::ffi::c_int;
-
-/// The value reference of the one `causality="independent"` variable, `time` (FMI 3 requires
-/// exactly one; the variable table starts at 1, so 0 is free).
-pub const TIME_VALUE_REFERENCE: u32 = 0;
 
 /// Call the master's FMI 3 logger with an already formatted message.
 pub(crate) fn call_logger(

@@ -18,12 +18,12 @@ pub(crate) mod fmi3;
 mod fmu_state;
 mod status;
 
+use super::fmi2_ffi::{Status, FMI2_COSIMULATION};
 use super::fsm::{FsmState, Func};
 use super::logging::{escape, Category, Logger};
 use super::snapshot::Experiment;
 use super::uri::file_uri_to_path;
 use super::worker::Worker;
-use super::{Status, FMI2_COSIMULATION};
 use crate::description;
 use crate::engine::{Engine, EngineState};
 use crate::scene::Scene;
@@ -704,7 +704,7 @@ fn build_engine(args: &InstantiateArgs) -> Result<(Engine, String), String> {
         .resource_location
         .ok_or("fmuResourceLocation is NULL")?;
     let engine = load_engine(location)?;
-    let guid = description::guid(&engine);
+    let guid = description::guid(engine.scene(), engine.variables());
     if given_guid != guid {
         return Err(format!(
             "GUID mismatch: the master passed {given_guid}, but this binary and its resources have {guid} (was the FMU repackaged with another modelDescription.xml?)"
@@ -786,7 +786,7 @@ impl Instance {
     /// An instance of [`TEST_SCENE`] without a logger.
     pub(crate) fn for_tests() -> Instance {
         let engine = Engine::try_new(Scene::from_json(TEST_SCENE).unwrap()).unwrap();
-        let guid = description::guid(&engine);
+        let guid = description::guid(engine.scene(), engine.variables());
         Instance::new(
             engine,
             guid,

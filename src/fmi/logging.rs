@@ -17,37 +17,12 @@
 //! message is then printed literally); `#r<vr>#` names a variable reference, so a literal `#`
 //! is written `##` (done by [`escape`]); no trailing newline; interior NUL bytes are dropped.
 
-use super::ffi::{self, LoggerFn};
+use super::fmi2_ffi::{self, LoggerFn, Status};
 use super::fmi3_ffi::{self, Fmi3LoggerFn};
-use super::Status;
+use crate::description::LOG_CATEGORIES;
 use std::ffi::{c_void, CString};
 
-/// (name, description) of every category, in declaration order.
-pub(crate) const CATEGORIES: &[(&str, &str)] = &[
-    (
-        "logStatusWarning",
-        "Warnings: the call succeeded, but something deserves attention",
-    ),
-    (
-        "logStatusDiscard",
-        "Discarded steps: the load increments did not converge (reached fraction and reason)",
-    ),
-    (
-        "logStatusError",
-        "Errors: illegal calls, invalid arguments, rejected states (always logged)",
-    ),
-    ("logStatusFatal", "Fatal errors (always logged)"),
-    (
-        "logSolver",
-        "Solver progress: Newton iterations and residuals per load increment",
-    ),
-    (
-        "logCalls",
-        "A trace of the FMI function calls and their arguments",
-    ),
-];
-
-/// A log category (its position in [`log_categories`](super::log_categories)).
+/// A log category (its position in [`LOG_CATEGORIES`], which the modelDescription declares).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Category {
     StatusWarning = 0,
@@ -60,7 +35,7 @@ pub enum Category {
 
 impl Category {
     pub fn name(self) -> &'static str {
-        CATEGORIES[self as usize].0
+        LOG_CATEGORIES[self as usize].0
     }
 
     /// The status passed to the logger with a message of this category.
@@ -103,7 +78,7 @@ pub struct Logger {
     callback: Option<Callback>,
     environment: *mut c_void,
     instance_name: CString,
-    enabled: [bool; CATEGORIES.len()],
+    enabled: [bool; LOG_CATEGORIES.len()],
 }
 
 impl Logger {
@@ -128,7 +103,7 @@ impl Logger {
             callback,
             environment,
             instance_name: c_string(instance_name),
-            enabled: [on; CATEGORIES.len()],
+            enabled: [on; LOG_CATEGORIES.len()],
         }
     }
 
@@ -155,7 +130,7 @@ impl Logger {
         let message = message.trim_end_matches(['\n', '\r']);
         let category_name = c_string(category.name());
         match callback {
-            Callback::Fmi2(callback) => ffi::call_logger(
+            Callback::Fmi2(callback) => fmi2_ffi::call_logger(
                 callback,
                 self.environment,
                 &self.instance_name,
@@ -177,12 +152,12 @@ impl Logger {
     /// unknown name changes nothing and is reported.
     pub fn set(&mut self, on: bool, names: &[&str]) -> Result<(), String> {
         if names.is_empty() {
-            self.enabled = [on; CATEGORIES.len()];
+            self.enabled = [on; LOG_CATEGORIES.len()];
             return Ok(());
         }
         let mut indices = Vec::with_capacity(names.len());
         for name in names {
-            match CATEGORIES.iter().position(|(n, _)| n == name) {
+            match LOG_CATEGORIES.iter().position(|(n, _)| n == name) {
                 Some(i) => indices.push(i),
                 None => {
                     return Err(format!(
@@ -200,7 +175,7 @@ impl Logger {
 }
 
 fn declared() -> String {
-    CATEGORIES
+    LOG_CATEGORIES
         .iter()
         .map(|(n, _)| *n)
         .collect::<Vec<_>>()

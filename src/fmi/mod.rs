@@ -1,10 +1,11 @@
 //! FMI 2.0 and FMI 3.0 Co-Simulation adapter: the C ABI over [`crate::Engine`]. This module tree
-//! is the only place in the crate with `unsafe` code, and that code sits in five files:
+//! is the only place in the crate with `unsafe` code, and that code sits in six files:
 //!
 //! ```text
 //! abi.rs       the 34 exported fmi2* functions; each is a short shim
-//! fmi3.rs      the 75 exported fmi3* functions (FMI 3.0 Co-Simulation from the same library);
-//!              fmi3_ffi.rs holds the hand-written FMI 3 C types
+//! fmi3.rs      the 75 exported fmi3* functions (FMI 3.0 Co-Simulation from the same library)
+//! fmi2_ffi.rs  the hand-written FMI 2 C types (Status, Component, the callbacks) and the
+//!              call of the master's logger; fmi3_ffi.rs the same for FMI 3
 //! ffi.rs       the one panic boundary and the pointer helpers (NULL instance -> Error,
 //!              n == 0 -> empty slice before any array check, NULL array -> Error)
 //! worker.rs    each instance's solves run on a pthread of its own, joined when the instance
@@ -53,6 +54,7 @@
 
 mod abi;
 mod ffi;
+mod fmi2_ffi;
 mod fmi3;
 mod fmi3_ffi;
 mod fsm;
@@ -63,7 +65,11 @@ mod uri;
 mod worker;
 
 pub use abi::*;
-pub use ffi::{CallbackFunctions, Component, FmuState, LoggerFn};
+pub use fmi2_ffi::{
+    CallbackFunctions, Component, FmuState, LoggerFn, Status, FMI2_COSIMULATION,
+    FMI2_DO_STEP_STATUS, FMI2_LAST_SUCCESSFUL_TIME, FMI2_MODEL_EXCHANGE, FMI2_PENDING_STATUS,
+    FMI2_TERMINATED,
+};
 pub use fmi3::*;
 pub use fmi3_ffi::{fmi3_names, Fmi3LoggerFn};
 pub use fsm::FsmState;
@@ -72,88 +78,18 @@ pub use logging::Category;
 pub use snapshot::{Snapshot, STATE_FORMAT_VERSION, STATE_MAGIC};
 pub use uri::file_uri_to_path;
 
-/// `fmi2Status`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Status {
-    Ok = 0,
-    Warning = 1,
-    Discard = 2,
-    Error = 3,
-    Fatal = 4,
-    Pending = 5,
-}
-
-impl Status {
-    /// The name FMI uses in messages (`fmi2OK`, ...).
-    pub fn name(self) -> &'static str {
-        match self {
-            Status::Ok => "fmi2OK",
-            Status::Warning => "fmi2Warning",
-            Status::Discard => "fmi2Discard",
-            Status::Error => "fmi2Error",
-            Status::Fatal => "fmi2Fatal",
-            Status::Pending => "fmi2Pending",
-        }
-    }
-}
-
-/// `fmi2Type` value of a co-simulation instance (the only type this FMU supports).
-pub const FMI2_COSIMULATION: i32 = 1;
-/// `fmi2Type` value of a model-exchange instance (rejected).
-pub const FMI2_MODEL_EXCHANGE: i32 = 0;
-
-/// `fmi2StatusKind` values.
-pub const FMI2_DO_STEP_STATUS: i32 = 0;
-pub const FMI2_PENDING_STATUS: i32 = 1;
-pub const FMI2_LAST_SUCCESSFUL_TIME: i32 = 2;
-pub const FMI2_TERMINATED: i32 = 3;
+// What the FMU declares about itself is defined with the description, which this adapter
+// implements (the adapter imports the description, never the reverse); the same items here.
+pub use crate::description::{
+    capability_flags, CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS, CAN_GET_AND_SET_FMU_STATE,
+    CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE, CAN_INTERPOLATE_INPUTS,
+    CAN_NOT_USE_MEMORY_MANAGEMENT_FUNCTIONS, CAN_RUN_ASYNCHRONUOUSLY, CAN_SERIALIZE_FMU_STATE,
+    MAX_OUTPUT_DERIVATIVE_ORDER, NEEDS_EXECUTION_TOOL, PROVIDES_DIRECTIONAL_DERIVATIVE,
+};
+pub use crate::description3::{capability_flags_fmi3, TIME_VALUE_REFERENCE};
 
 /// The log categories to declare in `<LogCategories>`, as (name, description), in order.
 /// Every category the binary logs under is listed here, and no other.
 pub fn log_categories() -> &'static [(&'static str, &'static str)] {
-    logging::CATEGORIES
-}
-
-/// `CoSimulation` capability flags, consistent with what the binary does.
-pub const CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE: bool = true;
-pub const CAN_GET_AND_SET_FMU_STATE: bool = true;
-pub const CAN_SERIALIZE_FMU_STATE: bool = true;
-pub const CAN_NOT_USE_MEMORY_MANAGEMENT_FUNCTIONS: bool = true;
-pub const CAN_INTERPOLATE_INPUTS: bool = false;
-/// `providesDirectionalDerivative` (FMI 2) and `providesDirectionalDerivatives` /
-/// `providesAdjointDerivatives` (FMI 3): derivatives at the committed equilibrium.
-pub const PROVIDES_DIRECTIONAL_DERIVATIVE: bool = true;
-pub const CAN_RUN_ASYNCHRONUOUSLY: bool = false;
-pub const CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS: bool = false;
-pub const NEEDS_EXECUTION_TOOL: bool = false;
-/// `maxOutputDerivativeOrder`: `fmi2GetRealOutputDerivatives` is not supported.
-pub const MAX_OUTPUT_DERIVATIVE_ORDER: u32 = 0;
-
-/// The boolean `CoSimulation` attributes as (XML attribute name, value), in the order the
-/// FMI 2.0 schema lists them. The description generator writes them as they are.
-pub fn capability_flags() -> &'static [(&'static str, bool)] {
-    &[
-        ("needsExecutionTool", NEEDS_EXECUTION_TOOL),
-        (
-            "canHandleVariableCommunicationStepSize",
-            CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE,
-        ),
-        ("canInterpolateInputs", CAN_INTERPOLATE_INPUTS),
-        ("canRunAsynchronuously", CAN_RUN_ASYNCHRONUOUSLY),
-        (
-            "canBeInstantiatedOnlyOncePerProcess",
-            CAN_BE_INSTANTIATED_ONLY_ONCE_PER_PROCESS,
-        ),
-        (
-            "canNotUseMemoryManagementFunctions",
-            CAN_NOT_USE_MEMORY_MANAGEMENT_FUNCTIONS,
-        ),
-        ("canGetAndSetFMUstate", CAN_GET_AND_SET_FMU_STATE),
-        ("canSerializeFMUstate", CAN_SERIALIZE_FMU_STATE),
-        (
-            "providesDirectionalDerivative",
-            PROVIDES_DIRECTIONAL_DERIVATIVE,
-        ),
-    ]
+    crate::description::LOG_CATEGORIES
 }

@@ -25,7 +25,7 @@
 //! little-endian, so NaN payloads and ±Inf come back bit for bit; lengths, enum tags and integers
 //! wider than a byte as varints; bool and Option tags 0 or 1, anything else an error). It replaced
 //! a hand-written serde format of 469 lines (535 with its tests). Measured when it did (the tests
-//! below and in `tests/fmu_state_codec.rs` keep the properties): every truncation, bit flip and
+//! below and in `tests/guards/fmu_state_codec.rs` keep the properties): every truncation, bit flip and
 //! byte overwrite of a payload decodes to an error or a value, never a panic; a length prefix
 //! larger than the bytes left allocates nothing for it (postcard then gives serde no size hint; the
 //! old format let serde preallocate up to 1 MiB per vector); the output is deterministic; the

@@ -77,9 +77,10 @@ impl Worker {
             changed: Condvar::new(),
         });
         let arg = Arc::into_raw(shared.clone()) as *mut c_void;
+        // SAFETY: `arg` is an `Arc<Shared>` from `Arc::into_raw`, what `worker_main` expects.
         let thread = unsafe { spawn(arg) };
         if thread.is_none() {
-            // The thread never took its reference: release it here.
+            // SAFETY: the thread never took its reference, so this is its one owner: release it.
             drop(unsafe { Arc::from_raw(arg as *const Shared) });
         }
         Worker { shared, thread }
@@ -135,6 +136,7 @@ impl Drop for Worker {
         };
         *self.shared.lock() = Slot::Quit;
         self.shared.changed.notify_all();
+        // SAFETY: `thread` is the joinable thread `spawn` created, joined only here.
         unsafe { libc::pthread_join(thread, null_mut()) };
     }
 }
@@ -142,6 +144,7 @@ impl Drop for Worker {
 /// The worker's loop: run each task handed over, until told to quit. `arg` is an
 /// `Arc<Shared>` turned into a raw pointer by [`Worker::new`], owned by this thread.
 extern "C" fn worker_main(arg: *mut c_void) -> *mut c_void {
+    // SAFETY: `arg` is the `Arc<Shared>` reference `Worker::new` handed to this thread.
     let shared = unsafe { Arc::from_raw(arg as *const Shared) };
     let mut slot = shared.lock();
     loop {
@@ -168,15 +171,19 @@ extern "C" fn worker_main(arg: *mut c_void) -> *mut c_void {
 /// # Safety
 /// `arg` must be what [`worker_main`] expects.
 unsafe fn spawn(arg: *mut c_void) -> Option<libc::pthread_t> {
-    let mut attr: libc::pthread_attr_t = std::mem::zeroed();
-    if libc::pthread_attr_init(&mut attr) != 0 {
-        return None;
+    // SAFETY: plain pthread calls on an attribute initialized before use; `arg` is what
+    // `worker_main` expects (the caller's precondition).
+    unsafe {
+        let mut attr: libc::pthread_attr_t = std::mem::zeroed();
+        if libc::pthread_attr_init(&mut attr) != 0 {
+            return None;
+        }
+        libc::pthread_attr_setstacksize(&mut attr, STACK_BYTES);
+        let mut thread: libc::pthread_t = 0;
+        let created = libc::pthread_create(&mut thread, &attr, worker_main, arg) == 0;
+        libc::pthread_attr_destroy(&mut attr);
+        created.then_some(thread)
     }
-    libc::pthread_attr_setstacksize(&mut attr, STACK_BYTES);
-    let mut thread: libc::pthread_t = 0;
-    let created = libc::pthread_create(&mut thread, &attr, worker_main, arg) == 0;
-    libc::pthread_attr_destroy(&mut attr);
-    created.then_some(thread)
 }
 
 /// The solver pool's thread starter in the FMU (`solver::threads::set_start`): `body` on a
@@ -215,7 +222,7 @@ fn start_pool_thread(
 extern "C" fn pool_main(arg: *mut c_void) -> *mut c_void {
     // SAFETY: `start_pool_thread` passes a boxed closure and gives up ownership of it.
     let body = unsafe { Box::from_raw(arg as *mut Box<dyn FnOnce() + Send>) };
-    let _ = catch_unwind(AssertUnwindSafe(move || body()));
+    let _ = catch_unwind(AssertUnwindSafe(body));
     null_mut()
 }
 

@@ -10,8 +10,13 @@
 //! Loads (pressure on triangles, point forces) and sleeve points (slip unknowns) are not
 //! elements: they act on elements or nodes and are handled by their own code.
 //!
-//! Generic code works through [`Element`] and [`Model::element`] over [`ElementKind::ALL`],
-//! so a new kind needs nothing there: the tangent's pattern and position maps
+//! A leaf: the kinds, the trait and [`PerKind`] import nothing of the model. The model
+//! registers its storage (`Model::element`, `Model::element_count` in `model/mod.rs`) and
+//! implements [`Element`] beside each element's struct (`Triangle`, `Segment` in
+//! `model/mod.rs`, `Tie` in `model/sleeve.rs`).
+//!
+//! Generic code works through [`Element`] and `Model::element` over [`ElementKind::ALL`], so a
+//! new kind needs nothing there: the tangent's pattern and position maps
 //! (`solver::assemble::Pattern`), nodal relaxation's adjacency (`solver::relax::Adjacency`),
 //! the node renumbering's graph (`solver::renumber`), the damping's reference diagonal
 //! (`solver::core`) and mechanism detection (`solver::mechanism`).
@@ -22,8 +27,8 @@
 //! has a wildcard arm, so this stays true:
 //!
 //! ```text
-//! model::element       ElementKind::node_count, ElementKind::name, Model::element_count,
-//!                      Model::element (the registration)
+//! model::element       ElementKind::node_count, ElementKind::name (the registration)
+//! model                Model::element_count, Model::element (its storage)
 //! solver::assemble     visit_order (the order of the sums); the kernels of one assembly on one
 //!                      thread (assemble_with) and on two (assemble_two)
 //! solver::relax        a node's rows and block (local), a patch's (PatchElements::evaluate)
@@ -37,8 +42,6 @@
 //! are the place the dynamics (a mass matrix M on the tangent's pattern, which already couples
 //! every pair of an element's DOFs) fills in, per kind, with the density it adds to the
 //! element data.
-
-use super::{sleeve, Model, Segment, Triangle};
 
 /// The kinds of element a model may hold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -156,76 +159,10 @@ pub trait Element {
     }
 }
 
-impl Element for Triangle {
-    fn nodes(&self) -> &[usize] {
-        &self.nodes
-    }
-
-    /// E t A |∇N_a|².
-    fn reference_stiffness(&self, a: usize) -> f64 {
-        let k = self.material.modulus() * self.material.thickness * self.reference.area;
-        k * self.reference.grad[a].norm_squared()
-    }
-}
-
-impl Element for Segment {
-    fn nodes(&self) -> &[usize] {
-        &self.nodes
-    }
-
-    /// EA/L0.
-    fn reference_stiffness(&self, _a: usize) -> f64 {
-        self.ea / self.l0
-    }
-}
-
-impl Element for sleeve::Tie {
-    fn nodes(&self) -> &[usize] {
-        &self.nodes
-    }
-
-    /// The penalty k.
-    fn reference_stiffness(&self, _a: usize) -> f64 {
-        self.k
-    }
-}
-
-impl Model {
-    /// Number of elements of `kind`.
-    pub fn element_count(&self, kind: ElementKind) -> usize {
-        match kind {
-            ElementKind::Membrane => self.triangles.len(),
-            ElementKind::Cable => self.segments.len(),
-            ElementKind::Tie => self.ties.len(),
-        }
-    }
-
-    /// Element `e` of `kind`.
-    pub fn element(&self, kind: ElementKind, e: usize) -> &dyn Element {
-        match kind {
-            ElementKind::Membrane => &self.triangles[e],
-            ElementKind::Cable => &self.segments[e],
-            ElementKind::Tie => &self.ties[e],
-        }
-    }
-
-    /// Nodes of element `e` of `kind`.
-    pub fn element_nodes(&self, kind: ElementKind, e: usize) -> &[usize] {
-        self.element(kind, e).nodes()
-    }
-
-    /// Every element of the model with its kind, kind by kind in the order of
-    /// [`ElementKind::ALL`], each kind in model order.
-    pub fn elements(&self) -> impl Iterator<Item = (ElementKind, usize)> + '_ {
-        ElementKind::ALL
-            .into_iter()
-            .flat_map(move |kind| (0..self.element_count(kind)).map(move |e| (kind, e)))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::Model;
 
     /// A built model with elements of every kind (the shipped sleeve example: a membrane, a
     /// cable, sleeve ties).
@@ -547,7 +484,7 @@ mod tests {
             }
         }
         assert!(problems.is_empty(), "{}", problems.join("\n"));
-        // The check saw the kind-specific places (model::element alone has four).
+        // The check saw the kind-specific places (the registration alone has four).
         assert!(matches >= 10, "only {matches} matches on ElementKind found");
     }
 }

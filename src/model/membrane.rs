@@ -28,7 +28,9 @@
 //! Bonet & Wood, *Nonlinear Continuum Mechanics for Finite Element Analysis*, 2nd ed. 2008, ch. 9;
 //! Gil 2006 (prestressed SVK membranes); seed paper §3 and Fig. 5 (artificial prestress).
 
-use super::wrinkling::{Law, Response, WrinkleState, REGULARIZATION};
+pub use super::plane_stress::principal_stresses;
+use super::plane_stress::{principal, Response, WrinkleState, REGULARIZATION};
+use super::wrinkling::Law;
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector2, Vector3};
 
 pub type Vec9 = SVector<f64, 9>;
@@ -112,7 +114,7 @@ impl Material {
             }
         } else {
             let (stress, tangent, energy) = self.law.elastic(strain);
-            let (_, _, angle) = super::wrinkling::principal(strain);
+            let (_, _, angle) = principal(strain);
             Response {
                 stress,
                 tangent,
@@ -163,8 +165,8 @@ pub fn triangle_ref(x: [Vector3<f64>; 3]) -> Option<TriangleRef> {
 #[allow(non_snake_case)]
 pub fn deformation_gradient(r: &TriangleRef, x: &[Vector3<f64>; 3]) -> SMatrix<f64, 3, 2> {
     let mut F = SMatrix::<f64, 3, 2>::zeros();
-    for a in 0..3 {
-        F += x[a] * r.grad[a].transpose();
+    for (xa, ga) in x.iter().zip(&r.grad) {
+        F += xa * ga.transpose();
     }
     F
 }
@@ -363,13 +365,6 @@ pub fn initial_strain(mat: &Material, s0: &Vector3<f64>) -> Option<Vector3<f64>>
         }
     }
     None
-}
-
-/// Principal values (max, min) of a Voigt stress.
-pub fn principal_stresses(s: &Vector3<f64>) -> (f64, f64) {
-    let mean = 0.5 * (s[0] + s[1]);
-    let radius = (0.25 * (s[0] - s[1]).powi(2) + s[2] * s[2]).sqrt();
-    (mean + radius, mean - radius)
 }
 
 /// Current area over reference area, negative when the triangle has turned over: its current

@@ -20,6 +20,7 @@ pub mod cable;
 pub mod element;
 pub mod membrane;
 pub mod orthotropic;
+pub mod plane_stress;
 pub mod pressure;
 pub mod sleeve;
 pub mod wrinkling;
@@ -59,6 +60,29 @@ pub struct Segment {
     /// Slip unknowns (indices into `Model::slips`) at the start and end point: the unstretched
     /// length is `l0 + s_end − s_start` (material flows through sleeve points).
     pub slip: [Option<usize>; 2],
+}
+
+impl Element for Triangle {
+    fn nodes(&self) -> &[usize] {
+        &self.nodes
+    }
+
+    /// E t A |∇N_a|².
+    fn reference_stiffness(&self, a: usize) -> f64 {
+        let k = self.material.modulus() * self.material.thickness * self.reference.area;
+        k * self.reference.grad[a].norm_squared()
+    }
+}
+
+impl Element for Segment {
+    fn nodes(&self) -> &[usize] {
+        &self.nodes
+    }
+
+    /// EA/L0.
+    fn reference_stiffness(&self, _a: usize) -> f64 {
+        self.ea / self.l0
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -436,6 +460,40 @@ impl Model {
     }
 }
 
+/// The element kinds' storage (`element.rs`).
+impl Model {
+    /// Number of elements of `kind`.
+    pub fn element_count(&self, kind: ElementKind) -> usize {
+        match kind {
+            ElementKind::Membrane => self.triangles.len(),
+            ElementKind::Cable => self.segments.len(),
+            ElementKind::Tie => self.ties.len(),
+        }
+    }
+
+    /// Element `e` of `kind`.
+    pub fn element(&self, kind: ElementKind, e: usize) -> &dyn Element {
+        match kind {
+            ElementKind::Membrane => &self.triangles[e],
+            ElementKind::Cable => &self.segments[e],
+            ElementKind::Tie => &self.ties[e],
+        }
+    }
+
+    /// Nodes of element `e` of `kind`.
+    pub fn element_nodes(&self, kind: ElementKind, e: usize) -> &[usize] {
+        self.element(kind, e).nodes()
+    }
+
+    /// Every element of the model with its kind, kind by kind in the order of
+    /// [`ElementKind::ALL`], each kind in model order.
+    pub fn elements(&self) -> impl Iterator<Item = (ElementKind, usize)> + '_ {
+        ElementKind::ALL
+            .into_iter()
+            .flat_map(move |kind| (0..self.element_count(kind)).map(move |e| (kind, e)))
+    }
+}
+
 pub use crate::scene::shape::node_ids;
 
 fn one_node(mesh: &Mesh, r: &OneNode) -> usize {
@@ -603,7 +661,7 @@ fn build_cables(
         let sleeved = c
             .sleeve
             .as_ref()
-            .and_then(|sl| crate::scene::sleeve_nodes(&ids, sl, mesh))
+            .and_then(|sl| crate::scene::shape::sleeve_nodes(&ids, sl, mesh))
             .unwrap_or_default();
         // Cable points: a sleeve node gets its own point (a new node at the same place).
         let mut points = ids.clone();

@@ -25,7 +25,7 @@
 //! With E_w = E_f = E and G = E/(2(1+ν)) this is the isotropic law of `super::wrinkling`:
 //! q = E/(1−ν²) for every θ, the minimiser of n is the minor principal strain direction and
 //! S = E E1 t⊗t, with the same consistent tangent (checked in the unit tests below).
-//! Wrinkled and slack points add ε D (ε = [`super::wrinkling::REGULARIZATION`]) to the tangent
+//! Wrinkled and slack points add ε D (ε = [`super::plane_stress::REGULARIZATION`]) to the tangent
 //! only, as the isotropic law does.
 //!
 //! # References
@@ -35,7 +35,9 @@
 //! tension direction differs from the principal strain direction and is iterated); Pipkin 1986,
 //! IMA J. Appl. Math. 36:85-99 (relaxed energy); docs/mechanics.md §1.3.
 
-use super::wrinkling::{principal, Response, WrinkleState, REGULARIZATION, UNSTRAINED};
+use super::plane_stress::{
+    principal, principal_stresses, Response, WrinkleState, REGULARIZATION, UNSTRAINED,
+};
 use nalgebra::{Matrix3, Vector3};
 
 /// Orthotropic plane-stress SVK constants and the warp angle in the element frame.
@@ -113,7 +115,7 @@ impl Orthotropic {
             return (WrinkleState::Taut, None);
         }
         let trial = self.d * strain;
-        if crate::model::membrane::principal_stresses(&trial).1 >= 0.0 {
+        if principal_stresses(&trial).1 >= 0.0 {
             return (WrinkleState::Taut, None);
         }
         if e1 <= 0.0 {

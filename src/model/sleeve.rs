@@ -51,6 +51,7 @@
 //! (nodal friction, Euler–Eytelwein); docs/mechanics.md §2.3, §4f; seed paper eqs. (4)–(7).
 
 use super::cable::{self, Law};
+use super::element::Element;
 use nalgebra::Vector3;
 
 /// Default tie penalty as a multiple of the stiffer of EA/ℓ_min and E t.
@@ -85,6 +86,17 @@ pub struct Tie {
     /// (cable point, membrane node)
     pub nodes: [usize; 2],
     pub k: f64,
+}
+
+impl Element for Tie {
+    fn nodes(&self) -> &[usize] {
+        &self.nodes
+    }
+
+    /// The penalty k.
+    fn reference_stiffness(&self, _a: usize) -> f64 {
+        self.k
+    }
 }
 
 /// Slip state codes stored in the engine state: 0 stick, 1 slipping toward the cable's end

@@ -33,24 +33,8 @@
 //! al. 2014 (relaxed neo-Hookean energy); Stanuszek 2003 (the seed's "cable analogy").
 
 use super::orthotropic::Orthotropic;
+pub use super::plane_stress::{principal, Response, WrinkleState, REGULARIZATION, UNSTRAINED};
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
-use serde::{Deserialize, Serialize};
-
-/// Tangent-only stiffness fraction in wrinkled and slack states.
-pub const REGULARIZATION: f64 = 1e-6;
-
-/// Principal strains of at most this size count as the unstrained state (round-off of the
-/// reference geometry is about 1e-16 times coordinate over element size).
-pub const UNSTRAINED: f64 = 1e-12;
-
-/// The state of a membrane point.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum WrinkleState {
-    #[default]
-    Taut,
-    Wrinkled,
-    Slack,
-}
 
 /// A membrane material law.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,27 +48,6 @@ pub enum Law {
     },
     /// Warp/fill SVK with the generalised tension-field law (`super::orthotropic`).
     Orthotropic(Orthotropic),
-}
-
-/// Stress, tangent and energy density (per reference volume) at one strain.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Response {
-    pub stress: Vector3<f64>,
-    pub tangent: Matrix3<f64>,
-    pub energy: f64,
-    pub state: WrinkleState,
-    /// Angle of the major principal strain direction t in the element frame, radians in
-    /// (−π/2, π/2]: the tension direction of a wrinkled point.
-    pub angle: f64,
-}
-
-/// Principal strains E1 >= E2 and the angle of t.
-pub fn principal(strain: &Vector3<f64>) -> (f64, f64, f64) {
-    let (a, b, c) = (strain[0], strain[1], 0.5 * strain[2]);
-    let mean = 0.5 * (a + b);
-    let radius = (0.25 * (a - b) * (a - b) + c * c).sqrt();
-    let angle = 0.5 * (2.0 * c).atan2(a - b);
-    (mean + radius, mean - radius, angle)
 }
 
 fn v_w(angle: f64) -> (Vector3<f64>, Vector3<f64>) {

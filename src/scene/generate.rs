@@ -23,6 +23,33 @@ pub struct Mesh {
     pub triangle_sets: BTreeMap<String, Vec<usize>>,
 }
 
+/// Nodes and triangles one generator makes (saturating).
+pub fn generator_counts(gen: &Generator) -> (u64, u64) {
+    match gen {
+        Generator::Rectangle { divisions, .. } => {
+            let [nx, ny] = divisions.map(|d| d as u64);
+            (
+                (nx.saturating_add(1)).saturating_mul(ny.saturating_add(1)),
+                2u64.saturating_mul(nx).saturating_mul(ny),
+            )
+        }
+        Generator::Disc { rings, .. } => {
+            let n = *rings as u64;
+            (
+                1u64.saturating_add(3u64.saturating_mul(n).saturating_mul(n.saturating_add(1))),
+                6u64.saturating_mul(n).saturating_mul(n),
+            )
+        }
+        Generator::Annulus { rings, sectors, .. } => {
+            let (r, s) = (*rings as u64, *sectors as u64);
+            (
+                r.saturating_add(1).saturating_mul(s),
+                2u64.saturating_mul(r).saturating_mul(s),
+            )
+        }
+    }
+}
+
 /// Resolve explicit geometry and generators, for tools and tests: [`try_resolve`], panicking
 /// if the memory cannot be had (the library itself always calls [`try_resolve`]).
 pub fn resolve(geometry: &Geometry) -> Mesh {
@@ -37,7 +64,7 @@ pub fn resolve(geometry: &Geometry) -> Mesh {
 pub fn try_resolve(geometry: &Geometry) -> Result<Mesh, OutOfMemory> {
     let (mut n, mut t) = (geometry.nodes.len() as u64, geometry.triangles.len() as u64);
     for g in &geometry.generators {
-        let (gn, gt) = super::limits::generator_counts(g);
+        let (gn, gt) = generator_counts(g);
         n = n.saturating_add(gn);
         t = t.saturating_add(gt);
     }

@@ -16,50 +16,11 @@
 //! about 1 GB estimated) passes; a 3000-ring disc (81 million unknowns) is stopped by the
 //! counts, a mesh whose factor needs more than 16 GB by the memory estimate.
 
+pub use super::generate::generator_counts;
 use super::generate::Mesh;
-use super::{Generator, NodeRef, Problem, Scene};
+pub use super::Limits;
+use super::{NodeRef, Problem, Scene};
 use crate::memory::{self, OutOfMemory};
-use schemars::JsonSchema;
-use serde::{Deserialize, Serialize};
-
-/// Size limits of a scene (`solver.limits`). Every field has a default; a scene above any of
-/// them is rejected with the estimate and the limit named.
-#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct Limits {
-    /// Most mesh nodes (explicit and generated). Default 2,000,000.
-    pub max_nodes: u64,
-    /// Most mesh triangles. Default 4,000,000.
-    pub max_triangles: u64,
-    /// Most unknowns (3 per node, 4 more per sleeve point). Default 4,000,000.
-    pub max_unknowns: u64,
-    /// Most estimated peak memory of model and solver, in GB (1e9 bytes). Default 16: what a
-    /// 24 GB machine can give a solve while the host keeps the rest.
-    pub max_memory_gb: f64,
-    /// Also compare the estimate with the memory this process can get now (the smaller of the
-    /// machine's available memory and the address-space limit). Default true; false leaves
-    /// only max_memory_gb (for hosts whose available memory misleads, e.g. with swap). An
-    /// allocation that then fails is still an error, never a crash.
-    pub check_available_memory: bool,
-}
-
-impl Default for Limits {
-    fn default() -> Self {
-        Limits {
-            max_nodes: 2_000_000,
-            max_triangles: 4_000_000,
-            max_unknowns: 4_000_000,
-            max_memory_gb: 16.0,
-            check_available_memory: true,
-        }
-    }
-}
-
-impl Limits {
-    pub fn is_default(&self) -> bool {
-        *self == Limits::default()
-    }
-}
 
 /// What a scene will need.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -110,33 +71,6 @@ pub fn count(scene: &Scene) -> Size {
         factor_flops: 0.0,
         memory_bytes: 0,
         threads: 1,
-    }
-}
-
-/// Nodes and triangles one generator makes (saturating).
-pub fn generator_counts(gen: &Generator) -> (u64, u64) {
-    match gen {
-        Generator::Rectangle { divisions, .. } => {
-            let [nx, ny] = divisions.map(|d| d as u64);
-            (
-                (nx.saturating_add(1)).saturating_mul(ny.saturating_add(1)),
-                2u64.saturating_mul(nx).saturating_mul(ny),
-            )
-        }
-        Generator::Disc { rings, .. } => {
-            let n = *rings as u64;
-            (
-                1u64.saturating_add(3u64.saturating_mul(n).saturating_mul(n.saturating_add(1))),
-                6u64.saturating_mul(n).saturating_mul(n),
-            )
-        }
-        Generator::Annulus { rings, sectors, .. } => {
-            let (r, s) = (*rings as u64, *sectors as u64);
-            (
-                r.saturating_add(1).saturating_mul(s),
-                2u64.saturating_mul(r).saturating_mul(s),
-            )
-        }
     }
 }
 
@@ -463,7 +397,7 @@ fn address_space_left() -> Option<u64> {
 mod tests {
     use super::*;
     use crate::scene::generate::resolve;
-    use crate::scene::{DiagonalPattern, Geometry};
+    use crate::scene::{DiagonalPattern, Generator, Geometry};
     use faer::sparse::linalg::cholesky::{
         factorize_symbolic_cholesky, CholeskySymbolicParams, SymmetricOrdering,
     };

@@ -22,6 +22,7 @@ pub mod generate;
 pub mod limits;
 pub mod read;
 pub mod shape;
+pub mod target;
 pub mod validate;
 
 use schemars::JsonSchema;
@@ -906,8 +907,8 @@ pub struct SolverSettings {
     pub node_order: NodeOrder,
     /// Size limits checked before anything that grows with the scene is allocated
     /// (`limits.rs`): max_nodes, max_triangles, max_unknowns, max_memory_gb.
-    #[serde(skip_serializing_if = "limits::Limits::is_default")]
-    pub limits: limits::Limits,
+    #[serde(skip_serializing_if = "Limits::is_default")]
+    pub limits: Limits,
     /// Threads of the solver (1 to 64): with 2 or more the instance starts that many worker
     /// threads of its own (joined when it is freed) for the element loop of the assembly and
     /// the sparse factorization. 1 (the default, and what an FMU uses unless the scene asks
@@ -946,10 +947,49 @@ impl Default for SolverSettings {
             path: PathMethod::LoadControl,
             arc_length: None,
             node_order: NodeOrder::Rings,
-            limits: limits::Limits::default(),
+            limits: Limits::default(),
             threads: 1,
             inexact_newton: InexactNewton::Auto,
         }
+    }
+}
+
+/// Size limits of a scene (`solver.limits`). Every field has a default; a scene above any of
+/// them is rejected with the estimate and the limit named.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Limits {
+    /// Most mesh nodes (explicit and generated). Default 2,000,000.
+    pub max_nodes: u64,
+    /// Most mesh triangles. Default 4,000,000.
+    pub max_triangles: u64,
+    /// Most unknowns (3 per node, 4 more per sleeve point). Default 4,000,000.
+    pub max_unknowns: u64,
+    /// Most estimated peak memory of model and solver, in GB (1e9 bytes). Default 16: what a
+    /// 24 GB machine can give a solve while the host keeps the rest.
+    pub max_memory_gb: f64,
+    /// Also compare the estimate with the memory this process can get now (the smaller of the
+    /// machine's available memory and the address-space limit). Default true; false leaves
+    /// only max_memory_gb (for hosts whose available memory misleads, e.g. with swap). An
+    /// allocation that then fails is still an error, never a crash.
+    pub check_available_memory: bool,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_nodes: 2_000_000,
+            max_triangles: 4_000_000,
+            max_unknowns: 4_000_000,
+            max_memory_gb: 16.0,
+            check_available_memory: true,
+        }
+    }
+}
+
+impl Limits {
+    pub fn is_default(&self) -> bool {
+        *self == Limits::default()
     }
 }
 
@@ -1031,34 +1071,7 @@ pub struct Problem {
     pub message: String,
 }
 
-impl std::fmt::Display for Problem {
-    /// `path: message`, every echoed value cut to about 80 characters (`read::clip`).
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.path.is_empty() {
-            write!(f, "{}", read::clip(&self.message))
-        } else {
-            write!(
-                f,
-                "{}",
-                read::clip(&format!("{}: {}", self.path, self.message))
-            )
-        }
-    }
-}
-
 impl Scene {
-    /// Parse a scene from JSON text; the first problem found (see [`Scene::parse`]).
-    pub fn from_json(text: &str) -> Result<Scene, Problem> {
-        Scene::parse(text.as_bytes()).map_err(|mut p| p.swap_remove(0))
-    }
-
-    /// Parse scene bytes (a UTF-8 byte-order mark is skipped). Every problem of the JSON layer
-    /// is listed with its path: syntax, invalid UTF-8 (by byte offset), keys given twice,
-    /// unknown fields and wrong types (see `read.rs`).
-    pub fn parse(bytes: &[u8]) -> Result<Scene, Vec<Problem>> {
-        read::parse(bytes).map_err(|(problems, _)| problems)
-    }
-
     /// Pretty JSON text of the scene (what is stored in an FMU's resources).
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a scene always serializes")
@@ -1068,16 +1081,5 @@ impl Scene {
     pub fn json_schema() -> String {
         let schema = schemars::schema_for!(Scene);
         serde_json::to_string_pretty(&schema).expect("a schema always serializes")
-    }
-}
-
-/// Sleeve node ids of a cable with node ids `ids` (every interior node unless the sleeve lists
-/// them); None when a listed set does not exist.
-pub fn sleeve_nodes(ids: &[usize], sleeve: &Sleeve, mesh: &generate::Mesh) -> Option<Vec<usize>> {
-    match &sleeve.nodes {
-        None if ids.len() < 3 => Some(Vec::new()),
-        None => Some(ids[1..ids.len() - 1].to_vec()),
-        Some(NodeRef::Ids(list)) => Some(list.clone()),
-        Some(NodeRef::Set(name)) => mesh.node_sets.get(name).cloned(),
     }
 }

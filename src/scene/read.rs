@@ -40,6 +40,7 @@ pub fn decode_text(bytes: &[u8]) -> Result<&str, String> {
 /// Parse scene bytes into a scene, or list every problem found at the JSON level. The second
 /// value is the scene read without the unknown fields when they were the only problems (so
 /// `velarium check` can go on to the semantic checks in the same run).
+#[allow(clippy::result_large_err)] // once per scene read; the error carries what could be read
 pub fn parse(bytes: &[u8]) -> Result<Scene, (Vec<Problem>, Option<Scene>)> {
     let text = decode_text(bytes).map_err(|m| (vec![problem("", m)], None))?;
     let mut value: Value = serde_json::from_str(text).map_err(|e| {
@@ -62,6 +63,31 @@ pub fn parse(bytes: &[u8]) -> Result<Scene, (Vec<Problem>, Option<Scene>)> {
         None
     };
     Err((problems, recovered))
+}
+
+impl Scene {
+    /// Parse a scene from JSON text; the first problem found (see [`Scene::parse`]).
+    pub fn from_json(text: &str) -> Result<Scene, Problem> {
+        Scene::parse(text.as_bytes()).map_err(|mut p| p.swap_remove(0))
+    }
+
+    /// Parse scene bytes (a UTF-8 byte-order mark is skipped). Every problem of the JSON layer
+    /// is listed with its path: syntax, invalid UTF-8 (by byte offset), keys given twice,
+    /// unknown fields and wrong types (see the module doc).
+    pub fn parse(bytes: &[u8]) -> Result<Scene, Vec<Problem>> {
+        parse(bytes).map_err(|(problems, _)| problems)
+    }
+}
+
+impl std::fmt::Display for Problem {
+    /// `path: message`, every echoed value cut to about 80 characters ([`clip`]).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.path.is_empty() {
+            write!(f, "{}", clip(&self.message))
+        } else {
+            write!(f, "{}", clip(&format!("{}: {}", self.path, self.message)))
+        }
+    }
 }
 
 fn problem(path: impl Into<String>, message: impl Into<String>) -> Problem {

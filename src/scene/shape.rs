@@ -18,7 +18,7 @@
 //! scene: a missing name gives an empty list, never a panic.
 
 use super::generate::Mesh;
-use super::{Load, NodeRef, Probe, Scene, TriangleRef};
+use super::{Load, NodeRef, Probe, Scene, Sleeve, TriangleRef};
 
 /// Node ids of a reference (an unknown set: none).
 pub fn node_ids(mesh: &Mesh, r: &NodeRef) -> Vec<usize> {
@@ -78,6 +78,17 @@ pub fn cable_nodes(scene: &Scene, mesh: &Mesh, cable: &str) -> Vec<usize> {
         .unwrap_or_default()
 }
 
+/// Sleeve node ids of a cable with node ids `ids` (every interior node unless the sleeve lists
+/// them); None when a listed set does not exist.
+pub fn sleeve_nodes(ids: &[usize], sleeve: &Sleeve, mesh: &Mesh) -> Option<Vec<usize>> {
+    match &sleeve.nodes {
+        None if ids.len() < 3 => Some(Vec::new()),
+        None => Some(ids[1..ids.len() - 1].to_vec()),
+        Some(NodeRef::Ids(list)) => Some(list.clone()),
+        Some(NodeRef::Set(name)) => mesh.node_sets.get(name).cloned(),
+    }
+}
+
 /// Number of sleeve points of a cable (0 without a sleeve).
 pub fn sleeve_points(scene: &Scene, mesh: &Mesh, cable: &str) -> usize {
     let Some(c) = scene.cables.iter().find(|c| c.name == cable) else {
@@ -86,7 +97,7 @@ pub fn sleeve_points(scene: &Scene, mesh: &Mesh, cable: &str) -> usize {
     let ids = node_ids(mesh, &c.nodes);
     c.sleeve
         .as_ref()
-        .and_then(|s| super::sleeve_nodes(&ids, s, mesh))
+        .and_then(|s| sleeve_nodes(&ids, s, mesh))
         .map_or(0, |v| v.len())
 }
 

@@ -1,12 +1,12 @@
 //! Semantic checks of a parsed scene. Every problem is reported (not only the first), each with
 //! the JSON path of the field and a sentence a user can act on.
 
-use super::generate::{try_resolve, Mesh};
+use super::generate::{generator_counts, try_resolve, Mesh};
 use super::limits;
+use super::target::parameter_value;
 use super::{
     Generator, Load, Material, NodeRef, OneNode, Probe, Problem, Scene, TriangleRef, FORMAT_VERSION,
 };
-use crate::variables;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// All problems of a scene; empty means valid.
@@ -44,9 +44,9 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
             .generators
             .iter()
             .enumerate()
-            .max_by_key(|(_, g)| limits::generator_counts(g).0);
+            .max_by_key(|(_, g)| generator_counts(g).0);
         if let Some((k, g)) = biggest {
-            if limits::generator_counts(g).0 * 2 > size.nodes {
+            if generator_counts(g).0 * 2 > size.nodes {
                 let field = match g {
                     Generator::Rectangle { .. } => "divisions",
                     _ => "rings",
@@ -882,7 +882,7 @@ impl Validator {
         };
         if ids.len() < 3 {
             self.push(
-                format!("{p}"),
+                p.to_string(),
                 "a sleeve needs a cable with at least one interior node to slide through",
             );
             return;
@@ -908,7 +908,7 @@ impl Validator {
         for (k, id) in ids.iter().enumerate() {
             if ids[..k].contains(id) {
                 self.push(
-                    format!("{p}"),
+                    p.to_string(),
                     format!(
                         "cable \"{}\" passes node {id} twice; a sleeved cable may not",
                         c.name
@@ -922,7 +922,7 @@ impl Validator {
     fn sleeve_ids(s: &Scene, mesh: &Mesh, cable: &str) -> Option<Vec<usize>> {
         let c = s.cables.iter().find(|c| c.name == cable)?;
         let ids = cable_ids(mesh, &c.nodes)?;
-        super::sleeve_nodes(&ids, c.sleeve.as_ref()?, mesh)
+        super::shape::sleeve_nodes(&ids, c.sleeve.as_ref()?, mesh)
     }
 
     /// Probe checks of a sleeve: the cable has one, and `node` (if any) is one of its nodes.
@@ -1396,7 +1396,7 @@ impl Validator {
     fn parameters(&mut self, s: &Scene) {
         for (i, p) in s.parameters.iter().enumerate() {
             let path = format!("parameters[{i}].target");
-            match variables::parameter_value(s, &p.target) {
+            match parameter_value(s, &p.target) {
                 None => self.push(path, format!("\"{}\" is not a parameter target; use membranes.<name>.E|nu|mu|E_warp|E_fill|nu_wf|G|thickness, cables.<name>.EA|pretension or solver.artificial_prestress (test variants: debug.fail_after_time|panic_after_time)", p.target)),
                 Some(v) if !v.is_finite() => self.push(path, format!("{} must be given a value in the scene to be exposed as a parameter", p.target)),
                 Some(_) => {}

@@ -30,9 +30,9 @@
 //! return map); the path follower keeps the last converged ones, so a failed increment
 //! restores them.
 
-use super::slip::return_map;
 use super::report::push_log;
 use super::settings::Settings;
+use super::slip::return_map;
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
@@ -187,6 +187,7 @@ impl ActiveSet {
     /// At a point that meets the tolerance: are the states the laws' own? `natural_wrinkles`
     /// gives the laws' wrinkle states and the free residual with them (called only when
     /// wrinkle states are frozen); `tol_f` is the force tolerance of the cone test.
+    #[allow(clippy::too_many_arguments)] // the re-check needs the whole iterate and its closure
     pub fn recheck(
         &mut self,
         it: usize,

@@ -53,17 +53,24 @@
 //! Riks 1979, Int. J. Solids Struct. 15:529–551 (the normal plane); Crisfield 1991, vol. 1,
 //! §9.3–9.4 (arc length, bordered systems by two solves, the sign of the predictor).
 
-use super::assemble::{assemble_with, Membranes, NONE};
+use super::assemble::NONE;
 use super::core::Solver;
-use super::loads::{load_change, loads_at, prescribed_rate};
+use super::loads::{load_change, loads_at};
 use super::path::Attempt;
 use super::report::{push_log, StepReport};
-use super::settings::Settings;
 use super::rows::{ArcRow, Increment};
+use super::settings::Settings;
 use super::slip::slip_rows;
 use crate::model::sleeve::Contact;
-use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
+
+/// A converged load-controlled increment: displacements, stick/slip states, iterations.
+type Converged = (Vec<f64>, Vec<Contact>, usize);
+
+/// Arc length cannot start this step (its first increment moved nothing): load control for the
+/// whole step instead.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadControlInstead;
 
 /// One converged point of a traced path.
 #[derive(Clone, Debug)]
@@ -106,93 +113,6 @@ impl Solver {
     /// whole (unchanged loads); None when arc length follows it.
     pub fn arc_length_fallback(model: &Model, from: &[f64], to: &[f64]) -> Option<&'static str> {
         not_applicable(model, from, to)
-    }
-
-    /// q = R(u, from) − R(u, to) on the equations (−∂R/∂λ), with the coupling of moving
-    /// prescribed displacements.
-    fn load_direction(
-        &mut self,
-        model: &Model,
-        from: &[f64],
-        to: &[f64],
-        lambda: f64,
-        u: &[f64],
-    ) -> Vec<f64> {
-        let mut r0 = vec![0.0; model.dof_count()];
-        let mut r1 = vec![0.0; model.dof_count()];
-        assemble_with(
-            model,
-            &self.pattern,
-            u,
-            from,
-            &mut r0,
-            None,
-            Membranes::default(),
-        );
-        assemble_with(
-            model,
-            &self.pattern,
-            u,
-            to,
-            &mut r1,
-            None,
-            Membranes::default(),
-        );
-        let mut q = vec![0.0; self.pattern.n];
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            if e != NONE {
-                q[e] = r0[d] - r1[d];
-            }
-        }
-        // Prescribed displacements that move with λ: −K_fp du_p/dλ (du_p/dλ by a central
-        // difference: exact for translations, to about 1e-10 for rotations), through the held-step
-        // coupling of the assembly (the tangent's values are not touched).
-        if let Some(rate) = prescribed_rate(model, from, to, lambda, u) {
-            let mut coupling = vec![0.0; model.dof_count()];
-            let mut r = vec![0.0; model.dof_count()];
-            let membranes = Membranes {
-                held_step: Some((&rate, &mut coupling)),
-                ..Default::default()
-            };
-            let loads = loads_at(from, to, lambda);
-            assemble_with(model, &self.pattern, u, &loads, &mut r, None, membranes);
-            for (d, &e) in self.pattern.eq.iter().enumerate() {
-                if e != NONE {
-                    q[e] -= coupling[d];
-                }
-            }
-        }
-        q
-    }
-
-    /// The load factor's column of the bordered Newton system, ∂R/∂λ = −q, as (equation,
-    /// value) pairs (`newton.rs`).
-    pub(super) fn load_column(
-        &mut self,
-        model: &Model,
-        from: &[f64],
-        to: &[f64],
-        lambda: f64,
-        u: &[f64],
-    ) -> Vec<(usize, f64)> {
-        self.load_direction(model, from, to, lambda, u)
-            .iter()
-            .enumerate()
-            .filter(|(_, v)| **v != 0.0)
-            .map(|(e, v)| (e, -v))
-            .collect()
-    }
-
-    /// Wrinkle states of the membranes at `u` (natural, no freezing).
-    fn wrinkle_states(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> Vec<WrinkleState> {
-        self.frozen = None;
-        let mut r = vec![0.0; model.dof_count()];
-        let membranes = Membranes {
-            out: Some(&mut self.evaluations),
-            ..Default::default()
-        };
-        assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
-        self.evaluations.iter().map(|e| e.state).collect()
     }
 
     /// The path's tangent at the converged point: dz/dλ from the bordered tangent (slip and
@@ -302,7 +222,7 @@ impl Solver {
         at: &Committed,
         lambda: f64,
         log: &mut Vec<String>,
-    ) -> Result<(Vec<f64>, Vec<Contact>, usize), (usize, String)> {
+    ) -> Result<Converged, (usize, String)> {
         let loads = loads_at(from, to, lambda);
         let mut trial = at.u.clone();
         let mut contact = at.contact.clone();
@@ -457,14 +377,14 @@ impl ArcPath {
     /// One attempt of the path (an arc-length increment, or the load-controlled increment that
     /// stands for one: the first, where the path tangent is undefined, after a state switch or
     /// a failed corrector, and the last to the target). Ok(None) once the target is reached;
-    /// Err(()) when the step must be load-controlled as a whole instead (the first increment
+    /// Err(LoadControlInstead) when the step must be load-controlled as a whole instead (the first increment
     /// moved nothing).
     pub fn advance(
         &mut self,
         solver: &mut Solver,
         model: &Model,
         report: &mut StepReport,
-    ) -> Result<Option<Attempt>, ()> {
+    ) -> Result<Option<Attempt>, LoadControlInstead> {
         if self.done {
             return Ok(None);
         }
@@ -483,7 +403,7 @@ impl ArcPath {
             return Ok(Some(self.first_increment(solver, model, &s, report)));
         }
         if self.ds.is_nan() {
-            return Err(());
+            return Err(LoadControlInstead);
         }
         if !self.smallest.is_finite() {
             self.smallest = self.ds * s.min_increment;
@@ -527,7 +447,7 @@ impl ArcPath {
             Ok((_, _, iters)) => {
                 // The corrector passed the target: reach it exactly by load control.
                 report.iterations += iters + 1;
-                Ok(Some(self.to_target(solver, model, report)))
+                Ok(Some(self.reach_target(solver, model, report)))
             }
             Err((iters, why)) if predicted < 1.0 => {
                 report.iterations += iters;
@@ -535,7 +455,7 @@ impl ArcPath {
                     self.corrector_failed(solver, model, report, predicted, why),
                 ))
             }
-            Err(_) => Ok(Some(self.to_target(solver, model, report))),
+            Err(_) => Ok(Some(self.reach_target(solver, model, report))),
         }
     }
 
@@ -685,7 +605,12 @@ impl ArcPath {
                 }
                 Err((it2, why)) => {
                     report.iterations += it2;
-                    push_log(&mut report.log, format!("  {what}; load control failed ({why}): the arc-length point is kept"));
+                    push_log(
+                        &mut report.log,
+                        format!(
+                            "  {what}; load control failed ({why}): the arc-length point is kept"
+                        ),
+                    );
                 }
             }
         }
@@ -736,7 +661,12 @@ impl ArcPath {
             }
         }
         report.cutbacks += 1;
-        push_log(&mut report.log, format!("increment from λ {lambda_n:.6} (arc length, Δs {ds:.3e} m): {why}; cutting back"));
+        push_log(
+            &mut report.log,
+            format!(
+                "increment from λ {lambda_n:.6} (arc length, Δs {ds:.3e} m): {why}; cutting back"
+            ),
+        );
         self.ds *= 0.25;
         if self.ds < self.smallest {
             report.reached = lambda_n;
@@ -748,7 +678,12 @@ impl ArcPath {
 
     /// The target lies within this increment: reach it exactly by load control (a shorter arc
     /// when that fails).
-    fn to_target(&mut self, solver: &mut Solver, model: &Model, report: &mut StepReport) -> Attempt {
+    fn reach_target(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        report: &mut StepReport,
+    ) -> Attempt {
         let lambda_n = self.at.lambda;
         let step = (&self.from[..], &self.to[..], self.change);
         match solver.load_increment(model, step, &self.at, 1.0, &mut report.log) {

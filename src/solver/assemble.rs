@@ -193,9 +193,10 @@ fn number_equations(
     let mut eq = memory::filled(model.dof_count(), NONE, "the equation numbers")?;
     let mut n = 0;
     for &node in &by_rank {
-        for d in 3 * node..3 * node + 3 {
-            if !model.held[d] {
-                eq[d] = n;
+        let dofs = 3 * node..3 * node + 3;
+        for (e, &held) in eq[dofs.clone()].iter_mut().zip(&model.held[dofs]) {
+            if !held {
+                *e = n;
                 n += 1;
             }
         }
@@ -216,9 +217,9 @@ fn visit_order(
         // By the lowest internal node, then the highest and the middle one: a property of
         // the mesh, not of its numbering, so a shuffled numbering of the same mesh visits
         // its triangles in the same order and forms every sum in the same order (the same
-        // Newton path on a sensitive problem, tests/renumber.rs). Which of the orders with
-        // the lowest node first is not otherwise important; this one because
-        // tests/derivatives.rs's difference check on AnnulusTorsion (wrinkled) moves with
+        // Newton path on a sensitive problem, tests/solver/renumber.rs). Which of the orders
+        // with the lowest node first is not otherwise important; this one because
+        // tests/fmi/derivatives.rs's difference check on AnnulusTorsion (wrinkled) moves with
         // the order of sums: 3.9e-6 here, 4.1e-6 ties by triangle number, 7.4e-6 and
         // 1.0e-5 (its limit) in two other orders. In place (a stable sort would allocate
         // its buffer infallibly); the triangle number breaks the remaining ties (two
@@ -240,12 +241,12 @@ fn visit_order(
     Ok(list)
 }
 
+/// One list per load.
+type PerLoad = Vec<Vec<usize>>;
+
 /// Per load, its pressed triangles in visit order (empty for other loads), and the same as
 /// slots (positions in the triangles' visit order).
-fn pressed_lists(
-    model: &Model,
-    tri_slot: &[usize],
-) -> Result<(Vec<Vec<usize>>, Vec<Vec<usize>>), OutOfMemory> {
+fn pressed_lists(model: &Model, tri_slot: &[usize]) -> Result<(PerLoad, PerLoad), OutOfMemory> {
     let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
     for load in &model.loads {
         let mut list = match load {

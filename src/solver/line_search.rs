@@ -27,12 +27,11 @@
 //! 23:707–716 (non-monotone).
 
 use super::assemble::{assemble_with, Membranes, NONE};
-use super::slope::{bracket_slope, SLOPE_RATIO};
-use super::slip::{slip_rows_into, step_limit};
 use super::core::Solver;
+use super::slip::{slip_rows_into, step_limit};
+use super::slope::{bracket_slope, SLOPE_RATIO};
 use crate::model::sleeve::Contact;
 use crate::model::Model;
-
 
 /// The merit function of the current iteration and its reference value.
 #[derive(Clone, Copy, Debug)]

@@ -3,21 +3,28 @@
 //! state.
 //!
 //! ```text
-//! path.rs         solve_step(from, to, u): load(λ) = from + λ (to − from), λ: 0 → 1 in
-//!                 increments Δλ; a tangent predictor for moved prescribed displacements; on
-//!                 failure Δλ ← Δλ/4 (down to min_increment); on success Δλ grows
-//! newton.rs       the one Newton loop: assemble → active set → convergence test → direction
-//!                 → line search → damping update
+//! stepper.rs      the one stepper of every driver (CLI, FMI 2, FMI 3): begin / advance /
+//!                 finish over a load-control or an arc-length path
+//! path.rs         load control: λ: 0 → 1 in increments Δλ; a tangent predictor for moved
+//!                 prescribed displacements; on failure Δλ ← Δλ/4 (down to min_increment), on
+//!                 success Δλ grows; the prestress continuation of a flat start
+//! arc.rs          arc-length path following: the load factor an unknown (normal plane);
+//!                 path logic only, the corrector is newton.rs with the arc row bordered
+//! newton.rs       the one Newton loop, in phases: equations → verdict → budget → direction
+//!                 → step (line search, damping)
+//! system.rs       the System boundary: the equations at a load factor (assembly, rows,
+//!                 bordered rows, convergence test, direction of the bordered system)
+//! relaxation.rs   nodal relaxation when Newton stalls (kernels in relax.rs)
 //! active_set.rs   wrinkle-state freezing and stick/slip states, one chatter policy
 //! slip.rs         slip rows and columns, return map, Schur direction (m = 0: plain LDLT)
 //! volume.rs       volume control: pressure unknowns of closed groups, their rows and columns
-//!                 (eliminated with the slips)
-//! arc.rs          arc-length path following: the load factor an unknown (normal plane);
-//!                 path logic only, the corrector is newton.rs with the arc row bordered
 //! order.rs        sleeve points keep their order along a cable: touching points merge into
 //!                 one contact group and part when the contact force would pull
-//! line_search.rs  one backtracking search: potential, slope or residual merit
-//! relax.rs        nodal relaxation of the few nodes that carry a stalled residual
+//! line_search.rs  one backtracking search: potential, slope or residual merit (slope.rs)
+//! assemble.rs     pattern and assembly of residual and tangent over the model's elements
+//! linear.rs       sparse LDLT (factor.rs: faer's calls; split.rs: two halves on 2 threads)
+//! core.rs         the Solver's workspace; settings.rs, report.rs, loads.rs, rows.rs: plain
+//!                 data and functions every phase shares
 //! ```
 //! Non-convergence is an outcome ([`StepReport`]), not an error: the caller's state is left as
 //! it was. Every constant that tunes the iteration is a field of [`Settings`] with its default
@@ -32,8 +39,8 @@ pub mod arc;
 pub mod assemble;
 mod core;
 mod dense;
-mod line_search;
 mod factor;
+mod line_search;
 pub mod linear;
 pub mod loads;
 pub mod mechanism;
@@ -41,15 +48,17 @@ mod newton;
 mod order;
 mod path;
 pub mod relax;
+mod relaxation;
 pub mod renumber;
 mod report;
 mod rows;
 pub mod sensitivity;
 mod settings;
-mod slope;
-mod stepper;
 pub mod slip;
+mod slope;
 mod split;
+mod stepper;
+mod system;
 pub mod threads;
 mod volume;
 mod work;

@@ -1,35 +1,29 @@
-//! The one Newton loop of a load increment, for every scene (with or without sleeves).
+//! The one Newton loop of a load increment, for every scene (with or without sleeves). It
+//! iterates on the System boundary (system.rs: the equations at a load factor) in phases, each
+//! a function of its own:
 //!
 //! ```text
-//! iterate:  assemble R, K at u (wrinkle states from the mixed criterion, or frozen)
-//!           stick/slip states by the return map (or frozen)       active_set.rs
-//!           converged when every free DOF d and slip row j meets |R_d| <= tol · F, or meets
-//!               |R_d| <= tol · F + ρ_d and the Newton correction is within tol · X
-//!           and no stick/slip state changed, and the re-check of frozen states accepts
-//!           stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
-//!               relax the nodes carrying the residual (relax.rs)
-//!           direction: (K + τ D) Δ = −R, slips eliminated by Schur    slip.rs
-//!           u ← u + α Δ, α from the line search                       line_search.rs
-//!           τ: 0 while Newton steps work; τ0 when the tangent is singular, the line search
-//!              fails or cuts α below 1e-5 (the step was far too long: a mechanism), or the
-//!              slips would take α below 1/4 to keep every sleeved segment (a sliding
-//!              mechanism), ×4 on every further such step; ÷8 after every full step (0 below
-//!              τ_min)
+//! equations   assemble R, K at u (wrinkle states from the mixed criterion, or frozen),
+//!             stick/slip states by the return map (or frozen)        active_set.rs
+//!             the slip and volume rows, the convergence test          system.rs
+//!             stalled (after 2 iterations, last step shortened or |R| fell by < 4x):
+//!               relax the nodes carrying the residual                 relaxation.rs
+//!             under arc length, the bordered row and column           system.rs
+//! verdict     converged when every free DOF d and slip row j meets |R_d| <= tol · F, or meets
+//!               |R_d| <= tol · F + ρ_d and the Newton correction is within tol · X,
+//!             and no stick/slip state changed, no touching sleeve points part, and the
+//!             re-check of frozen states accepts
+//! budget      max_iterations from the last release of frozen states (more while the
+//!             residual still falls steadily near the solution)
+//! direction   (K + τ D) Δ = −R, slips eliminated by Schur              slip.rs
+//! step        u ← u + α Δ, α from the line search                     line_search.rs
+//!             τ: 0 while Newton steps work; τ0 when the tangent is singular, the line search
+//!             fails or cuts α below 1e-5 (the step was far too long: a mechanism), or the
+//!             slips would take α below 1/4 to keep every sleeved segment (a sliding
+//!             mechanism), ×4 on every further such step; ÷8 after every full step (0 below
+//!             τ_min)
 //! ```
-//!
-//! # The convergence test
-//! `F = max(|f_ext|∞, |reactions|∞, largest nodal force of any element, |Δf_ext|∞ of the
-//! step)`: the forces applied to and carried by the structure, never a stiffness. `ρ_d =
-//! c·ε·(Σ|f|_d + K_dd·X)` is the round-off floor of DOF d: ε machine epsilon, Σ|f|_d the
-//! magnitudes of every force meeting at d (its terms), K_dd the diagonal of the tangent, X the
-//! coordinate size (rounding a coordinate by εX moves the forces by about K_dd εX), c the
-//! settings' `roundoff_factor`. The floor is local, so a very stiff member raises it only at
-//! its own nodes. A point inside the floors but not inside tol·F counts as converged only when
-//! the Newton correction from it is within tol·X at every unknown (the coordinates are then
-//! accurate to the tolerance although the forces cannot be resolved further): the floors of a stiff
-//! member's two nodes could otherwise add up to a net force on a soft part it belongs to. In
-//! the first iteration of a step whose loads changed the floor does not count: a load change is
-//! never accepted unless it is below tol·F.
+//! The convergence test is documented with its code (system.rs).
 //!
 //! # Globalisation
 //! Slack cables, slack or wrinkled membrane and frictionless sleeves leave directions with no
@@ -47,15 +41,14 @@
 //! residual bounds); Crisfield 1991, vol. 1, §9.
 
 use super::active_set::{ActiveSet, Recheck};
-use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
-use super::line_search::{Direction, Merit, Trial};
-use super::relax::{relax_nodes, relax_patch, Frozen};
+use super::assemble::{AssemblyInfo, NONE};
 use super::core::{check_inversion, Solver};
+use super::line_search::{Direction, Merit, Trial};
 use super::report::push_log;
-use super::rows::{ArcRow, Increment, Row};
+use super::rows::{ArcRow, Border, Increment, Row};
 use super::slip::{largest_gap, slip_rows_into, step_limit, MAX_GAP};
+use super::system::Check;
 use crate::model::sleeve::Contact;
-use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 
 /// Factor on the artificial prestress for the next tangent: 1 down to a relative residual of
@@ -96,20 +89,6 @@ fn progressing(history: &[f64]) -> bool {
     let recent = least(&history[n - PROGRESS_WINDOW..]);
     let before = least(&history[n - 2 * PROGRESS_WINDOW..n - PROGRESS_WINDOW]);
     recent < 0.5 * before && recent < PROGRESS_NEAR
-}
-
-/// The convergence test at one iterate.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Check {
-    /// Every row within tolerance · F.
-    pub strict: bool,
-    /// Every row within tolerance · F plus its round-off floor.
-    pub within_floor: bool,
-    /// |R|∞ over the free DOFs and over the slip rows.
-    pub free: f64,
-    pub slip: f64,
-    /// The force scale F.
-    pub scale: f64,
 }
 
 /// What the Newton loop of one increment carries from one iteration to the next.
@@ -153,7 +132,7 @@ struct Assembled {
     changed: usize,
     /// Whether the arc-length row is met (true without arc length).
     arc_met: bool,
-    bordered: Option<(Vec<Row>, Vec<(usize, f64)>)>,
+    bordered: Option<Border>,
 }
 
 /// What the convergence phase decided.
@@ -218,8 +197,18 @@ impl Solver {
                 Verdict::Again => continue,
                 Verdict::Step(pending) => {
                     self.budget(model, &mut state, &eqs.check, it, hard_max)?;
-                    let (dx, ds) = self.newton_direction(model, &mut state, u, &eqs, pending, it, log)?;
-                    self.newton_step(model, &mut state, u, &eqs, arc.as_deref_mut(), (dx, ds), it, log);
+                    let (dx, ds) =
+                        self.newton_direction(model, &mut state, u, &eqs, pending, it, log)?;
+                    self.newton_step(
+                        model,
+                        &mut state,
+                        u,
+                        &eqs,
+                        arc.as_deref_mut(),
+                        (dx, ds),
+                        it,
+                        log,
+                    );
                 }
             }
         }
@@ -351,38 +340,6 @@ impl Solver {
             }
         }
         check
-    }
-
-    /// The arc-length row and column (the border is built at every iteration: the column −q
-    /// depends on u through follower loads and prescribed displacements), and whether the
-    /// row is met.
-    fn arc_border(
-        &mut self,
-        model: &Model,
-        a: &ArcRow,
-        rows: &[Row],
-        u: &[f64],
-    ) -> (bool, (Vec<Row>, Vec<(usize, f64)>)) {
-        let h = a.residual(&self.pattern.eq, u);
-        let column = self.load_column(model, a.from, a.to, a.lambda, u);
-        let mut all = rows.to_vec();
-        let at = all.len();
-        let rates = super::volume::load_rates(model, a.from, a.to);
-        for (row, rate) in all[model.slips.len()..].iter_mut().zip(rates) {
-            row.ds.push((at, rate));
-        }
-        all.push(Row {
-            r: h,
-            dx: (0..self.pattern.n)
-                .filter(|&e| a.t[e] != 0.0)
-                .map(|e| (e, a.t[e]))
-                .collect(),
-            ds: Vec::new(),
-            magnitude: a.length,
-            damped: false,
-        });
-        let met = h.abs() <= self.settings.tolerance * a.length;
-        (met, (all, column))
     }
 
     /// Phase 2, convergence: the test (within the round-off floor, the Newton correction
@@ -597,7 +554,7 @@ impl Solver {
                 .zip(&st.active.contact)
                 .all(|(p, c)| p.mu == 0.0 && matches!(c, Contact::Forward | Contact::Backward));
         let residual_merit =
-            arc || (!rows.is_empty() && !(sliding_freely && model.is_conservative()));
+            arc || (!rows.is_empty() && (!sliding_freely || !model.is_conservative()));
         if st.recent_potential.replace(!residual_merit) == Some(residual_merit) {
             st.recent.clear();
         }
@@ -652,7 +609,8 @@ impl Solver {
         // A slip step that would shorten a sleeved segment by far more than its length is a
         // sliding mechanism's step, like a line search cut to nothing.
         let capped = !ds.is_empty()
-            && step_limit(model, u, &ds, self.settings.keep_length) < self.settings.damping_slip_cap;
+            && step_limit(model, u, &ds, self.settings.keep_length)
+                < self.settings.damping_slip_cap;
         let trouble = !ok || alpha < self.settings.damping_trigger || capped;
         st.last_alpha = alpha;
         for (d, &e) in self.pattern.eq.iter().enumerate() {
@@ -707,300 +665,6 @@ impl Solver {
         } else {
             damping
         }
-    }
-
-    /// The Newton direction with the slip and volume rows, and under arc length with the
-    /// bordered arc row and its column (then the last entry of the slip part is Δλ).
-    fn direction_of(
-        &mut self,
-        model: &Model,
-        u: &[f64],
-        rows: &[Row],
-        bordered: Option<&(Vec<Row>, Vec<(usize, f64)>)>,
-        damping: f64,
-    ) -> Result<(Vec<f64>, Vec<f64>), String> {
-        match bordered {
-            Some((all, column)) => self.direction(model, u, all, damping, Some(column)),
-            None => self.direction(model, u, rows, damping, None),
-        }
-    }
-
-    /// The convergence test (module docs) on the last assembly.
-    pub(super) fn check(
-        &self,
-        model: &Model,
-        info: &AssemblyInfo,
-        rows: &[Row],
-        u: &[f64],
-        inc: &Increment,
-        it: usize,
-    ) -> Check {
-        let (mut free, mut held) = (0.0f64, 0.0f64);
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            let r = self.residual[d].abs();
-            if e == NONE {
-                held = held.max(r);
-            } else if r.is_nan() {
-                free = f64::NAN;
-            } else {
-                free = free.max(r);
-            }
-        }
-        let slip = rows.iter().fold(0.0f64, |m, r| {
-            if r.r.is_nan() {
-                f64::NAN
-            } else {
-                m.max(r.r.abs())
-            }
-        });
-        let scale = info.external.max(held).max(info.carried).max(inc.change);
-        let tolerance = self.settings.tolerance * scale;
-        let first_of_changed_step = it == 0 && inc.moved;
-        let x = self.coordinate_size(model, u);
-        let c = self.settings.roundoff_factor * f64::EPSILON;
-        let values = self.linear.values();
-        let finite = free.is_finite() && slip.is_finite();
-        let (mut strict, mut within_floor) = (finite, finite);
-        for (d, &e) in self.pattern.eq.iter().enumerate() {
-            if e == NONE {
-                continue;
-            }
-            let r = self.residual[d].abs();
-            strict &= r <= tolerance;
-            let floor = if first_of_changed_step {
-                0.0
-            } else {
-                c * (self.magnitude[d] + values[self.diagonal_positions[e]].abs() * x)
-            };
-            within_floor &= r <= tolerance + floor;
-        }
-        for row in rows {
-            let r = row.r.abs();
-            strict &= r <= tolerance;
-            let own = row.ds.first().map_or(0.0, |&(_, v)| v.abs());
-            let floor = if first_of_changed_step {
-                0.0
-            } else {
-                c * (row.magnitude + own * x)
-            };
-            within_floor &= r <= tolerance + floor;
-        }
-        Check {
-            strict,
-            within_floor,
-            free,
-            slip,
-            scale,
-        }
-    }
-
-    /// Largest coordinate magnitude of the current positions, at least the model's length
-    /// scale: the X of the round-off floor.
-    pub(super) fn coordinate_size(&self, model: &Model, u: &[f64]) -> f64 {
-        let n3 = model.dof_count();
-        let moved = u[..n3].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        (self.reference_size + moved).max(model.length_scale)
-    }
-
-    /// Residual, tangent, force magnitudes and evaluations at `u` (frozen wrinkle states if
-    /// any).
-    pub(super) fn assemble_at(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> AssemblyInfo {
-        let membranes = Membranes {
-            forced: self.frozen.as_deref(),
-            out: Some(&mut self.evaluations),
-            held_step: None,
-            prestress_factor: Some(self.prestress_factor),
-            pre_strain: self.pre_strain,
-            magnitude: Some(&mut self.magnitude),
-            scratch: Some(&mut self.work.scratch),
-        };
-        assemble_with(
-            model,
-            &self.pattern,
-            u,
-            loads,
-            &mut self.residual,
-            Some(self.linear.values_mut()),
-            membranes,
-        )
-    }
-
-    /// The wrinkle states the mixed criterion gives at `u` (no freezing), and whether the
-    /// residual with those states also passes the convergence test.
-    fn natural_states_converged(
-        &mut self,
-        model: &Model,
-        rows: &[Row],
-        u: &[f64],
-        inc: &Increment,
-        it: usize,
-    ) -> (Vec<WrinkleState>, bool) {
-        let membranes = Membranes {
-            forced: None,
-            out: Some(&mut self.evaluations),
-            magnitude: Some(&mut self.magnitude),
-            pre_strain: self.pre_strain,
-            scratch: Some(&mut self.work.scratch),
-            ..Default::default()
-        };
-        let info = assemble_with(
-            model,
-            &self.pattern,
-            u,
-            inc.loads,
-            &mut self.residual,
-            None,
-            membranes,
-        );
-        let check = self.check(model, &info, rows, u, inc, it);
-        let met = check.strict || check.within_floor;
-        (self.evaluations.iter().map(|e| e.state).collect(), met)
-    }
-
-    /// Relax, one at a time with all others held, the nodes with a free DOF whose residual is
-    /// at least `relax_share` · |R|∞ (`free`), when they are few (at most `relax_max_share` of
-    /// the nodes); returns how many moved and the patch Newton's iterations.
-    fn relax(
-        &mut self,
-        model: &Model,
-        loads: &[f64],
-        u: &mut [f64],
-        free: f64,
-        tolerance: f64,
-    ) -> (usize, usize) {
-        let s = self.settings.clone();
-        let (mut free, mut moved_total, mut patch_iterations) = (free, 0, 0);
-        // The patch and its node list in reused buffers (`work.rs`).
-        let mut patch = std::mem::take(&mut self.work.patch);
-        patch.clear();
-        patch.resize(model.reference.len(), false);
-        let mut nodes = std::mem::take(&mut self.work.nodes);
-        for _ in 0..s.relax_rounds {
-            // The patch grows by the nodes that now carry the residual (the neighbours the last
-            // round passed it on to) and is relaxed as a whole: block Gauss-Seidel on it.
-            for (i, p) in patch.iter_mut().enumerate() {
-                *p |= (0..3).any(|c| {
-                    let d = 3 * i + c;
-                    self.pattern.eq[d] != NONE && self.residual[d].abs() >= s.relax_share * free
-                });
-            }
-            nodes.clear();
-            nodes.extend((0..patch.len()).filter(|&i| patch[i]));
-            if nodes.len() as f64 > s.relax_max_share * model.reference.len() as f64 {
-                // The residual is spread over the mesh: a global, not a local, difficulty.
-                break;
-            }
-            self.pattern.sweep_order(model, &mut nodes);
-            let forced = Frozen {
-                states: self.frozen.as_deref(),
-                pre_strain: self.pre_strain,
-            };
-            let mut moved = 0;
-            for _ in 0..s.relax_sweeps {
-                moved = moved.max(relax_nodes(
-                    model,
-                    &self.adjacency,
-                    u,
-                    loads,
-                    &nodes,
-                    forced,
-                    0.1 * tolerance,
-                ));
-            }
-            // Near equilibrium, the patch as a whole (relax.rs: neighbours that drift together
-            // under Gauss-Seidel). Far from it, the patch's long steps along its nearly
-            // stress-free directions may lead away (the corner-pulled rubber sheet, hard case j).
-            let near = free <= s.relax_patch_below * (tolerance / s.tolerance);
-            if near && nodes.len() <= s.relax_patch_nodes {
-                self.work.patch_newton.reserve(s.relax_patch_nodes);
-                let outcome = relax_patch(
-                    model,
-                    &self.adjacency,
-                    u,
-                    loads,
-                    &nodes,
-                    forced,
-                    0.1 * tolerance,
-                    s.relax_patch_iterations,
-                    s.relax_patch_regularization,
-                    &mut self.work.patch_newton,
-                );
-                patch_iterations += outcome.iterations;
-                if outcome.iterations > 0 {
-                    moved = moved.max(nodes.len());
-                }
-            }
-            if moved == 0 {
-                break;
-            }
-            moved_total += moved;
-            let membranes = Membranes {
-                forced: forced.states,
-                pre_strain: self.pre_strain,
-                scratch: Some(&mut self.work.scratch),
-                ..Default::default()
-            };
-            assemble_with(
-                model,
-                &self.pattern,
-                u,
-                loads,
-                &mut self.residual,
-                None,
-                membranes,
-            );
-            let before = free;
-            free = self.free_norm();
-            if free <= tolerance || free > 0.9 * before {
-                break;
-            }
-        }
-        self.work.patch = patch;
-        self.work.nodes = nodes;
-        (moved_total, patch_iterations)
-    }
-
-    /// |R|∞ over the free DOFs of the last assembly.
-    /// Where the residual of a failed iteration sits: the free DOF with the largest |R| (the
-    /// scene's node numbering), and whether every triangle at that node is wrinkled or slack
-    /// (then only the regularisation resists across the tension there, docs/solver.md, and
-    /// without a compressive stiffness the load may have no equilibrium).
-    fn where_stuck(&self, model: &Model) -> String {
-        let Some((d, _)) = self
-            .pattern
-            .eq
-            .iter()
-            .zip(&self.residual)
-            .enumerate()
-            .filter(|(_, (&e, r))| e != NONE && r.is_finite())
-            .map(|(d, (_, r))| (d, r.abs()))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-        else {
-            return String::new();
-        };
-        let (node, axis) = (d / 3, ["x", "y", "z"][d % 3]);
-        let states: Vec<WrinkleState> = model
-            .triangles
-            .iter()
-            .zip(&self.evaluations)
-            .filter(|(t, _)| t.nodes.contains(&node))
-            .map(|(_, e)| e.state)
-            .collect();
-        let soft = !states.is_empty() && states.iter().all(|&s| s != WrinkleState::Taut);
-        if soft {
-            format!("; the largest residual is at node {node} in {axis}, where every triangle is wrinkled or slack: across the tension the film has no stiffness there, so the load may have no equilibrium unless something else holds that node (or the film gets a residual stiffness, membranes[].residual_stiffness)")
-        } else {
-            format!("; the largest residual is at node {node} in {axis}")
-        }
-    }
-
-    fn free_norm(&self) -> f64 {
-        self.pattern
-            .eq
-            .iter()
-            .zip(&self.residual)
-            .filter(|(&e, _)| e != NONE)
-            .fold(0.0f64, |m, (_, r)| m.max(r.abs()))
     }
 }
 

@@ -20,12 +20,12 @@
 //! elimination*, SIAM J. Sci. Comput. 33:746-762; Brandt 1977 (nonlinear Gauss-Seidel
 //! smoothing); docs/mechanics.md (slack and wrinkled near-mechanisms).
 
-use super::settings::MIN_AREA_RATIO;
 use super::assemble::{
     pressure_contribution, segment_contribution, tie_contribution, triangle_contribution, Aid,
 };
-use super::slope::bracket_slope;
 use super::dense::dense_solve;
+use super::settings::MIN_AREA_RATIO;
+use super::slope::bracket_slope;
 use crate::memory::{self, OutOfMemory};
 use crate::model::cable::{Mat6, Vec6};
 use crate::model::membrane::Mat9;
@@ -375,7 +375,7 @@ pub struct PatchWork {
 impl PatchWork {
     /// Room for patches of up to `nodes` nodes (the dense block and vectors; 8 elements of each
     /// kind per node), so that a larger patch met in a later iteration does not allocate
-    /// there (`tests/alloc_per_iteration.rs`). Only grows.
+    /// there (`tests/guards/alloc_per_iteration.rs`). Only grows.
     pub fn reserve(&mut self, nodes: usize) {
         let n = 3 * nodes;
         for (v, len) in [

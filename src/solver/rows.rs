@@ -50,6 +50,10 @@ impl ArcRow<'_> {
     }
 }
 
+/// The rows of an arc-length increment (the slip and volume rows, then the arc row) and the
+/// load factor's column ∂R/∂λ = −q as (equation, value) pairs.
+pub type Border = (Vec<Row>, Vec<(usize, f64)>);
+
 /// Where a Newton loop starts and what it knows of its step.
 pub struct Increment<'a> {
     pub loads: &'a [f64],
@@ -58,4 +62,3 @@ pub struct Increment<'a> {
     /// Whether the loads or prescribed displacements of the step changed at all.
     pub moved: bool,
 }
-

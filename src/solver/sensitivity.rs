@@ -251,6 +251,7 @@ impl Solver {
     /// value (follower pressure on the current geometry). Prescribed displacements: the held
     /// DOFs move by 1 and drag the free ones through the tangent's coupling (and the slip rows
     /// through theirs, by a central difference of the rows, which are cheap).
+    #[allow(clippy::too_many_arguments)]
     pub fn load_rhs(
         &mut self,
         model: &Model,

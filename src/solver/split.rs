@@ -21,8 +21,8 @@
 //! elimination, so they run side by side.
 //!
 //! A solve: forward substitution over each half's own columns (both halves at once) gives
-//! z_h = L_hh^-1 b_h and, in its S rows, -K_Sh K_hh^-1 b_h; then S x_S = b_S - K_SA K_AA^-1 b_A
-//! - K_SB K_BB^-1 b_B (dense); then back substitution over each half's own columns with x_S
+//! z_h = L_hh^-1 b_h and, in its S rows, -K_Sh K_hh^-1 b_h; then
+//! S x_S = b_S - K_SA K_AA^-1 b_A - K_SB K_BB^-1 b_B (dense); then back substitution over each half's own columns with x_S
 //! known gives x_h = K_hh^-1 (b_h - K_hS x_S).
 //!
 //! The separator is a level set of a breadth-first search from a pseudo-peripheral equation
@@ -427,8 +427,8 @@ impl Split {
             if pos[j] == usize::MAX {
                 continue;
             }
-            for p in col_ptr[j]..col_ptr[j + 1] {
-                let i = row_idx[p];
+            let column = col_ptr[j]..col_ptr[j + 1];
+            for (p, &i) in column.clone().zip(&row_idx[column]) {
                 if pos[i] != usize::MAX {
                     kss.push((pos[i].max(pos[j]), pos[i].min(pos[j]), p));
                 }
@@ -877,13 +877,13 @@ fn separator_levels(
     }
     let mut before = 0;
     let mut best: Option<(usize, usize)> = None;
-    for l in 0..depth {
-        let after = n - before - size[l];
+    for (l, &size_l) in size.iter().enumerate().take(depth) {
+        let after = n - before - size_l;
         let least = (BALANCE * n as f64) as usize;
         if before >= least && after >= least && best.is_none_or(|(_, m)| before.max(after) < m) {
             best = Some((l, before.max(after)));
         }
-        before += size[l];
+        before += size_l;
     }
     Ok(match best {
         Some((l, _)) if size[l] <= MAX_SEPARATOR => Some(Levels {

@@ -82,7 +82,7 @@ impl Stepper {
             Path::Load(p) => p.advance(solver, model, &mut self.report),
             Path::Arc(p) => match p.advance(solver, model, &mut self.report) {
                 Ok(a) => a,
-                Err(()) => {
+                Err(super::arc::LoadControlInstead) => {
                     // The arc-length path cannot start (its first increment moved nothing):
                     // the whole step by load control, from the start, as if it had not run.
                     let (from, to, u, contact) = &self.start;

@@ -131,7 +131,7 @@ fn helper_loop(shared: Arc<Shared>) {
         let mut job = state.jobs[slot].take();
         drop(state);
         let panicked = match job.as_mut() {
-            Some(job) => catch_unwind(AssertUnwindSafe(|| job())).is_err(),
+            Some(job) => catch_unwind(AssertUnwindSafe(job)).is_err(),
             None => false,
         };
         state = shared.lock();

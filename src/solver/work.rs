@@ -1,6 +1,6 @@
 //! The Newton loop's work buffers: allocated once (at their first use) and reused by every
 //! iteration, so that an iteration allocates nothing (issue 15 item 5; docs/performance.md,
-//! memory; `tests/alloc_per_iteration.rs` counts it).
+//! memory; `tests/guards/alloc_per_iteration.rs` counts it).
 //!
 //! ```text
 //! scratch      an assembly's positions and forces in internal order, the load vector

@@ -14,9 +14,9 @@
 //! ```
 
 use super::Instance;
-use crate::engine::Known;
+use crate::engine::derivatives::Known;
+use crate::fmi::fmi2_ffi::Status;
 use crate::fmi::fsm::Func;
-use crate::fmi::Status;
 use crate::variables::{Binding, Causality, VarType, Variable};
 
 /// Which table the value references are in.
@@ -110,7 +110,7 @@ impl Instance {
             out.fill(0.0);
             return Ok(Status::Ok);
         }
-        if self.fsm == crate::fmi::FsmState::InitializationMode {
+        if self.fsm == crate::fmi::fsm::FsmState::InitializationMode {
             self.solve_initial()?;
         }
         if self.poisoned {

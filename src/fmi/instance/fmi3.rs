@@ -23,10 +23,13 @@
 
 use super::{load_engine_from, reached, shown, Instance};
 use crate::description3;
-use crate::fmi::fmi3_ffi::{IntermediateUpdate, TIME_VALUE_REFERENCE};
+use crate::description3::TIME_VALUE_REFERENCE;
+use crate::engine::Engine;
+use crate::fmi::fmi2_ffi::Status;
+use crate::fmi::fmi3_ffi::IntermediateUpdate;
 use crate::fmi::fsm::Func;
 use crate::fmi::logging::{Category, Logger};
-use crate::fmi::Status;
+use crate::fmi::worker::Worker;
 use crate::variables::{Causality, VarType, Variable};
 
 /// The arguments of `fmi3InstantiateCoSimulation` that matter, as Rust values.
@@ -55,7 +58,7 @@ impl Instance {
     /// the token is wrong, or when the master wants event mode (`hasEventMode="false"`).
     pub fn instantiate_fmi3(args: &Instantiate3Args, logger: Logger) -> Option<Instance> {
         // Built on the instance's worker, as in fmi2Instantiate (form finding factorizes).
-        let worker = super::Worker::new();
+        let worker = Worker::new();
         match worker.run(|| build_fmi3(args)) {
             Ok((engine, token)) => {
                 let mut instance = Instance::new(engine, token, logger, worker);
@@ -311,7 +314,7 @@ impl Instance {
     /// `lastSuccessfulTime = currentCommunicationPoint`; the master may change inputs and try
     /// again, restore a state, or terminate. `eventHandlingNeeded` and `terminateSimulation` are
     /// false (no event mode); `earlyReturn` is true only when the master asked for it through
-    /// its intermediate-update callback and allowed it at instantiation ([`Instance::step_reported`]).
+    /// its intermediate-update callback and allowed it at instantiation (`step_reported`).
     pub fn do_step_fmi3(
         &mut self,
         t: f64,
@@ -435,7 +438,7 @@ impl Instance {
 
 /// Check the instantiation arguments, read the scene from the resource path, compare the
 /// token.
-fn build_fmi3(args: &Instantiate3Args) -> Result<(crate::Engine, String), String> {
+fn build_fmi3(args: &Instantiate3Args) -> Result<(Engine, String), String> {
     match args.instance_name {
         None => return Err("instanceName is NULL".into()),
         Some("") => return Err("instanceName is empty".into()),
@@ -453,7 +456,7 @@ fn build_fmi3(args: &Instantiate3Args) -> Result<(crate::Engine, String), String
         .resource_path
         .ok_or("resourcePath is NULL; this FMU reads its scene from resources/scene.json")?;
     let engine = load_engine_from(std::path::Path::new(path))?;
-    let token = description3::instantiation_token(&engine);
+    let token = description3::instantiation_token(engine.scene(), engine.arrays());
     if given != token {
         return Err(format!(
             "instantiationToken mismatch: the importer passed {given}, but this binary and its resources have {token} (was the FMU repackaged with another modelDescription.xml?)"

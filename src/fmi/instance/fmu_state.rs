@@ -3,9 +3,9 @@
 //! methods here receive closures that store or release them.
 
 use super::Instance;
+use crate::fmi::fmi2_ffi::Status;
 use crate::fmi::fsm::{FsmState, Func};
 use crate::fmi::snapshot::{self, Snapshot};
-use crate::fmi::Status;
 
 impl Instance {
     /// The instance's state as plain data.

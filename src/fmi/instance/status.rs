@@ -9,8 +9,10 @@
 //! to asynchronous stepping and is an Error with a message.
 
 use super::Instance;
+use crate::fmi::fmi2_ffi::{
+    Status, FMI2_DO_STEP_STATUS, FMI2_LAST_SUCCESSFUL_TIME, FMI2_TERMINATED,
+};
 use crate::fmi::fsm::Func;
-use crate::fmi::{Status, FMI2_DO_STEP_STATUS, FMI2_LAST_SUCCESSFUL_TIME, FMI2_TERMINATED};
 
 impl Instance {
     /// `fmi2GetStatus`: only fmi2DoStepStatus exists, for asynchronous steps, which this FMU

@@ -1,0 +1,205 @@
+//! Bad scenes are rejected with every problem located by JSON path; good ones pass.
+
+use crate::common;
+use velarium::scene::{validate::validate, Scene};
+
+fn problems(text: &str) -> Vec<String> {
+    match Scene::from_json(text) {
+        Err(p) => vec![p.to_string()],
+        Ok(s) => validate(&s).iter().map(|p| p.to_string()).collect(),
+    }
+}
+
+#[test]
+fn shipped_scenes_are_valid() {
+    for name in ["PrestressedCable", "HenckyDisc", "LiftedMembrane"] {
+        let scene = common::read_scene(&common::shipped(name));
+        assert_eq!(validate(&scene), vec![], "{name}");
+    }
+}
+
+#[test]
+fn type_errors_name_their_path() {
+    let p = problems(
+        r#"{"format": 1, "name": "A", "cables": [{"name": "c", "nodes": [0, 1], "EA": "stiff"}]}"#,
+    );
+    assert_eq!(p.len(), 1);
+    assert!(p[0].starts_with("cables[0].EA"), "{p:?}");
+    let p = problems(
+        r#"{"format": 1, "name": "A", "membranes": [{"name": "m", "triangles": "t", "thickness": 1, "materail": {}}]}"#,
+    );
+    assert!(
+        p[0].contains("membranes[0]") && p[0].contains("materail"),
+        "{p:?}"
+    );
+}
+
+#[test]
+fn every_semantic_problem_is_listed_with_its_path() {
+    let text = r#"{
+      "format": 2, "name": "9bad",
+      "geometry": {"nodes": [[0,0,0],[1,0,0],[2,0,0],[0,1,0]], "triangles": [[0,1,2],[0,1,57]]},
+      "membranes": [{"name": "m", "triangles": [0], "thickness": -1, "material": {"kind": "svk", "E": 1e6, "nu": 0.7}}],
+      "cables": [{"name": "c", "nodes": [3], "EA": 1e5}],
+      "supports": [{"nodes": "nowhere", "fix": ["z"]}],
+      "inputs": [{"name": "P", "load": {"kind": "pressure", "membrane": "mm"}, "start": 0}],
+      "outputs": [{"name": "P", "probe": {"kind": "displacement", "node": 99, "component": "z"}}]
+    }"#;
+    let p = problems(text);
+    let expect = [
+        "format:",
+        "name:",
+        "geometry.triangles[0]: zero-area triangle 0",
+        "geometry.triangles[1][2]: unknown node 57",
+        "membranes[0].thickness",
+        "membranes[0].material.nu",
+        "cables[0].nodes: a cable needs at least two nodes",
+        "supports[0].nodes: no node set is named \"nowhere\"",
+        "inputs[0].load.membrane: no membrane group is named \"mm\"",
+        "outputs[0].probe.node: unknown node 99",
+        "outputs[0].name: \"P\" is already used",
+    ];
+    for e in expect {
+        assert!(
+            p.iter().any(|m| m.starts_with(e) || m.contains(e)),
+            "missing {e:?} in {p:#?}"
+        );
+    }
+}
+
+#[test]
+fn engine_refuses_an_invalid_scene() {
+    let scene = Scene::from_json(
+        r#"{"format": 1, "name": "A", "cables": [{"name": "c", "nodes": [0, 1], "EA": 1}]}"#,
+    )
+    .unwrap();
+    let err = velarium::Engine::try_new(scene)
+        .err()
+        .expect("unknown nodes must be refused");
+    assert!(err.to_string().contains("cables[0].nodes[0]"), "{err}");
+}
+
+#[test]
+fn the_schema_is_json_and_covers_the_format() {
+    let schema: serde_json::Value = serde_json::from_str(&Scene::json_schema()).unwrap();
+    let text = schema.to_string();
+    for key in [
+        "membranes",
+        "cables",
+        "supports",
+        "inputs",
+        "outputs",
+        "parameters",
+        "solver",
+        "point_force",
+        "reaction",
+    ] {
+        assert!(text.contains(key), "schema lacks {key}");
+    }
+}
+
+/// The orthotropic material, rotations, polar displacements and the reaction moment and
+/// resultant: each bad value is named by its path.
+#[test]
+fn orthotropic_and_support_motion_problems_are_located() {
+    let text = r#"{
+      "format": 1, "name": "Bad",
+      "geometry": {"nodes": [[0,0,0],[1,0,0],[0,1,0],[1,1,0]], "triangles": [[0,1,2],[1,3,2]],
+                   "node_sets": {"a": [0], "b": [1, 3]}},
+      "membranes": [{"name": "m", "triangles": [0], "thickness": 1e-3,
+                     "material": {"kind": "orthotropic", "E_warp": 1e6, "E_fill": 4e6, "nu_wf": 0.6, "G": 0, "warp": [0, 0, 1]}},
+                    {"name": "n", "triangles": [1], "thickness": 1e-3,
+                     "material": {"kind": "orthotropic", "E_warp": 1e6, "E_fill": 1e6, "nu_wf": 0.3, "G": 1e5, "warp": [0, 0, 0]}}],
+      "supports": [{"nodes": "a", "fix": ["z"]}],
+      "inputs": [{"name": "turn", "load": {"kind": "rotation", "nodes": "a", "point": [0, 0, 0], "axis": [0, 0, 0]}},
+                 {"name": "turn2", "load": {"kind": "rotation", "nodes": "b", "point": [0, 0, 0], "axis": [0, 0, 1]}},
+                 {"name": "turn3", "load": {"kind": "rotation", "nodes": "b", "point": [0, 0, 0], "axis": [0, 1, 0]}},
+                 {"name": "r", "load": {"kind": "polar_displacement", "nodes": [2], "center": [0, 1, 5], "axis": "z", "component": "radial"}}],
+      "outputs": [{"name": "M", "probe": {"kind": "reaction_moment", "nodes": [2], "point": [0, 0, 0], "axis": [0, 0, 0]}},
+                  {"name": "F", "probe": {"kind": "reaction_resultant", "nodes": [0, 57]}}]
+    }"#;
+    let p = problems(text);
+    let expect = [
+        "membranes[0].material.G: 0 is not a positive shear modulus",
+        "membranes[0].material.nu_wf: 0.6: nu_wf must be in [0, sqrt(E_warp/E_fill)) = [0, 0.500000)",
+        "membranes[0].material.warp: [0.0, 0.0, 1.0] is (nearly) normal to triangle 0",
+        "membranes[1].material.warp: must be a non-zero finite vector",
+        "inputs[0].load.nodes: node 0 is already fixed in z by a support; a prescribed rotation cannot move it",
+        "inputs[2].load.nodes: node 1 component x is prescribed by two rotation inputs",
+        "inputs[0].load.axis: must be a non-zero finite vector",
+        "inputs[3].load.nodes: node 2 lies on the axis",
+        "outputs[0].probe.axis: must be a non-zero finite vector",
+        "outputs[1].probe.nodes",
+    ];
+    for e in expect {
+        assert!(
+            p.iter().any(|m| m.starts_with(e)),
+            "missing {e:?} in:\n{}",
+            p.join("\n")
+        );
+    }
+}
+
+/// `membranes[].residual_stiffness` (docs/scenes.md): a share of the elastic stiffness in
+/// [0, 0.01], for the tension-field law only; each bad value is named with its path.
+#[test]
+fn residual_stiffness_out_of_range_or_without_wrinkling_is_named() {
+    let scene = |value: &str, wrinkling: bool| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}},
+              "membranes": [{{"name": "m", "triangles": [0], "thickness": 1e-4,
+                             "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}},
+                             "wrinkling": {wrinkling}, "residual_stiffness": {value}}}],
+              "supports": [{{"nodes": [0, 1, 2], "fix": ["x", "y", "z"]}}]}}"#
+        )
+    };
+    for bad in ["-1e-4", "0.5"] {
+        let p = problems(&scene(bad, true));
+        assert!(
+            p.iter()
+                .any(|m| m.contains("membranes[0].residual_stiffness") && m.contains("[0, 0.01]")),
+            "{bad}: {p:?}"
+        );
+    }
+    let p = problems(&scene("1e-4", false));
+    assert!(
+        p.iter()
+            .any(|m| m.contains("membranes[0].residual_stiffness") && m.contains("wrinkling off")),
+        "{p:?}"
+    );
+    assert!(problems(&scene("1e-4", true)).is_empty());
+}
+
+/// `solver.prestress_continuation` (docs/scenes.md): a starting pre-strain in [0, 0.1]; a value
+/// outside is named with its path and the value; a string is a type error at the same path;
+/// 0 (off) and the default are accepted.
+#[test]
+fn a_bad_prestress_continuation_is_named() {
+    let scene = |value: &str| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}},
+              "membranes": [{{"name": "m", "triangles": [0], "thickness": 1e-4,
+                             "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}}}}],
+              "supports": [{{"nodes": [0, 1, 2], "fix": ["x", "y", "z"]}}],
+              "solver": {{"prestress_continuation": {value}}}}}"#
+        )
+    };
+    for bad in ["-1e-3", "0.5", "1e300"] {
+        let p = problems(&scene(bad));
+        assert!(
+            p.iter().any(|m| m.contains("solver.prestress_continuation")
+                && m.contains("from 0 (off) to 0.1")),
+            "{bad}: {p:?}"
+        );
+    }
+    let p = problems(&scene("\"high\""));
+    assert!(
+        p.iter().any(|m| m.contains("prestress_continuation")),
+        "{p:?}"
+    );
+    for good in ["0", "1e-3", "0.1"] {
+        assert!(problems(&scene(good)).is_empty(), "{good}");
+    }
+}

@@ -1,0 +1,13 @@
+//! The solver: its hard cases, outcomes and paths, nodal relaxation, inexact Newton, node
+//! renumbering and threads. One file alone: `cargo test --release --test solver hard_cases::`;
+//! one case: `cargo test --release --test solver hard_cases::m2_`.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod hard_cases;
+mod inexact_newton;
+mod relax_patch;
+mod renumber;
+mod solver_outcomes;
+mod threads;
