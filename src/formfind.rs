@@ -77,7 +77,6 @@ use measure::{balancing_stress, shape_move};
 use state::{Halt, Setup, State, TriangleStress};
 pub use state::{Report, ACROSS_CABLE_KEPT, AXIAL_KEPT, COLLAPSE, CREEP_RATE, MESH_SPRING};
 
-
 /// Form-find a validated scene that has a `form_finding` section (or use `settings`). Err for a
 /// scene problem found on the way (a degenerate start triangle, a warp direction normal to a
 /// triangle); non-convergence is a report with a message, not an error.
@@ -133,7 +132,6 @@ fn finish(mut report: Report, start: std::time::Instant) -> Report {
     report.seconds = start.elapsed().as_secs_f64();
     report
 }
-
 
 impl Setup {
     /// The fixed data of form-finding `scene` and the state before the first iteration (X_0:
