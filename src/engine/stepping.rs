@@ -52,6 +52,8 @@ impl Engine {
         } else {
             Ok(())
         };
+        // Probed before the stepper copies the state: those copies are part of what it checks.
+        let ready = rebuilt.and_then(|()| self.probe_step());
         let s = &self.state;
         let mut stepper = Stepper::begin(
             &self.solver,
@@ -70,7 +72,7 @@ impl Engine {
         } else {
             None
         };
-        if let Err(message) = rebuilt.and_then(|()| self.probe_step()) {
+        if let Err(message) = ready {
             stepper.fail(message);
         }
         Step { stepper, fallback }
