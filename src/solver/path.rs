@@ -34,7 +34,7 @@
 
 use super::assemble::{self, Membranes, NONE};
 use super::core::Solver;
-use super::loads::{external_forces, load_change, prescribe};
+use super::loads::{external_forces, load_change, loads_at, prescribe};
 use super::report::{push_log, StepReport};
 use super::rows::Increment;
 use super::settings::Settings;
@@ -101,11 +101,7 @@ impl LoadPath {
 
     /// The loads at load fraction `lambda` of the step.
     pub fn loads(&self, lambda: f64) -> Vec<f64> {
-        self.from
-            .iter()
-            .zip(&self.to)
-            .map(|(a, b)| a + lambda * (b - a))
-            .collect()
+        loads_at(&self.from, &self.to, lambda)
     }
 
     /// One increment attempt: Newton from the last converged point to λ + Δλ (after a failure

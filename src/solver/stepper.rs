@@ -30,8 +30,12 @@ pub struct Stepper {
     path: Path,
     report: StepReport,
     failed: bool,
-    /// Where an arc-length step falls back to load control as a whole, its start.
-    start: (Vec<f64>, Vec<f64>, Vec<f64>, Vec<Contact>),
+    /// The step's loads at λ = 0 and 1.
+    from: Vec<f64>,
+    to: Vec<f64>,
+    /// An arc-length step's start (displacements, stick/slip states), kept for the fallback to
+    /// load control as a whole; None under load control (its path holds the start already).
+    arc_start: Option<(Vec<f64>, Vec<Contact>)>,
 }
 
 impl Stepper {
@@ -55,15 +59,20 @@ impl Stepper {
         } else {
             None
         };
-        let path = match arc {
-            Some(arc) => Path::Arc(arc),
-            None => Path::Load(LoadPath::begin(model, s, from, to, u, contact.clone())),
+        let (path, arc_start) = match arc {
+            Some(arc) => (Path::Arc(arc), Some((u.to_vec(), contact))),
+            None => (
+                Path::Load(LoadPath::begin(model, s, from, to, u, contact)),
+                None,
+            ),
         };
         Stepper {
             path,
             report: StepReport::failed(),
             failed: false,
-            start: (from.to_vec(), to.to_vec(), u.to_vec(), contact),
+            from: from.to_vec(),
+            to: to.to_vec(),
+            arc_start,
         }
     }
 
@@ -85,9 +94,10 @@ impl Stepper {
                 Err(super::arc::LoadControlInstead) => {
                     // The arc-length path cannot start (its first increment moved nothing):
                     // the whole step by load control, from the start, as if it had not run.
-                    let (from, to, u, contact) = &self.start;
+                    let (u, contact) = self.arc_start.take().unwrap_or_default();
                     let s = &solver.settings;
-                    self.path = Path::Load(LoadPath::begin(model, s, from, to, u, contact.clone()));
+                    let load = LoadPath::begin(model, s, &self.from, &self.to, &u, contact);
+                    self.path = Path::Load(load);
                     self.report = StepReport::failed();
                     return self.advance(solver, model);
                 }
@@ -119,12 +129,11 @@ impl Stepper {
 
     /// The loads at the last converged point.
     pub fn applied(&self) -> Vec<f64> {
-        let (from, to, ..) = &self.start;
         let lambda = self.lambda();
         if lambda >= 1.0 {
-            return to.clone();
+            return self.to.clone();
         }
-        super::loads::loads_at(from, to, lambda)
+        super::loads::loads_at(&self.from, &self.to, lambda)
     }
 
     /// The report so far (Failed until [`Stepper::finish`] says otherwise).
