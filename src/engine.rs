@@ -16,6 +16,8 @@
 use crate::error::Error;
 use crate::memory;
 use crate::model::membrane::Evaluation;
+use crate::model::sleeve::Contact;
+use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 use crate::results;
 use crate::scene::{validate, DebugSettings, Scene};
@@ -32,10 +34,9 @@ pub struct EngineState {
     /// Displacement of every DOF (3 per node, sleeve points included), then the slip of every
     /// sleeve point (material coordinate change, m): `Model::unknown_count` values.
     pub displacement: Vec<f64>,
-    /// Stick/slip state of every sleeve point at the last converged increment
-    /// (0 stick, 1 slip toward the cable's end, 2 toward its start, 3 merged into the previous
-    /// sleeve point).
-    pub slip_state: Vec<u8>,
+    /// Stick/slip state of every sleeve point at the last converged increment (stuck,
+    /// slipping toward the cable's end or its start, or merged into the previous sleeve point).
+    pub slip_state: Vec<Contact>,
     /// Input values of the committed equilibrium (what the structure carries now).
     pub applied: Vec<f64>,
     /// Input values as last set (applied at the next solve).
@@ -44,8 +45,8 @@ pub struct EngineState {
     pub parameters: Vec<f64>,
     /// Newton iterations of the last solve.
     pub last_iterations: u32,
-    /// Wrinkle state of every membrane triangle (0 taut, 1 wrinkled, 2 slack), in model order.
-    pub wrinkle: Vec<u8>,
+    /// Wrinkle state of every membrane triangle (taut, wrinkled or slack), in model order.
+    pub wrinkle: Vec<WrinkleState>,
     /// Tension direction of every membrane triangle: angle (rad) of the major principal strain
     /// direction in the triangle's reference frame (first edge = 0).
     pub tension_angle: Vec<f64>,
@@ -59,7 +60,9 @@ impl EngineState {
             + self.inputs.len()
             + self.parameters.len()
             + self.tension_angle.len();
-        8 * floats as u64 + (self.slip_state.len() + self.wrinkle.len()) as u64
+        8 * floats as u64
+            + (self.slip_state.len() * size_of::<Contact>()
+                + self.wrinkle.len() * size_of::<WrinkleState>()) as u64
     }
 }
 
@@ -351,13 +354,7 @@ impl Engine {
                 state.displacement[i]
             ));
         }
-        if let Some(i) = state.slip_state.iter().position(|&c| c > 3) {
-            return bad(format!(
-                "slip_state[{i}] = {} is not a stick/slip code (0 stick, 1 and 2 slip, 3 merged)",
-                state.slip_state[i]
-            ));
-        }
-        // Merged (3) only where the point follows another sleeve point, and then its segment
+        // Merged only where the point follows another sleeve point, and then its segment
         // must be closed (negative unstretched length, docs/mechanics.md §2.3), both ways.
         let model = &self.model;
         if state.slip_state.len() == model.slips.len()
@@ -367,23 +364,17 @@ impl Engine {
                 let e = model.slips[j].segments[0];
                 let follows = model.segments[e].slip[0].is_some();
                 let closed = follows && model.segment_closed(&state.displacement, e);
-                if (c == crate::model::sleeve::MERGED) != closed {
+                if (c == Contact::Merged) != closed {
                     return bad(format!(
-                        "slip_state[{j}] = {c} does not match the slips: {}",
-                        if c == crate::model::sleeve::MERGED {
+                        "slip_state[{j}] = {c:?} does not match the slips: {}",
+                        if c == Contact::Merged {
                             "a merged point must follow a touching sleeve point (closed segment)"
                         } else {
-                            "the segment before this point is closed, so its state must be 3 (merged)"
+                            "the segment before this point is closed, so its state must be Merged"
                         }
                     ));
                 }
             }
-        }
-        if let Some(i) = state.wrinkle.iter().position(|&c| c > 2) {
-            return bad(format!(
-                "wrinkle[{i}] = {} is not a wrinkle code (0 taut, 1 wrinkled, 2 slack)",
-                state.wrinkle[i]
-            ));
         }
         if let Some(i) = state.tension_angle.iter().position(|x| !x.is_finite()) {
             return bad(format!(
@@ -615,10 +606,7 @@ impl Engine {
             &membranes,
             &s.slip_state,
         );
-        self.state.wrinkle = membranes
-            .iter()
-            .map(|e| results::state_code(e.state))
-            .collect();
+        self.state.wrinkle = membranes.iter().map(|e| e.state).collect();
         self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
         self.membranes = membranes;
         Ok(())
@@ -649,6 +637,7 @@ fn settings(scene: &Scene) -> Settings {
     Settings {
         tolerance: s.tolerance,
         max_iterations: s.max_iterations,
+        max_step_iterations: s.max_step_iterations,
         initial_increment: s.initial_increment,
         min_increment: s.min_increment,
         target_iterations: s.target_iterations,

@@ -22,8 +22,9 @@
 //! ```
 
 use crate::model::membrane::Evaluation;
+use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
-use crate::model::{pressure, sleeve, LoadModel, Model, ProbeModel};
+use crate::model::{pressure, LoadModel, Model, ProbeModel};
 use crate::solver::Solver;
 
 /// Every output of the model, in probe order. `u` displacement, `applied` input values it
@@ -35,7 +36,7 @@ pub fn evaluate(
     applied: &[f64],
     iterations: u32,
     membranes: &[Evaluation],
-    slip_states: &[u8],
+    slip_states: &[Contact],
 ) -> Vec<f64> {
     let needs_reactions = model.probes.iter().any(|p| {
         matches!(
@@ -103,7 +104,7 @@ pub fn evaluate(
                 .iter()
                 .filter(|&&j| {
                     let state = group_state(model, slip_states, j);
-                    (state != sleeve::STICK) == *slipping
+                    (state != Contact::Stick) == *slipping
                 })
                 .count() as f64,
             ProbeModel::CableTension { cable, segment } => {
@@ -187,17 +188,17 @@ fn held_force(model: &Model, r: &[f64], i: usize) -> nalgebra::Vector3<f64> {
     })
 }
 
-/// Stick/slip code of sleeve point `j`, a merged point taking its group's (the leader's).
-fn group_state(model: &Model, slip_states: &[u8], j: usize) -> u8 {
-    let code = |k: usize| slip_states.get(k).copied().unwrap_or(sleeve::STICK);
+/// Stick/slip state of sleeve point `j`, a merged point taking its group's (the leader's).
+fn group_state(model: &Model, slip_states: &[Contact], j: usize) -> Contact {
+    let state = |k: usize| slip_states.get(k).copied().unwrap_or_default();
     let mut k = j;
-    while code(k) == sleeve::MERGED {
+    while state(k) == Contact::Merged {
         match model.segments[model.slips[k].segments[0]].slip[0] {
             Some(i) => k = i,
-            None => return sleeve::STICK,
+            None => return Contact::Stick,
         }
     }
-    code(k)
+    state(k)
 }
 
 fn segment_length(model: &Model, u: &[f64], e: usize) -> f64 {

@@ -235,6 +235,50 @@ mod tests {
         }
     }
 
+    // GOAL: the wrinkle and stick/slip states travel as their codes (the variant index: taut 0,
+    //       wrinkled 1, slack 2; stick 0, forward 1, backward 2, merged 3), and a state whose
+    //       code is none of them is refused by the payload check: the engine only ever holds
+    //       typed states. REFERENCE: the codes above, compared exactly.
+    #[test]
+    fn state_codes_are_checked_at_the_boundary() {
+        use crate::model::sleeve::Contact;
+        use crate::model::wrinkling::WrinkleState;
+        // The byte of the first entry of a vector: where two payloads differing only there
+        // differ.
+        let at = |a: &Snapshot, b: &Snapshot| {
+            let (pa, pb) = (
+                payload(&encode(a, "{abc}").unwrap(), "{abc}"),
+                payload(&encode(b, "{abc}").unwrap(), "{abc}"),
+            );
+            assert_eq!(pa.len(), pb.len());
+            let i = (0..pa.len()).find(|&i| pa[i] != pb[i]).unwrap();
+            (i, pa, pb)
+        };
+        let mut base = sample();
+        base.engine.wrinkle = vec![WrinkleState::Taut];
+        base.engine.slip_state = vec![Contact::Stick];
+        let mut slack = base.clone();
+        slack.engine.wrinkle[0] = WrinkleState::Slack;
+        let (w, _, p) = at(&base, &slack);
+        assert_eq!(p[w], 2, "slack is code 2");
+        let mut backward = base.clone();
+        backward.engine.slip_state[0] = Contact::Backward;
+        let (c, _, p) = at(&base, &backward);
+        assert_eq!(p[c], 2, "backward is code 2");
+        let mut merged = base.clone();
+        merged.engine.slip_state[0] = Contact::Merged;
+        assert_eq!(at(&base, &merged).2[c], 3, "merged is code 3");
+        let good = payload(&encode(&base, "{abc}").unwrap(), "{abc}");
+        for (index, codes) in [(w, [3u8, 7, 127]), (c, [4, 7, 127])] {
+            for code in codes {
+                let mut bad = good.clone();
+                bad[index] = code;
+                let e = decode(&seal(STATE_FORMAT_VERSION, "{abc}", &bad), "{abc}").unwrap_err();
+                assert!(e.contains("payload check failed"), "code {code}: {e}");
+            }
+        }
+    }
+
     /// The special f64 values whose bits must survive: NaNs with payloads (quiet, signalling,
     /// negative), ±Inf, -0, the smallest subnormal, the largest finite, and 0.1 + 0.2.
     const SPECIAL: [u64; 9] = [

@@ -99,15 +99,6 @@ impl Element for Tie {
     }
 }
 
-/// Slip state codes stored in the engine state: 0 stick, 1 slipping toward the cable's end
-/// (σ = +1), 2 slipping toward its start (σ = −1).
-pub const STICK: u8 = 0;
-pub const SLIP_FORWARD: u8 = 1;
-pub const SLIP_BACKWARD: u8 = 2;
-/// The sleeve point touches the previous sleeve point of its cable: the segment between them is
-/// closed (zero unstretched length) and the point follows the group's leader (`solver::order`).
-pub const MERGED: u8 = 3;
-
 /// Default stiffness of the link that holds the cable points of a closed segment together, as
 /// a multiple of the stiffer of the two ties: the points then coincide to |F|/k_link, three
 /// orders below the tie gap |F|/k_c.
@@ -118,8 +109,10 @@ pub const LINK_FACTOR: f64 = 1e3;
 /// whatever the round-off in l0 + s_end − s_start.
 pub const CLOSED_OFFSET: f64 = 1e-9;
 
-/// Stick/slip state of a sleeve point (the solver's typed view of the state codes above).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Stick/slip state of a sleeve point, as the solver, the engine state and FMU snapshots hold
+/// it. Serialized as its variant index (0 stick, 1 forward, 2 backward, 3 merged), the codes
+/// the outputs and the VTK files show ([`Contact::code`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Contact {
     #[default]
     Stick,
@@ -134,39 +127,24 @@ pub enum Contact {
 }
 
 impl Contact {
-    /// The state code stored in the engine state and FMU snapshots.
+    /// The number an output or a VTK file shows: 0 stick, 1 slipping toward the cable's end,
+    /// 2 toward its start, 3 merged.
     pub fn code(self) -> u8 {
         match self {
-            Contact::Stick => STICK,
-            Contact::Forward => SLIP_FORWARD,
-            Contact::Backward => SLIP_BACKWARD,
-            Contact::Merged => MERGED,
+            Contact::Stick => 0,
+            Contact::Forward => 1,
+            Contact::Backward => 2,
+            Contact::Merged => 3,
         }
     }
 
-    /// The state of a code; None for a code that is not one.
-    pub fn from_code(code: u8) -> Option<Contact> {
-        match code {
-            STICK => Some(Contact::Stick),
-            SLIP_FORWARD => Some(Contact::Forward),
-            SLIP_BACKWARD => Some(Contact::Backward),
-            MERGED => Some(Contact::Merged),
-            _ => None,
-        }
-    }
-
-    /// σ: +1 forward, −1 backward, 0 stuck.
+    /// σ: +1 forward, −1 backward, 0 stuck or merged.
     pub fn sigma(self) -> f64 {
-        sigma(self.code())
-    }
-}
-
-/// σ of a state code.
-pub fn sigma(state: u8) -> f64 {
-    match state {
-        SLIP_FORWARD => 1.0,
-        SLIP_BACKWARD => -1.0,
-        _ => 0.0,
+        match self {
+            Contact::Forward => 1.0,
+            Contact::Backward => -1.0,
+            Contact::Stick | Contact::Merged => 0.0,
+        }
     }
 }
 

@@ -69,14 +69,14 @@ pub struct Tangent {
 
 impl Solver {
     /// Assemble the consistent tangent at the converged state `u` (wrinkle states `wrinkle`,
-    /// stick/slip codes `slip_states`, both frozen) and factor it once.
+    /// stick/slip states `slip_states`, both frozen) and factor it once.
     pub fn factor_tangent(
         &mut self,
         model: &Model,
         u: &[f64],
         loads: &[f64],
         wrinkle: &[WrinkleState],
-        slip_states: &[u8],
+        slip_states: &[Contact],
     ) -> Result<Tangent, String> {
         if model.volumes > 0 {
             return Err("derivatives are not available for scenes with volume or gas inputs (their pressure unknowns are not in the sensitivity's border yet)".into());
@@ -100,11 +100,7 @@ impl Solver {
         self.linear.factor()?;
         let (n, m) = (self.pattern.n, model.slips.len());
         let n3 = model.dof_count();
-        let states: Vec<Contact> = slip_states
-            .iter()
-            .map(|&c| Contact::from_code(c).unwrap_or_default())
-            .collect();
-        let rows = slip_rows(model, &self.pattern.eq, u, &u[n3..], &states);
+        let rows = slip_rows(model, &self.pattern.eq, u, &u[n3..], slip_states);
         let mut y = Vec::with_capacity(m);
         for col in super::slip::slip_columns(model, &self.pattern.eq, u) {
             let mut v = vec![0.0; n];
@@ -259,7 +255,7 @@ impl Solver {
         loads: &[f64],
         t: &Tangent,
         wrinkle: &[WrinkleState],
-        slip_states: &[u8],
+        slip_states: &[Contact],
         k: usize,
     ) -> (Vec<f64>, Vec<f64>) {
         let n3 = model.dof_count();
@@ -526,20 +522,16 @@ fn slip_rows_derivative(
     eq: &[usize],
     u: &[f64],
     dx: &[f64],
-    slip_states: &[u8],
+    slip_states: &[Contact],
 ) -> Vec<f64> {
     let n3 = model.dof_count();
-    let states: Vec<Contact> = slip_states
-        .iter()
-        .map(|&c| Contact::from_code(c).unwrap_or_default())
-        .collect();
     let h = 1e-6 * model.length_scale / dx.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
     let at = |sign: f64| {
         let mut v = u.to_vec();
         for (a, d) in v.iter_mut().zip(dx) {
             *a += sign * h * d;
         }
-        slip_rows(model, eq, &v, &u[n3..], &states)
+        slip_rows(model, eq, &v, &u[n3..], slip_states)
     };
     let (plus, minus) = (at(1.0), at(-1.0));
     plus.iter()
@@ -550,14 +542,10 @@ fn slip_rows_derivative(
 
 /// The slip residuals r at `u` with the stick/slip states given and the committed slips the
 /// state's own (a stuck point's row is then 0).
-pub fn slip_residuals(model: &Model, u: &[f64], slip_states: &[u8]) -> Vec<f64> {
+pub fn slip_residuals(model: &Model, u: &[f64], slip_states: &[Contact]) -> Vec<f64> {
     let n3 = model.dof_count();
-    let states: Vec<Contact> = slip_states
-        .iter()
-        .map(|&c| Contact::from_code(c).unwrap_or_default())
-        .collect();
     let eq = vec![NONE; n3];
-    slip_rows(model, &eq, u, &u[n3..], &states)
+    slip_rows(model, &eq, u, &u[n3..], slip_states)
         .iter()
         .map(|r| r.r)
         .collect()

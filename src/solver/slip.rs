@@ -505,15 +505,11 @@ pub fn slip_blocks(
     eq: &[usize],
     u: &[f64],
     committed: &[f64],
-    states: &[u8],
+    states: &[Contact],
 ) -> (Vec<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
     let n = eq.iter().filter(|&&e| e != NONE).count();
     let m = model.slips.len();
-    let states: Vec<Contact> = states
-        .iter()
-        .map(|&c| Contact::from_code(c).unwrap_or_default())
-        .collect();
-    let rows = slip_rows(model, eq, u, committed, &states);
+    let rows = slip_rows(model, eq, u, committed, states);
     let (mut b, mut c, mut d) = (
         DMatrix::zeros(n, m),
         DMatrix::zeros(m, n),

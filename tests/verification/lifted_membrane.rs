@@ -19,7 +19,7 @@ use common::*;
 struct Lifted {
     outputs: Vec<(String, f64)>,
     displacement: Vec<f64>,
-    wrinkle: Vec<u8>,
+    wrinkle: Vec<velarium::model::wrinkling::WrinkleState>,
     iterations: usize,
     converged: bool,
     message: String,

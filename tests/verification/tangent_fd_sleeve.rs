@@ -117,7 +117,7 @@ fn tie_stiffness_matches_finite_differences() {
 
 #[test]
 fn assembled_slip_blocks_match_finite_differences() {
-    use velarium::model::sleeve::{SLIP_BACKWARD, SLIP_FORWARD};
+    use velarium::model::sleeve::Contact::{Backward, Forward};
     use velarium::solver::assemble::{assemble, Pattern, NONE};
     use velarium::solver::slip::slip_blocks;
     let text = std::fs::read_to_string(concat!(
@@ -141,7 +141,7 @@ fn assembled_slip_blocks_match_finite_differences() {
         u[n3 + j] = 0.01 * (j as f64 + 1.0) * if j % 2 == 0 { 1.0 } else { -1.0 };
     }
     let committed = vec![0.0; m];
-    let states = vec![SLIP_FORWARD, SLIP_BACKWARD, SLIP_FORWARD];
+    let states = vec![Forward, Backward, Forward];
     let loads = vec![0.0; model.loads.len()];
     let (_, b, c, d) = slip_blocks(&model, &pattern.eq, &u, &committed, &states);
     let residual = |u: &[f64]| {
