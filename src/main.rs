@@ -623,11 +623,11 @@ const ELEMENT_SECONDS: f64 = 0.6e-6;
 /// that fails: measured 14-17 on the [1, N] strips of SleeveCable (N = 300 to 3000).
 const FAILING_ASSEMBLIES_PER_ITERATION: f64 = 17.0;
 
-/// What one Newton iteration costs at least (one factorization and one assembly), and what a
-/// step whose first increment fails spends before it gives up: every cut-back from
-/// initial_increment down to min_increment, each of max_iterations, or up to the solver's
-/// max_iterations_progressing (200) while the residual, already below 1e-4 of the force
-/// scale, still halves every 10 iterations.
+/// What one Newton iteration costs at least (one factorization and one assembly), what a
+/// converging step takes (one increment of up to max_iterations), and what a step that does not
+/// converge spends before it gives up: its budget of max_step_iterations Newton iterations (10x
+/// the converging step by default), each costing up to FAILING_ASSEMBLIES_PER_ITERATION
+/// assemblies (line search, nodal relaxation).
 fn cost_line(
     scene: &velarium::Scene,
     size: &velarium::scene::limits::Size,
@@ -637,20 +637,17 @@ fn cost_line(
     let factor = size.factor_flops / FACTOR_FLOPS_PER_SECOND
         + size.factor_entries as f64 * FACTOR_SECONDS_PER_ENTRY;
     let assembly = triangles as f64 * ELEMENT_SECONDS;
-    let ratio = s.initial_increment / s.min_increment;
-    let tries = (ratio.ln() / 4f64.ln()).floor().max(0.0) as usize + 1;
-    let progressing = velarium::solver::Settings::default().max_iterations_progressing;
-    let least = tries * s.max_iterations;
-    let most = tries * s.max_iterations.max(progressing);
-    let seconds = |n: usize| n as f64 * (factor + FAILING_ASSEMBLIES_PER_ITERATION * assembly);
+    let converging = (factor + assembly) * s.max_iterations as f64;
+    let failing =
+        s.max_step_iterations as f64 * (factor + FAILING_ASSEMBLIES_PER_ITERATION * assembly);
     format!(
-        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a step whose first increment does not converge gives up after {least} to {most} iterations ({tries} increments of {}, up to {} near the solution while the residual still halves): about {:.0} to {:.0} s",
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} (solver.max_step_iterations): about {:.0} s",
         size.factor_flops / 1e9,
         factor + assembly,
         s.max_iterations,
-        s.max_iterations.max(progressing),
-        seconds(least),
-        seconds(most)
+        converging,
+        s.max_step_iterations,
+        failing
     )
 }
 

@@ -56,7 +56,7 @@ impl Engine {
         let ready = rebuilt.and_then(|()| self.probe_step());
         let s = &self.state;
         let mut stepper = Stepper::begin(
-            &self.solver,
+            &mut self.solver,
             &self.model,
             &s.applied,
             &s.inputs,

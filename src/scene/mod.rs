@@ -864,6 +864,16 @@ pub struct SolverSettings {
     /// 30-46 whatever its size (WindSquare 32, the inflated cushion 46), so cutting it back
     /// earlier only repeats that work.
     pub max_iterations: usize,
+    /// Newton iterations one step may spend in all (every increment, cut-back and the prestress
+    /// continuation) before it gives up, saying so: the step's work budget. 500, 1 to 100000:
+    /// ten times an increment's `max_iterations`, and above every converging step measured
+    /// (the slowest, the hard cases' flat starts, take up to about 200; docs/solver.md, fail
+    /// fast). `velarium check` prints what it costs on the reference machine.
+    #[serde(
+        default = "default_step_iterations",
+        skip_serializing_if = "is_default_step_iterations"
+    )]
+    pub max_step_iterations: usize,
     /// First load increment inside a step, as a fraction of the step's load change (1 = try the
     /// whole step at once).
     pub initial_increment: f64,
@@ -929,6 +939,14 @@ fn is_one(n: &usize) -> bool {
     *n == 1
 }
 
+fn default_step_iterations() -> usize {
+    500
+}
+
+fn is_default_step_iterations(n: &usize) -> bool {
+    *n == default_step_iterations()
+}
+
 fn is_default_continuation(h: &f64) -> bool {
     *h == SolverSettings::default().prestress_continuation
 }
@@ -938,6 +956,7 @@ impl Default for SolverSettings {
         SolverSettings {
             tolerance: 1e-9,
             max_iterations: 50,
+            max_step_iterations: default_step_iterations(),
             initial_increment: 1.0,
             min_increment: 1e-4,
             target_iterations: 6,

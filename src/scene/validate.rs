@@ -1591,6 +1591,12 @@ impl Validator {
         if st.max_iterations == 0 {
             self.push("solver.max_iterations", "must be at least 1");
         }
+        if !(1..=100_000).contains(&st.max_step_iterations) {
+            self.push(
+                "solver.max_step_iterations",
+                format!("{} is not in 1..=100000", st.max_step_iterations),
+            );
+        }
         if !(positive(st.initial_increment) && st.initial_increment <= 1.0) {
             self.push("solver.initial_increment", "must be in (0, 1]");
         }

@@ -374,6 +374,12 @@ impl ArcPath {
         (&self.at.u, self.at.lambda, &self.at.contact)
     }
 
+    /// The largest load fraction any converged point of the path reached (beyond a limit
+    /// point the path comes back below it).
+    pub fn largest_lambda(&self) -> f64 {
+        self.at.lambda_max
+    }
+
     /// One attempt of the path (an arc-length increment, or the load-controlled increment that
     /// stands for one: the first, where the path tangent is undefined, after a state switch or
     /// a failed corrector, and the last to the target). Ok(None) once the target is reached;

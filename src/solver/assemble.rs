@@ -90,7 +90,7 @@ pub struct AssemblyInfo {
     /// negative for a triangle turned over against its reference normal).
     pub min_area_ratio: f64,
     /// Largest nodal force component any single element carries (N): the internal-force part
-    /// of the convergence test's force scale.
+    /// of the heuristics' force scale.
     pub carried: f64,
 }
 
@@ -460,6 +460,11 @@ pub struct AssemblyScratch {
 }
 
 impl AssemblyScratch {
+    /// The external forces of the last assembly (user DOF order).
+    pub fn external(&self) -> &[f64] {
+        &self.fext
+    }
+
     /// Empty buffers, and the helper's half of the triangles if any.
     pub fn with_parallel(parallel: Option<Parallel>) -> AssemblyScratch {
         AssemblyScratch {

@@ -33,6 +33,13 @@ pub struct Solver {
     pub(super) rhs: Vec<f64>,
     /// Per DOF, the magnitudes of the forces meeting there (last assembly).
     pub(super) magnitude: Vec<f64>,
+    /// Newton iterations spent in the current step ([`super::Stepper::begin`] resets it;
+    /// `settings.max_step_iterations` bounds it).
+    pub(super) step_iterations: usize,
+    /// G of the convergence test (system.rs): the scene's load scale at the last assembly.
+    pub(super) load_scale: f64,
+    /// Work buffer of G (a capacity of one entry per node, allocated once).
+    pub(super) loads_seen: Vec<f64>,
     /// Position of every equation's diagonal entry in the tangent's values.
     pub(super) diagonal_positions: Vec<usize>,
     /// D of the damped system: per equation the diagonal stiffness of the structure with every
@@ -129,12 +136,21 @@ impl Solver {
             Some(pool) => assemble::Parallel::try_new(std::sync::Arc::clone(pool), &pattern)?,
             None => None,
         };
-        let linear = Ldlt::try_with_pool(
+        let mut linear = Ldlt::try_with_pool(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
             row_idx,
             pool,
         )?;
+        // Each node's equations one group: the pivots are regularized relative to the node's
+        // own stiffness (linear.rs).
+        let mut groups = memory::zeros::<u32>(pattern.n, "the tangent's scaling")?;
+        for (d, &e) in pattern.eq.iter().enumerate() {
+            if e != NONE {
+                groups[e] = (d / 3) as u32;
+            }
+        }
+        linear.set_groups(groups)?;
         let n = model.dof_count();
         let trial_len = model.unknown_count();
         let diagonal_positions = memory::collect(
@@ -151,6 +167,9 @@ impl Solver {
             trial: vector(trial_len)?,
             rhs: vector(pattern.n)?,
             magnitude: vector(n)?,
+            step_iterations: 0,
+            load_scale: 0.0,
+            loads_seen: memory::with_capacity(n / 3, "the solver's vectors")?,
             diagonal_positions,
             reference_diagonal,
             reference_size,

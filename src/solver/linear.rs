@@ -5,6 +5,14 @@
 //! regularization): a slack or unrestrained direction then gets a tiny spring in the tangent
 //! only, and Newton's residual check decides whether the step is good. A non-finite solution
 //! is reported as a failure, never returned.
+//!
+//! With groups ([`Ldlt::set_groups`]: the solver gives each node's equations one group) the
+//! tangent is factored symmetrically scaled, S K S with S_ee = 2^-k ≈ 1/√(largest diagonal of
+//! e's group), so that ε and δ are relative to each node's own stiffness, not to the stiffest
+//! member anywhere: a pretensioned stay of EA/L = 1e14 N/m elsewhere in the model no longer
+//! replaces the pivots of a flat membrane's nodes by springs of 1e5 N/m. Powers of two make the
+//! scaling and its undoing exact; a group with no positive diagonal keeps the largest diagonal
+//! of the whole tangent (the unscaled rule).
 
 use super::factor::{numeric_ldlt, symbolic_ldlt};
 use super::split::Split;
@@ -40,6 +48,12 @@ pub struct Ldlt {
     /// Two halves factored side by side on the solver's threads (`split.rs`); None: the
     /// whole tangent on the caller's thread.
     split: Option<Split>,
+    /// Group of every equation (module docs); empty: one group.
+    groups: Vec<u32>,
+    /// S (module docs), one per equation once groups are set (empty: unscaled).
+    scale: Vec<f64>,
+    /// Largest diagonal of every group (work buffer of the scaling).
+    largest: Vec<f64>,
 }
 
 /// Work counters of one [`Ldlt`].
@@ -125,6 +139,9 @@ impl Ldlt {
             factored: false,
             counts: Counts::default(),
             split,
+            groups: Vec::new(),
+            scale: Vec::new(),
+            largest: Vec::new(),
         })
     }
 
@@ -185,19 +202,83 @@ impl Ldlt {
         }
         self.counts.factorizations += 1;
         self.factored = false;
-        let reg = (PIVOT_DELTA * max_diag, PIVOT_EPSILON * max_diag);
-        match self.split.as_mut() {
-            Some(split) => split.factor(self.matrix.val(), reg)?,
+        let scaled = self.scale_values(max_diag);
+        let unit = if scaled { 1.0 } else { max_diag };
+        let reg = (PIVOT_DELTA * unit, PIVOT_EPSILON * unit);
+        let result = match self.split.as_mut() {
+            Some(split) => split.factor(self.matrix.val(), reg),
             None => numeric_ldlt(
                 &self.symbolic,
                 &mut self.l_values,
                 &self.matrix,
                 reg,
                 &mut self.factor_mem,
-            )?,
+            ),
+        };
+        if scaled {
+            self.unscale_values();
         }
+        result?;
         self.factored = true;
         Ok(())
+    }
+
+    /// The group of every equation (the solver: each node's equations one group), for the
+    /// scaled factorization (module docs). Ignored unless it has one entry per equation.
+    pub fn set_groups(&mut self, groups: Vec<u32>) -> Result<(), OutOfMemory> {
+        let n = self.matrix.ncols();
+        if groups.len() != n {
+            return Ok(());
+        }
+        let count = groups.iter().map(|&g| g as usize + 1).max().unwrap_or(0);
+        self.largest = memory::zeros(count, "the tangent's scaling")?;
+        self.scale = memory::zeros(n, "the tangent's scaling")?;
+        self.groups = groups;
+        Ok(())
+    }
+
+    /// S from the groups' largest diagonals, and the values scaled to S K S. False (nothing
+    /// done) without groups.
+    fn scale_values(&mut self, max_diag: f64) -> bool {
+        let n = self.matrix.ncols();
+        if self.groups.len() != n || self.scale.len() != n {
+            return false;
+        }
+        self.largest.fill(0.0);
+        let (sym, v) = self.matrix.parts_mut();
+        let cp = sym.col_ptr();
+        for (j, &g) in self.groups.iter().enumerate() {
+            let g = g as usize;
+            self.largest[g] = self.largest[g].max(v[cp[j + 1] - 1].abs());
+        }
+        for (s, &g) in self.scale.iter_mut().zip(&self.groups) {
+            let d = self.largest[g as usize];
+            let d = if d > 0.0 && d.is_finite() {
+                d
+            } else {
+                max_diag
+            };
+            // 2^-round(log2 √d): exact to apply and to undo.
+            *s = (-(0.5 * d.log2()).round()).exp2();
+        }
+        self.apply_scale(|v, s| v * s);
+        true
+    }
+
+    /// The values back from S K S to K (exactly: S is powers of two).
+    fn unscale_values(&mut self) {
+        self.apply_scale(|v, s| v / s);
+    }
+
+    /// v_ij = op(v_ij, S_ii S_jj) over the stored upper triangle.
+    fn apply_scale(&mut self, op: impl Fn(f64, f64) -> f64) {
+        let (sym, v) = self.matrix.parts_mut();
+        let (cp, ri) = (sym.col_ptr(), sym.row_idx());
+        for j in 0..sym.ncols() {
+            for k in cp[j]..cp[j + 1] {
+                v[k] = op(v[k], self.scale[ri[k]] * self.scale[j]);
+            }
+        }
     }
 
     /// Solve with the last factorization, in place (one more forward/back substitution).
@@ -206,6 +287,20 @@ impl Ldlt {
         if n == 0 {
             return Ok(());
         }
+        let scaled = self.scale.len() == n;
+        if scaled {
+            rhs.iter_mut().zip(&self.scale).for_each(|(x, s)| *x *= s);
+        }
+        let result = self.solve_scaled(rhs);
+        if scaled {
+            rhs.iter_mut().zip(&self.scale).for_each(|(x, s)| *x *= s);
+        }
+        result
+    }
+
+    /// Solve with the factor as held (of S K S when scaled).
+    fn solve_scaled(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+        let n = rhs.len();
         if let Some(split) = self.split.as_mut() {
             split.solve(rhs)?;
             return if rhs.iter().all(|x| x.is_finite()) {

@@ -188,6 +188,16 @@ impl Solver {
             rows: Vec::new(),
         };
         for it in 0..=hard_max {
+            if self.step_iterations >= self.settings.max_step_iterations {
+                return Err((
+                    it,
+                    format!(
+                        "the step's budget of {} Newton iterations (solver.max_step_iterations) is spent",
+                        self.settings.max_step_iterations
+                    ),
+                ));
+            }
+            self.step_iterations += 1;
             let eqs = self.equations(model, step, &mut state, u, arc.as_deref(), it, log)?;
             match self.verdict(model, step, &mut state, u, &eqs, arc.as_deref(), it, log)? {
                 Verdict::Done(it) => {
@@ -453,9 +463,10 @@ impl Solver {
         push_log(
             log,
             format!(
-                "  converged: |R| = {:.3e} (scale {:.3e}){}{}",
+                "  converged: |R| = {:.3e} (scale {:.3e}, largest residual {:.2} of its local tolerance and floor){}{}",
                 check.free,
                 check.scale,
+                check.worst,
                 slip_note(check),
                 arc.map_or(String::new(), |a| format!(" at λ {:.6}", a.lambda)),
             ),
@@ -482,10 +493,11 @@ impl Solver {
             return Err((
                 it,
                 format!(
-                    "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e}){}",
+                    "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e}; the largest residual is {:.1e} times its local tolerance and floor){}",
                     check.free,
                     check.slip,
                     check.scale,
+                    check.worst,
                     self.where_stuck(model)
                 ),
             ));

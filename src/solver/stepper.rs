@@ -42,17 +42,15 @@ impl Stepper {
     /// Start the step `from` → `to` from the equilibrium `u` (displacements then slips) with
     /// the stick/slip codes `states` of the sleeve points.
     pub fn begin(
-        solver: &Solver,
+        solver: &mut Solver,
         model: &Model,
         from: &[f64],
         to: &[f64],
         u: &[f64],
-        states: &[u8],
+        states: &[Contact],
     ) -> Stepper {
-        let contact: Vec<Contact> = states
-            .iter()
-            .map(|&c| Contact::from_code(c).unwrap_or_default())
-            .collect();
+        let contact = states.to_vec();
+        solver.step_iterations = 0;
         let s = &solver.settings;
         let arc = if s.arc_length_path {
             ArcPath::begin(model, s, from, to, u, contact.clone())
@@ -87,6 +85,15 @@ impl Stepper {
         if self.failed {
             return None;
         }
+        if solver.step_iterations >= solver.settings.max_step_iterations && self.lambda() < 1.0 {
+            self.give_up(solver.settings.max_step_iterations);
+            let lambda = self.lambda();
+            return Some(Attempt::Rejected {
+                lambda,
+                iterations: 0,
+                failed: true,
+            });
+        }
         let attempt = match &mut self.path {
             Path::Load(p) => p.advance(solver, model, &mut self.report),
             Path::Arc(p) => match p.advance(solver, model, &mut self.report) {
@@ -107,6 +114,35 @@ impl Stepper {
             self.failed = true;
         }
         attempt
+    }
+
+    /// The step's budget is spent: the report says so, with the last increment that failed for
+    /// a reason of its own and, under arc length, the largest load fraction reached.
+    fn give_up(&mut self, budget: usize) {
+        let lambda = self.lambda();
+        let spent = "solver.max_step_iterations";
+        let last = self
+            .report
+            .log
+            .iter()
+            .rev()
+            .find(|l| {
+                l.starts_with("increment") && l.contains("cutting back") && !l.contains(spent)
+            })
+            .map_or(String::new(), |l| {
+                format!("; the last failed increment: {l}")
+            });
+        self.failed = true;
+        self.report.reached = lambda;
+        self.report.message = match &self.path {
+            Path::Load(_) => format!(
+                "no equilibrium found beyond load fraction {lambda:.6} of the step: its budget of {budget} Newton iterations ({spent}) is spent{last}"
+            ),
+            Path::Arc(p) => format!(
+                "no equilibrium found beyond load fraction {lambda:.6} of the step by arc length: its budget of {budget} Newton iterations ({spent}) is spent{last} (largest load fraction reached {:.6})",
+                p.largest_lambda()
+            ),
+        };
     }
 
     /// The load fraction of the last converged point.
@@ -144,14 +180,15 @@ impl Stepper {
     /// End the step at the last converged point: `u` and `states` become it and the report
     /// says Converged with the load fraction reached, unless the step failed (then nothing is
     /// changed and the report says why).
-    pub fn finish(self, u: &mut Vec<f64>, states: &mut Vec<u8>) -> StepReport {
+    pub fn finish(self, u: &mut Vec<f64>, states: &mut Vec<Contact>) -> StepReport {
         if self.failed {
             return self.report;
         }
         let (point, lambda, contact) = self.converged();
         u.clear();
         u.extend_from_slice(point);
-        *states = contact.iter().map(|c| c.code()).collect();
+        states.clear();
+        states.extend_from_slice(contact);
         let mut report = self.report;
         report.outcome = Outcome::Converged;
         report.reached = lambda;
@@ -171,7 +208,7 @@ impl Solver {
         from: &[f64],
         to: &[f64],
         u: &mut Vec<f64>,
-        states: &mut Vec<u8>,
+        states: &mut Vec<Contact>,
     ) -> StepReport {
         let mut stepper = Stepper::begin(self, model, from, to, u, states);
         while stepper.advance(self, model).is_some() {}
@@ -186,7 +223,7 @@ impl Solver {
         to: &[f64],
         u: &mut Vec<f64>,
     ) -> StepReport {
-        let mut states = vec![0; model.slips.len()];
+        let mut states = vec![Contact::Stick; model.slips.len()];
         self.solve_step_with(model, from, to, u, &mut states)
     }
 }

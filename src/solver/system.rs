@@ -7,18 +7,35 @@
 //! the drivers (path.rs, arc.rs, stepper.rs) never assemble.
 //!
 //! # The convergence test
-//! `F = max(|f_ext|∞, |reactions|∞, largest nodal force of any element, |Δf_ext|∞ of the
-//! step)`: the forces applied to and carried by the structure, never a stiffness. `ρ_d =
-//! c·ε·(Σ|f|_d + K_dd·X)` is the round-off floor of DOF d: ε machine epsilon, Σ|f|_d the
+//! Local, node by node: the residual of every free DOF of node n must be within
+//! `tol·S_n + ε_F`, S_n the largest over the node's three directions of the magnitudes of
+//! every force meeting there (its external load and each element force acting on it), and
+//! `ε_F = tol·G` an absolute floor from the scene's own load scale: G the lower quartile over
+//! the nodes of the nonzero nodal loads at free DOFs (of the reactions at held DOFs when
+//! nothing else is loaded: a scene driven by prescribed displacements). A force below the
+//! tolerance of a typical load is none: a bead resting unloaded on a cable, or a node inside a
+//! wrinkled region where the tension field leaves the displacement across the tension
+//! undetermined, carries only round-off. The quartile moves only when three quarters of the
+//! loaded nodes are another member's. A slip,
+//! closure or volume row is held to `tol·M`, M the size of the forces it balances (its own
+//! scale: a volume or gas law row is not a nodal force, so ε_F does not apply to it). No
+//! global scale enters the verdict: a member elsewhere, however large its force, neither
+//! loosens nor tightens the test at a node it does not touch (before, F = the largest force
+//! anywhere made a disc beside an unconnected 1e9 N stay converge in 0 iterations at w = 0).
+//! F, the largest force anywhere (external, reactions, element forces, the step's load change),
+//! remains the scale of the heuristics (the artificial prestress's fade, the relaxation's
+//! target, stall detection) and of the messages.
+//!
+//! `ρ_d = c·ε·(Σ|f|_d + K_dd·X)` is the round-off floor of DOF d: ε machine epsilon, Σ|f|_d the
 //! magnitudes of every force meeting at d (its terms), K_dd the diagonal of the tangent, X the
 //! coordinate size (rounding a coordinate by εX moves the forces by about K_dd εX), c the
 //! settings' `roundoff_factor`. The floor is local, so a very stiff member raises it only at
-//! its own nodes. A point inside the floors but not inside tol·F counts as converged only when
-//! the Newton correction from it is within tol·X at every unknown (the coordinates are then
-//! accurate to the tolerance although the forces cannot be resolved further): the floors of a stiff
-//! member's two nodes could otherwise add up to a net force on a soft part it belongs to. In
-//! the first iteration of a step whose loads changed the floor does not count: a load change is
-//! never accepted unless it is below tol·F.
+//! its own nodes. A point inside the floors but not inside the local tolerance counts as
+//! converged only when the Newton correction from it is within tol·X at every unknown (the
+//! coordinates are then accurate to the tolerance although the forces cannot be resolved
+//! further): the floors of a stiff member's two nodes could otherwise add up to a net force on
+//! a soft part it belongs to. In the first iteration of a step whose loads changed the floor
+//! does not count: a load change is accepted only where it is below the local tolerance.
 //!
 
 use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
@@ -31,15 +48,18 @@ use crate::model::Model;
 /// The convergence test at one iterate.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Check {
-    /// Every row within tolerance · F.
+    /// Every row within its local tolerance (module docs).
     pub strict: bool,
-    /// Every row within tolerance · F plus its round-off floor.
+    /// Every row within its local tolerance plus its round-off floor.
     pub within_floor: bool,
     /// |R|∞ over the free DOFs and over the slip rows.
     pub free: f64,
     pub slip: f64,
-    /// The force scale F.
+    /// The largest force anywhere, F (heuristics and messages only).
     pub scale: f64,
+    /// Largest ratio of a residual to its local tolerance plus its round-off floor (≤ 1 where
+    /// the test is met).
+    pub worst: f64,
 }
 
 impl Solver {
@@ -119,37 +139,44 @@ impl Solver {
                 m.max(r.r.abs())
             }
         });
+        // F of the heuristics (fading prestress, relaxation, stall) and of the messages: the
+        // largest force anywhere. The verdict below never uses it.
         let scale = info.external.max(held).max(info.carried).max(inc.change);
-        let tolerance = self.settings.tolerance * scale;
+        let tol = self.settings.tolerance;
         let first_of_changed_step = it == 0 && inc.moved;
         let x = self.coordinate_size(model, u);
         let c = self.settings.roundoff_factor * f64::EPSILON;
         let values = self.linear.values();
         let finite = free.is_finite() && slip.is_finite();
         let (mut strict, mut within_floor) = (finite, finite);
+        let mut worst = 0.0f64;
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             if e == NONE {
                 continue;
             }
             let r = self.residual[d].abs();
-            strict &= r <= tolerance;
+            let local = self.local_tolerance(d);
+            strict &= r <= local;
             let floor = if first_of_changed_step {
                 0.0
             } else {
                 c * (self.magnitude[d] + values[self.diagonal_positions[e]].abs() * x)
             };
-            within_floor &= r <= tolerance + floor;
+            within_floor &= r <= local + floor;
+            worst = worst.max(r / (local + floor).max(f64::MIN_POSITIVE));
         }
         for row in rows {
             let r = row.r.abs();
-            strict &= r <= tolerance;
+            let local = tol * row.magnitude;
+            strict &= r <= local;
             let own = row.ds.first().map_or(0.0, |&(_, v)| v.abs());
             let floor = if first_of_changed_step {
                 0.0
             } else {
                 c * (row.magnitude + own * x)
             };
-            within_floor &= r <= tolerance + floor;
+            within_floor &= r <= local + floor;
+            worst = worst.max(r / (local + floor).max(f64::MIN_POSITIVE));
         }
         Check {
             strict,
@@ -157,6 +184,7 @@ impl Solver {
             free,
             slip,
             scale,
+            worst,
         }
     }
 
@@ -171,6 +199,55 @@ impl Solver {
     /// Residual, tangent, force magnitudes and evaluations at `u` (frozen wrinkle states if
     /// any).
     pub(super) fn assemble_at(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> AssemblyInfo {
+        let info = self.assemble_only(model, loads, u);
+        self.measure_load_scale(model);
+        info
+    }
+
+    /// G of the convergence test (module docs) from the last assembly: the lower quartile of
+    /// the nonzero nodal loads (the reactions where nothing else is loaded). In the solver's
+    /// buffer (no allocation).
+    fn measure_load_scale(&mut self, model: &Model) {
+        self.load_scale = self.quartile_of(model, false);
+        if self.load_scale == 0.0 {
+            self.load_scale = self.quartile_of(model, true);
+        }
+    }
+
+    /// The lower quartile of the nonzero nodal loads at free DOFs, or with `reactions` of the
+    /// reactions at held DOFs; 0 when there are none.
+    fn quartile_of(&mut self, model: &Model, reactions: bool) -> f64 {
+        let fext = self.work.scratch.external();
+        let loads = &mut self.loads_seen;
+        loads.clear();
+        for (node, (f, r)) in fext
+            .chunks_exact(3)
+            .zip(self.residual.chunks_exact(3))
+            .enumerate()
+        {
+            let mut sum = 0.0;
+            for c in 0..3 {
+                let held = model.held[3 * node + c];
+                let v = match (reactions, held) {
+                    (false, false) => f[c],
+                    (true, true) => r[c],
+                    _ => 0.0,
+                };
+                sum += v * v;
+            }
+            if sum > 0.0 && sum.is_finite() && loads.len() < loads.capacity() {
+                loads.push(sum.sqrt());
+            }
+        }
+        if loads.is_empty() {
+            return 0.0;
+        }
+        let quarter = loads.len() / 4;
+        *loads.select_nth_unstable_by(quarter, f64::total_cmp).1
+    }
+
+    /// Residual, tangent, force magnitudes and evaluations at `u`, without the load scale.
+    fn assemble_only(&mut self, model: &Model, loads: &[f64], u: &[f64]) -> AssemblyInfo {
         let membranes = Membranes {
             forced: self.frozen.as_deref(),
             out: Some(&mut self.evaluations),
@@ -218,6 +295,7 @@ impl Solver {
             None,
             membranes,
         );
+        self.measure_load_scale(model);
         let check = self.check(model, &info, rows, u, inc, it);
         let met = check.strict || check.within_floor;
         (self.evaluations.iter().map(|e| e.state).collect(), met)
@@ -236,7 +314,7 @@ impl Solver {
             .zip(&self.residual)
             .enumerate()
             .filter(|(_, (&e, r))| e != NONE && r.is_finite())
-            .map(|(d, (_, r))| (d, r.abs()))
+            .map(|(d, (_, r))| (d, r.abs() / self.local_tolerance(d)))
             .max_by(|a, b| a.1.total_cmp(&b.1))
         else {
             return String::new();
@@ -251,10 +329,19 @@ impl Solver {
             .collect();
         let soft = !states.is_empty() && states.iter().all(|&s| s != WrinkleState::Taut);
         if soft {
-            format!("; the largest residual is at node {node} in {axis}, where every triangle is wrinkled or slack: across the tension the film has no stiffness there, so the load may have no equilibrium unless something else holds that node (or the film gets a residual stiffness, membranes[].residual_stiffness)")
+            format!("; the residual farthest above its tolerance is at node {node} in {axis}, where every triangle is wrinkled or slack: across the tension the film has no stiffness there, so the load may have no equilibrium unless something else holds that node (or the film gets a residual stiffness, membranes[].residual_stiffness)")
         } else {
-            format!("; the largest residual is at node {node} in {axis}")
+            format!("; the residual farthest above its tolerance is at node {node} in {axis}")
         }
+    }
+
+    /// tol·S_n + ε_F of DOF `d` at the last assembly (module docs; never 0).
+    fn local_tolerance(&self, d: usize) -> f64 {
+        let node = 3 * (d / 3);
+        let forces = self.magnitude[node..node + 3]
+            .iter()
+            .fold(0.0f64, |m, &f| m.max(f));
+        (self.settings.tolerance * (forces + self.load_scale)).max(f64::MIN_POSITIVE)
     }
 
     pub(super) fn free_norm(&self) -> f64 {

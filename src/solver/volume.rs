@@ -83,7 +83,7 @@ pub(super) fn rows(model: &Model, eq: &[usize], u: &[f64], loads: &[f64]) -> Vec
             r: stiffness * (factor * volume - target),
             dx,
             ds,
-            magnitude: stiffness * ((factor * volume).abs() + target.abs()),
+            magnitude: stiffness * (factor * volume).abs().max(target.abs()),
             damped: false,
         });
     }

@@ -104,7 +104,12 @@ fn check(name: &str) {
     assert!(report.converged());
     // Measured on these scenes: the re-solve stops at iteration 0 (the committed state passes
     // the convergence test) and commits the same state bit for bit.
-    assert_eq!(report.iterations, 0, "{name}: full re-solve iterations");
+    assert_eq!(
+        report.iterations,
+        0,
+        "{name}: full re-solve iterations\n{}",
+        report.log.join("\n")
+    );
     let mut again = full.state().clone();
     again.last_iterations = 0;
     assert_eq!(&again, e.state(), "{name}: full re-solve state");

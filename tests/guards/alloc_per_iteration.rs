@@ -174,9 +174,9 @@ fn check(name: &str, loose: f64, tight: f64, inputs: &[(&str, f64)]) {
 fn a_newton_iteration_allocates_nothing_but_its_log_line() {
     // 5 against 7 iterations, one increment.
     check("HenckyDisc", 1e-3, 1e-11, &[("pressure", 40.0)]);
-    // 9 against 10 (the tolerance also sets nodal relaxation's target: these two follow the
-    // same path up to the looser one's convergence; 1e-3 would not).
-    check("WrinkledShear", 1e-6, 1e-10, &[("shear", 0.003)]);
+    // 6 against 8 at shear 0.002 (at 0.003 the local convergence test takes 11 iterations at
+    // every tolerance from 1e-3 to 1e-12: the last iteration is quadratic).
+    check("WrinkledShear", 1e-4, 1e-11, &[("shear", 0.002)]);
     // 18 against 19 (likewise).
     check("SleeveCable", 1e-6, 1e-10, &[("force_2P", 3.0)]);
 }
