@@ -2,6 +2,7 @@
 //! the two-domain factorization (`split.rs`) share: symbolic analysis and numeric
 //! factorization with dynamic regularization of tiny pivots.
 
+use crate::error::{Breakdown, Error};
 use crate::memory::OutOfMemory;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -21,7 +22,8 @@ pub fn numeric_ldlt(
     matrix: &SparseColMat<usize, f64>,
     (delta, epsilon): (f64, f64),
     mem: &mut MemBuffer,
-) -> Result<(), String> {
+    of: &'static str,
+) -> Result<(), Error> {
     let reg = LdltRegularization {
         dynamic_regularization_signs: None,
         dynamic_regularization_delta: delta,
@@ -37,7 +39,10 @@ pub fn numeric_ldlt(
             MemStack::new(mem),
             Default::default(),
         )
-        .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
+        .map_err(|e| Breakdown::Factorization {
+            of,
+            detail: format!("{e:?}"),
+        })?;
     Ok(())
 }
 
