@@ -27,7 +27,8 @@ pub enum Error {
     },
     /// A file could not be read or written.
     Io { path: String, message: String },
-    /// Saved state bytes that do not belong to this model or are damaged.
+    /// A saved state whose values do not belong to this model or are damaged (the checks of
+    /// its serialized bytes: [`Error::StateBytes`]).
     State(String),
     /// An allocation that grows with the scene failed (the size limits passed, the process
     /// could not get the memory); nothing was changed.
@@ -104,7 +105,8 @@ pub enum Error {
 pub enum Breakdown {
     /// The tangent's largest diagonal entry is not positive and finite (its value).
     Diagonal(f64),
-    /// faer's LDLT of `of` (the tangent, the two-domain separator) failed (faer's reason).
+    /// faer's LDLT of `of` (the tangent, a half of it, the two-domain separator) failed
+    /// (faer's reason).
     Factorization { of: &'static str, detail: String },
     /// A dense block of the bordered tangent is singular (which one).
     Singular(&'static str),
