@@ -201,7 +201,7 @@ impl Engine {
         let (plus, minus, h) = self.parameter_models(i)?;
         let s = &self.state;
         let r = |m: &Model| -> Result<Vec<f64>, Error> {
-            let pattern = assemble::Pattern::try_new(m).map_err(|e| Error::State(e.to_string()))?;
+            let pattern = assemble::Pattern::try_new(m)?;
             let mut r = vec![0.0; m.dof_count()];
             assemble::assemble(m, &pattern, &s.displacement, &s.applied, &mut r, None);
             r.extend(sensitivity::slip_residuals(

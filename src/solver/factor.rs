@@ -15,7 +15,8 @@ use faer::{Par, Side};
 
 /// faer's numeric LDLT of the upper triangle of `matrix` on the calling thread, tiny pivots
 /// replaced as (delta, epsilon) say (`PIVOT_DELTA`, `PIVOT_EPSILON` times the largest diagonal
-/// entry); the whole tangent here, one half in `split.rs`.
+/// entry); the whole tangent here, one half in `split.rs`. A failure is a
+/// [`Breakdown::Factorization`] of `of` (the matrix, as the message names it).
 pub fn numeric_ldlt(
     symbolic: &SymbolicCholesky<usize>,
     l_values: &mut [f64],
