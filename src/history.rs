@@ -72,9 +72,11 @@ impl LoadTable {
     /// value is checked by the engine (finite, within [min, max]) before any solve; the engine's
     /// inputs are left at the first row's values.
     pub fn parse(text: &str, file: &str, engine: &mut Engine) -> Result<LoadTable, Error> {
-        let err = |message: String| Error::Io {
+        let whole = |message: &str| Error::LoadTable {
             path: file.to_string(),
-            message,
+            line: None,
+            cell: None,
+            message: message.to_string(),
         };
         // A byte-order mark is skipped; `#` starts a comment (whole line or after the cells).
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
@@ -87,31 +89,41 @@ impl LoadTable {
         let (header_line, header) = loop {
             let (line, text) = lines
                 .next()
-                .ok_or_else(|| err("no header line; expected `time,<input names>`".into()))?;
+                .ok_or_else(|| whole("no header line; expected `time,<input names>`"))?;
             if text.split(',').next().map(str::trim) != Some("combination") {
                 break (line, text);
             }
-            let c = parse_combination(text, engine, &combinations)
-                .map_err(|m| err(format!("line {line}: {m}")))?;
-            combinations.push(c);
+            combinations.push(parse_combination(
+                At { file, line },
+                text,
+                engine,
+                &combinations,
+            )?);
         };
-        let columns = parse_header(header, engine, &combinations)
-            .map_err(|m| err(format!("line {header_line}: {m}")))?;
+        let at = At {
+            file,
+            line: header_line,
+        };
+        let columns = parse_header(at, header, engine, &combinations)?;
         let mut rows: Vec<LoadRow> = Vec::new();
         for (line, text) in lines {
-            let row = parse_row(line, text, &columns).map_err(&err)?;
+            let at = At { file, line };
+            let row = parse_row(at, text, &columns)?;
             if let Some(previous) = rows.last() {
                 if row.time < previous.time {
-                    return Err(err(format!(
-                        "line {line}, column 1 (time): {} is earlier than the previous row's {}",
-                        row.time, previous.time
-                    )));
+                    return Err(at.cell(
+                        "column 1 (time)".into(),
+                        format!(
+                            "{} is earlier than the previous row's {}",
+                            row.time, previous.time
+                        ),
+                    ));
                 }
             }
             rows.push(row);
         }
         if rows.is_empty() {
-            return Err(err("no data rows after the header".into()));
+            return Err(whole("no data rows after the header"));
         }
         let table = LoadTable {
             file: file.to_string(),
@@ -119,14 +131,18 @@ impl LoadTable {
             rows,
         };
         for row in table.rows.iter().rev() {
-            table.apply(engine, row).map_err(&err)?;
+            table.apply(engine, row)?;
         }
         Ok(table)
     }
 
     /// Set a row's inputs on the engine: each input named by a column gets the sum of
     /// factor × value over the columns that name it.
-    fn apply(&self, engine: &mut Engine, row: &LoadRow) -> Result<(), String> {
+    fn apply(&self, engine: &mut Engine, row: &LoadRow) -> Result<(), Error> {
+        let at = At {
+            file: &self.file,
+            line: row.line,
+        };
         // (input, value reference, value, the columns that set it)
         let mut inputs: Vec<(&str, u32, f64, Vec<usize>)> = Vec::new();
         for (c, (column, value)) in self.columns.iter().zip(&row.values).enumerate() {
@@ -146,74 +162,118 @@ impl LoadTable {
                     .iter()
                     .map(|&c| format!("{} ({})", c + 2, self.columns[c].name))
                     .collect();
-                if from.len() == 1 && self.columns[from[0]].name == name {
-                    format!("line {}, column {}: {e}", row.line, columns[0])
+                let cell = if from.len() == 1 && self.columns[from[0]].name == name {
+                    format!("column {}", columns[0])
                 } else {
                     format!(
-                        "line {}, input {name} = {value} (from column {}): {e}",
-                        row.line,
+                        "input {name} = {value} (from column {})",
                         columns.join(" and ")
                     )
-                }
+                };
+                at.cell(cell, e.to_string())
             })?;
         }
         Ok(())
     }
 }
 
-/// The value reference of the Real input `name`; otherwise what is wrong, as
-/// `({name}) is not an input ...` (the name in quotes when no variable has it).
-fn real_input(engine: &Engine, name: &str) -> Result<u32, String> {
-    let Some(var) = engine.variables().iter().find(|v| v.name == name) else {
+/// A line of the load table being read, named by its errors.
+#[derive(Clone, Copy)]
+struct At<'a> {
+    file: &'a str,
+    line: usize,
+}
+
+impl At<'_> {
+    /// What is wrong on the line.
+    fn bad(self, message: String) -> Error {
+        Error::LoadTable {
+            path: self.file.to_string(),
+            line: Some(self.line),
+            cell: None,
+            message,
+        }
+    }
+
+    /// What is wrong in a cell (a column, or an input set from columns) of the line.
+    fn cell(self, cell: String, message: String) -> Error {
+        Error::LoadTable {
+            path: self.file.to_string(),
+            line: Some(self.line),
+            cell: Some(cell),
+            message,
+        }
+    }
+}
+
+/// The value reference of the Real input `name` (None: [`not_an_input`] says why).
+fn real_input(engine: &Engine, name: &str) -> Option<u32> {
+    engine
+        .variables()
+        .iter()
+        .find(|v| v.name == name)
+        .filter(|v| v.causality == Causality::Input && v.var_type == VarType::Real)
+        .map(|v| v.value_reference)
+}
+
+/// Why `name` is not a Real input: `({name}) is not an input ...` (the name in quotes when no
+/// variable has it).
+fn not_an_input(engine: &Engine, name: &str) -> String {
+    if engine.variables().iter().any(|v| v.name == name) {
+        format!("({name}) is not an input (loads can only set inputs)")
+    } else {
         let inputs: Vec<&str> = input_names(engine).collect();
-        return Err(format!(
+        format!(
             "({name:?}) is not an input of this scene; its inputs are: {}",
             inputs.join(", ")
-        ));
-    };
-    if var.causality != Causality::Input || var.var_type != VarType::Real {
-        return Err(format!(
-            "({name}) is not an input (loads can only set inputs)"
-        ));
+        )
     }
-    Ok(var.value_reference)
 }
 
 /// `combination,<name>,<input>,<factor>[,<input>,<factor>...]`.
-fn parse_combination(text: &str, engine: &Engine, known: &[Column]) -> Result<Column, String> {
+fn parse_combination(
+    at: At,
+    text: &str,
+    engine: &Engine,
+    known: &[Column],
+) -> Result<Column, Error> {
     let cells = header_cells(text);
     let cells: Vec<&str> = cells.iter().map(String::as_str).collect();
     let usage = "expected `combination,<name>,<input>,<factor>[,<input>,<factor>...]`";
     if cells.len() < 4 || !cells.len().is_multiple_of(2) {
-        return Err(format!("{usage}; got {} cells", cells.len()));
+        return Err(at.bad(format!("{usage}; got {} cells", cells.len())));
     }
     let name = cells[1];
     if name.is_empty() || name == "time" {
-        return Err(format!("combination name {name:?}: {usage}"));
+        return Err(at.bad(format!("combination name {name:?}: {usage}")));
     }
     if engine.variables().iter().any(|v| v.name == name) {
-        return Err(format!(
+        return Err(at.bad(format!(
             "combination {name} has the name of a variable of this scene; choose another"
-        ));
+        )));
     }
     if known.iter().any(|c| c.name == name) {
-        return Err(format!("combination {name} is defined twice"));
+        return Err(at.bad(format!("combination {name} is defined twice")));
     }
     let mut terms: Vec<(String, u32, f64)> = Vec::new();
     for pair in cells[2..].chunks(2) {
-        let vr =
-            real_input(engine, pair[0]).map_err(|m| format!("combination {name}: input {m}"))?;
+        let vr = real_input(engine, pair[0]).ok_or_else(|| {
+            at.bad(format!(
+                "combination {name}: input {}",
+                not_an_input(engine, pair[0])
+            ))
+        })?;
         let factor = match pair[1].parse::<f64>() {
             Ok(f) if f.is_finite() => f,
             _ => {
-                return Err(format!(
+                return Err(at.bad(format!(
                     "combination {name}: factor {:?} of {} is not a finite number",
                     pair[1], pair[0]
-                ))
+                )))
             }
         };
         if terms.iter().any(|t| t.1 == vr) {
-            return Err(format!("combination {name} names {} twice", pair[0]));
+            return Err(at.bad(format!("combination {name} names {} twice", pair[0])));
         }
         terms.push((pair[0].to_string(), vr, factor));
     }
@@ -224,21 +284,23 @@ fn parse_combination(text: &str, engine: &Engine, known: &[Column]) -> Result<Co
 }
 
 fn parse_header(
+    at: At,
     header: &str,
     engine: &Engine,
     combinations: &[Column],
-) -> Result<Vec<Column>, String> {
+) -> Result<Vec<Column>, Error> {
     let cells = header_cells(header);
     let mut cells = cells.iter().map(|c| c.as_str());
     if cells.next() != Some("time") {
-        return Err("the first column must be `time`".into());
+        return Err(at.bad("the first column must be `time`".into()));
     }
     let mut columns: Vec<Column> = Vec::new();
     for (c, name) in cells.enumerate() {
         let column = match combinations.iter().find(|k| k.name == name) {
             Some(k) => k.clone(),
             None => {
-                let vr = real_input(engine, name).map_err(|m| {
+                let vr = real_input(engine, name).ok_or_else(|| {
+                    let m = not_an_input(engine, name);
                     let m = if combinations.is_empty() {
                         m
                     } else {
@@ -246,7 +308,7 @@ fn parse_header(
                             combinations.iter().map(|k| k.name.as_str()).collect();
                         format!("{m}; combinations: {}", names.join(", "))
                     };
-                    format!("column {} {m}", c + 2)
+                    at.bad(format!("column {} {m}", c + 2))
                 })?;
                 Column {
                     name: name.to_string(),
@@ -255,7 +317,7 @@ fn parse_header(
             }
         };
         if columns.iter().any(|k| k.name == name) {
-            return Err(format!("column {} ({name}) appears twice", c + 2));
+            return Err(at.bad(format!("column {} ({name}) appears twice", c + 2)));
         }
         columns.push(column);
     }
@@ -299,14 +361,14 @@ fn input_names(engine: &Engine) -> impl Iterator<Item = &str> {
         .map(|v| v.name.as_str())
 }
 
-fn parse_row(line: usize, text: &str, columns: &[Column]) -> Result<LoadRow, String> {
+fn parse_row(at: At, text: &str, columns: &[Column]) -> Result<LoadRow, Error> {
     let cells: Vec<&str> = text.split(',').map(str::trim).collect();
     if cells.len() != columns.len() + 1 {
-        return Err(format!(
-            "line {line}: {} cells, but the header has {}",
+        return Err(at.bad(format!(
+            "{} cells, but the header has {}",
             cells.len(),
             columns.len() + 1
-        ));
+        )));
     }
     let names = std::iter::once("time").chain(columns.iter().map(|k| k.name.as_str()));
     let mut numbers = Vec::with_capacity(cells.len());
@@ -314,15 +376,15 @@ fn parse_row(line: usize, text: &str, columns: &[Column]) -> Result<LoadRow, Str
         match cell.parse::<f64>() {
             Ok(x) if x.is_finite() => numbers.push(x),
             _ => {
-                return Err(format!(
-                    "line {line}, column {} ({name}): {cell:?} is not a finite number",
-                    c + 1
+                return Err(at.cell(
+                    format!("column {} ({name})", c + 1),
+                    format!("{cell:?} is not a finite number"),
                 ))
             }
         }
     }
     Ok(LoadRow {
-        line,
+        line: at.line,
         time: numbers[0],
         values: numbers[1..].to_vec(),
     })
@@ -380,10 +442,7 @@ pub fn run_observed(
     }
     let total = table.rows.len();
     for (index, row) in table.rows.iter().enumerate() {
-        table.apply(engine, row).map_err(|message| Error::Io {
-            path: table.file.clone(),
-            message,
-        })?;
+        table.apply(engine, row)?;
         observer(engine, Event::Start { index, total, row })?;
         let report = engine.solve();
         observer(

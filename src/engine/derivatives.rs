@@ -99,10 +99,7 @@ impl Engine {
         self.ensure_tangent()?;
         let tangent = self.tangent.take().expect("ensured");
         let result: Result<Vec<f64>, Error> = (|| {
-            let lambda = self
-                .solver
-                .tangent_solve_transposed(&tangent, &c)
-                .map_err(Error::State)?;
+            let lambda = self.solver.tangent_solve_transposed(&tangent, &c)?;
             let mut out = Vec::with_capacity(knowns.len());
             for k in knowns {
                 let Known::Input(slot) = *k else {
@@ -150,10 +147,7 @@ impl Engine {
                     *a += s * b;
                 }
             }
-            let mut dz = self
-                .solver
-                .tangent_solve(&tangent, &g)
-                .map_err(Error::State)?;
+            let mut dz = self.solver.tangent_solve(&tangent, &g)?;
             for (a, b) in dz.iter_mut().zip(&held) {
                 *a += b;
             }
@@ -175,16 +169,13 @@ impl Engine {
         }
         let states: Vec<_> = self.membranes.iter().map(|e| e.state).collect();
         let s = &self.state;
-        let tangent = self
-            .solver
-            .factor_tangent(
-                &self.model,
-                &s.displacement,
-                &s.applied,
-                &states,
-                &s.slip_state,
-            )
-            .map_err(|e| Error::State(format!("the tangent at the equilibrium: {e}")))?;
+        let tangent = self.solver.factor_tangent(
+            &self.model,
+            &s.displacement,
+            &s.applied,
+            &states,
+            &s.slip_state,
+        )?;
         self.tangent = Some(tangent);
         Ok(())
     }
@@ -210,7 +201,7 @@ impl Engine {
         let (plus, minus, h) = self.parameter_models(i)?;
         let s = &self.state;
         let r = |m: &Model| -> Result<Vec<f64>, Error> {
-            let pattern = assemble::Pattern::try_new(m).map_err(|e| Error::State(e.to_string()))?;
+            let pattern = assemble::Pattern::try_new(m)?;
             let mut r = vec![0.0; m.dof_count()];
             assemble::assemble(m, &pattern, &s.displacement, &s.applied, &mut r, None);
             r.extend(sensitivity::slip_residuals(

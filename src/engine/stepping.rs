@@ -13,6 +13,7 @@
 //! Both drivers take the same increments, so they reach the same equilibrium bit for bit.
 
 use super::Engine;
+use crate::error::Error;
 use crate::memory;
 use crate::solver::{Attempt, Outcome, StepReport, Stepper};
 
@@ -48,7 +49,7 @@ impl Engine {
     pub fn begin_step(&mut self) -> Step {
         self.tangent = None;
         let rebuilt = if self.model_stale {
-            self.rebuild().map_err(|e| e.to_string())
+            self.rebuild()
         } else {
             Ok(())
         };
@@ -72,15 +73,15 @@ impl Engine {
         } else {
             None
         };
-        if let Err(message) = ready {
-            stepper.fail(message);
+        if let Err(e) = ready {
+            stepper.fail(e.to_string());
         }
         Step { stepper, fallback }
     }
 
     /// The step's working memory and the copies kept to undo it, probed before it starts: an
     /// allocation failure inside a step would abort the host.
-    fn probe_step(&self) -> Result<(), String> {
+    fn probe_step(&self) -> Result<(), Error> {
         if self.scene.debug.skip_memory_probes {
             return Ok(());
         }
@@ -90,7 +91,7 @@ impl Engine {
             .solver
             .step_bytes(&self.model)
             .saturating_add(2 * state_bytes);
-        memory::probe(step_bytes, "the step's working memory").map_err(|e| e.to_string())
+        Ok(memory::probe(step_bytes, "the step's working memory")?)
     }
 
     /// One increment attempt; None once the step is complete or has failed.

@@ -17,6 +17,7 @@
 use super::fmi2_ffi::{Component, FmuState, Status};
 use super::instance::Instance;
 use super::snapshot::Snapshot;
+use crate::error::Error;
 use std::any::Any;
 use std::ffi::{c_char, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -128,15 +129,19 @@ pub(crate) fn into_state(snapshot: Snapshot) -> FmuState {
 ///
 /// # Safety
 /// `s` is NULL or a pointer returned by [`into_state`] and not yet freed.
-pub(crate) unsafe fn state_mut<'a>(s: FmuState) -> Result<&'a mut Snapshot, String> {
+pub(crate) unsafe fn state_mut<'a>(s: FmuState) -> Result<&'a mut Snapshot, Error> {
     if s.is_null() {
-        return Err("the FMU state is NULL".into());
+        return Err(null("FMUstate", None));
     }
     // SAFETY: `s` is not NULL, so it came from `into_state` and is not yet freed (the caller's
     // precondition): its tag is readable, and with the tag it is a live `StateBox`.
     unsafe {
         if !has_tag(s, STATE_TAG) {
-            Err("the pointer is not an FMU state of this FMU (or was already freed)".into())
+            Err(Error::Argument {
+                argument: "FMUstate",
+                message: "the pointer is not an FMU state of this FMU (or was already freed)"
+                    .into(),
+            })
         } else {
             Ok(&mut (*(s as *mut StateBox)).snapshot)
         }
@@ -147,7 +152,7 @@ pub(crate) unsafe fn state_mut<'a>(s: FmuState) -> Result<&'a mut Snapshot, Stri
 ///
 /// # Safety
 /// As [`state_mut`].
-pub(crate) unsafe fn free_state(s: FmuState) -> Result<(), String> {
+pub(crate) unsafe fn free_state(s: FmuState) -> Result<(), Error> {
     if s.is_null() {
         return Ok(());
     }
@@ -167,9 +172,9 @@ pub(crate) unsafe fn free_state(s: FmuState) -> Result<(), String> {
 ///
 /// # Safety
 /// `slot` is NULL or valid for reads and writes; `*slot` is NULL or as in [`state_mut`].
-pub(crate) unsafe fn store_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), String> {
+pub(crate) unsafe fn store_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), Error> {
     // SAFETY: `slot` is NULL or valid for reads and writes (the caller's precondition).
-    let slot = unsafe { slot.as_mut() }.ok_or("argument FMUstate is NULL")?;
+    let slot = unsafe { slot.as_mut() }.ok_or_else(|| null("FMUstate", None))?;
     if slot.is_null() {
         *slot = into_state(snapshot);
     } else {
@@ -183,12 +188,9 @@ pub(crate) unsafe fn store_state(slot: *mut FmuState, snapshot: Snapshot) -> Res
 ///
 /// # Safety
 /// `slot` is NULL or valid for writes.
-pub(crate) unsafe fn store_new_state(
-    slot: *mut FmuState,
-    snapshot: Snapshot,
-) -> Result<(), String> {
+pub(crate) unsafe fn store_new_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), Error> {
     // SAFETY: `slot` is NULL or valid for writes (the caller's precondition).
-    let slot = unsafe { slot.as_mut() }.ok_or("argument FMUstate is NULL")?;
+    let slot = unsafe { slot.as_mut() }.ok_or_else(|| null("FMUstate", None))?;
     *slot = into_state(snapshot);
     Ok(())
 }
@@ -197,7 +199,7 @@ pub(crate) unsafe fn store_new_state(
 ///
 /// # Safety
 /// `slot` is NULL or valid for reads and writes; `*slot` as in [`state_mut`].
-pub(crate) unsafe fn release_state(slot: *mut FmuState) -> Result<(), String> {
+pub(crate) unsafe fn release_state(slot: *mut FmuState) -> Result<(), Error> {
     // SAFETY: `slot` is NULL or valid for reads and writes (the caller's precondition).
     let Some(slot) = (unsafe { slot.as_mut() }) else {
         return Ok(());
@@ -216,11 +218,11 @@ pub(crate) unsafe fn slice_in<'a, T>(
     ptr: *const T,
     n: usize,
     name: &str,
-) -> Result<&'a [T], String> {
+) -> Result<&'a [T], Error> {
     if n == 0 {
         Ok(&[])
     } else if ptr.is_null() {
-        Err(format!("argument {name} is NULL but its length is {n}"))
+        Err(null(name, Some(n)))
     } else {
         // SAFETY: `ptr` is not NULL, so it points to `n` readable, initialized elements (the
         // caller's precondition).
@@ -236,11 +238,11 @@ pub(crate) unsafe fn slice_out<'a, T>(
     ptr: *mut T,
     n: usize,
     name: &str,
-) -> Result<&'a mut [T], String> {
+) -> Result<&'a mut [T], Error> {
     if n == 0 {
         Ok(&mut [])
     } else if ptr.is_null() {
-        Err(format!("argument {name} is NULL but its length is {n}"))
+        Err(null(name, Some(n)))
     } else {
         // SAFETY: `ptr` is not NULL, so it points to `n` writable elements (the caller's
         // precondition).
@@ -265,7 +267,7 @@ pub(crate) unsafe fn texts(
     ptr: *const *const c_char,
     n: usize,
     name: &str,
-) -> Result<Vec<String>, String> {
+) -> Result<Vec<String>, Error> {
     // SAFETY: `ptr` is NULL or holds `n` pointers, each NULL or NUL-terminated (the caller's
     // precondition).
     unsafe { slice_in(ptr, n, name) }?
@@ -275,7 +277,7 @@ pub(crate) unsafe fn texts(
             // SAFETY: as above, `*p` is NULL or NUL-terminated.
             unsafe { text(*p) }
                 .map(|s| s.into_owned())
-                .ok_or(format!("{name}[{i}] is NULL"))
+                .ok_or_else(|| null(&format!("{name}[{i}]"), None))
         })
         .collect()
 }
@@ -284,14 +286,22 @@ pub(crate) unsafe fn texts(
 ///
 /// # Safety
 /// A non-NULL `ptr` is valid for a write of `T`.
-pub(crate) unsafe fn write_out<T>(ptr: *mut T, value: T, name: &str) -> Result<(), String> {
+pub(crate) unsafe fn write_out<T>(ptr: *mut T, value: T, name: &str) -> Result<(), Error> {
     // SAFETY: `ptr` is NULL or valid for a write of `T` (the caller's precondition).
     match unsafe { ptr.as_mut() } {
         Some(p) => {
             *p = value;
             Ok(())
         }
-        None => Err(format!("argument {name} is NULL")),
+        None => Err(null(name, None)),
+    }
+}
+
+/// A NULL argument `name` (with its length when it is an array).
+fn null(name: &str, length: Option<usize>) -> Error {
+    Error::NullPointer {
+        argument: name.to_string(),
+        length,
     }
 }
 
@@ -309,7 +319,7 @@ mod tests {
     fn empty_arrays_ignore_the_pointer() {
         let s: &[f64] = unsafe { slice_in(std::ptr::null(), 0, "vr").unwrap() };
         assert!(s.is_empty());
-        let e = unsafe { slice_in::<f64>(std::ptr::null(), 2, "value").unwrap_err() };
+        let e = unsafe { slice_in::<f64>(std::ptr::null(), 2, "value").unwrap_err() }.to_string();
         assert!(e.contains("value") && e.contains('2'), "{e}");
     }
 

@@ -43,6 +43,7 @@ use super::fmi3_ffi::{
 use super::instance::fmi3::{DoStepOut, Instantiate3Args};
 use super::instance::Instance;
 use super::logging::{Callback, Category, Logger};
+use crate::error::Error;
 use crate::variables::VarType;
 use std::ffi::{c_char, c_void};
 use std::ptr::null_mut;
@@ -1016,7 +1017,20 @@ pub unsafe extern "C" fn fmi3DoStep(
                     early_return: r,
                     last_successful_time: l,
                 }),
-                _ => Err("an out-argument (eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime) is NULL".to_string()),
+                (e, t, r, _) => {
+                    let first = [
+                        (e.is_none(), "eventHandlingNeeded"),
+                        (t.is_none(), "terminateSimulation"),
+                        (r.is_none(), "earlyReturn"),
+                    ]
+                    .into_iter()
+                    .find(|(missing, _)| *missing)
+                    .map_or("lastSuccessfulTime", |(_, name)| name);
+                    Err(Error::NullPointer {
+                        argument: format!("{first} (an out-argument)"),
+                        length: None,
+                    })
+                }
             };
             i.do_step_fmi3(
                 current_communication_point,

@@ -6,7 +6,8 @@
 //!
 //! ```text
 //! 1. the function must be legal in the current state   else "fmiX: illegal call in state S"
-//! 2. the body runs; Err(message) is logged as "fmiX: message" (logStatusError) -> fmi2Error
+//! 2. the body runs; Err(crate::Error) is logged as "fmiX: <its text>" (logStatusError)
+//!    -> fmi2Error
 //! 3. with logCalls enabled: "fmiX(arguments) -> status"
 //! ```
 //!
@@ -26,6 +27,7 @@ use super::uri::file_uri_to_path;
 use super::worker::Worker;
 use crate::description;
 use crate::engine::{Engine, EngineState};
+use crate::error::Error;
 use crate::scene::Scene;
 use crate::solver::StepReport;
 use crate::variables::{Causality, VarType};
@@ -33,7 +35,7 @@ use crate::variables::{Causality, VarType};
 /// Relative tolerance on communication points: |t - expected| <= TIME_TOLERANCE · max(1, |t|).
 pub const TIME_TOLERANCE: f64 = 1e-9;
 
-type Outcome = Result<Status, String>;
+type Outcome = Result<Status, Error>;
 
 /// The arguments of `fmi2Instantiate` that matter, as Rust values.
 pub struct InstantiateArgs<'a> {
@@ -170,7 +172,9 @@ impl Instance {
         let outcome = if func.allowed_in(self.fsm) {
             body(self)
         } else {
-            Err(format!("illegal call in state {}", self.fsm))
+            Err(Error::IllegalCall {
+                state: self.fsm.to_string(),
+            })
         };
         let status = match outcome {
             Ok(status) => status,
@@ -217,11 +221,11 @@ impl Instance {
     /// A function this FMU does not support: log why, return fmi2Error.
     pub fn unsupported(&mut self, func: Func, why: &str) -> Status {
         self.call(func, String::new(), |_| {
-            Err(format!("not supported: {why}"))
+            Err(Error::Unsupported(why.to_string()))
         })
     }
 
-    pub fn set_debug_logging(&mut self, on: bool, names: Result<Vec<String>, String>) -> Status {
+    pub fn set_debug_logging(&mut self, on: bool, names: Result<Vec<String>, Error>) -> Status {
         let args = self.args(|| {
             format!(
                 "loggingOn={}, categories={:?}",
@@ -263,7 +267,7 @@ impl Instance {
         tolerance: Option<f64>,
         start_time: f64,
         stop_time: Option<f64>,
-    ) -> Result<(), String> {
+    ) -> Result<(), Error> {
         check_experiment(tolerance, start_time, stop_time)?;
         self.experiment = Experiment {
             done: true,
@@ -277,9 +281,10 @@ impl Instance {
     pub fn enter_initialization_mode(&mut self) -> Status {
         self.call(Func::EnterInitializationMode, String::new(), |s| {
             if !s.experiment.done {
-                return Err(
-                    "fmi2SetupExperiment must be called before fmi2EnterInitializationMode".into(),
-                );
+                return Err(Error::CallFirst {
+                    first: "fmi2SetupExperiment",
+                    then: "fmi2EnterInitializationMode",
+                });
             }
             s.begin_initialization();
             Ok(Status::Ok)
@@ -309,7 +314,7 @@ impl Instance {
     /// The initial equilibrium under the current inputs and parameters, always solved from
     /// the state at the start of Initialization Mode. Not converged: the instance goes to
     /// Error (there is no equilibrium to continue from).
-    fn solve_initial(&mut self) -> Result<(), String> {
+    fn solve_initial(&mut self) -> Result<(), Error> {
         if self.init_solved {
             return Ok(());
         }
@@ -320,15 +325,12 @@ impl Instance {
                 parameters: current.parameters.clone(),
                 ..base.clone()
             };
-            self.engine.set_state(start).map_err(|e| e.to_string())?;
+            self.engine.set_state(start)?;
         }
         let report = self.solve()?;
         if !report.converged() {
             self.fsm = FsmState::Error;
-            return Err(format!(
-                "the initial equilibrium did not converge: {}; the instance is now in state Error",
-                reached(&report)
-            ));
+            return Err(Error::InitialEquilibrium(reached(&report)));
         }
         self.init_solved = true;
         Ok(())
@@ -336,7 +338,7 @@ impl Instance {
 
     /// In Initialization Mode, outputs are the initial equilibrium: solve it before the first
     /// output is read (and again after an input or parameter changed).
-    fn prepare_outputs(&mut self, vr: &[u32]) -> Result<(), String> {
+    fn prepare_outputs(&mut self, vr: &[u32]) -> Result<(), Error> {
         let reads_output = || {
             let vars = self.engine.variables();
             vr.iter().any(|r| {
@@ -361,7 +363,7 @@ impl Instance {
     pub fn reset(&mut self) -> Status {
         self.call(Func::Reset, String::new(), |s| {
             if !s.heal()? {
-                s.engine.reset().map_err(|e| e.to_string())?;
+                s.engine.reset()?;
             }
             s.fsm = FsmState::Instantiated;
             s.experiment = Experiment::default();
@@ -375,11 +377,11 @@ impl Instance {
     }
 
     /// After a panic, rebuild the engine from its scene. Returns whether it did.
-    fn heal(&mut self) -> Result<bool, String> {
+    fn heal(&mut self) -> Result<bool, Error> {
         if !self.poisoned {
             return Ok(false);
         }
-        self.engine = Engine::try_new(self.engine.scene().clone()).map_err(|e| e.to_string())?;
+        self.engine = Engine::try_new(self.engine.scene().clone())?;
         self.poisoned = false;
         Ok(true)
     }
@@ -388,9 +390,9 @@ impl Instance {
     /// those of the committed equilibrium, the step keeps it on the calling thread, with no
     /// hand-over to the worker (nothing runs that could touch faer's thread-locals or need the
     /// worker's stack). None: a solve is needed.
-    fn keep(&mut self) -> Result<Option<StepReport>, String> {
+    fn keep(&mut self) -> Result<Option<StepReport>, Error> {
         if self.poisoned {
-            return Err("the engine is unusable after an internal error; call fmi2Reset".into());
+            return Err(Error::Poisoned);
         }
         let kept = self.engine.keep();
         if kept.is_some() && self.logger.enabled(Category::Solver) {
@@ -403,9 +405,9 @@ impl Instance {
     }
 
     /// `engine.solve()` with its log lines sent to logSolver.
-    fn solve(&mut self) -> Result<StepReport, String> {
+    fn solve(&mut self) -> Result<StepReport, Error> {
         if self.poisoned {
-            return Err("the engine is unusable after an internal error; call fmi2Reset".into());
+            return Err(Error::Poisoned);
         }
         let engine = &mut self.engine;
         let report = self.worker.run(|| engine.solve());
@@ -419,15 +421,15 @@ impl Instance {
 
     pub fn get_real(
         &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&mut [f64], String>,
+        vr: Result<&[u32], Error>,
+        values: Result<&mut [f64], Error>,
     ) -> Status {
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
         self.call(Func::GetReal, args, |s| {
             let vr = vr?;
             s.prepare_outputs(vr)?;
             for (r, v) in vr.iter().zip(values?.iter_mut()) {
-                *v = s.engine.get_real(*r).map_err(|e| e.to_string())?;
+                *v = s.engine.get_real(*r)?;
             }
             Ok(Status::Ok)
         })
@@ -435,15 +437,15 @@ impl Instance {
 
     pub fn get_integer(
         &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&mut [i32], String>,
+        vr: Result<&[u32], Error>,
+        values: Result<&mut [i32], Error>,
     ) -> Status {
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
         self.call(Func::GetInteger, args, |s| {
             let vr = vr?;
             s.prepare_outputs(vr)?;
             for (r, v) in vr.iter().zip(values?.iter_mut()) {
-                *v = s.engine.get_integer(*r).map_err(|e| e.to_string())?;
+                *v = s.engine.get_integer(*r)?;
             }
             Ok(Status::Ok)
         })
@@ -455,24 +457,23 @@ impl Instance {
         &mut self,
         func: Func,
         kind: &str,
-        vr: Result<&[u32], String>,
+        vr: Result<&[u32], Error>,
     ) -> Status {
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
         self.call(func, args, |_| match vr?.first() {
-            Some(r) => Err(format!(
-                "no {kind} variable has value reference {r} (this FMU has no {kind} variables)"
-            )),
+            Some(r) => Err(Error::Argument {
+                argument: "vr",
+                message: format!(
+                    "no {kind} variable has value reference {r} (this FMU has no {kind} variables)"
+                ),
+            }),
             None => Ok(Status::Ok),
         })
     }
 
     /// Set inputs and parameters. All or nothing: on any rejected value the engine state is
     /// restored to what it was before the call.
-    pub fn set_real(
-        &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&[f64], String>,
-    ) -> Status {
+    pub fn set_real(&mut self, vr: Result<&[u32], Error>, values: Result<&[f64], Error>) -> Status {
         let args = self.args(|| {
             format!(
                 "vr={:?}, value={:?}",
@@ -489,7 +490,7 @@ impl Instance {
             for (r, v) in vr.iter().zip(values) {
                 if let Err(e) = s.engine.set_real(*r, *v) {
                     let _ = s.engine.set_state(backup);
-                    return Err(e.to_string());
+                    return Err(e);
                 }
             }
             s.init_solved &= vr.is_empty();
@@ -500,8 +501,8 @@ impl Instance {
     /// There are no Integer inputs or parameters: every reference is an output or unknown.
     pub fn set_integer(
         &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&[i32], String>,
+        vr: Result<&[u32], Error>,
+        values: Result<&[i32], Error>,
     ) -> Status {
         let args = self.args(|| {
             format!(
@@ -515,7 +516,10 @@ impl Instance {
             match vr?.first() {
                 Some(r) => {
                     s.check_settable(*r, VarType::Integer)?;
-                    Err(format!("value reference {r} cannot be set as an Integer"))
+                    Err(Error::Argument {
+                        argument: "vr",
+                        message: format!("value reference {r} cannot be set as an Integer"),
+                    })
                 }
                 None => Ok(Status::Ok),
             }
@@ -525,11 +529,8 @@ impl Instance {
     /// Whether the variable may be set now (docs/fmu.md, failure policy): outputs never; fixed parameters
     /// before the end of initialization only; inputs and tunable parameters also at
     /// communication points (the state mask already excludes the other states).
-    fn check_settable(&self, vr: u32, var_type: VarType) -> Result<(), String> {
-        let var = self
-            .engine
-            .variable(vr, var_type)
-            .map_err(|e| e.to_string())?;
+    fn check_settable(&self, vr: u32, var_type: VarType) -> Result<(), Error> {
+        let var = self.engine.variable(vr, var_type)?;
         let (name, why) = match var.causality {
             Causality::Output => (&var.name, "it is an output"),
             Causality::Parameter if self.fsm == FsmState::StepComplete && !var.is_tunable() => (
@@ -538,9 +539,11 @@ impl Instance {
             ),
             _ => return Ok(()),
         };
-        Err(format!(
-            "variable {name} (value reference {vr}) cannot be set: {why}"
-        ))
+        Err(Error::NotSettable {
+            vr,
+            name: name.clone(),
+            why: why.into(),
+        })
     }
 
     /// `fmi2DoStep`: reach the equilibrium under the inputs set before the call. Not converged:
@@ -568,7 +571,7 @@ impl Instance {
 
     /// The step from `t` to `t + h` of both versions: check the times, solve (or take the
     /// debug switches' forced outcome); converged: the instance's time moves to `t + h`.
-    fn step(&mut self, t: f64, h: f64) -> Result<StepReport, String> {
+    fn step(&mut self, t: f64, h: f64) -> Result<StepReport, Error> {
         self.check_step(t, h)?;
         let report = match self.forced_failure(t + h) {
             Some(report) => report,
@@ -604,33 +607,45 @@ impl Instance {
     ///   that does not);
     /// - the step may end after stopTime by at most TIME_TOLERANCE · max(|stopTime|, h)
     ///   (relative: round-off of summed steps, not a way to step past the end).
-    fn check_step(&self, t: f64, h: f64) -> Result<(), String> {
+    fn check_step(&self, t: f64, h: f64) -> Result<(), Error> {
+        let bad = |argument: &'static str, message: String| Error::Argument { argument, message };
         if !(h.is_finite() && h > 0.0) {
-            return Err(format!(
-                "communicationStepSize = {h} must be positive and finite"
+            return Err(bad(
+                "communicationStepSize",
+                format!("communicationStepSize = {h} must be positive and finite"),
             ));
         }
         if !t.is_finite() || (t - self.time).abs() > TIME_TOLERANCE * t.abs().max(1.0) {
-            return Err(format!(
-                "currentCommunicationPoint = {t} does not match the time of the instance: expected {}, got {t}",
-                self.time
+            return Err(bad(
+                "currentCommunicationPoint",
+                format!(
+                    "currentCommunicationPoint = {t} does not match the time of the instance: expected {}, got {t}",
+                    self.time
+                ),
             ));
         }
         let end = t + h;
         if !end.is_finite() {
-            return Err(format!(
-                "the step from {t} by {h} ends at a non-finite time ({end})"
+            return Err(bad(
+                "communicationStepSize",
+                format!("the step from {t} by {h} ends at a non-finite time ({end})"),
             ));
         }
         if end == t {
-            return Err(format!(
-                "communicationStepSize = {h} is below the resolution of time at {t}: t + h == t in floating point, so time would not move"
+            return Err(bad(
+                "communicationStepSize",
+                format!(
+                    "communicationStepSize = {h} is below the resolution of time at {t}: t + h == t in floating point, so time would not move"
+                ),
             ));
         }
         match self.experiment.stop_time {
-            Some(stop) if end > stop + TIME_TOLERANCE * stop.abs().max(h) => Err(format!(
-                "the step from {t} to {end} ends after stopTime = {stop} (allowed: {:e} past it, {TIME_TOLERANCE:e} of max(|stopTime|, h))",
-                TIME_TOLERANCE * stop.abs().max(h)
+            Some(stop) if end > stop + TIME_TOLERANCE * stop.abs().max(h) => Err(bad(
+                "communicationStepSize",
+                format!(
+                    "the step from {t} to {end} ends after stopTime = {stop} (allowed: {:e} past it, {TIME_TOLERANCE:e} of max(|stopTime|, h))",
+                    TIME_TOLERANCE * stop.abs().max(h)
+                ),
             )),
             _ => Ok(()),
         }
@@ -670,7 +685,7 @@ impl Instance {
 
 /// [`build_engine`] with a panic turned into a message for the logger (Instantiate then returns
 /// NULL with a reason instead of NULL alone).
-fn build_engine_guarded(args: &InstantiateArgs) -> Result<(Engine, String), String> {
+fn build_engine_guarded(args: &InstantiateArgs) -> Result<(Engine, String), Error> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| build_engine(args))).unwrap_or_else(
         |payload| {
             let what = payload
@@ -678,73 +693,106 @@ fn build_engine_guarded(args: &InstantiateArgs) -> Result<(Engine, String), Stri
                 .map(|s| s.to_string())
                 .or_else(|| payload.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown panic".into());
-            Err(format!(
+            Err(Error::Internal(format!(
                 "internal error while building the model ({}); no instance was created",
                 crate::scene::read::clip(&what)
-            ))
+            )))
         },
     )
 }
 
 /// Check the instantiation arguments, read the scene, build the engine, compare the GUID.
-fn build_engine(args: &InstantiateArgs) -> Result<(Engine, String), String> {
-    match args.instance_name {
-        None => return Err("instanceName is NULL".into()),
-        Some("") => return Err("instanceName is empty".into()),
-        Some(_) => {}
-    }
+fn build_engine(args: &InstantiateArgs) -> Result<(Engine, String), Error> {
+    check_instance_name(args.instance_name)?;
     if args.fmu_type != FMI2_COSIMULATION {
-        return Err(format!(
-            "fmuType = {} is not supported: this FMU is Co-Simulation only (fmi2CoSimulation = {FMI2_COSIMULATION})",
-            args.fmu_type
-        ));
+        return Err(Error::Argument {
+            argument: "fmuType",
+            message: format!(
+                "fmuType = {} is not supported: this FMU is Co-Simulation only (fmi2CoSimulation = {FMI2_COSIMULATION})",
+                args.fmu_type
+            ),
+        });
     }
-    let given_guid = args.guid.ok_or("fmuGUID is NULL")?;
+    let given_guid = args.guid.ok_or_else(|| null("fmuGUID"))?;
     let location = args
         .resource_location
-        .ok_or("fmuResourceLocation is NULL")?;
+        .ok_or_else(|| null("fmuResourceLocation"))?;
     let engine = load_engine(location)?;
     let guid = description::guid(engine.scene(), engine.variables());
     if given_guid != guid {
-        return Err(format!(
-            "GUID mismatch: the master passed {given_guid}, but this binary and its resources have {guid} (was the FMU repackaged with another modelDescription.xml?)"
-        ));
+        return Err(Error::Argument {
+            argument: "fmuGUID",
+            message: format!(
+                "GUID mismatch: the master passed {given_guid}, but this binary and its resources have {guid} (was the FMU repackaged with another modelDescription.xml?)"
+            ),
+        });
     }
     Ok((engine, guid))
 }
 
+/// The instance name of both versions' Instantiate: not NULL, not empty.
+fn check_instance_name(name: Option<&str>) -> Result<(), Error> {
+    match name {
+        None => Err(null("instanceName")),
+        Some("") => Err(Error::Argument {
+            argument: "instanceName",
+            message: "instanceName is empty".into(),
+        }),
+        Some(_) => Ok(()),
+    }
+}
+
+/// A NULL (string) argument of Instantiate.
+fn null(argument: &str) -> Error {
+    Error::NullPointer {
+        argument: argument.into(),
+        length: None,
+    }
+}
+
 /// `<resources>/scene.json` -> scene -> engine; every error names the file.
-fn load_engine(resource_location: &str) -> Result<Engine, String> {
-    let dir =
-        file_uri_to_path(resource_location).map_err(|e| format!("fmuResourceLocation: {e}"))?;
-    load_engine_from(&dir)
+fn load_engine(resource_location: &str) -> Result<Engine, Error> {
+    load_engine_from(&file_uri_to_path(resource_location)?)
 }
 
 /// `<dir>/scene.json` -> scene -> engine; every error names the file.
-fn load_engine_from(dir: &std::path::Path) -> Result<Engine, String> {
+fn load_engine_from(dir: &std::path::Path) -> Result<Engine, Error> {
     let path = dir.join("scene.json");
-    let shown = path.display();
-    let bytes = std::fs::read(&path).map_err(|e| format!("cannot read {shown}: {e}"))?;
-    let scene =
-        Scene::parse(&bytes).map_err(|p| format!("{shown}: {}", crate::error::Error::Scene(p)))?;
-    Engine::try_new(scene).map_err(|e| format!("{shown}: {e}"))
+    let shown = path.display().to_string();
+    let bytes = std::fs::read(&path).map_err(|e| Error::Read {
+        path: shown.clone(),
+        reason: e.to_string(),
+    })?;
+    let in_file = |error: Error| Error::InFile {
+        path: shown.clone(),
+        error: Box::new(error),
+    };
+    let scene = Scene::parse(&bytes).map_err(|p| in_file(Error::Scene(p)))?;
+    Engine::try_new(scene).map_err(in_file)
 }
 
-fn check_experiment(tolerance: Option<f64>, start: f64, stop: Option<f64>) -> Result<(), String> {
+fn check_experiment(tolerance: Option<f64>, start: f64, stop: Option<f64>) -> Result<(), Error> {
     if !start.is_finite() {
-        return Err(format!("startTime = {start} must be finite"));
+        return Err(Error::Argument {
+            argument: "startTime",
+            message: format!("startTime = {start} must be finite"),
+        });
     }
     if let Some(stop) = stop {
         if !(stop.is_finite() && stop >= start) {
-            return Err(format!(
-                "stopTime = {stop} must be finite and not before startTime = {start}"
-            ));
+            return Err(Error::Argument {
+                argument: "stopTime",
+                message: format!(
+                    "stopTime = {stop} must be finite and not before startTime = {start}"
+                ),
+            });
         }
     }
     match tolerance {
-        Some(tol) if !(tol.is_finite() && tol > 0.0) => {
-            Err(format!("tolerance = {tol} must be positive and finite"))
-        }
+        Some(tol) if !(tol.is_finite() && tol > 0.0) => Err(Error::Argument {
+            argument: "tolerance",
+            message: format!("tolerance = {tol} must be positive and finite"),
+        }),
         _ => Ok(()),
     }
 }

@@ -20,6 +20,7 @@
 use super::fmi2_ffi::{self, LoggerFn, Status};
 use super::fmi3_ffi::{self, Fmi3LoggerFn};
 use crate::description::LOG_CATEGORIES;
+use crate::error::Error;
 use std::ffi::{c_void, CString};
 
 /// A log category (its position in [`LOG_CATEGORIES`], which the modelDescription declares).
@@ -150,7 +151,7 @@ impl Logger {
 
     /// `fmi2SetDebugLogging`: no names sets every category; otherwise the named ones. An
     /// unknown name changes nothing and is reported.
-    pub fn set(&mut self, on: bool, names: &[&str]) -> Result<(), String> {
+    pub fn set(&mut self, on: bool, names: &[&str]) -> Result<(), Error> {
         if names.is_empty() {
             self.enabled = [on; LOG_CATEGORIES.len()];
             return Ok(());
@@ -160,10 +161,13 @@ impl Logger {
             match LOG_CATEGORIES.iter().position(|(n, _)| n == name) {
                 Some(i) => indices.push(i),
                 None => {
-                    return Err(format!(
-                        "unknown log category \"{name}\"; declared: {}",
-                        declared()
-                    ))
+                    return Err(Error::Argument {
+                        argument: "categories",
+                        message: format!(
+                            "unknown log category \"{name}\"; declared: {}",
+                            declared()
+                        ),
+                    })
                 }
             }
         }

@@ -37,6 +37,7 @@
 
 use super::fsm::FsmState;
 use crate::engine::EngineState;
+use crate::error::Error;
 use serde::{Deserialize, Serialize};
 
 /// First bytes of every serialized state.
@@ -76,10 +77,11 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
 }
 
 /// The byte form of a snapshot taken by the instance with this GUID.
-pub fn encode(snapshot: &Snapshot, guid: &str) -> Result<Vec<u8>, String> {
+pub fn encode(snapshot: &Snapshot, guid: &str) -> Result<Vec<u8>, Error> {
     let payload = postcard::to_allocvec(snapshot)
-        .map_err(|e| format!("the state could not be encoded: {e}"))?;
-    let guid_len = u32::try_from(guid.len()).map_err(|_| "the GUID is too long".to_string())?;
+        .map_err(|e| Error::Internal(format!("the state could not be encoded: {e}")))?;
+    let guid_len = u32::try_from(guid.len())
+        .map_err(|_| Error::Internal("the GUID is too long to encode a state".into()))?;
     let mut out = Vec::with_capacity(32 + guid.len() + payload.len());
     out.extend_from_slice(STATE_MAGIC);
     out.extend_from_slice(&STATE_FORMAT_VERSION.to_le_bytes());
@@ -92,16 +94,22 @@ pub fn encode(snapshot: &Snapshot, guid: &str) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// Read bytes written by [`encode`]; `guid` is the reading instance's GUID.
-pub fn decode(bytes: &[u8], guid: &str) -> Result<Snapshot, String> {
+/// Read bytes written by [`encode`]; `guid` is the reading instance's GUID. Err:
+/// [`Error::StateBytes`] naming the first check that failed.
+pub fn decode(bytes: &[u8], guid: &str) -> Result<Snapshot, Error> {
+    let failed = |check: &'static str, why: String| Error::StateBytes { check, why };
     let mut r = Reader { bytes, at: 0 };
     if r.take(8, "magic")? != STATE_MAGIC {
-        return Err("magic check failed: the bytes are not a Velarium FMU state".into());
+        return Err(failed(
+            "magic",
+            "the bytes are not a Velarium FMU state".into(),
+        ));
     }
     let version = r.u32("format version")?;
     if version != STATE_FORMAT_VERSION {
-        return Err(format!(
-            "version check failed: format version {version}, this FMU reads {STATE_FORMAT_VERSION}"
+        return Err(failed(
+            "version",
+            format!("format version {version}, this FMU reads {STATE_FORMAT_VERSION}"),
         ));
     }
     let guid_len = r.u32("GUID length")? as usize;
@@ -111,29 +119,35 @@ pub fn decode(bytes: &[u8], guid: &str) -> Result<Snapshot, String> {
         .checked_add(payload_len)
         .and_then(|n| n.checked_add(8));
     if expected != Some(bytes.len() as u64) {
-        return Err(format!(
-            "length check failed: the header announces {} bytes, {} were given (truncated or extended)",
-            expected.map_or("too many".to_string(), |n| n.to_string()),
-            bytes.len()
+        return Err(failed(
+            "length",
+            format!(
+                "the header announces {} bytes, {} were given (truncated or extended)",
+                expected.map_or("too many".to_string(), |n| n.to_string()),
+                bytes.len()
+            ),
         ));
     }
     let body_end = bytes.len() - 8;
     let checksum = u64::from_le_bytes(bytes[body_end..].try_into().expect("8 bytes"));
     if fnv1a64(&bytes[..body_end]) != checksum {
-        return Err("checksum check failed: the bytes are corrupted".into());
+        return Err(failed("checksum", "the bytes are corrupted".into()));
     }
     if saved_guid != guid.as_bytes() {
-        return Err(format!(
-            "GUID check failed: the state belongs to GUID {}, this instance has GUID {guid}",
-            String::from_utf8_lossy(saved_guid)
+        return Err(failed(
+            "GUID",
+            format!(
+                "the state belongs to GUID {}, this instance has GUID {guid}",
+                String::from_utf8_lossy(saved_guid)
+            ),
         ));
     }
     let (snapshot, rest) = postcard::take_from_bytes(&bytes[r.at..body_end])
-        .map_err(|e| format!("payload check failed: {e}"))?;
+        .map_err(|e| failed("payload", e.to_string()))?;
     if !rest.is_empty() {
-        return Err(format!(
-            "payload check failed: {} bytes left over after the state",
-            rest.len()
+        return Err(failed(
+            "payload",
+            format!("{} bytes left over after the state", rest.len()),
         ));
     }
     Ok(snapshot)
@@ -146,26 +160,27 @@ struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize, field: &str) -> Result<&'a [u8], String> {
+    fn take(&mut self, n: usize, field: &str) -> Result<&'a [u8], Error> {
         let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
-        let end = end.ok_or_else(|| {
-            format!(
-                "length check failed: the bytes end inside the {field} ({} bytes given)",
+        let end = end.ok_or_else(|| Error::StateBytes {
+            check: "length",
+            why: format!(
+                "the bytes end inside the {field} ({} bytes given)",
                 self.bytes.len()
-            )
+            ),
         })?;
         let slice = &self.bytes[self.at..end];
         self.at = end;
         Ok(slice)
     }
 
-    fn u32(&mut self, field: &str) -> Result<u32, String> {
+    fn u32(&mut self, field: &str) -> Result<u32, Error> {
         Ok(u32::from_le_bytes(
             self.take(4, field)?.try_into().expect("4 bytes"),
         ))
     }
 
-    fn u64(&mut self, field: &str) -> Result<u64, String> {
+    fn u64(&mut self, field: &str) -> Result<u64, Error> {
         Ok(u64::from_le_bytes(
             self.take(8, field)?.try_into().expect("8 bytes"),
         ))
@@ -214,7 +229,7 @@ mod tests {
     fn every_check_names_itself() {
         let bytes = encode(&sample(), "{abc}").unwrap();
         let check = |b: &[u8], guid: &str, word: &str| {
-            let e = decode(b, guid).unwrap_err();
+            let e = decode(b, guid).unwrap_err().to_string();
             assert!(e.contains(word), "{e}");
         };
         check(&bytes[..5], "{abc}", "length");
@@ -358,8 +373,9 @@ mod tests {
     fn another_format_version_is_refused() {
         let bytes = encode(&sample(), "{abc}").unwrap();
         for version in [0, 1, 2, 4, u32::MAX] {
-            let e =
-                decode(&seal(version, "{abc}", &payload(&bytes, "{abc}")), "{abc}").unwrap_err();
+            let e = decode(&seal(version, "{abc}", &payload(&bytes, "{abc}")), "{abc}")
+                .unwrap_err()
+                .to_string();
             assert!(
                 e.contains(&format!(
                     "version check failed: format version {version}, this FMU reads 3"
@@ -380,7 +396,9 @@ mod tests {
         let guid = "{abc}";
         let good = payload(&encode(&sample(), guid).unwrap(), guid);
         let payload_error = |p: &[u8]| {
-            let e = decode(&seal(STATE_FORMAT_VERSION, guid, p), guid).unwrap_err();
+            let e = decode(&seal(STATE_FORMAT_VERSION, guid, p), guid)
+                .unwrap_err()
+                .to_string();
             assert!(e.starts_with("payload check failed: "), "{e}");
             e
         };

@@ -10,11 +10,16 @@
 //! `%XX` sequences are decoded to bytes before the path is built, so multi-byte UTF-8 (and any
 //! other byte a Unix path may hold) survives; a malformed escape is an error, never a guess.
 
+use crate::error::Error;
 use std::path::PathBuf;
 
-/// The local directory a `file:` URI names.
-pub fn file_uri_to_path(uri: &str) -> Result<PathBuf, String> {
-    let rest = strip_scheme(uri).ok_or_else(|| format!("\"{uri}\" is not a file: URI"))?;
+/// The local directory a `file:` URI names (Err: [`Error::ResourceUri`]).
+pub fn file_uri_to_path(uri: &str) -> Result<PathBuf, Error> {
+    let bad = |why: String| Error::ResourceUri {
+        uri: uri.to_string(),
+        why,
+    };
+    let rest = strip_scheme(uri).ok_or_else(|| bad("is not a file: URI".into()))?;
     let path = match rest.strip_prefix("//") {
         None => rest,
         Some(authority_and_path) => {
@@ -24,17 +29,22 @@ pub fn file_uri_to_path(uri: &str) -> Result<PathBuf, String> {
                     .unwrap_or(authority_and_path.len()),
             );
             if !host.is_empty() && !host.eq_ignore_ascii_case("localhost") {
-                return Err(format!(
-                    "\"{uri}\" names host \"{host}\"; only local files can be read"
-                ));
+                return Err(bad(format!(
+                    "names host \"{host}\"; only local files can be read"
+                )));
             }
             path
         }
     };
     if !path.starts_with('/') {
-        return Err(format!("\"{uri}\" does not hold an absolute path"));
+        return Err(bad("does not hold an absolute path".into()));
     }
-    let bytes = percent_decode(path).map_err(|e| format!("\"{uri}\": {e}"))?;
+    let bytes = percent_decode(path).map_err(|escape| {
+        bad(format!(
+            "holds \"%{}\", which is not a percent escape ('%' and two hex digits)",
+            String::from_utf8_lossy(escape)
+        ))
+    })?;
     Ok(bytes_to_path(bytes))
 }
 
@@ -44,25 +54,20 @@ fn strip_scheme(uri: &str) -> Option<&str> {
     scheme.eq_ignore_ascii_case("file").then_some(rest)
 }
 
-/// Decode `%XX` escapes to bytes.
-fn percent_decode(text: &str) -> Result<Vec<u8>, String> {
+/// Decode `%XX` escapes to bytes (Err: what follows a '%' that is not two hex digits).
+fn percent_decode(text: &str) -> Result<Vec<u8>, &[u8]> {
     let bytes = text.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;
     while i < bytes.len() {
         if bytes[i] == b'%' {
-            let hex = bytes
-                .get(i + 1..i + 3)
-                .ok_or("a '%' is not followed by two hex digits")?;
+            let hex = &bytes[i + 1..(i + 3).min(bytes.len())];
             let value = std::str::from_utf8(hex)
                 .ok()
+                // Two hex digits exactly (from_str_radix alone would take "+1").
+                .filter(|h| h.len() == 2 && h.bytes().all(|b| b.is_ascii_hexdigit()))
                 .and_then(|h| u8::from_str_radix(h, 16).ok())
-                .ok_or_else(|| {
-                    format!(
-                        "\"%{}\" is not a percent escape",
-                        String::from_utf8_lossy(hex)
-                    )
-                })?;
+                .ok_or(hex)?;
             out.push(value);
             i += 3;
         } else {
@@ -117,6 +122,7 @@ mod tests {
         assert!(file_uri_to_path("file://server/share").is_err());
         assert!(file_uri_to_path("file:///a%2").is_err());
         assert!(file_uri_to_path("file:///a%zz").is_err());
+        assert!(file_uri_to_path("file:///a%+1").is_err());
         assert!(file_uri_to_path("file:relative").is_err());
     }
 }

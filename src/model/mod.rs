@@ -575,13 +575,8 @@ fn build_triangles(
             }
             let mut reference = reference;
             if let Some(pre) = &m.prestress {
-                reference.initial_strain = prestress_strain(k, m, &material, pre, &reference)
-                    .map_err(|message| {
-                        Error::Scene(vec![crate::scene::Problem {
-                            path: format!("membranes[{}].prestress", group_index(scene, m)),
-                            message: format!("triangle {t}: {message}"),
-                        }])
-                    })?;
+                let at = (group_index(scene, m), t);
+                reference.initial_strain = prestress_strain(at, k, m, &material, pre, &reference)?;
             }
             out.push(Triangle {
                 id: t,
@@ -613,23 +608,34 @@ fn group_index(scene: &Scene, m: &crate::scene::Membrane) -> usize {
         .unwrap_or(0)
 }
 
-/// Equivalent initial strain of a group's prestress on one triangle (`membrane::initial_strain`).
+/// Equivalent initial strain of a group's prestress on its `k`-th triangle
+/// (`membrane::initial_strain`). Where there is none, a scene problem at
+/// `membranes[group].prestress` naming triangle `t` (its mesh id).
 fn prestress_strain(
+    (group, t): (usize, usize),
     k: usize,
     m: &crate::scene::Membrane,
     material: &membrane::Material,
     pre: &crate::scene::Prestress,
     r: &membrane::TriangleRef,
-) -> Result<Vector3<f64>, String> {
+) -> Result<Vector3<f64>, Error> {
+    let problem = |message: String| {
+        Error::Scene(vec![crate::scene::Problem {
+            path: format!("membranes[{group}].prestress"),
+            message: format!("triangle {t}: {message}"),
+        }])
+    };
     let s0 = if let crate::scene::Prestress::Field { n } = pre {
         membrane::field_stress(r, &n[k], m.thickness)
     } else {
         let (warp, fill, dir) = pre.components();
         membrane::initial_stress(r, warp, fill, &Vector3::from(dir), m.thickness)
-            .ok_or_else(|| format!("the warp direction {dir:?} is normal to its plane"))?
+            .ok_or_else(|| problem(format!("the warp direction {dir:?} is normal to its plane")))?
     };
     membrane::initial_strain(material, &s0).ok_or_else(|| {
-        format!("the material cannot carry the initial stress {s0:?} Pa (PK2, element frame)")
+        problem(format!(
+            "the material cannot carry the initial stress {s0:?} Pa (PK2, element frame)"
+        ))
     })
 }
 

@@ -24,16 +24,36 @@ pub const MESSAGE_LIMIT: usize = 600;
 /// At most this many problems are listed per list element (the rest follow from the first).
 const PER_ELEMENT: usize = 16;
 
+/// Text that is not UTF-8: where its first invalid byte is (after any byte-order mark).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NotUtf8 {
+    /// Byte offset of the first invalid byte.
+    pub offset: usize,
+    /// Its 1-based line.
+    pub line: usize,
+    pub byte: u8,
+}
+
+impl std::fmt::Display for NotUtf8 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "not valid UTF-8: byte offset {} (line {}) starts invalid UTF-8 (byte 0x{:02X}); save the file as UTF-8",
+            self.offset, self.line, self.byte
+        )
+    }
+}
+
 /// Decode scene or load-table bytes: skip a byte-order mark, name the offset of invalid UTF-8.
-pub fn decode_text(bytes: &[u8]) -> Result<&str, String> {
+pub fn decode_text(bytes: &[u8]) -> Result<&str, NotUtf8> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     std::str::from_utf8(bytes).map_err(|e| {
-        let at = e.valid_up_to();
-        let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
-        format!(
-            "not valid UTF-8: byte offset {at} (line {line}) starts invalid UTF-8 (byte 0x{:02X}); save the file as UTF-8",
-            bytes[at]
-        )
+        let offset = e.valid_up_to();
+        NotUtf8 {
+            offset,
+            line: 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count(),
+            byte: bytes[offset],
+        }
     })
 }
 
@@ -42,7 +62,7 @@ pub fn decode_text(bytes: &[u8]) -> Result<&str, String> {
 /// `velarium check` can go on to the semantic checks in the same run).
 #[allow(clippy::result_large_err)] // once per scene read; the error carries what could be read
 pub fn parse(bytes: &[u8]) -> Result<Scene, (Vec<Problem>, Option<Scene>)> {
-    let text = decode_text(bytes).map_err(|m| (vec![problem("", m)], None))?;
+    let text = decode_text(bytes).map_err(|e| (vec![problem("", e.to_string())], None))?;
     let mut value: Value = serde_json::from_str(text).map_err(|e| {
         let m = e.to_string();
         (

@@ -68,6 +68,9 @@ pub(super) enum Recheck {
     Accept,
     /// The frozen states were wrong: iterate on with the laws' states.
     IterateOn,
+    /// The frozen states were wrong once too often: the increment fails (why: which states
+    /// keep changing).
+    Chatter(&'static str),
 }
 
 impl ActiveSet {
@@ -197,7 +200,7 @@ impl ActiveSet {
         tol_f: f64,
         tolerance_met: impl FnOnce() -> (Vec<WrinkleState>, bool),
         log: &mut Vec<String>,
-    ) -> Result<Recheck, String> {
+    ) -> Recheck {
         let contact_ok = {
             let mut check = self.contact.clone();
             return_map(model, u, committed, &mut check, tol_f) == 0
@@ -214,14 +217,14 @@ impl ActiveSet {
             }
         };
         if contact_ok && wrinkle_ok {
-            return Ok(Recheck::Accept);
+            return Recheck::Accept;
         }
         self.unfreezes += 1;
         if self.unfreezes > self.max_unfreeze {
-            return Err(if wrinkle_ok {
-                "stick/slip states keep changing (chatter)".into()
+            return Recheck::Chatter(if wrinkle_ok {
+                "stick/slip states keep changing (chatter)"
             } else {
-                "wrinkle states keep changing (chatter)".into()
+                "wrinkle states keep changing (chatter)"
             });
         }
         push_log(
@@ -232,6 +235,6 @@ impl ActiveSet {
         self.wrinkle_frozen = None;
         self.wrinkles_released |= !wrinkle_ok;
         self.freeze_at = it + self.freeze_after;
-        Ok(Recheck::IterateOn)
+        Recheck::IterateOn
     }
 }

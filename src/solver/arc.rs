@@ -61,6 +61,7 @@ use super::report::{push_log, StepReport};
 use super::rows::{ArcRow, Increment};
 use super::settings::Settings;
 use super::slip::slip_rows;
+use crate::error::{Breakdown, Error};
 use crate::model::sleeve::Contact;
 use crate::model::Model;
 
@@ -130,7 +131,7 @@ impl Solver {
         u: &[f64],
         contact: &[Contact],
         previous: Option<&[f64]>,
-    ) -> Result<(Vec<f64>, f64, Vec<f64>), String> {
+    ) -> Result<(Vec<f64>, f64, Vec<f64>), Error> {
         self.frozen = None;
         // The artificial prestress (tangent only, where an element lacks tension) keeps the
         // predictor of a stress-free start regular; it does not change the equilibrium.
@@ -154,7 +155,7 @@ impl Solver {
         let (v, w) = self.solve_bordered(model, u, &rows, 0.0, None, minus_q)?;
         let norm = dot(&v, &v).sqrt();
         if !(norm.is_finite() && norm > 0.0) {
-            return Err("the tangent predictor is not finite".into());
+            return Err(Breakdown::NonFinite("the tangent predictor").into());
         }
         let sign = match previous {
             Some(p) if dot(&v, p) < 0.0 => -1.0,
@@ -261,9 +262,11 @@ impl Solver {
         u: &[f64],
         ds: f64,
         count: usize,
-    ) -> Result<Vec<PathPoint>, String> {
+    ) -> Result<Vec<PathPoint>, Error> {
         if let Some(why) = not_applicable(model, from, to) {
-            return Err(format!("arc length does not apply: {why}"));
+            return Err(Error::PathStopped(format!(
+                "arc length does not apply: {why}"
+            )));
         }
         let change = load_change(model, from, to);
         let mut log = Vec::new();
@@ -292,7 +295,9 @@ impl Solver {
                     &mut contact,
                     &mut log,
                 )
-                .map_err(|(_, why)| format!("increment {k}: {why}\n{}", log.join("\n")))?;
+                .map_err(|(_, why)| {
+                    Error::PathStopped(format!("increment {k}: {why}\n{}", log.join("\n")))
+                })?;
             previous = Some(self.equation_difference(&u, &u_n));
             points.push(PathPoint {
                 lambda,
@@ -426,7 +431,10 @@ impl ArcPath {
         );
         let (t, dlds, w) = match tangent {
             Ok(x) => x,
-            Err(why) => return Ok(Some(self.no_tangent(solver, model, &s, report, why))),
+            Err(why) => {
+                let why = why.to_string();
+                return Ok(Some(self.no_tangent(solver, model, &s, report, why)));
+            }
         };
         let predicted = lambda_n + self.ds * dlds;
         let mut contact = self.at.contact.clone();

@@ -6,20 +6,20 @@ use super::assemble::{self, Pattern, NONE};
 use super::linear::{self, Ldlt};
 use super::settings::{InexactNewton, Settings, INEXACT_MIN_EQUATIONS, MIN_AREA_RATIO};
 use super::{relax, threads, work};
+use crate::error::Error;
 use crate::memory::{self, OutOfMemory};
 use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 
-/// Err with the reason when an assembly found an inverted or collapsed membrane triangle.
-pub(super) fn check_inversion(model: &Model, info: &assemble::AssemblyInfo) -> Result<(), String> {
+/// Err([`Error::Inverted`]) when an assembly found an inverted or collapsed membrane triangle.
+pub(super) fn check_inversion(model: &Model, info: &assemble::AssemblyInfo) -> Result<(), Error> {
     if model.triangles.is_empty() || info.min_area_ratio > MIN_AREA_RATIO {
         Ok(())
     } else {
-        Err(format!(
-            "a membrane element inverted or collapsed (area ratio {:.2e})",
-            info.min_area_ratio
-        ))
+        Err(Error::Inverted {
+            area_ratio: info.min_area_ratio,
+        })
     }
 }
 

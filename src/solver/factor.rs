@@ -2,6 +2,7 @@
 //! the two-domain factorization (`split.rs`) share: symbolic analysis and numeric
 //! factorization with dynamic regularization of tiny pivots.
 
+use crate::error::{Breakdown, Error};
 use crate::memory::OutOfMemory;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -14,14 +15,16 @@ use faer::{Par, Side};
 
 /// faer's numeric LDLT of the upper triangle of `matrix` on the calling thread, tiny pivots
 /// replaced as (delta, epsilon) say (`PIVOT_DELTA`, `PIVOT_EPSILON` times the largest diagonal
-/// entry); the whole tangent here, one half in `split.rs`.
+/// entry); the whole tangent here, one half in `split.rs`. A failure is a
+/// [`Breakdown::Factorization`] of `of` (the matrix, as the message names it).
 pub fn numeric_ldlt(
     symbolic: &SymbolicCholesky<usize>,
     l_values: &mut [f64],
     matrix: &SparseColMat<usize, f64>,
     (delta, epsilon): (f64, f64),
     mem: &mut MemBuffer,
-) -> Result<(), String> {
+    of: &'static str,
+) -> Result<(), Error> {
     let reg = LdltRegularization {
         dynamic_regularization_signs: None,
         dynamic_regularization_delta: delta,
@@ -37,7 +40,10 @@ pub fn numeric_ldlt(
             MemStack::new(mem),
             Default::default(),
         )
-        .map_err(|e| format!("LDLT factorization failed: {e:?}"))?;
+        .map_err(|e| Breakdown::Factorization {
+            of,
+            detail: format!("{e:?}"),
+        })?;
     Ok(())
 }
 

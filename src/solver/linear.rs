@@ -17,6 +17,7 @@
 use super::factor::{numeric_ldlt, symbolic_ldlt};
 use super::split::Split;
 use super::threads::Pool;
+use crate::error::{Breakdown, Error};
 use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::cholesky::{LdltRef, SymbolicCholesky, SymmetricOrdering};
@@ -28,6 +29,8 @@ use std::sync::Arc;
 const PIVOT_EPSILON: f64 = 1e-13;
 /// Replacement pivot magnitude relative to the largest diagonal entry.
 const PIVOT_DELTA: f64 = 1e-9;
+/// What [`Breakdown::NonFinite`] names when a solve's result holds NaN or infinity.
+const NON_FINITE: &str = "the linear solve's solution";
 
 /// Smallest tangent (equations) factored in two halves when the solver has 2 threads or more:
 /// below it the dense separator block and the hand-over cost more than half a factorization
@@ -181,7 +184,7 @@ impl Ldlt {
 
     /// Factor the current values and solve K x = rhs in place. Err with a reason when the
     /// factorization fails or the solution is not finite.
-    pub fn factor_solve(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+    pub fn factor_solve(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
         if rhs.is_empty() {
             return Ok(());
         }
@@ -190,15 +193,13 @@ impl Ldlt {
     }
 
     /// Numeric factorization of the current values (kept for [`Ldlt::solve`]).
-    pub fn factor(&mut self) -> Result<(), String> {
+    pub fn factor(&mut self) -> Result<(), Error> {
         if self.matrix.ncols() == 0 {
             return Ok(());
         }
         let max_diag = self.max_diagonal();
         if !(max_diag.is_finite() && max_diag > 0.0) {
-            return Err(format!(
-                "tangent diagonal is not positive and finite (max {max_diag:e})"
-            ));
+            return Err(Breakdown::Diagonal(max_diag).into());
         }
         self.counts.factorizations += 1;
         self.factored = false;
@@ -213,6 +214,7 @@ impl Ldlt {
                 &self.matrix,
                 reg,
                 &mut self.factor_mem,
+                "the tangent",
             ),
         };
         if scaled {
@@ -282,7 +284,7 @@ impl Ldlt {
     }
 
     /// Solve with the last factorization, in place (one more forward/back substitution).
-    pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+    pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
         let n = rhs.len();
         if n == 0 {
             return Ok(());
@@ -299,14 +301,14 @@ impl Ldlt {
     }
 
     /// Solve with the factor as held (of S K S when scaled).
-    fn solve_scaled(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+    fn solve_scaled(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
         let n = rhs.len();
         if let Some(split) = self.split.as_mut() {
             split.solve(rhs)?;
             return if rhs.iter().all(|x| x.is_finite()) {
                 Ok(())
             } else {
-                Err("linear solve produced non-finite values".into())
+                Err(Breakdown::NonFinite(NON_FINITE).into())
             };
         }
         let ldlt = LdltRef::new(&self.symbolic, &self.l_values);
@@ -320,7 +322,7 @@ impl Ldlt {
         if rhs.iter().all(|x| x.is_finite()) {
             Ok(())
         } else {
-            Err("linear solve produced non-finite values".into())
+            Err(Breakdown::NonFinite(NON_FINITE).into())
         }
     }
 

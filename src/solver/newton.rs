@@ -267,7 +267,7 @@ impl Solver {
         self.frozen.clone_from(&st.active.wrinkle_frozen);
         if let Err(why) = check_inversion(model, &info) {
             st.loads = loads;
-            return Err((it, why));
+            return Err((it, why.to_string()));
         }
         // The return map runs only once the iterate is near equilibrium (`contact_settle`):
         // the cone test at a far iterate (a linear step that overshoots the kinks) flips
@@ -426,7 +426,8 @@ impl Solver {
             || self.natural_states_converged(model, rows, u, &inc, it),
             log,
         );
-        match verdict.map_err(|why| (it, why))? {
+        match verdict {
+            Recheck::Chatter(why) => Err((it, why.to_string())),
             Recheck::Accept => {
                 self.log_converged(model, u, check, arc, log);
                 Ok(Verdict::Done(it))
@@ -534,9 +535,9 @@ impl Solver {
                     self.settings.damping_start
                 };
                 self.direction_of(model, u, &st.rows, bordered, st.damping)
-                    .map_err(|why| (it + 1, why))
+                    .map_err(|why| (it + 1, why.to_string()))
             }
-            Err(why) => Err((it + 1, why)),
+            Err(why) => Err((it + 1, why.to_string())),
         }
     }
 

@@ -33,6 +33,7 @@ use super::assemble::{self, Membranes, NONE};
 use super::core::Solver;
 use super::rows::Row;
 use super::slip::slip_rows;
+use crate::error::{Breakdown, Error};
 use crate::model::membrane::{self, Mat9};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
@@ -77,9 +78,9 @@ impl Solver {
         loads: &[f64],
         wrinkle: &[WrinkleState],
         slip_states: &[Contact],
-    ) -> Result<Tangent, String> {
+    ) -> Result<Tangent, Error> {
         if model.volumes > 0 {
-            return Err("derivatives are not available for scenes with volume or gas inputs (their pressure unknowns are not in the sensitivity's border yet)".into());
+            return Err(Error::Unsupported("derivatives of scenes with volume or gas inputs (their pressure unknowns are not in the sensitivity's border yet)".into()));
         }
         let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
         let membranes = Membranes {
@@ -131,22 +132,17 @@ impl Solver {
 
     /// Solve J dz = g. `g` per unknown of the model (DOFs, then slips; held DOFs ignored);
     /// returns dz per unknown (held DOFs 0).
-    pub fn tangent_solve(&mut self, t: &Tangent, g: &[f64]) -> Result<Vec<f64>, String> {
+    pub fn tangent_solve(&mut self, t: &Tangent, g: &[f64]) -> Result<Vec<f64>, Error> {
         self.fixed_point(t, g, false)
     }
 
     /// Solve Jᵀ λ = w, `w` and the result per unknown as in [`Solver::tangent_solve`].
-    pub fn tangent_solve_transposed(&mut self, t: &Tangent, w: &[f64]) -> Result<Vec<f64>, String> {
+    pub fn tangent_solve_transposed(&mut self, t: &Tangent, w: &[f64]) -> Result<Vec<f64>, Error> {
         self.fixed_point(t, w, true)
     }
 
     /// z ← J₀⁻¹ (g − N z) (transposed: N → Nᵀ = −N) until a round changes nothing.
-    fn fixed_point(
-        &mut self,
-        t: &Tangent,
-        g: &[f64],
-        transposed: bool,
-    ) -> Result<Vec<f64>, String> {
+    fn fixed_point(&mut self, t: &Tangent, g: &[f64], transposed: bool) -> Result<Vec<f64>, Error> {
         let mut z = self.symmetric_solve(t, g, transposed)?;
         if t.skew.is_empty() && t.regularisation.is_empty() {
             return Ok(z);
@@ -173,9 +169,7 @@ impl Solver {
                 return Ok(z);
             }
         }
-        Err(format!(
-            "the tangent's correction (the follower pressure's non-symmetric load stiffness, the wrinkled and slack triangles' regularisation) did not settle in {MAX_ROUNDS} rounds: the derivative is not defined to the solve's accuracy here"
-        ))
+        Err(Breakdown::Unsettled { rounds: MAX_ROUNDS }.into())
     }
 
     /// Solve with J₀ (or J₀ᵀ) by the Schur path.
@@ -184,7 +178,7 @@ impl Solver {
         t: &Tangent,
         g: &[f64],
         transposed: bool,
-    ) -> Result<Vec<f64>, String> {
+    ) -> Result<Vec<f64>, Error> {
         let n3 = t.eq.len();
         let mut x = vec![0.0; t.n];
         for (d, &e) in t.eq.iter().enumerate() {
@@ -238,7 +232,7 @@ impl Solver {
         if z.iter().all(|v| v.is_finite()) {
             Ok(z)
         } else {
-            Err("the sensitivity is not finite (singular tangent)".into())
+            Err(Breakdown::NonFinite("the sensitivity (singular tangent)").into())
         }
     }
 
@@ -389,9 +383,11 @@ fn schur_matrix(rows: &[Row], y: &[Vec<f64>]) -> DMatrix<f64> {
 fn solve_lu(
     lu: Option<&nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
     rhs: &DVector<f64>,
-) -> Result<DVector<f64>, String> {
+) -> Result<DVector<f64>, Error> {
     lu.and_then(|lu| lu.solve(rhs))
-        .ok_or_else(|| "the slip block of the tangent is singular (a sliding mechanism)".into())
+        .ok_or(Error::LinearAlgebra(Breakdown::Singular(
+            "the slip block of the tangent (a sliding mechanism)",
+        )))
 }
 
 /// (K_p − K_pᵀ)/2 of every follower-pressure triangle under the loads (summed over the

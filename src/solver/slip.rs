@@ -24,6 +24,7 @@
 use super::assemble::NONE;
 use super::core::Solver;
 use super::rows::Row;
+use crate::error::{Breakdown, Error};
 use crate::model::sleeve::{self, Contact, SegmentLaw};
 use crate::model::Model;
 use nalgebra::DMatrix;
@@ -31,6 +32,9 @@ use nalgebra::DMatrix;
 /// Largest tie gap, relative to the shorter adjacent segment, before the log warns (the
 /// penetration bound of docs/mechanics.md, sleeves: below 1e-3 of the element size).
 pub const MAX_GAP: f64 = 1e-3;
+
+/// What [`Breakdown::NonFinite`] names when the Newton direction holds NaN or infinity.
+const DIRECTION: &str = "the Newton direction";
 
 /// Inexact Newton (`Settings::inexact_newton`) is tried when |R|∞ fell to this share of its
 /// value at the last direction: the quadratic regime, where the tangent changes little and
@@ -104,7 +108,7 @@ impl Solver {
         rows: &[Row],
         damping: f64,
         extra: Option<&[(usize, f64)]>,
-    ) -> Result<(Vec<f64>, Vec<f64>), String> {
+    ) -> Result<(Vec<f64>, Vec<f64>), Error> {
         // The direction's buffer from the last iteration (`work.rs`), filled with R.
         let mut residual = std::mem::take(&mut self.work.dx);
         residual.clear();
@@ -136,7 +140,7 @@ impl Solver {
         damping: f64,
         extra: Option<&[(usize, f64)]>,
         residual: Vec<f64>,
-    ) -> Result<(Vec<f64>, Vec<f64>), String> {
+    ) -> Result<(Vec<f64>, Vec<f64>), Error> {
         let n = self.pattern.n;
         // Slip rows, then volume rows (`volume.rs`), then the arc-length row: the same
         // elimination serves all.
@@ -159,7 +163,7 @@ impl Solver {
                 ds.clear();
                 Ok((y0, ds))
             } else {
-                Err("the Newton direction is not finite".into())
+                Err(Breakdown::NonFinite(DIRECTION).into())
             };
         }
         // B's columns and their solves Y = A⁻¹ B into the reused buffers (`work.rs`).
@@ -211,7 +215,7 @@ impl Solver {
             }
         }
         if !super::dense::dense_solve(schur, rhs) {
-            return Err("the slip block of the tangent is singular".to_string());
+            return Err(Breakdown::Singular("the slip block of the tangent").into());
         }
         let ds = &work.schur_rhs;
         let mut dx = y0;
@@ -221,7 +225,7 @@ impl Solver {
             }
         }
         if !(dx.iter().all(|v| v.is_finite()) && ds.iter().all(|v| v.is_finite())) {
-            return Err("the Newton direction is not finite".into());
+            return Err(Breakdown::NonFinite(DIRECTION).into());
         }
         let mut out = std::mem::take(&mut work.ds);
         out.clear();

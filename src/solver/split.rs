@@ -38,6 +38,7 @@
 //! round-off: the elimination order differs.
 
 use super::threads::Pool;
+use crate::error::{Breakdown, Error};
 use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -85,7 +86,7 @@ struct Half {
     tmp: Vec<f64>,
     reg: (f64, f64),
     phase: Phase,
-    status: Result<(), String>,
+    status: Result<(), Error>,
 }
 
 fn lock(h: &Mutex<Half>) -> MutexGuard<'_, Half> {
@@ -149,13 +150,14 @@ impl Half {
         )
     }
 
-    fn factor(&mut self) -> Result<(), String> {
+    fn factor(&mut self) -> Result<(), Error> {
         super::factor::numeric_ldlt(
             &self.symbolic,
             &mut self.l_values,
             &self.matrix,
             self.reg,
             &mut self.mem,
+            "a half of the tangent",
         )?;
         // L_SS and D_S of the separator block, then S_h = L_SS D_S L_SS^T.
         let (nd, ns) = (self.nd, self.eq.len() - self.nd);
@@ -483,7 +485,7 @@ impl Split {
     }
 
     /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon).
-    pub fn factor(&mut self, k: &[f64], reg: (f64, f64)) -> Result<(), String> {
+    pub fn factor(&mut self, k: &[f64], reg: (f64, f64)) -> Result<(), Error> {
         {
             let mut b = lock(&self.b);
             gather(&mut b, k);
@@ -524,12 +526,15 @@ impl Split {
             MemStack::new(&mut self.schur_mem),
             Default::default(),
         )
-        .map_err(|e| format!("LDLT factorization of the separator failed: {e:?}"))?;
+        .map_err(|e| Breakdown::Factorization {
+            of: "the separator",
+            detail: format!("{e:?}"),
+        })?;
         Ok(())
     }
 
     /// Solve K x = rhs in place with the last factorization.
-    pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), String> {
+    pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
         let ns = self.s_eq.len();
         {
             let mut b = lock(&self.b);

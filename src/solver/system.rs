@@ -42,6 +42,7 @@ use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
 use super::core::Solver;
 use super::loads::{loads_at, prescribed_rate};
 use super::rows::{ArcRow, Border, Increment, Row};
+use crate::error::Error;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
 
@@ -104,7 +105,7 @@ impl Solver {
         rows: &[Row],
         bordered: Option<&Border>,
         damping: f64,
-    ) -> Result<(Vec<f64>, Vec<f64>), String> {
+    ) -> Result<(Vec<f64>, Vec<f64>), Error> {
         match bordered {
             Some((all, column)) => self.direction(model, u, all, damping, Some(column)),
             None => self.direction(model, u, rows, damping, None),

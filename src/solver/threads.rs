@@ -23,6 +23,7 @@
 //! so every load of the FMU would use up one of the process's 1024 keys ("fatal runtime error:
 //! out of TLS keys" after about 1000 runs: measured with std threads on branch i15t).
 
+use crate::error::{Error, ThreadFailure};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock};
 
@@ -111,10 +112,6 @@ pub struct Pool {
     count: usize,
 }
 
-/// Why the pool could not be started (the OS refused a thread).
-#[derive(Debug)]
-pub struct PoolError(pub String);
-
 fn helper_loop(shared: Arc<Shared>) {
     let mut state = shared.lock();
     loop {
@@ -144,7 +141,8 @@ fn helper_loop(shared: Arc<Shared>) {
 
 impl Pool {
     /// The solving thread plus `count - 1` (count in 1..=[`MAX_THREADS`]) helpers.
-    pub fn try_new(count: usize) -> Result<Pool, PoolError> {
+    /// Err([`ThreadFailure::Start`]) when the OS refuses a thread.
+    pub fn try_new(count: usize) -> Result<Pool, Error> {
         let count = count.clamp(1, MAX_THREADS);
         let start = *START.get().unwrap_or(&(start_std as Start));
         let mut pool = Pool {
@@ -164,9 +162,10 @@ impl Pool {
                 }),
                 // Dropping `pool` ends and joins the helpers already started.
                 Err(e) => {
-                    return Err(PoolError(format!(
-                        "cannot start {count} solver threads: {e}"
-                    )))
+                    return Err(Error::Thread(ThreadFailure::Start {
+                        count,
+                        reason: e.to_string(),
+                    }))
                 }
             }
         }
@@ -212,8 +211,9 @@ impl Pool {
         shared.changed.notify_all();
     }
 
-    /// Wait until helper `i`'s job has finished. Err if it panicked.
-    pub fn wait(&self, i: usize) -> Result<(), String> {
+    /// Wait until helper `i`'s job has finished. Err([`ThreadFailure::Panicked`]) if it
+    /// panicked.
+    pub fn wait(&self, i: usize) -> Result<(), Error> {
         let shared = &self.helpers[i].shared;
         let mut state = shared.lock();
         while state.running {
@@ -223,7 +223,7 @@ impl Pool {
                 .unwrap_or_else(|e| e.into_inner());
         }
         if std::mem::take(&mut state.panicked) {
-            Err("a solver thread failed (panicked)".into())
+            Err(Error::Thread(ThreadFailure::Panicked))
         } else {
             Ok(())
         }

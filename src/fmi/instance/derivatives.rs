@@ -15,6 +15,7 @@
 
 use super::Instance;
 use crate::engine::derivatives::Known;
+use crate::error::Error;
 use crate::fmi::fmi2_ffi::Status;
 use crate::fmi::fsm::Func;
 use crate::variables::{Binding, Causality, VarType, Variable};
@@ -32,10 +33,10 @@ impl Instance {
     /// `fmi2GetDirectionalDerivative`: dvUnknown = J · dvKnown.
     pub fn directional_derivative_fmi2(
         &mut self,
-        unknowns: Result<&[u32], String>,
-        knowns: Result<&[u32], String>,
-        seed: Result<&[f64], String>,
-        sensitivity: Result<&mut [f64], String>,
+        unknowns: Result<&[u32], Error>,
+        knowns: Result<&[u32], Error>,
+        seed: Result<&[f64], Error>,
+        sensitivity: Result<&mut [f64], Error>,
     ) -> Status {
         let args = self.args(|| {
             format!(
@@ -54,10 +55,10 @@ impl Instance {
     pub fn derivative_fmi3(
         &mut self,
         adjoint: bool,
-        unknowns: Result<&[u32], String>,
-        knowns: Result<&[u32], String>,
-        seed: Result<&[f64], String>,
-        sensitivity: Result<&mut [f64], String>,
+        unknowns: Result<&[u32], Error>,
+        knowns: Result<&[u32], Error>,
+        seed: Result<&[f64], Error>,
+        sensitivity: Result<&mut [f64], Error>,
     ) -> Status {
         let name = if adjoint {
             "fmi3GetAdjointDerivative"
@@ -85,7 +86,7 @@ impl Instance {
         knowns: &[u32],
         seed: &[f64],
         out: &mut [f64],
-    ) -> Result<Status, String> {
+    ) -> Result<Status, Error> {
         let outputs = self.unknown_slots(table, unknowns)?;
         let inputs = self.known_slots(table, knowns)?;
         let (n_seed, n_out) = if adjoint {
@@ -93,17 +94,19 @@ impl Instance {
         } else {
             (inputs.len(), outputs.len())
         };
-        let counts =
-            |what: &str, given: usize, expected: usize| {
-                if given == expected {
-                    Ok(())
-                } else {
-                    Err(format!(
-                    "{what} has {given} values, expected {expected} (the element count of the {})",
-                    if (what == "seed") != adjoint { "knowns" } else { "unknowns" }
-                ))
-                }
-            };
+        let counts = |what: &'static str, given: usize, expected: usize| {
+            if given == expected {
+                Ok(())
+            } else {
+                Err(Error::Argument {
+                    argument: what,
+                    message: format!(
+                        "{what} has {given} values, expected {expected} (the element count of the {})",
+                        if (what == "seed") != adjoint { "knowns" } else { "unknowns" }
+                    ),
+                })
+            }
+        };
         counts("seed", seed.len(), n_seed)?;
         counts("sensitivity", out.len(), n_out)?;
         if outputs.is_empty() || inputs.is_empty() {
@@ -114,7 +117,7 @@ impl Instance {
             self.solve_initial()?;
         }
         if self.poisoned {
-            return Err("the engine is unusable after an internal error; call Reset".into());
+            return Err(Error::Poisoned);
         }
         let engine = &mut self.engine;
         let result = self.worker.run(|| {
@@ -124,13 +127,18 @@ impl Instance {
                 engine.directional_derivative(&inputs, seed, &outputs)
             }
         });
-        let values = result.map_err(|e| e.to_string())?;
+        let values = result?;
         out.copy_from_slice(&values);
         Ok(Status::Ok)
     }
 
     /// The variable of a value reference in the table, named in errors.
-    fn derivative_variable(&self, table: Table, vr: u32) -> Result<Variable, String> {
+    fn derivative_variable(
+        &self,
+        table: Table,
+        argument: &'static str,
+        vr: u32,
+    ) -> Result<Variable, Error> {
         let vars = match table {
             Table::Scalars => self.engine.variables(),
             Table::Arrays => self.engine.arrays(),
@@ -138,21 +146,27 @@ impl Instance {
         vars.iter()
             .find(|v| v.value_reference == vr)
             .cloned()
-            .ok_or_else(|| format!("no variable has value reference {vr}"))
+            .ok_or_else(|| Error::Argument {
+                argument,
+                message: format!("no variable has value reference {vr}"),
+            })
     }
 
     /// Output slots of the unknowns (every element of an array).
-    fn unknown_slots(&self, table: Table, vr: &[u32]) -> Result<Vec<usize>, String> {
+    fn unknown_slots(&self, table: Table, vr: &[u32]) -> Result<Vec<usize>, Error> {
         let mut slots = Vec::new();
         for &r in vr {
-            let v = self.derivative_variable(table, r)?;
+            let v = self.derivative_variable(table, "unknowns", r)?;
             match v.binding {
                 Binding::Output(k) if v.var_type == VarType::Real => slots.extend(k..k + v.len()),
                 _ => {
-                    return Err(format!(
-                        "unknown {} (value reference {r}) is not a continuous Real output",
-                        v.name
-                    ))
+                    return Err(Error::Argument {
+                        argument: "unknowns",
+                        message: format!(
+                            "unknown {} (value reference {r}) is not a continuous Real output",
+                            v.name
+                        ),
+                    })
                 }
             }
         }
@@ -160,19 +174,22 @@ impl Instance {
     }
 
     /// Inputs (every element of an array) and parameters of the knowns.
-    fn known_slots(&self, table: Table, vr: &[u32]) -> Result<Vec<Known>, String> {
+    fn known_slots(&self, table: Table, vr: &[u32]) -> Result<Vec<Known>, Error> {
         let mut slots = Vec::new();
         for &r in vr {
-            let v = self.derivative_variable(table, r)?;
+            let v = self.derivative_variable(table, "knowns", r)?;
             match v.binding {
                 Binding::Input(k) => slots.extend((k..k + v.len()).map(Known::Input)),
                 Binding::Parameter(i) => slots.push(Known::Parameter(i)),
                 Binding::Output(_) => {
                     debug_assert_eq!(v.causality, Causality::Output);
-                    return Err(format!(
-                        "known {} (value reference {r}) is an output; knowns are inputs and parameters",
-                        v.name
-                    ));
+                    return Err(Error::Argument {
+                        argument: "knowns",
+                        message: format!(
+                            "known {} (value reference {r}) is an output; knowns are inputs and parameters",
+                            v.name
+                        ),
+                    });
                 }
             }
         }

@@ -21,10 +21,11 @@
 //! Messages of the shared methods name the FMI 2 function they implement; the FMI 3 logger
 //! (`fmi3_ffi::fmi3_names`) prints the FMI 3 names.
 
-use super::{load_engine_from, reached, shown, Instance};
+use super::{check_instance_name, load_engine_from, null, reached, shown, Instance};
 use crate::description3;
 use crate::description3::TIME_VALUE_REFERENCE;
 use crate::engine::Engine;
+use crate::error::Error;
 use crate::fmi::fmi2_ffi::Status;
 use crate::fmi::fmi3_ffi::IntermediateUpdate;
 use crate::fmi::fsm::Func;
@@ -124,7 +125,7 @@ impl Instance {
         vr: &[u32],
         var_type: VarType,
         n_values: usize,
-    ) -> Result<Vec<Option<Variable>>, String> {
+    ) -> Result<Vec<Option<Variable>>, Error> {
         let mut vars = Vec::with_capacity(vr.len());
         let mut total = 0;
         for &r in vr {
@@ -133,18 +134,18 @@ impl Instance {
                 total += 1;
                 continue;
             }
-            let var = self
-                .engine
-                .array_variable(r, var_type)
-                .map_err(|e| e.to_string())?;
+            let var = self.engine.array_variable(r, var_type)?;
             total += var.len();
             vars.push(Some(var.clone()));
         }
         if total != n_values {
-            return Err(format!(
-                "nValues = {n_values}, expected {total}: the sum of the element counts of the {} variables",
-                vr.len()
-            ));
+            return Err(Error::Argument {
+                argument: "nValues",
+                message: format!(
+                    "nValues = {n_values}, expected {total}: the sum of the element counts of the {} variables",
+                    vr.len()
+                ),
+            });
         }
         Ok(vars)
     }
@@ -155,8 +156,8 @@ impl Instance {
         &mut self,
         name: &'static str,
         var_type: VarType,
-        vr: Result<&[u32], String>,
-        values: Result<&mut [T], String>,
+        vr: Result<&[u32], Error>,
+        values: Result<&mut [T], Error>,
         n_values: usize,
         convert: fn(f64) -> T,
     ) -> Status {
@@ -192,8 +193,8 @@ impl Instance {
     /// `fmi3GetFloat64`.
     pub fn get_float64(
         &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&mut [f64], String>,
+        vr: Result<&[u32], Error>,
+        values: Result<&mut [f64], Error>,
         n_values: usize,
     ) -> Status {
         self.get_fmi3("fmi3GetFloat64", VarType::Real, vr, values, n_values, |x| x)
@@ -202,8 +203,8 @@ impl Instance {
     /// `fmi3GetInt32`.
     pub fn get_int32(
         &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&mut [i32], String>,
+        vr: Result<&[u32], Error>,
+        values: Result<&mut [i32], Error>,
         n_values: usize,
     ) -> Status {
         self.get_fmi3(
@@ -219,8 +220,8 @@ impl Instance {
     /// `fmi3GetUInt8` (wrinkle states).
     pub fn get_uint8(
         &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&mut [u8], String>,
+        vr: Result<&[u32], Error>,
+        values: Result<&mut [u8], Error>,
         n_values: usize,
     ) -> Status {
         self.get_fmi3("fmi3GetUInt8", VarType::UInt8, vr, values, n_values, |x| {
@@ -232,15 +233,16 @@ impl Instance {
     /// after the checks FMI 3 adds (`nValues`, `time` is not settable).
     pub fn set_float64(
         &mut self,
-        vr: Result<&[u32], String>,
-        values: Result<&[f64], String>,
+        vr: Result<&[u32], Error>,
+        values: Result<&[f64], Error>,
         n_values: usize,
     ) -> Status {
         let elements = match &vr {
-            Ok(vr) if vr.contains(&TIME_VALUE_REFERENCE) => Err(format!(
-                "variable {} (value reference {TIME_VALUE_REFERENCE}) cannot be set: it is the independent variable (set by fmi3EnterInitializationMode and fmi3DoStep)",
-                description3::TIME_NAME
-            )),
+            Ok(vr) if vr.contains(&TIME_VALUE_REFERENCE) => Err(Error::NotSettable {
+                vr: TIME_VALUE_REFERENCE,
+                name: description3::TIME_NAME.into(),
+                why: "it is the independent variable (set by fmi3EnterInitializationMode and fmi3DoStep)".into(),
+            }),
             Ok(vr) => self
                 .resolve_fmi3(vr, VarType::Real, n_values)
                 .map(|vars| {
@@ -265,7 +267,7 @@ impl Instance {
         &mut self,
         name: &'static str,
         var_type: VarType,
-        vr: Result<&[u32], String>,
+        vr: Result<&[u32], Error>,
         n_values: usize,
     ) -> Status {
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
@@ -273,10 +275,11 @@ impl Instance {
             let vr = vr?;
             let vars = s.resolve_fmi3(vr, var_type, n_values)?;
             match vars.iter().flatten().next() {
-                Some(v) => Err(format!(
-                    "variable {} (value reference {}) cannot be set: it is an output",
-                    v.name, v.value_reference
-                )),
+                Some(v) => Err(Error::NotSettable {
+                    vr: v.value_reference,
+                    name: v.name.clone(),
+                    why: "it is an output".into(),
+                }),
                 None => Ok(Status::Ok),
             }
         })
@@ -289,14 +292,17 @@ impl Instance {
         name: &'static str,
         kind: &str,
         getter: bool,
-        vr: Result<&[u32], String>,
+        vr: Result<&[u32], Error>,
     ) -> Status {
         let legal = if getter { Func::GetReal } else { Func::SetReal };
         let args = self.args(|| format!("vr={:?}", vr.as_deref().unwrap_or_default()));
         self.call_as(name, legal, args, |_| match vr?.first() {
-            Some(r) => Err(format!(
-                "no {kind} variable has value reference {r} (this FMU has Float64, Int32 and UInt8 variables only)"
-            )),
+            Some(r) => Err(Error::Argument {
+                argument: "valueReferences",
+                message: format!(
+                    "no {kind} variable has value reference {r} (this FMU has Float64, Int32 and UInt8 variables only)"
+                ),
+            }),
             None => Ok(Status::Ok),
         })
     }
@@ -304,7 +310,7 @@ impl Instance {
     /// An FMI 3 function this FMU does not support: log why, return fmi3Error.
     pub fn unsupported_fmi3(&mut self, name: &'static str, why: &str) -> Status {
         self.call_as(name, ANY_STATE, String::new(), |_| {
-            Err(format!("not supported: {why}"))
+            Err(Error::Unsupported(why.to_string()))
         })
     }
 
@@ -320,7 +326,7 @@ impl Instance {
         t: f64,
         h: f64,
         no_set_prior: bool,
-        out: Result<DoStepOut<'_>, String>,
+        out: Result<DoStepOut<'_>, Error>,
     ) -> Status {
         let args = self.args(|| {
             format!(
@@ -360,13 +366,13 @@ impl Instance {
         t: f64,
         h: f64,
         callback: IntermediateUpdate,
-    ) -> Result<(crate::solver::StepReport, bool), String> {
+    ) -> Result<(crate::solver::StepReport, bool), Error> {
         self.check_step(t, h)?;
         if let Some(report) = self.forced_failure(t + h) {
             return Ok((report, false));
         }
         if self.poisoned {
-            return Err("the engine is unusable after an internal error; call fmi3Reset".into());
+            return Err(Error::Poisoned);
         }
         if let Some(report) = self.keep()? {
             // What a solve does here: one increment over the whole step, converged at once.
@@ -438,29 +444,32 @@ impl Instance {
 
 /// Check the instantiation arguments, read the scene from the resource path, compare the
 /// token.
-fn build_fmi3(args: &Instantiate3Args) -> Result<(Engine, String), String> {
-    match args.instance_name {
-        None => return Err("instanceName is NULL".into()),
-        Some("") => return Err("instanceName is empty".into()),
-        Some(_) => {}
-    }
+fn build_fmi3(args: &Instantiate3Args) -> Result<(Engine, String), Error> {
+    check_instance_name(args.instance_name)?;
     if args.event_mode_used {
-        return Err(
-            "eventModeUsed = true, but this FMU has no event mode (hasEventMode=\"false\")".into(),
-        );
+        return Err(Error::Argument {
+            argument: "eventModeUsed",
+            message:
+                "eventModeUsed = true, but this FMU has no event mode (hasEventMode=\"false\")"
+                    .into(),
+        });
     }
     let given = args
         .instantiation_token
-        .ok_or("instantiationToken is NULL")?;
-    let path = args
-        .resource_path
-        .ok_or("resourcePath is NULL; this FMU reads its scene from resources/scene.json")?;
+        .ok_or_else(|| null("instantiationToken"))?;
+    let path = args.resource_path.ok_or_else(|| Error::Argument {
+        argument: "resourcePath",
+        message: "resourcePath is NULL; this FMU reads its scene from resources/scene.json".into(),
+    })?;
     let engine = load_engine_from(std::path::Path::new(path))?;
     let token = description3::instantiation_token(engine.scene(), engine.arrays());
     if given != token {
-        return Err(format!(
-            "instantiationToken mismatch: the importer passed {given}, but this binary and its resources have {token} (was the FMU repackaged with another modelDescription.xml?)"
-        ));
+        return Err(Error::Argument {
+            argument: "instantiationToken",
+            message: format!(
+                "instantiationToken mismatch: the importer passed {given}, but this binary and its resources have {token} (was the FMU repackaged with another modelDescription.xml?)"
+            ),
+        });
     }
     Ok((engine, token))
 }

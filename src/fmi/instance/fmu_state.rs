@@ -3,6 +3,7 @@
 //! methods here receive closures that store or release them.
 
 use super::Instance;
+use crate::error::Error;
 use crate::fmi::fmi2_ffi::Status;
 use crate::fmi::fsm::{FsmState, Func};
 use crate::fmi::snapshot::{self, Snapshot};
@@ -23,13 +24,15 @@ impl Instance {
     /// Make sure `copies` copies of a state of `bytes` bytes can be had before one is made
     /// (`crate::memory::probe`): a state as large as the model is copied, encoded and decoded
     /// here, outside any step.
-    fn probe_state(bytes: u64, copies: u64) -> Result<(), String> {
-        crate::memory::probe(bytes.saturating_mul(copies), "copies of the FMU state")
-            .map_err(|e| e.to_string())
+    fn probe_state(bytes: u64, copies: u64) -> Result<(), Error> {
+        Ok(crate::memory::probe(
+            bytes.saturating_mul(copies),
+            "copies of the FMU state",
+        )?)
     }
 
     /// `fmi2GetFMUstate`: `store` puts the snapshot where the master's handle points.
-    pub fn get_fmu_state(&mut self, store: impl FnOnce(Snapshot) -> Result<(), String>) -> Status {
+    pub fn get_fmu_state(&mut self, store: impl FnOnce(Snapshot) -> Result<(), Error>) -> Status {
         self.call(Func::GetFmuState, String::new(), |s| {
             Self::probe_state(s.engine.state().bytes(), 1)?;
             store(s.snapshot())?;
@@ -38,16 +41,14 @@ impl Instance {
     }
 
     /// `fmi2SetFMUstate`: continue exactly from the snapshot (also into a fresh instance).
-    pub fn set_fmu_state(&mut self, snapshot: Result<&Snapshot, String>) -> Status {
+    pub fn set_fmu_state(&mut self, snapshot: Result<&Snapshot, Error>) -> Status {
         self.call(Func::SetFmuState, String::new(), |s| {
             let snapshot = snapshot?;
             s.check_snapshot(snapshot)?;
             // The engine's copy, the initialization base, and the state they replace.
             Self::probe_state(snapshot.engine.bytes(), 3)?;
             s.heal()?;
-            s.engine
-                .set_state(snapshot.engine.clone())
-                .map_err(|e| e.to_string())?;
+            s.engine.set_state(snapshot.engine.clone())?;
             s.time = snapshot.time;
             s.last_successful_time = snapshot.last_successful_time;
             s.wants_to_terminate = snapshot.wants_to_terminate;
@@ -62,17 +63,15 @@ impl Instance {
     /// The values of a snapshot, before anything is changed: the engine's state (finite
     /// displacements, valid codes, inputs and parameters in range), finite times and a sound
     /// experiment. The first failed check is named.
-    fn check_snapshot(&self, snapshot: &Snapshot) -> Result<(), String> {
-        self.engine
-            .check_state(&snapshot.engine)
-            .map_err(|e| e.to_string())?;
+    fn check_snapshot(&self, snapshot: &Snapshot) -> Result<(), Error> {
+        self.engine.check_state(&snapshot.engine)?;
         for (field, t) in [
             ("time", snapshot.time),
             ("last_successful_time", snapshot.last_successful_time),
             ("experiment.start_time", snapshot.experiment.start_time),
         ] {
             if !t.is_finite() {
-                return Err(format!("FMU state rejected: {field} = {t} is not finite"));
+                return Err(Error::State(format!("{field} = {t} is not finite")));
             }
         }
         let e = &snapshot.experiment;
@@ -81,16 +80,16 @@ impl Instance {
             || e.tolerance
                 .is_some_and(|tol| !(tol.is_finite() && tol > 0.0))
         {
-            return Err(format!(
-                "FMU state rejected: experiment (startTime {}, stopTime {:?}, tolerance {:?}) is not a valid experiment",
+            return Err(Error::State(format!(
+                "experiment (startTime {}, stopTime {:?}, tolerance {:?}) is not a valid experiment",
                 e.start_time, e.stop_time, e.tolerance
-            ));
+            )));
         }
         Ok(())
     }
 
     /// `fmi2FreeFMUstate`: `release` frees the master's handle.
-    pub fn free_fmu_state(&mut self, release: impl FnOnce() -> Result<(), String>) -> Status {
+    pub fn free_fmu_state(&mut self, release: impl FnOnce() -> Result<(), Error>) -> Status {
         self.call(Func::FreeFmuState, String::new(), |_| {
             release().map(|_| Status::Ok)
         })
@@ -98,8 +97,8 @@ impl Instance {
 
     pub fn serialized_fmu_state_size(
         &mut self,
-        snapshot: Result<&Snapshot, String>,
-        store: impl FnOnce(usize) -> Result<(), String>,
+        snapshot: Result<&Snapshot, Error>,
+        store: impl FnOnce(usize) -> Result<(), Error>,
     ) -> Status {
         self.call(Func::SerializedFmuStateSize, String::new(), |s| {
             let snapshot = snapshot?;
@@ -112,8 +111,8 @@ impl Instance {
 
     pub fn serialize_fmu_state(
         &mut self,
-        snapshot: Result<&Snapshot, String>,
-        buffer: Result<&mut [u8], String>,
+        snapshot: Result<&Snapshot, Error>,
+        buffer: Result<&mut [u8], Error>,
     ) -> Status {
         self.call(Func::SerializeFmuState, String::new(), |s| {
             let snapshot = snapshot?;
@@ -121,11 +120,14 @@ impl Instance {
             let bytes = snapshot::encode(snapshot, &s.guid)?;
             let buffer = buffer?;
             if buffer.len() < bytes.len() {
-                return Err(format!(
-                    "the buffer holds {} bytes, the state needs {} (see fmi2SerializedFMUstateSize)",
-                    buffer.len(),
-                    bytes.len()
-                ));
+                return Err(Error::Argument {
+                    argument: "size",
+                    message: format!(
+                        "the buffer holds {} bytes, the state needs {} (see fmi2SerializedFMUstateSize)",
+                        buffer.len(),
+                        bytes.len()
+                    ),
+                });
             }
             buffer[..bytes.len()].copy_from_slice(&bytes);
             Ok(Status::Ok)
@@ -135,8 +137,8 @@ impl Instance {
     /// `fmi2DeSerializeFMUstate`: check the bytes (see `snapshot.rs`), then `store` a new state.
     pub fn deserialize_fmu_state(
         &mut self,
-        bytes: Result<&[u8], String>,
-        store: impl FnOnce(Snapshot) -> Result<(), String>,
+        bytes: Result<&[u8], Error>,
+        store: impl FnOnce(Snapshot) -> Result<(), Error>,
     ) -> Status {
         let args = self.args(|| format!("size={}", bytes.as_ref().map_or(0, |b| b.len())));
         self.call(Func::DeSerializeFmuState, args, |s| {
