@@ -1278,3 +1278,21 @@ fn early_return_stops_at_the_requested_increment() {
     eprintln!("after the rest of the step vs plain: {err:e}");
     assert!(err < 1e-10);
 }
+
+/// Issue 27 through FMI 3: `solver.max_iterations` 4294967296 makes
+/// fmi3InstantiateCoSimulation return NULL with the path and the range logged.
+#[test]
+fn instantiate_refuses_a_bad_setting_with_a_message() {
+    let fx = Fixture::standard();
+    let mut scene: serde_json::Value = serde_json::from_str(&scene_text()).unwrap();
+    scene["solver"] = serde_json::json!({"max_iterations": 4294967296u64});
+    std::fs::write(
+        fx.root.join("resources dir ä/scene.json"),
+        scene.to_string(),
+    )
+    .unwrap();
+    let log = Log::default();
+    assert!(instantiate(&fx.token, &fx.path, &log, false, false).is_null());
+    log.expect("fmi3InstantiateCoSimulation");
+    log.expect("solver.max_iterations: 4294967296 is not in 1..=10000");
+}

@@ -1235,3 +1235,34 @@ fn resealed_states_with_bad_values_are_rejected_and_change_nothing() {
         OK
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Issue 27: solver settings out of range and plausibility warnings at Instantiate.
+
+/// The two `solver.max_iterations` of issue 27 (4294967296 made the Newton history ask for
+/// 34 GB and the host abort in fmi2ExitInitializationMode; 18446744073709551615 made a failing
+/// step loop forever): fmi2Instantiate returns NULL and logs the path and the range.
+#[test]
+fn instantiate_refuses_max_iterations_out_of_range_with_a_message() {
+    let fx = Fixture::standard();
+    for value in ["4294967296", "18446744073709551615"] {
+        let mut scene: serde_json::Value = serde_json::from_str(&scene_text()).unwrap();
+        scene["solver"] =
+            serde_json::from_str(&format!("{{\"max_iterations\": {value}}}")).unwrap();
+        std::fs::write(fx.root.join("resources/scene.json"), scene.to_string()).unwrap();
+        let log = Log::default();
+        let c = instantiate(&fx.guid, &fx.uri, &log, false);
+        assert!(c.is_null(), "{value}");
+        let records = log.records();
+        assert_eq!(records.len(), 1, "{records:?}");
+        assert_eq!(records[0].status, ERROR);
+        for needle in [
+            "fmi2Instantiate",
+            "solver.max_iterations",
+            value,
+            "1..=10000",
+        ] {
+            assert!(records[0].message.contains(needle), "{needle}: {records:?}");
+        }
+    }
+}
