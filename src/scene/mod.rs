@@ -3,7 +3,9 @@
 //! A scene is JSON in SI units (m, N, Pa, N/m for membrane forces). It is read with
 //! [`Scene::from_json`], which names the JSON path of a type error, and checked with
 //! [`validate::validate`], which lists every semantic problem by JSON path. Only a validated
-//! scene is turned into a model (`crate::model`).
+//! scene is turned into a model (`crate::model`). [`plausibility::warnings`] then names what a
+//! valid scene has that is most likely a slip (a prestress implying more than 5 % strain, a
+//! modulus far outside its material's usual range, a sleeve penalty softer than what it ties).
 //!
 //! ```text
 //! format      always 1
@@ -20,6 +22,7 @@
 
 pub mod generate;
 pub mod limits;
+pub mod plausibility;
 pub mod read;
 pub mod shape;
 pub mod target;

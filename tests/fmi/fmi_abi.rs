@@ -1266,3 +1266,50 @@ fn instantiate_refuses_max_iterations_out_of_range_with_a_message() {
         }
     }
 }
+
+/// A valid scene with an implausible number (the Hencky disc with E = 600 Pa, 1667x below the
+/// usual range of a sheet) instantiates, and with logging on the warning is logged on
+/// logStatusWarning with fmi2Warning, naming the path; with logging off nothing is logged.
+#[test]
+fn instantiate_logs_plausibility_warnings_and_builds_the_instance() {
+    let disc = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/modelDescription/HenckyDisc/scene.json"
+    ))
+    .unwrap();
+    assert!(disc.contains("\"E\": 2e8"));
+    let fx = Fixture::new(
+        "velarium-fmi-warning",
+        &disc.replace("\"E\": 2e8", "\"E\": 600"),
+    );
+    let log = Log::default();
+    let fmu = fx.fmu(&log, true);
+    let warnings: Vec<Record> = log
+        .records()
+        .into_iter()
+        .filter(|r| r.category == "logStatusWarning")
+        .collect();
+    assert_eq!(warnings.len(), 1, "{:?}", log.records());
+    assert_eq!(warnings[0].status, Status::Warning);
+    assert!(
+        warnings[0]
+            .message
+            .starts_with("fmi2Instantiate: membranes[0].material.E: 6e2 Pa"),
+        "{warnings:?}"
+    );
+    drop(fmu);
+    let quiet = Log::default();
+    let _fmu = fx.fmu(&quiet, false);
+    assert!(quiet.records().is_empty(), "{:?}", quiet.records());
+    // The shipped disc: no warning.
+    let fx = Fixture::new("velarium-fmi-warning", &disc);
+    let log = Log::default();
+    let _fmu = fx.fmu(&log, true);
+    assert!(
+        log.records()
+            .iter()
+            .all(|r| r.category != "logStatusWarning"),
+        "{:?}",
+        log.records()
+    );
+}

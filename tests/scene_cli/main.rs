@@ -9,6 +9,7 @@ mod common;
 mod cli;
 mod hostile_input;
 mod memory_limits;
+mod plausibility;
 mod pressure_sign;
 mod scene_validation;
 mod settings_bounds;
