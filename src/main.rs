@@ -325,8 +325,13 @@ fn cmd_formfind(path: &str, out: &str, quiet: bool) -> Result<ExitCode, Stop> {
     text.push('\n');
     write_atomically(Path::new(out), text.as_bytes()).map_err(failed)?;
     println!(
-        "form finding converged: {} iterations, {:.3} s, last move {:.1e} of the span; wrote {out}",
-        report.iterations, report.seconds, report.last_move
+        "form finding converged: {} iterations, {:.3} s; the shape moved {:.1e} of the span in the iteration that met the tolerance, the finishing step {:.1e}; stress within {:.1e} of the prescribed, smallest triangle angle {:.1}°; wrote {out}",
+        report.iterations,
+        report.seconds,
+        report.shape_move,
+        report.last_move,
+        report.deviation,
+        report.min_angle.0
     );
     Ok(ExitCode::SUCCESS)
 }
