@@ -380,12 +380,14 @@ fn accept(setup: &Setup, state: &State, report: &mut Report) -> Result<(), Halt>
     }
 }
 
-/// The degenerated triangle with the smallest angle (index, its smallest angle and its start
-/// one, degrees), if any ([`MIN_ANGLE_DEGREES`]), and the smallest angle of any triangle at
-/// `x` with its start angle ((60, 60) without triangles).
-fn degenerate(setup: &Setup, x: &[Vector3<f64>]) -> (Option<(usize, f64, f64)>, (f64, f64)) {
+/// A triangle's index, its smallest angle at the found shape and at the start (degrees).
+type Degenerated = (usize, f64, f64);
+
+/// The degenerated triangle with the smallest angle, if any ([`MIN_ANGLE_DEGREES`]), and the
+/// smallest angle of any triangle at `x` with its start angle ((60, 60) without triangles).
+fn degenerate(setup: &Setup, x: &[Vector3<f64>]) -> (Option<Degenerated>, (f64, f64)) {
     let mut worst = (60.0f64, 60.0f64);
-    let mut bad: Option<(usize, f64, f64)> = None;
+    let mut bad: Option<Degenerated> = None;
     for (e, (t, &start)) in setup.tris.iter().zip(&setup.start_angle).enumerate() {
         let angle = smallest_angle(x, t.nodes);
         if !(angle >= worst.0) {

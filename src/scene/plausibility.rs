@@ -143,11 +143,11 @@ pub fn measures(scene: &Scene) -> Vec<Measure> {
                 path: format!("{p}.{field}"),
                 ratio: strain / MAX_PRESTRAIN,
                 message: format!(
-                    "a tension of {} N on EA = {} N implies a strain of {}, more than {}: check the units of both",
+                    "a tension of {} N on EA = {} N implies a strain of {}, more than {:.0} %: check the units of both",
                     num(t),
                     num(c.ea),
                     percent(strain),
-                    format!("{:.0} %", 100.0 * MAX_PRESTRAIN)
+                    100.0 * MAX_PRESTRAIN
                 ),
             });
         }
@@ -159,11 +159,11 @@ pub fn measures(scene: &Scene) -> Vec<Measure> {
                 path: format!("{p}.unstretched_length"),
                 ratio: strain / MAX_PRESTRAIN,
                 message: format!(
-                    "{} m against the cable's length {} m in the scene geometry implies a strain of {}, more than {}",
+                    "{} m against the cable's length {} m in the scene geometry implies a strain of {}, more than {:.0} %",
                     num(l0),
                     num(l),
                     percent(strain),
-                    format!("{:.0} %", 100.0 * MAX_PRESTRAIN)
+                    100.0 * MAX_PRESTRAIN
                 ),
             });
         }
@@ -263,11 +263,11 @@ fn prestress(p: &Prestress, material: &Material, t: f64, group: usize, out: &mut
         path: format!("membranes[{group}].prestress"),
         ratio: strain / MAX_PRESTRAIN,
         message: format!(
-            "{what} on thickness {} m implies a strain of {} in the group's material ({}), more than {}: check the units (N/m is stress times thickness)",
+            "{what} on thickness {} m implies a strain of {} in the group's material ({}), more than {:.0} %: check the units (N/m is stress times thickness)",
             num(t),
             percent(strain),
             stiffness(material, t),
-            format!("{:.0} %", 100.0 * MAX_PRESTRAIN)
+            100.0 * MAX_PRESTRAIN
         ),
     });
 }
