@@ -52,7 +52,8 @@ pub const MAX_PRESTRAIN: f64 = 0.05;
 pub const USUAL_SHEET_MODULUS: (f64, f64) = (1e6, 5e9);
 
 /// Usual shear modulus μ (Pa) of a `neo_hookean` rubber: E = 3μ from 0.3 MPa (soft silicone)
-/// to 90 MPa (hard elastomers), Ashby's elastomer band.
+/// to 90 MPa (hard elastomers): Ashby's elastomer band (1 to 100 MPa), extended down to soft
+/// silicones.
 pub const USUAL_RUBBER_SHEAR_MODULUS: (f64, f64) = (1e5, 3e7);
 
 /// How far outside its usual range a modulus may lie before it is flagged (a factor).
