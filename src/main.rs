@@ -110,6 +110,11 @@ enum Command {
         threads: Option<u64>,
     },
     /// List every problem of a scene by JSON path; exit 1 if there is any.
+    ///
+    /// A valid scene gets a summary, a cost line and a `warning: path: message` line for each
+    /// number that is valid but most likely a slip: a prestress or pretension implying more
+    /// than 5 % strain, a modulus 100x outside its material's usual range, a sleeve penalty
+    /// softer than the members it ties. Warnings do not change the exit code.
     #[command(
         after_help = "Examples:\n  velarium check modelDescription/SleeveCable/scene.json\n  (prints `ok: SleeveCable, ... unknowns`, or one `path: message` line per problem)"
     )]
@@ -320,8 +325,13 @@ fn cmd_formfind(path: &str, out: &str, quiet: bool) -> Result<ExitCode, Stop> {
     text.push('\n');
     write_atomically(Path::new(out), text.as_bytes()).map_err(failed)?;
     println!(
-        "form finding converged: {} iterations, {:.3} s, last move {:.1e} of the span; wrote {out}",
-        report.iterations, report.seconds, report.last_move
+        "form finding converged: {} iterations, {:.3} s; the shape moved {:.1e} of the span in the iteration that met the tolerance, the finishing step {:.1e}; stress within {:.1e} of the prescribed, smallest triangle angle {:.1}°; wrote {out}",
+        report.iterations,
+        report.seconds,
+        report.shape_move,
+        report.last_move,
+        report.deviation,
+        report.min_angle.0
     );
     Ok(ExitCode::SUCCESS)
 }
@@ -608,6 +618,10 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
         scene.solver.limits.max_memory_gb
     );
     outln!("{}", cost_line(&scene, &size, model.triangles.len()));
+    // Plausibility warnings: the scene is valid, so they do not change the exit code.
+    for w in velarium::scene::plausibility::warnings(&scene) {
+        outln!("warning: {w}");
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -86,6 +86,7 @@ impl Instance {
                     &format!("fmi2Instantiate({}) -> instance", describe(args)),
                 );
                 instance.log_memory();
+                instance.log_warnings();
                 Some(instance)
             }
             Err(message) => {
@@ -131,6 +132,19 @@ impl Instance {
                     self.engine.factor_nonzeros()
                 ),
             );
+        }
+    }
+
+    /// The scene's plausibility warnings (`scene::plausibility`: a prestress implying more
+    /// than 5 % strain, a modulus far outside its material's usual range, a sleeve penalty
+    /// softer than what it ties) on logStatusWarning at instantiation. The instance is built
+    /// all the same: they are warnings, not errors.
+    pub(crate) fn log_warnings(&self) {
+        if self.logger.enabled(Category::StatusWarning) {
+            for w in crate::scene::plausibility::warnings(self.engine.scene()) {
+                self.logger
+                    .log(Category::StatusWarning, &format!("fmi2Instantiate: {w}"));
+            }
         }
     }
 

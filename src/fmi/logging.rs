@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! category          status passed    when
-//! logStatusWarning  fmi2Warning      recoverable oddities
+//! logStatusWarning  fmi2Warning      recoverable oddities: the scene's plausibility warnings at
+//!                                    instantiation (scene/plausibility.rs)
 //! logStatusDiscard  fmi2Discard      a DoStep that did not converge (reached fraction, why)
 //!                                    (always emitted: a master must learn why a run ended)
 //! logStatusError    fmi2Error        every Error: illegal call, bad argument, failed check

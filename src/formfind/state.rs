@@ -33,6 +33,18 @@ pub const ACROSS_CABLE_KEPT: f64 = 0.1;
 /// iterations (0.1 kept: 29; all kept: no convergence in 200).
 pub const AXIAL_KEPT: f64 = 0.01;
 
+/// Largest relative deviation of the found stress state from the prescribed one (the report's
+/// `deviation`) that form finding accepts: above it the found shape is the equilibrium of
+/// another stress state than the one asked for (an anisotropic prestress that has no
+/// equilibrium on the surface, a mesh still creeping), and form finding fails saying so.
+pub const MAX_DEVIATION: f64 = 1e-2;
+
+/// A found triangle has degenerated when its smallest angle is below this (degrees) and below
+/// half its smallest angle in the start shape (so a start mesh's own slivers are not blamed on
+/// form finding). 5°: an aspect ratio of about 11; see [`crate::formfind`] for the values it
+/// separates.
+pub const MIN_ANGLE_DEGREES: f64 = 5.0;
+
 /// Iterative refinement solves of the last step.
 pub(super) const REFINEMENTS: usize = 3;
 
@@ -45,8 +57,16 @@ pub struct Report {
     /// Iterations (linear solves) done.
     pub iterations: usize,
     /// Largest shape move of the last iteration (normal to the surface at membrane nodes, the
-    /// whole move at cable nodes), relative to the span.
+    /// whole move at cable nodes), relative to the span. For a found shape: the move of the
+    /// finishing step (the plain equations, no homotopy or mesh control), which may exceed the
+    /// tolerance; what it does to the stress is `deviation`.
     pub last_move: f64,
+    /// The shape move of the iteration that met the tolerance (relative to the span; infinite
+    /// while none has): the convergence of the shape iteration that the summary reports.
+    pub shape_move: f64,
+    /// Smallest angle of a triangle of the last iterate in degrees (60 without triangles), and
+    /// that triangle's smallest angle in the start shape (see [`MIN_ANGLE_DEGREES`]).
+    pub min_angle: (f64, f64),
     /// Largest relative deviation of the stress state that balances the found shape from the
     /// prescribed one (membrane force components over the group's largest prescribed force;
     /// cable forces over their prescribed force).
@@ -105,6 +125,8 @@ pub(super) struct Setup {
     pub(super) on_cable: Vec<bool>,
     /// Area of each triangle in X_0.
     pub(super) start_area: Vec<f64>,
+    /// Smallest angle (degrees) of each triangle in X_0.
+    pub(super) start_angle: Vec<f64>,
     /// Bounding-box diagonal of the nodes the elements use in X_0.
     pub(super) span: f64,
 }

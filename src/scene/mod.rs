@@ -3,7 +3,9 @@
 //! A scene is JSON in SI units (m, N, Pa, N/m for membrane forces). It is read with
 //! [`Scene::from_json`], which names the JSON path of a type error, and checked with
 //! [`validate::validate`], which lists every semantic problem by JSON path. Only a validated
-//! scene is turned into a model (`crate::model`).
+//! scene is turned into a model (`crate::model`). [`plausibility::warnings`] then names what a
+//! valid scene has that is most likely a slip (a prestress implying more than 5 % strain, a
+//! modulus far outside its material's usual range, a sleeve penalty softer than what it ties).
 //!
 //! ```text
 //! format      always 1
@@ -20,6 +22,7 @@
 
 pub mod generate;
 pub mod limits;
+pub mod plausibility;
 pub mod read;
 pub mod shape;
 pub mod target;
@@ -789,13 +792,16 @@ impl InexactNewton {
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct FormFinding {
-    /// Iterations before form finding gives up. Default 50.
+    /// Iterations before form finding gives up. Default 50; range 1 to 10 000 (as
+    /// `solver.max_iterations`).
     #[serde(default = "form_finding_iterations")]
     pub max_iterations: usize,
     /// Converged when the shape moves at most `tolerance` times the span (bounding-box
     /// diagonal) in one iteration, and so does the distance left estimated from the rate of
     /// the last two moves: membrane nodes along the surface normal, cable nodes wholly.
-    /// Default 1e-6. The found scene carries the stress state that balances the found
+    /// Default 1e-6; range [1e-12, 0.1): a move of 1e-12 of the span is near the
+    /// coordinates' round-off, one of a tenth is no shape yet.
+    /// The found scene carries the stress state that balances the found
     /// shape exactly, so its analysis starts in equilibrium whatever the tolerance.
     #[serde(default = "form_finding_tolerance")]
     pub tolerance: f64,
@@ -804,7 +810,8 @@ pub struct FormFinding {
     /// material part of the true (surface-tension) tangent. 0 is the plain URS (each step the
     /// equilibrium of the prestress as PK2 stress in the last shape); larger λ lets the mesh
     /// settle within the surface faster (1/(1 − λ) per iteration) at the price of a less
-    /// stable step. Default 0.5.
+    /// stable step. Default 0.5; range [0, 1) (the settling factor 1/(1 − λ) has no
+    /// bound at 1).
     #[serde(default = "form_finding_homotopy")]
     pub homotopy: f64,
     /// Start positions of nodes (mast tops, rings): each listed node is moved to `position`
@@ -857,12 +864,18 @@ pub struct SolverSettings {
     /// if the Newton correction is also within tolerance · X at every unknown, X the size of
     /// the coordinates (docs/solver.md). 1e-9 keeps
     /// verification at 1e-8 honest while quadratic convergence makes it cheap.
+    /// Range [1e-14, 1e-2] (`validate::TOLERANCE_RANGE`): below 1e-14 (about 45 ε) only the
+    /// round-off floor decides, above 1e-2 a converged state keeps over a percent of the forces
+    /// unbalanced.
     pub tolerance: f64,
     /// Newton iterations per load increment before it is cut back. 50: quadratic convergence
     /// needs under 10 once the states have settled, but the first increment from a flat,
     /// stress-free sheet (wrinkle states forming, damped steps off the singular start) takes
     /// 30-46 whatever its size (WindSquare 32, the inflated cushion 46), so cutting it back
-    /// earlier only repeats that work.
+    /// earlier only repeats that work. Range 1 to 10 000 (`validate::MAX_ITERATIONS`): the
+    /// Newton loop keeps one number per iteration and a failing step runs up to 20 increments
+    /// of this many, so the bound keeps both finite and small (2^32 asked for a 34 GB history,
+    /// 2^64 − 1 overflowed the loop's bound).
     pub max_iterations: usize,
     /// Newton iterations one step may spend in all (every increment, cut-back and the prestress
     /// continuation) before it gives up, saying so: the step's work budget. 500, 1 to 100000:
@@ -875,17 +888,22 @@ pub struct SolverSettings {
     )]
     pub max_step_iterations: usize,
     /// First load increment inside a step, as a fraction of the step's load change (1 = try the
-    /// whole step at once).
+    /// whole step at once). Range [min_increment, 1].
     pub initial_increment: f64,
     /// Smallest increment before the step is declared failed (1e-4: ten thousand increments).
+    /// Range [1e-12, initial_increment] (`validate::MIN_INCREMENT`): increments are cut by 4,
+    /// so a step tries at most 20 before it fails.
     pub min_increment: f64,
-    /// Increment growth aims at this many iterations per increment (6).
+    /// Increment growth aims at this many iterations per increment (6). Range 1 to 10 000 (as
+    /// `max_iterations`); at or above `max_iterations` every converged increment lets the next
+    /// one double.
     pub target_iterations: usize,
     /// Artificial isotropic prestress in Pa for stress-free membranes, flat or curved. It enters
     /// the tangent only (never the residual), out of the current plane and only as far as the
     /// element lacks tension, and fades as the residual falls below 1 % of the force scale, so
     /// it changes the iteration path, not the equilibrium. Absent: 1e-4 · E of each membrane
-    /// group (about 1 % of the stress at qa/Eh = 1e-3); 0 switches it off.
+    /// group (about 1 % of the stress at qa/Eh = 1e-3); 0 switches it off. Range [0, 1e30] Pa
+    /// (the bound of every stress in a scene).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub artificial_prestress: Option<f64>,
     /// Starting isotropic pre-strain of the prestress continuation: an increment that fails
@@ -894,7 +912,8 @@ pub struct SolverSettings {
     /// each from the last one's equilibrium, before it is cut back. The last problem is the
     /// scene's own, so it changes the path, not the equilibrium (docs/solver.md). Not with
     /// friction in a sleeve (its history would take in the intermediate slips). 0 switches it
-    /// off; at most 0.1.
+    /// off; range [0, 0.1] (a pre-strain of more than 10 % is no longer a small perturbation of
+    /// the problem).
     #[serde(skip_serializing_if = "is_default_continuation")]
     pub prestress_continuation: f64,
     /// Energy (slope) line search on every Newton correction.
@@ -906,7 +925,8 @@ pub struct SolverSettings {
     #[serde(skip_serializing_if = "PathMethod::is_default")]
     pub path: PathMethod,
     /// First arc length of a step under `path: arc_length`: RMS displacement of the free DOFs
-    /// in metres. Absent: set by a first load-controlled increment of `initial_increment`.
+    /// in metres, in [1e-30, 1e30] (the bound of every length in a scene). Absent: set by a
+    /// first load-controlled increment of `initial_increment`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub arc_length: Option<f64>,
     /// Internal numbering of the nodes inside the linear solve (`rings`, the default, `rcm`,
@@ -919,7 +939,8 @@ pub struct SolverSettings {
     /// (`limits.rs`): max_nodes, max_triangles, max_unknowns, max_memory_gb.
     #[serde(skip_serializing_if = "Limits::is_default")]
     pub limits: Limits,
-    /// Threads of the solver (1 to 64): with 2 or more the instance starts that many worker
+    /// Threads of the solver (1 to 64, the solver's pool bound `solver::threads::MAX_THREADS`):
+    /// with 2 or more the instance starts that many worker
     /// threads of its own (joined when it is freed) for the element loop of the assembly and
     /// the sparse factorization. 1 (the default, and what an FMU uses unless the scene asks
     /// for more): no thread besides the instance's own. Results agree with 1 thread to
@@ -978,14 +999,17 @@ impl Default for SolverSettings {
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct Limits {
-    /// Most mesh nodes (explicit and generated). Default 2,000,000.
+    /// Most mesh nodes (explicit and generated). Default 2,000,000. Range 1 to 4,294,967,295
+    /// for this and the next two (`validate::MAX_COUNT_LIMIT`): the solver addresses its
+    /// matrix with 32-bit positions, so no larger model can be built.
     pub max_nodes: u64,
     /// Most mesh triangles. Default 4,000,000.
     pub max_triangles: u64,
     /// Most unknowns (3 per node, 4 more per sleeve point). Default 4,000,000.
     pub max_unknowns: u64,
     /// Most estimated peak memory of model and solver, in GB (1e9 bytes). Default 16: what a
-    /// 24 GB machine can give a solve while the host keeps the rest.
+    /// 24 GB machine can give a solve while the host keeps the rest. Range [1e-3, 1e6]
+    /// (`validate::MEMORY_GB_RANGE`): finite and positive (NaN would switch the check off).
     pub max_memory_gb: f64,
     /// Also compare the estimate with the memory this process can get now (the smaller of the
     /// machine's available memory and the address-space limit). Default true; false leaves

@@ -27,10 +27,18 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
         problems: Vec::new(),
     };
     v.header(scene);
+    v.solver(scene);
     let before = v.problems.len();
     v.generators(scene);
     if v.problems.len() > before {
         // Without a sound mesh the references below cannot be checked meaningfully.
+        return v.problems;
+    }
+    if v.problems
+        .iter()
+        .any(|p| p.path.starts_with("solver.limits."))
+    {
+        // No size check against a limit out of its range, and so no mesh either.
         return v.problems;
     }
     // Size limits from the numbers alone, before the mesh is built.
@@ -101,7 +109,6 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     v.outputs(scene, &mesh, &held);
     v.parameters(scene);
     v.names(scene);
-    v.solver(scene);
     v.form_finding(scene, &mesh);
     v.problems
 }
@@ -120,6 +127,36 @@ pub const MIN_MAGNITUDE: f64 = 1e-30;
 pub const PRESTRAIN_FLOOR: f64 = 1e-12;
 const RANGE: &str =
     "(between 1e-30 and 1e30, so that squares and products in the mechanics cannot overflow)";
+
+/// `solver.tolerance` range. Below 1e-14 (about 45 ε) the residual test is met only through its
+/// round-off floor 16 ε (Σ|f| + K X) (docs/solver.md), so a smaller tolerance asks for nothing
+/// more; above 1e-2 a converged state would keep a residual of over a percent of the forces.
+pub const TOLERANCE_RANGE: (f64, f64) = (1e-14, 1e-2);
+/// Most `solver.max_iterations` (and `form_finding.max_iterations`). A flat start takes 30-46
+/// Newton iterations and steady linear convergence is allowed 200 (`max_iterations_progressing`);
+/// the Newton loop keeps one number per iteration, and a step whose first increment fails
+/// spends up to (cut-backs + 1) × max_iterations iterations, so 10 000 bounds both (80 kB, and
+/// at most 200 000 iterations with [`MIN_INCREMENT`]: 20 increments). 4294967296 made that history ask for
+/// 34 GB (an abort), 2^64 − 1 overflowed the loop's bound (a step that never ended).
+pub const MAX_ITERATIONS: usize = 10_000;
+/// Smallest `solver.min_increment` (and `initial_increment`), a fraction of a step's load
+/// change: increments are cut by 4 on failure, so a step tries at most floor(log4(1e12)) + 1 = 20
+/// increments before it fails.
+pub const MIN_INCREMENT: f64 = 1e-12;
+/// Largest `solver.limits.max_nodes`, `max_triangles`, `max_unknowns`: u32::MAX, the most
+/// matrix entries the solver's 32-bit position maps address (`limits::MAX_MATRIX_ENTRIES`; the
+/// size estimate's node graph stores node ids in 32 bits too), so no larger model can be built.
+pub const MAX_COUNT_LIMIT: u64 = u32::MAX as u64;
+/// `solver.limits.max_memory_gb` range in GB: positive and finite (NaN would switch the memory
+/// check off), from 1 MB (what the smallest scenes are estimated to need) to 1e6 GB (a
+/// petabyte, beyond any machine this runs on).
+pub const MEMORY_GB_RANGE: (f64, f64) = (1e-3, 1e6);
+
+/// Cut-backs by 4 from a whole step down to [`MIN_INCREMENT`]: floor(log4(1e12)) = 19, so
+/// 20 tries in all.
+fn max_cutbacks() -> usize {
+    (1.0 / MIN_INCREMENT).log(4.0).floor() as usize
+}
 
 /// A positive number within [MIN_MAGNITUDE, MAX_MAGNITUDE].
 fn positive(x: f64) -> bool {
@@ -1513,10 +1550,10 @@ impl Validator {
         let Some(ff) = &s.form_finding else {
             return;
         };
-        if ff.max_iterations == 0 || ff.max_iterations > 10_000 {
+        if !(1..=MAX_ITERATIONS).contains(&ff.max_iterations) {
             self.push(
                 "form_finding.max_iterations",
-                format!("{} is not in 1..=10000", ff.max_iterations),
+                format!("{} is not in 1..={MAX_ITERATIONS}", ff.max_iterations),
             );
         }
         if !(ff.tolerance.is_finite() && ff.tolerance >= 1e-12 && ff.tolerance < 0.1) {
@@ -1580,34 +1617,67 @@ impl Validator {
         }
     }
 
+    /// Every numeric solver setting within its documented range ([`MAX_ITERATIONS`] and the
+    /// constants beside it; `SolverSettings` and `Limits` say why each range is what the solver
+    /// can use). Checked before the mesh, so that a bad setting is named whatever else is wrong.
     fn solver(&mut self, s: &Scene) {
         let st = &s.solver;
-        if !(positive(st.tolerance) && st.tolerance < 1e-2) {
+        let (lo, hi) = TOLERANCE_RANGE;
+        if !(st.tolerance.is_finite() && (lo..=hi).contains(&st.tolerance)) {
             self.push(
                 "solver.tolerance",
-                format!("{} must be in (0, 1e-2)", st.tolerance),
+                format!("{} is not in [{lo:e}, {hi:e}]: below it only the round-off floor of the residual test decides, above it a converged state keeps a residual of over a percent of the forces", st.tolerance),
             );
         }
-        if st.max_iterations == 0 {
-            self.push("solver.max_iterations", "must be at least 1");
+        if !(1..=MAX_ITERATIONS).contains(&st.max_iterations) {
+            self.push(
+                "solver.max_iterations",
+                format!("{} is not in 1..={MAX_ITERATIONS} (Newton iterations per load increment; a flat start takes 30 to 46)", st.max_iterations),
+            );
         }
         if !(1..=100_000).contains(&st.max_step_iterations) {
             self.push(
                 "solver.max_step_iterations",
-                format!("{} is not in 1..=100000", st.max_step_iterations),
+                format!(
+                    "{} is not in 1..=100000 (Newton iterations of a whole step before it gives up)",
+                    st.max_step_iterations
+                ),
             );
         }
-        if !(positive(st.initial_increment) && st.initial_increment <= 1.0) {
-            self.push("solver.initial_increment", "must be in (0, 1]");
+        if !(1..=MAX_ITERATIONS).contains(&st.target_iterations) {
+            self.push(
+                "solver.target_iterations",
+                format!(
+                    "{} is not in 1..={MAX_ITERATIONS} (iterations per increment that let the next one grow)",
+                    st.target_iterations
+                ),
+            );
         }
-        if !(positive(st.min_increment) && st.min_increment <= st.initial_increment) {
+        if !(st.initial_increment.is_finite()
+            && (MIN_INCREMENT..=1.0).contains(&st.initial_increment))
+        {
+            self.push(
+                "solver.initial_increment",
+                format!(
+                    "{} is not in [{MIN_INCREMENT:e}, 1] (a fraction of the step's load change)",
+                    st.initial_increment
+                ),
+            );
+        }
+        let top = if st.initial_increment.is_finite() {
+            st.initial_increment.clamp(MIN_INCREMENT, 1.0)
+        } else {
+            1.0
+        };
+        if !(st.min_increment.is_finite() && (MIN_INCREMENT..=top).contains(&st.min_increment)) {
             self.push(
                 "solver.min_increment",
-                "must be positive and not above initial_increment",
+                format!(
+                    "{} is not in [{MIN_INCREMENT:e}, initial_increment = {top}] (at most {} cut-backs by 4 from a whole step)",
+                    st.min_increment,
+                    max_cutbacks()
+                ),
             );
-        }
-        if st.target_iterations == 0 {
-            self.push("solver.target_iterations", "must be at least 1");
         }
         // The solver's pool bound (`solver::threads::MAX_THREADS`).
         let most = 64;
@@ -1618,10 +1688,10 @@ impl Validator {
             );
         }
         if let Some(a) = st.arc_length {
-            if !(positive(a) && a <= MAX_MAGNITUDE) {
+            if !positive(a) {
                 self.push(
                     "solver.arc_length",
-                    format!("{a} must be a positive length in m (at most 1e30)"),
+                    format!("{a} is not a length in m in [1e-30, 1e30]"),
                 );
             }
         }
@@ -1639,6 +1709,26 @@ impl Validator {
                     format!("{p} must be a stress >= 0 in Pa (at most 1e30)"),
                 );
             }
+        }
+        let l = &st.limits;
+        for (field, value) in [
+            ("max_nodes", l.max_nodes),
+            ("max_triangles", l.max_triangles),
+            ("max_unknowns", l.max_unknowns),
+        ] {
+            if !(1..=MAX_COUNT_LIMIT).contains(&value) {
+                self.push(
+                    format!("solver.limits.{field}"),
+                    format!("{value} is not in 1..={MAX_COUNT_LIMIT} (the solver addresses its matrix with 32-bit positions: no larger model can be built)"),
+                );
+            }
+        }
+        let (lo, hi) = MEMORY_GB_RANGE;
+        if !(l.max_memory_gb.is_finite() && (lo..=hi).contains(&l.max_memory_gb)) {
+            self.push(
+                "solver.limits.max_memory_gb",
+                format!("{} is not in [{lo}, {hi:e}] GB", l.max_memory_gb),
+            );
         }
     }
 }

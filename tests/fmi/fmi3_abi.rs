@@ -1278,3 +1278,43 @@ fn early_return_stops_at_the_requested_increment() {
     eprintln!("after the rest of the step vs plain: {err:e}");
     assert!(err < 1e-10);
 }
+
+/// Issue 27 through FMI 3: `solver.max_iterations` 4294967296 makes
+/// fmi3InstantiateCoSimulation return NULL with the path and the range logged; an implausible
+/// modulus (E = 600 Pa) is a logged warning (FMI 3 names) and the instance is built.
+#[test]
+fn instantiate_refuses_a_bad_setting_and_logs_a_plausibility_warning() {
+    let fx = Fixture::standard();
+    let mut scene: serde_json::Value = serde_json::from_str(&scene_text()).unwrap();
+    scene["solver"] = serde_json::json!({"max_iterations": 4294967296u64});
+    std::fs::write(
+        fx.root.join("resources dir ä/scene.json"),
+        scene.to_string(),
+    )
+    .unwrap();
+    let log = Log::default();
+    assert!(instantiate(&fx.token, &fx.path, &log, false, false).is_null());
+    log.expect("fmi3InstantiateCoSimulation");
+    log.expect("solver.max_iterations: 4294967296 is not in 1..=10000");
+    let disc = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/modelDescription/HenckyDisc/scene.json"
+    ))
+    .unwrap()
+    .replace("\"E\": 2e8", "\"E\": 600");
+    let fx = Fixture::new("velarium-fmi3-warning", &disc);
+    let log = Log::default();
+    let _fmu = fx.fmu(&log, true);
+    let warning = log
+        .records()
+        .into_iter()
+        .find(|r| r.category == "logStatusWarning")
+        .unwrap_or_else(|| panic!("{:?}", log.records()));
+    assert_eq!(warning.status, Status::Warning);
+    assert!(
+        warning
+            .message
+            .starts_with("fmi3InstantiateCoSimulation: membranes[0].material.E"),
+        "{warning:?}"
+    );
+}

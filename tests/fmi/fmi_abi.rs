@@ -1235,3 +1235,81 @@ fn resealed_states_with_bad_values_are_rejected_and_change_nothing() {
         OK
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Issue 27: solver settings out of range and plausibility warnings at Instantiate.
+
+/// The two `solver.max_iterations` of issue 27 (4294967296 made the Newton history ask for
+/// 34 GB and the host abort in fmi2ExitInitializationMode; 18446744073709551615 made a failing
+/// step loop forever): fmi2Instantiate returns NULL and logs the path and the range.
+#[test]
+fn instantiate_refuses_max_iterations_out_of_range_with_a_message() {
+    let fx = Fixture::standard();
+    for value in ["4294967296", "18446744073709551615"] {
+        let mut scene: serde_json::Value = serde_json::from_str(&scene_text()).unwrap();
+        scene["solver"] =
+            serde_json::from_str(&format!("{{\"max_iterations\": {value}}}")).unwrap();
+        std::fs::write(fx.root.join("resources/scene.json"), scene.to_string()).unwrap();
+        let log = Log::default();
+        let c = instantiate(&fx.guid, &fx.uri, &log, false);
+        assert!(c.is_null(), "{value}");
+        let records = log.records();
+        assert_eq!(records.len(), 1, "{records:?}");
+        assert_eq!(records[0].status, ERROR);
+        for needle in [
+            "fmi2Instantiate",
+            "solver.max_iterations",
+            value,
+            "1..=10000",
+        ] {
+            assert!(records[0].message.contains(needle), "{needle}: {records:?}");
+        }
+    }
+}
+
+/// A valid scene with an implausible number (the Hencky disc with E = 600 Pa, 1667x below the
+/// usual range of a sheet) instantiates, and with logging on the warning is logged on
+/// logStatusWarning with fmi2Warning, naming the path; with logging off nothing is logged.
+#[test]
+fn instantiate_logs_plausibility_warnings_and_builds_the_instance() {
+    let disc = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/modelDescription/HenckyDisc/scene.json"
+    ))
+    .unwrap();
+    assert!(disc.contains("\"E\": 2e8"));
+    let fx = Fixture::new(
+        "velarium-fmi-warning",
+        &disc.replace("\"E\": 2e8", "\"E\": 600"),
+    );
+    let log = Log::default();
+    let fmu = fx.fmu(&log, true);
+    let warnings: Vec<Record> = log
+        .records()
+        .into_iter()
+        .filter(|r| r.category == "logStatusWarning")
+        .collect();
+    assert_eq!(warnings.len(), 1, "{:?}", log.records());
+    assert_eq!(warnings[0].status, Status::Warning);
+    assert!(
+        warnings[0]
+            .message
+            .starts_with("fmi2Instantiate: membranes[0].material.E: 6e2 Pa"),
+        "{warnings:?}"
+    );
+    drop(fmu);
+    let quiet = Log::default();
+    let _fmu = fx.fmu(&quiet, false);
+    assert!(quiet.records().is_empty(), "{:?}", quiet.records());
+    // The shipped disc: no warning.
+    let fx = Fixture::new("velarium-fmi-warning", &disc);
+    let log = Log::default();
+    let _fmu = fx.fmu(&log, true);
+    assert!(
+        log.records()
+            .iter()
+            .all(|r| r.category != "logStatusWarning"),
+        "{:?}",
+        log.records()
+    );
+}

@@ -21,7 +21,7 @@ fn dir() -> PathBuf {
     d
 }
 
-fn write(name: &str, bytes: &[u8]) -> String {
+pub(crate) fn write(name: &str, bytes: &[u8]) -> String {
     let p = dir().join(name);
     std::fs::write(&p, bytes).unwrap();
     p.display().to_string()
@@ -64,7 +64,7 @@ fn text(out: &Output) -> String {
 }
 
 /// Exit 1 (not 101 or a signal) with every needle in the output.
-fn rejected(args: &[&str], needles: &[&str]) -> String {
+pub(crate) fn rejected(args: &[&str], needles: &[&str]) -> String {
     let out = run(args);
     let t = text(&out);
     assert_eq!(out.status.code(), Some(1), "{args:?}: {t}");
@@ -82,10 +82,10 @@ fn hencky(rings: &str) -> String {
     shipped_text("HenckyDisc").replace("\"rings\": 16", &format!("\"rings\": {rings}"))
 }
 
-const CABLE_LOADS: &str = "time,P\n0,0\n1,100\n";
+pub(crate) const CABLE_LOADS: &str = "time,P\n0,0\n1,100\n";
 
 /// The shipped PrestressedCable with a replacement applied to its text.
-fn cable_with(from: &str, to: &str) -> String {
+pub(crate) fn cable_with(from: &str, to: &str) -> String {
     let t = shipped_text("PrestressedCable");
     assert!(t.contains(from), "{from}");
     t.replacen(from, to, 1)

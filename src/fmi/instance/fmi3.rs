@@ -77,6 +77,7 @@ impl Instance {
                     ),
                 );
                 instance.log_memory();
+                instance.log_warnings();
                 Some(instance)
             }
             Err(message) => {
