@@ -384,6 +384,9 @@ pub fn run_member(m: &Member) -> Vec<Run> {
         }
         if !report.converged() {
             runs[k].verdict = failure(&report.message, r.no_mechanism);
+            if let Some(ratio) = last_residual(&report.message) {
+                runs[k].notes.push(format!("last |R|/scale {ratio:.1e}"));
+            }
             return runs;
         }
         let mut notes = Vec::new();
@@ -394,6 +397,22 @@ pub fn run_member(m: &Member) -> Vec<Run> {
         runs[k].notes = notes;
     }
     runs
+}
+
+/// |R|/scale of the last iterate, read from a failure message that states them ("|R| = x, ...
+/// scale y"): how far from equilibrium a failed increment stopped, in the solver's own force
+/// scale. None if the message does not say.
+pub fn last_residual(message: &str) -> Option<f64> {
+    let after = |key: &str| -> Option<f64> {
+        let start = message.rfind(key)? + key.len();
+        let text: String = message[start..]
+            .chars()
+            .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | '-' | '+'))
+            .collect();
+        text.parse().ok()
+    };
+    let (r, scale) = (after("|R| = ")?, after("scale ")?);
+    (scale > 0.0).then_some(r / scale)
 }
 
 /// What the checks need of a member, computed once.
@@ -629,11 +648,22 @@ fn check(
     // With a slack triangle or cable segment the shape is not unique (a slack part may sit
     // anywhere it stays slack), so there the reactions, which the taut parts fix, are compared
     // instead of the displacements.
-    let slack = engine
+    let slack_triangles = engine
         .membranes()
         .iter()
-        .any(|e| e.state == WrinkleState::Slack)
-        || (0..model.segments.len()).any(|e| model.segment_tension(&u, e) <= 0.0);
+        .filter(|e| e.state == WrinkleState::Slack)
+        .count();
+    let slack_segments = (0..model.segments.len())
+        .filter(|&e| model.segment_tension(&u, e) <= 0.0)
+        .count();
+    let slack = slack_triangles + slack_segments > 0;
+    if slack {
+        notes.push(format!(
+            "slack: {slack_segments} of {} cable segments, {slack_triangles} of {} triangles",
+            model.segments.len(),
+            model.triangles.len()
+        ));
+    }
     let reaction = |i: usize| {
         Vector3::from_fn(|c, _| {
             if model.held[3 * i + c] {
@@ -1839,16 +1869,28 @@ pub fn table(runs: &[Run]) -> String {
     }
     out += &line("total", runs.iter().collect());
     // Failures grouped by message.
-    let mut kinds: BTreeMap<(&str, String), usize> = BTreeMap::new();
+    // (count, smallest and largest |R|/scale of the last iterate where the message says).
+    let mut kinds: BTreeMap<(&str, String), (usize, f64, f64)> = BTreeMap::new();
     for r in runs {
         if let Verdict::Honest(m) = &r.verdict {
-            *kinds.entry((r.family, summary(m))).or_default() += 1;
+            let e = kinds
+                .entry((r.family, summary(m)))
+                .or_insert((0, f64::INFINITY, 0.0));
+            e.0 += 1;
+            if let Some(q) = last_residual(m) {
+                (e.1, e.2) = (e.1.min(q), e.2.max(q));
+            }
         }
     }
     if !kinds.is_empty() {
-        out += "\nhonest failures, by message (numbers as #):\n";
-        for ((family, kind), count) in kinds {
-            out += &format!("  {family:<16} {count:>3} x {kind}\n");
+        out += "\nhonest failures, by message (numbers as #; the last iterate's |R|/scale):\n";
+        for ((family, kind), (count, lo, hi)) in kinds {
+            let range = if hi > 0.0 {
+                format!(" [{lo:.0e} to {hi:.0e}]")
+            } else {
+                String::new()
+            };
+            out += &format!("  {family:<16} {count:>3} x {kind}{range}\n");
         }
     }
     let bad = |r: &&Run| {
@@ -1886,7 +1928,8 @@ pub fn table(runs: &[Run]) -> String {
     out
 }
 
-/// A failure message with its numbers replaced by `#` and cut to a line, for grouping.
+/// A failure message with its numbers replaced by `#`, the words around its reason dropped
+/// and cut to a line, for grouping.
 pub fn summary(message: &str) -> String {
     let mut out = String::new();
     let mut in_number = false;
@@ -1901,6 +1944,20 @@ pub fn summary(message: &str) -> String {
             out.push(ch);
         }
         in_number = numeric;
+    }
+    // The solver's wording around the reason (as of issue 27) goes, to group by the reason.
+    for noise in [
+        "no equilibrium found beyond load fraction # of the step (smallest increment # failed: ",
+        " (|R| = #, |r_slip| = #, scale #; the largest residual is # times its local tolerance)",
+        ": across the tension the film has no stiffness there, so the load may have no equilibrium unless something else holds that node (or the film gets a residual stiffness, membranes[].residual_stiffness)",
+    ] {
+        out = out.replace(noise, "");
+    }
+    for c in ["x", "y", "z"] {
+        out = out.replace(&format!("node # in {c}"), "node #");
+    }
+    if out.ends_with(')') && out.matches(')').count() > out.matches('(').count() {
+        out.pop();
     }
     let mut line: String = out.chars().take(150).collect();
     if out.chars().count() > 150 {
