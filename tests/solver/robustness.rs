@@ -1,0 +1,84 @@
+//! GOAL: the CI slice of the robustness corpus (issue 27): no member of the slice comes back
+//!       wrong, and every failure is honest. The slice is the members marked `quick` in
+//!       examples/robustness/corpus.rs (the smallest of every family, plus the reported
+//!       16x16 quarter cushion, 10 and 14 rings on a cable and the cable loaded to 1e9 N
+//!       across and along), each
+//!       solved loaded and then unloaded at default solver settings; the whole corpus is
+//!       `cargo run --release --example robustness` (docs/robustness.md).
+//! MESH, BOUNDARY CONDITIONS, PARAMETERS: per family, in corpus.rs (seed 27).
+//! REFERENCE: checks independent of the solver's convergence test, on every converged run:
+//!       the residual at every free DOF within 1e-6 of the largest force acting (applied loads
+//!       computed from the scene and the deformed geometry, reactions, element forces) plus
+//!       the round-off 100 ε K X; reactions + applied loads and their moments within 1e-6 of
+//!       the loads and reactions plus what the free residuals add up to; mirror symmetry of
+//!       the displacements (of the reactions where a part is slack) within 1e-6 of the
+//!       largest; after unloading an elastic, frictionless, prestressed or clamped member, the
+//!       start equilibrium within 1e-6 of the model's size; closed forms (pretensioned cable
+//!       1e-6, rings on a frictionless cable bracketed by their link gaps, Hencky disc
+//!       0.4/rings²) as stated in corpus.rs. A failure is honest unless its message is empty,
+//!       it panicked, or it claims a mechanism where supports stop every rigid motion.
+//!       Convergence shares are printed, not asserted: the slice asserts no wrong answer and
+//!       no dishonest failure.
+
+#[path = "../../examples/robustness/corpus.rs"]
+mod corpus;
+
+use corpus::Verdict;
+
+/// Members of the slice that the current solver answers wrongly or fails dishonestly on,
+/// (family, label prefix): left out of the slice's test and run each by an ignored test of its
+/// own below (`#[ignore = "issue 27: ..."]` calling [`defect`]), so that they stay visible.
+/// None today.
+const DEFECTS: &[(&str, &str)] = &[];
+
+/// One member of DEFECTS, which must come back right or fail honestly.
+#[allow(dead_code)]
+fn defect(family: &str, label: &str) {
+    let runs = run(|m| m.family == family && m.label.starts_with(label));
+    assert_right_or_honest(&runs);
+}
+
+fn is_defect(m: &corpus::Member) -> bool {
+    DEFECTS
+        .iter()
+        .any(|(f, l)| m.family == *f && m.label.starts_with(l))
+}
+
+fn run(select: impl Fn(&corpus::Member) -> bool) -> Vec<corpus::Run> {
+    let members: Vec<corpus::Member> = corpus::members(27)
+        .into_iter()
+        .filter(|m| m.quick && select(m))
+        .collect();
+    assert!(!members.is_empty(), "no member selected");
+    let runs: Vec<corpus::Run> = members.iter().flat_map(corpus::run_member).collect();
+    print!("{}", corpus::table(&runs));
+    runs
+}
+
+fn assert_right_or_honest(runs: &[corpus::Run]) {
+    let bad: Vec<String> = runs
+        .iter()
+        .filter(|r| {
+            matches!(
+                r.verdict,
+                Verdict::Wrong(_) | Verdict::Dishonest(_) | Verdict::Corpus(_)
+            )
+        })
+        .map(|r| {
+            format!(
+                "{} {} [{}]: {}",
+                r.family,
+                r.row,
+                r.member,
+                corpus::short(&r.verdict)
+            )
+        })
+        .collect();
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+#[test]
+fn quick_slice_is_right_or_fails_honestly() {
+    let runs = run(|m| !is_defect(m));
+    assert_right_or_honest(&runs);
+}
