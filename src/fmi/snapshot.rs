@@ -289,7 +289,10 @@ mod tests {
                 let mut bad = good.clone();
                 bad[index] = code;
                 let e = decode(&seal(STATE_FORMAT_VERSION, "{abc}", &bad), "{abc}").unwrap_err();
-                assert!(e.contains("payload check failed"), "code {code}: {e}");
+                assert!(
+                    e.to_string().contains("payload check failed"),
+                    "code {code}: {e}"
+                );
             }
         }
     }
