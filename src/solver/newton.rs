@@ -182,7 +182,9 @@ impl Solver {
             reopened: 0,
             recent: std::collections::VecDeque::with_capacity(memory + 1),
             recent_potential: None,
-            history: Vec::with_capacity(hard_max + 1),
+            // Bounded whatever the settings say (a library caller can set any number; the
+            // scene's validation allows at most 10000): the history grows past it if needed.
+            history: Vec::with_capacity(hard_max.min(10_000) + 1),
             budget_from: 0,
             loads: Vec::with_capacity(step.loads.len()),
             rows: Vec::new(),
