@@ -633,15 +633,16 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
 const FACTOR_FLOPS_PER_SECOND: f64 = 20e9;
 const FACTOR_SECONDS_PER_ENTRY: f64 = 6e-9;
 const ELEMENT_SECONDS: f64 = 0.6e-6;
-/// Assemblies (global, and their equivalent in nodal relaxation) per Newton iteration of a step
-/// that fails: measured 14-17 on the [1, N] strips of SleeveCable (N = 300 to 3000).
-const FAILING_ASSEMBLIES_PER_ITERATION: f64 = 17.0;
+/// Element evaluations per Newton iteration: the assembly of residual and tangent and the line
+/// search's first trial point.
+const ASSEMBLIES_PER_ITERATION: f64 = 2.0;
 
-/// What one Newton iteration costs at least (one factorization and one assembly), what a
-/// converging step takes (one increment of up to max_iterations), and what a step that does not
-/// converge spends before it gives up: its budget of max_step_iterations Newton iterations (10x
-/// the converging step by default), each costing up to FAILING_ASSEMBLIES_PER_ITERATION
-/// assemblies (line search, nodal relaxation).
+/// What one Newton iteration costs at least (one factorization, one assembly and one trial
+/// point), what a converging step takes (one increment of up to max_iterations), and what a
+/// step that does not converge spends before it gives up: its work budget of
+/// max_step_iterations iterations (10x the converging step by default), in which every further
+/// line-search trial, re-check assembly and relaxation round counts as an iteration of its own,
+/// so that none of them costs more than the iteration it stands for.
 fn cost_line(
     scene: &velarium::Scene,
     size: &velarium::scene::limits::Size,
@@ -651,13 +652,13 @@ fn cost_line(
     let factor = size.factor_flops / FACTOR_FLOPS_PER_SECOND
         + size.factor_entries as f64 * FACTOR_SECONDS_PER_ENTRY;
     let assembly = triangles as f64 * ELEMENT_SECONDS;
-    let converging = (factor + assembly) * s.max_iterations as f64;
-    let failing =
-        s.max_step_iterations as f64 * (factor + FAILING_ASSEMBLIES_PER_ITERATION * assembly);
+    let iteration = factor + ASSEMBLIES_PER_ITERATION * assembly;
+    let converging = iteration * s.max_iterations as f64;
+    let failing = iteration * s.max_step_iterations as f64;
     format!(
-        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} (solver.max_step_iterations): about {:.0} s",
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial, re-check or relaxation round counts as one): about {:.0} s",
         size.factor_flops / 1e9,
-        factor + assembly,
+        iteration,
         s.max_iterations,
         converging,
         s.max_step_iterations,

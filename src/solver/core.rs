@@ -33,9 +33,15 @@ pub struct Solver {
     pub(super) rhs: Vec<f64>,
     /// Per DOF, the magnitudes of the forces meeting there (last assembly).
     pub(super) magnitude: Vec<f64>,
-    /// Newton iterations spent in the current step ([`super::Stepper::begin`] resets it;
-    /// `settings.max_step_iterations` bounds it).
-    pub(super) step_iterations: usize,
+    /// Work spent in the current step, in Newton iterations ([`super::Stepper::begin`] resets
+    /// it; `settings.max_step_iterations` bounds it): each iteration counts one (its assembly,
+    /// its factorization and its first line-search trial), and so does every further
+    /// line-search trial and every assembly of a re-check of frozen wrinkle states, each of
+    /// which costs at most what an iteration costs. So a step that gives up has spent at most
+    /// `max_step_iterations` times the cost of one iteration, whatever its line searches did.
+    pub(super) step_work: usize,
+    /// Trial points of the current line search (line_search.rs).
+    pub(super) trials: usize,
     /// G of the convergence test (system.rs): the scene's load scale at the last assembly.
     pub(super) load_scale: f64,
     /// Work buffer of G (a capacity of one entry per node, allocated once).
@@ -167,7 +173,8 @@ impl Solver {
             trial: vector(trial_len)?,
             rhs: vector(pattern.n)?,
             magnitude: vector(n)?,
-            step_iterations: 0,
+            step_work: 0,
+            trials: 0,
             load_scale: 0.0,
             loads_seen: memory::with_capacity(n / 3, "the solver's vectors")?,
             diagonal_positions,

@@ -83,6 +83,22 @@ impl Solver {
                 true,
             );
         }
+        // Every trial after the first counts in the step's work budget (core.rs, step_work).
+        self.trials = 0;
+        let outcome = self.search(model, u, dir, at, merit);
+        self.step_work += self.trials.saturating_sub(1);
+        outcome
+    }
+
+    /// The line search proper (`line_search`), trials counted in `self.trials`.
+    fn search(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        dir: &Direction,
+        at: &Trial,
+        merit: Merit,
+    ) -> (f64, bool) {
         // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
         let s0 = self.direction_dot_residual(dir.dx);
         match merit {
@@ -122,6 +138,7 @@ impl Solver {
         at: &Trial,
         alpha: f64,
     ) -> (f64, bool) {
+        self.trials += 1;
         self.trial.copy_from_slice(u);
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             if e != NONE {

@@ -190,16 +190,16 @@ impl Solver {
             rows: Vec::new(),
         };
         for it in 0..=hard_max {
-            if self.step_iterations >= self.settings.max_step_iterations {
+            if self.step_work >= self.settings.max_step_iterations {
                 return Err((
                     it,
                     format!(
-                        "the step's budget of {} Newton iterations (solver.max_step_iterations) is spent",
+                        "the step's work budget of {} Newton iterations (solver.max_step_iterations) is spent",
                         self.settings.max_step_iterations
                     ),
                 ));
             }
-            self.step_iterations += 1;
+            self.step_work += 1;
             let eqs = self.equations(model, step, &mut state, u, arc.as_deref(), it, log)?;
             match self.verdict(model, step, &mut state, u, &eqs, arc.as_deref(), it, log)? {
                 Verdict::Done(it) => {

@@ -86,6 +86,10 @@ impl Solver {
                 break;
             }
             moved_total += moved;
+            // A global residual evaluation: it counts in the step's work budget (core.rs,
+            // step_work), and so does the relaxation it ends (at most the patch's share of
+            // the nodes, each relaxed `relax_sweeps` times: within one more assembly's worth).
+            self.step_work += 2;
             let membranes = Membranes {
                 forced: forced.states,
                 pre_strain: self.pre_strain,

@@ -179,7 +179,7 @@ impl Default for Settings {
         Settings {
             tolerance: 1e-9,
             max_iterations: 50,
-            max_step_iterations: 500,
+            max_step_iterations: 1000,
             max_iterations_progressing: 200,
             initial_increment: 1.0,
             min_increment: 1e-4,

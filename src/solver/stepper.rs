@@ -50,7 +50,7 @@ impl Stepper {
         states: &[Contact],
     ) -> Stepper {
         let contact = states.to_vec();
-        solver.step_iterations = 0;
+        solver.step_work = 0;
         let s = &solver.settings;
         let arc = if s.arc_length_path {
             ArcPath::begin(model, s, from, to, u, contact.clone())
@@ -85,7 +85,7 @@ impl Stepper {
         if self.failed {
             return None;
         }
-        if solver.step_iterations >= solver.settings.max_step_iterations && self.lambda() < 1.0 {
+        if solver.step_work >= solver.settings.max_step_iterations && self.lambda() < 1.0 {
             self.give_up(solver.settings.max_step_iterations);
             let lambda = self.lambda();
             return Some(Attempt::Rejected {
@@ -136,10 +136,10 @@ impl Stepper {
         self.report.reached = lambda;
         self.report.message = match &self.path {
             Path::Load(_) => format!(
-                "no equilibrium found beyond load fraction {lambda:.6} of the step: its budget of {budget} Newton iterations ({spent}) is spent{last}"
+                "no equilibrium found beyond load fraction {lambda:.6} of the step: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as one) is spent{last}"
             ),
             Path::Arc(p) => format!(
-                "no equilibrium found beyond load fraction {lambda:.6} of the step by arc length: its budget of {budget} Newton iterations ({spent}) is spent{last} (largest load fraction reached {:.6})",
+                "no equilibrium found beyond load fraction {lambda:.6} of the step by arc length: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as one) is spent{last} (largest load fraction reached {:.6})",
                 p.largest_lambda()
             ),
         };

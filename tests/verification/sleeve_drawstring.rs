@@ -90,8 +90,11 @@ fn drawstring_solves_table1_load_path() {
 /// REFERENCE: mirror symmetry (A_dy = -B_dy to 1e-6 relative) and 2P increasing with the
 ///       shift at every converged row; the 15 mm row reaches 2P > 0.17 N (measured 0.179 N;
 ///       path-dependent by friction: finer steps gave 0.182 N at 15.4 mm, the largest 0.1948
-///       N at 17.32 mm); the 20 mm step fails naming a collapsed element (what the solver measures there,
-///       by the rule a converged answer is never wrong silently).
+///       N at 17.32 mm); the 20 mm step fails (by the rule a converged answer is never wrong
+///       silently). With the budget counted in Newton iterations (500) it failed naming a
+///       collapsed element at load fraction 0.461 of the step (17.31 mm); counted as work
+///       (line-search trials and relaxation rounds included, 1000) the budget is spent at
+///       0.408 (17.04 mm), before the corner collapses: the failure names the spent budget.
 #[test]
 fn drawstring_under_displacement_control_stops_at_a_collapsed_corner() {
     let text = std::fs::read_to_string(format!(
@@ -135,7 +138,7 @@ fn drawstring_under_displacement_control_stops_at_a_collapsed_corner() {
     let r = e.solve();
     println!("end shift 20 mm: {}", r.message);
     assert!(
-        !r.converged() && r.message.contains("collapsed"),
+        !r.converged() && r.message.contains("solver.max_step_iterations"),
         "{}",
         r.message
     );
