@@ -424,15 +424,13 @@ impl Engine {
                 tension_gradient(model, u, e)
             }
             ProbeModel::ContactForce { slips } => {
+                // |λ + k d| with the multiplier λ held (a solve's tangent holds it too).
                 let forces: Vec<f64> = slips
                     .iter()
-                    .map(|&j| tie_vector(model, u, j).norm() * model.ties[model.slips[j].tie].k)
+                    .map(|&j| model.tie_force(u, model.slips[j].tie).norm())
                     .collect();
                 match slips.get(argmax(&forces)) {
-                    Some(&j) => {
-                        let k = model.ties[model.slips[j].tie].k;
-                        gap_gradient(model, u, j, k)
-                    }
+                    Some(&j) => tie_force_gradient(model, u, j),
                     None => Vec::new(),
                 }
             }
@@ -602,6 +600,22 @@ fn gap_gradient(model: &Model, u: &[f64], j: usize, factor: f64) -> Vec<(usize, 
                 (3 * m + k, -factor * d[k] / gap),
             ]
         })
+        .collect()
+}
+
+/// ∂|λ + k (x_c − x_m)|/∂z of the tie of sleeve point `j`, λ held (zero where the force
+/// vanishes, where the norm has no gradient).
+fn tie_force_gradient(model: &Model, u: &[f64], j: usize) -> Vec<(usize, f64)> {
+    let t = model.slips[j].tie;
+    let f = model.tie_force(u, t);
+    let size = f.norm();
+    if size == 0.0 {
+        return Vec::new();
+    }
+    let k = model.ties[t].k;
+    let [c, m] = model.ties[t].nodes;
+    (0..3)
+        .flat_map(|i| [(3 * c + i, k * f[i] / size), (3 * m + i, -k * f[i] / size)])
         .collect()
 }
 
