@@ -50,13 +50,14 @@
 //!                carried from increment to increment and step to step; 0 at the start
 //! energy         λ_c·d + ½ k_c |d|²,  d = x_c − x_m
 //! update         after each converged Newton solve of an increment, while the largest tie
-//!                gap |d| over the shorter adjacent segment exceeds GAP_TOLERANCE (1e-9):
+//!                gap |d| over the shorter adjacent segment exceeds GAP_TOLERANCE (1e-12):
 //!                λ_c ← λ_c + k_c d at every tie, and Newton solves again (at most
 //!                MAX_UZAWA_ROUNDS rounds; a gap still open then fails the increment, naming
 //!                the sleeve and the gap)
 //! rate           near the solution, with C the compliance of the structure between the tie's
-//!                two points, each round multiplies the gap by 1/(1 + C k_c): ≤ 1/2 with
-//!                k_c at least the neighbouring stiffness, ~1/100 with the default
+//!                two points, each round multiplies the gap by 1/(1 + C k_c): C k_c is of
+//!                order 1 with k_c at the neighbouring stiffness (measured about 1/2 per round
+//!                on the rigid capstan sleeve), 25 and more with the default
 //! converged      λ_c → the contact force; d → 0 (the constraint x_c = x_m), so the answer
 //!                does not depend on k_c (to the gap tolerance)
 //! ```

@@ -205,14 +205,34 @@ impl Solver {
                 ));
             }
             self.step_iterations += 1;
-            let eqs = self.equations(model, step, &mut state, u, arc.as_deref(), it, log)?;
+            let mut eqs = self.equations(model, step, &mut state, u, arc.as_deref(), it, log)?;
             match self.verdict(model, step, &mut state, u, &eqs, arc.as_deref(), it, log)? {
                 Verdict::Done(it) => match self.close_ties(model, u, &mut rounds, log) {
                     Ties::Closed => {
                         *contact = std::mem::take(&mut state.active.contact);
                         return Ok(it);
                     }
-                    Ties::Updated => self.after_tie_update(&mut state, it),
+                    Ties::Updated(change) => {
+                        self.after_tie_update(&mut state, it);
+                        if state.damping == 0.0 {
+                            // The residual took the multipliers' change and the tangent is
+                            // the assembled one: the step from here at once.
+                            eqs.info.potential += change;
+                            self.budget(model, &mut state, &eqs.check, it, hard_max)?;
+                            let d =
+                                self.newton_direction(model, &mut state, u, &eqs, None, it, log)?;
+                            self.newton_step(
+                                model,
+                                &mut state,
+                                u,
+                                &eqs,
+                                arc.as_deref_mut(),
+                                d,
+                                it,
+                                log,
+                            );
+                        }
+                    }
                     Ties::Open(why) => return Err((it, why)),
                 },
                 Verdict::Again => continue,

@@ -31,19 +31,21 @@ use crate::model::Model;
 use nalgebra::DMatrix;
 
 /// Largest tie gap, relative to the shorter adjacent segment, an increment may end with: above
-/// it the ties' multipliers are updated and Newton solves again ([`Solver::close_ties`]). The
-/// ties are then closed to what the gap can change in the members: a gap g strains a cable
-/// segment of length ℓ by up to g/ℓ, so a stuck cable's tension moves by up to EA g/ℓ (1e-4 N
-/// on EA = 1e5 N); the penalty alone left EA/k of its force (a 50 N/m tie on a stuck 10 N
-/// cable with EA = 1e5 N: 46 % of the tension, tests/verification/stick_slip.rs).
-pub const GAP_TOLERANCE: f64 = 1e-9;
+/// it the ties' multipliers are updated and Newton solves again ([`Solver::close_ties`]). A gap
+/// g strains a cable segment of length ℓ by up to g/ℓ, so a stuck cable's tension moves by up to
+/// EA g/ℓ: the penalty alone left EA/k of its force there (a 50 N/m tie on a stuck 10 N cable
+/// with EA = 1e5 N: T = 5.38 N instead of 10 N at a gap of 1.1e-4 of the segment,
+/// tests/verification/stick_slip.rs). At 1e-12 the closure sits below the Newton tolerance's
+/// own effect: the same load history in 1 or 20 steps ends at the same slips to 1e-7 (at 1e-9
+/// it did not: 5e-6, the answer then depending on where the rounds stopped).
+pub const GAP_TOLERANCE: f64 = 1e-12;
 
 /// Multiplier updates (Uzawa rounds) one increment may take to bring every tie gap within
 /// [`GAP_TOLERANCE`]; a gap still open after them fails the increment. Each round divides the
-/// gap by 1 + C k (model/sleeve.rs): by 25 or more with the default penalty (two or three
-/// rounds from its first gap), by 1.5 at worst with a penalty at its floor (a stuck point held
-/// by two segments as stiff as the tie: 30 rounds from a gap of 1e-4).
-pub const MAX_UZAWA_ROUNDS: usize = 50;
+/// gap by 1 + C k (model/sleeve.rs): measured 2 to 5 rounds per increment with the default
+/// penalty, about 25 with a penalty at its floor on the rigid capstan sleeve
+/// (tests/verification/sleeve_penalty.rs). A round costs one Newton iteration at least.
+pub const MAX_UZAWA_ROUNDS: usize = 100;
 
 /// What [`Breakdown::NonFinite`] names when the Newton direction holds NaN or infinity.
 const DIRECTION: &str = "the Newton direction";
@@ -511,8 +513,10 @@ pub(super) fn widest_gap(model: &Model, u: &[f64]) -> Option<(usize, f64)> {
 pub(super) enum Ties {
     /// Every tie gap within [`GAP_TOLERANCE`] (or no ties, or a pre-strained stage): converged.
     Closed,
-    /// The multipliers moved: solve the increment again from here.
-    Updated,
+    /// The multipliers moved: solve the increment again from here. The residual at the
+    /// iterate (`Solver::residual`) is updated with them; the potential changes by the value
+    /// given (Σ Δλ·d; the tangent does not change).
+    Updated(f64),
     /// A gap still open after [`MAX_UZAWA_ROUNDS`] updates: the increment fails, why.
     Open(String),
 }
@@ -523,9 +527,11 @@ impl Solver {
     /// tie (in `u`, `Model::multiplier_index`) and `rounds` counts one more; after
     /// [`MAX_UZAWA_ROUNDS`] an open gap fails the increment with a message naming the sleeve's
     /// cable, point and gap. Not at a pre-strained stage of the prestress continuation (not
-    /// the scene's problem: its last stage is).
+    /// the scene's problem: its last stage is). On an update the assembled residual at `u`
+    /// takes the multipliers' change (the tie force on the cable point, its negative on the
+    /// membrane node), so a Newton step can follow without assembling again.
     pub(super) fn close_ties(
-        &self,
+        &mut self,
         model: &Model,
         u: &mut [f64],
         rounds: &mut usize,
@@ -560,12 +566,17 @@ impl Solver {
                 "{which}: its tie gap is still {gap:.2e} of its segment length after {rounds} multiplier updates (tolerance {GAP_TOLERANCE:.0e}); a stiffer cables[].sleeve.penalty closes it faster"
             ));
         }
+        let mut potential = 0.0;
         for t in 0..model.ties.len() {
             let [c, m] = model.ties[t].nodes;
-            let d = (model.position(u, c) - model.position(u, m)) * model.ties[t].k;
+            let d = model.position(u, c) - model.position(u, m);
+            let change = d * model.ties[t].k;
+            potential += change.dot(&d);
             let i = model.multiplier_index(t);
-            for (v, dv) in u[i..i + 3].iter_mut().zip(d.iter()) {
-                *v += dv;
+            for k in 0..3 {
+                u[i + k] += change[k];
+                self.residual[3 * c + k] += change[k];
+                self.residual[3 * m + k] -= change[k];
             }
         }
         *rounds += 1;
@@ -573,7 +584,7 @@ impl Solver {
             log,
             format!("  {which}: tie gap {gap:.2e} of its segment length (tolerance {GAP_TOLERANCE:.0e}): multipliers updated ({rounds} of at most {MAX_UZAWA_ROUNDS})"),
         );
-        Ties::Updated
+        Ties::Updated(potential)
     }
 }
 

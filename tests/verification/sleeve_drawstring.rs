@@ -90,8 +90,12 @@ fn drawstring_solves_table1_load_path() {
 /// REFERENCE: mirror symmetry (A_dy = -B_dy to 1e-6 relative) and 2P increasing with the
 ///       shift at every converged row; the 15 mm row reaches 2P > 0.17 N (measured 0.179 N;
 ///       path-dependent by friction: finer steps gave 0.182 N at 15.4 mm, the largest 0.1948
-///       N at 17.32 mm); the 20 mm step fails naming a collapsed element (what the solver measures there,
-///       by the rule a converged answer is never wrong silently).
+///       N at 17.32 mm); the 20 mm step fails (by the rule a converged answer is never wrong
+///       silently). With penalty ties it failed naming a collapsed element at load fraction
+///       0.461 of the step (17.31 mm); with the ties closed by their multipliers each increment
+///       takes one or more extra Newton iterations for the multiplier updates, and the step's
+///       budget of 500 iterations is spent at 0.444 (17.22 mm), before the corner collapses:
+///       the failure names the spent budget.
 #[test]
 fn drawstring_under_displacement_control_stops_at_a_collapsed_corner() {
     let text = std::fs::read_to_string(format!(
@@ -135,7 +139,7 @@ fn drawstring_under_displacement_control_stops_at_a_collapsed_corner() {
     let r = e.solve();
     println!("end shift 20 mm: {}", r.message);
     assert!(
-        !r.converged() && r.message.contains("collapsed"),
+        !r.converged() && r.message.contains("budget of 500 Newton iterations"),
         "{}",
         r.message
     );
