@@ -424,7 +424,8 @@ impl Engine {
                 tension_gradient(model, u, e)
             }
             ProbeModel::ContactForce { slips } => {
-                // |λ + k d| with the multiplier λ held (a solve's tangent holds it too).
+                // |λ + k d|: the multiplier is an unknown of the derivative (the ties stay
+                // closed, solver/sensitivity.rs).
                 let forces: Vec<f64> = slips
                     .iter()
                     .map(|&j| model.tie_force(u, model.slips[j].tie).norm())
@@ -603,8 +604,8 @@ fn gap_gradient(model: &Model, u: &[f64], j: usize, factor: f64) -> Vec<(usize, 
         .collect()
 }
 
-/// ∂|λ + k (x_c − x_m)|/∂z of the tie of sleeve point `j`, λ held (zero where the force
-/// vanishes, where the norm has no gradient).
+/// ∂|λ + k (x_c − x_m)|/∂z of the tie of sleeve point `j`, the multiplier λ among the unknowns
+/// (zero where the force vanishes, where the norm has no gradient).
 fn tie_force_gradient(model: &Model, u: &[f64], j: usize) -> Vec<(usize, f64)> {
     let t = model.slips[j].tie;
     let f = model.tie_force(u, t);
@@ -614,8 +615,15 @@ fn tie_force_gradient(model: &Model, u: &[f64], j: usize) -> Vec<(usize, f64)> {
     }
     let k = model.ties[t].k;
     let [c, m] = model.ties[t].nodes;
+    let index = model.multiplier_index(t);
     (0..3)
-        .flat_map(|i| [(3 * c + i, k * f[i] / size), (3 * m + i, -k * f[i] / size)])
+        .flat_map(|i| {
+            [
+                (3 * c + i, k * f[i] / size),
+                (3 * m + i, -k * f[i] / size),
+                (index + i, f[i] / size),
+            ]
+        })
         .collect()
 }
 

@@ -476,14 +476,13 @@ pub(super) fn slip_columns_into(
 }
 
 /// The widest tie gap |x_c − x_m| over the shorter adjacent open segment length, and its
-/// sleeve point (a closed segment has no length: the gap is measured against the open ones
-/// beside its group; a point between two closed segments counts 0). None without sleeve points.
+/// sleeve point. A closed segment has no length: the gap of a point inside a group of touching
+/// points is measured against the open segments beside its group (the nearest open one on each
+/// side along the cable; the reference length of its own segments where the whole cable is
+/// closed). None without sleeve points.
 pub(super) fn widest_gap(model: &Model, u: &[f64]) -> Option<(usize, f64)> {
     let length = |e: usize| {
         let s = &model.segments[e];
-        if model.segment_closed(u, e) {
-            return f64::INFINITY;
-        }
         (model.position(u, s.nodes[1]) - model.position(u, s.nodes[0])).norm()
     };
     model
@@ -493,15 +492,28 @@ pub(super) fn widest_gap(model: &Model, u: &[f64]) -> Option<(usize, f64)> {
         .map(|(j, p)| {
             let [c, m] = model.ties[p.tie].nodes;
             let gap = (model.position(u, c) - model.position(u, m)).norm();
-            let shorter = length(p.segments[0]).min(length(p.segments[1]));
-            (
-                j,
-                if shorter.is_finite() {
-                    gap / shorter
+            let range = model.cables[p.cable].segments.clone();
+            let [mut before, mut after] = p.segments;
+            while model.segment_closed(u, before) && before > range.start {
+                before -= 1;
+            }
+            while model.segment_closed(u, after) && after + 1 < range.end {
+                after += 1;
+            }
+            let open = |e: usize| {
+                if model.segment_closed(u, e) {
+                    f64::INFINITY
                 } else {
-                    0.0
-                },
-            )
+                    length(e)
+                }
+            };
+            let mut shorter = open(before).min(open(after));
+            if !shorter.is_finite() {
+                shorter = model.segments[p.segments[0]]
+                    .l0
+                    .max(model.segments[p.segments[1]].l0);
+            }
+            (j, gap / shorter)
         })
         .fold(None, |worst: Option<(usize, f64)>, (j, g)| match worst {
             Some((_, w)) if w >= g => worst,
