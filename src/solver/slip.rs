@@ -42,9 +42,10 @@ pub const GAP_TOLERANCE: f64 = 1e-12;
 
 /// Multiplier updates (Uzawa rounds) one increment may take to bring every tie gap within
 /// [`GAP_TOLERANCE`]; a gap still open after them fails the increment. Each round divides the
-/// gap by 1 + C k (model/sleeve.rs): measured 2 to 5 rounds per increment with the default
-/// penalty, about 25 with a penalty at its floor on the rigid capstan sleeve
-/// (tests/verification/sleeve_penalty.rs). A round costs one Newton iteration at least.
+/// gap by 1 + C k (model/sleeve.rs): measured 1 to 3 rounds per step of the shipped sleeve
+/// scenes and the capstan with the default penalty, about 25 with a penalty at its floor on
+/// the rigid capstan sleeve (tests/verification/sleeve_penalty.rs). A round costs one Newton
+/// iteration at least.
 pub const MAX_UZAWA_ROUNDS: usize = 100;
 
 /// What [`Breakdown::NonFinite`] names when the Newton direction holds NaN or infinity.
