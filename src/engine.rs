@@ -32,7 +32,9 @@ pub mod stepping;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EngineState {
     /// Displacement of every DOF (3 per node, sleeve points included), then the slip of every
-    /// sleeve point (material coordinate change, m): `Model::unknown_count` values.
+    /// sleeve point (material coordinate change, m), the pressure of every volume input and
+    /// the multiplier of every sleeve tie (N, 3 per tie, model/sleeve.rs):
+    /// `Model::unknown_count` values.
     pub displacement: Vec<f64>,
     /// Stick/slip state of every sleeve point at the last converged increment (stuck,
     /// slipping toward the cable's end or its start, or merged into the previous sleeve point).

@@ -78,7 +78,7 @@ pub fn evaluate(
             ProbeModel::CableSlip { slip } => 0.0 - u[model.dof_count() + slip],
             ProbeModel::ContactForce { slips } => slips
                 .iter()
-                .map(|&j| tie_gap(model, u, j) * model.ties[model.slips[j].tie].k)
+                .map(|&j| model.tie_force(u, model.slips[j].tie).norm())
                 .fold(0.0, f64::max),
             ProbeModel::ContactGap { slips } => slips
                 .iter()

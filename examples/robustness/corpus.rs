@@ -1361,8 +1361,10 @@ fn rings_member(rng: &mut Rng, count: usize, quick: bool) -> Member {
     // Closed form (tests/verification/sliding_cable.rs, Fig. 6): frictionless rings under equal
     // loads all run to mid-span and hang as one group on a V of the whole cable, carrying the
     // total weight: sag w and tension T of `v_sag` with the cable's whole unstretched length
-    // (sliding moves material, never creates it); ring k hangs its load over k_c below its
-    // cable point. The group's cable points touch through links of k_link = 1e3 k_c, each
+    // (sliding moves material, never creates it); ring k sits at its cable point (the tie's
+    // multiplier closes it to 1e-12 of the segment, model/sleeve.rs; with the penalty alone it
+    // hung its load over k_c below). The group's cable points touch through links of
+    // k_link = 1e3 k_c, each
     // carrying at most T + W ≤ 3T, so they spread over at most G = (count − 1) 4T/k_link of
     // cable that is not cable: T and w are bracketed by the V of unstretched lengths L0 ± G,
     // and every position may be off by G, plus 1e-6 of the span (and 1e-6 relative, 1e3 ε EA
@@ -1380,7 +1382,7 @@ fn rings_member(rng: &mut Rng, count: usize, quick: bool) -> Member {
         let (w_lo, w_hi) = (w1.min(w2), w1.max(w2));
         let (t_lo, t_hi) = (t1.min(t2), t1.max(t2));
         let slack = 2e-6 * h + gap;
-        let hang = load / count as f64 / k_c;
+        let hang = 0.0;
         for &i in &ids {
             let x = model.position(u, i);
             if load > 0.0 && x[0].abs() > slack {

@@ -424,15 +424,14 @@ impl Engine {
                 tension_gradient(model, u, e)
             }
             ProbeModel::ContactForce { slips } => {
+                // |λ + k d|: the multiplier is an unknown of the derivative (the ties stay
+                // closed, solver/sensitivity.rs).
                 let forces: Vec<f64> = slips
                     .iter()
-                    .map(|&j| tie_vector(model, u, j).norm() * model.ties[model.slips[j].tie].k)
+                    .map(|&j| model.tie_force(u, model.slips[j].tie).norm())
                     .collect();
                 match slips.get(argmax(&forces)) {
-                    Some(&j) => {
-                        let k = model.ties[model.slips[j].tie].k;
-                        gap_gradient(model, u, j, k)
-                    }
+                    Some(&j) => tie_force_gradient(model, u, j),
                     None => Vec::new(),
                 }
             }
@@ -600,6 +599,29 @@ fn gap_gradient(model: &Model, u: &[f64], j: usize, factor: f64) -> Vec<(usize, 
             [
                 (3 * c + k, factor * d[k] / gap),
                 (3 * m + k, -factor * d[k] / gap),
+            ]
+        })
+        .collect()
+}
+
+/// ∂|λ + k (x_c − x_m)|/∂z of the tie of sleeve point `j`, the multiplier λ among the unknowns
+/// (zero where the force vanishes, where the norm has no gradient).
+fn tie_force_gradient(model: &Model, u: &[f64], j: usize) -> Vec<(usize, f64)> {
+    let t = model.slips[j].tie;
+    let f = model.tie_force(u, t);
+    let size = f.norm();
+    if size == 0.0 {
+        return Vec::new();
+    }
+    let k = model.ties[t].k;
+    let [c, m] = model.ties[t].nodes;
+    let index = model.multiplier_index(t);
+    (0..3)
+        .flat_map(|i| {
+            [
+                (3 * c + i, k * f[i] / size),
+                (3 * m + i, -k * f[i] / size),
+                (index + i, f[i] / size),
             ]
         })
         .collect()

@@ -19,7 +19,10 @@
 //! and the first failed check is reported by name. Format versions: 2 added the sleeve slips;
 //! 3 writes the payload with postcard (varint lengths and integers) instead of the fixed-width
 //! format of version 2 (which was byte for byte bincode 1's), so a version 2 state is refused
-//! by the version check.
+//! by the version check; 4 appends the sleeve ties' multipliers (3 per tie, model/sleeve.rs) to
+//! the engine's unknown vector `engine.displacement`. The payload's layout is 3's, so a
+//! version 3 state is still read: [`upgrade`] gives it multipliers 0 (the penalty equilibrium
+//! it holds; the next step closes the ties).
 //!
 //! The payload format is postcard's (fields in declaration order, no names; `f64` as its IEEE bits,
 //! little-endian, so NaN payloads and ±Inf come back bit for bit; lengths, enum tags and integers
@@ -43,7 +46,9 @@ use serde::{Deserialize, Serialize};
 /// First bytes of every serialized state.
 pub const STATE_MAGIC: &[u8; 8] = b"VLRMSTAT";
 /// Version of the byte layout and payload; bumped on any change to either.
-pub const STATE_FORMAT_VERSION: u32 = 3;
+pub const STATE_FORMAT_VERSION: u32 = 4;
+/// The oldest version [`decode`] reads (module docs: 3 is 4 without the tie multipliers).
+pub const OLDEST_STATE_FORMAT_VERSION: u32 = 3;
 
 /// Everything needed to continue a run from the moment it was taken.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -94,9 +99,10 @@ pub fn encode(snapshot: &Snapshot, guid: &str) -> Result<Vec<u8>, Error> {
     Ok(out)
 }
 
-/// Read bytes written by [`encode`]; `guid` is the reading instance's GUID. Err:
-/// [`Error::StateBytes`] naming the first check that failed.
-pub fn decode(bytes: &[u8], guid: &str) -> Result<Snapshot, Error> {
+/// Read bytes written by [`encode`]; `guid` is the reading instance's GUID. Returns the
+/// snapshot and the format version it was written in (a version 3 state comes back as written:
+/// see [`upgrade`]). Err: [`Error::StateBytes`] naming the first check that failed.
+pub fn decode(bytes: &[u8], guid: &str) -> Result<(Snapshot, u32), Error> {
     let failed = |check: &'static str, why: String| Error::StateBytes { check, why };
     let mut r = Reader { bytes, at: 0 };
     if r.take(8, "magic")? != STATE_MAGIC {
@@ -106,10 +112,10 @@ pub fn decode(bytes: &[u8], guid: &str) -> Result<Snapshot, Error> {
         ));
     }
     let version = r.u32("format version")?;
-    if version != STATE_FORMAT_VERSION {
+    if !(OLDEST_STATE_FORMAT_VERSION..=STATE_FORMAT_VERSION).contains(&version) {
         return Err(failed(
             "version",
-            format!("format version {version}, this FMU reads {STATE_FORMAT_VERSION}"),
+            format!("format version {version}, this FMU reads {OLDEST_STATE_FORMAT_VERSION} and {STATE_FORMAT_VERSION}"),
         ));
     }
     let guid_len = r.u32("GUID length")? as usize;
@@ -150,7 +156,18 @@ pub fn decode(bytes: &[u8], guid: &str) -> Result<Snapshot, Error> {
             format!("{} bytes left over after the state", rest.len()),
         ));
     }
-    Ok(snapshot)
+    Ok((snapshot, version))
+}
+
+/// A snapshot read from format `version` in the current format, for a model whose unknown
+/// vector has `unknowns` entries, `multipliers` of them the sleeve ties' multipliers (3 per
+/// tie, last): a version 3 state whose unknown vector ends where they begin gets them, 0.
+/// Anything else is left as it is (a state of another model is refused by its sizes).
+pub fn upgrade(snapshot: &mut Snapshot, version: u32, unknowns: usize, multipliers: usize) {
+    let u = &mut snapshot.engine.displacement;
+    if version == 3 && multipliers > 0 && u.len() + multipliers == unknowns {
+        u.resize(unknowns, 0.0);
+    }
 }
 
 /// A cursor that names the field it could not read.
@@ -215,7 +232,7 @@ mod tests {
     fn round_trip() {
         let bytes = encode(&sample(), "{abc}").unwrap();
         assert_eq!(&bytes[..8], STATE_MAGIC);
-        let back = decode(&bytes, "{abc}").unwrap();
+        let (back, _) = decode(&bytes, "{abc}").unwrap();
         assert_eq!(back.time.to_bits(), sample().time.to_bits());
         assert!(back.engine.displacement[4].is_nan());
         assert_eq!(
@@ -344,7 +361,7 @@ mod tests {
         s.last_successful_time = f(SPECIAL[4]);
         s.experiment.tolerance = Some(f(SPECIAL[2]));
         s.experiment.stop_time = Some(f(SPECIAL[3]));
-        let back = decode(&encode(&s, "{abc}").unwrap(), "{abc}").unwrap();
+        let (back, _) = decode(&encode(&s, "{abc}").unwrap(), "{abc}").unwrap();
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&back.engine.displacement), SPECIAL);
         assert_eq!(bits(&back.engine.applied), [SPECIAL[1]]);
@@ -366,7 +383,7 @@ mod tests {
     fn encoding_is_deterministic() {
         let bytes = encode(&sample(), "{abc}").unwrap();
         assert_eq!(encode(&sample(), "{abc}").unwrap(), bytes);
-        let back = decode(&bytes, "{abc}").unwrap();
+        let (back, _) = decode(&bytes, "{abc}").unwrap();
         assert_eq!(encode(&back, "{abc}").unwrap(), bytes);
     }
 
@@ -375,17 +392,46 @@ mod tests {
     #[test]
     fn another_format_version_is_refused() {
         let bytes = encode(&sample(), "{abc}").unwrap();
-        for version in [0, 1, 2, 4, u32::MAX] {
+        for version in [0, 1, 2, 5, u32::MAX] {
             let e = decode(&seal(version, "{abc}", &payload(&bytes, "{abc}")), "{abc}")
                 .unwrap_err()
                 .to_string();
             assert!(
                 e.contains(&format!(
-                    "version check failed: format version {version}, this FMU reads 3"
+                    "version check failed: format version {version}, this FMU reads 3 and 4"
                 )),
                 "{e}"
             );
         }
+    }
+
+    // GOAL: a version 3 state (the payload of 4 without the tie multipliers) is read, and
+    //       [`upgrade`] appends the multipliers, 0, only where the unknown vector ends where
+    //       they begin; a version 4 state and a vector of another length are left as they are.
+    #[test]
+    fn a_version_3_state_is_read_and_gets_zero_multipliers() {
+        let mut snapshot = sample();
+        // Comparable with ==: no NaN.
+        snapshot.engine.displacement[4] = 0.5;
+        let bytes = encode(&snapshot, "{abc}").unwrap();
+        let old = seal(3, "{abc}", &payload(&bytes, "{abc}"));
+        let (mut back, version) = decode(&old, "{abc}").unwrap();
+        assert_eq!((version, &back), (3, &snapshot));
+        let n = snapshot.engine.displacement.len();
+        upgrade(&mut back, 4, n + 6, 6);
+        assert_eq!(back.engine.displacement.len(), n, "version 4: unchanged");
+        upgrade(&mut back, 3, n + 7, 6);
+        assert_eq!(
+            back.engine.displacement.len(),
+            n,
+            "another model: unchanged"
+        );
+        upgrade(&mut back, 3, n + 6, 6);
+        assert_eq!(
+            back.engine.displacement[..n],
+            snapshot.engine.displacement[..n]
+        );
+        assert_eq!(back.engine.displacement[n..], [0.0; 6]);
     }
 
     // GOAL: hostile payloads behind a valid header and checksum (what a fuzzer that reseals

@@ -5,7 +5,7 @@
 //! kind        storage            nodes   kernel
 //! Membrane    Model::triangles   3       membrane::triangle_with (wrinkling, prestress)
 //! Cable       Model::segments    2       cable::segment (tension only; slips, closed links)
-//! Tie         Model::ties        2       sleeve::tie_force, sleeve::tie_stiffness (penalty)
+//! Tie         Model::ties        2       sleeve::augmented_tie_force, sleeve::tie_stiffness (penalty)
 //! ```
 //! Loads (pressure on triangles, point forces) and sleeve points (slip unknowns) are not
 //! elements: they act on elements or nodes and are handled by their own code.

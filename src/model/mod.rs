@@ -387,9 +387,36 @@ impl Model {
     }
 
     /// Length of the unknown vector: the displacements, then one slip per sleeve point, then
-    /// one pressure per volume input.
+    /// one pressure per volume input, then the multiplier (3 components) of every sleeve tie.
+    /// The multipliers are no Newton unknowns: they are held within a solve and updated
+    /// between solves (`model::sleeve`, augmented Lagrangian), but they are part of the
+    /// converged state and travel with it.
     pub fn unknown_count(&self) -> usize {
-        self.dof_count() + self.slips.len() + self.volumes
+        self.dof_count() + self.slips.len() + self.volumes + 3 * self.ties.len()
+    }
+
+    /// Index in the unknown vector of the first component of tie `t`'s multiplier.
+    pub fn multiplier_index(&self, t: usize) -> usize {
+        self.dof_count() + self.slips.len() + self.volumes + 3 * t
+    }
+
+    /// The multiplier λ (N) of tie `t` under `u`.
+    pub fn tie_multiplier(&self, u: &[f64], t: usize) -> Vector3<f64> {
+        let i = self.multiplier_index(t);
+        Vector3::new(u[i], u[i + 1], u[i + 2])
+    }
+
+    /// Force (N) of tie `t` on its cable point under `u`: λ + k (x_c − x_m).
+    pub fn tie_force(&self, u: &[f64], t: usize) -> Vector3<f64> {
+        let tie = &self.ties[t];
+        let [c, m] = tie.nodes;
+        sleeve::augmented_tie_force(
+            tie.k,
+            &self.tie_multiplier(u, t),
+            &self.position(u, c),
+            &self.position(u, m),
+        )
+        .0
     }
 
     /// Index in the unknown vector of the pressure of volume input `k` (k-th volume input).
@@ -687,9 +714,12 @@ fn build_cables(
             let j = sleeves.slips.len();
             slip_of_point[k] = Some(j);
             let shortest = lengths[k - 1].min(lengths[k]);
+            // A penalty softer than what it ties only slows the multipliers' closure of the
+            // gap (model/sleeve.rs): Newton uses at least the neighbouring stiffness.
+            let neighbours = neighbour_stiffness(c.ea, shortest, *id, triangles);
             let k_tie = sl
                 .penalty
-                .unwrap_or_else(|| default_penalty(c.ea, shortest, *id, triangles));
+                .map_or(sleeve::PENALTY_FACTOR * neighbours, |k| k.max(neighbours));
             sleeves.ties.push(sleeve::Tie {
                 nodes: [point, *id],
                 k: k_tie,
@@ -742,14 +772,15 @@ fn build_cables(
     (segments, cables)
 }
 
-/// Default tie penalty: `PENALTY_FACTOR × max(EA/ℓ, E t)` over the membranes at `node`.
-fn default_penalty(ea: f64, segment: f64, node: usize, triangles: &[Triangle]) -> f64 {
+/// The stiffness (N/m) of what a tie joins: `max(EA/ℓ, E t)` over the membranes at `node`. The
+/// default penalty is `PENALTY_FACTOR` times it, and a penalty given is raised to it.
+fn neighbour_stiffness(ea: f64, segment: f64, node: usize, triangles: &[Triangle]) -> f64 {
     let et = triangles
         .iter()
         .filter(|t| t.nodes.contains(&node))
         .map(|t| t.material.modulus() * t.material.thickness)
         .fold(0.0, f64::max);
-    sleeve::PENALTY_FACTOR * (ea / segment).max(et)
+    (ea / segment).max(et)
 }
 
 /// (group name, range of `Model::triangles` indices, mesh triangle ids) per membrane group.

@@ -1,5 +1,6 @@
 //! A cable sliding through a sleeve: slip unknowns at the sleeve points, the nodal Coulomb law in
-//! the bisector frame, and the penalty tie between a cable point and its membrane node.
+//! the bisector frame, and the tie between a cable point and its membrane node (a penalty spring
+//! with a multiplier: an augmented Lagrangian that closes the tie whatever the penalty).
 //!
 //! Formulation (docs/mechanics.md §2.3 option A, with the seed's penalty contact element):
 //!
@@ -10,8 +11,9 @@
 //! material coord S_c = S⁰_c + s_c,  S⁰_c = Σ_{k<c} L⁰_k  (reference unstretched lengths)
 //! segment        L_k = S_{k+1} − S_k: unstretched length of the cable between two points;
 //!                material flows through a sleeve point when its s_c changes
-//! tie            f = k_c (x_c − x_m) on the cable point, −f on the membrane node m:
-//!                the seed's contact element k_ce = [[k I, −k I], [−k I, k I]]
+//! tie            f = λ_c + k_c (x_c − x_m) on the cable point, −f on the membrane node m:
+//!                the seed's contact element k_ce = [[k I, −k I], [−k I, k I]] as the tangent
+//!                (λ_c is held fixed within a Newton solve), λ_c the tie's multiplier (below)
 //! kink           segments a = (P_p → P_c), b = (P_c → P_q), unit vectors e_a, e_b,
 //!                g = e_a·e_b = cos Δθ,  c = cos(Δθ/2) = √((1+g)/2),  s = sin(Δθ/2) = √((1−g)/2)
 //! contact force  F = T_b e_b − T_a e_a (what the cable puts on the tie), in the bisector frame
@@ -35,8 +37,30 @@
 //!
 //! Default penalty: `k_c = 100 × max(EA/ℓ_min, E t)` with ℓ_min the shortest reference segment of
 //! the cable and E t the largest membrane tensile stiffness (E = 3μ for neo-Hookean) at its
-//! sleeve nodes: the middle of the range 10…1000 of docs/mechanics.md §2.3. The gap `|x_c − x_m|` is
-//! reported by the `contact_gap` probe relative to the adjacent segment length (keep it below 1e-3).
+//! sleeve nodes: the middle of the range 10…1000 of docs/mechanics.md §2.3. A penalty given softer
+//! than `max(EA/ℓ_min, E t)` (the neighbouring stiffness) is raised to it: below it the tie only
+//! slows the multiplier updates, and the answer does not depend on it. The gap `|x_c − x_m|` is
+//! reported by the `contact_gap` probe relative to the adjacent segment length.
+//!
+//! Augmented Lagrangian (Uzawa) closure of the ties, `solver::slip`:
+//!
+//! ```text
+//! multiplier     λ_c (N, a 3-vector per tie), part of the converged state: stored after the
+//!                slips and volume pressures in the unknown vector (`Model::multiplier_index`),
+//!                carried from increment to increment and step to step; 0 at the start
+//! energy         λ_c·d + ½ k_c |d|²,  d = x_c − x_m
+//! update         after each converged Newton solve of an increment, while the largest tie
+//!                gap |d| over the shorter adjacent segment exceeds GAP_TOLERANCE (1e-12):
+//!                λ_c ← λ_c + k_c d at every tie, and Newton solves again (at most
+//!                MAX_UZAWA_ROUNDS rounds; a gap still open then fails the increment, naming
+//!                the sleeve and the gap)
+//! rate           near the solution, with C the compliance of the structure between the tie's
+//!                two points, each round multiplies the gap by 1/(1 + C k_c): C k_c is of
+//!                order 1 with k_c at the neighbouring stiffness (measured about 1/2 per round
+//!                on the rigid capstan sleeve), 25 and more with the default
+//! converged      λ_c → the contact force; d → 0 (the constraint x_c = x_m), so the answer
+//!                does not depend on k_c (to the gap tolerance)
+//! ```
 //!
 //! ```text
 //! Symbols: T tension (N), L unstretched length (m), l current length (m), S material
@@ -48,7 +72,9 @@
 //! Wriggers, *Computational Contact Mechanics*, 2nd ed. 2006, §5.2 (penalty, Coulomb return
 //! mapping); Simo & Laursen 1992, Comput. Struct. 42:97–116; Aufaure 1993 and Chen et al. 2010
 //! (cables sliding through nodes); Bel Hadj Ali, Sychterz & Smith 2017, IJSS 126–127:240–251
-//! (nodal friction, Euler–Eytelwein); docs/mechanics.md §2.3, §4f; seed paper eqs. (4)–(7).
+//! (nodal friction, Euler–Eytelwein); Simo & Laursen 1992 (an augmented Lagrangian treatment of
+//! contact, Uzawa updates of the multipliers); Nocedal & Wright 2006, §17.3 (the method of
+//! multipliers and its rate); docs/mechanics.md §2.3, §4f; seed paper eqs. (4)–(7).
 
 use super::cable::{self, Law};
 use super::element::Element;
@@ -80,11 +106,14 @@ pub struct SlipPoint {
     pub cable: usize,
 }
 
-/// Penalty tie between a cable point and a membrane node.
+/// Tie between a cable point and a membrane node: a penalty spring plus the tie's multiplier
+/// (in the unknown vector, `Model::tie_multiplier`).
 #[derive(Clone, Debug)]
 pub struct Tie {
     /// (cable point, membrane node)
     pub nodes: [usize; 2],
+    /// Penalty (N/m) Newton uses: the scene's (or the default), at least the neighbouring
+    /// stiffness (module docs).
     pub k: f64,
 }
 
@@ -265,6 +294,18 @@ pub fn group_slip_row(
 pub fn tie_force(k: f64, xc: &Vector3<f64>, xm: &Vector3<f64>) -> (Vector3<f64>, f64) {
     let d = xc - xm;
     (d * k, 0.5 * k * d.norm_squared())
+}
+
+/// Tie force on the cable point (the membrane node gets its negative) and energy with the
+/// multiplier `lambda`: f = λ + k d, W = λ·d + ½ k |d|², d = x_c − x_m (module docs).
+pub fn augmented_tie_force(
+    k: f64,
+    lambda: &Vector3<f64>,
+    xc: &Vector3<f64>,
+    xm: &Vector3<f64>,
+) -> (Vector3<f64>, f64) {
+    let d = xc - xm;
+    (lambda + d * k, lambda.dot(&d) + 0.5 * k * d.norm_squared())
 }
 
 /// Tangent of a tie: [[k I, −k I], [−k I, k I]] (cable point, membrane node).

@@ -612,7 +612,8 @@ pub(super) fn segment_contribution(
     cable::segment(s.law, s.ea, model.segment_l0(u, e), &x[0], &x[1])
 }
 
-/// One sleeve tie's force (cable point, then membrane node), tangent and energy at `u`.
+/// One sleeve tie's force (cable point, then membrane node), tangent and energy at `u` (with
+/// its multiplier, held: the tangent is the penalty's).
 pub(super) fn tie_contribution(
     model: &Model,
     e: usize,
@@ -620,7 +621,7 @@ pub(super) fn tie_contribution(
 ) -> (cable::Vec6, cable::Mat6, f64) {
     let t = &model.ties[e];
     let x = gather(model, u, t.nodes);
-    let (f, w) = sleeve::tie_force(t.k, &x[0], &x[1]);
+    let (f, w) = sleeve::augmented_tie_force(t.k, &model.tie_multiplier(u, e), &x[0], &x[1]);
     let f = cable::Vec6::from_column_slice(&[f.x, f.y, f.z, -f.x, -f.y, -f.z]);
     (f, sleeve::tie_stiffness(t.k), w)
 }

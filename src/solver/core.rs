@@ -207,7 +207,7 @@ impl Solver {
         let unknowns = model.unknown_count() as u64;
         let copies = if self.inexact_newton() { 20u64 } else { 16 };
         // Slips and volume pressures: the unknowns eliminated in the dense block.
-        let m = (model.unknown_count() - model.dof_count()) as u64;
+        let m = (model.slips.len() + model.volumes) as u64;
         let vectors = copies.saturating_mul(unknowns).saturating_mul(8);
         let evaluations = 4u64
             .saturating_mul(model.triangles.len() as u64)

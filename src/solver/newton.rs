@@ -13,6 +13,9 @@
 //!               |R_d| <= tol · F + ρ_d and the Newton correction is within tol · X,
 //!             and no stick/slip state changed, no touching sleeve points part, and the
 //!             re-check of frozen states accepts
+//! ties        converged with a sleeve tie open by more than GAP_TOLERANCE of its segment: the
+//!               ties' multipliers are updated and the increment solved again (slip.rs,
+//!               close_ties; at most MAX_UZAWA_ROUNDS times, then the increment fails)
 //! budget      max_iterations from the last release of frozen states (more while the
 //!             residual still falls steadily near the solution)
 //! direction   (K + τ D) Δ = −R, slips eliminated by Schur              slip.rs
@@ -46,7 +49,7 @@ use super::core::{check_inversion, Solver};
 use super::line_search::{Direction, Merit, Trial};
 use super::report::push_log;
 use super::rows::{ArcRow, Border, Increment, Row};
-use super::slip::{largest_gap, slip_rows_into, step_limit, MAX_GAP};
+use super::slip::{slip_rows_into, step_limit, Ties};
 use super::system::Check;
 use crate::model::sleeve::Contact;
 use crate::model::Model;
@@ -189,6 +192,8 @@ impl Solver {
             loads: Vec::with_capacity(step.loads.len()),
             rows: Vec::new(),
         };
+        // Multiplier updates of the sleeve ties so far (slip.rs, `close_ties`).
+        let mut rounds = 0;
         for it in 0..=hard_max {
             if self.step_work >= self.settings.max_step_iterations {
                 return Err((
@@ -200,12 +205,36 @@ impl Solver {
                 ));
             }
             self.step_work += 1;
-            let eqs = self.equations(model, step, &mut state, u, arc.as_deref(), it, log)?;
+            let mut eqs = self.equations(model, step, &mut state, u, arc.as_deref(), it, log)?;
             match self.verdict(model, step, &mut state, u, &eqs, arc.as_deref(), it, log)? {
-                Verdict::Done(it) => {
-                    *contact = std::mem::take(&mut state.active.contact);
-                    return Ok(it);
-                }
+                Verdict::Done(it) => match self.close_ties(model, u, &mut rounds, log) {
+                    Ties::Closed => {
+                        *contact = std::mem::take(&mut state.active.contact);
+                        return Ok(it);
+                    }
+                    Ties::Updated(change) => {
+                        self.after_tie_update(&mut state, it);
+                        if state.damping == 0.0 {
+                            // The residual took the multipliers' change and the tangent is
+                            // the assembled one: the step from here at once.
+                            eqs.info.potential += change;
+                            self.budget(model, &mut state, &eqs.check, it, hard_max)?;
+                            let d =
+                                self.newton_direction(model, &mut state, u, &eqs, None, it, log)?;
+                            self.newton_step(
+                                model,
+                                &mut state,
+                                u,
+                                &eqs,
+                                arc.as_deref_mut(),
+                                d,
+                                it,
+                                log,
+                            );
+                        }
+                    }
+                    Ties::Open(why) => return Err((it, why)),
+                },
                 Verdict::Again => continue,
                 Verdict::Step(pending) => {
                     self.budget(model, &mut state, &eqs.check, it, hard_max)?;
@@ -431,7 +460,7 @@ impl Solver {
         match verdict {
             Recheck::Chatter(why) => Err((it, why.to_string())),
             Recheck::Accept => {
-                self.log_converged(model, u, check, arc, log);
+                self.log_converged(check, arc, log);
                 Ok(Verdict::Done(it))
             }
             Recheck::IterateOn => {
@@ -448,21 +477,20 @@ impl Solver {
         }
     }
 
-    /// The converged iterate's log line (and the warning of a sleeve tie opened too wide).
-    fn log_converged(
-        &self,
-        model: &Model,
-        u: &[f64],
-        check: &Check,
-        arc: Option<&ArcRow>,
-        log: &mut Vec<String>,
-    ) {
-        if !model.slips.is_empty() {
-            let gap = largest_gap(model, u);
-            if gap > MAX_GAP {
-                push_log(log, format!("  warning: a sleeve tie opened by {gap:.2e} of its segment length (more than {MAX_GAP:.0e}): the penalty is too soft for this load; set cables[].sleeve.penalty higher"));
-            }
-        }
+    /// After the sleeve ties' multipliers moved (slip.rs, `close_ties`), the increment is
+    /// solved again from the converged iterate: a new solve's budget and progress record (as
+    /// after a release of frozen states), and a fresh line-search memory (the potential has
+    /// changed with the multipliers). `hard_max` still bounds the increment.
+    fn after_tie_update(&self, st: &mut Iteration, it: usize) {
+        st.last_free = f64::INFINITY;
+        st.budget_from = it;
+        st.history.clear();
+        st.recent.clear();
+        st.recent_potential = None;
+    }
+
+    /// The converged iterate's log line.
+    fn log_converged(&self, check: &Check, arc: Option<&ArcRow>, log: &mut Vec<String>) {
         push_log(
             log,
             format!(

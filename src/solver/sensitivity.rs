@@ -14,6 +14,15 @@
 //!               factored matrix and is taken out again by the fixed point below
 //! forward       J dz = g          g = −∂R/∂v · dv  (load sensitivity, [`Solver::load_rhs`])
 //! adjoint       Jᵀ λ = w
+//! sleeve ties   closed at the equilibrium by their multipliers μ (model/sleeve.rs): the
+//!               derivative keeps them closed, the bordered system
+//!               [J Gᵀ] [dz]   [g]     G dz = dz_cable − dz_node per tie, Gᵀ dμ its force
+//!               [G 0 ] [dμ] = [b]     (+dμ on the cable point, −dμ on the node); b = 0
+//!               forward, the seed's multiplier part in the adjoint (the matrix is its own
+//!               transpose's pattern); solved by the same Uzawa rounds as the equilibrium,
+//!               dμ ← dμ + k G dz, until |G dz − b| ≤ 1e-13 of |dz|: one solve per round,
+//!               each round dividing the constraint's error by 1 + C k; dμ is returned at the
+//!               multipliers' places of the unknown vector
 //! solves        the symmetric part J₀ = J − N by the Schur path of slip.rs:
 //!               y0 = A⁻¹ g_x, (D − C Y) s = g_s − C y0, x = y0 − Y s   (Y = A⁻¹ B, once)
 //!               transposed: (D − C Y)ᵀ μ = w_s − Yᵀ w_x, λ_x = A⁻¹ (w_x − Cᵀ μ)
@@ -43,6 +52,10 @@ use nalgebra::{DMatrix, DVector};
 
 /// Rounds of the skew fixed point before the solve is declared failed.
 const MAX_ROUNDS: usize = 60;
+/// Uzawa rounds of the tie-bordered solve before it is declared failed (module docs).
+const MAX_TIE_ROUNDS: usize = 400;
+/// The tie-bordered solve stops when |G dz − b|∞ ≤ this · max(|dz|∞, |b|∞).
+const TIE_TOLERANCE: f64 = 1e-13;
 /// The fixed point stops when a round changes the answer by at most this, relative.
 const ROUND_TOLERANCE: f64 = 1e-15;
 /// |N z|∞ ≤ this · |g|∞: the skew part is round-off (4 ε).
@@ -66,6 +79,10 @@ pub struct Tangent {
     eq: Vec<usize>,
     n: usize,
     m: usize,
+    /// Sleeve ties: (cable point, node), penalty, index of the multiplier's first component.
+    ties: Vec<([usize; 2], f64, usize)>,
+    /// Length of the unknown vector (`Model::unknown_count`).
+    unknowns: usize,
 }
 
 impl Solver {
@@ -127,18 +144,82 @@ impl Solver {
             eq: self.pattern.eq.clone(),
             n,
             m,
+            ties: (0..model.ties.len())
+                .map(|t| {
+                    (
+                        model.ties[t].nodes,
+                        model.ties[t].k,
+                        model.multiplier_index(t),
+                    )
+                })
+                .collect(),
+            unknowns: model.unknown_count(),
         })
     }
 
     /// Solve J dz = g. `g` per unknown of the model (DOFs, then slips; held DOFs ignored);
     /// returns dz per unknown (held DOFs 0).
     pub fn tangent_solve(&mut self, t: &Tangent, g: &[f64]) -> Result<Vec<f64>, Error> {
-        self.fixed_point(t, g, false)
+        self.tie_bordered(t, g, false)
     }
 
     /// Solve Jᵀ λ = w, `w` and the result per unknown as in [`Solver::tangent_solve`].
     pub fn tangent_solve_transposed(&mut self, t: &Tangent, w: &[f64]) -> Result<Vec<f64>, Error> {
-        self.fixed_point(t, w, true)
+        self.tie_bordered(t, w, true)
+    }
+
+    /// The solve with the sleeve ties kept closed (module docs): `g` per unknown, its
+    /// multiplier entries the constraint's right-hand side b; returns dz per unknown with dμ at
+    /// the multipliers' places. Without ties, the plain fixed point.
+    fn tie_bordered(
+        &mut self,
+        t: &Tangent,
+        g: &[f64],
+        transposed: bool,
+    ) -> Result<Vec<f64>, Error> {
+        if t.ties.is_empty() {
+            return self.fixed_point(t, g, transposed);
+        }
+        let at = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(0.0);
+        let mut mu = vec![0.0; 3 * t.ties.len()];
+        let mut rhs = g.to_vec();
+        let mut error = vec![0.0; mu.len()];
+        for _ in 0..MAX_TIE_ROUNDS {
+            rhs.copy_from_slice(g);
+            for (k, &([c, m], _, _)) in t.ties.iter().enumerate() {
+                for i in 0..3 {
+                    rhs[3 * c + i] -= mu[3 * k + i];
+                    rhs[3 * m + i] += mu[3 * k + i];
+                }
+            }
+            let mut z = self.fixed_point(t, &rhs, transposed)?;
+            let size = z.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let mut b_size = 0.0f64;
+            for (k, &([c, m], _, index)) in t.ties.iter().enumerate() {
+                for i in 0..3 {
+                    let b = at(g, index + i);
+                    b_size = b_size.max(b.abs());
+                    error[3 * k + i] = at(&z, 3 * c + i) - at(&z, 3 * m + i) - b;
+                }
+            }
+            let largest = error.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            if largest <= TIE_TOLERANCE * size.max(b_size) {
+                z.resize(t.unknowns, 0.0);
+                for (k, &(_, _, index)) in t.ties.iter().enumerate() {
+                    z[index..index + 3].copy_from_slice(&mu[3 * k..3 * k + 3]);
+                }
+                return Ok(z);
+            }
+            for (k, &(_, penalty, _)) in t.ties.iter().enumerate() {
+                for i in 0..3 {
+                    mu[3 * k + i] += penalty * error[3 * k + i];
+                }
+            }
+        }
+        Err(Breakdown::Unsettled {
+            rounds: MAX_TIE_ROUNDS,
+        }
+        .into())
     }
 
     /// z ← J₀⁻¹ (g − N z) (transposed: N → Nᵀ = −N) until a round changes nothing.
@@ -312,6 +393,12 @@ impl Solver {
                         g[n3 + j] = -v;
                     }
                 }
+                // A tie whose node is prescribed to move stays closed: G dz_free = −G held.
+                for &([c, m], _, index) in &t.ties {
+                    for i in 0..3 {
+                        g[index + i] = -(held[3 * c + i] - held[3 * m + i]);
+                    }
+                }
             }
         }
         (g, held)
@@ -336,6 +423,7 @@ impl Solver {
         dx: &[f64],
     ) -> Vec<f64> {
         let n3 = model.dof_count();
+        let dx_all = dx;
         let (dx, ds) = dx.split_at(n3);
         let mut product = vec![0.0; n3];
         let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
@@ -359,6 +447,14 @@ impl Solver {
                 for &(d, b) in column {
                     product[d] += b * dsj;
                 }
+            }
+        }
+        // The ties' multipliers: +dμ on the cable point, −dμ on the node.
+        for &([c, m], _, index) in &t.ties {
+            for i in 0..3 {
+                let dm = dx_all.get(index + i).copied().unwrap_or(0.0);
+                product[3 * c + i] += dm;
+                product[3 * m + i] -= dm;
             }
         }
         product

@@ -23,15 +23,30 @@
 
 use super::assemble::NONE;
 use super::core::Solver;
+use super::report::push_log;
 use super::rows::Row;
 use crate::error::{Breakdown, Error};
 use crate::model::sleeve::{self, Contact, SegmentLaw};
 use crate::model::Model;
 use nalgebra::DMatrix;
 
-/// Largest tie gap, relative to the shorter adjacent segment, before the log warns (the
-/// penetration bound of docs/mechanics.md, sleeves: below 1e-3 of the element size).
-pub const MAX_GAP: f64 = 1e-3;
+/// Largest tie gap, relative to the shorter adjacent segment, an increment may end with: above
+/// it the ties' multipliers are updated and Newton solves again ([`Solver::close_ties`]). A gap
+/// g strains a cable segment of length ℓ by up to g/ℓ, so a stuck cable's tension moves by up to
+/// EA g/ℓ: the penalty alone left EA/k of its force there (a 50 N/m tie on a stuck 10 N cable
+/// with EA = 1e5 N: T = 5.38 N instead of 10 N at a gap of 1.1e-4 of the segment,
+/// tests/verification/stick_slip.rs). At 1e-12 the closure sits below the Newton tolerance's
+/// own effect: the same load history in 1 or 20 steps ends at the same slips to 1e-7 (at 1e-9
+/// it did not: 5e-6, the answer then depending on where the rounds stopped).
+pub const GAP_TOLERANCE: f64 = 1e-12;
+
+/// Multiplier updates (Uzawa rounds) one increment may take to bring every tie gap within
+/// [`GAP_TOLERANCE`]; a gap still open after them fails the increment. Each round divides the
+/// gap by 1 + C k (model/sleeve.rs): measured 1 to 3 rounds per step of the shipped sleeve
+/// scenes and the capstan with the default penalty, about 25 with a penalty at its floor on
+/// the rigid capstan sleeve (tests/verification/sleeve_penalty.rs). A round costs one Newton
+/// iteration at least.
+pub const MAX_UZAWA_ROUNDS: usize = 100;
 
 /// What [`Breakdown::NonFinite`] names when the Newton direction holds NaN or infinity.
 const DIRECTION: &str = "the Newton direction";
@@ -461,30 +476,129 @@ pub(super) fn slip_columns_into(
     }
 }
 
-/// Largest tie gap |x_c − x_m| over the shorter adjacent open segment length (a closed
-/// segment has no length: the gap is measured against the open ones beside its group).
-pub(super) fn largest_gap(model: &Model, u: &[f64]) -> f64 {
+/// The widest tie gap |x_c − x_m| over the shorter adjacent open segment length, and its
+/// sleeve point. A closed segment has no length: the gap of a point inside a group of touching
+/// points is measured against the open segments beside its group (the nearest open one on each
+/// side along the cable; the reference length of its own segments where the whole cable is
+/// closed). None without sleeve points.
+pub(super) fn widest_gap(model: &Model, u: &[f64]) -> Option<(usize, f64)> {
     let length = |e: usize| {
         let s = &model.segments[e];
-        if model.segment_closed(u, e) {
-            return f64::INFINITY;
-        }
         (model.position(u, s.nodes[1]) - model.position(u, s.nodes[0])).norm()
     };
     model
         .slips
         .iter()
-        .map(|p| {
+        .enumerate()
+        .map(|(j, p)| {
             let [c, m] = model.ties[p.tie].nodes;
             let gap = (model.position(u, c) - model.position(u, m)).norm();
-            let shorter = length(p.segments[0]).min(length(p.segments[1]));
-            if shorter.is_finite() {
-                gap / shorter
-            } else {
-                0.0
+            let range = model.cables[p.cable].segments.clone();
+            let [mut before, mut after] = p.segments;
+            while model.segment_closed(u, before) && before > range.start {
+                before -= 1;
             }
+            while model.segment_closed(u, after) && after + 1 < range.end {
+                after += 1;
+            }
+            let open = |e: usize| {
+                if model.segment_closed(u, e) {
+                    f64::INFINITY
+                } else {
+                    length(e)
+                }
+            };
+            let mut shorter = open(before).min(open(after));
+            if !shorter.is_finite() {
+                shorter = model.segments[p.segments[0]]
+                    .l0
+                    .max(model.segments[p.segments[1]].l0);
+            }
+            (j, gap / shorter)
         })
-        .fold(0.0, f64::max)
+        .fold(None, |worst: Option<(usize, f64)>, (j, g)| match worst {
+            Some((_, w)) if w >= g => worst,
+            _ => Some((j, g)),
+        })
+}
+
+/// What [`Solver::close_ties`] decided at a converged iterate.
+pub(super) enum Ties {
+    /// Every tie gap within [`GAP_TOLERANCE`] (or no ties, or a pre-strained stage): converged.
+    Closed,
+    /// The multipliers moved: solve the increment again from here. The residual at the
+    /// iterate (`Solver::residual`) is updated with them; the potential changes by the value
+    /// given (Σ Δλ·d; the tangent does not change).
+    Updated(f64),
+    /// A gap still open after [`MAX_UZAWA_ROUNDS`] updates: the increment fails, why.
+    Open(String),
+}
+
+impl Solver {
+    /// The augmented Lagrangian closure of the sleeve ties (model/sleeve.rs) at the converged
+    /// iterate `u`: while the widest gap exceeds [`GAP_TOLERANCE`], λ ← λ + k (x_c − x_m) at every
+    /// tie (in `u`, `Model::multiplier_index`) and `rounds` counts one more; after
+    /// [`MAX_UZAWA_ROUNDS`] an open gap fails the increment with a message naming the sleeve's
+    /// cable, point and gap. Not at a pre-strained stage of the prestress continuation (not
+    /// the scene's problem: its last stage is). On an update the assembled residual at `u`
+    /// takes the multipliers' change (the tie force on the cable point, its negative on the
+    /// membrane node), so a Newton step can follow without assembling again.
+    pub(super) fn close_ties(
+        &mut self,
+        model: &Model,
+        u: &mut [f64],
+        rounds: &mut usize,
+        log: &mut Vec<String>,
+    ) -> Ties {
+        if self.pre_strain > 0.0 {
+            return Ties::Closed;
+        }
+        let Some((j, gap)) = widest_gap(model, u) else {
+            return Ties::Closed;
+        };
+        if gap <= GAP_TOLERANCE {
+            if *rounds > 0 {
+                push_log(
+                    log,
+                    format!("  sleeve ties closed to {gap:.2e} of their segment length after {rounds} multiplier updates"),
+                );
+            }
+            return Ties::Closed;
+        }
+        let p = &model.slips[j];
+        let cable = &model.cables[p.cable];
+        let point = cable.slips.iter().position(|&i| i == j).unwrap_or(0) + 1;
+        let which = format!(
+            "the sleeve of cable {} (sleeve point {point} of {}, at node {})",
+            cable.name,
+            cable.slips.len(),
+            p.membrane
+        );
+        if *rounds >= MAX_UZAWA_ROUNDS {
+            return Ties::Open(format!(
+                "{which}: its tie gap is still {gap:.2e} of its segment length after {rounds} multiplier updates (tolerance {GAP_TOLERANCE:.0e}); a stiffer cables[].sleeve.penalty closes it faster"
+            ));
+        }
+        let mut potential = 0.0;
+        for t in 0..model.ties.len() {
+            let [c, m] = model.ties[t].nodes;
+            let d = model.position(u, c) - model.position(u, m);
+            let change = d * model.ties[t].k;
+            potential += change.dot(&d);
+            let i = model.multiplier_index(t);
+            for k in 0..3 {
+                u[i + k] += change[k];
+                self.residual[3 * c + k] += change[k];
+                self.residual[3 * m + k] -= change[k];
+            }
+        }
+        *rounds += 1;
+        push_log(
+            log,
+            format!("  {which}: tie gap {gap:.2e} of its segment length (tolerance {GAP_TOLERANCE:.0e}): multipliers updated ({rounds} of at most {MAX_UZAWA_ROUNDS})"),
+        );
+        Ties::Updated(potential)
+    }
 }
 
 /// Largest α ≤ 1 keeping every sleeved segment's unstretched length above `keep` of its

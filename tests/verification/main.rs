@@ -23,6 +23,7 @@ mod rigid_motion;
 mod shear_wrinkling;
 mod sleeve_cable;
 mod sleeve_drawstring;
+mod sleeve_penalty;
 mod sliding_cable;
 mod stick_slip;
 mod tangent_fd;

@@ -10,18 +10,20 @@
 //!       p = 20 N reached in ten equal load rows, μ = 0 and μ = 0.3.
 //! REFERENCE: (a) statics of a frictionless pulley: the node sits where both segments make the
 //!       same angle, x = 0, with T = EA(l − L)/L, l = 2√(1 + w²), L = 2/(1 + T0/EA), P = 2Tw/√(1+w²)
-//!       (w by bisection here, to 1e-14), plus the tie stretch P/k_c of the default penalty
-//!       k_c = 100 EA/ℓ_min between the cable's kink and the node; tolerance 1e-8 in x and w, 1e-6 relative on the
-//!       tension equality. (b) seed paper §4: "in the first case the nodes 7 and 9 converge to the
+//!       (w by bisection here, to 1e-14), the node at the cable's kink (its tie closed by the
+//!       augmented Lagrangian to 1e-12 of the segment, model/sleeve.rs; before the
+//!       multipliers the node hung the tie stretch P/k_c = 6e-5 m below it, and the reference
+//!       added that); tolerance 1e-8 in x and w, 1e-6 relative on the tension equality. (b) seed paper §4: "in the first case the nodes 7 and 9 converge to the
 //!       node 8" (frictionless): they slide until they touch node 8 and the three act as one
 //!       contact group (docs/mechanics.md §2.3, sleeve points that meet); asserted: |x7 − x8| and
 //!       |x9 − x8| below 1e-6 of the span (the link between touching points holds them to
 //!       |F|/k_link, k_link = 1e3 k_c: about 1e-7 of the span), the group at mid-span within the
 //!       same, T_A7 = T_9B within 1e-9 relative (converged slip row), and the exact V under the
 //!       combined load P + p (`v_sag`, whose small-sag limit is the cubic law): T within 1e-5
-//!       relative and y8 within 1e-5 m, node 8 hanging P/k_c below the cable (measured 1.9e-6 and
-//!       1.1e-6 m: the link leaves the group's end points 8.5e-7 m apart, a gap that is not
-//!       cable, which lowers T by EA·gap/L0 ≈ 2e-3 N). With μ = 0.3 the
+//!       relative and y8 within 1e-5 m, node 8 at the cable (its tie closed; before the
+//!       multipliers it hung P/k_c = 2e-4 m below and the reference added that; measured
+//!       1.9e-6 and 1.1e-6 m then: the link leaves the group's end points 8.5e-7 m apart, a gap
+//!       that is not cable, which lowers T by EA·gap/L0 ≈ 2e-3 N). With μ = 0.3 the
 //!       seed's "distinct equilibrium": 7 and 9 stay more than 0.5 m from 8, the tensions differ,
 //!       the bisector Coulomb law |T_b − T_a| cos(Δθ/2) ≤ μ (T_a + T_b) sin(Δθ/2) holds at every
 //!       node (relative slack 1e-4 for the kink angles taken at the nodes rather than at the
@@ -78,8 +80,7 @@ fn frictionless_pulley_node_runs_to_the_kink() {
     set(&mut e, "P", 100.0);
     let report = solve(&mut e);
     let (w, t) = pulley_sag(1e4, 100.0, 100.0);
-    // The node hangs below the kink by the tie stretch P/k, k = 100 EA/ℓ_min (ℓ_min = 0.6 m).
-    let w = w + 100.0 / (100.0 * 1e4 / 0.6);
+    // The node sits at the kink: its tie is closed (the multiplier carries P).
     let (x, y) = (get(&e, "x"), get(&e, "y"));
     println!(
         "pulley: x = {x:.3e} (start −0.4), w = {:.10} vs {w:.10}, Ta {:.9} Tb {:.9} T {t:.9}, {} iterations",
@@ -164,11 +165,10 @@ fn seed_fig6_frictionless_nodes_7_and_9_converge_to_node_8() {
         .map(|n| get(&e, n))
         .collect();
     // Exact V: one kink at x = 2 carrying P + p = 220 N; L0 = 4/(1 + T0/EA) (sliding moves
-    // material, never creates it); the cable point sits w below the anchors' line and node 8
-    // hangs P/k_c below it (tie stretch, k_c = 100 EA/ℓ_min = 1e6 N/m, ℓ_min = 1 m).
+    // material, never creates it); the cable point, and node 8 with it (its tie closed), sits w
+    // below the anchors' line.
     let (w, t_ref) = v_sag(1e4, 4.0 / (1.0 + 100.0 / 1e4), 2.0, 220.0);
-    let k_c = 100.0 * 1e4 / 1.0;
-    let y8_ref = -w - 200.0 / k_c;
+    let y8_ref = -w;
     let y8 = get(&e, "y8");
     let mut sorted = iterations.clone();
     sorted.sort_unstable();
@@ -263,8 +263,9 @@ fn seed_fig6_with_friction_a_distinct_equilibrium_held_by_contact_forces() {
 /// REFERENCE: row 1, the V of `v_sag` (a = 1, F = 200 N) below x = 0; row 2, statics of the
 /// symmetric three-segment cable with one tension T: N2 (cable point) at (x, y), N1 at (−x, y),
 /// T (1 − x)/l_b − T + 60 = 0, −T y/l_b = 100, l_b = √((1 − x)² + y²), T = EA (2x + 2 l_b −
-/// L0)/L0, L0 = 2/(1 + T0/EA) (Newton on (x, y) here); each node sits F/k_c beyond its cable
-/// point. Tolerances: row 1 as the Fig. 6 test (1e-6 of the span apart, y and T within 1e-5:
+/// L0)/L0, L0 = 2/(1 + T0/EA) (Newton on (x, y) here); each node at its cable point (the
+/// ties closed to 1e-12 of the segment; before the multipliers each node sat F/k_c beyond it and
+/// the reference added that). Tolerances: row 1 as the Fig. 6 test (1e-6 of the span apart, y and T within 1e-5:
 /// the link's gap between the group's end points); row 2, 1e-8 m (the pulley's) on the node
 /// positions, 1e-6 relative on the tensions.
 #[test]
@@ -292,7 +293,6 @@ fn frictionless_nodes_that_meet_part_when_pulled_apart() {
         ]
     });
     let mut e = engine(Scene::from_json(&json.to_string()).unwrap());
-    let (k_c, k_c2) = (100.0 * 1e4 / 0.6, 100.0 * 1e4 / 0.7);
     let l0 = 2.0 / (1.0 + 100.0 / 1e4);
     // Row 1: the nodes meet (P is the total over both: 100 N each).
     set(&mut e, "P", 200.0);
@@ -302,12 +302,12 @@ fn frictionless_nodes_that_meet_part_when_pulled_apart() {
     println!(
         "row 1: x1 {x1:.3e} x2 {x2:.3e} y1 {:.10} vs {:.10}; T {:.9} vs {t:.9}; {} iterations",
         get(&e, "y1"),
-        -w - 100.0 / k_c,
+        -w,
         get(&e, "T0"),
         r1.iterations
     );
     assert!((x1 - x2).abs() < 1e-6 * 2.0 && x1.abs() < 1e-6 * 2.0);
-    assert!((get(&e, "y1") - (-w - 100.0 / k_c)).abs() < 1e-5);
+    assert!((get(&e, "y1") - (-w)).abs() < 1e-5);
     assert!(rel(get(&e, "T0"), t) < 1e-5);
     // Row 2: pulled apart.
     set(&mut e, "H1", 60.0);
@@ -339,12 +339,7 @@ fn frictionless_nodes_that_meet_part_when_pulled_apart() {
         "reference solved"
     );
     let got = [get(&e, "x1"), get(&e, "y1"), get(&e, "x2"), get(&e, "y2")];
-    let want = [
-        -x - 60.0 / k_c,
-        y - 100.0 / k_c,
-        x + 60.0 / k_c2,
-        y - 100.0 / k_c2,
-    ];
+    let want = [-x, y, x, y];
     let tensions = [get(&e, "T0"), get(&e, "T1"), get(&e, "T2")];
     println!(
         "row 2: nodes {got:?} vs {want:?}; T {tensions:?} vs {t:.9}; {} iterations",
@@ -364,7 +359,8 @@ fn frictionless_nodes_that_meet_part_when_pulled_apart() {
 ///       row 6) slide symmetrically onto node 8 and the three hang as one contact group at
 ///       mid-span; with μ = 0.3 they stick throughout. Measured iterations per row: 3-5 except
 ///       the row where the points slide and meet (154, 36, 29, 23, 15 for μ = 0.1 … 0.2);
-///       medians 3-4.
+///       medians 3-4 (penalty ties); with the ties closed by their multipliers 4-6 except
+///       that row (160, 39, 32, 26, 18), medians 4-5.
 /// MESH, BOUNDARY CONDITIONS, PARAMETERS: the shipped SlidingCable as in (b) above, μ set by
 ///       its tunable parameter, the same ten load rows to P = 200 N, p = 20 N.
 /// REFERENCE: (1) symmetry of the loading and of the path (no reference computed by the
@@ -372,9 +368,11 @@ fn frictionless_nodes_that_meet_part_when_pulled_apart() {
 ///       slip8 = 0 within 1e-9 m (before this fix a wandering iteration slid node 8 onto 7:
 ///       x = 0.94 at μ = 0.15-0.2); (2) a sticking row (all slips 0 within 1e-12 m) satisfies
 ///       the bisector Coulomb law at nodes 7 and 9 (|ΔT| cos ≤ μ f_n, slack 1e-4; the kink
-///       angles at the cable points, the membrane nodes lifted by their tie stretch load/k_c:
-///       at the nodes themselves node 8's 6e-5 m hang changes f_n by 0.4 %, which at μ = 0.15,
-///       row 3, a sticking point 0.17 % inside the cone, reads as outside it); (3) once the points met: the group within 1e-6 of the span
+///       angles at the nodes, which are the cable points: the ties are closed to 1e-12 of the
+///       segment. Before the multipliers the nodes hung their tie stretch load/k_c below the
+///       cable points and the check lifted them back: node 8's 6e-5 m hang changed f_n by
+///       0.4 %, which at μ = 0.15, row 3, a sticking point 0.17 % inside the cone, read as
+///       outside it); (3) once the points met: the group within 1e-6 of the span
 ///       of node 8, and the frictionless V of the combined load (`v_sag`, total unstretched
 ///       length conserved: T within 1e-5 relative, y8 within 1e-5 m, the same bounds and
 ///       reasons as the frictionless test): the group is symmetric, so friction carries no
@@ -414,16 +412,8 @@ fn seed_fig6_frictional_points_meet_on_the_symmetric_path() {
                 .map(|n| get(&e, n))
                 .collect();
             if s7.abs() < 1e-12 && s9.abs() < 1e-12 {
-                // The cable points: the membrane nodes lifted by their tie stretch load/k_c
-                // (k_c = 100 EA/ℓ = 1e6 N/m; P on node 8, p/2 on 7 and 9).
-                let k_c = 100.0 * 1e4 / 1.0;
-                let lift = |n: &str| if n == "8" { 20.0 * k as f64 } else { k as f64 } / k_c;
-                let pos = |n: &str| {
-                    (
-                        get(&e, &format!("x{n}")),
-                        get(&e, &format!("y{n}")) + lift(n),
-                    )
-                };
+                // The cable points: the nodes (the ties closed).
+                let pos = |n: &str| (get(&e, &format!("x{n}")), get(&e, &format!("y{n}")));
                 let p = [(0.0, 0.0), pos("7"), pos("8"), pos("9"), (4.0, 0.0)];
                 for k in [1, 3] {
                     let (a, c, b) = (p[k - 1], p[k], p[k + 1]);
@@ -460,7 +450,7 @@ fn seed_fig6_frictional_points_meet_on_the_symmetric_path() {
             let span = 4.0;
             assert!((x7 - x8).abs() < 1e-6 * span && (x9 - x8).abs() < 1e-6 * span);
             let (w, t_ref) = v_sag(1e4, 4.0 / (1.0 + 100.0 / 1e4), 2.0, 220.0);
-            let y8_ref = -w - 200.0 / (100.0 * 1e4);
+            let y8_ref = -w;
             assert!(rel(t[1], t[0]) < 1e-9, "T {t:?}");
             assert!(rel(t[0], t_ref) < 1e-5, "T {} vs {t_ref}", t[0]);
             assert!((get(&e, "y8") - y8_ref).abs() < 1e-5);

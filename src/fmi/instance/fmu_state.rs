@@ -134,7 +134,8 @@ impl Instance {
         })
     }
 
-    /// `fmi2DeSerializeFMUstate`: check the bytes (see `snapshot.rs`), then `store` a new state.
+    /// `fmi2DeSerializeFMUstate`: check the bytes (see `snapshot.rs`; a version 3 state gets
+    /// the sleeve ties' multipliers, 0), then `store` a new state.
     pub fn deserialize_fmu_state(
         &mut self,
         bytes: Result<&[u8], Error>,
@@ -145,7 +146,14 @@ impl Instance {
             let bytes = bytes?;
             // The decoded vectors take about the bytes' size, grown by doubling.
             Self::probe_state(bytes.len() as u64, 2)?;
-            let snapshot = snapshot::decode(bytes, &s.guid)?;
+            let (mut snapshot, version) = snapshot::decode(bytes, &s.guid)?;
+            let model = s.engine.model();
+            snapshot::upgrade(
+                &mut snapshot,
+                version,
+                model.unknown_count(),
+                3 * model.ties.len(),
+            );
             store(snapshot)?;
             Ok(Status::Ok)
         })
