@@ -824,3 +824,127 @@ impl Solver {
         Some((motion, ratio))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! The finite-motion check on linkages whose motions are known by hand (no solver: the
+    //! candidate motion is given). Each asserts the kind of answer and, for a mechanism, the
+    //! nodes moved.
+    use super::*;
+
+    fn model(scene: serde_json::Value) -> Model {
+        let scene = crate::Scene::from_json(&scene.to_string()).unwrap_or_else(|p| panic!("{p}"));
+        Model::build(&scene)
+    }
+
+    /// Cables through `nodes` (coordinates), `held` held in x, y and z.
+    fn chain(coordinates: serde_json::Value, cables: serde_json::Value, held: &[usize]) -> Model {
+        model(serde_json::json!({
+            "format": 1, "name": "Chain",
+            "geometry": {"nodes": coordinates, "node_sets": {"held": held}},
+            "cables": cables,
+            "supports": [{"nodes": "held", "fix": ["x", "y", "z"]}]
+        }))
+    }
+
+    /// Per DOF: `value` at (node, component).
+    fn at(model: &Model, entries: &[(usize, usize, f64)]) -> Vec<f64> {
+        let mut v = vec![0.0; model.dof_count()];
+        for &(i, c, x) in entries {
+            v[3 * i + c] = x;
+        }
+        v
+    }
+
+    /// A unit-square parallelogram of cables A–N1–N2–B (A, B held) pushed in x at N1: both
+    /// free nodes swing on circles and no length changes, a finite mechanism of nodes 1 and 2.
+    #[test]
+    fn a_parallelogram_swings() {
+        let m = chain(
+            serde_json::json!([
+                [0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [1.0, 0.0, 0.0]
+            ]),
+            serde_json::json!([{"name": "c", "nodes": [0, 1, 2, 3], "EA": 1e4}]),
+            &[0, 3],
+        );
+        let u = vec![0.0; m.unknown_count()];
+        let f = at(&m, &[(1, 0, 1.0)]);
+        // The curve is followed over 5 % of the median length (1 m), chord by chord.
+        let found = finite(&m, &u, &f, &f);
+        assert!(
+            matches!(found, Finite::Mechanism { length, ref moved }
+                if moved == &[1, 2] && length >= PATH_LENGTH * (1.0 - 1e-9)),
+            "{found:?}"
+        );
+    }
+
+    /// A node in the middle of a straight cable between two held nodes, pushed sideways: its
+    /// two segments lengthen as δ²/2 per metre, so the first-order motion does not extend.
+    #[test]
+    fn a_node_on_a_straight_cable_moves_to_first_order_only() {
+        let m = chain(
+            serde_json::json!([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]),
+            serde_json::json!([{"name": "c", "nodes": [0, 1, 2], "EA": 1e4}]),
+            &[0, 2],
+        );
+        let u = vec![0.0; m.unknown_count()];
+        let f = at(&m, &[(1, 1, 1.0)]);
+        assert!(
+            matches!(finite(&m, &u, &f, &f), Finite::FirstOrderOnly { reached, .. } if reached == 0.0)
+        );
+        // Pushed along the cable: it changes the lengths at first order, and no motion that
+        // keeps them is pushed along.
+        let along = at(&m, &[(1, 0, 1.0)]);
+        assert_eq!(
+            finite(&m, &u, &along, &along),
+            Finite::Unloaded { first_order: false }
+        );
+    }
+
+    /// A flat square of two triangles, three corners held, the fourth pushed out of the plane:
+    /// each triangle alone would turn about its held edge, but the two edges are not in line, so
+    /// the corner's motion keeps both triangles' edges to first order only.
+    #[test]
+    fn a_flat_membrane_corner_moves_to_first_order_only() {
+        let m = model(serde_json::json!({
+            "format": 1, "name": "Corner",
+            "geometry": {"nodes": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+                         "triangles": [[0, 1, 2], [0, 2, 3]],
+                         "node_sets": {"held": [0, 1, 3]}},
+            "membranes": [{"name": "film", "triangles": [0, 1], "thickness": 1e-4,
+                           "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}],
+            "supports": [{"nodes": "held", "fix": ["x", "y", "z"]}]
+        }));
+        let u = vec![0.0; m.unknown_count()];
+        let f = at(&m, &[(2, 2, 1.0)]);
+        assert!(matches!(
+            finite(&m, &u, &f, &f),
+            Finite::FirstOrderOnly { .. }
+        ));
+    }
+
+    /// A three-bar chain in space between two held nodes (not in line) has three degrees of
+    /// freedom of finite motion: pushed anywhere, the free nodes move along one of them.
+    #[test]
+    fn a_three_bar_chain_in_space_moves() {
+        let m = chain(
+            serde_json::json!([
+                [0.0, 0.0, 0.0],
+                [0.3, 0.8, 0.1],
+                [1.1, 0.9, -0.2],
+                [1.4, 0.1, 0.3]
+            ]),
+            serde_json::json!([{"name": "c", "nodes": [0, 1, 2, 3], "EA": 1e4}]),
+            &[0, 3],
+        );
+        let u = vec![0.0; m.unknown_count()];
+        let f = at(&m, &[(1, 2, 1.0), (2, 0, -0.5)]);
+        assert!(matches!(
+            finite(&m, &u, &f, &f),
+            Finite::Mechanism { ref moved, .. } if moved == &[1, 2]
+        ));
+    }
+}
