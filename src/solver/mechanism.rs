@@ -694,7 +694,7 @@ impl Solver {
         let largest = order.iter().map(size).fold(0.0, f64::max);
         let moving = order.iter().filter(|&i| size(i) >= MOVED * largest).count();
         order.sort_by(|a, b| size(b).total_cmp(&size(a)));
-        let mut most: Vec<usize> = order.into_iter().take(NAMED_NODES).collect();
+        let mut most: Vec<usize> = order.into_iter().take(NAMED_NODES.min(moving)).collect();
         most.sort_unstable();
         let named = most
             .iter()
