@@ -34,7 +34,7 @@
 
 use super::assemble::{self, Membranes, NONE};
 use super::core::Solver;
-use super::loads::{external_forces, load_change, loads_at, prescribe};
+use super::loads::{load_change, loads_at, prescribe};
 use super::report::{push_log, StepReport};
 use super::rows::Increment;
 use super::settings::Settings;
@@ -139,7 +139,7 @@ impl LoadPath {
         let (result, trial, trial_states) = self.attempt(solver, model, &loads, target, report);
         Some(match result {
             Ok(iters) => self.accept(&s, report, target, iters, trial, trial_states),
-            Err((iters, why)) => self.reject(model, &s, report, target, iters, why),
+            Err((iters, why)) => self.reject(solver, model, &s, report, target, iters, why),
         })
     }
 
@@ -240,9 +240,12 @@ impl LoadPath {
     }
 
     /// A failed increment: Δλ is cut by 4; below the smallest increment the step fails, with
-    /// the continuation's and a verified mechanism's note in its message.
+    /// the continuation's note and what is known of the structure there in its message
+    /// (`mechanism.rs`: a mechanism only once verified).
+    #[allow(clippy::too_many_arguments)]
     fn reject(
         &mut self,
+        solver: &mut Solver,
         model: &Model,
         s: &Settings,
         report: &mut StepReport,
@@ -270,10 +273,9 @@ impl LoadPath {
                     .message
                     .push_str(&format!("; the prestress continuation was tried: {note}"));
             }
-            let f_ext = external_forces(model, &self.loads(target));
-            if let Some(why) = super::mechanism::diagnose(model, &f_ext) {
-                report.message.push_str(&format!("; {why}"));
-            }
+            let loads = self.loads(target);
+            let known = solver.diagnose_failure(model, &self.converged, &loads, lambda);
+            report.message.push_str(&known);
         }
         Attempt::Rejected {
             lambda,

@@ -482,7 +482,7 @@ fn solve_lu(
 ) -> Result<DVector<f64>, Error> {
     lu.and_then(|lu| lu.solve(rhs))
         .ok_or(Error::LinearAlgebra(Breakdown::Singular(
-            "the slip block of the tangent (a sliding mechanism)",
+            "the slip block of the tangent (no stiffness against some slip, to first order)",
         )))
 }
 

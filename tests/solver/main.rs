@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod diagnostics;
 mod hard_cases;
 mod inexact_newton;
 mod relax_patch;
