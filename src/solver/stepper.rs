@@ -86,7 +86,7 @@ impl Stepper {
             return None;
         }
         if solver.step_work >= solver.settings.max_step_iterations && self.lambda() < 1.0 {
-            self.give_up(solver.settings.max_step_iterations);
+            self.give_up(solver, model);
             let lambda = self.lambda();
             return Some(Attempt::Rejected {
                 lambda,
@@ -117,8 +117,12 @@ impl Stepper {
     }
 
     /// The step's budget is spent: the report says so, with the last increment that failed for
-    /// a reason of its own and, under arc length, the largest load fraction reached.
-    fn give_up(&mut self, budget: usize) {
+    /// a reason of its own, under arc length the largest load fraction reached, and what is
+    /// known of the structure at the last converged point under the step's loads
+    /// (`mechanism.rs`: a mechanism only once verified), as a failure at the smallest
+    /// increment says.
+    fn give_up(&mut self, solver: &mut Solver, model: &Model) {
+        let budget = solver.settings.max_step_iterations;
         let lambda = self.lambda();
         let spent = "solver.max_step_iterations";
         let last = self
@@ -143,6 +147,9 @@ impl Stepper {
                 p.largest_lambda()
             ),
         };
+        let u = self.converged().0.to_vec();
+        let known = solver.diagnose_failure(model, &u, &self.to, lambda);
+        self.report.message.push_str(&known);
     }
 
     /// The load fraction of the last converged point.
