@@ -18,16 +18,18 @@
 //!               matrix Newton factors (LDLT of A, the slips by the Schur path of slip.rs:
 //!               y0 = A⁻¹ g_x, (D − C Y) s = g_s − C y0, x = y0 − Y s, Y = A⁻¹ B once;
 //!               transposed: (D − C Y)ᵀ μ = w_s − Yᵀ w_x, λ_x = A⁻¹ (w_x − Cᵀ μ)), its rows
-//!               equilibrated by D = 1 / (row sums of |J|) (the operator D J M⁻¹ D⁻¹, similar
-//!               to J M⁻¹). z0 = M⁻¹ g is accepted when its backward error
+//!               equilibrated node by node, D = 1 / (the largest row sum of |J| among the
+//!               node's rows; a slip's own) (the operator D J M⁻¹ D⁻¹, similar to J M⁻¹).
+//!               z0 = M⁻¹ g is accepted when its backward error
 //!                   ω = ‖D (g − J z)‖∞ / (‖z‖∞ + ‖D g‖∞) ≤ BACKWARD_ERROR
 //!               (a taut scene without follower pressure: one back-substitution and one
 //!               product, as before); else GMRES cycles from it, each ended on the same test of
 //!               the true residual. GMRES needs no contraction: it minimises the residual over
 //!               its Krylov space (never increases it) and ends for any nonsingular J, quickly
 //!               when the spectrum of J M⁻¹ = I − (Reg − N + the LDLT's pivot replacements) M⁻¹
-//!               clusters at 1 (measured: 0 to 16 iterations per seed over the shipped scenes
-//!               and the states of tests/fmi/derivative_states.rs)
+//!               clusters at 1 (measured: 0 to 4 iterations per seed on the shipped scenes at
+//!               the operating points of tests/fmi/derivatives.rs, up to 14 at the wrinkled
+//!               films with slack triangles of tests/fmi/derivative_states.rs)
 //! fallback      a sparse LU (partial pivoting) of the true J, formed at the first seed that
 //!               GMRES does not settle within its budget (CYCLES × KRYLOV iterations) and kept
 //!               with the tangent, with iterative refinement on the same test
@@ -115,7 +117,8 @@ pub struct Tangent {
     /// The tangent-only regularisation ε·D0 of the wrinkled and slack triangles, as element
     /// matrices vol·Bᵀ ε D0 B (nodes, 9×9): in the factored J₀, not in the true J.
     regularisation: Vec<([usize; 3], Mat9)>,
-    /// Row equilibration of J and of Jᵀ: 1 / (row sum of |J|), per equation and slip.
+    /// Equilibration of J and of Jᵀ: 1 / (largest row sum of |J| among the rows of the
+    /// equation's node), per equation and slip.
     scale: [Vec<f64>; 2],
     /// The LU of the true J, formed at the first solve that needs it.
     lu: OnceCell<Result<Lu, Error>>,
@@ -250,13 +253,39 @@ impl Solver {
             n,
             m,
         };
+        // The equilibration by node (a node's three rows share one factor, as in Newton's
+        // node-scaled factorization: a row far softer than its node's others, the out-of-plane
+        // row of a flat unstressed sheet, stays as soft as it is), every slip its own.
+        let nodes = n3 / 3;
+        let mut group = memory::zeros(n + m, "the sensitivity's work vectors")?;
+        for (d, &e) in t.eq.iter().enumerate() {
+            if e != NONE {
+                group[e] = d / 3;
+            }
+        }
+        for (j, g) in group[n..].iter_mut().enumerate() {
+            *g = nodes + j;
+        }
         let ones = memory::filled(n + m, 1.0, "the sensitivity's work vectors")?;
+        let mut largest = memory::zeros(nodes + m, "the sensitivity's work vectors")?;
         for transposed in [false, true] {
             let mut sums = memory::zeros(n + m, "the sensitivity's work vectors")?;
             product(&t, &ones, &mut sums, transposed, true);
-            for v in sums.iter_mut() {
-                *v = if *v > 0.0 && v.is_finite() {
-                    1.0 / *v
+            largest.fill(0.0);
+            for (&g, &v) in group.iter().zip(&sums) {
+                largest[g] = f64::max(largest[g], v);
+            }
+            // A node with no stiffness at all takes the stiffest node's scale.
+            let stiffest = largest.iter().copied().fold(0.0, f64::max);
+            for (v, &g) in sums.iter_mut().zip(&group) {
+                let l = largest[g];
+                let l = if l > 0.0 && l.is_finite() {
+                    l
+                } else {
+                    stiffest
+                };
+                *v = if l > 0.0 && l.is_finite() {
+                    1.0 / l
                 } else {
                     1.0
                 };
