@@ -80,10 +80,10 @@ use faer::{Conj, MatMut, Par};
 use nalgebra::{DMatrix, DVector};
 use std::cell::{Cell, OnceCell};
 
-/// Normwise backward error of the row-equilibrated system at which a solve is accepted
-/// (module docs).
+/// Normwise backward error of the equilibrated system at which a solve is accepted (module
+/// docs).
 const BACKWARD_ERROR: f64 = 1e-14;
-/// Largest accepted ‖z‖∞ / ‖D g‖∞ (the answer against the seed's load over each row's
+/// Largest accepted ‖z‖∞ / ‖D g‖∞ (the answer against the seed's load over its nodes'
 /// stiffness, a lower bound of ‖(D J)⁻¹‖∞): beyond it a relative change of ε in J's entries may
 /// move the answer by more than 1 %, J is singular to working precision in a direction the
 /// seed moves (module docs).
