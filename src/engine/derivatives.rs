@@ -29,7 +29,7 @@ use crate::error::Error;
 use crate::model::{LoadModel, Model, ProbeModel};
 use crate::results;
 use crate::solver::assemble;
-use crate::solver::sensitivity::{self, Tangent};
+use crate::solver::sensitivity::{self, SolveCounts, Tangent};
 use crate::variables;
 
 /// What a derivative is taken with respect to: an input element (slot of the flat input
@@ -155,6 +155,24 @@ impl Engine {
         })();
         self.tangent = Some(tangent);
         Ok((result?, dv, dp))
+    }
+
+    /// Solve the committed state's sensitivities by the sparse LU of the true tangent alone
+    /// (`true`) instead of GMRES preconditioned by Newton's factorization with the LU as its
+    /// fallback (`false`, the default; solver/sensitivity.rs): the check of one against the
+    /// other. Until the state changes.
+    pub fn set_direct_sensitivity(&mut self, direct: bool) -> Result<(), Error> {
+        self.ensure_tangent()?;
+        if let Some(t) = self.tangent.as_mut() {
+            t.set_direct(direct);
+        }
+        Ok(())
+    }
+
+    /// What the sensitivity solves at the committed state did so far (None before the first
+    /// derivative at it).
+    pub fn sensitivity_counts(&self) -> Option<SolveCounts> {
+        self.tangent.as_ref().map(Tangent::counts)
     }
 
     /// Factor the tangent at the committed state unless it is.

@@ -177,6 +177,12 @@ impl Ldlt {
         self.matrix.val()
     }
 
+    /// The matrix (upper triangle, CSC) as last filled: the sensitivity's products with the
+    /// true tangent (`sensitivity.rs`).
+    pub fn matrix(&self) -> faer::sparse::SparseColMatRef<'_, usize, f64> {
+        self.matrix.as_ref()
+    }
+
     /// The matrix values (upper triangle, CSC order) to fill before [`Ldlt::factor_solve`].
     pub fn values_mut(&mut self) -> &mut [f64] {
         self.matrix.val_mut()

@@ -3,15 +3,15 @@
 //!
 //! ```text
 //! equilibrium   R(z; v) = 0,  z = (x free displacements, s slips),  v load values
-//! tangent       J = ∂R/∂z = [A + N   B]   A  symmetric: membranes, cables, ties, follower
-//!                           [C       D]      pressure's symmetric part (what Newton factors)
-//!                                         N  the follower pressure's skew part (zero where the
-//!                                            loaded surface is held at its boundary)
-//!                                         B, C, D  the slip columns and rows (slip.rs)
+//! tangent       J = ∂R/∂z = [A + N − Reg   B]   A  symmetric as Newton assembles it: membranes,
+//!                           [C             D]      cables, ties, follower pressure's symmetric
+//!                                                  part, and the wrinkled and slack triangles'
+//!                                                  tangent-only regularisation Reg (ε·D0)
+//!                                               N  the follower pressure's skew part (zero where
+//!                                                  the loaded surface is held at its boundary)
+//!                                               B, C, D  the slip columns and rows (slip.rs)
 //! states        wrinkle states and stick/slip states frozen as converged; no damping, no
-//!               artificial prestress (both are tangent-only devices of the iteration); the
-//!               wrinkled and slack triangles' tangent-only regularisation Reg (ε·D0) is in the
-//!               factored matrix and is taken out again by the fixed point below
+//!               artificial prestress (both are tangent-only devices of the iteration)
 //! forward       J dz = g          g = −∂R/∂v · dv  (load sensitivity, [`Solver::load_rhs`])
 //! adjoint       Jᵀ λ = w
 //! sleeve ties   closed at the equilibrium by their multipliers μ (model/sleeve.rs): the
@@ -19,62 +19,126 @@
 //!               [J Gᵀ] [dz]   [g]     G dz = dz_cable − dz_node per tie, Gᵀ dμ its force
 //!               [G 0 ] [dμ] = [b]     (+dμ on the cable point, −dμ on the node); b = 0
 //!               forward, the seed's multiplier part in the adjoint (the matrix is its own
-//!               transpose's pattern); solved by the same Uzawa rounds as the equilibrium,
+//!               transpose's pattern); solved by the same Uzawa rounds as the equilibrium (each round's
+//!               inner solve the one below),
 //!               dμ ← dμ + k G dz, until |G dz − b| ≤ 1e-13 of |dz|: one solve per round,
 //!               each round dividing the constraint's error by 1 + C k; dμ is returned at the
 //!               multipliers' places of the unknown vector
-//! solves        the symmetric part J₀ = J − N by the Schur path of slip.rs:
-//!               y0 = A⁻¹ g_x, (D − C Y) s = g_s − C y0, x = y0 − Y s   (Y = A⁻¹ B, once)
-//!               transposed: (D − C Y)ᵀ μ = w_s − Yᵀ w_x, λ_x = A⁻¹ (w_x − Cᵀ μ)
-//!               then the skew part and the regularisation by the fixed point
-//!               z ← J₀⁻¹ (g − (N − Reg) z), the held DOFs' coupling corrected likewise: one back-substitution
-//!               per round; the first round's N z is round-off when the surface is held (Hencky),
-//!               so a seed costs one back-substitution (plus m for the slips' Schur)
+//! solve         GMRES on the true J (or Jᵀ), right-preconditioned by M = J − N + Reg, the
+//!               matrix Newton factors (LDLT of A, the slips by the Schur path of slip.rs:
+//!               y0 = A⁻¹ g_x, (D − C Y) s = g_s − C y0, x = y0 − Y s, Y = A⁻¹ B once;
+//!               transposed: (D − C Y)ᵀ μ = w_s − Yᵀ w_x, λ_x = A⁻¹ (w_x − Cᵀ μ)), its rows
+//!               equilibrated node by node, D = 1 / (the largest row sum of |J| among the
+//!               node's rows; a slip's own) (the operator D J M⁻¹ D⁻¹, similar to J M⁻¹).
+//!               z0 = M⁻¹ g is accepted when its backward error
+//!                   ω = ‖D (g − J z)‖∞ / (‖z‖∞ + ‖D g‖∞) ≤ BACKWARD_ERROR
+//!               (a taut scene without follower pressure: one back-substitution and one
+//!               product, as before); else GMRES cycles from it, each ended on the same test of
+//!               the true residual. GMRES needs no contraction: it minimises the residual over
+//!               its Krylov space (never increases it) and ends for any nonsingular J, quickly
+//!               when the spectrum of J M⁻¹ = I − (Reg − N + the LDLT's pivot replacements) M⁻¹
+//!               clusters at 1 (measured: 0 to 4 iterations per seed on the shipped scenes at
+//!               the operating points of tests/fmi/derivatives.rs, up to 14 at the wrinkled
+//!               films with slack triangles of tests/fmi/derivative_states.rs)
+//! fallback      a sparse LU (partial pivoting) of the true J, formed at the first seed that
+//!               GMRES does not settle within its budget (CYCLES × KRYLOV iterations) and kept
+//!               with the tangent, with iterative refinement on the same test
+//! singular      the one error, Singular (named): J singular to working precision in a
+//!               direction the seed moves, a mechanism at this state (a force on a fully slack
+//!               sheet): no solve reaches the backward error (zero pivots of the LU), or the
+//!               answer is larger than MAX_AMPLIFICATION times D g (J near singular along it)
 //! ```
+//! A J that is singular only in directions no seed moves (the free out-of-plane DOFs of a
+//! flat sheet held by nothing across its wrinkles, a node among slack triangles only) is solved
+//! by GMRES: the residual is met on the rest, and the answer's component along those
+//! directions is not determined by J (it is the preconditioner's, through Newton's
+//! regularisation): an output that reads only such a direction has no derivative. The LU
+//! cannot solve such a J (zero pivots): where GMRES has not settled, it is reported singular.
+//!
+//! The fixed point z ← M⁻¹ (g − (N − Reg) z) that this replaces converged only where the
+//! spectral radius of M⁻¹ (N − Reg) is below 1 and stopped only at a change of 1e-15 relative,
+//! below what the round-off of an ill-conditioned M lets the rounds reach: "did not settle in 60
+//! rounds" at wrinkled states (WrinkledShear at a shear of 3 mm, every seed) and in the
+//! transposed solve of FourPointSail's `max_cable_tension` at 150 Pa (rounds changing the
+//! answer by 2.6e-15 for ever).
+//!
 //! A switch of a frozen state inside the perturbation is not seen: the derivative is that of
 //! the branch the equilibrium is on (one-sided at a switch; see docs/fmu.md, derivatives).
 //!
 //! # References
-//! Golub & Van Loan 2013, §3.2 (block elimination), §3.5.3 (iterative refinement); Haftka &
-//! Gürdal 1992, ch. 7 (direct and adjoint sensitivity of static equilibria).
+//! Saad & Schultz 1986 (GMRES); Saad 2003, §6.5 and §9.3 (GMRES, right preconditioning);
+//! Higham 2002, §7.1 (normwise backward error), §12.1 (iterative refinement); Golub & Van Loan
+//! 2013, §3.2 (block elimination); Haftka & Gürdal 1992, ch. 7 (direct and adjoint sensitivity
+//! of static equilibria).
 
 use super::assemble::{self, Membranes, NONE};
 use super::core::Solver;
 use super::rows::Row;
 use super::slip::slip_rows;
 use crate::error::{Breakdown, Error};
+use crate::memory;
 use crate::model::membrane::{self, Mat9};
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::wrinkling::REGULARIZATION;
 use crate::model::{pressure, ElementKind, LoadModel, Model};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
+use faer::sparse::linalg::LuError;
+use faer::sparse::{SparseColMat, SymbolicSparseColMat, Triplet};
+use faer::{Conj, MatMut, Par};
 use nalgebra::{DMatrix, DVector};
+use std::cell::{Cell, OnceCell};
 
-/// Rounds of the skew fixed point before the solve is declared failed.
-const MAX_ROUNDS: usize = 60;
 /// Uzawa rounds of the tie-bordered solve before it is declared failed (module docs).
 const MAX_TIE_ROUNDS: usize = 400;
 /// The tie-bordered solve stops when |G dz − b|∞ ≤ this · max(|dz|∞, |b|∞).
 const TIE_TOLERANCE: f64 = 1e-13;
-/// The fixed point stops when a round changes the answer by at most this, relative.
-const ROUND_TOLERANCE: f64 = 1e-15;
-/// |N z|∞ ≤ this · |g|∞: the skew part is round-off (4 ε).
-const SKEW_NEGLIGIBLE: f64 = 4.0 * f64::EPSILON;
+/// Normwise backward error of the equilibrated system at which a solve is accepted (module
+/// docs).
+const BACKWARD_ERROR: f64 = 1e-14;
+/// Largest accepted ‖z‖∞ / ‖D g‖∞ (the answer against the seed's load over its nodes'
+/// stiffness, a lower bound of ‖(D J)⁻¹‖∞): beyond it a relative change of ε in J's entries may
+/// move the answer by more than 1 %, J is singular to working precision in a direction the
+/// seed moves (module docs).
+const MAX_AMPLIFICATION: f64 = 1e-2 / f64::EPSILON;
+/// Krylov dimension of one GMRES cycle (vectors of the equations' length kept).
+const KRYLOV: usize = 30;
+/// GMRES cycles before the LU.
+const CYCLES: usize = 3;
+/// Steps of iterative refinement with the LU.
+const REFINEMENTS: usize = 3;
+/// What a singular tangent names.
+const MECHANISM: &str = "the consistent tangent at this state (a mechanism that the seed moves: the equilibrium has no unique derivative along it)";
 
 /// The factored tangent at one converged state (valid until the solver factors again).
 pub struct Tangent {
-    /// Slip rows with the stick/slip states frozen (committed slips = the state's).
+    /// Slip rows with the stick/slip states frozen (committed slips = the state's): C, D.
     rows: Vec<Row>,
+    /// The slip columns B, one per slip: (equation, value).
+    columns: Vec<Vec<(usize, f64)>>,
     /// Y = A⁻¹ B, one column per slip.
     y: Vec<Vec<f64>>,
     /// The Schur complement D − C Y and its transpose, factored.
     schur: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
     schur_t: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
+    /// Whether the preconditioner M exists (Newton's LDLT of A succeeded).
+    factored: bool,
+    /// A as assembled (upper triangle, CSC over the equations).
+    upper: SparseColMat<usize, f64>,
     /// Skew parts (K_p − K_pᵀ)/2 of the follower-pressure triangles: (nodes, 9×9).
     skew: Vec<([usize; 3], Mat9)>,
     /// The tangent-only regularisation ε·D0 of the wrinkled and slack triangles, as element
     /// matrices vol·Bᵀ ε D0 B (nodes, 9×9): in the factored J₀, not in the true J.
     regularisation: Vec<([usize; 3], Mat9)>,
+    /// Equilibration of J and of Jᵀ: 1 / (largest row sum of |J| among the rows of the
+    /// equation's node), per equation and slip.
+    scale: [Vec<f64>; 2],
+    /// The LU of the true J, formed at the first solve that needs it.
+    lu: OnceCell<Result<Lu, Error>>,
+    /// Every solve by the LU alone ([`Tangent::set_direct`]).
+    direct: bool,
+    counts: Cell<SolveCounts>,
     /// Equation of every DOF (NONE: held).
     eq: Vec<usize>,
     n: usize,
@@ -83,6 +147,42 @@ pub struct Tangent {
     ties: Vec<([usize; 2], f64, usize)>,
     /// Length of the unknown vector (`Model::unknown_count`).
     unknowns: usize,
+}
+
+/// What the solves with one tangent did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolveCounts {
+    /// Solves (forward and transposed).
+    pub solves: usize,
+    /// GMRES iterations over them (a preconditioner solve and a product each).
+    pub iterations: usize,
+    /// Solves that ended with the LU.
+    pub direct: usize,
+}
+
+impl Tangent {
+    /// Solve by the LU of the true tangent alone (`true`), or GMRES first (`false`, the
+    /// default): the check of one against the other.
+    pub fn set_direct(&mut self, direct: bool) {
+        self.direct = direct;
+    }
+
+    /// What the solves so far did.
+    pub fn counts(&self) -> SolveCounts {
+        self.counts.get()
+    }
+
+    fn count(&self, f: impl FnOnce(&mut SolveCounts)) {
+        let mut c = self.counts.get();
+        f(&mut c);
+        self.counts.set(c);
+    }
+}
+
+/// A sparse LU of the true tangent.
+struct Lu {
+    symbolic: SymbolicLu<usize>,
+    numeric: NumericLu<usize, f64>,
 }
 
 impl Solver {
@@ -115,32 +215,58 @@ impl Solver {
             Some(self.linear.values_mut()),
             membranes,
         );
-        self.linear.factor()?;
+        let upper = {
+            let a = self.linear.matrix();
+            let what = "the sensitivity's copy of the tangent";
+            let symbolic = SymbolicSparseColMat::new_checked(
+                a.nrows(),
+                a.ncols(),
+                memory::copy(a.symbolic().col_ptr(), what)?,
+                None,
+                memory::copy(a.symbolic().row_idx(), what)?,
+            );
+            SparseColMat::new(symbolic, memory::copy(a.val(), what)?)
+        };
+        // Without M every solve goes to the LU.
+        let mut factored = self.linear.factor().is_ok();
         let (n, m) = (self.pattern.n, model.slips.len());
         let n3 = model.dof_count();
         let rows = slip_rows(model, &self.pattern.eq, u, &u[n3..], slip_states);
+        let columns = super::slip::slip_columns(model, &self.pattern.eq, u);
         let mut y = Vec::with_capacity(m);
-        for col in super::slip::slip_columns(model, &self.pattern.eq, u) {
-            let mut v = vec![0.0; n];
-            for (e, b) in col {
-                v[e] += b;
+        if factored {
+            for col in &columns {
+                let mut v = memory::zeros(n, "the sensitivity's slip columns")?;
+                for &(e, b) in col {
+                    v[e] += b;
+                }
+                if self.linear.solve(&mut v).is_err() {
+                    factored = false;
+                    break;
+                }
+                y.push(v);
             }
-            self.linear.solve(&mut v)?;
-            y.push(v);
         }
-        let (schur, schur_t) = if m == 0 {
+        let (schur, schur_t) = if m == 0 || !factored {
             (None, None)
         } else {
             let s = schur_matrix(&rows, &y);
             (Some(s.clone().lu()), Some(s.transpose().lu()))
         };
-        Ok(Tangent {
+        let mut t = Tangent {
             rows,
+            columns,
             y,
             schur,
             schur_t,
+            factored,
+            upper,
             skew: skew_parts(model, u, loads),
             regularisation: regularisation_parts(model, u, wrinkle),
+            scale: [Vec::new(), Vec::new()],
+            lu: OnceCell::new(),
+            direct: false,
+            counts: Cell::new(SolveCounts::default()),
             eq: self.pattern.eq.clone(),
             n,
             m,
@@ -154,7 +280,47 @@ impl Solver {
                 })
                 .collect(),
             unknowns: model.unknown_count(),
-        })
+        };
+        // The equilibration by node (a node's three rows share one factor, as in Newton's
+        // node-scaled factorization: a row far softer than its node's others, the out-of-plane
+        // row of a flat unstressed sheet, stays as soft as it is), every slip its own.
+        let nodes = n3 / 3;
+        let mut group = memory::zeros(n + m, "the sensitivity's work vectors")?;
+        for (d, &e) in t.eq.iter().enumerate() {
+            if e != NONE {
+                group[e] = d / 3;
+            }
+        }
+        for (j, g) in group[n..].iter_mut().enumerate() {
+            *g = nodes + j;
+        }
+        let ones = memory::filled(n + m, 1.0, "the sensitivity's work vectors")?;
+        let mut largest = memory::zeros(nodes + m, "the sensitivity's work vectors")?;
+        for transposed in [false, true] {
+            let mut sums = memory::zeros(n + m, "the sensitivity's work vectors")?;
+            product(&t, &ones, &mut sums, transposed, true);
+            largest.fill(0.0);
+            for (&g, &v) in group.iter().zip(&sums) {
+                largest[g] = f64::max(largest[g], v);
+            }
+            // A node with no stiffness at all takes the stiffest node's scale.
+            let stiffest = largest.iter().copied().fold(0.0, f64::max);
+            for (v, &g) in sums.iter_mut().zip(&group) {
+                let l = largest[g];
+                let l = if l > 0.0 && l.is_finite() {
+                    l
+                } else {
+                    stiffest
+                };
+                *v = if l > 0.0 && l.is_finite() {
+                    1.0 / l
+                } else {
+                    1.0
+                };
+            }
+            t.scale[transposed as usize] = sums;
+        }
+        Ok(t)
     }
 
     /// Solve J dz = g. `g` per unknown of the model (DOFs, then slips; held DOFs ignored);
@@ -170,7 +336,7 @@ impl Solver {
 
     /// The solve with the sleeve ties kept closed (module docs): `g` per unknown, its
     /// multiplier entries the constraint's right-hand side b; returns dz per unknown with dμ at
-    /// the multipliers' places. Without ties, the plain fixed point.
+    /// the multipliers' places. Without ties, the plain solve.
     fn tie_bordered(
         &mut self,
         t: &Tangent,
@@ -178,7 +344,7 @@ impl Solver {
         transposed: bool,
     ) -> Result<Vec<f64>, Error> {
         if t.ties.is_empty() {
-            return self.fixed_point(t, g, transposed);
+            return self.solve_true(t, g, transposed);
         }
         let at = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(0.0);
         let mut mu = vec![0.0; 3 * t.ties.len()];
@@ -192,7 +358,7 @@ impl Solver {
                     rhs[3 * m + i] += mu[3 * k + i];
                 }
             }
-            let mut z = self.fixed_point(t, &rhs, transposed)?;
+            let mut z = self.solve_true(t, &rhs, transposed)?;
             let size = z.iter().fold(0.0f64, |a, v| a.max(v.abs()));
             let mut b_size = 0.0f64;
             for (k, &([c, m], _, index)) in t.ties.iter().enumerate() {
@@ -222,77 +388,172 @@ impl Solver {
         .into())
     }
 
-    /// z ← J₀⁻¹ (g − N z) (transposed: N → Nᵀ = −N) until a round changes nothing.
-    fn fixed_point(&mut self, t: &Tangent, g: &[f64], transposed: bool) -> Result<Vec<f64>, Error> {
-        let mut z = self.symmetric_solve(t, g, transposed)?;
-        if t.skew.is_empty() && t.regularisation.is_empty() {
-            return Ok(z);
-        }
-        for _ in 0..MAX_ROUNDS {
-            let nz = skew_product(t, &z, transposed);
-            // A skew residual below round-off of g changes z by less than the solve's own
-            // backward error: stop without another back-substitution (the clamped Hencky disc:
-            // |N z| ~ 1e-16 |g|, so a seed costs one solve).
-            let residual = nz.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let size = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            if residual <= SKEW_NEGLIGIBLE * size {
-                return Ok(z);
-            }
-            let rhs: Vec<f64> = g.iter().zip(&nz).map(|(a, b)| a - b).collect();
-            let next = self.symmetric_solve(t, &rhs, transposed)?;
-            let size = next.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let change = next
-                .iter()
-                .zip(&z)
-                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-            z = next;
-            if change <= ROUND_TOLERANCE * size {
-                return Ok(z);
-            }
-        }
-        Err(Breakdown::Unsettled { rounds: MAX_ROUNDS }.into())
-    }
-
-    /// Solve with J₀ (or J₀ᵀ) by the Schur path.
-    fn symmetric_solve(
-        &mut self,
-        t: &Tangent,
-        g: &[f64],
-        transposed: bool,
-    ) -> Result<Vec<f64>, Error> {
+    /// J z = g (transposed: Jᵀ z = g) per unknown: to the equations, solved, back.
+    fn solve_true(&mut self, t: &Tangent, g: &[f64], transposed: bool) -> Result<Vec<f64>, Error> {
         let n3 = t.eq.len();
-        let mut x = vec![0.0; t.n];
+        let mut b = memory::zeros(t.n + t.m, "the sensitivity's work vectors")?;
         for (d, &e) in t.eq.iter().enumerate() {
             if e != NONE {
-                x[e] = g[d];
+                b[e] = g[d];
             }
         }
-        let gs = &g[n3..n3 + t.m];
-        let s = if t.m == 0 {
-            self.linear.solve(&mut x)?;
-            Vec::new()
+        b[t.n..].copy_from_slice(&g[n3..n3 + t.m]);
+        let x = self.krylov(t, &b, transposed)?;
+        let mut z = memory::zeros(n3 + t.m, "the sensitivity's work vectors")?;
+        for (d, &e) in t.eq.iter().enumerate() {
+            if e != NONE {
+                z[d] = x[e];
+            }
+        }
+        z[n3..].copy_from_slice(&x[t.n..]);
+        Ok(z)
+    }
+
+    /// GMRES on J (Jᵀ) right-preconditioned by M (Mᵀ), rows equilibrated, from z0 = M⁻¹ b;
+    /// the LU when its cycles do not reach [`BACKWARD_ERROR`] (module docs).
+    fn krylov(&mut self, t: &Tangent, b: &[f64], transposed: bool) -> Result<Vec<f64>, Error> {
+        let size = b.len();
+        let d = &t.scale[transposed as usize];
+        let db = b
+            .iter()
+            .zip(d)
+            .fold(0.0f64, |a, (v, s)| a.max((v * s).abs()));
+        if db == 0.0 {
+            return memory::zeros(size, "the sensitivity's work vectors").map_err(Into::into);
+        }
+        t.count(|c| c.solves += 1);
+        let mut x = memory::copy(b, "the sensitivity's work vectors")?;
+        if t.direct || !t.factored || self.precondition(t, &mut x, transposed).is_err() {
+            return self.lu_solve(t, b, db, transposed);
+        }
+        let mut r = memory::zeros(size, "the sensitivity's work vectors")?;
+        let mut w = memory::zeros(size, "the sensitivity's work vectors")?;
+        let mut basis: Vec<Vec<f64>> = Vec::new();
+        for cycle in 0..=CYCLES {
+            let omega = backward_error(t, b, &x, &mut r, transposed);
+            if omega <= BACKWARD_ERROR {
+                return accept(x, db);
+            }
+            if cycle == CYCLES || !omega.is_finite() {
+                break;
+            }
+            let xnorm = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            // ‖·‖∞ ≤ ‖·‖₂: the estimate below the target puts ω below it (up to round-off,
+            // which the true residual above checks at the next cycle).
+            let target = BACKWARD_ERROR * (xnorm + db);
+            let beta = norm2(&r);
+            basis.truncate(0);
+            if basis.try_reserve_exact(KRYLOV + 1).is_err() {
+                return Err(memory::OutOfMemory {
+                    what: "the sensitivity's Krylov basis",
+                    bytes: ((KRYLOV + 1) * size * 8) as u64,
+                }
+                .into());
+            }
+            let mut v0 = memory::copy(&r, "the sensitivity's Krylov basis")?;
+            v0.iter_mut().for_each(|v| *v /= beta);
+            basis.push(v0);
+            // Columns of the Hessenberg matrix rotated to R, the rotations, and βe₁ rotated.
+            let mut hessenberg: Vec<Vec<f64>> = Vec::new();
+            let mut rotations: Vec<(f64, f64)> = Vec::new();
+            let mut rhs = vec![beta];
+            for k in 0..KRYLOV {
+                // D J M⁻¹ D⁻¹: similar to J M⁻¹, whose spectrum clusters at 1.
+                w.iter_mut()
+                    .zip(&basis[k])
+                    .zip(d)
+                    .for_each(|((a, v), s)| *a = v / s);
+                self.precondition(t, &mut w, transposed)?;
+                t.count(|c| c.iterations += 1);
+                let mut jw = memory::zeros(size, "the sensitivity's Krylov basis")?;
+                product(t, &w, &mut jw, transposed, false);
+                jw.iter_mut().zip(d).for_each(|(v, s)| *v *= s);
+                // Modified Gram-Schmidt, twice (the second pass restores orthogonality lost
+                // to cancellation).
+                let mut column = vec![0.0; k + 2];
+                for _ in 0..2 {
+                    for (i, v) in basis.iter().enumerate() {
+                        let c = dot(&jw, v);
+                        column[i] += c;
+                        jw.iter_mut().zip(v).for_each(|(a, b)| *a -= c * b);
+                    }
+                }
+                let h = norm2(&jw);
+                column[k + 1] = h;
+                for (i, &(c, s)) in rotations.iter().enumerate() {
+                    let (a, b) = (column[i], column[i + 1]);
+                    column[i] = c * a + s * b;
+                    column[i + 1] = -s * a + c * b;
+                }
+                let (a, b) = (column[k], column[k + 1]);
+                let radius = a.hypot(b);
+                let (c, s) = if radius == 0.0 {
+                    (1.0, 0.0)
+                } else {
+                    (a / radius, b / radius)
+                };
+                column[k] = radius;
+                column[k + 1] = 0.0;
+                rotations.push((c, s));
+                rhs.push(-s * rhs[k]);
+                rhs[k] *= c;
+                hessenberg.push(column);
+                if rhs[k + 1].abs() <= target || !(h > 0.0 && h.is_finite()) {
+                    break;
+                }
+                jw.iter_mut().for_each(|v| *v /= h);
+                basis.push(jw);
+            }
+            // y = R⁻¹ (rotated βe₁); x += M⁻¹ V y.
+            let k = hessenberg.len();
+            let mut coef = vec![0.0; k];
+            for i in (0..k).rev() {
+                let sum: f64 = (i + 1..k).map(|j| hessenberg[j][i] * coef[j]).sum();
+                coef[i] = (rhs[i] - sum) / hessenberg[i][i];
+            }
+            if !coef.iter().all(|c| c.is_finite()) {
+                break;
+            }
+            w.fill(0.0);
+            for (v, c) in basis.iter().zip(&coef) {
+                w.iter_mut().zip(v).for_each(|(a, b)| *a += c * b);
+            }
+            w.iter_mut().zip(d).for_each(|(a, s)| *a /= s);
+            self.precondition(t, &mut w, transposed)?;
+            x.iter_mut().zip(&w).for_each(|(a, b)| *a += b);
+        }
+        drop(basis);
+        self.lu_solve(t, b, db, transposed)
+    }
+
+    /// M⁻¹ v (Mᵀ⁻¹ v) in place, over the equations and slips: the LDLT of A and the slips by
+    /// the Schur path (module docs).
+    fn precondition(&mut self, t: &Tangent, v: &mut [f64], transposed: bool) -> Result<(), Error> {
+        let (x, s) = v.split_at_mut(t.n);
+        if t.m == 0 {
+            self.linear.solve(x)?;
         } else if !transposed {
-            self.linear.solve(&mut x)?;
+            self.linear.solve(x)?;
             let rhs = DVector::from_iterator(
                 t.m,
                 t.rows
                     .iter()
-                    .zip(gs)
+                    .zip(s.iter())
                     .map(|(row, g)| g - row.dx.iter().map(|&(e, c)| c * x[e]).sum::<f64>()),
             );
-            let s = solve_lu(t.schur.as_ref(), &rhs)?;
+            let sol = solve_lu(t.schur.as_ref(), &rhs)?;
             for (j, yj) in t.y.iter().enumerate() {
                 for (e, v) in x.iter_mut().enumerate() {
-                    *v -= yj[e] * s[j];
+                    *v -= yj[e] * sol[j];
                 }
             }
-            s.iter().copied().collect()
+            s.copy_from_slice(sol.as_slice());
         } else {
             let rhs = DVector::from_iterator(
                 t.m,
                 t.y.iter()
-                    .zip(gs)
-                    .map(|(yj, g)| g - yj.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>()),
+                    .zip(s.iter())
+                    .map(|(yj, g)| g - yj.iter().zip(x.iter()).map(|(a, b)| a * b).sum::<f64>()),
             );
             let mu = solve_lu(t.schur_t.as_ref(), &rhs)?;
             for (row, mu) in t.rows.iter().zip(mu.iter()) {
@@ -300,21 +561,49 @@ impl Solver {
                     x[e] -= c * mu;
                 }
             }
-            self.linear.solve(&mut x)?;
-            mu.iter().copied().collect()
-        };
-        let mut z = vec![0.0; n3 + t.m];
-        for (d, &e) in t.eq.iter().enumerate() {
-            if e != NONE {
-                z[d] = x[e];
-            }
+            self.linear.solve(x)?;
+            s.copy_from_slice(mu.as_slice());
         }
-        z[n3..].copy_from_slice(&s);
-        if z.iter().all(|v| v.is_finite()) {
-            Ok(z)
+        if v.iter().all(|v| v.is_finite()) {
+            Ok(())
         } else {
-            Err(Breakdown::NonFinite("the sensitivity (singular tangent)").into())
+            Err(Breakdown::NonFinite("the sensitivity's preconditioner").into())
         }
+    }
+
+    /// The LU of the true J, refined to [`BACKWARD_ERROR`]; Singular when it does not get
+    /// there (module docs).
+    fn lu_solve(
+        &mut self,
+        t: &Tangent,
+        b: &[f64],
+        db: f64,
+        transposed: bool,
+    ) -> Result<Vec<f64>, Error> {
+        t.count(|c| c.direct += 1);
+        let lu =
+            t.lu.get_or_init(|| true_lu(t))
+                .as_ref()
+                .map_err(Clone::clone)?;
+        let size = b.len();
+        let mut x = memory::copy(b, "the sensitivity's work vectors")?;
+        lu.solve(&mut x, transposed)?;
+        let mut r = memory::zeros(size, "the sensitivity's work vectors")?;
+        for _ in 0..=REFINEMENTS {
+            if !x.iter().all(|v| v.is_finite()) {
+                break;
+            }
+            let omega = backward_error(t, b, &x, &mut r, transposed);
+            if omega <= BACKWARD_ERROR {
+                return accept(x, db);
+            }
+            // r is scaled: the correction solves with the unscaled residual.
+            let d = &t.scale[transposed as usize];
+            r.iter_mut().zip(d).for_each(|(a, s)| *a /= s);
+            lu.solve(&mut r, transposed)?;
+            x.iter_mut().zip(&r).for_each(|(a, c)| *a += c);
+        }
+        Err(Breakdown::Singular(MECHANISM).into())
     }
 
     /// g = −∂R/∂v_k for a unit change of load channel `k` at `u`, per unknown, and the change
@@ -564,28 +853,207 @@ fn triangle_regularisation(
     }
 }
 
-/// (N − Reg) z on the free DOFs (per unknown; transposed: Nᵀ z = −N z, Reg symmetric): the
-/// part of the true tangent J = J₀ + N − Reg that the factored J₀ lacks or has too much of.
-fn skew_product(t: &Tangent, z: &[f64], transposed: bool) -> Vec<f64> {
-    let n3 = t.eq.len();
-    let mut free = z[..n3].to_vec();
-    for (d, &e) in t.eq.iter().enumerate() {
-        if e == NONE {
-            free[d] = 0.0;
+/// y = J x (transposed: Jᵀ x) over the equations and slips; `abs`: |J| x, with |A| + |N| +
+/// |Reg| for the triangles' parts (a bound of |J|, for the equilibration).
+fn product(t: &Tangent, x: &[f64], y: &mut [f64], transposed: bool, abs: bool) {
+    let f = |v: f64| if abs { v.abs() } else { v };
+    let n = t.n;
+    let (xx, xs) = x.split_at(n);
+    y.fill(0.0);
+    let a = t.upper.as_ref();
+    let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+    for j in 0..n {
+        let (mut acc, xj) = (0.0, xx[j]);
+        for k in cp[j]..cp[j + 1] {
+            let (i, c) = (ri[k], f(v[k]));
+            acc += c * xx[i];
+            if i != j {
+                y[i] += c * xj;
+            }
+        }
+        y[j] += acc;
+    }
+    let skew_sign = if transposed { -1.0 } else { 1.0 };
+    for (blocks, sign) in [(&t.skew, skew_sign), (&t.regularisation, -1.0)] {
+        for (nodes, k) in blocks.iter() {
+            let eq = |a: usize| t.eq[3 * nodes[a / 3] + a % 3];
+            for b in 0..9 {
+                let eb = eq(b);
+                if eb == NONE || xx[eb] == 0.0 {
+                    continue;
+                }
+                for a in 0..9 {
+                    let ea = eq(a);
+                    if ea != NONE {
+                        y[ea] += f(sign * k[(a, b)]) * xx[eb];
+                    }
+                }
+            }
         }
     }
-    let mut out = skew_product_dofs(&t.skew, &free, transposed);
-    let reg = skew_product_dofs(&t.regularisation, &free, false);
-    for (o, r) in out.iter_mut().zip(&reg) {
-        *o -= r;
-    }
-    for (d, &e) in t.eq.iter().enumerate() {
-        if e == NONE {
-            out[d] = 0.0;
+    let (yx, ys) = y.split_at_mut(n);
+    if !transposed {
+        for (column, &s) in t.columns.iter().zip(xs) {
+            for &(e, b) in column {
+                yx[e] += f(b) * s;
+            }
+        }
+        for (row, out) in t.rows.iter().zip(ys.iter_mut()) {
+            *out = row.dx.iter().map(|&(e, c)| f(c) * xx[e]).sum::<f64>()
+                + row.ds.iter().map(|&(j, d)| f(d) * xs[j]).sum::<f64>();
+        }
+    } else {
+        for (column, out) in t.columns.iter().zip(ys.iter_mut()) {
+            *out = column.iter().map(|&(e, b)| f(b) * xx[e]).sum();
+        }
+        for (row, &s) in t.rows.iter().zip(xs) {
+            for &(e, c) in &row.dx {
+                yx[e] += f(c) * s;
+            }
+            for &(j, d) in &row.ds {
+                ys[j] += f(d) * s;
+            }
         }
     }
-    out.resize(z.len(), 0.0);
-    out
+}
+
+/// x when it is not larger than [`MAX_AMPLIFICATION`] times the equilibrated load ‖D b‖∞;
+/// else Singular.
+fn accept(x: Vec<f64>, db: f64) -> Result<Vec<f64>, Error> {
+    let size = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    if size <= MAX_AMPLIFICATION * db {
+        Ok(x)
+    } else {
+        Err(Breakdown::Singular(MECHANISM).into())
+    }
+}
+
+/// ω = ‖D (b − J x)‖∞ / (‖x‖∞ + ‖D b‖∞), D the equilibration of J (of Jᵀ): the normwise
+/// backward error of x in the equilibrated system, whose |D J| has row sums of at most 1.
+/// `r` receives D (b − J x).
+fn backward_error(t: &Tangent, b: &[f64], x: &[f64], r: &mut [f64], transposed: bool) -> f64 {
+    let d = &t.scale[transposed as usize];
+    product(t, x, r, transposed, false);
+    let (mut rn, mut bn, mut xn) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..b.len() {
+        r[i] = d[i] * (b[i] - r[i]);
+        rn = rn.max(r[i].abs());
+        bn = bn.max((d[i] * b[i]).abs());
+        xn = xn.max(x[i].abs());
+    }
+    let omega = rn / (xn + bn);
+    if omega.is_nan() {
+        f64::INFINITY
+    } else {
+        omega
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm2(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// The sparse LU of the true J over the equations and slips (module docs).
+fn true_lu(t: &Tangent) -> Result<Lu, Error> {
+    let size = t.n + t.m;
+    let failed = |detail: String| -> Error {
+        Breakdown::Factorization {
+            of: "the sensitivity's true tangent (LU)",
+            detail,
+        }
+        .into()
+    };
+    let a = t.upper.as_ref();
+    let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+    let count = 2 * v.len()
+        + 81 * (t.skew.len() + t.regularisation.len())
+        + t.columns.iter().map(Vec::len).sum::<usize>()
+        + t.rows
+            .iter()
+            .map(|r| r.dx.len() + r.ds.len())
+            .sum::<usize>();
+    let mut entries = memory::with_capacity(count, "the sensitivity's LU")?;
+    for j in 0..t.n {
+        for k in cp[j]..cp[j + 1] {
+            entries.push(Triplet::new(ri[k], j, v[k]));
+            if ri[k] != j {
+                entries.push(Triplet::new(j, ri[k], v[k]));
+            }
+        }
+    }
+    for (blocks, sign) in [(&t.skew, 1.0), (&t.regularisation, -1.0)] {
+        for (nodes, k) in blocks.iter() {
+            let eq = |a: usize| t.eq[3 * nodes[a / 3] + a % 3];
+            for a in 0..9 {
+                for b in 0..9 {
+                    let (ea, eb) = (eq(a), eq(b));
+                    if ea != NONE && eb != NONE {
+                        entries.push(Triplet::new(ea, eb, sign * k[(a, b)]));
+                    }
+                }
+            }
+        }
+    }
+    for (j, column) in t.columns.iter().enumerate() {
+        for &(e, b) in column {
+            entries.push(Triplet::new(e, t.n + j, b));
+        }
+    }
+    for (i, row) in t.rows.iter().enumerate() {
+        for &(e, c) in &row.dx {
+            entries.push(Triplet::new(t.n + i, e, c));
+        }
+        for &(j, d) in &row.ds {
+            entries.push(Triplet::new(t.n + i, t.n + j, d));
+        }
+    }
+    let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(size, size, &entries)
+        .map_err(|e| failed(format!("{e:?}")))?;
+    drop(entries);
+    let symbolic = factorize_symbolic_lu(matrix.symbolic(), Default::default())
+        .map_err(|e| failed(format!("{e:?}")))?;
+    let mut numeric = NumericLu::new();
+    let req = symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default());
+    let mut mem = MemBuffer::try_new(req).map_err(|_| memory::OutOfMemory {
+        what: "the sensitivity's LU",
+        bytes: req.size_bytes() as u64,
+    })?;
+    match symbolic.factorize_numeric_lu(
+        &mut numeric,
+        matrix.as_ref(),
+        Par::Seq,
+        MemStack::new(&mut mem),
+        Default::default(),
+    ) {
+        Ok(_) => {}
+        Err(LuError::SymbolicSingular { .. }) => return Err(Breakdown::Singular(MECHANISM).into()),
+        Err(e) => return Err(failed(format!("{e:?}"))),
+    }
+    Ok(Lu { symbolic, numeric })
+}
+
+impl Lu {
+    /// x ← J⁻¹ x (transposed: J⁻ᵀ x).
+    fn solve(&self, x: &mut [f64], transposed: bool) -> Result<(), Error> {
+        let n = x.len();
+        let req = self.symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+        let mut mem = MemBuffer::try_new(req).map_err(|_| memory::OutOfMemory {
+            what: "the sensitivity's LU",
+            bytes: req.size_bytes() as u64,
+        })?;
+        let lu = LuRef::new_unchecked(&self.symbolic, &self.numeric);
+        let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
+        if transposed {
+            lu.solve_transpose_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut mem));
+        } else {
+            lu.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut mem));
+        }
+        Ok(())
+    }
 }
 
 /// Σ skew_e · v_e over the triangles, per DOF.
