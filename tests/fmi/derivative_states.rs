@@ -72,6 +72,13 @@
 //!            follows the last digits of dz; the other outputs within 1.2e-11).
 //!            (4) FMI 2 and FMI 3 bit for bit the engine's; the adjoints against the
 //!            directional derivatives 3e-10 as (2) (measured 2.6e-11 on the sail).
+//!            The figures above were measured with penalty ties. With the sleeve ties closed by
+//!            their multipliers (each state's Uzawa rounds stop at a gap of 1e-12 of the
+//!            segment, and the contact force λ + k d of the differenced states carries that
+//!            rounding), measured at the steps above only (2026-11-27): sleeve stuck 1.1e-6,
+//!            partly stuck 2.0e-5, sliding 2.2e-5 (each on the contact force): tolerance 5e-5;
+//!            sliding cable 5.7e-8 (T_A7 and T_78 by p): 1.5e-7; the adjoint 4.6e-10 (sleeve
+//!            partly stuck): (2) and (4) 1e-9.
 
 use crate::common;
 use common::*;
@@ -378,7 +385,7 @@ fn run(mut case: Case) -> Measured {
 }
 
 /// Of the adjoint against the transposed directional derivative (module docs).
-const ADJOINT: f64 = 3e-10;
+const ADJOINT: f64 = 1e-9;
 
 /// Run the cases, insist on their tolerances (and on [`ADJOINT`] for the adjoints).
 fn check(cases: Vec<Case>) -> Vec<Measured> {
@@ -669,9 +676,9 @@ fn sleeve_case(label: &'static str, via: &[f64], path: bool, step: f64, toleranc
 #[test]
 fn sleeve_points_stuck_partly_stuck_and_sliding() {
     let m = check(vec![
-        sleeve_case("sleeve, stuck", &[3.0, 2.999], false, 1.5e-4, 1e-5),
-        sleeve_case("sleeve, partly stuck", &[3.0, 2.98], true, 6e-4, 1e-5),
-        sleeve_case("sleeve, sliding", &[3.0], true, 6e-4, 1e-5),
+        sleeve_case("sleeve, stuck", &[3.0, 2.999], false, 1.5e-4, 5e-5),
+        sleeve_case("sleeve, partly stuck", &[3.0, 2.98], true, 6e-4, 5e-5),
+        sleeve_case("sleeve, sliding", &[3.0], true, 6e-4, 5e-5),
     ]);
     let count = |e: &Engine, c: Contact| e.state().slip_state.iter().filter(|s| **s == c).count();
     assert_eq!(count(&m[0].engine, Contact::Stick), 8);
@@ -703,7 +710,7 @@ fn sliding_and_merged_cable_points() {
         path: false,
         border: false,
         solver_tolerance: 1e-13,
-        tolerance: 4e-8,
+        tolerance: 1.5e-7,
     }]);
     assert!(m[0].engine.state().slip_state.contains(&Contact::Merged));
 }
@@ -796,7 +803,7 @@ fn the_direct_solve_agrees_with_gmres() {
         sheet_case("sheet, fully wrinkled", [0.0, 0.03, 0.005], 4e-8),
         shear_case("shear, wrinkled", 1e-3, 2.9e-3, false, 1e-8),
         sail_case(),
-        sleeve_case("sleeve, sliding", &[3.0], true, 6e-4, 1e-5),
+        sleeve_case("sleeve, sliding", &[3.0], true, 6e-4, 5e-5),
     ];
     let mut worst: f64 = 0.0;
     for case in cases {
