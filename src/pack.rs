@@ -29,8 +29,9 @@
 //! reference result.
 //!
 //! One archive holds one modelDescription.xml, hence two archives. The same scene and library
-//! give byte-identical archives. Each archive is written to a temporary file in the output
-//! directory and renamed at the end, so a failed pack never leaves a partial `.fmu` behind.
+//! give byte-identical archives. Each archive is written by [`write_atomically`] (an unnamed
+//! file linked into place at the end on Linux), so a failed or killed pack never leaves a
+//! partial `.fmu` behind.
 
 use crate::description::model_description;
 use crate::description3::model_description_fmi3;
@@ -159,14 +160,39 @@ pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
     }
 }
 
-/// Write `bytes` to `path` through a temporary file in the same directory and a rename: the
-/// file at `path` is either the old one or the complete new one, and no temporary is left.
+/// Write `bytes` to `path` so that the file at `path` is either the old one or the complete
+/// new one, and a process killed at any moment leaves no temporary file behind for good.
+///
+/// ```text
+/// Linux      an unnamed file (O_TMPFILE) in the target's directory, written and synced, then
+///            linked into place: at `path` itself when nothing is there (no name exists
+///            before the data is complete), else at `.<name>.<pid>.partial` and renamed over
+///            `path` (a name exists only between that link and the rename)
+/// otherwise  (or where the filesystem has no O_TMPFILE, or /proc is not mounted) the named
+///            temporary `.<name>.<pid>.partial`, written, synced and renamed over `path`
+/// ```
+///
+/// Before the first write into a directory, each process removes the `.<name>.<pid>.partial`
+/// files there whose process no longer runs (a writer killed between creating and renaming
+/// its temporary), so whatever a kill left is gone at the next run.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let temp = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    remove_stale_partials_once(dir);
+    let temp = dir.join(partial_name(&name, std::process::id()));
+    #[cfg(target_os = "linux")]
+    if let Some(result) = unnamed::write(dir, path, &temp, bytes) {
+        return result.map_err(|e| {
+            let _ = std::fs::remove_file(&temp);
+            io_error(path, "cannot write", e)
+        });
+    }
     let result = std::fs::File::create(&temp)
         .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
         .and_then(|()| std::fs::rename(&temp, path));
@@ -174,6 +200,164 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
         let _ = std::fs::remove_file(&temp);
         io_error(path, "cannot write", e)
     })
+}
+
+/// The temporary name of `name` written by process `pid`.
+fn partial_name(name: &str, pid: u32) -> String {
+    format!(".{name}.{pid}.partial")
+}
+
+/// The process id in a name of the `.<name>.<pid>.partial` pattern.
+fn partial_pid(file_name: &str) -> Option<u32> {
+    let stem = file_name.strip_prefix('.')?.strip_suffix(".partial")?;
+    let (name, pid) = stem.rsplit_once('.')?;
+    if name.is_empty() || pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    pid.parse().ok()
+}
+
+/// Whether process `pid` runs (or may: any answer but "no such process" counts as running).
+#[cfg(unix)]
+fn process_runs(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else {
+        return true;
+    };
+    // SAFETY: kill with signal 0 sends nothing; it only checks that the process exists.
+    let r = unsafe { libc::kill(pid, 0) };
+    r == 0 || std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH)
+}
+
+#[cfg(not(unix))]
+fn process_runs(_pid: u32) -> bool {
+    true
+}
+
+/// Remove the partial files in `dir` left by processes that no longer run; returns how many
+/// were removed. Other files, and partials of running processes (this one included), stay.
+pub fn remove_stale_partials(dir: &Path) -> usize {
+    let own = std::process::id();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(partial_pid) else {
+            continue;
+        };
+        let is_file = entry.file_type().is_ok_and(|t| t.is_file());
+        if is_file && pid != own && !process_runs(pid) && std::fs::remove_file(entry.path()).is_ok()
+        {
+            removed += 1;
+        }
+    }
+    removed
+}
+
+/// [`remove_stale_partials`] the first time this process writes into `dir` (a series of many
+/// files reads the directory once).
+fn remove_stale_partials_once(dir: &Path) {
+    static DONE: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+    let mut done = DONE
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if !done.iter().any(|d| d == dir) {
+        remove_stale_partials(dir);
+        done.push(dir.to_path_buf());
+    }
+}
+
+/// The unnamed-file path of [`write_atomically`] (Linux).
+#[cfg(target_os = "linux")]
+mod unnamed {
+    use std::ffi::CString;
+    use std::fs::File;
+    use std::io::{self, Write};
+    use std::os::fd::{AsRawFd, FromRawFd};
+    use std::os::unix::ffi::OsStrExt;
+    use std::path::Path;
+
+    fn c_path(p: &Path) -> io::Result<CString> {
+        CString::new(p.as_os_str().as_bytes())
+            .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "a NUL byte in the path"))
+    }
+
+    /// Link the unnamed file `f` at `to`: through /proc/self/fd (no privilege needed), else
+    /// AT_EMPTY_PATH (needs CAP_DAC_READ_SEARCH).
+    fn link(f: &File, to: &Path) -> io::Result<()> {
+        let to = c_path(to)?;
+        let proc_path =
+            CString::new(format!("/proc/self/fd/{}", f.as_raw_fd())).expect("no NUL in a number");
+        // SAFETY: both paths are NUL-terminated strings that outlive the call.
+        let r = unsafe {
+            libc::linkat(
+                libc::AT_FDCWD,
+                proc_path.as_ptr(),
+                libc::AT_FDCWD,
+                to.as_ptr(),
+                libc::AT_SYMLINK_FOLLOW,
+            )
+        };
+        if r == 0 {
+            return Ok(());
+        }
+        let e = io::Error::last_os_error();
+        if e.raw_os_error() != Some(libc::ENOENT) {
+            return Err(e);
+        }
+        // SAFETY: the fd is open; "" and `to` are NUL-terminated and outlive the call.
+        let r = unsafe {
+            libc::linkat(
+                f.as_raw_fd(),
+                c"".as_ptr(),
+                libc::AT_FDCWD,
+                to.as_ptr(),
+                libc::AT_EMPTY_PATH,
+            )
+        };
+        if r == 0 {
+            Ok(())
+        } else {
+            Err(io::Error::last_os_error())
+        }
+    }
+
+    /// Write through an unnamed file; None when one cannot be had or linked here (the caller
+    /// then writes a named temporary), else the result.
+    pub(super) fn write(
+        dir: &Path,
+        path: &Path,
+        temp: &Path,
+        bytes: &[u8],
+    ) -> Option<io::Result<()>> {
+        let c_dir = c_path(dir).ok()?;
+        // SAFETY: `c_dir` is NUL-terminated and outlives the call; the mode is the one
+        // `File::create` gives (0666 less the umask).
+        let fd = unsafe {
+            libc::open(
+                c_dir.as_ptr(),
+                libc::O_TMPFILE | libc::O_WRONLY | libc::O_CLOEXEC,
+                0o666 as libc::c_uint,
+            )
+        };
+        if fd < 0 {
+            return None; // no O_TMPFILE here (or no access: the named path says why)
+        }
+        // SAFETY: `fd` was just opened and is owned by nothing else.
+        let mut f = unsafe { File::from_raw_fd(fd) };
+        if let Err(e) = f.write_all(bytes).and_then(|()| f.sync_all()) {
+            return Some(Err(e));
+        }
+        match link(&f, path) {
+            Ok(()) => return Some(Ok(())),
+            Err(e) if e.raw_os_error() == Some(libc::EEXIST) => {}
+            Err(_) => return None,
+        }
+        // `path` exists: link beside it and rename over it (atomic replacement).
+        let _ = std::fs::remove_file(temp);
+        Some(link(&f, temp).and_then(|()| std::fs::rename(temp, path)))
+    }
 }
 
 /// The folder of the FMI-LS-REF files inside an archive.
@@ -284,5 +468,63 @@ fn io_error(path: &Path, what: &str, e: std::io::Error) -> Error {
     Error::Io {
         path: path.display().to_string(),
         message: format!("{what}: {e}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_partial_pattern() {
+        assert_eq!(partial_pid(&partial_name("A.fmu", 4242)), Some(4242));
+        assert_eq!(partial_pid(".x.y.vtu.17.partial"), Some(17));
+        for other in [
+            "A.fmu",
+            ".A.fmu.partial",
+            "..17.partial",
+            ".A.fmu.-3.partial",
+            ".A.fmu.1x.partial",
+            "A.fmu.17.partial",
+            ".A.fmu.99999999999.partial",
+        ] {
+            assert_eq!(partial_pid(other), None, "{other}");
+        }
+    }
+
+    // GOAL: a write replaces the file whole and leaves nothing else in the directory, whether
+    //       the target exists or not; stale partials of a process that no longer runs are
+    //       removed, those of a running one (this) and other files are not.
+    #[test]
+    fn writes_replace_whole_and_stale_partials_go() {
+        let dir = std::env::temp_dir().join(format!("velarium-atomic-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("out.csv");
+        write_atomically(&target, b"first").unwrap();
+        write_atomically(&target, b"second, longer").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"second, longer");
+        let names = |d: &Path| {
+            let mut v: Vec<String> = std::fs::read_dir(d)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            v.sort();
+            v
+        };
+        assert_eq!(names(&dir), ["out.csv"]);
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let stale = partial_name("out.csv", dead);
+        let live = partial_name("out.csv", std::process::id());
+        for name in [&stale, &live, &"keep.txt".to_string()] {
+            std::fs::write(dir.join(name), "x").unwrap();
+        }
+        assert_eq!(remove_stale_partials(&dir), 1);
+        let mut want = vec![live, "keep.txt".into(), "out.csv".into()];
+        want.sort();
+        assert_eq!(names(&dir), want);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -877,3 +877,124 @@ fn a_closed_output_pipe_is_not_a_panic() {
         text(&out.stderr)
     );
 }
+
+/// A flat 60 x 60 sheet held everywhere under a zero pressure: every row converges at once and
+/// writes a 0.85 MB .vtu (3721 nodes), so a run of `solve --vtk` spends its time writing.
+const SHEET: &str = r#"{
+  "format": 1, "name": "Sheet",
+  "geometry": {"generators": [{"kind": "rectangle", "name": "s", "origin": [0, 0, 0],
+                               "size": [1, 1], "divisions": [60, 60]}]},
+  "membranes": [{"name": "m", "triangles": "s", "thickness": 0.001,
+                 "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}],
+  "supports": [{"nodes": "s.all", "fix": ["x", "y", "z"]}],
+  "inputs": [{"name": "p", "load": {"kind": "pressure", "membrane": "m"}}],
+  "outputs": [{"name": "w", "probe": {"kind": "displacement", "node": "s.center", "component": "z"}}]
+}"#;
+
+/// Issue 28: a writer killed mid-series (SIGKILL: nothing of the process runs afterwards)
+/// leaves no temporary file. On Linux every file is written unnamed (O_TMPFILE) and linked
+/// into place once complete, so a poll of the directory during the run never sees a
+/// `.partial` name (checked where the directory's filesystem has O_TMPFILE); and a partial of
+/// the fallback's pattern `.<name>.<pid>.partial` whose process no longer runs is removed by
+/// the next write into the directory, while one of a running process and other files stay.
+#[test]
+fn a_killed_writer_leaves_no_partial_file() {
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let dir = scratch("killed-writer");
+    let scene = write(&dir, "sheet.json", SHEET);
+    let mut table = String::from("time,p\n");
+    for k in 0..40 {
+        table.push_str(&format!("{k},0\n"));
+    }
+    let loads = write(&dir, "loads.csv", &table);
+    let out = dir.join("series");
+    let mut seen = Vec::new();
+    for rows_before_kill in [1, 3, 5] {
+        let _ = std::fs::remove_dir_all(&out);
+        let mut child = Command::new(VELARIUM)
+            .args(["solve", s(&scene), "--loads", s(&loads), "--vtk", s(&out)])
+            .args(["--quiet"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let start = Instant::now();
+        loop {
+            let names = listing(&out);
+            seen.extend(names.iter().filter(|n| n.ends_with(".partial")).cloned());
+            if names.iter().filter(|n| n.ends_with(".vtu")).count() >= rows_before_kill {
+                break;
+            }
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "finished before the kill"
+            );
+            assert!(start.elapsed() < Duration::from_secs(120));
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        let left = listing(&out);
+        assert!(
+            !left.iter().any(|n| n.ends_with(".partial")),
+            "after the kill: {left:?}"
+        );
+        assert!(!left.contains(&"Sheet.pvd".to_string()), "{left:?}");
+    }
+    if tmpfile_supported(&out) {
+        assert!(
+            seen.is_empty(),
+            "named temporaries seen during the runs: {seen:?}"
+        );
+    } else {
+        eprintln!(
+            "no O_TMPFILE under {}: named temporaries were written",
+            s(&out)
+        );
+    }
+
+    // Partials as the named fallback leaves them, of a finished process and of this one.
+    let mut gone = Command::new("true").spawn().unwrap();
+    let dead = gone.id();
+    gone.wait().unwrap();
+    let stale = format!(".Sheet_0007.vtu.{dead}.partial");
+    let running = format!(".Sheet_0008.vtu.{}.partial", std::process::id());
+    for name in [&stale, &running, &".notes.partial".to_string()] {
+        std::fs::write(out.join(name), "truncated").unwrap();
+    }
+    let tiny = write(&dir, "tiny.json", TINY);
+    let tiny_loads = write(&dir, "tiny.csv", "time,F\n0,0\n1,10\n");
+    let run = velarium(&[
+        "solve",
+        s(&tiny),
+        "--loads",
+        s(&tiny_loads),
+        "--vtk",
+        s(&out),
+    ]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let left = listing(&out);
+    assert!(!left.contains(&stale), "{left:?}");
+    assert!(left.contains(&running), "{left:?}");
+    assert!(left.contains(&".notes.partial".to_string()), "{left:?}");
+    assert!(left.contains(&"TinyCable.pvd".to_string()), "{left:?}");
+}
+
+/// Whether an unnamed file can be opened in `dir` (Linux's O_TMPFILE).
+fn tmpfile_supported(dir: &Path) -> bool {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        std::fs::OpenOptions::new()
+            .write(true)
+            .custom_flags(libc::O_TMPFILE)
+            .open(dir)
+            .is_ok()
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = dir;
+        false
+    }
+}
