@@ -998,3 +998,91 @@ fn tmpfile_supported(dir: &Path) -> bool {
         false
     }
 }
+
+/// Issue 28: a missing top-level field is named by its path, like every other problem (serde
+/// named it without a path, and only the first of the two): `name` alone, and `format` and
+/// `name` together, each with what it must hold; the rest of the scene is still read.
+#[test]
+fn missing_top_level_fields_are_named() {
+    let dir = scratch("missing-top-level");
+    for (scene, want) in [
+        (
+            r#"{"format": 1}"#,
+            &["name: missing: a scene needs \"name\", the model name, a C identifier"][..],
+        ),
+        (
+            r#"{}"#,
+            &[
+                "format: missing: a scene needs \"format\", the scene format version, 1",
+                "name: missing: a scene needs \"name\"",
+            ][..],
+        ),
+        (
+            r#"{"format": 1, "description": 5}"#,
+            &["name: missing", "description: invalid type: integer `5`"][..],
+        ),
+    ] {
+        let path = write(&dir, "scene.json", scene);
+        for command in ["check", "describe", "pack"] {
+            let run = velarium(
+                &[command, s(&path), "--out", s(&dir)][..if command == "pack" { 4 } else { 2 }],
+            );
+            assert_eq!(run.status.code(), Some(1), "{command} {scene}");
+            let said = text(&run.stdout) + &text(&run.stderr);
+            for w in want {
+                assert!(said.contains(w), "{command} {scene}: {w:?} not in {said}");
+            }
+        }
+    }
+}
+
+/// Issue 28: form finding names a triangle by its id in the scene's mesh and its membrane
+/// group, not by its place in form finding's own list (group by group). The sail split into
+/// two groups, its northern half first, with a corner pulled 1e6 m up: the triangle that
+/// collapses is mesh triangle 8 (nodes [4, 5, 38]) of the second group, membranes[1]; before,
+/// the message said "triangle 1032" (1024 northern triangles + 8).
+#[test]
+fn formfind_names_the_scenes_triangle_and_group() {
+    let dir = scratch("formfind-names");
+    let sail = format!(
+        "{}/modelDescription/FourPointSail/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sail).unwrap()).unwrap();
+    scene["geometry"]["triangle_sets"] = serde_json::json!({
+        "north": (1024..2048).collect::<Vec<_>>(),
+        "south": (0..1024).collect::<Vec<_>>()
+    });
+    let fabric = scene["membranes"][0].clone();
+    let mut north = fabric.clone();
+    north["name"] = "north".into();
+    north["triangles"] = "north".into();
+    let mut south = fabric;
+    south["name"] = "south".into();
+    south["triangles"] = "south".into();
+    scene["membranes"] = serde_json::json!([north, south]);
+    scene["inputs"][0]["load"]["membrane"] = "south".into();
+    for output in scene["outputs"].as_array_mut().unwrap() {
+        if output["probe"].get("membrane").is_some() {
+            output["probe"]["membrane"] = "south".into();
+        }
+    }
+    scene["form_finding"]["place"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({"node": 5, "position": [5, 5, 1e6]}));
+    let path = write(&dir, "split.json", &scene.to_string());
+    let check = velarium(&["check", s(&path)]);
+    assert!(check.status.success(), "{}", text(&check.stdout));
+    let out = dir.join("found.json");
+    let run = velarium(&["formfind", s(&path), "--out", s(&out), "--quiet"]);
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = text(&run.stderr);
+    println!("{stderr}");
+    assert!(
+        stderr.contains("triangle 8 of membranes[1] (nodes [4, 5, 38])"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}
