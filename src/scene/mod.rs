@@ -24,6 +24,7 @@ pub mod generate;
 pub mod limits;
 pub mod plausibility;
 pub mod read;
+pub mod rules;
 pub mod shape;
 pub mod target;
 pub mod validate;
@@ -1120,9 +1121,9 @@ impl Scene {
         serde_json::to_string_pretty(self).expect("a scene always serializes")
     }
 
-    /// The JSON Schema of the format.
+    /// The JSON Schema (Draft 2020-12) of the format, with the ranges, patterns and the
+    /// format version that `check` enforces ([`rules::RULES`]).
     pub fn json_schema() -> String {
-        let schema = schemars::schema_for!(Scene);
-        serde_json::to_string_pretty(&schema).expect("a schema always serializes")
+        serde_json::to_string_pretty(&rules::json_schema()).expect("a schema always serializes")
     }
 }
