@@ -29,9 +29,9 @@
 //! reference result.
 //!
 //! One archive holds one modelDescription.xml, hence two archives. The same scene and library
-//! give byte-identical archives. Each archive is written by [`write_atomically`] (an unnamed
-//! file linked into place at the end on Linux), so a failed or killed pack never leaves a
-//! partial `.fmu` behind.
+//! give byte-identical archives. Each archive is written by [`write_atomically`] (a temporary
+//! file renamed at the end), so a failed pack leaves no partial `.fmu` behind, and what a
+//! killed one leaves is removed by the next run.
 
 use crate::description::model_description;
 use crate::description3::model_description_fmi3;
@@ -161,20 +161,19 @@ pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
 }
 
 /// Write `bytes` to `path` so that the file at `path` is either the old one or the complete
-/// new one, and a process killed at any moment leaves no temporary file behind for good.
+/// new one, and whatever a killed process leaves is removed by the next run.
 ///
 /// ```text
-/// Linux      an unnamed file (O_TMPFILE) in the target's directory, written and synced, then
-///            linked into place: at `path` itself when nothing is there (no name exists
-///            before the data is complete), else at `.<name>.<pid>.partial` and renamed over
-///            `path` (a name exists only between that link and the rename)
-/// otherwise  (or where the filesystem has no O_TMPFILE, or /proc is not mounted) the named
-///            temporary `.<name>.<pid>.partial`, written, synced and renamed over `path`
+/// write    `.<name>.<pid>.partial` in the target's directory, synced, renamed over `path`;
+///          on an error it is removed
+/// killed   (SIGKILL, power loss: nothing of the process runs) the partial stays until the
+///          next write of any velarium process into that directory, which removes every
+///          `.<name>.<pid>.partial` there whose process no longer runs
 /// ```
 ///
-/// Before the first write into a directory, each process removes the `.<name>.<pid>.partial`
-/// files there whose process no longer runs (a writer killed between creating and renaming
-/// its temporary), so whatever a kill left is gone at the next run.
+/// An unnamed file (Linux's O_TMPFILE) linked into place at the end would leave no name at
+/// all, but linking it needs `linkat` with AT_SYMLINK_FOLLOW, which std does not offer (its
+/// `hard_link` does not follow /proc/self/fd/N: EXDEV), and raw libc calls stay in src/fmi.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     let name = path
         .file_name()
@@ -186,13 +185,6 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     };
     remove_stale_partials_once(dir);
     let temp = dir.join(partial_name(&name, std::process::id()));
-    #[cfg(target_os = "linux")]
-    if let Some(result) = unnamed::write(dir, path, &temp, bytes) {
-        return result.map_err(|e| {
-            let _ = std::fs::remove_file(&temp);
-            io_error(path, "cannot write", e)
-        });
-    }
     let result = std::fs::File::create(&temp)
         .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
         .and_then(|()| std::fs::rename(&temp, path));
@@ -217,20 +209,11 @@ fn partial_pid(file_name: &str) -> Option<u32> {
     pid.parse().ok()
 }
 
-/// Whether process `pid` runs (or may: any answer but "no such process" counts as running).
-#[cfg(unix)]
+/// Whether process `pid` may run: anything but "/proc is there and has no such process" counts
+/// as running (without /proc nothing is known, so nothing is removed).
 fn process_runs(pid: u32) -> bool {
-    let Ok(pid) = libc::pid_t::try_from(pid) else {
-        return true;
-    };
-    // SAFETY: kill with signal 0 sends nothing; it only checks that the process exists.
-    let r = unsafe { libc::kill(pid, 0) };
-    r == 0 || std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH)
-}
-
-#[cfg(not(unix))]
-fn process_runs(_pid: u32) -> bool {
-    true
+    let proc = Path::new("/proc");
+    !(proc.join("self").exists() && !proc.join(pid.to_string()).exists())
 }
 
 /// Remove the partial files in `dir` left by processes that no longer run; returns how many
@@ -265,98 +248,6 @@ fn remove_stale_partials_once(dir: &Path) {
     if !done.iter().any(|d| d == dir) {
         remove_stale_partials(dir);
         done.push(dir.to_path_buf());
-    }
-}
-
-/// The unnamed-file path of [`write_atomically`] (Linux).
-#[cfg(target_os = "linux")]
-mod unnamed {
-    use std::ffi::CString;
-    use std::fs::File;
-    use std::io::{self, Write};
-    use std::os::fd::{AsRawFd, FromRawFd};
-    use std::os::unix::ffi::OsStrExt;
-    use std::path::Path;
-
-    fn c_path(p: &Path) -> io::Result<CString> {
-        CString::new(p.as_os_str().as_bytes())
-            .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "a NUL byte in the path"))
-    }
-
-    /// Link the unnamed file `f` at `to`: through /proc/self/fd (no privilege needed), else
-    /// AT_EMPTY_PATH (needs CAP_DAC_READ_SEARCH).
-    fn link(f: &File, to: &Path) -> io::Result<()> {
-        let to = c_path(to)?;
-        let proc_path =
-            CString::new(format!("/proc/self/fd/{}", f.as_raw_fd())).expect("no NUL in a number");
-        // SAFETY: both paths are NUL-terminated strings that outlive the call.
-        let r = unsafe {
-            libc::linkat(
-                libc::AT_FDCWD,
-                proc_path.as_ptr(),
-                libc::AT_FDCWD,
-                to.as_ptr(),
-                libc::AT_SYMLINK_FOLLOW,
-            )
-        };
-        if r == 0 {
-            return Ok(());
-        }
-        let e = io::Error::last_os_error();
-        if e.raw_os_error() != Some(libc::ENOENT) {
-            return Err(e);
-        }
-        // SAFETY: the fd is open; "" and `to` are NUL-terminated and outlive the call.
-        let r = unsafe {
-            libc::linkat(
-                f.as_raw_fd(),
-                c"".as_ptr(),
-                libc::AT_FDCWD,
-                to.as_ptr(),
-                libc::AT_EMPTY_PATH,
-            )
-        };
-        if r == 0 {
-            Ok(())
-        } else {
-            Err(io::Error::last_os_error())
-        }
-    }
-
-    /// Write through an unnamed file; None when one cannot be had or linked here (the caller
-    /// then writes a named temporary), else the result.
-    pub(super) fn write(
-        dir: &Path,
-        path: &Path,
-        temp: &Path,
-        bytes: &[u8],
-    ) -> Option<io::Result<()>> {
-        let c_dir = c_path(dir).ok()?;
-        // SAFETY: `c_dir` is NUL-terminated and outlives the call; the mode is the one
-        // `File::create` gives (0666 less the umask).
-        let fd = unsafe {
-            libc::open(
-                c_dir.as_ptr(),
-                libc::O_TMPFILE | libc::O_WRONLY | libc::O_CLOEXEC,
-                0o666 as libc::c_uint,
-            )
-        };
-        if fd < 0 {
-            return None; // no O_TMPFILE here (or no access: the named path says why)
-        }
-        // SAFETY: `fd` was just opened and is owned by nothing else.
-        let mut f = unsafe { File::from_raw_fd(fd) };
-        if let Err(e) = f.write_all(bytes).and_then(|()| f.sync_all()) {
-            return Some(Err(e));
-        }
-        match link(&f, path) {
-            Ok(()) => return Some(Ok(())),
-            Err(e) if e.raw_os_error() == Some(libc::EEXIST) => {}
-            Err(_) => return None,
-        }
-        // `path` exists: link beside it and rename over it (atomic replacement).
-        let _ = std::fs::remove_file(temp);
-        Some(link(&f, temp).and_then(|()| std::fs::rename(temp, path)))
     }
 }
 
