@@ -1120,10 +1120,4 @@ impl Scene {
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a scene always serializes")
     }
-
-    /// The JSON Schema (Draft 2020-12) of the format, with the ranges, patterns and the
-    /// format version that `check` enforces ([`rules::RULES`]).
-    pub fn json_schema() -> String {
-        serde_json::to_string_pretty(&rules::json_schema()).expect("a schema always serializes")
-    }
 }

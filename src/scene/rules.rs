@@ -23,12 +23,11 @@
 
 use super::validate::{
     FORM_FINDING_TOLERANCE_RANGE, HOMOTOPY_BOUND, MAX_COUNT_LIMIT, MAX_ITERATIONS, MAX_MAGNITUDE,
-    MAX_MEMBRANE_FORCE, MAX_PRESTRESS_CONTINUATION, MAX_STEP_ITERATIONS, MEMORY_GB_RANGE,
-    MIN_INCREMENT, MIN_MAGNITUDE, MIN_SECTORS, RESIDUAL_STIFFNESS_RANGE, SVK_NU_BOUND,
-    TOLERANCE_RANGE,
+    MAX_MEMBRANE_FORCE, MAX_PRESTRESS_CONTINUATION, MAX_SOLVER_THREADS, MAX_STEP_ITERATIONS,
+    MEMORY_GB_RANGE, MIN_INCREMENT, MIN_MAGNITUDE, MIN_SECTORS, RESIDUAL_STIFFNESS_RANGE,
+    SVK_NU_BOUND, TOLERANCE_RANGE,
 };
 use super::{Scene, FORMAT_VERSION};
-use crate::solver::threads::MAX_THREADS;
 use serde_json::{Map, Value};
 
 /// What `check` requires of a value.
@@ -189,7 +188,7 @@ pub const RULES: &[FieldRule] = &[
     at("solver.initial_increment", closed(MIN_INCREMENT, 1.0)),
     // At most initial_increment (check), so at most 1 here.
     at("solver.min_increment", closed(MIN_INCREMENT, 1.0)),
-    at("solver.threads", count(1, MAX_THREADS as u64)),
+    at("solver.threads", count(1, MAX_SOLVER_THREADS as u64)),
     at("solver.arc_length", POSITIVE),
     at(
         "solver.prestress_continuation",
@@ -372,6 +371,14 @@ pub fn json_schema() -> Value {
         }
     }
     schema
+}
+
+impl Scene {
+    /// The JSON Schema (Draft 2020-12) of the format, with the ranges, patterns and the
+    /// format version that `check` enforces ([`RULES`]): what `velarium schema` prints.
+    pub fn json_schema() -> String {
+        serde_json::to_string_pretty(&json_schema()).expect("a schema always serializes")
+    }
 }
 
 #[cfg(test)]

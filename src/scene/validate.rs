@@ -168,6 +168,9 @@ pub const MAX_PRESTRESS_CONTINUATION: f64 = 0.1;
 pub const FORM_FINDING_TOLERANCE_RANGE: (f64, f64) = (1e-12, 0.1);
 /// `form_finding.homotopy` range, [0, this).
 pub const HOMOTOPY_BOUND: f64 = 1.0;
+/// Most `solver.threads`: the solver's pool bound (`solver::threads::MAX_THREADS`, which the
+/// scene layer does not import; tests/scene_cli/settings_bounds.rs holds the two equal).
+pub const MAX_SOLVER_THREADS: usize = 64;
 
 /// Cut-backs by 4 from a whole step down to [`MIN_INCREMENT`]: floor(log4(1e12)) = 19, so
 /// 20 tries in all.
@@ -1707,8 +1710,7 @@ impl Validator {
                 ),
             );
         }
-        // The solver's pool bound.
-        let most = crate::solver::threads::MAX_THREADS;
+        let most = MAX_SOLVER_THREADS;
         if !(1..=most).contains(&st.threads) {
             self.push(
                 "solver.threads",
