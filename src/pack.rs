@@ -213,7 +213,7 @@ fn partial_pid(file_name: &str) -> Option<u32> {
 /// as running (without /proc nothing is known, so nothing is removed).
 fn process_runs(pid: u32) -> bool {
     let proc = Path::new("/proc");
-    !(proc.join("self").exists() && !proc.join(pid.to_string()).exists())
+    !proc.join("self").exists() || proc.join(pid.to_string()).exists()
 }
 
 /// Remove the partial files in `dir` left by processes that no longer run; returns how many
