@@ -340,11 +340,59 @@ impl Engine {
             .map(|v| format!("output {}", v.name))
     }
 
-    /// Values of a state from outside (an FMU state set or deserialized): finite displacements
+    /// Values of a state from outside (an FMU state set or deserialized): every vector as long
+    /// as this model's (checked first, so nothing is indexed out of range), finite displacements
     /// within the scene's magnitudes, valid state codes, inputs and parameters finite and within
     /// their declared ranges. The first failed check is named.
     pub fn check_state(&self, state: &EngineState) -> Result<(), Error> {
         let bad = |m: String| Err(Error::State(m));
+        // Lengths first: everything below indexes the vectors by the model's counts.
+        let s = &self.state;
+        for (field, given, want, of) in [
+            (
+                "displacement",
+                state.displacement.len(),
+                s.displacement.len(),
+                "unknowns",
+            ),
+            (
+                "slip_state",
+                state.slip_state.len(),
+                s.slip_state.len(),
+                "sleeve points",
+            ),
+            (
+                "applied",
+                state.applied.len(),
+                s.applied.len(),
+                "input values",
+            ),
+            ("inputs", state.inputs.len(), s.inputs.len(), "input values"),
+            (
+                "parameters",
+                state.parameters.len(),
+                s.parameters.len(),
+                "parameters",
+            ),
+            (
+                "wrinkle",
+                state.wrinkle.len(),
+                s.wrinkle.len(),
+                "membrane triangles",
+            ),
+            (
+                "tension_angle",
+                state.tension_angle.len(),
+                s.tension_angle.len(),
+                "membrane triangles",
+            ),
+        ] {
+            if given != want {
+                return bad(format!(
+                    "{field} has {given} values, this model has {want} {of} (a state of another model?)"
+                ));
+            }
+        }
         let max = crate::scene::validate::MAX_MAGNITUDE;
         if let Some(i) = state
             .displacement
@@ -421,26 +469,8 @@ impl Engine {
 
     /// Restore a committed state (from [`Engine::state`] of an engine of the same scene).
     pub fn set_state(&mut self, state: EngineState) -> Result<(), Error> {
-        let s = &self.state;
-        if state.displacement.len() != s.displacement.len()
-            || state.slip_state.len() != s.slip_state.len()
-            || state.applied.len() != s.applied.len()
-            || state.inputs.len() != s.inputs.len()
-            || state.parameters.len() != s.parameters.len()
-            || state.wrinkle.len() != s.wrinkle.len()
-            || state.tension_angle.len() != s.tension_angle.len()
-        {
-            return Err(Error::State(format!(
-                "sizes (dofs {}, inputs {}, parameters {}) do not match this model (dofs {}, inputs {}, parameters {})",
-                state.displacement.len(),
-                state.inputs.len(),
-                state.parameters.len(),
-                s.displacement.len(),
-                s.inputs.len(),
-                s.parameters.len()
-            )));
-        }
         self.check_state(&state)?;
+        let s = &self.state;
         let params_changed = state.parameters != s.parameters;
         let previous = std::mem::replace(&mut self.state, state);
         if params_changed {

@@ -136,7 +136,9 @@ pub fn form_find_keeping(
 }
 
 /// Validate `scene` and form-find it with its `form_finding` settings (defaults when the
-/// section is absent). Scene problems are errors; non-convergence is a report with a message.
+/// section is absent). Scene problems are errors; non-convergence is a report with a message,
+/// and so is a found scene that fails the scene checks (named in the words of `scene`, see
+/// [`found_problems`]).
 pub fn run(scene: &Scene) -> Result<Report, crate::Error> {
     let mut asked = scene.clone();
     let settings = asked
@@ -147,7 +149,57 @@ pub fn run(scene: &Scene) -> Result<Report, crate::Error> {
     if !problems.is_empty() {
         return Err(crate::Error::Scene(problems));
     }
-    form_find(&asked, &settings)
+    let mut report = form_find(&asked, &settings)?;
+    if let Some(found) = &report.scene {
+        let problems = crate::scene::validate::validate(found);
+        if !problems.is_empty() {
+            report.message = found_problems(&problems);
+            report.scene = None;
+        }
+    }
+    Ok(report)
+}
+
+/// Problems of a found scene in the words of the scene it was found from. Form finding writes
+/// the geometry (explicit nodes and triangles in place of the generators), each group's
+/// prestress (a `field`, one tensor per triangle) and each cable's tensions (`pretensions`, one
+/// per segment), none of which the user wrote: those paths are named as what was found from
+/// the user's fields; every other path is the user's own.
+pub fn found_problems(problems: &[crate::scene::Problem]) -> String {
+    let what = |path: &str| -> String {
+        let index = |rest: &str| rest.trim_end_matches(']').to_string();
+        if let Some((group, rest)) = path.split_once(".prestress.n[") {
+            format!(
+                "{group}.prestress as found on the group's triangle {}",
+                index(rest)
+            )
+        } else if let Some((group, _)) = path.split_once(".prestress.n") {
+            format!("{group}.prestress as found")
+        } else if let Some((cable, rest)) = path.split_once(".pretensions[") {
+            format!("{cable}.pretension as found on segment {}", index(rest))
+        } else if let Some((cable, _)) = path.split_once(".pretensions") {
+            format!("{cable}.pretension as found")
+        } else if let Some(rest) = path.strip_prefix("geometry.nodes[") {
+            format!("the found position of node {}", index(rest))
+        } else if let Some(rest) = path.strip_prefix("geometry.triangles[") {
+            format!(
+                "triangle {} in the found shape",
+                index(rest.split(']').next().unwrap_or(rest))
+            )
+        } else if path.starts_with("geometry") {
+            "the found shape".to_string()
+        } else {
+            path.to_string()
+        }
+    };
+    let listed: Vec<String> = problems
+        .iter()
+        .map(|p| format!("{}: {}", what(&p.path), p.message))
+        .collect();
+    format!(
+        "the found scene fails the scene checks: {}",
+        listed.join("; ")
+    )
 }
 
 /// The report with the wall time since `start`.
@@ -278,6 +330,7 @@ fn triangle_stresses(scene: &Scene, mesh: &Mesh) -> Vec<TriangleStress> {
                 direction: Vector3::from(dir),
                 thickness: m.thickness,
                 group: g,
+                id: t,
             });
         }
     }
@@ -338,7 +391,7 @@ fn iterate(
         }
     }
     Err(Halt::Failed(format!(
-        "form finding did not converge in {} iterations (last shape move {:.2e} of the span, tolerance {:.0e}); raise form_finding.max_iterations or check that the prestress can be in equilibrium between the supports",
+        "form finding did not converge within form_finding.max_iterations = {} (and one more iteration for the finishing step; last shape move {:.2e} of the span, tolerance {:.0e}); raise form_finding.max_iterations or check that the prestress can be in equilibrium between the supports",
         settings.max_iterations, report.last_move, settings.tolerance
     )))
 }
@@ -366,8 +419,8 @@ fn accept(setup: &Setup, state: &State, report: &mut Report) -> Result<(), Halt>
     }
     if let Some((e, angle, start)) = degenerate {
         why.push(format!(
-            "triangle {e} (nodes {:?}) has degenerated: its smallest angle fell from {start:.1}° to {angle:.2}° (below {MIN_ANGLE_DEGREES}° and half its start); start from a shape closer to the found one",
-            setup.tris[e].nodes
+            "{} has degenerated: its smallest angle fell from {start:.1}° to {angle:.2}° (below {MIN_ANGLE_DEGREES}° and half its start); start from a shape closer to the found one",
+            setup.tris[e].describe()
         ));
     }
     if why.is_empty() {
@@ -509,4 +562,45 @@ fn found_scene(
         generators: Vec::new(),
     };
     found
+}
+
+#[cfg(test)]
+mod tests {
+    use super::found_problems;
+    use crate::scene::Problem;
+
+    // GOAL: problems of a found scene at the paths form finding wrote are named by the user's
+    //       fields they were found from; other paths stay as they are.
+    #[test]
+    fn found_problems_use_the_users_fields() {
+        let p = |path: &str| Problem {
+            path: path.into(),
+            message: "bad".into(),
+        };
+        let text = found_problems(&[
+            p("membranes[1].prestress.n[57]"),
+            p("membranes[0].prestress.n"),
+            p("cables[2].pretensions[3]"),
+            p("geometry.nodes[12]"),
+            p("geometry.triangles[7][1]"),
+            p("geometry.node_sets.sail.all"),
+            p("inputs[0].load.membrane"),
+        ]);
+        for want in [
+            "the found scene fails the scene checks: ",
+            "membranes[1].prestress as found on the group's triangle 57: bad",
+            "membranes[0].prestress as found: bad",
+            "cables[2].pretension as found on segment 3: bad",
+            "the found position of node 12: bad",
+            "triangle 7 in the found shape: bad",
+            "the found shape: bad",
+            "inputs[0].load.membrane: bad",
+        ] {
+            assert!(text.contains(want), "{want}: {text}");
+        }
+        assert!(
+            !text.contains("pretensions") && !text.contains(".n["),
+            "{text}"
+        );
+    }
 }

@@ -29,8 +29,9 @@
 //! reference result.
 //!
 //! One archive holds one modelDescription.xml, hence two archives. The same scene and library
-//! give byte-identical archives. Each archive is written to a temporary file in the output
-//! directory and renamed at the end, so a failed pack never leaves a partial `.fmu` behind.
+//! give byte-identical archives. Each archive is written by [`write_atomically`] (a temporary
+//! file renamed at the end), so a failed pack leaves no partial `.fmu` behind, and what a
+//! killed one leaves is removed by the next run.
 
 use crate::description::model_description;
 use crate::description3::model_description_fmi3;
@@ -159,14 +160,31 @@ pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
     }
 }
 
-/// Write `bytes` to `path` through a temporary file in the same directory and a rename: the
-/// file at `path` is either the old one or the complete new one, and no temporary is left.
+/// Write `bytes` to `path` so that the file at `path` is either the old one or the complete
+/// new one, and whatever a killed process leaves is removed by the next run.
+///
+/// ```text
+/// write    `.<name>.<pid>.partial` in the target's directory, synced, renamed over `path`;
+///          on an error it is removed
+/// killed   (SIGKILL, power loss: nothing of the process runs) the partial stays until the
+///          next write of any velarium process into that directory, which removes every
+///          `.<name>.<pid>.partial` there whose process no longer runs
+/// ```
+///
+/// An unnamed file (Linux's O_TMPFILE) linked into place at the end would leave no name at
+/// all, but linking it needs `linkat` with AT_SYMLINK_FOLLOW, which std does not offer (its
+/// `hard_link` does not follow /proc/self/fd/N: EXDEV), and raw libc calls stay in src/fmi.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let temp = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    remove_stale_partials_once(dir);
+    let temp = dir.join(partial_name(&name, std::process::id()));
     let result = std::fs::File::create(&temp)
         .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
         .and_then(|()| std::fs::rename(&temp, path));
@@ -174,6 +192,63 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
         let _ = std::fs::remove_file(&temp);
         io_error(path, "cannot write", e)
     })
+}
+
+/// The temporary name of `name` written by process `pid`.
+fn partial_name(name: &str, pid: u32) -> String {
+    format!(".{name}.{pid}.partial")
+}
+
+/// The process id in a name of the `.<name>.<pid>.partial` pattern.
+fn partial_pid(file_name: &str) -> Option<u32> {
+    let stem = file_name.strip_prefix('.')?.strip_suffix(".partial")?;
+    let (name, pid) = stem.rsplit_once('.')?;
+    if name.is_empty() || pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    pid.parse().ok()
+}
+
+/// Whether process `pid` may run: anything but "/proc is there and has no such process" counts
+/// as running (without /proc nothing is known, so nothing is removed).
+fn process_runs(pid: u32) -> bool {
+    let proc = Path::new("/proc");
+    !proc.join("self").exists() || proc.join(pid.to_string()).exists()
+}
+
+/// Remove the partial files in `dir` left by processes that no longer run; returns how many
+/// were removed. Other files, and partials of running processes (this one included), stay.
+pub fn remove_stale_partials(dir: &Path) -> usize {
+    let own = std::process::id();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(partial_pid) else {
+            continue;
+        };
+        let is_file = entry.file_type().is_ok_and(|t| t.is_file());
+        if is_file && pid != own && !process_runs(pid) && std::fs::remove_file(entry.path()).is_ok()
+        {
+            removed += 1;
+        }
+    }
+    removed
+}
+
+/// [`remove_stale_partials`] the first time this process writes into `dir` (a series of many
+/// files reads the directory once).
+fn remove_stale_partials_once(dir: &Path) {
+    static DONE: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+    let mut done = DONE
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if !done.iter().any(|d| d == dir) {
+        remove_stale_partials(dir);
+        done.push(dir.to_path_buf());
+    }
 }
 
 /// The folder of the FMI-LS-REF files inside an archive.
@@ -284,5 +359,63 @@ fn io_error(path: &Path, what: &str, e: std::io::Error) -> Error {
     Error::Io {
         path: path.display().to_string(),
         message: format!("{what}: {e}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_partial_pattern() {
+        assert_eq!(partial_pid(&partial_name("A.fmu", 4242)), Some(4242));
+        assert_eq!(partial_pid(".x.y.vtu.17.partial"), Some(17));
+        for other in [
+            "A.fmu",
+            ".A.fmu.partial",
+            "..17.partial",
+            ".A.fmu.-3.partial",
+            ".A.fmu.1x.partial",
+            "A.fmu.17.partial",
+            ".A.fmu.99999999999.partial",
+        ] {
+            assert_eq!(partial_pid(other), None, "{other}");
+        }
+    }
+
+    // GOAL: a write replaces the file whole and leaves nothing else in the directory, whether
+    //       the target exists or not; stale partials of a process that no longer runs are
+    //       removed, those of a running one (this) and other files are not.
+    #[test]
+    fn writes_replace_whole_and_stale_partials_go() {
+        let dir = std::env::temp_dir().join(format!("velarium-atomic-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("out.csv");
+        write_atomically(&target, b"first").unwrap();
+        write_atomically(&target, b"second, longer").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"second, longer");
+        let names = |d: &Path| {
+            let mut v: Vec<String> = std::fs::read_dir(d)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            v.sort();
+            v
+        };
+        assert_eq!(names(&dir), ["out.csv"]);
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let stale = partial_name("out.csv", dead);
+        let live = partial_name("out.csv", std::process::id());
+        for name in [&stale, &live, &"keep.txt".to_string()] {
+            std::fs::write(dir.join(name), "x").unwrap();
+        }
+        assert_eq!(remove_stale_partials(&dir), 1);
+        let mut want = vec![live, "keep.txt".into(), "out.csv".into()];
+        want.sort();
+        assert_eq!(names(&dir), want);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -5,8 +5,10 @@
 //! # Safety
 //! The contract is the FMI 2.0 standard's: `c` is NULL or an instance from `fmi2Instantiate`
 //! not yet freed; an array argument with length `n > 0` is NULL (rejected) or holds `n`
-//! elements; strings are NUL-terminated; FMU states come from this FMU. Within that contract
-//! no call crashes or unwinds into the caller.
+//! elements; strings are NUL-terminated; an `fmi2FMUstate*` is NULL or points to a variable.
+//! Within that contract no call crashes or unwinds into the caller. An `fmi2FMUstate` may be
+//! anything: it is read only if this instance handed it out and has not freed it (`ffi.rs`), so
+//! a foreign or freed state, or a state passed where its address belongs, is an Error.
 
 // The names are the standard's (fmi2GetReal, ...), and every function's `# Safety` is the one
 // contract above, stated once.
@@ -14,7 +16,7 @@
 
 use super::ffi::{
     free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
-    store_new_state, store_state, text, texts, with_instance, write_out,
+    store_new_state, store_state, text, texts, with_instance, with_states, write_out,
 };
 use super::fmi2_ffi::{CallbackFunctions, Component, FmuState, Status};
 use super::fsm::Func;
@@ -289,10 +291,10 @@ pub unsafe extern "C" fn fmi2SetString(
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetFMUstate(c: Component, state: *mut FmuState) -> Status {
     // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `state` is
-    // NULL or valid for reads and writes, and `*state` NULL or an FMU state of this FMU.
+    // NULL, a state of this instance (rejected) or valid for reads and writes.
     unsafe {
-        with_instance(c, "fmi2GetFMUstate", |i| {
-            i.get_fmu_state(|s| store_state(state, s))
+        with_states(c, "fmi2GetFMUstate", |i, h| {
+            i.get_fmu_state(|s| store_state(h, state, s))
         })
     }
 }
@@ -300,10 +302,10 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: Component, state: *mut FmuState) -> 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetFMUstate(c: Component, state: FmuState) -> Status {
     // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `state` is
-    // NULL or an FMU state of this FMU.
+    // any pointer (checked against the instance's states, never read unless one).
     unsafe {
-        with_instance(c, "fmi2SetFMUstate", |i| {
-            i.set_fmu_state(state_mut(state).map(|s| &*s))
+        with_states(c, "fmi2SetFMUstate", |i, h| {
+            i.set_fmu_state(state_mut(h, state).map(|s| &*s))
         })
     }
 }
@@ -311,10 +313,10 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: Component, state: FmuState) -> Statu
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: Component, state: *mut FmuState) -> Status {
     // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `state` is
-    // NULL or valid for reads and writes, and `*state` NULL or an FMU state of this FMU.
+    // NULL, a state of this instance (rejected) or valid for reads and writes.
     unsafe {
-        with_instance(c, "fmi2FreeFMUstate", |i| {
-            i.free_fmu_state(|| release_state(state))
+        with_states(c, "fmi2FreeFMUstate", |i, h| {
+            i.free_fmu_state(|| release_state(h, state))
         })
     }
 }
@@ -326,10 +328,10 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
     size: *mut usize,
 ) -> Status {
     // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `state` is
-    // NULL or an FMU state of this FMU; `size` is NULL or valid for a write.
+    // any pointer (checked against the instance's states); `size` is NULL or valid for a write.
     unsafe {
-        with_instance(c, "fmi2SerializedFMUstateSize", |i| {
-            i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| {
+        with_states(c, "fmi2SerializedFMUstateSize", |i, h| {
+            i.serialized_fmu_state_size(state_mut(h, state).map(|s| &*s), |n| {
                 write_out(size, n, "size")
             })
         })
@@ -344,11 +346,11 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
     size: usize,
 ) -> Status {
     // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `bytes` is
-    // NULL or holds `size` elements; `state` is NULL or an FMU state of this FMU.
+    // NULL or holds `size` elements; `state` is any pointer (checked against the instance's states).
     unsafe {
-        with_instance(c, "fmi2SerializeFMUstate", |i| {
+        with_states(c, "fmi2SerializeFMUstate", |i, h| {
             i.serialize_fmu_state(
-                state_mut(state).map(|s| &*s),
+                state_mut(h, state).map(|s| &*s),
                 slice_out(bytes.cast::<u8>(), size, "serializedState"),
             )
         })
@@ -363,11 +365,12 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     state: *mut FmuState,
 ) -> Status {
     // SAFETY: the FMI contract (module doc): `c` is NULL or a live instance of this FMU; `bytes` is
-    // NULL or holds `size` elements; `state` is NULL or valid for writes.
+    // NULL or holds `size` elements; `state` is NULL, a state of this instance (rejected) or valid for
+    // writes.
     unsafe {
-        with_instance(c, "fmi2DeSerializeFMUstate", |i| {
+        with_states(c, "fmi2DeSerializeFMUstate", |i, h| {
             i.deserialize_fmu_state(slice_in(bytes.cast::<u8>(), size, "serializedState"), |s| {
-                store_new_state(state, s)
+                store_new_state(h, state, s)
             })
         })
     }

@@ -11,32 +11,125 @@
 //!
 //! and arrays become slices only through [`slice_in`] / [`slice_out`]: `n == 0` gives an empty
 //! slice whatever the pointer, a NULL pointer with `n > 0` is an error naming the argument.
-//! Instances and FMU states are `Box`es handed out as raw pointers, tagged with a magic word
-//! so that a wrong kind of pointer is rejected instead of misread.
+//! Instances are `Box`es handed out as raw pointers, tagged with a magic word so that a wrong
+//! kind of pointer is rejected instead of misread.
+//!
+//! FMU states are `Box`es too, and each instance keeps the addresses of the states it handed
+//! out and has not freed ([`StateHandles`]). A state pointer is dereferenced only after it is
+//! found there: a pointer this instance did not hand out (another instance's state, a freed
+//! one, a forged one, or the state itself where the address of a state variable belongs, as
+//! the Reference-FMUs' `fmusim --final-fmu-state-file` passes it to `fmi2FreeFMUstate`) is
+//! never read and the call returns Error with a message naming the argument. The states an
+//! instance still holds are freed with it (`fmi2FreeInstance`).
 
 use super::fmi2_ffi::{Component, FmuState, Status};
 use super::instance::Instance;
 use super::snapshot::Snapshot;
 use crate::error::Error;
 use std::any::Any;
+use std::collections::HashSet;
 use std::ffi::{c_char, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 const INSTANCE_TAG: u64 = 0x5645_4c41_5249_4e53; // "VELARINS"
-const STATE_TAG: u64 = 0x5645_4c41_5253_5441; // "VELARSTA"
 
 /// What an instance pointer points to (the tag first, so it can be read alone).
 #[repr(C)]
 pub(crate) struct InstanceBox {
     tag: u64,
+    /// The FMU states this instance handed out and has not freed.
+    states: StateHandles,
     instance: Instance,
 }
 
-/// What an FMU state pointer points to (the tag first).
-#[repr(C)]
-pub(crate) struct StateBox {
-    tag: u64,
-    snapshot: Snapshot,
+/// The addresses of the live FMU states one instance handed out: the only state pointers it
+/// ever dereferences.
+#[derive(Default)]
+pub(crate) struct StateHandles {
+    live: HashSet<usize>,
+}
+
+impl StateHandles {
+    /// Box a snapshot as a new FMU state of this instance.
+    fn hand_out(&mut self, snapshot: Snapshot) -> FmuState {
+        let s = Box::into_raw(Box::new(snapshot));
+        self.live.insert(s as usize);
+        s as FmuState
+    }
+
+    /// Whether `s` is a live state of this instance (compares the address only).
+    fn owns(&self, s: FmuState) -> bool {
+        self.live.contains(&(s as usize))
+    }
+
+    /// The snapshot behind a state of this instance, or an error naming the problem; a pointer
+    /// that is not one is never read.
+    fn get<'a>(&self, s: FmuState) -> Result<&'a mut Snapshot, Error> {
+        if s.is_null() {
+            return Err(null("FMUstate", None));
+        }
+        if !self.owns(s) {
+            return Err(foreign_state(s));
+        }
+        // SAFETY: `s` is in `live`: it came from `hand_out` (a leaked `Box<Snapshot>`) and has
+        // not been freed (freeing removes it). FMI calls on one instance do not overlap, so no
+        // other reference to it is in use.
+        Ok(unsafe { &mut *(s as *mut Snapshot) })
+    }
+
+    /// Free a state of this instance; a pointer that is not one is an error and is not read.
+    fn free(&mut self, s: FmuState) -> Result<(), Error> {
+        if !self.live.remove(&(s as usize)) {
+            return Err(foreign_state(s));
+        }
+        // SAFETY: `s` was in `live` (just removed): a `Box<Snapshot>` leaked by `hand_out`,
+        // dropped exactly once here.
+        guard((), || drop(unsafe { Box::from_raw(s as *mut Snapshot) }));
+        Ok(())
+    }
+
+    /// Check an `FMUstate*` argument: NULL gives None; the address of a state of this instance
+    /// (a state passed where the address of a state variable belongs) is an error, and the
+    /// pointer is not read.
+    ///
+    /// # Safety
+    /// A `slot` that is not a state of this instance is NULL or valid for reads and writes.
+    unsafe fn slot<'a>(&self, slot: *mut FmuState) -> Result<Option<&'a mut FmuState>, Error> {
+        if self.owns(slot.cast()) {
+            return Err(Error::Argument {
+                argument: "FMUstate",
+                message: format!(
+                    "the FMU state argument {slot:p} is an FMU state itself, where the address \
+                     of an FMU state variable belongs (pass &state); nothing was read, written \
+                     or freed"
+                ),
+            });
+        }
+        // SAFETY: `slot` is not a state of this instance, so it is NULL or valid for reads and
+        // writes (the caller's precondition).
+        Ok(unsafe { slot.as_mut() })
+    }
+}
+
+impl Drop for StateHandles {
+    fn drop(&mut self) {
+        for s in std::mem::take(&mut self.live) {
+            // SAFETY: every address in `live` is a `Box<Snapshot>` leaked by `hand_out` and not
+            // yet freed; each is dropped exactly once here.
+            guard((), || drop(unsafe { Box::from_raw(s as *mut Snapshot) }));
+        }
+    }
+}
+
+/// A state pointer this instance did not hand out (or has freed).
+fn foreign_state(s: FmuState) -> Error {
+    Error::Argument {
+        argument: "FMUstate",
+        message: format!(
+            "the FMU state {s:p} is not a live FMU state of this instance (never handed out \
+             by it, or already freed); it was not read"
+        ),
+    }
 }
 
 /// Run `body`, turning a panic into `fallback`.
@@ -53,6 +146,19 @@ pub(crate) unsafe fn with_instance(
     function: &'static str,
     body: impl FnOnce(&mut Instance) -> Status,
 ) -> Status {
+    // SAFETY: as this function's.
+    unsafe { with_states(c, function, |i, _| body(i)) }
+}
+
+/// [`with_instance`] with the instance's FMU states beside it (the state functions).
+///
+/// # Safety
+/// As [`with_instance`].
+pub(crate) unsafe fn with_states(
+    c: Component,
+    function: &'static str,
+    body: impl FnOnce(&mut Instance, &mut StateHandles) -> Status,
+) -> Status {
     // SAFETY: a non-NULL `c` came from `into_component` (the caller's precondition): its tag
     // word is readable.
     if unsafe { !has_tag(c, INSTANCE_TAG) } {
@@ -60,8 +166,9 @@ pub(crate) unsafe fn with_instance(
     }
     // SAFETY: `c` came from `into_component` and is not yet freed (the caller's precondition),
     // so it is a live `InstanceBox`; FMI calls on one instance do not overlap.
-    let instance = unsafe { &mut (*(c as *mut InstanceBox)).instance };
-    match catch_unwind(AssertUnwindSafe(|| body(&mut *instance))) {
+    let boxed = unsafe { &mut *(c as *mut InstanceBox) };
+    let (instance, states) = (&mut boxed.instance, &mut boxed.states);
+    match catch_unwind(AssertUnwindSafe(|| body(&mut *instance, states))) {
         Ok(status) => status,
         Err(payload) => {
             let message = panic_message(payload.as_ref());
@@ -95,11 +202,13 @@ fn panic_message(payload: &(dyn Any + Send)) -> String {
 pub(crate) fn into_component(instance: Instance) -> Component {
     Box::into_raw(Box::new(InstanceBox {
         tag: INSTANCE_TAG,
+        states: StateHandles::default(),
         instance,
     })) as Component
 }
 
-/// Take an instance back and drop it. NULL or a foreign pointer: nothing happens.
+/// Take an instance back and drop it with the FMU states it still holds. NULL or a foreign
+/// pointer: nothing happens.
 ///
 /// # Safety
 /// `c` is NULL or a pointer returned by [`into_component`] and not yet freed.
@@ -117,69 +226,27 @@ pub(crate) unsafe fn free_component(c: Component) {
     }
 }
 
-/// Box a snapshot as an `fmi2FMUstate`.
-pub(crate) fn into_state(snapshot: Snapshot) -> FmuState {
-    Box::into_raw(Box::new(StateBox {
-        tag: STATE_TAG,
-        snapshot,
-    })) as FmuState
-}
-
-/// The snapshot behind an `fmi2FMUstate`, or an error naming the problem.
-///
-/// # Safety
-/// `s` is NULL or a pointer returned by [`into_state`] and not yet freed.
-pub(crate) unsafe fn state_mut<'a>(s: FmuState) -> Result<&'a mut Snapshot, Error> {
-    if s.is_null() {
-        return Err(null("FMUstate", None));
-    }
-    // SAFETY: `s` is not NULL, so it came from `into_state` and is not yet freed (the caller's
-    // precondition): its tag is readable, and with the tag it is a live `StateBox`.
-    unsafe {
-        if !has_tag(s, STATE_TAG) {
-            Err(Error::Argument {
-                argument: "FMUstate",
-                message: "the pointer is not an FMU state of this FMU (or was already freed)"
-                    .into(),
-            })
-        } else {
-            Ok(&mut (*(s as *mut StateBox)).snapshot)
-        }
-    }
-}
-
-/// Free an FMU state. NULL: nothing happens.
-///
-/// # Safety
-/// As [`state_mut`].
-pub(crate) unsafe fn free_state(s: FmuState) -> Result<(), Error> {
-    if s.is_null() {
-        return Ok(());
-    }
-    // SAFETY: `s` is not NULL, so it came from `into_state` and is not yet freed (the caller's
-    // precondition); `state_mut` has checked its tag; the box is dropped exactly once here.
-    unsafe {
-        state_mut(s)?;
-        let boxed = s as *mut StateBox;
-        (*boxed).tag = 0;
-        guard((), || drop(Box::from_raw(boxed)));
-    }
-    Ok(())
+/// The snapshot behind an FMU state of this instance, or an error naming the problem.
+pub(crate) fn state_mut<'a>(states: &StateHandles, s: FmuState) -> Result<&'a mut Snapshot, Error> {
+    states.get(s)
 }
 
 /// `fmi2GetFMUstate`: a NULL `*slot` gets a new state, a non-NULL one is overwritten in place
 /// (the handle stays the same).
 ///
 /// # Safety
-/// `slot` is NULL or valid for reads and writes; `*slot` is NULL or as in [`state_mut`].
-pub(crate) unsafe fn store_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), Error> {
-    // SAFETY: `slot` is NULL or valid for reads and writes (the caller's precondition).
-    let slot = unsafe { slot.as_mut() }.ok_or_else(|| null("FMUstate", None))?;
+/// `slot` is NULL, a state of this instance (rejected) or valid for reads and writes.
+pub(crate) unsafe fn store_state(
+    states: &mut StateHandles,
+    slot: *mut FmuState,
+    snapshot: Snapshot,
+) -> Result<(), Error> {
+    // SAFETY: the caller's precondition.
+    let slot = unsafe { states.slot(slot) }?.ok_or_else(|| null("FMUstate", None))?;
     if slot.is_null() {
-        *slot = into_state(snapshot);
+        *slot = states.hand_out(snapshot);
     } else {
-        // SAFETY: a non-NULL `*slot` came from `into_state` (the caller's precondition).
-        *unsafe { state_mut(*slot) }? = snapshot;
+        *states.get(*slot)? = snapshot;
     }
     Ok(())
 }
@@ -187,26 +254,36 @@ pub(crate) unsafe fn store_state(slot: *mut FmuState, snapshot: Snapshot) -> Res
 /// `fmi2DeSerializeFMUstate`: always a new state (whatever `*slot` held before).
 ///
 /// # Safety
-/// `slot` is NULL or valid for writes.
-pub(crate) unsafe fn store_new_state(slot: *mut FmuState, snapshot: Snapshot) -> Result<(), Error> {
-    // SAFETY: `slot` is NULL or valid for writes (the caller's precondition).
-    let slot = unsafe { slot.as_mut() }.ok_or_else(|| null("FMUstate", None))?;
-    *slot = into_state(snapshot);
+/// `slot` is NULL, a state of this instance (rejected) or valid for writes.
+pub(crate) unsafe fn store_new_state(
+    states: &mut StateHandles,
+    slot: *mut FmuState,
+    snapshot: Snapshot,
+) -> Result<(), Error> {
+    // SAFETY: the caller's precondition.
+    let slot = unsafe { states.slot(slot) }?.ok_or_else(|| null("FMUstate", None))?;
+    *slot = states.hand_out(snapshot);
     Ok(())
 }
 
-/// `fmi2FreeFMUstate`: free `*slot` and set it to NULL; a NULL `slot` or `*slot` is a no-op.
+/// `fmi2FreeFMUstate`: free `*slot` and set it to NULL; a NULL `slot` or `*slot` is a no-op. A
+/// `*slot` that is not a live state of this instance is an error (and is neither read nor
+/// freed).
 ///
 /// # Safety
-/// `slot` is NULL or valid for reads and writes; `*slot` as in [`state_mut`].
-pub(crate) unsafe fn release_state(slot: *mut FmuState) -> Result<(), Error> {
-    // SAFETY: `slot` is NULL or valid for reads and writes (the caller's precondition).
-    let Some(slot) = (unsafe { slot.as_mut() }) else {
+/// `slot` is NULL, a state of this instance (rejected) or valid for reads and writes.
+pub(crate) unsafe fn release_state(
+    states: &mut StateHandles,
+    slot: *mut FmuState,
+) -> Result<(), Error> {
+    // SAFETY: the caller's precondition.
+    let Some(slot) = unsafe { states.slot(slot) }? else {
         return Ok(());
     };
-    // SAFETY: `*slot` is NULL or came from `into_state` (the caller's precondition).
-    unsafe { free_state(*slot) }?;
-    *slot = std::ptr::null_mut();
+    if !slot.is_null() {
+        states.free(*slot)?;
+        *slot = std::ptr::null_mut();
+    }
     Ok(())
 }
 

@@ -24,8 +24,11 @@
 //! # Safety
 //! The contract is the FMI 3.0 standard's: `instance` is NULL or an instance from
 //! `fmi3InstantiateCoSimulation` not yet freed; an array argument with length `n > 0` is NULL
-//! (rejected) or holds `n` elements; strings are NUL-terminated; FMU states come from this FMU.
-//! Within that contract no call crashes or unwinds into the caller.
+//! (rejected) or holds `n` elements; strings are NUL-terminated; an `fmi3FMUState*` is NULL or
+//! points to a variable. Within that contract no call crashes or unwinds into the caller. An
+//! `fmi3FMUState` may be anything: it is read only if this instance handed it out and has not
+//! freed it (`ffi.rs`), so a foreign or freed state, or a state passed where its address
+//! belongs, is an Error.
 
 // The names are the standard's (fmi3GetFloat64, ...), and every function's `# Safety` is the one
 // contract above, stated once.
@@ -33,7 +36,7 @@
 
 use super::ffi::{
     free_component, guard, into_component, release_state, slice_in, slice_out, state_mut,
-    store_new_state, store_state, text, texts, with_instance, write_out,
+    store_new_state, store_state, text, texts, with_instance, with_states, write_out,
 };
 use super::fmi2_ffi::{Component, FmuState, Status};
 use super::fmi3_ffi::{
@@ -566,10 +569,10 @@ pub unsafe extern "C" fn fmi3GetVariableDependencies(
 #[no_mangle]
 pub unsafe extern "C" fn fmi3GetFMUState(instance: Component, state: *mut FmuState) -> Status {
     // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
-    // `state` is NULL or valid for reads and writes, and `*state` NULL or an FMU state of this FMU.
+    // `state` is NULL, a state of this instance (rejected) or valid for reads and writes.
     unsafe {
-        with_instance(instance, "fmi3GetFMUState", |i| {
-            i.get_fmu_state(|s| store_state(state, s))
+        with_states(instance, "fmi3GetFMUState", |i, h| {
+            i.get_fmu_state(|s| store_state(h, state, s))
         })
     }
 }
@@ -577,10 +580,10 @@ pub unsafe extern "C" fn fmi3GetFMUState(instance: Component, state: *mut FmuSta
 #[no_mangle]
 pub unsafe extern "C" fn fmi3SetFMUState(instance: Component, state: FmuState) -> Status {
     // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
-    // `state` is NULL or an FMU state of this FMU.
+    // `state` is any pointer (checked against the instance's states).
     unsafe {
-        with_instance(instance, "fmi3SetFMUState", |i| {
-            i.set_fmu_state(state_mut(state).map(|s| &*s))
+        with_states(instance, "fmi3SetFMUState", |i, h| {
+            i.set_fmu_state(state_mut(h, state).map(|s| &*s))
         })
     }
 }
@@ -588,10 +591,10 @@ pub unsafe extern "C" fn fmi3SetFMUState(instance: Component, state: FmuState) -
 #[no_mangle]
 pub unsafe extern "C" fn fmi3FreeFMUState(instance: Component, state: *mut FmuState) -> Status {
     // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
-    // `state` is NULL or valid for reads and writes, and `*state` NULL or an FMU state of this FMU.
+    // `state` is NULL, a state of this instance (rejected) or valid for reads and writes.
     unsafe {
-        with_instance(instance, "fmi3FreeFMUState", |i| {
-            i.free_fmu_state(|| release_state(state))
+        with_states(instance, "fmi3FreeFMUState", |i, h| {
+            i.free_fmu_state(|| release_state(h, state))
         })
     }
 }
@@ -603,10 +606,10 @@ pub unsafe extern "C" fn fmi3SerializedFMUStateSize(
     size: *mut usize,
 ) -> Status {
     // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
-    // `state` is NULL or an FMU state of this FMU; `size` is NULL or valid for a write.
+    // `state` is any pointer (checked against the instance's states); `size` is NULL or valid for a write.
     unsafe {
-        with_instance(instance, "fmi3SerializedFMUStateSize", |i| {
-            i.serialized_fmu_state_size(state_mut(state).map(|s| &*s), |n| {
+        with_states(instance, "fmi3SerializedFMUStateSize", |i, h| {
+            i.serialized_fmu_state_size(state_mut(h, state).map(|s| &*s), |n| {
                 write_out(size, n, "size")
             })
         })
@@ -621,11 +624,11 @@ pub unsafe extern "C" fn fmi3SerializeFMUState(
     size: usize,
 ) -> Status {
     // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
-    // `bytes` is NULL or holds `size` elements; `state` is NULL or an FMU state of this FMU.
+    // `bytes` is NULL or holds `size` elements; `state` is any pointer (checked against the instance's states).
     unsafe {
-        with_instance(instance, "fmi3SerializeFMUState", |i| {
+        with_states(instance, "fmi3SerializeFMUState", |i, h| {
             i.serialize_fmu_state(
-                state_mut(state).map(|s| &*s),
+                state_mut(h, state).map(|s| &*s),
                 slice_out(bytes, size, "serializedState"),
             )
         })
@@ -640,11 +643,12 @@ pub unsafe extern "C" fn fmi3DeserializeFMUState(
     state: *mut FmuState,
 ) -> Status {
     // SAFETY: the FMI contract (module doc): `instance` is NULL or a live instance of this FMU;
-    // `bytes` is NULL or holds `size` elements; `state` is NULL or valid for writes.
+    // `bytes` is NULL or holds `size` elements; `state` is NULL, a state of this instance (rejected) or valid for
+    // writes.
     unsafe {
-        with_instance(instance, "fmi3DeserializeFMUState", |i| {
+        with_states(instance, "fmi3DeserializeFMUState", |i, h| {
             i.deserialize_fmu_state(slice_in(bytes, size, "serializedState"), |s| {
-                store_new_state(state, s)
+                store_new_state(h, state, s)
             })
         })
     }

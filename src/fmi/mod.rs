@@ -46,8 +46,9 @@
 //! - Debug switches (test variants of a scene only, `Scene::debug`): a step ending after
 //!   `fail_after_time` is reported as not converged without touching the engine; one ending
 //!   after `panic_after_time` panics, so the panic boundary is exercised from outside.
-//! - FMU states are boxed plain structs; their serialized form is pointer-free and checked
-//!   (see [`Snapshot`], [`STATE_MAGIC`]).
+//! - FMU states are boxed plain structs, read only if the instance handed them out and has
+//!   not freed them (a foreign pointer is an Error, never dereferenced; `ffi.rs`); their
+//!   serialized form is pointer-free and checked (see [`Snapshot`], [`STATE_MAGIC`]).
 //! - No global mutable state and no thread outlives its instance: all data lives in the
 //!   instance; its solves run on its own worker thread, joined by `fmi2FreeInstance` (see
 //!   `worker.rs`).

@@ -78,15 +78,15 @@ fn reference_stress(
     let t = &setup.tris[e];
     let Some(reference) = membrane::triangle_ref(t.nodes.map(|i| x[i])) else {
         return Err(Halt::Failed(format!(
-            "iteration {k}: triangle {e} (nodes {:?}) has collapsed to zero area; the prestress has no equilibrium between these supports",
-            t.nodes
+            "iteration {k}: {} has collapsed to zero area; the prestress has no equilibrium between these supports",
+            t.describe()
         )));
     };
     let ratio = reference.area / setup.start_area[e];
     if ratio < COLLAPSE {
         return Err(Halt::Failed(format!(
-            "iteration {k}: triangle {e} (nodes {:?}) shrank to {ratio:.1e} of its start area and keeps contracting: the prestress has no equilibrium between these supports (a soap film between rings too far apart pinches off)",
-            t.nodes
+            "iteration {k}: {} shrank to {ratio:.1e} of its start area and keeps contracting: the prestress has no equilibrium between these supports (a soap film between rings too far apart pinches off)",
+            t.describe()
         )));
     }
     let Some(s0) = membrane::initial_stress(&reference, t.warp, t.fill, &t.direction, t.thickness)
@@ -94,8 +94,8 @@ fn reference_stress(
         return Err(Halt::Invalid(crate::Error::Scene(vec![Problem {
             path: format!("membranes[{}].prestress.warp_direction", t.group),
             message: format!(
-                "is normal to triangle {e} (nodes {:?}) of the iterate {k}",
-                t.nodes
+                "is normal to {} in the shape of iteration {k}",
+                t.describe()
             ),
         }])));
     };
@@ -147,7 +147,8 @@ pub(super) fn assemble_cables(setup: &Setup, state: &mut State, k: usize) -> Res
         let l = (x[b] - x[a]).norm();
         if !(l > 0.0) {
             return Err(Halt::Failed(format!(
-                "iteration {k}: cable segment between nodes {a} and {b} has zero length"
+                "iteration {k}: the segment between nodes {a} and {b} of cables[{}] has zero length",
+                setup.seg_cable[si]
             )));
         }
         lengths[si] = l;

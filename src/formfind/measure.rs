@@ -64,11 +64,9 @@ pub(super) fn balancing_stress(
     moved: f64,
 ) -> Result<(Field, Vec<f64>), Halt> {
     let (x, segments) = (&state.x, &setup.segments);
-    let Some(field) = pushed_forward(&setup.tris, &state.stage, x) else {
-        return Err(Halt::Failed(format!(
-            "iteration {k}: a triangle collapsed to zero area"
-        )));
-    };
+    let field = pushed_forward(&setup.tris, &state.stage, x).map_err(|(e, why)| {
+        Halt::Failed(format!("iteration {k}: {} {why}", setup.tris[e].describe()))
+    })?;
     let forces: Vec<f64> = segments
         .iter()
         .zip(&state.lengths)
@@ -95,24 +93,27 @@ pub(super) fn balancing_stress(
 /// Per triangle: the membrane force tensor (global [xx, yy, zz, xy, yz, xz], N/m) on the new
 /// positions `x` of the PK2 stress S0 prescribed on the reference of the iteration
 /// (N = t (A_k/A_{k+1}) F S0 Fᵀ), and its largest deviation from the prescribed tensor on the
-/// new triangle, relative to the largest prescribed force. None if a triangle has no area.
+/// new triangle, relative to the largest prescribed force. Err: the first triangle that has no
+/// area or no warp direction in its plane, and which.
 fn pushed_forward(
     tris: &[TriangleStress],
     stage: &[(membrane::TriangleRef, Matrix2<f64>)],
     x: &[Vector3<f64>],
-) -> Option<Field> {
+) -> Result<Field, (usize, &'static str)> {
     tris.iter()
         .zip(stage)
-        .map(|(t, (r, s0))| {
+        .enumerate()
+        .map(|(e, (t, (r, s0)))| {
             let xs = t.nodes.map(|i| x[i]);
             let f = membrane::deformation_gradient(r, &xs);
-            let now = membrane::triangle_ref(xs)?;
+            let now = membrane::triangle_ref(xs).ok_or((e, "has collapsed to zero area"))?;
             let n = f * s0 * f.transpose() * (t.thickness * r.area / now.area);
-            let wanted = membrane::initial_stress(&now, t.warp, t.fill, &t.direction, 1.0)?;
+            let wanted = membrane::initial_stress(&now, t.warp, t.fill, &t.direction, 1.0)
+                .ok_or((e, "has turned normal to the warp direction"))?;
             let [e1, e2] = now.frame;
             let local = Vector3::new(e1.dot(&(n * e1)), e2.dot(&(n * e2)), e1.dot(&(n * e2)));
             let deviation = (local - wanted).amax() / t.warp.max(t.fill);
-            Some((
+            Ok((
                 [
                     n[(0, 0)],
                     n[(1, 1)],

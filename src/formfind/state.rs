@@ -94,6 +94,18 @@ pub(super) struct TriangleStress {
     pub(super) direction: Vector3<f64>,
     pub(super) thickness: f64,
     pub(super) group: usize,
+    /// Its id in the scene's mesh (explicit triangles first, then each generator's).
+    pub(super) id: usize,
+}
+
+impl TriangleStress {
+    /// The triangle in the scene's words: its mesh id, its group and its nodes.
+    pub(super) fn describe(&self) -> String {
+        format!(
+            "triangle {} of membranes[{}] (nodes {:?})",
+            self.id, self.group, self.nodes
+        )
+    }
 }
 
 /// Why the iterations stopped without a found shape.

@@ -24,6 +24,7 @@ pub mod generate;
 pub mod limits;
 pub mod plausibility;
 pub mod read;
+pub mod rules;
 pub mod shape;
 pub mod target;
 pub mod validate;
@@ -1120,11 +1121,5 @@ impl Scene {
     /// Pretty JSON text of the scene (what is stored in an FMU's resources).
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a scene always serializes")
-    }
-
-    /// The JSON Schema of the format.
-    pub fn json_schema() -> String {
-        let schema = schemars::schema_for!(Scene);
-        serde_json::to_string_pretty(&schema).expect("a schema always serializes")
     }
 }

@@ -195,6 +195,26 @@ fn collect_scene(v: &mut Value, out: &mut Vec<Problem>, only_unknown: &mut bool)
         };
         skeleton.insert(key.clone(), x);
     }
+    // The two required top-level fields, each named when missing (serde stops at the first);
+    // a stand-in lets the rest of the skeleton be read.
+    for (key, what, stand_in) in [
+        (
+            "format",
+            "the scene format version, 1 in this build",
+            Value::from(super::FORMAT_VERSION),
+        ),
+        (
+            "name",
+            "the model name, a C identifier (letters, digits, _) that names the FMU and its library",
+            Value::from("_"),
+        ),
+    ] {
+        if !skeleton.contains_key(key) {
+            out.push(problem(key, format!("missing: a scene needs \"{key}\", {what}")));
+            *only_unknown = false;
+            skeleton.insert(key.to_string(), stand_in);
+        }
+    }
     let mut skeleton = Value::Object(skeleton);
     let before = out.len();
     element::<Scene>(&mut skeleton, "", out, only_unknown);

@@ -151,6 +151,26 @@ pub const MAX_COUNT_LIMIT: u64 = u32::MAX as u64;
 /// check off), from 1 MB (what the smallest scenes are estimated to need) to 1e6 GB (a
 /// petabyte, beyond any machine this runs on).
 pub const MEMORY_GB_RANGE: (f64, f64) = (1e-3, 1e6);
+/// Largest membrane prestress force in N/m (an isotropic `n`, `warp`, `fill`, and every
+/// component of a `field` tensor).
+pub const MAX_MEMBRANE_FORCE: f64 = 1e12;
+/// `membranes[].residual_stiffness` range: a share of the elastic stiffness.
+pub const RESIDUAL_STIFFNESS_RANGE: (f64, f64) = (0.0, 1e-2);
+/// Poisson's ratio of the SVK membrane: in [0, this).
+pub const SVK_NU_BOUND: f64 = 0.5;
+/// Fewest `sectors` of an annulus generator.
+pub const MIN_SECTORS: usize = 3;
+/// Most `solver.max_step_iterations`.
+pub const MAX_STEP_ITERATIONS: usize = 100_000;
+/// Largest `solver.prestress_continuation` (a pre-strain).
+pub const MAX_PRESTRESS_CONTINUATION: f64 = 0.1;
+/// `form_finding.tolerance` range, [low, high).
+pub const FORM_FINDING_TOLERANCE_RANGE: (f64, f64) = (1e-12, 0.1);
+/// `form_finding.homotopy` range, [0, this).
+pub const HOMOTOPY_BOUND: f64 = 1.0;
+/// Most `solver.threads`: the solver's pool bound (`solver::threads::MAX_THREADS`, which the
+/// scene layer does not import; tests/scene_cli/settings_bounds.rs holds the two equal).
+pub const MAX_SOLVER_THREADS: usize = 64;
 
 /// Cut-backs by 4 from a whole step down to [`MIN_INCREMENT`]: floor(log4(1e12)) = 19, so
 /// 20 tries in all.
@@ -324,8 +344,11 @@ impl Validator {
                     if *rings == 0 {
                         self.push(format!("{p}.rings"), "needs at least one ring");
                     }
-                    if *sectors < 3 {
-                        self.push(format!("{p}.sectors"), "needs at least 3 sectors");
+                    if *sectors < MIN_SECTORS {
+                        self.push(
+                            format!("{p}.sectors"),
+                            format!("needs at least {MIN_SECTORS} sectors"),
+                        );
                     }
                     if !positive(*grading) {
                         self.push(format!("{p}.grading"), "must be positive (1 = uniform)");
@@ -620,7 +643,8 @@ impl Validator {
                 }
             }
             if let Some(rho) = m.residual_stiffness {
-                if !(rho.is_finite() && (0.0..=1e-2).contains(&rho)) {
+                let (lo, hi) = RESIDUAL_STIFFNESS_RANGE;
+                if !(rho.is_finite() && (lo..=hi).contains(&rho)) {
                     self.push(
                         format!("{p}.residual_stiffness"),
                         format!("{rho} is not a share of the elastic stiffness in [0, 0.01]"),
@@ -647,7 +671,7 @@ impl Validator {
                             format!("{young} is not a positive Young's modulus in Pa {RANGE}"),
                         );
                     }
-                    if !(nu.is_finite() && (0.0..0.5).contains(&nu)) {
+                    if !(nu.is_finite() && (0.0..SVK_NU_BOUND).contains(&nu)) {
                         self.push(
                             format!("{p}.material.nu"),
                             format!(
@@ -724,13 +748,13 @@ impl Validator {
 
     fn prestress(&mut self, m: &super::Membrane, pre: &super::Prestress, p: &str, mesh: &Mesh) {
         let (warp, fill, dir) = pre.components();
-        let force = |x: f64| x.is_finite() && (0.0..=1e12).contains(&x);
+        let force = |x: f64| x.is_finite() && (0.0..=MAX_MEMBRANE_FORCE).contains(&x);
         match pre {
             super::Prestress::Isotropic { n } => {
                 if !(force(*n) && *n > 0.0) {
                     self.push(
                         format!("{p}.n"),
-                        format!("{n} is not a positive membrane force in N/m {RANGE}"),
+                        format!("{n} is not a positive membrane force in N/m (at most {MAX_MEMBRANE_FORCE:e})"),
                     );
                 }
             }
@@ -739,7 +763,7 @@ impl Validator {
                     if !force(v) {
                         self.push(
                             format!("{p}.{name}"),
-                            format!("{v} is not a membrane force in N/m >= 0 {RANGE}"),
+                            format!("{v} is not a membrane force in N/m >= 0 (at most {MAX_MEMBRANE_FORCE:e})"),
                         );
                     }
                 }
@@ -771,13 +795,16 @@ impl Validator {
                         ),
                     );
                 }
-                if let Some(k) = n
-                    .iter()
-                    .position(|t| !t.iter().all(|v| v.is_finite() && v.abs() <= 1e12))
-                {
+                if let Some(k) = n.iter().position(|t| {
+                    !t.iter()
+                        .all(|v| v.is_finite() && v.abs() <= MAX_MEMBRANE_FORCE)
+                }) {
                     self.push(
                         format!("{p}.n[{k}]"),
-                        format!("{:?} is not a membrane force tensor in N/m {RANGE}", n[k]),
+                        format!(
+                            "{:?} is not a membrane force tensor in N/m (components at most {MAX_MEMBRANE_FORCE:e} in magnitude)",
+                            n[k]
+                        ),
                     );
                 }
             }
@@ -1556,19 +1583,23 @@ impl Validator {
                 format!("{} is not in 1..={MAX_ITERATIONS}", ff.max_iterations),
             );
         }
-        if !(ff.tolerance.is_finite() && ff.tolerance >= 1e-12 && ff.tolerance < 0.1) {
+        let (lo, hi) = FORM_FINDING_TOLERANCE_RANGE;
+        if !(ff.tolerance.is_finite() && ff.tolerance >= lo && ff.tolerance < hi) {
             self.push(
                 "form_finding.tolerance",
                 format!(
-                    "{} is not a relative tolerance in [1e-12, 0.1)",
+                    "{} is not a relative tolerance in [{lo:e}, {hi})",
                     ff.tolerance
                 ),
             );
         }
-        if !(ff.homotopy.is_finite() && (0.0..1.0).contains(&ff.homotopy)) {
+        if !(ff.homotopy.is_finite() && (0.0..HOMOTOPY_BOUND).contains(&ff.homotopy)) {
             self.push(
                 "form_finding.homotopy",
-                format!("{} is not a homotopy factor in [0, 1)", ff.homotopy),
+                format!(
+                    "{} is not a homotopy factor in [0, {HOMOTOPY_BOUND})",
+                    ff.homotopy
+                ),
             );
         }
         for (k, pl) in ff.place.iter().enumerate() {
@@ -1635,11 +1666,11 @@ impl Validator {
                 format!("{} is not in 1..={MAX_ITERATIONS} (Newton iterations per load increment; a flat start takes 30 to 46)", st.max_iterations),
             );
         }
-        if !(1..=100_000).contains(&st.max_step_iterations) {
+        if !(1..=MAX_STEP_ITERATIONS).contains(&st.max_step_iterations) {
             self.push(
                 "solver.max_step_iterations",
                 format!(
-                    "{} is not in 1..=100000 (Newton iterations of a whole step before it gives up)",
+                    "{} is not in 1..={MAX_STEP_ITERATIONS} (Newton iterations of a whole step before it gives up)",
                     st.max_step_iterations
                 ),
             );
@@ -1679,8 +1710,7 @@ impl Validator {
                 ),
             );
         }
-        // The solver's pool bound (`solver::threads::MAX_THREADS`).
-        let most = 64;
+        let most = MAX_SOLVER_THREADS;
         if !(1..=most).contains(&st.threads) {
             self.push(
                 "solver.threads",
@@ -1696,10 +1726,10 @@ impl Validator {
             }
         }
         let h = st.prestress_continuation;
-        if !(h.is_finite() && (0.0..=0.1).contains(&h)) {
+        if !(h.is_finite() && (0.0..=MAX_PRESTRESS_CONTINUATION).contains(&h)) {
             self.push(
                 "solver.prestress_continuation",
-                format!("{h} must be a strain from 0 (off) to 0.1"),
+                format!("{h} must be a strain from 0 (off) to {MAX_PRESTRESS_CONTINUATION}"),
             );
         }
         if let Some(p) = st.artificial_prestress {

@@ -950,6 +950,71 @@ fn states_round_trip_in_place_and_through_bytes_into_a_fresh_instance() {
     log2.expect("GUID check failed");
 }
 
+/// Issue 28, FMI 3 form: fmusim's `FMI3FreeFMUState(S, FMUState)` passes the state where its
+/// address belongs; a foreign, freed or other instance's state is never dereferenced (0x8 and
+/// usize::MAX - 7 would fault if read). Each is fmi3Error with a message; the state and the
+/// instance stay usable.
+#[test]
+fn foreign_and_misplaced_state_pointers_are_errors_not_crashes() {
+    let fx = Fixture::standard();
+    let log = Log::default();
+    let fmu = fx.fmu(&log, true);
+    fmu.init(0.0, 1.0);
+    let bytes = fmu.serialize();
+    let mut state: FmuState = null_mut();
+    assert_eq!(fmu.get_state(&mut state), OK);
+    log.clear();
+    assert_eq!(unsafe { fmi::fmi3FreeFMUState(fmu.c, state.cast()) }, ERROR);
+    log.expect("fmi3FreeFMUState: the FMU state argument 0x");
+    log.expect("is an FMU state itself");
+    assert_eq!(unsafe { fmi::fmi3GetFMUState(fmu.c, state.cast()) }, ERROR);
+    let mut loaded: FmuState = null_mut();
+    unsafe {
+        assert_eq!(
+            fmi::fmi3DeserializeFMUState(fmu.c, bytes.as_ptr(), bytes.len(), &mut loaded),
+            OK
+        );
+    }
+    assert_eq!(fmu.set_state(loaded), OK);
+    assert_eq!(
+        unsafe { fmi::fmi3FreeFMUState(fmu.c, loaded.cast()) },
+        ERROR
+    );
+    let mut freed: FmuState = null_mut();
+    assert_eq!(fmu.get_state(&mut freed), OK);
+    let dangling = freed;
+    assert_eq!(fmu.free_state(&mut freed), OK);
+    let mut forged = [0x5645_4c41_5253_5441u64; 64];
+    let other = fx.fmu(&log, false);
+    let mut theirs: FmuState = null_mut();
+    assert_eq!(other.get_state(&mut theirs), OK);
+    let mut size = 0usize;
+    for foreign in [
+        8 as FmuState,
+        (usize::MAX - 7) as FmuState,
+        forged.as_mut_ptr().cast(),
+        dangling,
+        theirs,
+    ] {
+        log.clear();
+        assert_eq!(fmu.set_state(foreign), ERROR, "{foreign:p}");
+        log.expect("fmi3SetFMUState: the FMU state 0x");
+        log.expect("is not a live FMU state of this instance");
+        let mut slot = foreign;
+        assert_eq!(fmu.free_state(&mut slot), ERROR, "{foreign:p}");
+        assert_eq!(slot, foreign);
+        assert_eq!(
+            unsafe { fmi::fmi3SerializedFMUStateSize(fmu.c, foreign, &mut size) },
+            ERROR
+        );
+    }
+    assert_eq!(other.free_state(&mut theirs), OK);
+    assert_eq!(fmu.set_state(state), OK);
+    assert_eq!(fmu.set("P", load(1)), OK);
+    assert_eq!(fmu.step(0.0, 0.1).0, OK);
+    // `state` and `loaded` are still held: fmi3FreeInstance frees them.
+}
+
 /// A serialized state of an FMI 2 instance of the same scene (carries the FMI 2 GUID).
 fn fmi2_state_bytes(fx: &Fixture) -> Vec<u8> {
     let cb = fmi::CallbackFunctions {

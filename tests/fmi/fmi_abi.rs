@@ -791,6 +791,102 @@ fn get_step_set_step_is_bit_identical() {
     assert_eq!(fmu.set_state(null_mut()), ERROR);
 }
 
+/// Issue 28: the Reference-FMUs' `fmusim --final-fmu-state-file` / `--initial-fmu-state-file`
+/// pass the FMU state to fmi2FreeFMUstate where its address belongs (`FMI2FreeFMUstate(S,
+/// FMUState)`); the tag word of the state was then read as a pointer and dereferenced (a
+/// segfault). Reproduced here without fmusim, with its calls in its order, and the other
+/// pointers no instance handed out: each is fmi2Error with a message naming the argument, is
+/// never dereferenced (the addresses 0x8 and usize::MAX - 7 would fault if read), and leaves
+/// the state and the instance usable.
+#[test]
+fn foreign_and_misplaced_state_pointers_are_errors_not_crashes() {
+    let fx = Fixture::standard();
+    let log = Log::default();
+    let fmu = fx.fmu(&log, true);
+    fmu.init(0.0, 1.0);
+    assert_eq!(fmu.load_step(0), OK);
+    // fmusim --final-fmu-state-file: get, size, serialize, then free with the state itself.
+    let mut state: FmuState = null_mut();
+    assert_eq!(fmu.get_state(&mut state), OK);
+    let mut size = 0usize;
+    let mut bytes;
+    unsafe {
+        assert_eq!(fmi::fmi2SerializedFMUstateSize(fmu.c, state, &mut size), OK);
+        bytes = vec![0u8; size];
+        assert_eq!(
+            fmi::fmi2SerializeFMUstate(fmu.c, state, bytes.as_mut_ptr().cast(), size),
+            OK
+        );
+        log.clear();
+        assert_eq!(fmi::fmi2FreeFMUstate(fmu.c, state.cast()), ERROR);
+    }
+    log.expect("fmi2FreeFMUstate: the FMU state argument 0x");
+    log.expect("is an FMU state itself, where the address of an FMU state variable belongs");
+    // The state is untouched and still this instance's.
+    assert_eq!(fmu.set_state(state), OK);
+    assert_eq!(fmu.free_state(&mut state), OK);
+    // The same mistake in fmi2GetFMUstate.
+    let mut kept: FmuState = null_mut();
+    assert_eq!(fmu.get_state(&mut kept), OK);
+    log.clear();
+    assert_eq!(unsafe { fmi::fmi2GetFMUstate(fmu.c, kept.cast()) }, ERROR);
+    log.expect("fmi2GetFMUstate: the FMU state argument 0x");
+    // fmusim --initial-fmu-state-file: deserialize, set, free with the state itself.
+    let mut loaded: FmuState = null_mut();
+    unsafe {
+        assert_eq!(
+            fmi::fmi2DeSerializeFMUstate(fmu.c, bytes.as_ptr().cast(), size, &mut loaded),
+            OK
+        );
+    }
+    assert_eq!(fmu.set_state(loaded), OK);
+    log.clear();
+    assert_eq!(
+        unsafe { fmi::fmi2FreeFMUstate(fmu.c, loaded.cast()) },
+        ERROR
+    );
+    log.expect("is an FMU state itself");
+    // Pointers this instance never handed out, or freed: not read.
+    let mut freed: FmuState = null_mut();
+    assert_eq!(fmu.get_state(&mut freed), OK);
+    let dangling = freed;
+    assert_eq!(fmu.free_state(&mut freed), OK);
+    let mut forged = [0x5645_4c41_5253_5441u64; 64]; // the old state tag, then garbage
+    let other = fx.fmu(&log, false);
+    let mut theirs: FmuState = null_mut();
+    assert_eq!(other.get_state(&mut theirs), OK);
+    for foreign in [
+        8 as FmuState,
+        (usize::MAX - 7) as FmuState,
+        forged.as_mut_ptr().cast(),
+        dangling,
+        theirs,
+    ] {
+        log.clear();
+        assert_eq!(fmu.set_state(foreign), ERROR, "{foreign:p}");
+        log.expect("is not a live FMU state of this instance");
+        let mut slot = foreign;
+        assert_eq!(fmu.free_state(&mut slot), ERROR, "{foreign:p}");
+        assert_eq!(slot, foreign, "a rejected state is left as it was");
+        assert_eq!(fmu.get_state(&mut slot), ERROR, "{foreign:p}");
+        unsafe {
+            assert_eq!(
+                fmi::fmi2SerializedFMUstateSize(fmu.c, foreign, &mut size),
+                ERROR
+            );
+            assert_eq!(
+                fmi::fmi2SerializeFMUstate(fmu.c, foreign, bytes.as_mut_ptr().cast(), size),
+                ERROR
+            );
+        }
+    }
+    // The other instance's state is still its own; the instance still steps.
+    assert_eq!(other.free_state(&mut theirs), OK);
+    assert_eq!(fmu.set_state(kept), OK);
+    assert_eq!(fmu.load_step(1), OK);
+    // `kept` and `loaded` are still held: fmi2FreeInstance frees them (Fmu's drop).
+}
+
 #[test]
 fn serialized_state_continues_identically_in_a_fresh_instance() {
     let fx = Fixture::standard();
@@ -1234,6 +1330,85 @@ fn resealed_states_with_bad_values_are_rejected_and_change_nothing() {
         )),
         OK
     );
+}
+
+/// Issue 28: a serialized state resealed with vectors of the wrong length (one displacement
+/// too many, one applied input value too few, no parameters) used to panic inside
+/// fmi2SetFMUstate (an index out of range in the value checks): the panic was caught, but its
+/// text landed on the host's stderr and the instance went to Error. Now the lengths are
+/// checked first: fmi2Error with a message naming the vector and both lengths, no panic (the
+/// instance is not moved to Error and still steps), and the outputs are unchanged.
+#[test]
+fn resealed_states_with_wrong_lengths_are_rejected_without_a_panic() {
+    let fx = Fixture::standard();
+    let log = Log::default();
+    let fmu = fx.fmu(&log, true);
+    fmu.init(0.0, 10.0);
+    assert_eq!(fmu.load_step(0), OK);
+    let bytes = fmu.serialize();
+    let before = fmu.outputs();
+    let guid_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let payload_at = 24 + guid_len;
+    let payload = &bytes[payload_at..bytes.len() - 8];
+    // postcard: displacement, slip_state, applied, inputs, parameters (varint n + items).
+    let mut at = 0;
+    let mut vectors = Vec::new(); // (start of the varint, start of the items, n, item size)
+    for size in [8, 1, 8, 8, 8] {
+        let start = at;
+        let n = varint(payload, &mut at);
+        vectors.push((start, at, n, size));
+        at += n * size;
+    }
+    // A payload with vector `k` given `n` items (the first ones, or zeros appended).
+    let resized = |k: usize, n: usize| {
+        let (start, items, old, size) = vectors[k];
+        assert!(n < 128 && old < 128, "one-byte varints");
+        let mut p = payload[..start].to_vec();
+        p.push(n as u8);
+        let mut body = payload[items..items + old.min(n) * size].to_vec();
+        body.resize(n * size, 0);
+        p.extend_from_slice(&body);
+        p.extend_from_slice(&payload[items + old * size..]);
+        let mut b = bytes[..16 + guid_len].to_vec();
+        b.extend_from_slice(&(p.len() as u64).to_le_bytes());
+        b.extend_from_slice(&p);
+        b.extend_from_slice(&fnv1a64(&b).to_le_bytes());
+        b
+    };
+    let (n_dofs, n_applied, n_parameters) = (vectors[0].2, vectors[2].2, vectors[4].2);
+    assert!(n_applied >= 1 && n_parameters >= 1);
+    for (forged, needle) in [
+        (
+            resized(0, n_dofs + 1),
+            format!(
+                "displacement has {} values, this model has {n_dofs} unknowns",
+                n_dofs + 1
+            ),
+        ),
+        (
+            resized(2, n_applied - 1),
+            format!(
+                "applied has {} values, this model has {n_applied} input values",
+                n_applied - 1
+            ),
+        ),
+        (
+            resized(4, 0),
+            format!("parameters has 0 values, this model has {n_parameters} parameters"),
+        ),
+    ] {
+        log.clear();
+        assert_eq!(fmu.restore(&forged), ERROR, "{needle}");
+        log.expect(&needle);
+        assert!(
+            !log.messages().iter().any(|m| m.contains("panic")),
+            "{:?}",
+            log.messages()
+        );
+        assert_eq!(fmu.outputs(), before);
+    }
+    // Not in Error (a caught panic would have put it there): it steps on.
+    assert_eq!(fmu.load_step(1), OK);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -877,3 +877,187 @@ fn a_closed_output_pipe_is_not_a_panic() {
         text(&out.stderr)
     );
 }
+
+/// A flat 60 x 60 sheet held everywhere under a zero pressure: every row converges at once and
+/// writes a 0.85 MB .vtu (3721 nodes), so a run of `solve --vtk` spends its time writing.
+const SHEET: &str = r#"{
+  "format": 1, "name": "Sheet",
+  "geometry": {"generators": [{"kind": "rectangle", "name": "s", "origin": [0, 0, 0],
+                               "size": [1, 1], "divisions": [60, 60]}]},
+  "membranes": [{"name": "m", "triangles": "s", "thickness": 0.001,
+                 "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}],
+  "supports": [{"nodes": "s.all", "fix": ["x", "y", "z"]}],
+  "inputs": [{"name": "p", "load": {"kind": "pressure", "membrane": "m"}}],
+  "outputs": [{"name": "w", "probe": {"kind": "displacement", "node": "s.center", "component": "z"}}]
+}"#;
+
+/// Issue 28: what a writer killed mid-series leaves (SIGKILL: nothing of the process runs
+/// afterwards) is gone after the next run. The series is killed after 1, 3 and 5 rows; each
+/// time the next `solve --vtk` into the same directory (another scene) removes every
+/// `.<name>.<pid>.partial` of a process that no longer runs, the killed one's included, and
+/// keeps one of a running process (this test's) and other files. Only complete rows are left.
+#[test]
+fn a_killed_writer_leaves_no_partial_file_after_the_next_run() {
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let dir = scratch("killed-writer");
+    let scene = write(&dir, "sheet.json", SHEET);
+    let mut table = String::from("time,p\n");
+    for k in 0..40 {
+        table.push_str(&format!("{k},0\n"));
+    }
+    let loads = write(&dir, "loads.csv", &table);
+    let tiny = write(&dir, "tiny.json", TINY);
+    let tiny_loads = write(&dir, "tiny.csv", "time,F\n0,0\n1,10\n");
+    let out = dir.join("series");
+    let running = format!(".Sheet_0099.vtu.{}.partial", std::process::id());
+    let mut left_by_kills = 0;
+    for rows_before_kill in [1, 3, 5] {
+        let _ = std::fs::remove_dir_all(&out);
+        let mut child = Command::new(VELARIUM)
+            .args(["solve", s(&scene), "--loads", s(&loads), "--vtk", s(&out)])
+            .args(["--quiet"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let killed = child.id();
+        let start = Instant::now();
+        while listing(&out).iter().filter(|n| n.ends_with(".vtu")).count() < rows_before_kill {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "finished before the kill"
+            );
+            assert!(start.elapsed() < Duration::from_secs(120));
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        // A partial as the kill may leave it (written, not yet renamed), one of a running
+        // process, and a file of another pattern.
+        let stale = format!(".Sheet_0098.vtu.{killed}.partial");
+        for name in [&stale, &running, &".notes.partial".to_string()] {
+            std::fs::write(out.join(name), "truncated").unwrap();
+        }
+        let before = listing(&out);
+        left_by_kills += before
+            .iter()
+            .filter(|n| n.ends_with(&format!(".{killed}.partial")) && **n != stale)
+            .count();
+        assert!(!before.contains(&"Sheet.pvd".to_string()), "{before:?}");
+        let run = velarium(&[
+            "solve",
+            s(&tiny),
+            "--loads",
+            s(&tiny_loads),
+            "--vtk",
+            s(&out),
+        ]);
+        assert!(run.status.success(), "{}", text(&run.stderr));
+        let after = listing(&out);
+        assert!(
+            !after
+                .iter()
+                .any(|n| n.ends_with(&format!(".{killed}.partial"))),
+            "{after:?}"
+        );
+        assert!(after.contains(&running) && after.contains(&".notes.partial".to_string()));
+        assert!(after.contains(&"TinyCable.pvd".to_string()), "{after:?}");
+        for row in after.iter().filter(|n| n.starts_with("Sheet_")) {
+            let text = std::fs::read_to_string(out.join(row)).unwrap();
+            assert!(
+                text.trim_end().ends_with("</VTKFile>"),
+                "{row} is not whole"
+            );
+        }
+    }
+    println!("partials left by the 3 kills themselves: {left_by_kills}");
+}
+
+/// Issue 28: a missing top-level field is named by its path, like every other problem (serde
+/// named it without a path, and only the first of the two): `name` alone, and `format` and
+/// `name` together, each with what it must hold; the rest of the scene is still read.
+#[test]
+fn missing_top_level_fields_are_named() {
+    let dir = scratch("missing-top-level");
+    for (scene, want) in [
+        (
+            r#"{"format": 1}"#,
+            &["name: missing: a scene needs \"name\", the model name, a C identifier"][..],
+        ),
+        (
+            r#"{}"#,
+            &[
+                "format: missing: a scene needs \"format\", the scene format version, 1",
+                "name: missing: a scene needs \"name\"",
+            ][..],
+        ),
+        (
+            r#"{"format": 1, "description": 5}"#,
+            &["name: missing", "description: invalid type: integer `5`"][..],
+        ),
+    ] {
+        let path = write(&dir, "scene.json", scene);
+        for command in ["check", "describe", "pack"] {
+            let run = velarium(
+                &[command, s(&path), "--out", s(&dir)][..if command == "pack" { 4 } else { 2 }],
+            );
+            assert_eq!(run.status.code(), Some(1), "{command} {scene}");
+            let said = text(&run.stdout) + &text(&run.stderr);
+            for w in want {
+                assert!(said.contains(w), "{command} {scene}: {w:?} not in {said}");
+            }
+        }
+    }
+}
+
+/// Issue 28: form finding names a triangle by its id in the scene's mesh and its membrane
+/// group, not by its place in form finding's own list (group by group). The sail split into
+/// two groups, its northern half first, with a corner pulled 1e6 m up: the triangle that
+/// collapses is mesh triangle 8 (nodes [4, 5, 38]) of the second group, membranes[1]; before,
+/// the message said "triangle 1032" (1024 northern triangles + 8).
+#[test]
+fn formfind_names_the_scenes_triangle_and_group() {
+    let dir = scratch("formfind-names");
+    let sail = format!(
+        "{}/modelDescription/FourPointSail/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sail).unwrap()).unwrap();
+    scene["geometry"]["triangle_sets"] = serde_json::json!({
+        "north": (1024..2048).collect::<Vec<_>>(),
+        "south": (0..1024).collect::<Vec<_>>()
+    });
+    let fabric = scene["membranes"][0].clone();
+    let mut north = fabric.clone();
+    north["name"] = "north".into();
+    north["triangles"] = "north".into();
+    let mut south = fabric;
+    south["name"] = "south".into();
+    south["triangles"] = "south".into();
+    scene["membranes"] = serde_json::json!([north, south]);
+    scene["inputs"][0]["load"]["membrane"] = "south".into();
+    for output in scene["outputs"].as_array_mut().unwrap() {
+        if output["probe"].get("membrane").is_some() {
+            output["probe"]["membrane"] = "south".into();
+        }
+    }
+    scene["form_finding"]["place"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({"node": 5, "position": [5, 5, 1e6]}));
+    let path = write(&dir, "split.json", &scene.to_string());
+    let check = velarium(&["check", s(&path)]);
+    assert!(check.status.success(), "{}", text(&check.stdout));
+    let out = dir.join("found.json");
+    let run = velarium(&["formfind", s(&path), "--out", s(&out), "--quiet"]);
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = text(&run.stderr);
+    println!("{stderr}");
+    assert!(
+        stderr.contains("triangle 8 of membranes[1] (nodes [4, 5, 38])"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}

@@ -185,3 +185,13 @@ fn a_bad_setting_is_named_beside_a_bad_mesh() {
         "{p:?}"
     );
 }
+
+/// The scene layer's bound of `solver.threads` (validation and the schema) is the solver's
+/// pool bound, which the scene layer does not import.
+#[test]
+fn the_thread_bound_is_the_solvers() {
+    assert_eq!(
+        velarium::scene::validate::MAX_SOLVER_THREADS,
+        velarium::solver::threads::MAX_THREADS
+    );
+}
