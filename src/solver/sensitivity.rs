@@ -486,7 +486,14 @@ impl Solver {
                     column[i + 1] = -s * a + c * b;
                 }
                 let (a, b) = (column[k], column[k + 1]);
-                let radius = a.hypot(b);
+                // Not f64::hypot: it needs glibc 2.35, above the FMU baseline. Scaled by the
+                // larger magnitude so the squares neither overflow nor underflow.
+                let big = a.abs().max(b.abs());
+                let radius = if big == 0.0 {
+                    0.0
+                } else {
+                    big * ((a / big).powi(2) + (b / big).powi(2)).sqrt()
+                };
                 let (c, s) = if radius == 0.0 {
                     (1.0, 0.0)
                 } else {
