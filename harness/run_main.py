@@ -114,19 +114,22 @@ def plot_3d(vtu: Path, path: Path, title: str) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import meshio
     from matplotlib.patches import Patch
     from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
-    mesh = meshio.read(vtu)
-    points = mesh.points
-    fields = {name: dict(zip((b.type for b in mesh.cells), (np.asarray(d).reshape(len(d), -1).squeeze(axis=1) if np.asarray(d).ndim > 1 and np.asarray(d).shape[1] == 1 else np.asarray(d) for d in data))) for name, data in mesh.cell_data.items()}
-    tris = next((b.data for b in mesh.cells if b.type == "triangle"), np.zeros((0, 3), int))
-    lines = next((b.data for b in mesh.cells if b.type == "line"), np.zeros((0, 2), int))
+    import fmu_vtk
+
+    mesh = fmu_vtk.read_vtu(vtu)
+    points = mesh.points + mesh.point_data["displacement_m"]  # the file's points are the reference
+    is_tri, is_line = mesh.types == 5, mesh.types == 3
+    fields = {name: {"triangle": values[is_tri]} for name, values in mesh.cell_data.items()}
+    # Triangles come first, then the cable segments (docs/scenes.md).
+    tris = mesh.connectivity[: 3 * is_tri.sum()].reshape(-1, 3)
+    lines = mesh.connectivity[3 * is_tri.sum():].reshape(-1, 2) if is_line.any() else np.zeros((0, 2), int)
     fig = plt.figure(figsize=(13, 5.6))
     span = np.ptp(points, axis=0).max() or 1.0
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
-    panels = [("wrinkle state", None), ("major principal stress [Pa]", "sigma_max")]
+    panels = [("wrinkle state", None), ("major principal stress [Pa]", "sigma_max_Pa")]
     for k, (label, field) in enumerate(panels):
         ax = fig.add_subplot(1, 2, k + 1, projection="3d")
         if len(tris):
