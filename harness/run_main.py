@@ -16,8 +16,11 @@ of any scene or FMU (README's tour, "Your own scene"; docs/harness.md, "Running 
      <Name>.png           load-response plot (every output against the first input)
      <Name>_3d.png        the deformed shape at the last load in 3-D, coloured by wrinkle
                           state and by the major principal stress, cables drawn
-     vtk/<Name>.pvd       the ParaView series (vtk/<Name>_NNNN.vtu per load row), written by
-                          `velarium solve --vtk` on the same table; solve.csv and
+     vtk/<Name>.pvd       the ParaView series (vtk/<Name>_NNNN.vtu per row): from the FMU's
+                          own rows when its array outputs place every node and give the
+                          principal stresses and wrinkle states (harness/fmu_vtk.py, no
+                          second solve; one file per fmpy row), else written by
+                          `velarium solve --vtk` on the same table, with solve.csv and
                           elements.csv beside it
 
 fmpy sets u(t_k) before DoStep(t_k, h) and records after it, so the row at t_{k+1} is the
@@ -161,6 +164,23 @@ def plot_3d(vtu: Path, path: Path, title: str) -> None:
     plt.close(fig)
 
 
+def series_of_rows(fmu: Path, rows: np.ndarray, directory: Path) -> Path | None:
+    """The ParaView series of fmpy's rows (harness/fmu_vtk.py) if the FMU's array outputs place
+    every node and give principal stresses and wrinkle states (what plot_3d draws); None
+    otherwise."""
+    import fmu_vtk
+
+    mesh = fmu_vtk.mesh_of(fmu)
+    kinds = {key.partition(":")[0] for key in mesh.field_data}
+    placed = set()
+    for key, points in mesh.field_data.items():
+        if key.startswith("displacement_field:"):
+            placed.update(int(p) for p in points)
+    if len(placed) < len(mesh.points) or not {"principal_stresses", "wrinkle_states"} <= kinds:
+        return None
+    return fmu_vtk.write_series(fmu, rows, directory)
+
+
 def run_any(target: Path, out: Path | None, binary: Path) -> Path:
     """Run a scene or an FMU (see the module's docstring, point 3); returns the output directory."""
     fmu = vr.fmu_for(target, binary=binary)
@@ -178,8 +198,9 @@ def run_any(target: Path, out: Path | None, binary: Path) -> Path:
     print(f"\n{name}: {md.description}\n")
     print_table(rows, extended, md)
     plot(rows, extended, md, out / f"{name}.png")
-    scene = vr.scene_of(fmu, out)
-    pvd = vr.write_vtk_series(scene, table, out / "vtk", binary)
+    pvd = series_of_rows(fmu, rows, out / "vtk")
+    if pvd is None:
+        pvd = vr.write_vtk_series(vr.scene_of(fmu, out), table, out / "vtk", binary)
     series = vr.series_files(pvd)
     last_time, last_vtu = series[-1]
     loads = ", ".join(f"{v.name} = {format_cell(table[v.name][-1])} {unit(md, v.name)}" for v in vr.inputs(md))

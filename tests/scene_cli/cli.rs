@@ -218,6 +218,7 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
             "modelDescription.xml",
             "binaries/linux64/TinyCable.so",
             "resources/scene.json",
+            "resources/mesh.vtu",
             "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
             "extra/org.fmi-standard.fmi-ls-ref/TinyCable_ref.csv"
         ]
@@ -242,6 +243,15 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
     );
     let shipped = Scene::from_json(&text(&read(&mut zip, "resources/scene.json"))).unwrap();
     assert_eq!(shipped, Scene::from_json(TINY).unwrap());
+    // The reference mesh: 3 points, 2 cable segments, no array output to place (its arrays
+    // are read back by VTK in harness/test_fmu_vtk.py).
+    let mesh = read(&mut zip, "resources/mesh.vtu");
+    let end = mesh.windows(5).position(|w| w == b"\n   _").unwrap();
+    let head = String::from_utf8_lossy(&mesh[..end]);
+    assert!(
+        head.contains("NumberOfPoints=\"3\" NumberOfCells=\"2\"") && !head.contains("FieldData"),
+        "{head}"
+    );
     let xml = text(&read(&mut zip, "modelDescription.xml"));
     let described = velarium(&["describe", s(&scene)]);
     assert_eq!(
@@ -259,6 +269,7 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
             "modelDescription.xml",
             "binaries/x86_64-linux/TinyCable.so",
             "resources/scene.json",
+            "resources/mesh.vtu",
             "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
             "extra/org.fmi-standard.fmi-ls-ref/TinyCable_ref.csv"
         ]
@@ -273,6 +284,11 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
     );
     let shipped = Scene::from_json(&text(&read(&mut zip, "resources/scene.json"))).unwrap();
     assert_eq!(shipped, Scene::from_json(TINY).unwrap());
+    assert_eq!(
+        read(&mut zip, "resources/mesh.vtu"),
+        mesh,
+        "the same mesh in both archives"
+    );
     let engine = velarium::Engine::try_new(shipped).unwrap();
     let xml = text(&read(&mut zip, "modelDescription.xml"));
     assert_eq!(
