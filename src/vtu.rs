@@ -624,4 +624,126 @@ mod tests {
             assert_eq!(back, data, "{n}");
         }
     }
+
+    /// Every `DataArray` of a document as (name, values as f64): the binary one decoded from
+    /// its offsets and blocks, the ASCII one parsed from its text.
+    fn arrays(doc: &[u8]) -> Vec<(String, Vec<f64>)> {
+        let start = doc
+            .windows(5)
+            .position(|w| w == b"\n   _")
+            .map_or(doc.len(), |p| p + 5);
+        let xml = String::from_utf8_lossy(&doc[..start]).into_owned();
+        let appended = &doc[start.min(doc.len())..];
+        let attr = |tag: &str, key: &str| -> Option<String> {
+            let k = tag.find(&format!(" {key}=\""))? + key.len() + 3;
+            Some(tag[k..k + tag[k..].find('"')?].to_string())
+        };
+        let mut out = Vec::new();
+        for piece in xml.split("<DataArray").skip(1) {
+            let tag = &piece[..piece.find('>').unwrap()];
+            let name = attr(tag, "Name").unwrap();
+            let ty = attr(tag, "type").unwrap();
+            let values: Vec<f64> = match attr(tag, "offset") {
+                Some(offset) => {
+                    let at: usize = offset.parse().unwrap();
+                    let word = |k: usize| {
+                        u64::from_le_bytes(appended[at + 8 * k..at + 8 * k + 8].try_into().unwrap())
+                            as usize
+                    };
+                    let mut next = at + 8 * (3 + word(0));
+                    let mut bytes = Vec::new();
+                    for b in 0..word(0) {
+                        flate2::read::ZlibDecoder::new(&appended[next..next + word(3 + b)])
+                            .read_to_end(&mut bytes)
+                            .unwrap();
+                        next += word(3 + b);
+                    }
+                    let size = match ty.as_str() {
+                        "Float64" | "Int64" => 8,
+                        "Int32" => 4,
+                        _ => 1,
+                    };
+                    bytes
+                        .chunks(size)
+                        .map(|c| match ty.as_str() {
+                            "Float64" => f64::from_le_bytes(c.try_into().unwrap()),
+                            "Int64" => i64::from_le_bytes(c.try_into().unwrap()) as f64,
+                            "Int32" => i32::from_le_bytes(c.try_into().unwrap()) as f64,
+                            _ => c[0] as f64,
+                        })
+                        .collect()
+                }
+                None => piece[piece.find('>').unwrap() + 1..piece.find("</DataArray>").unwrap()]
+                    .split_whitespace()
+                    .map(|s| s.parse().unwrap())
+                    .collect(),
+            };
+            out.push((name, values));
+        }
+        out
+    }
+
+    /// The two encodings carry the same values, bit for bit: NaN, infinities, -0, the
+    /// extremes of f64, negative integers, UInt8.
+    #[test]
+    fn binary_and_ascii_carry_the_same_values() {
+        let floats = vec![
+            0.1,
+            -0.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+            1e-300 / 3.0,
+            -2.5e7,
+        ];
+        let grid = Grid {
+            points: (0..9).map(|k| k as f64 / 7.0).collect(),
+            connectivity: vec![0, 1, 2, 1, 2],
+            offsets: vec![3, 5],
+            types: vec![5, 3],
+            field_data: vec![DataArray::new(
+                "a:b",
+                1,
+                Values::Int64(vec![-1, i64::MAX, 0]),
+            )],
+            point_data: vec![DataArray::new(
+                "displacement_m",
+                3,
+                Values::Float64(floats.clone()),
+            )],
+            cell_data: vec![
+                DataArray::new("kind", 1, Values::Int32(vec![0, -1])),
+                DataArray::new("u8", 1, Values::UInt8(vec![0, 255])),
+            ],
+        };
+        let (binary, ascii) = (arrays(&grid.binary()), arrays(grid.ascii().as_bytes()));
+        assert_eq!(binary.len(), 8);
+        let names: Vec<&str> = binary.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "a:b",
+                "Points",
+                "connectivity",
+                "offsets",
+                "types",
+                "displacement_m",
+                "kind",
+                "u8"
+            ]
+        );
+        for ((n1, v1), (n2, v2)) in binary.iter().zip(&ascii) {
+            assert_eq!(n1, n2);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(v1), bits(v2), "{n1}");
+        }
+        let displacement = &binary[5].1;
+        assert_eq!(
+            displacement.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            floats.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
+        assert_eq!(binary[7].1, [0.0, 255.0]);
+    }
 }
