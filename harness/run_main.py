@@ -16,8 +16,11 @@ of any scene or FMU (README's tour, "Your own scene"; docs/harness.md, "Running 
      <Name>.png           load-response plot (every output against the first input)
      <Name>_3d.png        the deformed shape at the last load in 3-D, coloured by wrinkle
                           state and by the major principal stress, cables drawn
-     vtk/<Name>.pvd       the ParaView series (vtk/<Name>_NNNN.vtu per load row), written by
-                          `velarium solve --vtk` on the same table; solve.csv and
+     vtk/<Name>.pvd       the ParaView series (vtk/<Name>_NNNN.vtu per row): from the FMU's
+                          own rows when its array outputs place every node and give the
+                          principal stresses and wrinkle states (harness/fmu_vtk.py, no
+                          second solve; one file per fmpy row), else written by
+                          `velarium solve --vtk` on the same table, with solve.csv and
                           elements.csv beside it
 
 fmpy sets u(t_k) before DoStep(t_k, h) and records after it, so the row at t_{k+1} is the
@@ -114,19 +117,22 @@ def plot_3d(vtu: Path, path: Path, title: str) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import meshio
     from matplotlib.patches import Patch
     from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
-    mesh = meshio.read(vtu)
-    points = mesh.points
-    fields = {name: dict(zip((b.type for b in mesh.cells), (np.asarray(d).reshape(len(d), -1).squeeze(axis=1) if np.asarray(d).ndim > 1 and np.asarray(d).shape[1] == 1 else np.asarray(d) for d in data))) for name, data in mesh.cell_data.items()}
-    tris = next((b.data for b in mesh.cells if b.type == "triangle"), np.zeros((0, 3), int))
-    lines = next((b.data for b in mesh.cells if b.type == "line"), np.zeros((0, 2), int))
+    import fmu_vtk
+
+    mesh = fmu_vtk.read_vtu(vtu)
+    points = mesh.points + mesh.point_data["displacement_m"]  # the file's points are the reference
+    is_tri, is_line = mesh.types == 5, mesh.types == 3
+    fields = {name: {"triangle": values[is_tri]} for name, values in mesh.cell_data.items()}
+    # Triangles come first, then the cable segments (docs/scenes.md).
+    tris = mesh.connectivity[: 3 * is_tri.sum()].reshape(-1, 3)
+    lines = mesh.connectivity[3 * is_tri.sum():].reshape(-1, 2) if is_line.any() else np.zeros((0, 2), int)
     fig = plt.figure(figsize=(13, 5.6))
     span = np.ptp(points, axis=0).max() or 1.0
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
-    panels = [("wrinkle state", None), ("major principal stress [Pa]", "sigma_max")]
+    panels = [("wrinkle state", None), ("major principal stress [Pa]", "sigma_max_Pa")]
     for k, (label, field) in enumerate(panels):
         ax = fig.add_subplot(1, 2, k + 1, projection="3d")
         if len(tris):
@@ -158,6 +164,23 @@ def plot_3d(vtu: Path, path: Path, title: str) -> None:
     plt.close(fig)
 
 
+def series_of_rows(fmu: Path, rows: np.ndarray, directory: Path) -> Path | None:
+    """The ParaView series of fmpy's rows (harness/fmu_vtk.py) if the FMU's array outputs place
+    every node and give principal stresses and wrinkle states (what plot_3d draws); None
+    otherwise."""
+    import fmu_vtk
+
+    mesh = fmu_vtk.mesh_of(fmu)
+    kinds = {key.partition(":")[0] for key in mesh.field_data}
+    placed = set()
+    for key, points in mesh.field_data.items():
+        if key.startswith("displacement_field:"):
+            placed.update(int(p) for p in points)
+    if len(placed) < len(mesh.points) or not {"principal_stresses", "wrinkle_states"} <= kinds:
+        return None
+    return fmu_vtk.write_series(fmu, rows, directory)
+
+
 def run_any(target: Path, out: Path | None, binary: Path) -> Path:
     """Run a scene or an FMU (see the module's docstring, point 3); returns the output directory."""
     fmu = vr.fmu_for(target, binary=binary)
@@ -175,8 +198,9 @@ def run_any(target: Path, out: Path | None, binary: Path) -> Path:
     print(f"\n{name}: {md.description}\n")
     print_table(rows, extended, md)
     plot(rows, extended, md, out / f"{name}.png")
-    scene = vr.scene_of(fmu, out)
-    pvd = vr.write_vtk_series(scene, table, out / "vtk", binary)
+    pvd = series_of_rows(fmu, rows, out / "vtk")
+    if pvd is None:
+        pvd = vr.write_vtk_series(vr.scene_of(fmu, out), table, out / "vtk", binary)
     series = vr.series_files(pvd)
     last_time, last_vtu = series[-1]
     loads = ", ".join(f"{v.name} = {format_cell(table[v.name][-1])} {unit(md, v.name)}" for v in vr.inputs(md))

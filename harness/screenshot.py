@@ -2,9 +2,10 @@
 
     .venv/bin/python harness/screenshot.py SERIES.pvd OUT.png [--scalars wrinkle_state] [--row -1]
 
-Draws the deformed membrane of one row (default: the last) coloured by a cell field
-(`wrinkle_state` with taut/wrinkled/slack colours, or any other, e.g. `sigma_max`) and the cables
-as tubes, off screen (no display needed: VTK renders through EGL/OSMesa when there is no X
+Draws the deformed membrane of one row (default: the last; the file's points are the reference
+positions, warped here by `displacement_m` at scale 1 as ParaView's Warp By Vector does) coloured
+by a cell field (`wrinkle_state` with taut/wrinkled/slack colours, or any other, e.g.
+`sigma_max_Pa`) and the cables as tubes, off screen (no display needed: VTK renders through EGL/OSMesa when there is no X
 server; harness/setup.sh installs the system GL libraries if they are missing).
 """
 
@@ -28,7 +29,7 @@ def screenshot(source: Path, out: Path, scalars: str = "wrinkle_state", row: int
 
     pv.OFF_SCREEN = True
     vtu = vr.series_files(source)[row][1] if source.suffix == ".pvd" else source
-    grid = pv.read(vtu)
+    grid = pv.read(vtu).warp_by_vector("displacement_m", factor=1.0)
     membrane = grid.extract_cells(np.flatnonzero(grid.cell_data["kind"] == 0))
     cables = grid.extract_cells(np.flatnonzero(grid.cell_data["kind"] == 1))
     plotter = pv.Plotter(off_screen=True, window_size=(1200, 800))

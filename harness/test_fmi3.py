@@ -73,6 +73,7 @@ def test_archive_layout_and_binary(fmu3, fmu, md3, velarium):
         "modelDescription.xml",
         f"binaries/x86_64-linux/{identifier}.so",
         "resources/scene.json",
+        "resources/mesh.vtu",
         "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
         f"extra/org.fmi-standard.fmi-ls-ref/{identifier}_ref.csv",
     ]
@@ -80,6 +81,7 @@ def test_archive_layout_and_binary(fmu3, fmu, md3, velarium):
     library = velarium.with_name("libvelarium.so")
     assert vr.fmu_member(fmu3, f"binaries/x86_64-linux/{identifier}.so") == library.read_bytes()
     assert vr.fmu_member(fmu3, "resources/scene.json") == vr.fmu_member(fmu, "resources/scene.json")
+    assert vr.fmu_member(fmu3, "resources/mesh.vtu") == vr.fmu_member(fmu, "resources/mesh.vtu")
     # fmpy names the FMI 3 platform x86_64-linux "linux64" too.
     assert fmpy.supported_platforms(str(fmu3)) == ["linux64"]
 

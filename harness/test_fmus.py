@@ -51,6 +51,7 @@ def test_archive_layout_and_contents(fmu, scene, model_description, velarium):
         "modelDescription.xml",
         f"binaries/linux64/{identifier}.so",
         "resources/scene.json",
+        "resources/mesh.vtu",
         "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
         f"extra/org.fmi-standard.fmi-ls-ref/{identifier}_ref.csv",
     ]

@@ -1,8 +1,10 @@
 """The ParaView series of `velarium solve --vtk DIR` read back by two independent readers
-(meshio, pyvista) and checked field by field against `velarium solve`'s own CSV outputs and its
---elements CSV of the same run. Every comparison is exact (both sides are the same f64 written
-in shortest round-trip form) unless a tolerance is given: quantities the test recomputes from
-the written points (lengths, areas, fractions) agree to 1e-12 relative.
+(VTK through pyvista, and harness/fmu_vtk.py's numpy reader) and checked field by field against `velarium solve`'s own CSV outputs and
+its --elements CSV of the same run. The files hold zlib-compressed binary f64, and the CSVs
+shortest round-trip text, so every comparison is exact unless a tolerance is given: quantities
+the test recomputes from the points (lengths, areas, fractions) agree to 1e-12 relative. The
+points are the reference positions and `displacement_m` warps them (ParaView's Warp By Vector,
+here pyvista's `warp_by_vector`) onto the deformed ones of the --elements CSV, exactly.
 
 Scenes: WrinkledShear (2400 triangles, taut/wrinkled states, reactions), SlidingCable (cables
 through a frictionless sleeve: per-segment tensions and slips), SleeveCable (rubber sheet with a
@@ -15,10 +17,10 @@ import shutil
 import subprocess
 from pathlib import Path
 
-import meshio
 import numpy as np
 import pytest
 
+import fmu_vtk
 import velarium_run as vr
 
 pyvista = pytest.importorskip("pyvista")
@@ -53,25 +55,23 @@ def solve_with_vtk(name: str, tmp: Path):
     return rows, elements, pvd, series
 
 
-def cell_fields(mesh: meshio.Mesh) -> dict[str, np.ndarray]:
-    """meshio's per-block cell data joined in cell order (triangles, then lines)."""
-    return {name: np.concatenate([np.asarray(d).reshape(len(d), -1).squeeze() if np.asarray(d).ndim > 1 and np.asarray(d).shape[1] == 1 else np.asarray(d) for d in blocks]) for name, blocks in mesh.cell_data.items()}
-
-
 def read_both(vtu: Path):
-    """(points, cells by type, point data, cell data) from meshio, checked equal to pyvista's."""
-    m = meshio.read(vtu)
-    cells = {b.type: b.data for b in m.cells}
-    cd = cell_fields(m)
+    """(points, cells by type, point data, cell data) from VTK (pyvista), checked equal to
+    harness/fmu_vtk.py's own reader (numpy and zlib, no VTK)."""
     g = pyvista.read(vtu)
+    m = fmu_vtk.read_vtu(vtu)
     assert np.array_equal(g.points, m.points)
+    assert np.array_equal(g.celltypes, m.types)
+    cells = {{5: "triangle", 3: "line"}[t]: c for t, c in g.cells_dict.items()}
     assert g.n_cells == sum(len(c) for c in cells.values())
+    cd = {name: np.asarray(g.cell_data[name]) for name in g.cell_data}
+    pd = {name: np.asarray(g.point_data[name]) for name in g.point_data}
+    assert sorted(cd) == sorted(m.cell_data) and sorted(pd) == sorted(m.point_data)
     for name, values in cd.items():
-        assert np.array_equal(np.asarray(g.cell_data[name]).reshape(values.shape), values, equal_nan=True), name
-    for name, values in m.point_data.items():
-        assert np.array_equal(np.asarray(g.point_data[name]).reshape(np.shape(values)), values), name
-    pd = {name: np.asarray(v)[:, 0] if np.ndim(v) == 2 and np.shape(v)[1] == 1 else np.asarray(v) for name, v in m.point_data.items()}
-    return m.points, cells, pd, cd
+        assert np.array_equal(m.cell_data[name], values, equal_nan=True), name
+    for name, values in pd.items():
+        assert np.array_equal(m.point_data[name], values), name
+    return g.points, cells, pd, cd
 
 
 def lines_of(cd: dict, cable: int) -> np.ndarray:
@@ -86,7 +86,11 @@ def test_pvd_is_a_time_series_pyvista_reads(tmp_path):
     assert list(reader.time_values) == list(rows["time"])
     reader.set_active_time_value(reader.time_values[-1])
     last = reader.read()[0]
-    assert np.array_equal(last.points, meshio.read(series[-1][1]).points)
+    assert np.array_equal(last.points, fmu_vtk.read_vtu(series[-1][1]).points)
+    for time, vtu in series:
+        head = vtu.read_bytes()[:400].decode("ascii", "replace")
+        assert 'compressor="vtkZLibDataCompressor"' in head and 'header_type="UInt64"' in head
+        assert list(pyvista.read(vtu).field_data["TimeValue"]) == [time]
 
 
 def test_membrane_fields_match_the_elements_csv(tmp_path):
@@ -99,21 +103,26 @@ def test_membrane_fields_match_the_elements_csv(tmp_path):
         assert len(e) == len(tri)
         order = np.argsort(cd["id"][: len(tri)])
         assert np.array_equal(cd["id"][: len(tri)][order], e["triangle"].astype(int))
-        # Vertices (current positions), state, principal stresses, tension direction.
+        # Vertices: reference points warped by the displacement (VTK's own Warp By Vector) are
+        # the current positions of the CSV; then state, principal stresses, tension direction.
+        warped = pyvista.read(vtu).warp_by_vector("displacement_m", factor=1.0).points
+        assert np.array_equal(warped, points + pd["displacement_m"])
         for v in range(3):
-            assert np.array_equal(points[tri[order, v]], np.column_stack([e[f"x{v + 1}"], e[f"y{v + 1}"], e[f"z{v + 1}"]]))
+            assert np.array_equal(warped[tri[order, v]], np.column_stack([e[f"x{v + 1}"], e[f"y{v + 1}"], e[f"z{v + 1}"]]))
         assert np.array_equal(cd["wrinkle_state"][order], e["state"].astype(int))
-        assert np.array_equal(cd["sigma_max"][order], e["sigma_max"])
-        assert np.array_equal(cd["sigma_min"][order], e["sigma_min"])
+        assert np.array_equal(cd["sigma_max_Pa"][order], e["sigma_max"])
+        assert np.array_equal(cd["sigma_min_Pa"][order], e["sigma_min"])
         assert np.array_equal(cd["tension_direction"][order], np.column_stack([e["tension_x"], e["tension_y"], e["tension_z"]]))
-        # The reference configuration (points - displacement) does not change from row to row.
-        ref = points - pd["displacement"]
+        # The points are the reference configuration: the same in every row, and the
+        # deformation is not zero after the first.
         if reference is None:
-            reference = ref
-        assert np.allclose(ref, reference, rtol=0, atol=1e-15)
+            reference = points
+        assert np.array_equal(points, reference)
+        assert k == 0 or np.abs(pd["displacement_m"]).max() > 1e-4
+        ref = points
         # The CSV outputs of the same row.
         row = rows[k]
-        assert np.max(cd["sigma_max"][: len(tri)]) == row["max_principal_stress"]
+        assert np.max(cd["sigma_max_Pa"][: len(tri)]) == row["max_principal_stress"]
         assert cd["wrinkle_state"][np.flatnonzero(cd["id"][: len(tri)] == 494)[0]] == row["center_state"]
         a = np.cross(ref[tri[:, 1]] - ref[tri[:, 0]], ref[tri[:, 2]] - ref[tri[:, 0]])
         area = 0.5 * np.linalg.norm(a, axis=1)
@@ -126,7 +135,8 @@ def test_membrane_fields_match_the_elements_csv(tmp_path):
 def test_cable_fields_match_the_csv_outputs(tmp_path):
     rows, _, _, series = solve_with_vtk("SlidingCable", tmp_path)
     for k, (_, vtu) in enumerate(series):
-        points, cells, pd, cd = read_both(vtu)
+        reference, cells, pd, cd = read_both(vtu)
+        points = reference + pd["displacement_m"]
         lines = cells["line"]
         ntri = len(cells.get("triangle", []))
         row = rows[k]
@@ -134,39 +144,40 @@ def test_cable_fields_match_the_csv_outputs(tmp_path):
         assert len(cable) == 4
         segs = lines[cable - ntri]
         for s, name in enumerate(["T_A7", "T_78", "T_89", "T_9B"]):
-            assert cd["cable_tension"][cable[s]] == row[name], name
+            assert cd["cable_tension_N"][cable[s]] == row[name], name
         # Sleeve points 7, 8, 9 are the ends of segments 0, 1, 2: cable_slip there is the probe.
         for s, name in enumerate(["slip7", "slip8", "slip9"]):
-            assert pd["cable_slip"][segs[s, 1]] == row[name], name
+            assert pd["cable_slip_m"][segs[s, 1]] == row[name], name
         # A segment's slip (material that flowed in) is s_end - s_start = -slip[end] + slip[start].
-        slip = pd["cable_slip"]
-        assert np.allclose(cd["slip"][cable], slip[segs[:, 0]] - slip[segs[:, 1]], rtol=0, atol=1e-15)
+        slip = pd["cable_slip_m"]
+        assert np.allclose(cd["slip_m"][cable], slip[segs[:, 0]] - slip[segs[:, 1]], rtol=0, atol=1e-15)
         length = np.linalg.norm(points[segs[:, 1]] - points[segs[:, 0]], axis=1)
         assert length.sum() == pytest.approx(row["cable_length"], rel=1e-12)
         assert length[1:3].sum() == pytest.approx(row["span_7_9"], rel=1e-12)
         axis = (points[segs[:, 1]] - points[segs[:, 0]]) / length[:, None]
         assert np.allclose(cd["tension_direction"][cable], axis, rtol=0, atol=1e-15)
-        assert np.all(np.isnan(cd["sigma_max"][cable])) and np.all(cd["wrinkle_state"][cable] == -1)
+        assert np.all(np.isnan(cd["sigma_max_Pa"][cable])) and np.all(cd["wrinkle_state"][cable] == -1)
     assert abs(rows["slip7"][-1]) > 1e-3, "the test must see slip"
 
 
 def test_sleeve_in_a_sheet(tmp_path):
     rows, elements, _, series = solve_with_vtk("SleeveCable", tmp_path)
     for k, (time, vtu) in enumerate(series):
-        points, cells, pd, cd = read_both(vtu)
+        reference, cells, pd, cd = read_both(vtu)
+        points = reference + pd["displacement_m"]
         lines = cells["line"]
         ntri = len(cells["triangle"])
         cable = lines_of(cd, 0)
         segs = lines[cable - ntri]
         row = rows[k]
-        assert cd["cable_tension"][cable[0]] == row["tension_start"]
-        assert cd["cable_tension"][cable[8]] == row["tension_end"]
+        assert cd["cable_tension_N"][cable[0]] == row["tension_start"]
+        assert cd["cable_tension_N"][cable[8]] == row["tension_end"]
         # The last sleeve point is where segment 8 starts (the cable leaves the sleeve at A).
-        assert pd["cable_slip"][segs[8, 0]] == row["end_slip"]
+        assert pd["cable_slip_m"][segs[8, 0]] == row["end_slip"]
         length = np.linalg.norm(points[segs[:, 1]] - points[segs[:, 0]], axis=1)
         assert length.sum() == pytest.approx(row["cable_length"], rel=1e-12)
         e = elements[elements["time"] == time]
-        assert np.array_equal(np.sort(cd["sigma_max"][:ntri]), np.sort(e["sigma_max"]))
+        assert np.array_equal(np.sort(cd["sigma_max_Pa"][:ntri]), np.sort(e["sigma_max"]))
     assert rows["end_slip"][-1] != 0.0
 
 

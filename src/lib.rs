@@ -19,6 +19,7 @@
 //!            log categories). Never imports fmi
 //! fmi        thin C ABI adapter over the engine (the only unsafe);  src/fmi/
 //!            implements what the description declares
+//! vtu        VTK XML grids of a state and of the reference mesh     src/vtu.rs
 //! pack, history, vtk   FMU archives, load histories, ParaView series (CLI)
 //! ```
 //! tests/guards/architecture.rs checks this order on the source (no exception) and that no two
@@ -47,6 +48,7 @@ pub mod scene;
 pub mod solver;
 pub mod variables;
 pub mod vtk;
+pub mod vtu;
 
 pub use engine::{Engine, EngineState};
 pub use error::Error;

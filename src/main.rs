@@ -90,9 +90,11 @@ enum Command {
         /// principal stresses and vertices (plot with harness/plot_elements.py).
         #[arg(long, value_name = "ELEMENTS.csv")]
         elements: Option<String>,
-        /// Write a ParaView series into DIR: <name>_NNNN.vtu per converged load row (deformed
-        /// mesh and cables; displacement, stresses, wrinkle state, tension direction, cable
-        /// tension, slip) and <name>.pvd ordering them in time. DIR is created if missing.
+        /// Write a ParaView series into DIR: <name>_NNNN.vtu per converged load row (mesh and
+        /// cables at their reference positions with displacement_m, so Warp By Vector shows
+        /// the deformed shape; stresses, wrinkle state, tension direction, cable tension, slip;
+        /// zlib-compressed binary) and <name>.pvd ordering them in time. DIR is created if
+        /// missing.
         #[arg(long, value_name = "DIR")]
         vtk: Option<String>,
         /// No progress line on stderr.

@@ -6,11 +6,14 @@
 //!   modelDescription.xml            crate::description, generated from the variable table
 //!   binaries/linux64/<Name>.so      a copy of the built cdylib libvelarium.so
 //!   resources/scene.json            the scene, re-serialized with Scene::to_json
+//!   resources/mesh.vtu              the reference mesh and where the rows of the array
+//!                                   outputs go on it (crate::vtu::Grid::mesh), so that a
+//!                                   master's outputs can be drawn without solving again
 //!
 //! <Name>_fmi3.fmu (same conventions)
 //!   modelDescription.xml            crate::description3 (fmiVersion 3.0)
 //!   binaries/x86_64-linux/<Name>.so the same library (it exports fmi2* and fmi3* functions)
-//!   resources/scene.json
+//!   resources/scene.json, resources/mesh.vtu
 //! ```
 //!
 //! Both archives also carry the result of the default experiment as FMI-LS-REF reference
@@ -46,6 +49,9 @@ use zip::{CompressionMethod, DateTime, ZipWriter};
 
 /// The scene's file name inside the FMU's `resources/` folder.
 pub const SCENE_RESOURCE: &str = "scene.json";
+
+/// The reference mesh's file name inside the FMU's `resources/` folder.
+pub const MESH_RESOURCE: &str = "mesh.vtu";
 
 /// The file name cargo gives the cdylib.
 pub const LIBRARY_FILE: &str = "libvelarium.so";
@@ -94,19 +100,25 @@ pub fn pack_versions(
     let binary =
         std::fs::read(library).map_err(|e| io_error(library, "cannot read the FMU library", e))?;
     let reference = reference_result(scene)?;
+    let mesh = crate::vtu::Grid::mesh(&engine).binary();
     let mut archives = Vec::with_capacity(versions.len());
     for &version in versions {
         let description = match version {
             FmiVersion::Fmi2 => model_description(engine.scene(), engine.variables()),
             FmiVersion::Fmi3 => model_description_fmi3(engine.scene(), engine.arrays()),
         };
-        let bytes =
-            archive(scene, version, &description, &binary, reference.as_deref()).map_err(|e| {
-                Error::Io {
-                    path: library.display().to_string(),
-                    message: format!("cannot build the FMU archive: {e}"),
-                }
-            })?;
+        let bytes = archive(
+            scene,
+            version,
+            &description,
+            &binary,
+            reference.as_deref(),
+            &mesh,
+        )
+        .map_err(|e| Error::Io {
+            path: library.display().to_string(),
+            message: format!("cannot build the FMU archive: {e}"),
+        })?;
         archives.push((out_dir.join(version.file_name(scene)), bytes));
     }
     std::fs::create_dir_all(out_dir)
@@ -316,6 +328,7 @@ fn archive(
     description: &str,
     binary: &[u8],
     reference: Option<&str>,
+    mesh: &[u8],
 ) -> zip::result::ZipResult<Vec<u8>> {
     let options = SimpleFileOptions::default()
         .compression_method(CompressionMethod::Deflated)
@@ -335,6 +348,7 @@ fn archive(
             scene_json.as_bytes(),
             0o644,
         ),
+        (format!("resources/{MESH_RESOURCE}"), mesh, 0o644),
     ];
     if let Some(csv) = reference {
         entries.push((

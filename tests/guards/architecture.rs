@@ -31,6 +31,7 @@ const LAYERS: &[&str] = &[
     "description",
     "description3",
     "fmi",
+    "vtu",
     "pack",
     "history",
     "vtk",

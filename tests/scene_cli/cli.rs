@@ -218,6 +218,7 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
             "modelDescription.xml",
             "binaries/linux64/TinyCable.so",
             "resources/scene.json",
+            "resources/mesh.vtu",
             "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
             "extra/org.fmi-standard.fmi-ls-ref/TinyCable_ref.csv"
         ]
@@ -242,6 +243,15 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
     );
     let shipped = Scene::from_json(&text(&read(&mut zip, "resources/scene.json"))).unwrap();
     assert_eq!(shipped, Scene::from_json(TINY).unwrap());
+    // The reference mesh: 3 points, 2 cable segments, no array output to place (its arrays
+    // are read back by VTK in harness/test_fmu_vtk.py).
+    let mesh = read(&mut zip, "resources/mesh.vtu");
+    let end = mesh.windows(5).position(|w| w == b"\n   _").unwrap();
+    let head = String::from_utf8_lossy(&mesh[..end]);
+    assert!(
+        head.contains("NumberOfPoints=\"3\" NumberOfCells=\"2\"") && !head.contains("FieldData"),
+        "{head}"
+    );
     let xml = text(&read(&mut zip, "modelDescription.xml"));
     let described = velarium(&["describe", s(&scene)]);
     assert_eq!(
@@ -259,6 +269,7 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
             "modelDescription.xml",
             "binaries/x86_64-linux/TinyCable.so",
             "resources/scene.json",
+            "resources/mesh.vtu",
             "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
             "extra/org.fmi-standard.fmi-ls-ref/TinyCable_ref.csv"
         ]
@@ -273,6 +284,11 @@ fn pack_twice_gives_identical_bytes_and_the_expected_entries() {
     );
     let shipped = Scene::from_json(&text(&read(&mut zip, "resources/scene.json"))).unwrap();
     assert_eq!(shipped, Scene::from_json(TINY).unwrap());
+    assert_eq!(
+        read(&mut zip, "resources/mesh.vtu"),
+        mesh,
+        "the same mesh in both archives"
+    );
     let engine = velarium::Engine::try_new(shipped).unwrap();
     let xml = text(&read(&mut zip, "modelDescription.xml"));
     assert_eq!(
@@ -638,20 +654,34 @@ fn solve_writes_a_paraview_series() {
             "{pvd}"
         );
     }
-    let vtu = std::fs::read_to_string(out.join("TinyCable_0002.vtu")).unwrap();
+    // Binary appended data after an XML header; the header names the arrays (their values
+    // are read back by VTK itself in harness/test_vtk.py).
+    let vtu = std::fs::read(out.join("TinyCable_0002.vtu")).unwrap();
+    let head = String::from_utf8_lossy(
+        &vtu[..vtu
+            .windows(5)
+            .position(|w| w == b"\n   _")
+            .unwrap_or(vtu.len())],
+    );
     assert!(
-        vtu.contains("NumberOfPoints=\"3\" NumberOfCells=\"2\""),
-        "{vtu}"
+        head.contains("NumberOfPoints=\"3\" NumberOfCells=\"2\""),
+        "{head}"
+    );
+    assert!(
+        head.contains("compressor=\"vtkZLibDataCompressor\""),
+        "{head}"
     );
     for name in [
-        "displacement",
-        "cable_tension",
+        "displacement_m",
+        "cable_tension_N",
         "wrinkle_state",
-        "slip",
-        "sigma_max",
+        "slip_m",
+        "sigma_max_Pa",
+        "TimeValue",
     ] {
-        assert!(vtu.contains(&format!("Name=\"{name}\"")), "{name}");
+        assert!(head.contains(&format!("Name=\"{name}\"")), "{name}");
     }
+    assert!(vtu.ends_with(b"</AppendedData>\n</VTKFile>\n"));
 
     // One Newton iteration per increment and no room to cut back: the step to F = 50 fails.
     let stiff = TINY.replace(
@@ -879,7 +909,8 @@ fn a_closed_output_pipe_is_not_a_panic() {
 }
 
 /// A flat 60 x 60 sheet held everywhere under a zero pressure: every row converges at once and
-/// writes a 0.85 MB .vtu (3721 nodes), so a run of `solve --vtk` spends its time writing.
+/// writes a .vtu of 3721 nodes (81 kB compressed, 0.89 MB as the ASCII files were), about 84 ms
+/// a row on the 2-core sandbox (3.35 s for 40 rows, 2026-11-28), so a kill lands mid-series.
 const SHEET: &str = r#"{
   "format": 1, "name": "Sheet",
   "geometry": {"generators": [{"kind": "rectangle", "name": "s", "origin": [0, 0, 0],
@@ -964,11 +995,8 @@ fn a_killed_writer_leaves_no_partial_file_after_the_next_run() {
         assert!(after.contains(&running) && after.contains(&".notes.partial".to_string()));
         assert!(after.contains(&"TinyCable.pvd".to_string()), "{after:?}");
         for row in after.iter().filter(|n| n.starts_with("Sheet_")) {
-            let text = std::fs::read_to_string(out.join(row)).unwrap();
-            assert!(
-                text.trim_end().ends_with("</VTKFile>"),
-                "{row} is not whole"
-            );
+            let bytes = std::fs::read(out.join(row)).unwrap();
+            assert!(bytes.ends_with(b"</VTKFile>\n"), "{row} is not whole");
         }
     }
     println!("partials left by the 3 kills themselves: {left_by_kills}");

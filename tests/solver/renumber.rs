@@ -199,14 +199,17 @@ fn a_shuffled_disc_gives_the_generated_answers_in_its_own_numbering() {
         velarium::vtk::unstructured_grid(&b),
     );
     let (pa, pb) = (
-        vtk_array(&va, "displacement"),
-        vtk_array(&vb, "displacement"),
+        vtk_array(&va, "displacement_m"),
+        vtk_array(&vb, "displacement_m"),
     );
     let pb_mapped: Vec<f64> = (0..3 * n)
         .map(|d| pb[3 * node_perm[d / 3] + d % 3])
         .collect();
     let dv = rel_diff(&pa, &pb_mapped);
-    let (ca, cb) = (vtk_array(&va, "sigma_max"), vtk_array(&vb, "sigma_max"));
+    let (ca, cb) = (
+        vtk_array(&va, "sigma_max_Pa"),
+        vtk_array(&vb, "sigma_max_Pa"),
+    );
     let cb_mapped: Vec<f64> = (0..nt).map(|k| cb[tri_perm[k]]).collect();
     let dc = rel_diff(&ca, &cb_mapped);
     println!(
@@ -596,8 +599,8 @@ fn a_shuffled_square_with_edge_cables_gives_the_generators_answers_everywhere() 
         velarium::vtk::unstructured_grid(&b),
     );
     let (pa, pb) = (
-        vtk_array(&va, "displacement"),
-        vtk_array(&vb, "displacement"),
+        vtk_array(&va, "displacement_m"),
+        vtk_array(&vb, "displacement_m"),
     );
     let pb_mapped: Vec<f64> = (0..3 * n)
         .map(|d| pb[3 * node_perm[d / 3] + d % 3])
@@ -605,12 +608,15 @@ fn a_shuffled_square_with_edge_cables_gives_the_generators_answers_everywhere() 
     let dv = rel_diff(&pa, &pb_mapped);
     // Cells: the triangles (each under its own id), then the cable segments (the same order
     // in both: a cable runs along its node set).
-    let (ca, cb) = (vtk_array(&va, "sigma_max"), vtk_array(&vb, "sigma_max"));
+    let (ca, cb) = (
+        vtk_array(&va, "sigma_max_Pa"),
+        vtk_array(&vb, "sigma_max_Pa"),
+    );
     let cb_mapped: Vec<f64> = (0..nt).map(|k| cb[tri_perm[k]]).collect();
     let dc = rel_diff(&ca[..nt], &cb_mapped);
     let (ta, tb) = (
-        vtk_array(&va, "cable_tension"),
-        vtk_array(&vb, "cable_tension"),
+        vtk_array(&va, "cable_tension_N"),
+        vtk_array(&vb, "cable_tension_N"),
     );
     assert_eq!(ta.len(), nt + 4 * 57);
     let dt = rel_diff(&ta[nt..], &tb[nt..]);
