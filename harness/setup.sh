@@ -35,3 +35,7 @@ if [ -n "$missing" ] || ! ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1; then
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq libgl1 libegl1 libegl-mesa0 libgl1-mesa-dri libx11-6 libxrender1 >/dev/null
 fi
+
+# The portable FMU library (glibc 2.17, what `velarium pack` ships by default); a notice and the
+# native library when its toolchain cannot be installed (docs/fmu.md, "Portable FMUs").
+bash harness/portable.sh

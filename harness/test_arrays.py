@@ -1,5 +1,5 @@
 """Array variables through fmpy (FMI 3 arrays, FMI 2 scalars ``name[i,j]``), on
-``examples/ZonedCushion.json`` (zone pressures ``wind`` [2], corner support displacements
+``modelDescription/ZonedCushion/scene.json`` (zone pressures ``wind`` [2], corner support displacements
 ``corners`` [4, 3], the displacement field ``u`` [81, 3], ``corner_x`` [4, 3], ``edge_tension``
 [8], ``stress`` [128, 2], ``wrinkle`` [128] of UInt8).
 
@@ -24,7 +24,7 @@ from fmpy.validation import validate_fmu
 import fmi3_support as f3
 import velarium_run as vr
 
-SCENE = vr.ROOT / "examples" / "ZonedCushion.json"
+SCENE = vr.SCENES / "ZonedCushion" / "scene.json"
 LOADS = vr.ROOT / "examples" / "ZonedCushion-loads.csv"
 
 SHAPES = {

@@ -35,15 +35,30 @@ FMI2_FUNCTIONS = sorted(
 )
 
 # Shared libraries the FMU may need: the C runtime only (libpthread, libdl and librt are parts
-# of glibc that a build against glibc < 2.34 names separately, e.g. the glibc 2.17 build of
-# .ci/glibc217, which links its unwinder statically and so needs no libgcc_s).
+# of glibc that a build against glibc < 2.34 names separately, e.g. the portable glibc 2.17
+# build of harness/portable.sh, which links its unwinder statically and so needs no libgcc_s).
 C_RUNTIME = re.compile(
     r"^(libc\.so\.6|libm\.so\.6|libgcc_s\.so\.1|ld-linux-x86-64\.so\.2|libpthread\.so\.0|libdl\.so\.2|librt\.so\.1)$")
 
-# The oldest glibc the binary must load on; docs/fmu.md states it (section "Threads, processes, the binary"):
-# 2.34 for the native build, 2.17 for the cargo-zigbuild one (.ci/glibc217 sets
-# VELARIUM_GLIBC_BASELINE=2.17).
-GLIBC_BASELINE = tuple(int(x) for x in os.environ.get("VELARIUM_GLIBC_BASELINE", "2.34").split("."))
+
+def glibc_baseline() -> tuple[tuple[int, ...], str]:
+    """The oldest glibc the packed library must load on (docs/fmu.md, "Portable FMUs"), and why:
+    2.17 when the portable library is built and current (then `velarium pack` ships it by
+    default), else 2.34 (the native build on Debian 12); VELARIUM_GLIBC_BASELINE overrides."""
+    given = os.environ.get("VELARIUM_GLIBC_BASELINE")
+    if given:
+        return tuple(int(x) for x in given.split(".")), "VELARIUM_GLIBC_BASELINE"
+    if vr.portable_library_is_current():
+        return (2, 17), f"the portable library {vr.PORTABLE_LIBRARY} is built"
+    return (2, 34), f"no current portable library at {vr.PORTABLE_LIBRARY} (harness/portable.sh printed why): native build"
+
+
+def highest_glibc(so) -> tuple[int, ...]:
+    """The highest GLIBC_x.y symbol version the library needs (objdump -T)."""
+    symbols = subprocess.run([tool("objdump"), "-T", str(so)], capture_output=True, text=True, check=True).stdout
+    versions = sorted({tuple(int(x) for x in v.split(".")) for v in re.findall(r"GLIBC_([0-9.]+)", symbols)})
+    assert versions, f"{so}: no GLIBC symbol version at all"
+    return versions[-1]
 
 
 def binary(fmu, md, tmp_path):
@@ -89,8 +104,9 @@ def test_item02_zip_layout(fmu, model_description):
 
 def test_item03_exports_dependencies_and_glibc(fmu, model_description, tmp_path):
     """nm: exactly the 34 fmi2 functions (and the 75 fmi3 functions of the FMI 3 archive, which
-    holds the same library) are defined dynamic symbols; NEEDED: only the C runtime; objdump -T:
-    no GLIBC symbol version above the baseline (printed)."""
+    holds the same library) are defined dynamic symbols; NEEDED: only the C runtime; objdump -T
+    on the library of both archives (binaries/linux64 and binaries/x86_64-linux): no GLIBC
+    symbol version above the baseline, 2.17 when the portable library was built (printed)."""
     from fmi3_support import FMI3_FUNCTIONS
 
     so = binary(fmu, model_description, tmp_path)
@@ -101,11 +117,25 @@ def test_item03_exports_dependencies_and_glibc(fmu, model_description, tmp_path)
     dynamic = subprocess.run([tool("objdump"), "-p", str(so)], capture_output=True, text=True, check=True).stdout
     needed = re.findall(r"NEEDED\s+(\S+)", dynamic)
     assert needed and all(C_RUNTIME.match(n) for n in needed), needed
-    symbols = subprocess.run([tool("objdump"), "-T", str(so)], capture_output=True, text=True, check=True).stdout
-    versions = sorted({tuple(int(x) for x in v.split(".")) for v in re.findall(r"GLIBC_([0-9.]+)", symbols)})
-    highest = versions[-1]
-    print(f"{fmu.name}: highest GLIBC symbol version needed: GLIBC_{'.'.join(map(str, highest))}; dependencies: {needed}")
-    assert highest <= GLIBC_BASELINE, f"needs GLIBC_{highest}, above the baseline {GLIBC_BASELINE} stated in docs/fmu.md"
+    baseline, why = glibc_baseline()
+    # Every archive of the scene: the FMI 2 one's binaries/linux64 and the FMI 3 one's
+    # binaries/x86_64-linux (the same library, packed twice).
+    libraries = [so]
+    fmu3 = fmu.with_name(f"{fmu.stem}_fmi3.fmu")
+    if fmu3.is_file():
+        with zipfile.ZipFile(fmu3) as z:
+            names = [n for n in z.namelist() if n.startswith("binaries/x86_64-linux/") and n.endswith(".so")]
+        assert names, f"{fmu3.name} holds no binaries/x86_64-linux/*.so"
+        for n in names:
+            path = tmp_path / f"fmi3_{n.rsplit('/', 1)[-1]}"
+            path.write_bytes(vr.fmu_member(fmu3, n))
+            libraries.append(path)
+    for lib in libraries:
+        highest = highest_glibc(lib)
+        print(f"{fmu.name} ({lib.name}): highest GLIBC symbol version needed: GLIBC_{'.'.join(map(str, highest))}; "
+              f"baseline {'.'.join(map(str, baseline))} ({why}); dependencies: {needed}")
+        assert highest <= baseline, (f"{lib.name} needs GLIBC_{'.'.join(map(str, highest))}, above the baseline "
+                                     f"{'.'.join(map(str, baseline))} ({why}; docs/fmu.md)")
 
 
 def test_item04_model_structure(fmu):

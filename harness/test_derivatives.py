@@ -70,6 +70,7 @@ def tight(scene, velarium, tmp_path) -> tuple[Path, Path]:
     FMI 3 archives): differences of equilibria over a small step then measure the derivative,
     not the solver's tolerance."""
     text = json.loads(scene.read_text())
+    text.get("experiment", {}).pop("loads", None)  # no reference run under the load history
     text.setdefault("solver", {})["tolerance"] = 1e-12
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(text))
@@ -99,6 +100,7 @@ def fmi2_jacobian(fmu: Path) -> np.ndarray:
 def test_derivatives_match_differences_of_the_fmus_equilibria(tight):
     fmu, fmu3 = tight
     md = fmpy.read_model_description(str(fmu3))
+    f3.skip_arrays(md, "tests/fmi/derivatives.rs (ZonedCushion against differences of equilibria)")
     unzipdir = Path(fmpy.extract(str(fmu3)))
     inputs, outputs = vr.inputs(md), real_outputs(md)
     in_refs, out_refs = [v.valueReference for v in inputs], [v.valueReference for v in outputs]

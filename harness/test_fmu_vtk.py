@@ -1,7 +1,7 @@
 """A ParaView series from an FMU's array outputs (harness/fmu_vtk.py) equals the series
 `velarium solve --vtk` writes for the same loads, read back by VTK (pyvista).
 
-Scene: examples/ZonedCushion.json (81 nodes, 128 triangles, four edge cables) with its bottom
+Scene: modelDescription/ZonedCushion/scene.json (81 nodes, 128 triangles, four edge cables) with its bottom
 cable's `cable_tensions` output joined by those of the other three cables, so that its outputs
 give every field the FMU series can hold. Both archives run the same wind ramp through
 `fmpy.simulate_fmu` (FMI 3: arrays; FMI 2: scalars `u[i,j]`); fmpy's row k+1 is the
@@ -24,7 +24,7 @@ import velarium_run as vr
 
 pyvista = pytest.importorskip("pyvista")
 
-SCENE = vr.ROOT / "examples" / "ZonedCushion.json"
+SCENE = vr.ROOT / "modelDescription" / "ZonedCushion" / "scene.json"
 WIND = [(0.0, 0.0, 0.0), (0.25, 100.0, 50.0), (0.5, 200.0, 100.0), (0.75, 300.0, -100.0)]
 COMPARED = ("displacement_m", "wrinkle_state", "sigma_max_Pa", "sigma_min_Pa", "cable_tension_N",
             "kind", "id", "cable")

@@ -54,6 +54,7 @@ def test_archive_layout_and_contents(fmu, scene, model_description, velarium):
         "resources/mesh.vtu",
         "extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml",
         f"extra/org.fmi-standard.fmi-ls-ref/{identifier}_ref.csv",
+        f"extra/org.fmi-standard.fmi-ls-ref/{identifier}_in.csv",
     ]
     assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in infos)
     assert fmpy.supported_platforms(str(fmu)) == ["linux64"]
@@ -64,7 +65,7 @@ def test_archive_layout_and_contents(fmu, scene, model_description, velarium):
     committed = scene.parent / "modelDescription.xml"
     if committed.is_file():
         assert xml == committed.read_text(), f"{committed} is stale"
-    library = velarium.with_name("libvelarium.so")
+    library = vr.default_library()  # what `velarium pack` ships: the portable build when current
     assert vr.fmu_member(fmu, f"binaries/linux64/{identifier}.so") == library.read_bytes(), (
         f"the FMU's binary is not {library}: repack it (bash .ci/run)"
     )

@@ -22,9 +22,25 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "modelDescription"
-# The packed shipped scenes; VELARIUM_FMU_DIR points the harness at another set (.ci/glibc217).
+# The packed shipped scenes; VELARIUM_FMU_DIR points the harness at another set.
 FMU_DIR = Path(os.environ.get("VELARIUM_FMU_DIR") or ROOT / "build" / "fmus").resolve()
 VELARIUM = ROOT / "target" / "release" / "velarium"
+# The native FMU library and its portable glibc 2.17 build (harness/portable.sh); `velarium pack`
+# ships the portable one by default when it is not older than the native one.
+NATIVE_LIBRARY = VELARIUM.with_name("libvelarium.so")
+PORTABLE_LIBRARY = ROOT / "target" / "x86_64-unknown-linux-gnu" / "release" / "libvelarium.so"
+
+
+def default_library() -> Path:
+    """The library `velarium pack` ships without --lib and VELARIUM_LIB (src/pack.rs, choose_library)."""
+    return PORTABLE_LIBRARY if portable_library_is_current() else NATIVE_LIBRARY
+
+
+def portable_library_is_current() -> bool:
+    """Whether `velarium pack` ships the portable library by default (src/pack.rs, choose_library)."""
+    if not PORTABLE_LIBRARY.is_file():
+        return False
+    return not NATIVE_LIBRARY.is_file() or PORTABLE_LIBRARY.stat().st_mtime >= NATIVE_LIBRARY.stat().st_mtime
 
 # Wall-clock limit of one simulate_fmu run in seconds: the guard against a master loop that
 # does not advance (docs/fmu.md).
@@ -128,7 +144,8 @@ def write_loads_csv(table: np.ndarray, path: Path) -> None:
     """The table as `velarium solve` reads it; repr() of a float round-trips exactly."""
     names = table.dtype.names
     with open(path, "w") as f:
-        f.write(",".join(names) + "\n")
+        # A 2-D array element's name has a comma ("corners[1,3]"): quoted, as `solve` reads it.
+        f.write(",".join(f'"{n}"' if "," in n else n for n in names) + "\n")
         for row in table:
             f.write(",".join(repr(float(row[n])) for n in names) + "\n")
 

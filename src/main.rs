@@ -12,7 +12,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use velarium::description::model_description;
 use velarium::history::{self, Event, LoadTable};
-use velarium::pack::{find_library, pack_versions, write_atomically, FmiVersion};
+use velarium::pack::{choose_library, pack_versions, write_atomically, FmiVersion};
 use velarium::scene::generate::try_resolve;
 use velarium::scene::validate::validate;
 use velarium::vtk;
@@ -51,8 +51,10 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         out: String,
         /// The FMU library to ship; default: the file named by the environment variable
-        /// VELARIUM_LIB if set, else libvelarium.so next to this executable (built by
-        /// `cargo build --release`).
+        /// VELARIUM_LIB if set, else the portable glibc 2.17 build
+        /// (../x86_64-unknown-linux-gnu/release/libvelarium.so, built by harness/portable.sh)
+        /// when it is not older than the native one, else libvelarium.so next to this
+        /// executable (built by `cargo build --release`), with a note on stderr.
         #[arg(long, value_name = "PATH")]
         lib: Option<String>,
         /// Write only this FMI version's archive (2 or 3); default: both.
@@ -365,7 +367,11 @@ fn cmd_pack(
             velarium::Error::Scene(problems)
         )));
     }
-    let library = find_library(lib.map(Path::new)).map_err(failed)?;
+    let choice = choose_library(lib.map(Path::new)).map_err(failed)?;
+    if let Some(notice) = &choice.notice {
+        eprintln!("velarium pack: {notice}");
+    }
+    let library = choice.path;
     let fmus = pack_versions(&scene, &out, &library, &versions)
         .map_err(|e| Stop::Failed(format!("{scene_path}: {e}")))?;
     for fmu in fmus {

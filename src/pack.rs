@@ -17,19 +17,26 @@
 //! ```
 //!
 //! Both archives also carry the result of the default experiment as FMI-LS-REF reference
-//! results (the layered standard "References", 1.0.0-alpha.1, as the Reference FMUs ship them):
+//! results (the layered standard "References", 1.0.0-alpha.1, as the Reference FMUs ship them),
+//! and the load history it ran under when the scene has one (`experiment.loads`):
 //!
 //! ```text
-//!   extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml   one <Related role="result">
+//!   extra/org.fmi-standard.fmi-ls-ref/fmi-ls-manifest.xml   <Related role="result">, and
+//!                                                           <Related role="input"> with loads
 //!   extra/org.fmi-standard.fmi-ls-ref/<Name>_ref.csv        "time" and at most 10 Real
 //!                                                           outputs (table order), quoted
 //!                                                           names, no units, one row per
 //!                                                           stepSize from startTime to stopTime
+//!   extra/org.fmi-standard.fmi-ls-ref/<Name>_in.csv         "time" and the loaded inputs at the
+//!                                                           table's times (FMI 2: scalars
+//!                                                           name[i]; FMI 3: one column per
+//!                                                           variable, elements space-separated)
 //! ```
-//! The rows are what `simulate_fmu(fmu)` with no arguments records: inputs at their start
-//! values, the initial equilibrium at startTime, then one step per row (harness/test_reference.py
-//! compares them with a fresh run). A scene whose default experiment does not converge ships no
-//! reference result.
+//! The rows are what `simulate_fmu(fmu, input=read_csv(<Name>_in.csv))` records (without loads:
+//! `simulate_fmu(fmu)`, inputs at their start values): the initial equilibrium under the first
+//! input row at startTime, then one step per row under the input interpolated as fmpy does it
+//! (harness/test_reference.py compares them with a fresh run). A scene whose default experiment
+//! does not converge ships no reference result.
 //!
 //! One archive holds one modelDescription.xml, hence two archives. The same scene and library
 //! give byte-identical archives. Each archive is written by [`write_atomically`] (a temporary
@@ -99,20 +106,23 @@ pub fn pack_versions(
     let engine = Engine::try_new(scene.clone())?;
     let binary =
         std::fs::read(library).map_err(|e| io_error(library, "cannot read the FMU library", e))?;
-    let reference = reference_result(scene)?;
+    let references = reference_results(scene, versions)?;
     let mesh = crate::vtu::Grid::mesh(&engine).binary();
     let mut archives = Vec::with_capacity(versions.len());
-    for &version in versions {
+    for (i, &version) in versions.iter().enumerate() {
         let description = match version {
             FmiVersion::Fmi2 => model_description(engine.scene(), engine.variables()),
             FmiVersion::Fmi3 => model_description_fmi3(engine.scene(), engine.arrays()),
         };
+        let reference = references.as_ref().map(|r| r[i].clone());
+        let input = reference_input(scene, version)?;
         let bytes = archive(
             scene,
             version,
             &description,
             &binary,
             reference.as_deref(),
+            input.as_deref(),
             &mesh,
         )
         .map_err(|e| Error::Io {
@@ -129,15 +139,36 @@ pub fn pack_versions(
     Ok(archives.into_iter().map(|(path, _)| path).collect())
 }
 
-/// The environment variable naming the library to ship when `--lib` is not given (e.g. the
-/// glibc 2.17 build of `.ci/glibc217`, docs/fmu.md).
+/// The environment variable naming the library to ship when `--lib` is not given.
 pub const LIBRARY_ENV: &str = "VELARIUM_LIB";
 
+/// The Rust target of the portable library: glibc 2.17 symbols (manylinux2014), built by
+/// `harness/portable.sh` with cargo-zigbuild into `<target dir>/x86_64-unknown-linux-gnu/release/`.
+pub const PORTABLE_TARGET: &str = "x86_64-unknown-linux-gnu";
+
+/// The oldest glibc the portable library loads on.
+pub const PORTABLE_GLIBC: &str = "2.17";
+
+/// The library to ship and, when it is not the portable one, a notice saying so and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LibraryChoice {
+    pub path: PathBuf,
+    pub notice: Option<String>,
+}
+
 /// The library to ship: `explicit` if given (it must exist), else the file named by the
-/// environment variable `VELARIUM_LIB` if set and not empty (it must exist), else
-/// `libvelarium.so` next to the running executable (cargo puts both in `target/release` or
-/// `target/debug`).
+/// environment variable `VELARIUM_LIB` if set and not empty (it must exist), else the portable
+/// build (`../x86_64-unknown-linux-gnu/release/libvelarium.so` from the running executable's
+/// directory, what `harness/portable.sh` builds) when it is there and not older than the native
+/// build, else `libvelarium.so` next to the running executable (cargo puts both in
+/// `target/release` or `target/debug`) with a notice that the FMUs then need the glibc it was
+/// built against.
 pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
+    Ok(choose_library(explicit)?.path)
+}
+
+/// [`find_library`] with the notice to print when the native library is shipped by default.
+pub fn choose_library(explicit: Option<&Path>) -> Result<LibraryChoice, Error> {
     let from_env = std::env::var_os(LIBRARY_ENV).filter(|v| !v.is_empty());
     let given = match (explicit, &from_env) {
         (Some(path), _) => Some((path.to_path_buf(), "given with --lib".to_string())),
@@ -146,7 +177,7 @@ pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
     };
     if let Some((path, source)) = given {
         return if path.is_file() {
-            Ok(path)
+            Ok(LibraryChoice { path, notice: None })
         } else {
             Err(Error::Io {
                 path: path.display().to_string(),
@@ -159,16 +190,61 @@ pub fn find_library(explicit: Option<&Path>) -> Result<PathBuf, Error> {
         message: format!("cannot locate the running executable to find {LIBRARY_FILE}: {e}"),
     })?;
     let beside = exe.with_file_name(LIBRARY_FILE);
-    if beside.is_file() {
-        Ok(beside)
-    } else {
-        Err(Error::Io {
+    if !beside.is_file() {
+        return Err(Error::Io {
             path: beside.display().to_string(),
             message: format!(
                 "{LIBRARY_FILE} not found next to the velarium executable; run `cargo build --release` \
                  (it builds both) or pass --lib PATH"
             ),
-        })
+        });
+    }
+    Ok(default_library(&beside))
+}
+
+/// The portable library beside a native one (`<dir>/../<target>/<profile>/libvelarium.so`).
+pub fn portable_library(native: &Path) -> Option<PathBuf> {
+    let profile_dir = native.parent()?;
+    let profile = profile_dir.file_name()?;
+    Some(
+        profile_dir
+            .parent()?
+            .join(PORTABLE_TARGET)
+            .join(profile)
+            .join(LIBRARY_FILE),
+    )
+}
+
+/// The default choice between the native library `native` and its portable build.
+fn default_library(native: &Path) -> LibraryChoice {
+    let how = "build it with `bash harness/portable.sh` (docs/fmu.md, \"Portable FMUs\")";
+    let shipping = format!(
+        "shipping {}, the native build: the FMUs need the glibc it was linked against (2.34 on \
+         Debian 12) or newer",
+        native.display()
+    );
+    let Some(portable) = portable_library(native).filter(|p| p.is_file()) else {
+        return LibraryChoice {
+            path: native.to_path_buf(),
+            notice: Some(format!(
+                "note: {shipping}; the portable glibc {PORTABLE_GLIBC} library is not built: {how}"
+            )),
+        };
+    };
+    let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+    match (modified(&portable), modified(native)) {
+        (Some(p), Some(n)) if p >= n => LibraryChoice {
+            path: portable,
+            notice: None,
+        },
+        _ => LibraryChoice {
+            path: native.to_path_buf(),
+            notice: Some(format!(
+                "note: {shipping}; the portable glibc {PORTABLE_GLIBC} library {} is older than it \
+                 (built from older sources): rebuild it with `bash harness/portable.sh`",
+                portable.display()
+            )),
+        },
     }
 }
 
@@ -269,54 +345,253 @@ pub const REFERENCE_FOLDER: &str = "extra/org.fmi-standard.fmi-ls-ref";
 /// Most outputs in the reference result (besides time).
 pub const REFERENCE_OUTPUTS: usize = 10;
 
-/// The default experiment's result as CSV (see the module docs); None when it does not
-/// converge.
-pub fn reference_result(scene: &Scene) -> Result<Option<String>, Error> {
-    let mut engine = Engine::try_new(scene.clone())?;
-    let outputs: Vec<(String, u32)> = engine
-        .variables()
-        .iter()
-        .filter(|v| {
-            v.causality == crate::variables::Causality::Output
-                && v.var_type == crate::variables::VarType::Real
-        })
-        .take(REFERENCE_OUTPUTS)
-        .map(|v| (v.name.clone(), v.value_reference))
-        .collect();
+/// A scene's `experiment.loads` resolved against its variables (the FMI 3 table: one entry per
+/// input variable, an array with all its elements).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceLoads {
+    /// The table's times.
+    pub time: Vec<f64>,
+    /// Per loaded input (variable table order): the variable and, per time, its element values.
+    pub inputs: Vec<(crate::variables::Variable, Vec<Vec<f64>>)>,
+}
+
+impl ReferenceLoads {
+    /// The elements' values at `t` as fmpy's `Input.apply` computes them (held before the first
+    /// and after the last time, else `w0 v0 + w1 v1` with `w0 = (t1 - t) / (t1 - t0)`,
+    /// `w1 = 1 - w0`, the same floating-point operations in the same order), so a master
+    /// reading the shipped input file sets bit for bit the values the reference run used.
+    pub fn values_at(&self, t: f64) -> Vec<(u32, f64)> {
+        let n = self.time.len();
+        // numpy's searchsorted (left): the first index whose time is >= t.
+        let i0 = self.time.partition_point(|&x| x < t);
+        // The rows around t and the weights (None: hold one row).
+        let (lo, hi, weights) = if n < 2 || i0 == 0 {
+            (0, 0, None)
+        } else if i0 == n {
+            (n - 1, n - 1, None)
+        } else {
+            let (t0, t1) = (self.time[i0 - 1], self.time[i0]);
+            let w0 = (t1 - t) / (t1 - t0);
+            (i0 - 1, i0, Some((w0, 1.0 - w0)))
+        };
+        let mut out = Vec::new();
+        for (var, rows) in &self.inputs {
+            for (e, (a, b)) in rows[lo].iter().zip(&rows[hi]).enumerate() {
+                let value = match weights {
+                    None => *a,
+                    Some((w0, w1)) => w0 * a + w1 * b,
+                };
+                out.push((var.value_reference + e as u32, value));
+            }
+        }
+        out
+    }
+}
+
+/// The scene's load history resolved against `engine`'s variables; None without
+/// `experiment.loads`. An array input's list must have as many values as the array has
+/// elements (the error names the field).
+pub fn reference_loads(engine: &Engine) -> Result<Option<ReferenceLoads>, Error> {
+    let Some(loads) = &engine.scene().experiment.loads else {
+        return Ok(None);
+    };
+    let mut inputs = Vec::new();
+    let mut problems = Vec::new();
+    for var in engine.arrays() {
+        if var.causality != crate::variables::Causality::Input {
+            continue;
+        }
+        let Some(values) = loads.inputs.get(&var.name) else {
+            continue;
+        };
+        let mut rows = Vec::with_capacity(values.len());
+        for (k, value) in values.iter().enumerate() {
+            match value {
+                crate::scene::LoadValue::All(v) => rows.push(vec![*v; var.len()]),
+                crate::scene::LoadValue::Each(list) if list.len() == var.len() => {
+                    rows.push(list.clone())
+                }
+                crate::scene::LoadValue::Each(list) => problems.push(crate::scene::Problem {
+                    path: format!("experiment.loads.inputs.{}[{k}]", var.name),
+                    message: format!(
+                        "has {} values; the input {} has {} element{} (shape {:?}): give one number for every element or a list of all of them, row-major",
+                        list.len(),
+                        var.name,
+                        var.len(),
+                        if var.len() == 1 { "" } else { "s" },
+                        var.dims
+                    ),
+                }),
+            }
+        }
+        inputs.push((var.clone(), rows));
+    }
+    if !problems.is_empty() {
+        return Err(Error::Scene(problems));
+    }
+    Ok(Some(ReferenceLoads {
+        time: loads.time.clone(),
+        inputs,
+    }))
+}
+
+/// The communication points of the default experiment as fmpy's `simulate_fmu` steps them:
+/// `start + k h`, the last one the stop time.
+fn communication_points(scene: &Scene) -> Vec<f64> {
     let e = &scene.experiment;
     let steps = ((e.stop_time - e.start_time) / e.step_size)
         .round()
         .max(0.0) as usize;
-    let quoted: Vec<String> = std::iter::once("time".to_string())
-        .chain(outputs.iter().map(|(n, _)| n.clone()))
-        .map(|n| csv_quoted(&n))
+    (0..=steps)
+        .map(|k| {
+            if k == steps {
+                e.stop_time
+            } else {
+                e.start_time + k as f64 * e.step_size
+            }
+        })
+        .collect()
+}
+
+/// The default experiment's result as CSV for one archive version (see the module docs);
+/// None when it does not converge. FMI 2: the first (at most) 10 Real scalars; FMI 3: the
+/// first 10 Float64 variables, an array's elements space-separated in one cell (fmpy's CSV
+/// convention).
+pub fn reference_result(scene: &Scene, version: FmiVersion) -> Result<Option<String>, Error> {
+    Ok(reference_results(scene, &[version])?.map(|mut v| v.remove(0)))
+}
+
+/// [`reference_result`] for several versions from one run.
+pub fn reference_results(
+    scene: &Scene,
+    versions: &[FmiVersion],
+) -> Result<Option<Vec<String>>, Error> {
+    let mut engine = Engine::try_new(scene.clone())?;
+    let loads = reference_loads(&engine)?;
+    let mut tables: Vec<(Vec<crate::variables::Variable>, String)> = versions
+        .iter()
+        .map(|version| {
+            let table = match version {
+                FmiVersion::Fmi2 => engine.variables(),
+                FmiVersion::Fmi3 => engine.arrays(),
+            };
+            let outputs: Vec<crate::variables::Variable> = table
+                .iter()
+                .filter(|v| {
+                    v.causality == crate::variables::Causality::Output
+                        && v.var_type == crate::variables::VarType::Real
+                })
+                .take(REFERENCE_OUTPUTS)
+                .cloned()
+                .collect();
+            let quoted: Vec<String> = std::iter::once("time".to_string())
+                .chain(outputs.iter().map(|v| v.name.clone()))
+                .map(|n| csv_quoted(&n))
+                .collect();
+            let mut csv = quoted.join(",");
+            csv.push('\n');
+            (outputs, csv)
+        })
         .collect();
-    let mut csv = quoted.join(",");
-    csv.push('\n');
-    for k in 0..=steps {
-        if !engine.solve().converged() {
+    let points = communication_points(scene);
+    for (k, t) in points.iter().enumerate() {
+        // Row 0: the initial equilibrium under u(t_0); row k: the step from t_{k-1} under
+        // u(t_{k-1}) (the one-step lag, docs/fmu.md). An unchanged load keeps the equilibrium,
+        // as the FMU's step does.
+        if let Some(loads) = &loads {
+            for (vr, value) in loads.values_at(points[k.saturating_sub(1)]) {
+                engine.set_real(vr, value)?;
+            }
+        }
+        let converged = match engine.keep() {
+            Some(report) => report.converged(),
+            None => engine.solve().converged(),
+        };
+        if !converged {
             return Ok(None);
         }
-        let t = if k == steps {
-            e.stop_time
-        } else {
-            e.start_time + k as f64 * e.step_size
-        };
-        csv.push_str(&xs_double(t));
-        for (_, vr) in &outputs {
-            let value = engine.get_real(*vr)?;
-            csv.push(',');
-            csv.push_str(&xs_double(value));
+        for (outputs, csv) in &mut tables {
+            csv.push_str(&xs_double(*t));
+            for v in outputs.iter() {
+                csv.push(',');
+                let cells: Vec<String> = engine.values(v).iter().map(|x| xs_double(*x)).collect();
+                csv.push_str(&cells.join(" "));
+            }
+            csv.push('\n');
+        }
+    }
+    Ok(Some(tables.into_iter().map(|(_, csv)| csv).collect()))
+}
+
+/// The reference input file of one archive version: `"time"` and the loaded inputs at the
+/// table's times (FMI 2: one column per scalar, `name[i]`; FMI 3: one column per variable, an
+/// array's elements space-separated). None without `experiment.loads`.
+pub fn reference_input(scene: &Scene, version: FmiVersion) -> Result<Option<String>, Error> {
+    let engine = Engine::try_new(scene.clone())?;
+    let Some(loads) = reference_loads(&engine)? else {
+        return Ok(None);
+    };
+    let mut header = vec![csv_quoted("time")];
+    for (var, _) in &loads.inputs {
+        match version {
+            FmiVersion::Fmi3 => header.push(csv_quoted(&var.name)),
+            FmiVersion::Fmi2 => {
+                for e in 0..var.len() {
+                    let name = if var.is_array() {
+                        format!(
+                            "{}[{}]",
+                            var.name,
+                            crate::variables::element_index(&var.dims, e)
+                        )
+                    } else {
+                        var.name.clone()
+                    };
+                    header.push(csv_quoted(&name));
+                }
+            }
+        }
+    }
+    let mut csv = header.join(",");
+    csv.push('\n');
+    for (k, t) in loads.time.iter().enumerate() {
+        csv.push_str(&xs_double(*t));
+        for (_, rows) in &loads.inputs {
+            let cells: Vec<String> = rows[k].iter().map(|x| xs_double(*x)).collect();
+            match version {
+                FmiVersion::Fmi3 => {
+                    csv.push(',');
+                    csv.push_str(&cells.join(" "));
+                }
+                FmiVersion::Fmi2 => {
+                    for c in cells {
+                        csv.push(',');
+                        csv.push_str(&c);
+                    }
+                }
+            }
         }
         csv.push('\n');
     }
     Ok(Some(csv))
 }
 
-/// The FMI-LS-REF manifest naming the reference result.
-fn reference_manifest(scene: &Scene) -> String {
+/// The FMI-LS-REF manifest naming the reference result (and the reference input, if any).
+fn reference_manifest(scene: &Scene, with_input: bool) -> String {
+    let input = if with_input {
+        format!(
+            "    <Related type=\"text/csv\" source=\"{}_in.csv\" role=\"input\" description=\"Input of the default experiment (the load history; linear between the rows, held after the last)\"/>\n",
+            scene.name
+        )
+    } else {
+        String::new()
+    };
+    let result_description = if with_input {
+        "Outputs of the default experiment under the input file"
+    } else {
+        "Outputs of the default experiment (inputs at their start values)"
+    };
     format!(
-        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<fmiReferences\n    xmlns:fmi-ls=\"http://fmi-standard.org/fmi-ls-manifest\"\n    fmi-ls:fmi-ls-name=\"org.fmi-standard.fmi-ls-ref\"\n    fmi-ls:fmi-ls-version=\"1.0.0-alpha.1\"\n    fmi-ls:fmi-ls-description=\"Layered Standard providing information on related files included in an FMU.\">\n    <Related type=\"text/csv\" source=\"{}_ref.csv\" role=\"result\" description=\"Outputs of the default experiment (inputs at their start values)\"/>\n</fmiReferences>\n",
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<fmiReferences\n    xmlns:fmi-ls=\"http://fmi-standard.org/fmi-ls-manifest\"\n    fmi-ls:fmi-ls-name=\"org.fmi-standard.fmi-ls-ref\"\n    fmi-ls:fmi-ls-version=\"1.0.0-alpha.1\"\n    fmi-ls:fmi-ls-description=\"Layered Standard providing information on related files included in an FMU.\">\n    <Related type=\"text/csv\" source=\"{}_ref.csv\" role=\"result\" description=\"{result_description}\"/>\n{input}</fmiReferences>\n",
         scene.name
     )
 }
@@ -328,6 +603,7 @@ fn archive(
     description: &str,
     binary: &[u8],
     reference: Option<&str>,
+    input: Option<&str>,
     mesh: &[u8],
 ) -> zip::result::ZipResult<Vec<u8>> {
     let options = SimpleFileOptions::default()
@@ -335,7 +611,7 @@ fn archive(
         .last_modified_time(DateTime::default());
     let scene_json = scene.to_json();
     let mut zip = ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let manifest = reference_manifest(scene);
+    let manifest = reference_manifest(scene, input.is_some());
     let mut entries: Vec<(String, &[u8], u32)> = vec![
         ("modelDescription.xml".into(), description.as_bytes(), 0o644),
         (
@@ -361,6 +637,13 @@ fn archive(
             csv.as_bytes(),
             0o644,
         ));
+        if let Some(input) = input {
+            entries.push((
+                format!("{REFERENCE_FOLDER}/{}_in.csv", scene.name),
+                input.as_bytes(),
+                0o644,
+            ));
+        }
     }
     for (name, bytes, mode) in entries {
         zip.start_file(name, options.unix_permissions(mode))?;
@@ -395,6 +678,56 @@ mod tests {
         ] {
             assert_eq!(partial_pid(other), None, "{other}");
         }
+    }
+
+    // GOAL: by default the portable library is shipped when it is there and not older than
+    //       the native one; otherwise the native one, with a notice naming why and the script
+    //       that builds the portable one.
+    #[test]
+    fn the_default_library_is_the_portable_one_when_it_is_current() {
+        let dir = std::env::temp_dir().join(format!("velarium-libchoice-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let native = dir.join("release").join(LIBRARY_FILE);
+        let portable = dir.join(PORTABLE_TARGET).join("release").join(LIBRARY_FILE);
+        std::fs::create_dir_all(native.parent().unwrap()).unwrap();
+        std::fs::write(&native, "native").unwrap();
+        assert_eq!(
+            portable_library(&native).as_deref(),
+            Some(portable.as_path())
+        );
+        let absent = default_library(&native);
+        assert_eq!(absent.path, native);
+        let notice = absent.notice.unwrap();
+        assert!(
+            notice.contains("harness/portable.sh") && notice.contains("not built"),
+            "{notice}"
+        );
+        std::fs::create_dir_all(portable.parent().unwrap()).unwrap();
+        std::fs::write(&portable, "portable").unwrap();
+        let now = std::time::SystemTime::now();
+        let set = |p: &Path, t: std::time::SystemTime| {
+            std::fs::File::options()
+                .write(true)
+                .open(p)
+                .unwrap()
+                .set_modified(t)
+                .unwrap()
+        };
+        set(&native, now - std::time::Duration::from_secs(60));
+        set(&portable, now);
+        assert_eq!(
+            default_library(&native),
+            LibraryChoice {
+                path: portable.clone(),
+                notice: None
+            }
+        );
+        set(&portable, now - std::time::Duration::from_secs(120));
+        let stale = default_library(&native);
+        assert_eq!(stale.path, native);
+        let notice = stale.notice.unwrap();
+        assert!(notice.contains("older than it"), "{notice}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     // GOAL: a write replaces the file whole and leaves nothing else in the directory, whether

@@ -1097,6 +1097,11 @@ pub struct Experiment {
     pub start_time: f64,
     pub stop_time: f64,
     pub step_size: f64,
+    /// The load history of the default experiment (optional): the FMU's reference results are
+    /// computed under it and it is shipped beside them as the reference input
+    /// (`<Name>_in.csv`, docs/fmu.md). Absent: the inputs stay at their start values.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub loads: Option<ExperimentLoads>,
 }
 
 impl Default for Experiment {
@@ -1105,8 +1110,31 @@ impl Default for Experiment {
             start_time: 0.0,
             stop_time: 1.0,
             step_size: 0.1,
+            loads: None,
         }
     }
+}
+
+/// A load history: input values at given times, linear in between and held before the first
+/// and after the last time (as fmpy and fmusim apply an input file).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentLoads {
+    /// The times, strictly increasing, in the experiment's pseudo-time.
+    pub time: Vec<f64>,
+    /// Per input name, one value per time. An array input takes a number (every element) or
+    /// the list of its elements in row-major order. Inputs left out keep their start values.
+    pub inputs: BTreeMap<String, Vec<LoadValue>>,
+}
+
+/// One input's value at one time of a load history.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(untagged)]
+pub enum LoadValue {
+    /// The value of a scalar input, or of every element of an array input.
+    All(f64),
+    /// The elements of an array input, row-major.
+    Each(Vec<f64>),
 }
 
 /// A scene that could not be read: the JSON path and what is wrong there.

@@ -245,6 +245,85 @@ impl Validator {
         if !positive(e.step_size) {
             self.push("experiment.step_size", "must be a positive number");
         }
+        if let Some(loads) = &e.loads {
+            self.experiment_loads(s, loads);
+        }
+    }
+
+    /// The default experiment's load history: increasing finite times, known inputs, one
+    /// finite value per time within the input's `min`/`max` (an array's list length is checked
+    /// against its shape when the model is built: `crate::pack::reference_loads`).
+    fn experiment_loads(&mut self, s: &Scene, loads: &super::ExperimentLoads) {
+        let at = "experiment.loads";
+        if loads.time.is_empty() {
+            self.push(format!("{at}.time"), "needs at least one time");
+        }
+        for (k, t) in loads.time.iter().enumerate() {
+            if !t.is_finite() {
+                self.push(format!("{at}.time[{k}]"), "must be a finite number");
+            } else if k > 0 && loads.time[k - 1].is_finite() && *t <= loads.time[k - 1] {
+                self.push(
+                    format!("{at}.time[{k}]"),
+                    format!(
+                        "{t} does not follow {}: the times must increase strictly",
+                        loads.time[k - 1]
+                    ),
+                );
+            }
+        }
+        for (name, values) in &loads.inputs {
+            let path = format!("{at}.inputs.{name}");
+            let Some(input) = s.inputs.iter().find(|i| &i.name == name) else {
+                let known: Vec<&str> = s.inputs.iter().map(|i| i.name.as_str()).collect();
+                self.push(
+                    path,
+                    format!(
+                        "no input is named \"{name}\" (the scene's inputs: {})",
+                        if known.is_empty() {
+                            "none".to_string()
+                        } else {
+                            known.join(", ")
+                        }
+                    ),
+                );
+                continue;
+            };
+            if values.len() != loads.time.len() {
+                self.push(
+                    path.clone(),
+                    format!(
+                        "has {} values for {} times: give one value per time",
+                        values.len(),
+                        loads.time.len()
+                    ),
+                );
+            }
+            for (k, value) in values.iter().enumerate() {
+                let elements = match value {
+                    super::LoadValue::All(v) => std::slice::from_ref(v),
+                    super::LoadValue::Each(list) => list.as_slice(),
+                };
+                for (j, v) in elements.iter().enumerate() {
+                    let cell = match value {
+                        super::LoadValue::All(_) => format!("{path}[{k}]"),
+                        super::LoadValue::Each(_) => format!("{path}[{k}][{j}]"),
+                    };
+                    if !v.is_finite() {
+                        self.push(cell, format!("{v} is not a finite number"));
+                    } else if input.min.is_some_and(|m| *v < m) || input.max.is_some_and(|m| *v > m)
+                    {
+                        self.push(
+                            cell,
+                            format!(
+                                "{v} is outside the input's range [{}, {}]",
+                                input.min.map_or("-inf".into(), |m| m.to_string()),
+                                input.max.map_or("inf".into(), |m| m.to_string())
+                            ),
+                        );
+                    }
+                }
+            }
+        }
     }
 
     fn generators(&mut self, s: &Scene) {

@@ -7,12 +7,12 @@
 //!       zone_pressure array); two half-disc zones at the same pressure give the whole-disc
 //!       answer up to the order of summation; the north half alone and the south half alone
 //!       give mirror images; (3) support displacements move the supports: the same
-//!       translation d of all four corners of examples/ZonedCushion moves every node by d;
+//!       translation d of all four corners of the shipped ZonedCushion moves every node by d;
 //!       (4) the `zone_force` output is the pressure resultant on a zone: with dead pressures
 //!       40 Pa (north) and 25 Pa (south) on the disc its z component is q times the zone's
 //!       area (Σ of the triangle areas, computed here from the mesh) and its x, y components
 //!       vanish; with follower pressures the two zones' z forces balance the rim reaction.
-//! MESH: HenckyDisc at 8 rings (384 triangles); examples/ZonedCushion (8 x 8 cells).
+//! MESH: HenckyDisc at 8 rings (384 triangles); the shipped ZonedCushion (8 x 8 cells).
 //! BOUNDARY CONDITIONS: rim clamped (disc); corners prescribed (cushion).
 //! PARAMETERS: q = 40 Pa on the disc (qa/Eh = 1e-3); d = (0.01, -0.02, 0.03) m.
 //! REFERENCE: exact identities. The same arithmetic: bit-identical. Another summation order
@@ -261,7 +261,10 @@ fn zone_force_is_the_pressure_resultant_on_the_zone() {
 }
 
 fn cushion() -> Engine {
-    let path = format!("{}/examples/ZonedCushion.json", env!("CARGO_MANIFEST_DIR"));
+    let path = format!(
+        "{}/modelDescription/ZonedCushion/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
     engine(read_scene(&path))
 }
 

@@ -378,7 +378,7 @@ fn the_adjoint_is_the_transpose() {
 }
 
 /// The follower pressure's skew part matters where the loaded surface has free edges (here
-/// edge cables): examples/ZonedCushion, with array inputs (zone pressures, corner support
+/// edge cables): the shipped ZonedCushion, with array inputs (zone pressures, corner support
 /// displacements) and array outputs (the displacement field, stresses, tensions). Tolerance
 /// 5e-5 with wrinkling off and on: measured 1.2e-5 and 1.3e-5, on the edge tensions against a
 /// corner's z displacement. That is the reference's error, not the derivative's: the analytic
@@ -391,7 +391,10 @@ fn the_adjoint_is_the_transpose() {
 /// measured 3.9e-5.
 #[test]
 fn zoned_cushion_matches_finite_differences() {
-    let path = format!("{}/examples/ZonedCushion.json", env!("CARGO_MANIFEST_DIR"));
+    let path = format!(
+        "{}/modelDescription/ZonedCushion/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
     let mut scene: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     scene["membranes"][0]["wrinkling"] = serde_json::json!(false);

@@ -17,7 +17,7 @@
 //! longer mapped into the process.
 //!
 //! SCENES: the shipped `PrestressedCable` (scalars; its input `P` ramped and unloaded),
-//! the shipped `SlidingCable` (two inputs, friction) and `examples/ZonedCushion.json` (array
+//! the shipped `SlidingCable` (two inputs, friction) and `modelDescription/ZonedCushion/scene.json` (array
 //! inputs `wind` [2] and `corners` [4, 3], array outputs `u` [81, 3], `corner_x` [4, 3],
 //! `edge_tension` [8], `stress` [128, 2], `wrinkle` [128] of UInt8) with
 //! `examples/ZonedCushion-loads.csv`.
@@ -31,9 +31,10 @@
 //! difference over all outputs, rows, scenes and both FMI versions is 0). Every output column of
 //! the CSV must be read through the FMU and every FMU output must have its column.
 //!
-//! With `VELARIUM_LIB=path/to/libvelarium.so` in the environment, `velarium pack` ships that
-//! library instead of the one next to the `velarium` executable: `.ci/glibc217` runs this test
-//! so on the glibc 2.17 build (docs/fmu.md).
+//! `velarium pack` ships its default library: the portable glibc 2.17 build when
+//! `harness/portable.sh` has built it (what `bash .ci/run` does), so this test runs on the
+//! library the shipped FMUs hold; `VELARIUM_LIB=path/to/libvelarium.so` picks another
+//! (docs/fmu.md, "Portable FMUs").
 
 use std::collections::HashMap;
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
@@ -970,7 +971,7 @@ fn zoned_cushion_arrays_through_both_archives_equal_solve() {
     let loads = std::fs::read_to_string(root.join("examples/ZonedCushion-loads.csv")).unwrap();
     let (largest, compared) = import_and_compare(
         "cushion",
-        &root.join("examples/ZonedCushion.json"),
+        &root.join("modelDescription/ZonedCushion/scene.json"),
         "ZonedCushion",
         &loads,
     );

@@ -360,8 +360,9 @@ fn pack_names_a_missing_library() {
     assert_eq!(listing(&dir), vec!["tiny.json".to_string()]);
 }
 
-/// `VELARIUM_LIB` names the library to ship when `--lib` is not given (the glibc 2.17 build of
-/// `.ci/glibc217`); `--lib` wins over it; a missing file is named with where it came from.
+/// `VELARIUM_LIB` names the library to ship when `--lib` is not given (instead of the default,
+/// the portable or the native build); `--lib` wins over it; a missing file is named with where
+/// it came from.
 #[test]
 fn pack_ships_the_library_named_by_velarium_lib_and_lib_wins() {
     let dir = scratch("pack-env-lib");

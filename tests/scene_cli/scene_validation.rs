@@ -203,3 +203,58 @@ fn a_bad_prestress_continuation_is_named() {
         assert!(problems(&scene(good)).is_empty(), "{good}");
     }
 }
+
+// GOAL: a bad load history of the default experiment (experiment.loads) is named by its path:
+//       times that do not increase, an unknown input, a count that is not one value per time,
+//       a value outside the input's range; an array's list of the wrong length is named when
+//       the model is built (the shipped ZonedCushion: wind has 2 elements).
+#[test]
+fn a_bad_experiment_load_history_is_named_by_its_path() {
+    let tiny = |loads: &str| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[2,0,0]], "node_sets": {{"ends": [0, 2], "middle": [1]}}}},
+              "cables": [{{"name": "c", "nodes": [0, 1, 2], "EA": 1e5, "pretension": 100}}],
+              "supports": [{{"nodes": "ends", "fix": ["x", "y", "z"]}}, {{"nodes": "middle", "fix": ["y"]}}],
+              "inputs": [{{"name": "F", "load": {{"kind": "point_force", "nodes": "middle", "direction": [0, 0, -1]}}, "start": 0, "min": 0, "max": 100}}],
+              "experiment": {{"start_time": 0, "stop_time": 1, "step_size": 0.25, "loads": {loads}}}}}"#
+        )
+    };
+    assert_eq!(
+        problems(&tiny(r#"{"time": [0, 1], "inputs": {"F": [0, 100]}}"#)),
+        Vec::<String>::new()
+    );
+    let p = problems(&tiny(
+        r#"{"time": [0, 0.5, 0.5], "inputs": {"F": [0, 900, 1], "G": [1, 2, 3]}}"#,
+    ));
+    let expect = [
+        "experiment.loads.time[2]: 0.5 does not follow 0.5",
+        "experiment.loads.inputs.F[1]: 900 is outside the input's range [0, 100]",
+        "experiment.loads.inputs.G: no input is named \"G\" (the scene's inputs: F)",
+    ];
+    assert_eq!(p.len(), expect.len(), "{p:#?}");
+    for e in expect {
+        assert!(
+            p.iter().any(|x| x.starts_with(e)),
+            "missing {e:?} in {p:#?}"
+        );
+    }
+    let p = problems(&tiny(r#"{"time": [0, 1], "inputs": {"F": [0]}}"#));
+    assert!(
+        p.len() == 1 && p[0].starts_with("experiment.loads.inputs.F: has 1 values for 2 times"),
+        "{p:?}"
+    );
+    let mut scene = common::read_scene(&common::shipped("ZonedCushion"));
+    let loads = scene.experiment.loads.as_mut().unwrap();
+    loads.inputs.get_mut("wind").unwrap()[1] =
+        velarium::scene::LoadValue::Each(vec![1.0, 2.0, 3.0]);
+    let engine = velarium::Engine::try_new(scene).unwrap();
+    let err = velarium::pack::reference_loads(&engine)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("experiment.loads.inputs.wind[1]")
+            && err.contains("has 3 values; the input wind has 2 elements"),
+        "{err}"
+    );
+}

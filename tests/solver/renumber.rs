@@ -19,7 +19,7 @@
 //!       so to round-off.
 //! MESH: HenckyDisc at 12 rings (469 nodes, 864 triangles) and 34 rings (fill only), the same
 //!       mesh written explicitly with node and triangle ids permuted by a fixed-seed xorshift
-//!       generator; examples/ZonedCushion (8 x 8 cells, edge cables); the 4 m square at 57 x 57
+//!       generator; the shipped ZonedCushion (8 x 8 cells, edge cables); the 4 m square at 57 x 57
 //!       cells (3364 nodes, 6498 triangles, 4 x 57 cable segments) and its shuffle.
 //! BOUNDARY CONDITIONS: rim clamped (disc); the cushion's own; the square held at its four
 //!                     corners.
@@ -291,7 +291,10 @@ fn orders_agree(scene: Value, drive: impl Fn(&mut Engine), label: &str) {
 
 #[test]
 fn every_order_gives_the_given_numberings_answers_on_the_zoned_cushion() {
-    let path = format!("{}/examples/ZonedCushion.json", env!("CARGO_MANIFEST_DIR"));
+    let path = format!(
+        "{}/modelDescription/ZonedCushion/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
     let scene: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     orders_agree(
         scene,
