@@ -1,16 +1,17 @@
 """Benchmark: a sweep's throughput (runs/s) through the package's two engines, and the share of
 a run an in-process binding (PyO3) could save. Prints numbers; asserts nothing about speed.
 
-    .venv/bin/python harness/sweep_throughput.py [--model WrinkledShear] [--runs 48] [--steps 21]
+    .venv/bin/python harness/sweep_throughput.py [--model WrinkledShear] [--input shear] [--runs 48] [--steps 21]
 
-Three ways, the same runs (the first input's ramp target swept over --runs values):
+Three ways, the same runs (one input's ramp target swept over --runs values, target/runs to
+target; the other inputs ramp to their own targets), 8 Dask partitions:
 
-1. `velarium.sweep.sweep` on the FMU (fmpy, ctypes, the engine in this process; one instance
-   per partition, fmi2Reset between runs): Dask's synchronous scheduler, then a 2-worker local
-   cluster;
-2. `velarium.solve` per run (the bundled `velarium` command, one process per run): one at a
-   time, then two at a time;
-3. the floor of any in-process binding: the same FMU loop by hand, timing only the calls that
+1. `velarium.sweep.sweep(engine="fmu")`: the FMU through fmpy (ctypes, the engine in the
+   worker's process; one instance per partition, fmi2Reset between runs), on Dask's
+   synchronous scheduler, then on a 2-worker local cluster;
+2. `velarium.sweep.sweep(engine="solve")`: the bundled `velarium solve`, one process per run,
+   the same two schedulers (the same tidy rows, bit for bit: harness/test_python_package.py);
+3. the ceiling of any in-process binding: the same FMU loop by hand, timing only the calls that
    do the engine's work (instantiate, reset, initialization, DoStep). A PyO3 module would still
    do that work; everything else (setReal/getReal through ctypes, the Python loop) is the most
    it could save.
@@ -22,34 +23,23 @@ import argparse
 import os
 import tempfile
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import fmpy
 import numpy as np
 from fmpy.fmi2 import FMU2Slave
 
-import velarium
 import velarium_run as vr
 from velarium.sweep import sweep
 
 
-def targets(md, runs: int) -> tuple[str, np.ndarray]:
-    v = vr.inputs(md)[0]
+def targets(md, runs: int, name: str | None) -> tuple[str, np.ndarray]:
+    ins = {v.name: v for v in vr.inputs(md)}
+    if name is not None and name not in ins:
+        raise SystemExit(f"--input {name}: {md.modelName} has no such input ({sorted(ins)})")
+    v = ins[name] if name else vr.inputs(md)[0]
     top = vr.ramp_target(v)
     return v.name, np.linspace(top / runs, top, runs)
-
-
-def by_solve(scene: Path, md, name: str, values: np.ndarray, steps: int, parallel: int) -> float:
-    def one(u1: float) -> None:
-        table = vr.ramp_table(md, steps)
-        table[name] = np.linspace(float(table[name][0]), u1, steps + 1)
-        velarium.solve(scene, table)
-
-    t0 = time.perf_counter()
-    with ThreadPoolExecutor(parallel) as pool:
-        list(pool.map(one, values))
-    return time.perf_counter() - t0
 
 
 def engine_share(fmu: Path, md, name: str, values: np.ndarray, steps: int) -> tuple[float, float]:
@@ -93,22 +83,20 @@ def main() -> None:
     parser.add_argument("--model", default="WrinkledShear")
     parser.add_argument("--runs", type=int, default=48)
     parser.add_argument("--steps", type=int, default=21)
+    parser.add_argument("--input", default=None, help="the input whose ramp target is swept (default: the first)")
     args = parser.parse_args()
     fmu = vr.FMU_DIR / f"{args.model}.fmu"
-    scene = vr.SCENES / args.model / "scene.json"
     md = fmpy.read_model_description(str(fmu))
-    name, values = targets(md, args.runs)
+    name, values = targets(md, args.runs, args.input)
     n = len(values)
-    print(f"{args.model}: {n} runs of {args.steps + 1} steps (+1 for the lag in the FMU ways), {name} target "
+    print(f"{args.model}: {n} runs of {args.steps + 1} steps (+1 for the lag), {name} target "
           f"{values[0]:.4g}..{values[-1]:.4g}; load average before: {os.getloadavg()[0]:.2f}")
     grid = {name: list(values)}
-    for label, kwargs in (("FMU sweep, synchronous (1 process)", {"scheduler": "synchronous"}),
-                          ("FMU sweep, local cluster, 2 workers", {"scheduler": "local", "workers": 2})):
-        r = sweep(fmu, grid, steps=args.steps, progress=False, partitions=8, **kwargs)
-        print(f"  {label:44s} {r.runs_per_second:8.2f} runs/s  ({r.seconds:.2f} s)")
-    for parallel in (1, 2):
-        t = by_solve(scene, md, name, values, args.steps, parallel)
-        print(f"  {f'velarium.solve per run, {parallel} at a time':44s} {n / t:8.2f} runs/s  ({t:.2f} s)")
+    for engine in ("fmu", "solve"):
+        for label, kwargs in (("synchronous (1 process)", {"scheduler": "synchronous"}),
+                              ("local cluster, 2 workers", {"scheduler": "local", "workers": 2})):
+            r = sweep(fmu, grid, steps=args.steps, progress=False, partitions=8, engine=engine, **kwargs)
+            print(f"  {f'engine={engine}, {label}':44s} {r.runs_per_second:8.2f} runs/s  ({r.seconds:.2f} s)")
     wall, inside = engine_share(fmu, md, name, values, args.steps)
     print(f"  {'FMU loop by hand, 1 process':44s} {n / wall:8.2f} runs/s  ({wall:.2f} s)")
     print(f"  {'  of which inside the engine':44s} {n / inside:8.2f} runs/s  ({inside:.2f} s, {100 * inside / wall:.1f} %): "

@@ -24,10 +24,13 @@ class VelariumError(RuntimeError):
     """A `velarium` command failed; ``problems`` are its message lines (a scene's problems by
     JSON path, a load table's by row and column)."""
 
-    def __init__(self, message: str, problems: list[str] | None = None, returncode: int | None = None):
+    def __init__(self, message: str, problems: list[str] | None = None, returncode: int | None = None,
+                 rows: np.ndarray | None = None):
         super().__init__(message)
         self.problems = problems or []
         self.returncode = returncode
+        #: solve's rows before a step that did not converge (None for other failures).
+        self.rows = rows
 
 
 def _run(args: list[str], what: str) -> subprocess.CompletedProcess:
@@ -114,11 +117,11 @@ def solve(scene: SceneLike, loads: LoadsLike, *, vtk: str | os.PathLike | None =
     """Run a load history without an FMI master (`velarium solve`).
 
     Row k of the result (``time`` and every output) is the equilibrium under row k's loads,
-    reached from row k-1's. ``loads`` is a table (structured array, dict of columns, DataFrame)
+    reached from row k-1's; a step that does not converge raises :class:`VelariumError` whose
+    ``rows`` are the rows before it. ``loads`` is a table (structured array, dict of columns, DataFrame)
     or the path of a load CSV, given to the command as it is (load combinations included:
     docs/cli.md). ``vtk=DIR`` also writes the ParaView series ``DIR/<name>.pvd``,
-    ``elements=FILE`` the per-triangle CSV. A step that does not converge raises
-    :class:`VelariumError` naming the row."""
+    ``elements=FILE`` the per-triangle CSV."""
     table = None if isinstance(loads, (str, os.PathLike)) else as_table(loads)
     if threads is not None and (int(threads) != threads or not 1 <= threads <= 64):
         raise ValueError(f"threads: {threads!r} is not a whole number from 1 to 64")
@@ -140,7 +143,12 @@ def solve(scene: SceneLike, loads: LoadsLike, *, vtk: str | os.PathLike | None =
             args += ["--elements", str(elements)]
         if threads is not None:
             args += ["--threads", str(int(threads))]
-        _run(args, f"velarium solve {path.name}")
+        try:
+            _run(args, f"velarium solve {path.name}")
+        except VelariumError as e:
+            if csv_out.is_file():
+                e.rows = read_csv(csv_out)
+            raise
         return read_csv(csv_out)
 
 

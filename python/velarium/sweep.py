@@ -3,7 +3,7 @@
     python -m velarium.sweep SCENE.json|MODEL.fmu [--grid NAME=V1,V2,...|NAME=LO:HI:N]...
         [--sample N --range NAME=LO:HI... --seed S] [--steps K]
         [--scheduler local|synchronous|threads|processes|tcp://HOST:PORT] [--workers W]
-        [--partitions P] [--out DIR]
+        [--partitions P] [--engine fmu|solve] [--out DIR]
 
 Every run is one quasi-static load history through the FMU: each input ramped from its start
 value to its ramp target (its `max`, or 10x start, or 1.0; a swept input sets the target) in K
@@ -12,7 +12,9 @@ so that the last recorded row carries the ramp's last value (the one-step lag, d
 swept parameter is set as a start value before initialization. `--grid` values combine as a
 full factorial; `--sample N` draws N points uniformly from the `--range` boxes (seeded).
 
-Runs go to Dask in partitions: each partition extracts the FMU once, instantiates it once,
+With --engine solve, each run is one `velarium solve` of the same ramp instead (no FMU instance,
+inputs only; the workers must see the command at the same path), recorded on the same grid:
+the same table, bit for bit. Runs go to Dask in partitions: each partition extracts the FMU once, instantiates it once,
 `fmi2Reset`s it between runs, and at the end frees the instance and unloads the library with
 `fmpy.freeLibrary` (the pattern of fmpy's examples/parameter_variation.py), so a long-lived
 worker does not keep one copy of the library per partition. The default scheduler is a local
@@ -41,6 +43,7 @@ import os
 import sys
 import tempfile
 import time
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -48,6 +51,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from . import tables as vr
+from ._locate import command
 from .engine import load_scene, pack
 
 
@@ -191,10 +195,63 @@ def run_partition(runs: list[tuple[int, dict]], fmu_bytes: bytes, spec: dict) ->
     return rows
 
 
+def run_partition_solve(runs: list[tuple[int, dict]], scene_text: str, spec: dict) -> list[dict]:
+    """The same runs through the `velarium` command (one `velarium solve` per run; no FMU,
+    no lag), recorded on the FMU sweep's grid so that the tidy rows are the same: the row at
+    t_0 and the row at t_{j+1} are solve's rows 0 and j (the equilibrium under the loads of t_j).
+    A step that does not converge ends the run as a Discard does. Self-contained for Dask."""
+    import csv as _csv
+    import shutil as _shutil
+    import subprocess as _subprocess
+    import tempfile as _tempfile
+    from pathlib import Path as _Path
+
+    tmp = _Path(_tempfile.mkdtemp(prefix="velarium-sweep-"))
+    rows: list[dict] = []
+    try:
+        scene = tmp / "scene.json"
+        scene.write_text(scene_text)
+        start, stop, k = spec["start"], spec["stop"], spec["steps"]
+        h = (stop - start) / k
+        # The FMU path's column order: Real outputs, then Integer ones.
+        outputs = [n for n, _, t in spec["outputs"] if t == "Real"] + [n for n, _, t in spec["outputs"] if t != "Real"]
+        for index, values in runs:
+            ramps = []
+            for name, _, u0, u1 in spec["inputs"]:
+                u1 = values.get(name, u1)
+                ramps.append((name, [u0 + (u1 - u0) * j / k for j in range(k + 1)]))
+            loads, result = tmp / "loads.csv", tmp / "result.csv"
+            with open(loads, "w") as f:
+                f.write(",".join(["time"] + [n for n, _ in ramps]) + "\n")
+                for j in range(k + 1):
+                    f.write(",".join([repr(start + j * h)] + [repr(u[j]) for _, u in ramps]) + "\n")
+            result.unlink(missing_ok=True)
+            run = _subprocess.run([spec["command"], "solve", str(scene), "--loads", str(loads), "--out", str(result), "--quiet"],
+                                  capture_output=True, text=True)
+            if run.returncode == 0:
+                status = "ok"
+            elif run.returncode == 1 and "did not converge" in run.stderr and result.is_file():
+                status = "discard"
+            else:
+                raise RuntimeError(f"run {index}: velarium solve failed ({run.returncode}):\n{run.stderr}")
+            with open(result) as f:
+                solved = [{n: float(v) for n, v in r.items()} for r in _csv.DictReader(f)]
+            swept = {spec["columns"][n]: values[n] for n in spec["swept"]}
+            if solved:
+                rows.append({"run": index, **swept, "status": status, "time": start, **{n: u[0] for n, u in ramps},
+                             **{n: solved[0][n] for n in outputs}})
+            for j, r in enumerate(solved):
+                rows.append({"run": index, **swept, "status": status, "time": start + (j + 1) * h,
+                             **{n: u[j] for n, u in ramps}, **{n: r[n] for n in outputs}})
+    finally:
+        _shutil.rmtree(tmp, ignore_errors=True)
+    return rows
+
+
 # ----------------------------------------------------------------------------- Dask
 
 def compute(runs: list[dict], fmu: Path, spec: dict, scheduler: str, workers: int, partitions: int | None,
-            show: bool = True) -> tuple[list[dict], float]:
+            show: bool = True, engine: str = "fmu") -> tuple[list[dict], float]:
     """All rows of all runs, in run order, and the wall time of the compute (seconds)."""
     import dask.bag as db
 
@@ -205,13 +262,16 @@ def compute(runs: list[dict], fmu: Path, spec: dict, scheduler: str, workers: in
             cloudpickle.register_pickle_by_value(sys.modules[__name__])
     except Exception:
         pass
-    fmu_bytes = fmu.read_bytes()
+    if engine == "solve":
+        worker, payload = run_partition_solve, spec["scene_text"]
+    else:
+        worker, payload = run_partition, fmu.read_bytes()
     indexed = list(enumerate(runs))
     parts = partitions or max(1, min(len(indexed), 4 * max(1, workers)))
     if scheduler in ("synchronous", "threads", "processes"):
         from dask.diagnostics import ProgressBar
 
-        bag = db.from_sequence(indexed, npartitions=parts).map_partitions(run_partition, fmu_bytes, spec)
+        bag = db.from_sequence(indexed, npartitions=parts).map_partitions(worker, payload, spec)
         t0 = time.perf_counter()
         if show:
             with ProgressBar(dt=0.5):
@@ -233,10 +293,10 @@ def compute(runs: list[dict], fmu: Path, spec: dict, scheduler: str, workers: in
             t0 = time.perf_counter()
             # The FMU's bytes go to every worker once (broadcast): a task that needed them from
             # one worker would pull every partition onto that worker (data locality).
-            fmu_future = client.scatter(fmu_bytes, broadcast=True, hash=False)
+            fmu_future = client.scatter(payload, broadcast=True, hash=False)
             bounds = np.linspace(0, len(indexed), parts + 1).round().astype(int)
             chunks = [indexed[a:b] for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
-            futures = [client.submit(run_partition, chunk, fmu_future, spec, pure=False) for chunk in chunks]
+            futures = [client.submit(worker, chunk, fmu_future, spec, pure=False) for chunk in chunks]
             if show:
                 progress(futures)
                 print(file=sys.stderr)
@@ -368,6 +428,7 @@ def sweep(
     out: str | os.PathLike | None = None,
     plot: bool = True,
     progress: bool = True,
+    engine: str = "fmu",
 ) -> SweepResult:
     """Sweep parameters and input ramp targets of a scene or FMU on Dask.
 
@@ -379,6 +440,11 @@ def sweep(
     ``workers`` single-threaded processes), ``synchronous``, ``threads``, ``processes`` or a
     scheduler address. With ``out``, writes ``sweep.csv`` (and ``sweep.parquet`` with pyarrow,
     ``sweep.png`` with ``plot``) there. A scene is packed into a temporary FMU first.
+
+    ``engine="fmu"`` (default) runs each partition in one FMU instance through fmpy;
+    ``engine="solve"`` runs each run through the bundled `velarium solve` instead (no FMU
+    instance; inputs only, a swept parameter is an error; the workers must see the command at
+    the same path, so a local cluster or this machine): the same tidy rows, bit for bit.
     """
     import fmpy
 
@@ -388,6 +454,8 @@ def sweep(
         raise ValueError(f"partitions: {partitions!r} is not a positive whole number")
     if steps is not None and (int(steps) != steps or steps < 1):
         raise ValueError(f"steps: {steps!r} is not a positive whole number")
+    if engine not in ("fmu", "solve"):
+        raise ValueError(f"engine: {engine!r} is not 'fmu' or 'solve'")
     if int(sample) != sample or sample < 0:
         raise ValueError(f"sample: {sample!r} is not a whole number >= 0")
     grid_list = []
@@ -411,10 +479,18 @@ def sweep(
         md = fmpy.read_model_description(str(fmu))
         names, runs = plan(grid_list, range_list, sample, seed)
         spec = spec_of(md, names, steps)
+        if engine == "solve":
+            for name in names:
+                if name in spec["parameters"]:
+                    raise ValueError(f"{'ranges' if sample else 'grid'}.{name}: engine='solve' sweeps inputs only and "
+                                     f"{name} is a parameter: use engine='fmu'")
+            with zipfile.ZipFile(fmu) as z:
+                spec["scene_text"] = z.read("resources/scene.json").decode()
+            spec["command"] = str(command())
         if progress:
             print(f"{md.modelName}: {len(runs)} runs of {spec['steps'] + 1} steps, sweeping {names or 'nothing'}, "
                   f"scheduler {scheduler}" + (f" ({workers} workers)" if scheduler == "local" else ""))
-        rows, elapsed = compute(runs, fmu, spec, scheduler, workers, partitions, progress)
+        rows, elapsed = compute(runs, fmu, spec, scheduler, workers, partitions, progress, engine)
     files: list[Path] = []
     if out is not None:
         out = Path(out)
@@ -440,6 +516,8 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--workers", type=int, default=2, help="workers of the local cluster (default: %(default)s)")
     parser.add_argument("--partitions", type=int, default=None, help="Dask partitions (default: 4 per worker, at most one per run)")
     parser.add_argument("--out", type=Path, default=None, help="output directory (default: build/sweeps/<Name>)")
+    parser.add_argument("--engine", choices=["fmu", "solve"], default="fmu",
+                        help="fmu: one FMU instance per partition through fmpy (default); solve: `velarium solve` per run")
     args = parser.parse_args(argv)
 
     import fmpy
@@ -453,7 +531,8 @@ def main(argv: list[str] | None = None) -> dict:
             name = load_scene(args.target).name
         out = args.out or Path("build") / "sweeps" / name
         result = sweep(args.target, grid, sample=args.sample, ranges=ranges, seed=args.seed, steps=args.steps,
-                       scheduler=args.scheduler, workers=args.workers, partitions=args.partitions, out=out)
+                       scheduler=args.scheduler, workers=args.workers, partitions=args.partitions, out=out,
+                       engine=args.engine)
     except (ValueError, RuntimeError, FileNotFoundError) as e:
         sys.exit(f"velarium.sweep: {e}")
     discards = sum(r["status"] != "ok" for r in result.last())
