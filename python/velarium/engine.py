@@ -43,12 +43,12 @@ def _run(args: list[str], what: str) -> subprocess.CompletedProcess:
 
 @dataclass
 class Scene:
-    """A scene file that `velarium check` accepted.
+    """A scene that `velarium check` accepted.
 
-    ``data`` is the parsed JSON; ``inputs``, ``outputs`` and ``parameters`` the names the FMU
+    ``path`` is its file (None for a scene given as a dict); ``data`` the parsed JSON; ``inputs``, ``outputs`` and ``parameters`` the names the FMU
     will have; ``summary`` check's ``ok:`` line and ``warnings`` its plausibility warnings."""
 
-    path: Path
+    path: Path | None
     data: dict
     summary: str
     warnings: list[str] = field(default_factory=list)
@@ -76,7 +76,9 @@ class Scene:
 
 def _scene_path(scene: SceneLike, workdir: Path) -> Path:
     if isinstance(scene, Scene):
-        return scene.path
+        if scene.path is not None:
+            return scene.path
+        scene = scene.data
     if isinstance(scene, Mapping):
         path = workdir / f"{scene.get('name', 'scene')}.json"
         path.write_text(json.dumps(scene))
@@ -102,14 +104,9 @@ def load_scene(scene: SceneLike) -> Scene:
             raise VelariumError(f"scene {path if not isinstance(scene, Mapping) else scene.get('name', '')}: "
                                 f"{len(problems)} problem(s):\n" + "\n".join(problems), problems, run.returncode)
         data = json.loads(path.read_text()) if not isinstance(scene, Mapping) else dict(scene)
-        if isinstance(scene, Mapping):
-            # Keep the file: the Scene must outlive this temporary directory.
-            kept = Path(tempfile.mkdtemp(prefix="velarium-scene-")) / path.name
-            kept.write_text(json.dumps(data))
-            path = kept
     summary = next((line for line in lines if line.startswith("ok:")), "")
     warnings = [line for line in lines + run.stderr.splitlines() if line.startswith("warning")]
-    return Scene(path=Path(path), data=data, summary=summary, warnings=warnings)
+    return Scene(path=None if isinstance(scene, Mapping) else Path(path), data=data, summary=summary, warnings=warnings)
 
 
 def solve(scene: SceneLike, loads: LoadsLike, *, vtk: str | os.PathLike | None = None,

@@ -10,21 +10,25 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Union
+from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
 
+if TYPE_CHECKING:
+    import pandas
+
 #: What the functions taking a load table accept: a structured array, a mapping of column name to
 #: values (``{"time": [...], "F": [...]}``), a pandas DataFrame, or the path of a CSV file.
-LoadsLike = Union[np.ndarray, Mapping[str, Any], "os.PathLike[str]", str, Any]
+LoadsLike = Union[np.ndarray, Mapping[str, Any], "pandas.DataFrame", str, os.PathLike]
 
 
 def as_table(loads: LoadsLike, what: str = "loads") -> np.ndarray:
     """The load table as a float64 structured array with ``time`` first; a bad table is a
     ``ValueError`` naming the column (and row) at fault."""
-    if isinstance(loads, (str, Path)):
+    if isinstance(loads, (str, os.PathLike)):
         path = Path(loads)
         if not path.is_file():
             raise ValueError(f"{what}: {path}: no such file")
