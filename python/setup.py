@@ -3,7 +3,8 @@
 Everything declarative is in pyproject.toml. This file only (1) runs `cargo build --release` on
 the crate one directory up (or takes the binaries from VELARIUM_BINARIES=DIR) and copies
 `velarium` and `libvelarium.so` into the built package, and (2) marks the wheel as
-platform-specific (it holds native code), so pip never installs it on another platform.
+platform-specific (it holds native code, but no Python extension: any Python 3 on the same
+platform can use it), so pip never installs it on another platform.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import subprocess
 from pathlib import Path
 
 from setuptools import Distribution, setup
+from setuptools.command.bdist_wheel import bdist_wheel
 from setuptools.command.build_py import build_py
 
 HERE = Path(__file__).resolve().parent
@@ -63,4 +65,12 @@ class PlatformDistribution(Distribution):
         return True
 
 
-setup(cmdclass={"build_py": BuildPyWithBinaries}, distclass=PlatformDistribution)
+class AnyPythonWheel(bdist_wheel):
+    """Tagged py3-none-<platform>: the binaries are tied to the platform, not to a Python ABI."""
+
+    def get_tag(self):
+        _, _, platform = super().get_tag()
+        return "py3", "none", platform
+
+
+setup(cmdclass={"build_py": BuildPyWithBinaries, "bdist_wheel": AnyPythonWheel}, distclass=PlatformDistribution)

@@ -201,6 +201,12 @@ def write_vtk_series(scene: SceneLike, loads: LoadsLike, directory: str | os.Pat
     return pvd[0]
 
 
+# Where the second ParaView writer goes: a series written from an FMU run's array outputs (no
+# second solve), being written as harness/fmu_vtk.py, belongs here beside write_vtk_series, as
+# write_fmu_vtk_series(fmu_rows, scene, directory) -> Path, exported from velarium/__init__.py, with
+# an example in docs/python.md ("ParaView series") that test_python_package.py then runs.
+
+
 def series_files(pvd: str | os.PathLike) -> list[tuple[float, Path]]:
     """(time, .vtu path) of every data set of a .pvd collection, in file order."""
     import xml.etree.ElementTree as ET
