@@ -1,24 +1,47 @@
-"""Shared pieces of the harness: where things are, load tables, and the two ways to run one.
+"""The harness's view of the checkout: where the shipped scenes, the packed FMUs and the built
+command are, over the `velarium` Python package (python/velarium, docs/python.md), which holds
+the load tables, the fmpy runs and fmpy's resident logger.
 
 A load table is a NumPy structured array: field ``time`` first, then one float field per FMU
 input, exactly what ``fmpy.simulate_fmu(input=...)`` takes. The same table goes through
 ``velarium solve`` as CSV (``write_loads_csv``) so both runs see the same f64 values.
 
-Timing (docs/fmu.md, "The one-step lag"): fmpy sets ``u(t_k)`` before ``DoStep(t_k, h)`` and records after it, so its
-row at ``t_{k+1}`` is the equilibrium under ``u(t_k)``, which is ``velarium solve``'s row ``k``;
-its row at ``t_0`` (read right after initialization) is solve's row 0 as well.
+Timing (docs/fmu.md, "Stepping"): fmpy sets ``u(t_k)`` before ``DoStep(t_k, h)`` and records
+after it, so its row at ``t_{k+1}`` is the equilibrium under ``u(t_k)``, which is ``velarium
+solve``'s row ``k``; its row at ``t_0`` (read right after initialization) is solve's row 0 too.
+The functions here take the binary explicitly (the checkout's target/release by default), so a
+test always runs the build it names; the package's own functions run the bundled one.
 """
 
 from __future__ import annotations
 
-import csv
 import os
 import subprocess
 import zipfile
 from pathlib import Path
 
-import fmpy
+import fmpy  # noqa: F401  (tests reach fmpy as vr.fmpy)
 import numpy as np
+
+from velarium.engine import series_files  # noqa: F401
+from velarium.fmu import (  # noqa: F401
+    TIMEOUT,
+    register_resident_logger,
+    set_resident_logger,
+    simulate,
+    simulate_fmu,
+)
+from velarium.tables import (  # noqa: F401
+    carried_loads,
+    experiment,
+    extend_by_one_step,
+    inputs,
+    outputs,
+    ramp_table,
+    ramp_target,
+    read_csv,
+    write_loads_csv,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "modelDescription"
@@ -42,124 +65,10 @@ def portable_library_is_current() -> bool:
         return False
     return not NATIVE_LIBRARY.is_file() or PORTABLE_LIBRARY.stat().st_mtime >= NATIVE_LIBRARY.stat().st_mtime
 
-# Wall-clock limit of one simulate_fmu run in seconds: the guard against a master loop that
-# does not advance (docs/fmu.md).
-TIMEOUT = 300
-
-
-# ----------------------------------------------------------------------------- fmpy's logger
-#
-# fmpy formats an FMU's variadic log message in a small native proxy (fmpy.logging,
-# `addLoggerProxy`) that forwards it to ONE process-wide pointer: the Python callback of the
-# last callback structure registered. `simulate_fmu(..., logger=f)` registers a ctypes thunk of
-# `f` that lives only as long as that call; afterwards the proxy's pointer dangles, and the next
-# FMU instance that logs through fmpy's default callbacks (FMU2Slave.instantiate() without
-# callbacks, as harness/sweep.py does) jumps into freed memory: SIGSEGV inside fmi2DoStep or
-# any call that logs (docs/fmu.md, "fmpy's logger"). The harness therefore keeps one resident
-# callback registered for the life of the process and puts it back after every run that
-# passed its own logger: `simulate_fmu` below is the only way the harness passes `logger=`.
-
-from ctypes import byref  # noqa: E402
-
-from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, printLogMessage  # noqa: E402
-from fmpy.logging import addLoggerProxy  # noqa: E402
-
-# The resident thunk (fmpy's own printer until set_resident_logger replaces it) and every
-# callback structure ever registered: none is ever garbage-collected while the proxy may hold it.
-_RESIDENT = [fmi2CallbackLoggerTYPE(printLogMessage)]
-_REGISTERED: list = []
-
-
-def register_resident_logger() -> None:
-    """Point fmpy's native proxy at the resident callback again."""
-    callbacks = fmi2CallbackFunctions()
-    callbacks.logger = _RESIDENT[0]
-    callbacks.allocateMemory = fmpy.fmi2.defaultCallbacks.allocateMemory
-    callbacks.freeMemory = fmpy.fmi2.defaultCallbacks.freeMemory
-    addLoggerProxy(byref(callbacks))
-    _REGISTERED.append(callbacks)
-
-
-def set_resident_logger(thunk) -> None:
-    """Make `thunk` (an fmi2CallbackLoggerTYPE kept alive by the caller, e.g. a module global)
-    the callback every proxied log message reaches, from now on and after every run."""
-    _RESIDENT[0] = thunk
-    register_resident_logger()
-
-
-def simulate_fmu(fmu, logger=None, **kwargs):
-    """fmpy.simulate_fmu; with `logger`, the resident callback is registered again afterwards
-    (also when the run raises), so no later instance reaches the run's freed thunk."""
-    if logger is None:
-        return fmpy.simulate_fmu(str(fmu), **kwargs)
-    try:
-        return fmpy.simulate_fmu(str(fmu), logger=logger, **kwargs)
-    finally:
-        register_resident_logger()
-
-
 
 def shipped_models() -> list[str]:
     """Names of the shipped scenes: every modelDescription/<Name>/scene.json."""
     return sorted(p.parent.name for p in SCENES.glob("*/scene.json"))
-
-
-def inputs(model_description) -> list:
-    return [v for v in model_description.modelVariables if v.causality == "input"]
-
-
-def outputs(model_description) -> list:
-    return [v for v in model_description.modelVariables if v.causality == "output"]
-
-
-def ramp_target(variable) -> float:
-    """Where a ramp of this input ends: its max if declared, else 10x its start (1.0 if 0)."""
-    if variable.max is not None:
-        return float(variable.max)
-    start = float(variable.start)
-    return 10.0 * start if start != 0.0 else 1.0
-
-
-def experiment(model_description) -> tuple[float, float]:
-    e = model_description.defaultExperiment
-    return float(e.startTime), float(e.stopTime)
-
-
-def ramp_table(model_description, steps: int) -> np.ndarray:
-    """Every input ramped linearly from its start to ``ramp_target`` over the default
-    experiment, on the grid fmpy uses (``t_k = start + k * h``), ``steps + 1`` rows."""
-    start, stop = experiment(model_description)
-    h = (stop - start) / steps
-    names = [v.name for v in inputs(model_description)]
-    table = np.zeros(steps + 1, dtype=[("time", np.float64)] + [(n, np.float64) for n in names])
-    for k in range(steps + 1):
-        table["time"][k] = start + k * h
-    for v in inputs(model_description):
-        u0, u1 = float(v.start), ramp_target(v)
-        table[v.name] = [u0 + (u1 - u0) * k / steps for k in range(steps + 1)]
-    return table
-
-
-def write_loads_csv(table: np.ndarray, path: Path) -> None:
-    """The table as `velarium solve` reads it; repr() of a float round-trips exactly."""
-    names = table.dtype.names
-    with open(path, "w") as f:
-        # A 2-D array element's name has a comma ("corners[1,3]"): quoted, as `solve` reads it.
-        f.write(",".join(f'"{n}"' if "," in n else n for n in names) + "\n")
-        for row in table:
-            f.write(",".join(repr(float(row[n])) for n in names) + "\n")
-
-
-def read_csv(path: Path) -> np.ndarray:
-    """A CSV with a header line as a structured float array."""
-    with open(path) as f:
-        rows = list(csv.reader(f))
-    header, data = rows[0], rows[1:]
-    out = np.zeros(len(data), dtype=[(n, np.float64) for n in header])
-    for i, row in enumerate(data):
-        for n, cell in zip(header, row):
-            out[n][i] = float(cell)
-    return out
 
 
 def solve(scene: Path, table: np.ndarray, workdir: Path, binary: Path = VELARIUM) -> np.ndarray:
@@ -177,57 +86,9 @@ def solve(scene: Path, table: np.ndarray, workdir: Path, binary: Path = VELARIUM
     return read_csv(result)
 
 
-def simulate(fmu: Path, table: np.ndarray | None = None, **kwargs) -> np.ndarray:
-    """simulate_fmu with the table's grid as communication grid and a timeout. Checks that the
-    run reached its stop time: an FMU whose step does not converge returns fmi2Discard with
-    Terminated true, and fmpy then ends the run early without raising."""
-    if table is not None:
-        kwargs.setdefault("input", table)
-        kwargs.setdefault("start_time", float(table["time"][0]))
-        kwargs.setdefault("stop_time", float(table["time"][-1]))
-        kwargs.setdefault("output_interval", float(table["time"][1] - table["time"][0]))
-    kwargs.setdefault("timeout", TIMEOUT)
-    result = simulate_fmu(fmu, **kwargs)
-    stop = kwargs.get("stop_time")
-    if stop is None:
-        stop = float(fmpy.read_model_description(str(fmu)).defaultExperiment.stopTime)
-    end = float(result["time"][-1])
-    if not np.isclose(end, stop, rtol=1e-12, atol=1e-12):
-        raise AssertionError(
-            f"{fmu.name}: the run ended at t = {end}, before stop_time = {stop}: a step did not "
-            f"converge (fmi2Discard, Terminated) or timed out; the FMU's log above says which"
-        )
-    return result
-
-
 def fmu_member(fmu: Path, name: str) -> bytes:
     with zipfile.ZipFile(fmu) as z:
         return z.read(name)
-
-
-def extend_by_one_step(table: np.ndarray) -> np.ndarray:
-    """The table with one more row, one step after the last, holding the last row's loads.
-
-    The one-step lag of co-simulation (docs/fmu.md, "The one-step lag"): fmpy sets u(t_k)
-    before DoStep(t_k, h) and records the outputs at t_{k+1}, so the row recorded at t_{k+1}
-    is the equilibrium under u(t_k) and the last row of a table is never carried by any
-    recorded row. Run the extended table (stop time one step later) and the last recorded row
-    is the equilibrium under the last load of the original table: a ramp reaches its end.
-    The step is the table's last time step (its only step on fmpy's uniform grid).
-    """
-    if len(table) < 2:
-        raise ValueError("a load table needs at least two rows to know its step")
-    h = float(table["time"][-1] - table["time"][-2])
-    extra = table[-1:].copy()
-    extra["time"][0] = float(table["time"][-1]) + h
-    return np.concatenate([table, extra])
-
-
-def carried_loads(table: np.ndarray, name: str) -> np.ndarray:
-    """The load under which each row fmpy records is in equilibrium: u(t_0) at t_0, then
-    u(t_k) at t_{k+1} (the one-step lag)."""
-    u = table[name]
-    return np.concatenate([u[:1], u[:-1]])
 
 
 def fmu_for(path: Path, out_dir: Path = FMU_DIR, binary: Path = VELARIUM) -> Path:
@@ -273,11 +134,3 @@ def write_vtk_series(scene: Path, table: np.ndarray, directory: Path, binary: Pa
     if len(pvd) != 1:
         raise RuntimeError(f"expected one .pvd in {directory}, found {pvd}")
     return pvd[0]
-
-
-def series_files(pvd: Path) -> list[tuple[float, Path]]:
-    """(time, .vtu path) of every data set of a .pvd collection, in file order."""
-    import xml.etree.ElementTree as ET
-
-    root = ET.parse(pvd).getroot()
-    return [(float(d.get("timestep")), pvd.parent / d.get("file")) for d in root.iter("DataSet")]

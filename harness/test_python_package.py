@@ -1,0 +1,227 @@
+"""The Python package (python/, docs/python.md): `pip install` of its wheel into a fresh virtual
+environment runs every Python block of docs/python.md with the bundled command; bad input is a
+ValueError naming the field; `python -m velarium.run` and `python -m velarium.sweep` work.
+
+The fresh environment is made without pip and without the project's .venv on its path; the wheel
+goes in with `--no-deps --no-index`, and numpy, fmpy and Dask come from .venv's site-packages
+through a path file (a path file's directory is on sys.path, but the path files in it, such as
+.venv's editable install of velarium, are not run), so nothing is downloaded.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import re
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import velarium
+import velarium_run as vr
+from velarium.sweep import sweep
+
+DOC = vr.ROOT / "docs" / "python.md"
+
+
+def examples() -> str:
+    blocks = re.findall(r"```python\n(.*?)```", DOC.read_text(), re.S)
+    assert len(blocks) >= 6, "docs/python.md lost its examples"
+    return "\n\n".join(blocks)
+
+
+def clean_env(**extra: str) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("VELARIUM_HOME", "PYTHONPATH", "CARGO_TARGET_DIR", "VIRTUAL_ENV")}
+    env.update(extra)
+    return env
+
+
+@pytest.fixture(scope="module")
+def fresh(tmp_path_factory) -> Path:
+    """The python of a fresh virtual environment with the package's wheel installed."""
+    library = vr.VELARIUM.parent / "libvelarium.so"
+    if not vr.VELARIUM.is_file() or not library.is_file():
+        pytest.skip(f"{vr.VELARIUM} or {library} is missing: run `cargo build --release`")
+    root = tmp_path_factory.mktemp("fresh")
+    build = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--quiet", str(vr.ROOT / "python"),
+         "--wheel-dir", str(root / "wheels")],
+        capture_output=True, text=True, env=clean_env(VELARIUM_BINARIES=str(vr.VELARIUM.parent)), timeout=300,
+    )
+    assert build.returncode == 0, build.stdout + build.stderr
+    wheels = list((root / "wheels").glob("velarium-*.whl"))
+    assert len(wheels) == 1, wheels
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(root / "venv")], check=True, timeout=120)
+    python = root / "venv" / "bin" / "python"
+    install = subprocess.run(
+        [sys.executable, "-m", "pip", "--python", str(python), "install", "--quiet", "--no-deps", "--no-index", str(wheels[0])],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert install.returncode == 0, install.stdout + install.stderr
+    purelib = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    (Path(purelib) / "velarium-test-deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    return python
+
+
+def test_the_wheel_bundles_and_runs_its_own_command(fresh, tmp_path):
+    code = ("import velarium, sys; print(velarium.__file__); print(velarium.command()); print(velarium.library()); "
+            "print(velarium.load_scene(sys.argv[1]).summary)")
+    run = subprocess.run([str(fresh), "-c", code, str(vr.SCENES / "PrestressedCable" / "scene.json")],
+                         capture_output=True, text=True, cwd=tmp_path, env=clean_env(), timeout=120)
+    assert run.returncode == 0, run.stderr
+    module, command, library, summary = run.stdout.splitlines()
+    venv = fresh.parent.parent
+    for path in (module, command, library):
+        assert Path(path).is_relative_to(venv), path
+    assert Path(command).read_bytes() == vr.VELARIUM.read_bytes()
+    assert os.access(command, os.X_OK)
+    assert summary.startswith("ok: PrestressedCable, 3 nodes")
+    # VELARIUM_HOME (a checkout) comes before the bundled binaries.
+    run = subprocess.run([str(fresh), "-c", "import velarium; print(velarium.command())"], capture_output=True, text=True,
+                         env=clean_env(VELARIUM_HOME=str(vr.ROOT)), timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert Path(run.stdout.strip()).resolve() == vr.VELARIUM.resolve()
+
+
+def test_the_docs_examples_run_in_the_fresh_environment(fresh, tmp_path):
+    script = tmp_path / "examples.py"
+    script.write_text(examples())
+    run = subprocess.run([str(fresh), str(script)], capture_output=True, text=True, cwd=tmp_path, env=clean_env(), timeout=600)
+    assert run.returncode == 0, run.stdout + run.stderr
+    # What the blocks print is what their comments show (runs of spaces as one).
+    shown = [" ".join(c.split()) for c in re.findall(r"print\(.*\)\s+# (.*)", examples())]
+    printed = [" ".join(line.split()) for line in run.stdout.splitlines()]
+    assert len(shown) == 7
+    for comment in shown:
+        if "(...)" in comment:
+            assert any(line.startswith(comment.split(" (...)")[0]) for line in printed), comment
+        else:
+            assert comment in printed, f"{comment!r} not in {printed}"
+
+
+# ----------------------------------------------------------------------------- named errors
+
+@pytest.fixture
+def cable_fmu() -> Path:
+    path = vr.FMU_DIR / "PrestressedCable.fmu"
+    if not path.is_file():
+        pytest.skip(f"{path} is missing: run `bash .ci/run`")
+    return path
+
+
+@pytest.mark.parametrize("loads, message", [
+    ({"F": [0.0, 1.0]}, "loads: no 'time' column"),
+    ({"time": [0.0, 1.0], "P": [0.0, float("nan")]}, "loads.P, row 1: nan is not a finite number"),
+    ({"time": [0.0, 1.0, 1.0], "P": [0.0, 1.0, 2.0]}, "loads.time, row 2: 1.0 does not come after row 1's 1.0"),
+    ({"time": [0.0, 1.0], "P": [0.0]}, "loads.P: 1 rows, but 'time' has 2"),
+    ({"time": [0.0, 1.0], "P": ["a", "b"]}, "loads.P: not numbers"),
+    (np.zeros(3), "loads: a plain array has no column names"),
+])
+def test_a_bad_load_table_is_named(loads, message):
+    with pytest.raises(ValueError) as e:
+        velarium.as_table(loads)
+    assert str(e.value).startswith(message), str(e.value)
+
+
+def test_bad_arguments_name_the_field(cable_fmu, tmp_path):
+    scene = vr.SCENES / "PrestressedCable" / "scene.json"
+    with pytest.raises(ValueError, match=r"^loads\.Q: PrestressedCable has no input 'Q' \(inputs: \['P'\]\)"):
+        velarium.solve(scene, {"time": [0.0, 1.0], "Q": [0.0, 1.0]})
+    with pytest.raises(ValueError, match=r"^loads\.time: fmpy steps on a uniform grid"):
+        velarium.run_fmu(cable_fmu, {"time": [0.0, 0.5, 2.0], "P": [0.0, 1.0, 2.0]})
+    with pytest.raises(ValueError, match=r"^start_values\.EB: PrestressedCable has no parameter or input 'EB'"):
+        velarium.run_fmu(cable_fmu, {"time": [0.0, 0.5], "P": [0.0, 1.0]}, start_values={"EB": 1.0})
+    with pytest.raises(ValueError, match=r"^scene: .*nowhere\.json: no such file"):
+        velarium.load_scene(tmp_path / "nowhere.json")
+    with pytest.raises(ValueError, match=r"^workers: 0 is not a positive whole number"):
+        sweep(cable_fmu, {"P": [1.0]}, workers=0)
+    with pytest.raises(ValueError, match=r"^'Q' is not an input or a parameter of PrestressedCable"):
+        sweep(cable_fmu, {"Q": [1.0]}, scheduler="synchronous", progress=False)
+    with pytest.raises(ValueError, match=r"^fmi: 4 is not 2, 3 or 'both'"):
+        velarium.pack(scene, tmp_path, fmi=4)
+
+
+def test_a_failed_step_keeps_the_aligned_rows_before_it(tmp_path):
+    if not vr.VELARIUM.is_file():
+        pytest.skip(f"{vr.VELARIUM} is missing")
+    import fmi_support as fs
+
+    fmu = fs.debug_variant("PrestressedCable", tmp_path / "variant", vr.VELARIUM, fail_after_time=0.55)
+    table = {"time": [0.0, 0.25, 0.5, 0.75, 1.0], "P": [0.0, 1000.0, 2000.0, 3000.0, 4000.0]}
+    with pytest.raises(velarium.RunEndedEarly) as e:
+        velarium.run_fmu(fmu, table)
+    # The step from 0.5 to 0.75 fails (it ends after 0.55): rows 0 and 1 (loads of t = 0, 0.25)
+    # are the equilibria recorded before it, aligned like solve's.
+    rows = e.value.rows
+    assert list(rows["time"]) == [0.0, 0.25]
+    solved = velarium.solve(vr.SCENES / "PrestressedCable" / "scene.json", {k: v[:2] for k, v in table.items()})
+    assert list(rows["midspan_uz"]) == list(solved["midspan_uz"])
+
+
+# ----------------------------------------------------------------------------- the modules
+
+def test_python_m_velarium_sweep_and_run(cable_fmu, tmp_path):
+    out = tmp_path / "sweep"
+    run = subprocess.run([sys.executable, "-m", "velarium.sweep", str(cable_fmu), "--grid", "P=2000,6000", "--steps", "2",
+                          "--scheduler", "synchronous", "--out", str(out)], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "2 runs (0 ended early with Discard)" in run.stdout
+    with open(out / "sweep.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [float(r["P"]) for r in rows if r["time"] == "1.5"] == [2000.0, 6000.0]
+    run = subprocess.run([sys.executable, "-m", "velarium.run", str(cable_fmu), "--out", str(tmp_path / "run")],
+                         capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert (tmp_path / "run" / "PrestressedCable.png").stat().st_size > 0
+    assert (tmp_path / "run" / "vtk" / "PrestressedCable.pvd").is_file()
+    from velarium.sweep import main as sweep_main
+
+    with pytest.raises(SystemExit) as e:
+        sweep_main([str(cable_fmu), "--grid", "Q=1"])
+    assert "'Q' is not an input or a parameter of PrestressedCable" in str(e.value.code)
+
+
+def test_a_dataframe_is_a_load_table_and_a_result_becomes_one():
+    pd = pytest.importorskip("pandas", reason="pandas is not in harness/requirements.txt; install it to run this test")
+    frame = pd.DataFrame({"time": [0.0, 0.5], "P": [0.0, 2000.0]})
+    table = velarium.as_table(frame)
+    assert table.dtype.names == ("time", "P") and list(table["P"]) == [0.0, 2000.0]
+    back = velarium.to_pandas(table)
+    assert list(back.columns) == ["time", "P"] and list(back["P"]) == [0.0, 2000.0]
+
+
+@pytest.mark.parametrize("name, grid", [("PrestressedCable", {"P": [2000.0, 6000.0]}),
+                                         ("HenckyDisc", {"pressure": [10.0, 40.0]})])
+def test_the_solve_engine_gives_the_fmu_sweeps_rows(name, grid):
+    """engine='solve' (`velarium solve` per run, no FMU) records the same tidy rows as the FMU
+    sweep, bit for bit: the grid, the lag and the loads carried are mapped, not approximated."""
+    fmu = vr.FMU_DIR / f"{name}.fmu"
+    if not fmu.is_file():
+        pytest.skip(f"{fmu} is missing: run `bash .ci/run`")
+    fmu_rows = sweep(fmu, grid, steps=3, scheduler="synchronous", progress=False).rows
+    solve_rows = sweep(fmu, grid, steps=3, scheduler="synchronous", progress=False, engine="solve").rows
+    assert len(fmu_rows) == 2 * 5
+    assert [list(r) for r in solve_rows] == [list(r) for r in fmu_rows]
+    assert solve_rows == fmu_rows
+    with pytest.raises(ValueError, match=r"^engine: 'ffi' is not 'fmu' or 'solve'"):
+        sweep(fmu, grid, engine="ffi")
+
+
+def test_the_solve_engine_ends_a_run_where_the_fmu_discards(tmp_path):
+    """examples/SleeveDrawstring.json cannot be taken past 2P = 0.19 N (docs/harness.md): a run to
+    1 N ends early through both engines, at the same row, with the same rows before it."""
+    if not vr.VELARIUM.is_file():
+        pytest.skip(f"{vr.VELARIUM} is missing")
+    fmu = velarium.pack(vr.ROOT / "examples" / "SleeveDrawstring.json", tmp_path, fmi=2)[0]
+    grid = {"force_2P": [0.1, 1.0]}
+    fmu_rows = sweep(fmu, grid, steps=5, scheduler="synchronous", progress=False).rows
+    solve_rows = sweep(fmu, grid, steps=5, scheduler="synchronous", progress=False, engine="solve").rows
+    assert [r["status"] for r in fmu_rows if r["run"] == 0] == ["ok"] * 7
+    failed = [r for r in fmu_rows if r["run"] == 1]
+    assert {r["status"] for r in failed} == {"discard"} and len(failed) < 7
+    assert solve_rows == fmu_rows
