@@ -664,7 +664,7 @@ fn cost_line(
     let converging = iteration * s.max_iterations as f64;
     let failing = iteration * s.max_step_iterations as f64;
     format!(
-        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial, re-check or relaxation round counts as one): about {:.0} s",
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial or re-check counts as half of one, a relaxation round as one): about {:.0} s",
         size.factor_flops / 1e9,
         iteration,
         s.max_iterations,

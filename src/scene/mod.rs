@@ -964,7 +964,7 @@ fn is_one(n: &usize) -> bool {
 }
 
 fn default_step_iterations() -> usize {
-    1000
+    500
 }
 
 fn is_default_step_iterations(n: &usize) -> bool {

@@ -33,12 +33,15 @@ pub struct Solver {
     pub(super) rhs: Vec<f64>,
     /// Per DOF, the magnitudes of the forces meeting there (last assembly).
     pub(super) magnitude: Vec<f64>,
-    /// Work spent in the current step, in Newton iterations ([`super::Stepper::begin`] resets
-    /// it; `settings.max_step_iterations` bounds it): each iteration counts one (its assembly,
-    /// its factorization and its first line-search trial), and so does every further
-    /// line-search trial and every assembly of a re-check of frozen wrinkle states, each of
-    /// which costs at most what an iteration costs. So a step that gives up has spent at most
-    /// `max_step_iterations` times the cost of one iteration, whatever its line searches did.
+    /// Work spent in the current step, in half Newton iterations ([`super::Stepper::begin`]
+    /// resets it; `settings.max_step_iterations` bounds it, [`Solver::work_spent`]): each
+    /// iteration counts one whole (`WORK_ITERATION`: its assembly with the tangent, its
+    /// factorization and its first line-search trial), every further line-search trial and
+    /// every re-check of frozen wrinkle states one half (an assembly without the tangent,
+    /// which costs less than half of an iteration's factorization and two assemblies), and a
+    /// round of nodal relaxation one whole (a global residual and the local work, within two
+    /// assemblies). So a step that gives up has spent at most `max_step_iterations` times the
+    /// cost of one iteration, whatever its line searches did.
     pub(super) step_work: usize,
     /// Trial points of the current line search (line_search.rs).
     pub(super) trials: usize,
@@ -75,7 +78,19 @@ pub struct Solver {
     pub(super) pcg_work: Vec<f64>,
 }
 
+/// One Newton iteration in the step's work budget (`Solver::step_work` counts halves).
+pub(super) const WORK_ITERATION: usize = 2;
+
 impl Solver {
+    /// Whether the step's work budget (`settings.max_step_iterations`) is spent.
+    pub(super) fn work_spent(&self) -> bool {
+        self.step_work
+            >= self
+                .settings
+                .max_step_iterations
+                .saturating_mul(WORK_ITERATION)
+    }
+
     /// Stored entries of the tangent's LDLT factor.
     pub fn factor_nonzeros(&self) -> usize {
         self.linear.factor_nonzeros()

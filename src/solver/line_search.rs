@@ -83,7 +83,8 @@ impl Solver {
                 true,
             );
         }
-        // Every trial after the first counts in the step's work budget (core.rs, step_work).
+        // Every trial after the first (an assembly without the tangent) counts half an
+        // iteration in the step's work budget (core.rs, step_work).
         self.trials = 0;
         let outcome = self.search(model, u, dir, at, merit);
         self.step_work += self.trials.saturating_sub(1);

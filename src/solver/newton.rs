@@ -45,7 +45,7 @@
 
 use super::active_set::{ActiveSet, Recheck};
 use super::assemble::{AssemblyInfo, NONE};
-use super::core::{check_inversion, Solver};
+use super::core::{check_inversion, Solver, WORK_ITERATION};
 use super::line_search::{Direction, Merit, Trial};
 use super::report::push_log;
 use super::rows::{ArcRow, Border, Increment, Row};
@@ -73,16 +73,16 @@ fn stalled(it: usize, free: f64, last_free: f64, last_alpha: f64) -> bool {
 /// Iterations compared by [`progressing`].
 const PROGRESS_WINDOW: usize = 10;
 
-/// Relative residual below which a steadily falling residual may continue past
-/// `max_iterations`: the iteration is then close, not crawling from afar.
-const PROGRESS_NEAR: f64 = 1e-4;
-
-/// Whether the relative residual (|R|/F per iteration in `history`) still falls steadily and is
-/// near: the smallest of the last `PROGRESS_WINDOW` is below half the smallest of the window
-/// before, and below `PROGRESS_NEAR`. Linear convergence that keeps this pace (a root where the
-/// tangent is singular, such as a flat membrane unloaded to exactly zero: w³ ∝ q, each Newton
-/// step goes a third of the way) is allowed past `max_iterations`; stagnation, chatter and a
-/// slow crawl from far away are not (they are cut back as before).
+/// Whether the relative residual (|R|/F per iteration in `history`) still falls steadily: the
+/// smallest of the last `PROGRESS_WINDOW` is below half the smallest of the window before.
+/// Linear convergence that keeps this pace (a root where the tangent is singular, such as a
+/// flat membrane unloaded to exactly zero: w³ ∝ q, each Newton step goes a third of the way;
+/// or a free-rim cushion drawing its rim in from flat, where a smaller increment is as far
+/// from its equilibrium as the whole one) is allowed past `max_iterations`; stagnation and
+/// chatter are not (they are cut back as before). Until 2026-11-28 only a residual already
+/// below 1e-4 of the force scale could continue: measured on the robustness corpus, dropping
+/// that condition took the quarter cushions from 25 % to 33 % right and changed no other
+/// family's shares (docs/robustness.md).
 fn progressing(history: &[f64]) -> bool {
     let n = history.len();
     if n < 2 * PROGRESS_WINDOW {
@@ -91,7 +91,7 @@ fn progressing(history: &[f64]) -> bool {
     let least = |w: &[f64]| w.iter().copied().fold(f64::INFINITY, f64::min);
     let recent = least(&history[n - PROGRESS_WINDOW..]);
     let before = least(&history[n - 2 * PROGRESS_WINDOW..n - PROGRESS_WINDOW]);
-    recent < 0.5 * before && recent < PROGRESS_NEAR
+    recent < 0.5 * before
 }
 
 /// What the Newton loop of one increment carries from one iteration to the next.
@@ -195,7 +195,7 @@ impl Solver {
         // Multiplier updates of the sleeve ties so far (slip.rs, `close_ties`).
         let mut rounds = 0;
         for it in 0..=hard_max {
-            if self.step_work >= self.settings.max_step_iterations {
+            if self.work_spent() {
                 return Err((
                     it,
                     format!(
@@ -204,7 +204,7 @@ impl Solver {
                     ),
                 ));
             }
-            self.step_work += 1;
+            self.step_work += WORK_ITERATION;
             let mut eqs = self.equations(model, step, &mut state, u, arc.as_deref(), it, log)?;
             match self.verdict(model, step, &mut state, u, &eqs, arc.as_deref(), it, log)? {
                 Verdict::Done(it) => match self.close_ties(model, u, &mut rounds, log) {

@@ -99,6 +99,11 @@ impl LoadPath {
         }
     }
 
+    /// Why the prestress continuation failed, if it ran and failed in this step.
+    pub(super) fn continuation_note(&self) -> Option<&str> {
+        self.continuation_failed.as_deref()
+    }
+
     /// The loads at load fraction `lambda` of the step.
     pub fn loads(&self, lambda: f64) -> Vec<f64> {
         loads_at(&self.from, &self.to, lambda)
@@ -176,13 +181,20 @@ impl LoadPath {
             .map_err(|(i, why)| (i + predicted, why));
         let result = match result {
             Err((iters, why))
-                if !self.continued && solver.unstressed(model, &self.converged, loads) =>
+                if !self.continued
+                    && (solver.unstressed(model, &self.converged, loads)
+                        || solver.unstressed(model, &trial, loads)) =>
             {
                 self.continued = true;
                 report.iterations += iters;
+                let whence = if solver.unstressed(model, &self.converged, loads) {
+                    "from an unstressed membrane"
+                } else {
+                    "towards an unstressed membrane"
+                };
                 push_log(
                     &mut report.log,
-                    format!("increment λ {lambda:.6} -> {target:.6}: {why}; from an unstressed membrane: prestress continuation from pre-strain {:.1e}", solver.settings.continuation_strain),
+                    format!("increment λ {lambda:.6} -> {target:.6}: {why}; {whence}: prestress continuation from pre-strain {:.1e}", solver.settings.continuation_strain),
                 );
                 trial = self.converged.clone();
                 let predicted = solver.predict(model, loads, &mut trial);

@@ -86,10 +86,11 @@ impl Solver {
                 break;
             }
             moved_total += moved;
-            // A global residual evaluation: it counts in the step's work budget (core.rs,
-            // step_work), and so does the relaxation it ends (at most the patch's share of
-            // the nodes, each relaxed `relax_sweeps` times: within one more assembly's worth).
-            self.step_work += 2;
+            // A global residual evaluation and the relaxation it ends (at most the patch's
+            // share of the nodes, each relaxed `relax_sweeps` times: within one more
+            // assembly's worth): two assemblies, an iteration's worth of the step's work
+            // budget (core.rs, step_work).
+            self.step_work += super::core::WORK_ITERATION;
             let membranes = Membranes {
                 forced: forced.states,
                 pre_strain: self.pre_strain,

@@ -19,12 +19,12 @@ pub struct Settings {
     /// before it fails, saying so (`Stepper`). Default 500 (the scene's
     /// `solver.max_step_iterations`).
     pub max_step_iterations: usize,
-    /// Iterations an increment may continue past `max_iterations` while its residual, already
-    /// below 1e-4 of the force scale, still halves every 10 iterations (steady linear
-    /// convergence near the solution, e.g. a flat membrane unloaded to
+    /// Iterations an increment may continue past `max_iterations` while its residual still
+    /// halves every 10 iterations (steady linear convergence, e.g. a flat membrane unloaded to
     /// exactly zero load, where the tangent is singular at the solution and each Newton step
-    /// goes a third of the way). Cutting such an increment back only repeats the same ending.
-    /// Default 200.
+    /// goes a third of the way, or a free-rim cushion inflated from flat, whose equilibrium at
+    /// any load fraction is as far from the start as the whole step's). Cutting such an
+    /// increment back only repeats the same ending. Default 200.
     pub max_iterations_progressing: usize,
     /// First increment as a fraction of the step's load change. Default 1.
     pub initial_increment: f64,
@@ -179,7 +179,7 @@ impl Default for Settings {
         Settings {
             tolerance: 1e-9,
             max_iterations: 50,
-            max_step_iterations: 1000,
+            max_step_iterations: 500,
             max_iterations_progressing: 200,
             initial_increment: 1.0,
             min_increment: 1e-4,

@@ -85,7 +85,7 @@ impl Stepper {
         if self.failed {
             return None;
         }
-        if solver.step_work >= solver.settings.max_step_iterations && self.lambda() < 1.0 {
+        if solver.work_spent() && self.lambda() < 1.0 {
             self.give_up(solver, model);
             let lambda = self.lambda();
             return Some(Attempt::Rejected {
@@ -140,13 +140,20 @@ impl Stepper {
         self.report.reached = lambda;
         self.report.message = match &self.path {
             Path::Load(_) => format!(
-                "no equilibrium found beyond load fraction {lambda:.6} of the step: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as one) is spent{last}"
+                "no equilibrium found beyond load fraction {lambda:.6} of the step: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one) is spent{last}"
             ),
             Path::Arc(p) => format!(
-                "no equilibrium found beyond load fraction {lambda:.6} of the step by arc length: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as one) is spent{last} (largest load fraction reached {:.6})",
+                "no equilibrium found beyond load fraction {lambda:.6} of the step by arc length: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one) is spent{last} (largest load fraction reached {:.6})",
                 p.largest_lambda()
             ),
         };
+        if let Path::Load(p) = &self.path {
+            if let Some(note) = p.continuation_note() {
+                self.report
+                    .message
+                    .push_str(&format!("; the prestress continuation was tried: {note}"));
+            }
+        }
         let u = self.converged().0.to_vec();
         let known = solver.diagnose_failure(model, &u, &self.to, lambda);
         self.report.message.push_str(&known);

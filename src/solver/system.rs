@@ -287,7 +287,8 @@ impl Solver {
         inc: &Increment,
         it: usize,
     ) -> (Vec<WrinkleState>, bool) {
-        // An assembly of its own: it counts in the step's work budget (core.rs, step_work).
+        // An assembly without the tangent: half an iteration of the step's work budget
+        // (core.rs, step_work).
         self.step_work += 1;
         let membranes = Membranes {
             forced: None,
