@@ -203,3 +203,65 @@ fn a_bad_prestress_continuation_is_named() {
         assert!(problems(&scene(good)).is_empty(), "{good}");
     }
 }
+
+/// Snow, self weight and ponding inputs: each bad value named by its field.
+#[test]
+fn surface_load_problems_name_their_field() {
+    let scene = |membrane_extra: &str, cable_extra: &str, inputs: &str| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+      "geometry": {{"generators": [{{"kind": "rectangle", "name": "s", "origin": [0, 0, 0], "size": [1, 1], "divisions": [2, 2]}}]}},
+      "membranes": [{{"name": "m", "triangles": "s", "thickness": 1e-3, "material": {{"kind": "svk", "E": 1e8, "nu": 0.3}}{membrane_extra}}}],
+      "cables": [{{"name": "c", "nodes": "s.edge_bottom", "EA": 1e5{cable_extra}}}],
+      "supports": [{{"nodes": "s.boundary", "fix": ["x", "y", "z"]}}],
+      "inputs": {inputs}}}"#
+        )
+    };
+    let good = r#"[{"name": "s", "load": {"kind": "snow", "membrane": "m"}},
+                   {"name": "g", "load": {"kind": "self_weight"}},
+                   {"name": "h", "load": {"kind": "ponding", "membrane": "m", "zone": "s"}}]"#;
+    assert_eq!(
+        problems(&scene(r#", "density": 800"#, "", good)),
+        Vec::<String>::new()
+    );
+    assert_eq!(
+        problems(&scene("", r#", "mass_per_length": 2"#, good)),
+        Vec::<String>::new()
+    );
+    let p = problems(&scene("", "", good));
+    assert!(
+        p.len() == 1 && p[0].starts_with("inputs[1].load: a self_weight input needs mass"),
+        "{p:?}"
+    );
+    let p = problems(&scene(
+        r#", "density": -1"#,
+        r#", "mass_per_length": 0"#,
+        good,
+    ));
+    assert!(
+        p.iter()
+            .any(|m| m.starts_with("membranes[0].density: -1 is not a positive mass density")),
+        "{p:?}"
+    );
+    assert!(
+        p.iter().any(
+            |m| m.starts_with("cables[0].mass_per_length: 0 is not a positive mass per length")
+        ),
+        "{p:?}"
+    );
+    let bad = r#"[{"name": "s", "load": {"kind": "snow", "membrane": "roof"}},
+                  {"name": "g", "load": {"kind": "self_weight", "direction": [0, 0, 0]}},
+                  {"name": "h", "load": {"kind": "ponding", "membrane": "m", "gamma_w": -9810, "zone": "nowhere"}}]"#;
+    let p = problems(&scene(r#", "density": 800"#, "", bad));
+    for field in [
+        "inputs[0].load.membrane: no membrane group is named \"roof\"",
+        "inputs[1].load.direction: must be a non-zero finite vector",
+        "inputs[2].load.gamma_w: -9810 is not a positive unit weight of water",
+        "inputs[2].load.zone",
+    ] {
+        assert!(
+            p.iter().any(|m| m.starts_with(field)),
+            "{field} not in {p:?}"
+        );
+    }
+}

@@ -26,6 +26,7 @@ mod sleeve_drawstring;
 mod sleeve_penalty;
 mod sliding_cable;
 mod stick_slip;
+mod surface_loads;
 mod tangent_fd;
 mod tangent_fd_sleeve;
 mod volume_control;
