@@ -470,8 +470,22 @@ mod tests {
             "gas tetrahedron".into(),
             serde_json::from_str(TETRA).unwrap(),
         ));
+        out.push(("tent".into(), serde_json::from_str(TENT).unwrap()));
         out
     }
+
+    const TENT: &str = r#"{
+      "format": 1, "name": "Tent",
+      "geometry": {"generators": [{"kind": "annulus", "name": "t", "center": [0, 0, 0], "inner_radius": 0.5,
+                                   "outer_radius": 2, "rings": 2, "sectors": 8}]},
+      "membranes": [{"name": "m", "triangles": "t", "thickness": 0.001,
+                     "material": {"kind": "svk", "E": 1e8, "nu": 0.3},
+                     "prestress": {"kind": "cylindrical", "center": [0, 0, 0], "axis": [0, 0, 1],
+                                   "n_r": 400, "n_theta": 100, "radius": 0.5}}],
+      "supports": [{"nodes": "t.boundary", "fix": ["x", "y", "z"]}],
+      "form_finding": {"blend": true, "place": [{"nodes": "t.inner_rim", "translate": [0, 0, 0.5],
+                       "rotate": {"point": [0, 0, 0], "axis": [0, 0, 1], "angle": 0.1}}]}
+    }"#;
 
     const SHEET: &str = r#"{
       "format": 1, "name": "Sheet",
