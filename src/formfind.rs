@@ -220,8 +220,8 @@ impl Setup {
         // of each iteration is formed here.
         let model = Model::try_build(&start_scene)?;
         check_kinds(&model)?;
-        let x = start_positions(&mesh, settings);
-        let tris = triangle_stresses(scene, &mesh);
+        let x = start_positions(&mesh, settings, &model.held);
+        let tris = triangle_stresses(scene, &mesh, &x);
         let (segments, seg_cable) = cable_segments(scene, &mesh);
         let pattern = Pattern::try_new(&model)?;
         let linear = Ldlt::try_new(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone())?;
@@ -299,30 +299,126 @@ fn check_kinds(model: &Model) -> Result<(), crate::Error> {
     Ok(())
 }
 
-/// The nodes of the resolved mesh, each node of `settings.place` moved to its position.
-fn start_positions(mesh: &Mesh, settings: &FormFinding) -> Vec<Vector3<f64>> {
+/// The nodes of the resolved mesh, each placement of `settings.place` applied in order: a
+/// node moved to its position, a node set turned and moved as one rigid body (from where the
+/// earlier placements left it).
+fn start_positions(mesh: &Mesh, settings: &FormFinding, held: &[bool]) -> Vec<Vector3<f64>> {
     let mut x: Vec<Vector3<f64>> = mesh.nodes.iter().map(|p| Vector3::from(*p)).collect();
+    let before = x.clone();
+    let mut placed = vec![false; x.len()];
     for pl in &settings.place {
-        let id = match &pl.node {
-            OneNode::Id(id) => *id,
-            OneNode::Set(name) => mesh.node_sets[name][0],
-        };
-        x[id] = Vector3::from(pl.position);
+        if let Some(nodes) = &pl.nodes {
+            match nodes {
+                crate::scene::NodeRef::Ids(ids) => ids.iter().for_each(|&i| placed[i] = true),
+                crate::scene::NodeRef::Set(name) => {
+                    mesh.node_sets[name].iter().for_each(|&i| placed[i] = true)
+                }
+            }
+        }
+        if let Some(node) = &pl.node {
+            let id = match node {
+                OneNode::Id(id) => *id,
+                OneNode::Set(name) => mesh.node_sets[name][0],
+            };
+            placed[id] = true;
+        }
+    }
+    place(mesh, settings, &mut x);
+    if settings.blend {
+        for (i, p) in placed.iter_mut().enumerate() {
+            *p |= (0..3).any(|c| held.get(3 * i + c) == Some(&true));
+        }
+        blend(mesh, &before, &mut x, &placed);
     }
     x
 }
 
+/// The mesh's free nodes carried along with the placed and supported ones (`fixed`): each
+/// free node's move is the average of its mesh neighbours' moves (a discrete harmonic
+/// extension of the placements, Gauss-Seidel to 1e-12 of the largest move), so a ring raised
+/// lifts the fabric around it into a smooth start shape instead of stretching one row of
+/// triangles up to it.
+fn blend(mesh: &Mesh, before: &[Vector3<f64>], x: &mut [Vector3<f64>], fixed: &[bool]) {
+    let n = x.len();
+    let mut neighbours: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for t in &mesh.triangles {
+        for a in 0..3 {
+            for b in 0..3 {
+                if a != b && !neighbours[t[a]].contains(&t[b]) {
+                    neighbours[t[a]].push(t[b]);
+                }
+            }
+        }
+    }
+    let mut d: Vec<Vector3<f64>> = x.iter().zip(before).map(|(a, b)| a - b).collect();
+    let largest = d.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    if largest == 0.0 {
+        return;
+    }
+    for _ in 0..100_000 {
+        let mut change = 0.0f64;
+        for i in 0..n {
+            if fixed[i] || neighbours[i].is_empty() {
+                continue;
+            }
+            let mean = neighbours[i].iter().map(|&j| d[j]).sum::<Vector3<f64>>()
+                / neighbours[i].len() as f64;
+            change = change.max((mean - d[i]).norm());
+            d[i] = mean;
+        }
+        if change <= 1e-12 * largest {
+            break;
+        }
+    }
+    for ((p, b), di) in x.iter_mut().zip(before).zip(&d) {
+        *p = b + di;
+    }
+}
+
+/// Each placement of `settings.place` applied to `x` in order.
+fn place(mesh: &Mesh, settings: &FormFinding, x: &mut [Vector3<f64>]) {
+    for pl in &settings.place {
+        if let (Some(node), Some(position)) = (&pl.node, pl.position) {
+            let id = match node {
+                OneNode::Id(id) => *id,
+                OneNode::Set(name) => mesh.node_sets[name][0],
+            };
+            x[id] = Vector3::from(position);
+        }
+        if let Some(nodes) = &pl.nodes {
+            let ids: &[usize] = match nodes {
+                crate::scene::NodeRef::Ids(ids) => ids,
+                crate::scene::NodeRef::Set(name) => &mesh.node_sets[name],
+            };
+            let shift = Vector3::from(pl.translate.unwrap_or([0.0; 3]));
+            for &id in ids {
+                let turned = match &pl.rotate {
+                    Some(r) => Vector3::from(r.apply(x[id].into())),
+                    None => x[id],
+                };
+                x[id] = turned + shift;
+            }
+        }
+    }
+}
+
 /// The prescribed stress of every triangle, membrane group by group (a group without
 /// prestress: none).
-fn triangle_stresses(scene: &Scene, mesh: &Mesh) -> Vec<TriangleStress> {
+fn triangle_stresses(scene: &Scene, mesh: &Mesh, x: &[Vector3<f64>]) -> Vec<TriangleStress> {
     let mut tris = Vec::new();
     for (g, m) in scene.membranes.iter().enumerate() {
-        let (warp, fill, dir) =
-            m.prestress
-                .as_ref()
-                .map(|p| p.components())
-                .unwrap_or((0.0, 0.0, [1.0, 0.0, 0.0]));
         for &t in triangle_ids(mesh, &m.triangles) {
+            // A cylindrical prestress: radial and hoop at the start centroid (after `place`).
+            let c: Vector3<f64> = mesh.triangles[t]
+                .iter()
+                .map(|&i| x[i])
+                .sum::<Vector3<f64>>()
+                / 3.0;
+            let (warp, fill, dir) = m
+                .prestress
+                .as_ref()
+                .and_then(|p| p.at(c.into()))
+                .unwrap_or((0.0, 0.0, [1.0, 0.0, 0.0]));
             tris.push(TriangleStress {
                 nodes: mesh.triangles[t],
                 warp,
@@ -331,6 +427,10 @@ fn triangle_stresses(scene: &Scene, mesh: &Mesh) -> Vec<TriangleStress> {
                 thickness: m.thickness,
                 group: g,
                 id: t,
+                about: m
+                    .prestress
+                    .clone()
+                    .filter(|p| matches!(p, crate::scene::Prestress::Cylindrical { .. })),
             });
         }
     }

@@ -151,7 +151,8 @@ pub fn evaluate(
 }
 
 /// Resultant of the pressure loads (pressure and volume channels at their current values) on
-/// the triangles marked in `zone`: Σ p A n, current or reference area and normal.
+/// the triangles marked in `zone`: Σ p A n, current or reference area and normal; snow and
+/// ponding by their own laws on the current geometry.
 fn zone_force(model: &Model, u: &[f64], applied: &[f64], zone: &[bool]) -> nalgebra::Vector3<f64> {
     let mut total = nalgebra::Vector3::zeros();
     for (l, load) in model.loads.iter().enumerate() {
@@ -161,6 +162,14 @@ fn zone_force(model: &Model, u: &[f64], applied: &[f64], zone: &[bool]) -> nalge
                 follower,
             } => (triangles, *follower),
             LoadModel::Volume { triangles, .. } => (triangles, true),
+            LoadModel::Surface { triangles, law } => {
+                let value = applied[l];
+                for &e in triangles.iter().filter(|&&e| zone.get(e) == Some(&true)) {
+                    let x = model.triangles[e].nodes.map(|i| model.position(u, i));
+                    total += law.forces(value, &x).iter().sum::<nalgebra::Vector3<f64>>();
+                }
+                continue;
+            }
             _ => continue,
         };
         let p = model.load_value(l, u, applied);

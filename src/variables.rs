@@ -104,6 +104,7 @@ pub const UNITS: &[(&str, [i32; 4])] = &[
     ("Pa", [1, -1, -2, 0]),
     ("N/m", [1, 0, -2, 0]),
     ("m3", [0, 3, 0, 0]),
+    ("m/s2", [0, 1, -2, 0]),
     ("N.m", [1, 2, -2, 0]),
     ("rad", [0, 0, 0, 1]),
 ];
@@ -159,7 +160,9 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
             var_type: VarType::Real,
             unit: Some(match input.load {
                 Load::PointForce { .. } => "N",
-                Load::Pressure { .. } | Load::ZonePressure { .. } => "Pa",
+                Load::Pressure { .. } | Load::ZonePressure { .. } | Load::Snow { .. } => "Pa",
+                Load::SelfWeight { .. } => "m/s2",
+                Load::Ponding { .. } => "m",
                 Load::Displacement { .. }
                 | Load::PolarDisplacement { .. }
                 | Load::SupportDisplacement { .. } => "m",

@@ -45,6 +45,20 @@ impl Step {
 }
 
 impl Engine {
+    /// Why a state under ponding load channel `l` at level `h` is refused.
+    fn ponding_reason(&self, l: usize, h: f64, where_: &str) -> String {
+        let name = self
+            .variables
+            .iter()
+            .find(|v| {
+                matches!(v.binding, crate::variables::Binding::Input(s) if (s..s + v.len().max(1)).contains(&l))
+            })
+            .map_or("?", |v| v.name.as_str());
+        format!(
+            "under the ponding input {name} (water level {h} m) the tangent {where_} is not positive definite: the water's weight grows faster with the deflection than the membrane's tension resists it (ponding instability; docs/mechanics.md §3.2)"
+        )
+    }
+
     /// Start a step to the current inputs (see the module docs).
     pub fn begin_step(&mut self) -> Step {
         self.tangent = None;
@@ -134,8 +148,40 @@ impl Engine {
                 format!("arc length does not apply ({why}): the step is load-controlled"),
             );
         }
+        let ponding = crate::solver::stability::has_ponding(&self.model);
         if !report.converged() {
+            // Water past the ponding threshold: say so rather than only that Newton failed.
+            if ponding {
+                let s = &self.state;
+                if let Some(l) = crate::solver::stability::ponding_unstable(
+                    &self.model,
+                    &s.displacement,
+                    &s.inputs,
+                ) {
+                    report.message = format!(
+                        "{}; {}",
+                        report.message,
+                        self.ponding_reason(l, s.inputs[l], "at the last equilibrium")
+                    );
+                }
+            }
             return report;
+        }
+        // An equilibrium under ponding water whose tangent is not positive definite is not
+        // one the water stays in: refused, with the reason (docs/mechanics.md §3.2).
+        if ponding {
+            if let Some(l) = crate::solver::stability::ponding_unstable(
+                &self.model,
+                &self.state.displacement,
+                &applied,
+            ) {
+                let why = self.ponding_reason(l, applied[l], "at the equilibrium found");
+                self.state = previous;
+                report.outcome = Outcome::Failed;
+                report.reached = 0.0;
+                report.message = format!("the equilibrium found is unstable: {why}");
+                return report;
+            }
         }
         self.state.applied = applied;
         self.state.last_iterations = report.iterations as u32;

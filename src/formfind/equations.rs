@@ -89,8 +89,8 @@ fn reference_stress(
             t.describe()
         )));
     }
-    let Some(s0) = membrane::initial_stress(&reference, t.warp, t.fill, &t.direction, t.thickness)
-    else {
+    let (warp, fill, direction) = t.prescribed(x);
+    let Some(s0) = membrane::initial_stress(&reference, warp, fill, &direction, t.thickness) else {
         return Err(Halt::Invalid(crate::Error::Scene(vec![Problem {
             path: format!("membranes[{}].prestress.warp_direction", t.group),
             message: format!(

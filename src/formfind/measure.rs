@@ -108,11 +108,12 @@ fn pushed_forward(
             let f = membrane::deformation_gradient(r, &xs);
             let now = membrane::triangle_ref(xs).ok_or((e, "has collapsed to zero area"))?;
             let n = f * s0 * f.transpose() * (t.thickness * r.area / now.area);
-            let wanted = membrane::initial_stress(&now, t.warp, t.fill, &t.direction, 1.0)
+            let (warp, fill, direction) = t.prescribed(x);
+            let wanted = membrane::initial_stress(&now, warp, fill, &direction, 1.0)
                 .ok_or((e, "has turned normal to the warp direction"))?;
             let [e1, e2] = now.frame;
             let local = Vector3::new(e1.dot(&(n * e1)), e2.dot(&(n * e2)), e1.dot(&(n * e2)));
-            let deviation = (local - wanted).amax() / t.warp.max(t.fill);
+            let deviation = (local - wanted).amax() / warp.max(fill);
             Ok((
                 [
                     n[(0, 0)],

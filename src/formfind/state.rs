@@ -96,9 +96,26 @@ pub(super) struct TriangleStress {
     pub(super) group: usize,
     /// Its id in the scene's mesh (explicit triangles first, then each generator's).
     pub(super) id: usize,
+    /// A cylindrical prestress, evaluated where the triangle is now ([`Self::prescribed`]):
+    /// its radial and hoop forces belong to the place, not to the material triangle, so a
+    /// triangle that slides within the surface takes the forces of where it goes.
+    pub(super) about: Option<crate::scene::Prestress>,
 }
 
 impl TriangleStress {
+    /// (warp, fill, warp direction) prescribed on the triangle at positions `x`.
+    pub(super) fn prescribed(&self, x: &[Vector3<f64>]) -> (f64, f64, Vector3<f64>) {
+        let fixed = (self.warp, self.fill, self.direction);
+        match &self.about {
+            Some(p) => {
+                let c = self.nodes.iter().map(|&i| x[i]).sum::<Vector3<f64>>() / 3.0;
+                p.at(c.into())
+                    .map_or(fixed, |(w, f, d)| (w, f, Vector3::from(d)))
+            }
+            None => fixed,
+        }
+    }
+
     /// The triangle in the scene's words: its mesh id, its group and its nodes.
     pub(super) fn describe(&self) -> String {
         format!(

@@ -106,6 +106,12 @@ pub enum LoadModel {
         triangles: Vec<usize>,
         follower: bool,
     },
+    /// Snow or ponding on triangles (indices into `Model::triangles`): loads that follow the
+    /// current shape by a law of their own (`pressure::SurfaceLaw`), at the input's value.
+    Surface {
+        triangles: Vec<usize>,
+        law: pressure::SurfaceLaw,
+    },
     /// Prescribed DOFs and how the input's value moves them.
     Displacement(Prescribed),
     /// Prescribed enclosed volume V⁰ + value of a closed group (`Model::triangles` indices):
@@ -376,7 +382,9 @@ impl Model {
         !self.loads.iter().any(|l| {
             matches!(
                 l,
-                LoadModel::Pressure { follower: true, .. } | LoadModel::Volume { .. }
+                LoadModel::Pressure { follower: true, .. }
+                    | LoadModel::Volume { .. }
+                    | LoadModel::Surface { .. }
             )
         })
     }
@@ -603,7 +611,9 @@ fn build_triangles(
             let mut reference = reference;
             if let Some(pre) = &m.prestress {
                 let at = (group_index(scene, m), t);
-                reference.initial_strain = prestress_strain(at, k, m, &material, pre, &reference)?;
+                let c = nodes.map(|i| x[i]).iter().sum::<Vector3<f64>>() / 3.0;
+                reference.initial_strain =
+                    prestress_strain(at, k, m, &material, pre, &reference, c.into())?;
             }
             out.push(Triangle {
                 id: t,
@@ -645,6 +655,7 @@ fn prestress_strain(
     material: &membrane::Material,
     pre: &crate::scene::Prestress,
     r: &membrane::TriangleRef,
+    centroid: [f64; 3],
 ) -> Result<Vector3<f64>, Error> {
     let problem = |message: String| {
         Error::Scene(vec![crate::scene::Problem {
@@ -655,7 +666,9 @@ fn prestress_strain(
     let s0 = if let crate::scene::Prestress::Field { n } = pre {
         membrane::field_stress(r, &n[k], m.thickness)
     } else {
-        let (warp, fill, dir) = pre.components();
+        let (warp, fill, dir) = pre
+            .at(centroid)
+            .ok_or_else(|| problem("its centroid lies on the prestress's axis".to_string()))?;
         membrane::initial_stress(r, warp, fill, &Vector3::from(dir), m.thickness)
             .ok_or_else(|| problem(format!("the warp direction {dir:?} is normal to its plane")))?
     };
@@ -811,24 +824,26 @@ fn build_loads(
     load: &Load,
 ) -> Result<Vec<LoadModel>, crate::memory::OutOfMemory> {
     const WHAT: &str = "a pressure input's triangle list";
-    let pressure = |membrane: &str, zone: Option<&str>, follower: bool| {
+    let loaded = |membrane: &str, zone: Option<&str>| {
         let range = group_ranges(scene, mesh)
             .into_iter()
             .find(|g| g.0 == membrane)
             .map(|g| g.1)
             .expect("validated group");
         debug_assert!(range.end <= triangles.len());
-        let triangles = match zone {
-            None => crate::memory::collect(range, WHAT)?,
+        match zone {
+            None => crate::memory::collect(range, WHAT),
             Some(_) => crate::memory::collect(
                 shape::zone_positions(scene, mesh, membrane, zone)
                     .into_iter()
                     .map(|k| range.start + k),
                 WHAT,
-            )?,
-        };
-        Ok(LoadModel::Pressure {
-            triangles,
+            ),
+        }
+    };
+    let pressure = |membrane: &str, zone: Option<&str>, follower: bool| {
+        Ok::<_, crate::memory::OutOfMemory>(LoadModel::Pressure {
+            triangles: loaded(membrane, zone)?,
             follower,
         })
     };
@@ -838,6 +853,18 @@ fn build_loads(
             zone,
             follower,
         } => vec![pressure(membrane, zone.as_deref(), *follower)?],
+        Load::Snow { membrane, zone } => vec![LoadModel::Surface {
+            triangles: loaded(membrane, zone.as_deref())?,
+            law: pressure::SurfaceLaw::Snow,
+        }],
+        Load::Ponding {
+            membrane,
+            zone,
+            gamma_w,
+        } => vec![LoadModel::Surface {
+            triangles: loaded(membrane, zone.as_deref())?,
+            law: pressure::SurfaceLaw::Ponding { gamma_w: *gamma_w },
+        }],
         Load::ZonePressure {
             membrane,
             zones,
@@ -963,10 +990,60 @@ fn build_load(
             Vector3::from(*center),
             *closed,
         ),
-        Load::Pressure { .. } | Load::ZonePressure { .. } | Load::SupportDisplacement { .. } => {
+        Load::SelfWeight { direction } => self_weight(scene, mesh, triangles, direction)?,
+        Load::Pressure { .. }
+        | Load::ZonePressure { .. }
+        | Load::SupportDisplacement { .. }
+        | Load::Snow { .. }
+        | Load::Ponding { .. } => {
             unreachable!("built by build_loads")
         }
     })
+}
+
+/// Nodal forces per unit of gravitational acceleration (m/s²) along `direction`: a third of
+/// each massive triangle's mass ρ t A₀ to each of its nodes, half of each massive cable
+/// segment's μ ℓ (ℓ as drawn) to each end.
+fn self_weight(
+    scene: &Scene,
+    mesh: &Mesh,
+    triangles: &[Triangle],
+    direction: &[f64; 3],
+) -> Result<LoadModel, crate::memory::OutOfMemory> {
+    let d = Vector3::from(*direction).normalize();
+    let mut mass: Vec<f64> =
+        crate::memory::zeros(mesh.nodes.len(), "the self weight's nodal masses")?;
+    for ((_, range, _), m) in group_ranges(scene, mesh).into_iter().zip(&scene.membranes) {
+        let Some(rho) = m.density else {
+            continue;
+        };
+        for t in &triangles[range] {
+            let share = rho * t.material.thickness * t.reference.area / 3.0;
+            for &i in &t.nodes {
+                mass[i] += share;
+            }
+        }
+    }
+    for cable in &scene.cables {
+        let Some(mu) = cable.mass_per_length else {
+            continue;
+        };
+        let ids = node_ids(mesh, &cable.nodes);
+        for w in ids.windows(2) {
+            let l = (Vector3::from(mesh.nodes[w[1]]) - Vector3::from(mesh.nodes[w[0]])).norm();
+            mass[w[0]] += 0.5 * mu * l;
+            mass[w[1]] += 0.5 * mu * l;
+        }
+    }
+    let mut forces = Vec::new();
+    for (i, &m) in mass.iter().enumerate() {
+        for c in 0..3 {
+            if m != 0.0 && d[c] != 0.0 {
+                forces.push((3 * i + c, m * d[c]));
+            }
+        }
+    }
+    Ok(LoadModel::PointForce(forces))
 }
 
 /// Nodal forces per unit edge load (N/m): half of each segment's reference length to each end

@@ -217,6 +217,10 @@ pub struct Membrane {
     /// form-found shape, a flat sheet with every edge held). Absent: stress-free.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prestress: Option<Prestress>,
+    /// Mass density of the sheet in kg/m³ (> 0): its mass, ρ t per unit reference area, is
+    /// what a `self_weight` input pulls on. Absent: massless.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density: Option<f64>,
 }
 
 /// A membrane prestress in N/m (force per unit length of cut = stress × thickness).
@@ -238,9 +242,59 @@ pub enum Prestress {
     /// in-plane part. What form finding writes: the stress field that balances the found shape
     /// exactly (within round-off of the prescribed one, see docs/mechanics.md §10).
     Field { n: Vec<[f64; 6]> },
+    /// Radial and hoop membrane forces about an axis (a conical tent, a funnel): on each
+    /// triangle the warp (radial, `n_r`) runs along the direction away from the axis through
+    /// `center` along `axis`, taken at the triangle's centroid and projected on its plane (on
+    /// a cone: down the meridian), the fill (hoop, `n_theta`) across it. `n_r` is the radial
+    /// force at the distance `radius` from the axis; elsewhere n_r(r) = n_θ + (n_r − n_θ)
+    /// radius / r, the one radial field in equilibrium with a uniform hoop force on any surface
+    /// of revolution (meridional equilibrium, d(r n_r)/ds = n_θ dr/ds). For warp/fill fabric
+    /// give its material `warp` radial too (the material's warp is one direction per group).
+    Cylindrical {
+        /// A point on the axis, m.
+        center: [f64; 3],
+        /// Axis direction (any length but zero; normalised).
+        axis: [f64; 3],
+        /// Radial membrane force at `radius`, N/m (> 0).
+        n_r: f64,
+        /// Hoop membrane force, N/m (>= 0).
+        n_theta: f64,
+        /// Distance from the axis at which `n_r` is given, m (> 0).
+        radius: f64,
+    },
 }
 
 impl Prestress {
+    /// (warp, fill, warp direction) on a triangle with centroid `c`: the group's components,
+    /// or for a cylindrical prestress the radial and hoop forces at the centroid's distance
+    /// from the axis and the radial direction there (None on the axis).
+    pub fn at(&self, c: [f64; 3]) -> Option<(f64, f64, [f64; 3])> {
+        match self {
+            Prestress::Cylindrical {
+                center,
+                axis,
+                n_r,
+                n_theta,
+                radius,
+            } => {
+                let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+                let a = axis.map(|v| v / len);
+                let v = [0, 1, 2].map(|i| c[i] - center[i]);
+                let along = v[0] * a[0] + v[1] * a[1] + v[2] * a[2];
+                let radial = [0, 1, 2].map(|i| v[i] - along * a[i]);
+                let r = (radial[0].powi(2) + radial[1].powi(2) + radial[2].powi(2)).sqrt();
+                (r > 0.0 && r.is_finite()).then(|| {
+                    (
+                        n_theta + (n_r - n_theta) * radius / r,
+                        *n_theta,
+                        radial.map(|v| v / r),
+                    )
+                })
+            }
+            _ => Some(self.components()),
+        }
+    }
+
     /// (warp, fill, warp direction) in N/m; isotropic: (n, n, x); a field: its largest
     /// component as both (a force scale only).
     pub fn components(&self) -> (f64, f64, [f64; 3]) {
@@ -251,6 +305,7 @@ impl Prestress {
                 fill,
                 warp_direction,
             } => (*warp, *fill, *warp_direction),
+            Prestress::Cylindrical { n_r, n_theta, .. } => (*n_r, *n_theta, [1.0, 0.0, 0.0]),
             Prestress::Field { n } => {
                 let m = n
                     .iter()
@@ -334,6 +389,10 @@ pub struct Cable {
     /// The cable slides through these of its nodes (a sleeve), with friction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sleeve: Option<Sleeve>,
+    /// Mass per unit length in kg/m (> 0), per metre of the cable as drawn in the scene
+    /// geometry: what a `self_weight` input pulls on. Absent: massless.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_per_length: Option<f64>,
 }
 
 /// A sleeve: interior cable nodes the cable slides through (docs/mechanics.md §2.3 option A). Each
@@ -541,6 +600,53 @@ pub enum Load {
         #[serde(default = "atmosphere")]
         atmosphere: f64,
     },
+    /// Snow in Pa (the input's value): a vertical load, along −z, of that many N per m² of
+    /// plan area, the area of the current (deformed) surface projected on the x-y plane, on
+    /// every triangle of the group (or of its part in `zone`), whichever way its normal
+    /// faces. It follows the shape: a triangle that steepens carries less (with its load
+    /// stiffness). A negative value lifts.
+    Snow {
+        /// Name of the membrane group loaded.
+        membrane: String,
+        /// Load only the group's triangles in this zone (a named triangle set). Absent: the
+        /// whole group.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        zone: Option<String>,
+    },
+    /// Self weight: the gravitational acceleration in m/s² (the input's value; 9.81 on
+    /// Earth) along `direction`, on the mass of every membrane group with a `density` (ρ t
+    /// per unit reference area) and every cable with a `mass_per_length` (per metre as
+    /// drawn). A dead load: mass is conserved, so the total is m g whatever the shape.
+    SelfWeight {
+        /// Direction of gravity (any length but zero; normalised). Default [0, 0, −1].
+        #[serde(default = "down")]
+        direction: [f64; 3],
+    },
+    /// Ponding: the water level h in m (the input's value, a z coordinate). Water of unit
+    /// weight `gamma_w` fills the group's triangles (or its part in `zone`) from the side
+    /// their normals point to (+z for generated meshes, so from above) up to the level: the
+    /// hydrostatic pressure γ_w (h − z) at every point of the current surface below h, along
+    /// the current normal, pushing against it (a follower load with its load stiffness);
+    /// none above h. Between nodes the pressure is interpolated from the nodes' depths
+    /// max(h − z, 0).
+    Ponding {
+        /// Name of the membrane group loaded.
+        membrane: String,
+        /// Load only the group's triangles in this zone (a named triangle set).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        zone: Option<String>,
+        /// Unit weight of the water, N/m³ (default 9810).
+        #[serde(default = "water")]
+        gamma_w: f64,
+    },
+}
+
+fn down() -> [f64; 3] {
+    [0.0, 0.0, -1.0]
+}
+
+fn water() -> f64 {
+    9810.0
 }
 
 fn atmosphere() -> f64 {
@@ -819,6 +925,12 @@ pub struct FormFinding {
     /// before form finding; with its components supported it stays there.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub place: Vec<Placement>,
+    /// Carry the free nodes along with the placed ones (default false): each node neither
+    /// placed nor supported moves by the average of its mesh neighbours' moves (a discrete
+    /// harmonic extension of `place`), so a raised ring or mast head lifts the fabric around
+    /// it into a smooth start shape and the triangles next to it stay well shaped.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub blend: bool,
 }
 
 impl Default for FormFinding {
@@ -828,6 +940,7 @@ impl Default for FormFinding {
             tolerance: form_finding_tolerance(),
             homotopy: form_finding_homotopy(),
             place: Vec::new(),
+            blend: false,
         }
     }
 }
@@ -844,13 +957,54 @@ fn form_finding_tolerance() -> f64 {
     1e-6
 }
 
-/// A node moved to a position before form finding.
+/// Nodes moved before form finding: one node to a position (`node`, `position`), or a node
+/// set as one rigid body (`nodes`, turned by `rotate` if given, then moved by `translate`): a
+/// ring raised, a mast head set up. Give one of the two forms.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Placement {
-    pub node: OneNode,
+    /// The node moved to `position`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<OneNode>,
     /// [x, y, z] in m.
-    pub position: [f64; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position: Option<[f64; 3]>,
+    /// The node set moved as one rigid body.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<NodeRef>,
+    /// Translation of the set, [dx, dy, dz] in m (after `rotate`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub translate: Option<[f64; 3]>,
+    /// Rotation of the set about an axis (before `translate`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotate: Option<RigidRotation>,
+}
+
+/// A rigid rotation by `angle` (rad, right-hand rule) about the axis through `point` along
+/// `axis` (any length but zero; normalised).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RigidRotation {
+    pub point: [f64; 3],
+    pub axis: [f64; 3],
+    pub angle: f64,
+}
+
+impl RigidRotation {
+    /// `x` turned about the axis (Rodrigues' formula).
+    pub fn apply(&self, x: [f64; 3]) -> [f64; 3] {
+        let n = (self.axis[0].powi(2) + self.axis[1].powi(2) + self.axis[2].powi(2)).sqrt();
+        let k = self.axis.map(|a| a / n);
+        let v = [0, 1, 2].map(|c| x[c] - self.point[c]);
+        let (c, s) = (self.angle.cos(), self.angle.sin());
+        let kxv = [
+            k[1] * v[2] - k[2] * v[1],
+            k[2] * v[0] - k[0] * v[2],
+            k[0] * v[1] - k[1] * v[0],
+        ];
+        let kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+        [0, 1, 2].map(|i| self.point[i] + v[i] * c + kxv[i] * s + k[i] * kv * (1.0 - c))
+    }
 }
 
 /// Newton and path-following settings. Every default is chosen for the shipped scenes and

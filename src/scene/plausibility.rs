@@ -244,6 +244,14 @@ fn prestress(p: &Prestress, material: &Material, t: f64, group: usize, out: &mut
                 num(*fill)
             ),
         ),
+        Prestress::Cylindrical { n_r, n_theta, .. } => (
+            strain(material, t, *n_r, *n_theta, true),
+            format!(
+                "a prestress of {} (radial, at its radius) and {} (hoop) N/m",
+                num(*n_r),
+                num(*n_theta)
+            ),
+        ),
         Prestress::Field { n } => {
             let (worst, k) = n
                 .iter()

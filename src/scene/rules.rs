@@ -125,6 +125,7 @@ pub const RULES: &[FieldRule] = &[
     // Membranes.
     at("membranes[].name", Rule::Pattern(IDENTIFIER)),
     at("membranes[].thickness", POSITIVE),
+    at("membranes[].density", POSITIVE),
     at(
         "membranes[].residual_stiffness",
         closed(RESIDUAL_STIFFNESS_RANGE.0, RESIDUAL_STIFFNESS_RANGE.1),
@@ -152,6 +153,18 @@ pub const RULES: &[FieldRule] = &[
     ),
     at("membranes[].prestress{warp_fill}.warp", MEMBRANE_FORCE),
     at("membranes[].prestress{warp_fill}.fill", MEMBRANE_FORCE),
+    at("membranes[].prestress{cylindrical}.center[]", COORDINATE),
+    at(
+        "membranes[].prestress{cylindrical}.n_r",
+        Rule::Number {
+            min: 0.0,
+            min_open: true,
+            max: MAX_MEMBRANE_FORCE,
+            max_open: false,
+        },
+    ),
+    at("membranes[].prestress{cylindrical}.n_theta", MEMBRANE_FORCE),
+    at("membranes[].prestress{cylindrical}.radius", POSITIVE),
     at(
         "membranes[].prestress{field}.n[][]",
         closed(-MAX_MEMBRANE_FORCE, MAX_MEMBRANE_FORCE),
@@ -164,12 +177,14 @@ pub const RULES: &[FieldRule] = &[
     at("cables[].unstretched_length", POSITIVE),
     at("cables[].sleeve.mu", closed(0.0, f64::INFINITY)),
     at("cables[].sleeve.penalty", POSITIVE),
+    at("cables[].mass_per_length", POSITIVE),
     // Inputs, outputs, parameters.
     at("inputs[].name", Rule::Pattern(VARIABLE_NAME)),
     at("inputs[].load{rotation}.point[]", COORDINATE),
     at("inputs[].load{polar_displacement}.center[]", COORDINATE),
     at("inputs[].load{radial_edge_load}.center[]", COORDINATE),
     at("inputs[].load{gas}.atmosphere", POSITIVE),
+    at("inputs[].load{ponding}.gamma_w", POSITIVE),
     at("outputs[].name", Rule::Pattern(VARIABLE_NAME)),
     at("outputs[].probe{polar_displacement}.center[]", COORDINATE),
     at("outputs[].probe{reaction_moment}.point[]", COORDINATE),
@@ -216,6 +231,9 @@ pub const RULES: &[FieldRule] = &[
     ),
     at("form_finding.homotopy", half_open(0.0, HOMOTOPY_BOUND)),
     at("form_finding.place[].position[]", COORDINATE),
+    at("form_finding.place[].translate[]", COORDINATE),
+    at("form_finding.place[].rotate.point[]", COORDINATE),
+    at("form_finding.place[].rotate.angle", closed(-1e3, 1e3)),
 ];
 
 /// One step of a field path.
@@ -452,14 +470,29 @@ mod tests {
             "gas tetrahedron".into(),
             serde_json::from_str(TETRA).unwrap(),
         ));
+        out.push(("tent".into(), serde_json::from_str(TENT).unwrap()));
         out
     }
+
+    const TENT: &str = r#"{
+      "format": 1, "name": "Tent",
+      "geometry": {"generators": [{"kind": "annulus", "name": "t", "center": [0, 0, 0], "inner_radius": 0.5,
+                                   "outer_radius": 2, "rings": 2, "sectors": 8}]},
+      "membranes": [{"name": "m", "triangles": "t", "thickness": 0.001,
+                     "material": {"kind": "svk", "E": 1e8, "nu": 0.3},
+                     "prestress": {"kind": "cylindrical", "center": [0, 0, 0], "axis": [0, 0, 1],
+                                   "n_r": 400, "n_theta": 100, "radius": 0.5}}],
+      "supports": [{"nodes": "t.boundary", "fix": ["x", "y", "z"]}],
+      "form_finding": {"blend": true, "place": [{"nodes": "t.inner_rim", "translate": [0, 0, 0.5],
+                       "rotate": {"point": [0, 0, 0], "axis": [0, 0, 1], "angle": 0.1}}]}
+    }"#;
 
     const SHEET: &str = r#"{
       "format": 1, "name": "Sheet",
       "geometry": {"generators": [{"kind": "rectangle", "name": "s", "origin": [0.5, 0.5, 0],
                                    "size": [1, 1], "divisions": [2, 2]}]},
       "membranes": [{"name": "m", "triangles": "s", "thickness": 0.001, "residual_stiffness": 0.001,
+                     "density": 1000,
                      "material": {"kind": "orthotropic", "E_warp": 1e9, "E_fill": 5e8,
                                   "nu_wf": 0.3, "G": 1e7, "warp": [1, 0, 0]},
                      "prestress": {"kind": "warp_fill", "warp": 2000, "fill": 1000,
@@ -468,7 +501,11 @@ mod tests {
                    {"nodes": "s.corner_br", "fix": ["y"]}],
       "inputs": [{"name": "edge", "load": {"kind": "radial_edge_load", "nodes": "s.edge_top",
                                            "center": [1, 1, 0]}},
-                 {"name": "p", "load": {"kind": "pressure", "membrane": "m"}}],
+                 {"name": "p", "load": {"kind": "pressure", "membrane": "m"}},
+                 {"name": "snow", "load": {"kind": "snow", "membrane": "m"}},
+                 {"name": "g", "load": {"kind": "self_weight"}},
+                 {"name": "water", "load": {"kind": "ponding", "membrane": "m", "gamma_w": 9810}}],
+      "cables": [{"name": "c", "nodes": "s.edge_bottom", "EA": 1e5, "mass_per_length": 0.5}],
       "outputs": [{"name": "ur", "probe": {"kind": "polar_displacement", "node": "s.center",
                                            "center": [0, 0, 0], "axis": "z", "component": "radial"}}],
       "solver": {"arc_length": 0.01, "artificial_prestress": 10, "threads": 1}

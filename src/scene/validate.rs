@@ -742,6 +742,14 @@ impl Validator {
                     format!("{} is not a positive thickness in m {RANGE}", m.thickness),
                 );
             }
+            if let Some(rho) = m.density {
+                if !positive(rho) {
+                    self.push(
+                        format!("{p}.density"),
+                        format!("{rho} is not a positive mass density in kg/m3 {RANGE}"),
+                    );
+                }
+            }
             match m.material {
                 Material::Svk { young, nu } => {
                     if !positive(young) {
@@ -860,6 +868,39 @@ impl Validator {
                     );
                 }
             }
+            super::Prestress::Cylindrical {
+                center,
+                axis,
+                n_r,
+                n_theta,
+                radius,
+            } => {
+                if !(force(*n_r) && *n_r > 0.0) {
+                    self.push(
+                        format!("{p}.n_r"),
+                        format!("{n_r} is not a positive membrane force in N/m (at most {MAX_MEMBRANE_FORCE:e})"),
+                    );
+                }
+                if !force(*n_theta) {
+                    self.push(
+                        format!("{p}.n_theta"),
+                        format!("{n_theta} is not a membrane force in N/m >= 0 (at most {MAX_MEMBRANE_FORCE:e})"),
+                    );
+                }
+                if !positive(*radius) {
+                    self.push(
+                        format!("{p}.radius"),
+                        format!("{radius} is not a positive distance from the axis in m {RANGE}"),
+                    );
+                }
+                if center.iter().any(|x| !coordinate(*x)) {
+                    self.push(format!("{p}.center"), "must be finite with |x| <= 1e30 m");
+                }
+                let n = axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if !positive(n) {
+                    self.push(format!("{p}.axis"), "must be a non-zero finite vector");
+                }
+            }
             super::Prestress::Field { n } => {
                 let count = match &m.triangles {
                     TriangleRef::Ids(ids) => ids.len(),
@@ -929,6 +970,14 @@ impl Validator {
                             ),
                         );
                     }
+                }
+            }
+            if let Some(mu) = c.mass_per_length {
+                if !positive(mu) {
+                    self.push(
+                        format!("{p}.mass_per_length"),
+                        format!("{mu} is not a positive mass per length in kg/m {RANGE}"),
+                    );
                 }
             }
             if !positive(c.ea) {
@@ -1200,6 +1249,38 @@ impl Validator {
                 }
                 Load::Volume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.load.membrane"));
+                }
+                Load::Snow { membrane, zone } | Load::Ponding { membrane, zone, .. } => {
+                    if self.membrane_name(s, membrane, &format!("{p}.load.membrane")) {
+                        if let Some(zone) = zone {
+                            self.zone(s, mesh, membrane, zone, &format!("{p}.load.zone"));
+                        }
+                    }
+                    if let Load::Ponding { gamma_w, .. } = &input.load {
+                        if !positive(*gamma_w) {
+                            self.push(
+                                format!("{p}.load.gamma_w"),
+                                format!("{gamma_w} is not a positive unit weight of water in N/m3 {RANGE}"),
+                            );
+                        }
+                    }
+                }
+                Load::SelfWeight { direction } => {
+                    let n = direction.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    if !positive(n) {
+                        self.push(
+                            format!("{p}.load.direction"),
+                            "must be a non-zero finite vector",
+                        );
+                    }
+                    let massive = s.membranes.iter().any(|m| m.density.is_some())
+                        || s.cables.iter().any(|c| c.mass_per_length.is_some());
+                    if !massive {
+                        self.push(
+                            format!("{p}.load"),
+                            "a self_weight input needs mass: give a membrane group a density (kg/m3) or a cable a mass_per_length (kg/m)",
+                        );
+                    }
                 }
                 Load::Gas {
                     membrane,
@@ -1683,12 +1764,63 @@ impl Validator {
         }
         for (k, pl) in ff.place.iter().enumerate() {
             let p = format!("form_finding.place[{k}]");
-            self.one_node(mesh, &pl.node, &format!("{p}.node"));
-            if !pl.position.iter().all(|&c| coordinate(c)) {
+            let single = pl.node.is_some() || pl.position.is_some();
+            let rigid = pl.nodes.is_some() || pl.translate.is_some() || pl.rotate.is_some();
+            if single == rigid {
                 self.push(
-                    format!("{p}.position"),
-                    format!("{:?} is not a position in m {RANGE}", pl.position),
+                    &p,
+                    "give either \"node\" and \"position\" (one node moved) or \"nodes\" with \"translate\" and/or \"rotate\" (a node set moved as one rigid body)",
                 );
+                continue;
+            }
+            if single {
+                match &pl.node {
+                    Some(node) => {
+                        self.one_node(mesh, node, &format!("{p}.node"));
+                    }
+                    None => self.push(
+                        format!("{p}.node"),
+                        "missing: the node to move to \"position\"",
+                    ),
+                }
+                match pl.position {
+                    Some(position) if !position.iter().all(|&c| coordinate(c)) => self.push(
+                        format!("{p}.position"),
+                        format!("{position:?} is not a position in m {RANGE}"),
+                    ),
+                    Some(_) => {}
+                    None => self.push(
+                        format!("{p}.position"),
+                        "missing: where \"node\" goes, [x, y, z] in m",
+                    ),
+                }
+                continue;
+            }
+            match &pl.nodes {
+                Some(nodes) => {
+                    self.nodes(mesh, nodes, &format!("{p}.nodes"));
+                }
+                None => self.push(
+                    format!("{p}.nodes"),
+                    "missing: the node set moved by \"translate\"/\"rotate\"",
+                ),
+            }
+            if let Some(t) = pl.translate {
+                if !t.iter().all(|&c| coordinate(c)) {
+                    self.push(
+                        format!("{p}.translate"),
+                        format!("{t:?} is not a translation in m {RANGE}"),
+                    );
+                }
+            }
+            if let Some(r) = &pl.rotate {
+                self.point_and_axis(&r.point, &r.axis, &format!("{p}.rotate"));
+                if !(r.angle.is_finite() && r.angle.abs() <= 1e3) {
+                    self.push(
+                        format!("{p}.rotate.angle"),
+                        format!("{} is not an angle in rad in [-1000, 1000]", r.angle),
+                    );
+                }
             }
         }
         if s.membranes.is_empty() && s.cables.is_empty() {

@@ -250,9 +250,9 @@ fn pressed_lists(model: &Model, tri_slot: &[usize]) -> Result<(PerLoad, PerLoad)
     let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
     for load in &model.loads {
         let mut list = match load {
-            LoadModel::Pressure { triangles, .. } | LoadModel::Volume { triangles, .. } => {
-                memory::copy(triangles, "the element order")?
-            }
+            LoadModel::Pressure { triangles, .. }
+            | LoadModel::Volume { triangles, .. }
+            | LoadModel::Surface { triangles, .. } => memory::copy(triangles, "the element order")?,
             _ => Vec::new(),
         };
         list.sort_unstable_by_key(|&e| tri_slot[e]);
@@ -664,6 +664,80 @@ fn pressure_at(
     }
 }
 
+/// How the triangles a load presses are loaded: a pressure along the normal (follower or
+/// dead; a volume's gas pressure is a follower one) or a surface law (snow, ponding).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Pressing {
+    Pressure { follower: bool },
+    Law(pressure::SurfaceLaw),
+}
+
+impl Pressing {
+    /// How `load` presses its triangles, None for a load that presses none.
+    pub(super) fn of(load: &LoadModel) -> Option<Self> {
+        match load {
+            LoadModel::Pressure { follower, .. } => Some(Pressing::Pressure {
+                follower: *follower,
+            }),
+            LoadModel::Volume { .. } => Some(Pressing::Pressure { follower: true }),
+            LoadModel::Surface { law, .. } => Some(Pressing::Law(*law)),
+            LoadModel::PointForce(_) | LoadModel::Displacement(_) => None,
+        }
+    }
+}
+
+/// The triangles load `load` presses (empty for a load that presses none).
+pub(super) fn pressed_triangles(load: &LoadModel) -> &[usize] {
+    match load {
+        LoadModel::Pressure { triangles, .. }
+        | LoadModel::Volume { triangles, .. }
+        | LoadModel::Surface { triangles, .. } => triangles,
+        LoadModel::PointForce(_) | LoadModel::Displacement(_) => &[],
+    }
+}
+
+/// Nodal forces of a pressed triangle `t` at node positions `x` and, with `want_k`, the
+/// symmetric part of its load stiffness: [`pressure_at`] for a pressure, the surface law's
+/// own for snow and ponding (`model::pressure`).
+pub(super) fn pressing_at(
+    t: &crate::model::Triangle,
+    x: &[Vector3<f64>; 3],
+    value: f64,
+    how: Pressing,
+    want_k: bool,
+) -> ([Vector3<f64>; 3], Option<membrane::Mat9>) {
+    match how {
+        Pressing::Pressure { follower } => {
+            let (f, k) = pressure_at(t, x, value, follower, want_k);
+            ([f; 3], k)
+        }
+        Pressing::Law(law) => {
+            let k = want_k.then(|| {
+                let kp = law.stiffness(value, x);
+                (kp + kp.transpose()) * 0.5
+            });
+            (law.forces(value, x), k)
+        }
+    }
+}
+
+/// [`pressing_at`] of model triangle `e` at `u`.
+pub(super) fn pressing_contribution(
+    model: &Model,
+    e: usize,
+    u: &[f64],
+    value: f64,
+    how: Pressing,
+    want_k: bool,
+) -> ([Vector3<f64>; 3], Option<membrane::Mat9>) {
+    let t = &model.triangles[e];
+    let x = match how {
+        Pressing::Pressure { follower: false } => [Vector3::zeros(); 3],
+        _ => gather(model, u, t.nodes),
+    };
+    pressing_at(t, &x, value, how, want_k)
+}
+
 /// Residual R = f_int − f_ext(loads) on all DOFs at displacement `u`, and, if `k` is given,
 /// the free-free tangent (upper triangle) into `k` (zeroed here).
 pub fn assemble(
@@ -968,11 +1042,9 @@ fn external_loads_into(
                     }
                 }
             }
-            LoadModel::Pressure { triangles, .. } | LoadModel::Volume { triangles, .. } => {
-                let follower = match load {
-                    LoadModel::Pressure { follower, .. } => *follower,
-                    _ => true,
-                };
+            LoadModel::Pressure { .. } | LoadModel::Volume { .. } | LoadModel::Surface { .. } => {
+                let how = Pressing::of(load).expect("a pressing load");
+                let triangles = pressed_triangles(load);
                 let range = pressed(l);
                 if range.is_empty() {
                     continue;
@@ -987,17 +1059,17 @@ fn external_loads_into(
                     let kp = if internal {
                         let t = &pattern.triangles[slot];
                         let x = t.nodes.map(|i| xi[i]);
-                        let (f, kp) = pressure_at(t, &x, value, follower, want_k);
+                        let (f, kp) = pressing_at(t, &x, value, how, want_k);
                         match fi.as_deref_mut() {
                             Some(fi) => {
-                                for &i in &t.nodes {
+                                for (&i, f) in t.nodes.iter().zip(&f) {
                                     for c in 0..3 {
                                         fi[3 * i + c] += f[c];
                                     }
                                 }
                             }
                             None => {
-                                for &i in &t.nodes {
+                                for (&i, f) in t.nodes.iter().zip(&f) {
                                     let i = pattern.node_of[i];
                                     for c in 0..3 {
                                         fext[3 * i + c] += f[c];
@@ -1007,8 +1079,8 @@ fn external_loads_into(
                         }
                         kp
                     } else {
-                        let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
-                        for &i in &model.triangles[e].nodes {
+                        let (f, kp) = pressing_contribution(model, e, u, value, how, want_k);
+                        for (&i, f) in model.triangles[e].nodes.iter().zip(&f) {
                             for c in 0..3 {
                                 fext[3 * i + c] += f[c];
                             }
@@ -1153,9 +1225,9 @@ struct HelperHalf {
     use_forced: bool,
     /// Frozen states of the helper's slots (when `use_forced`).
     forced: Vec<Option<WrinkleState>>,
-    /// Per pressure load: (load, value, follower, first index of `pattern.pressed_order[l]`
-    /// in the helper's half).
-    pressures: Vec<(usize, f64, bool, usize)>,
+    /// Per pressing load: (load, value, how it presses, first index of
+    /// `pattern.pressed_order[l]` in the helper's half).
+    pressures: Vec<(usize, f64, Pressing, usize)>,
     /// K's values from position `k_lo` on.
     k: Vec<f64>,
     /// Forces, force magnitudes and pressure loads per internal node from `node_lo` on.
@@ -1227,12 +1299,12 @@ impl HelperHalf {
         if !pressures.is_empty() {
             fp.fill(0.0);
         }
-        for &(l, value, follower, start) in pressures.iter() {
+        for &(l, value, how, start) in pressures.iter() {
             for &e in &pattern.pressed_order[l][start..] {
                 let slot = pattern.tri_slot[e];
                 let t = &pattern.triangles[slot];
-                let (f, kp) = pressure_at(t, &t.nodes.map(|i| x[i]), value, follower, want_k);
-                for &i in &t.nodes {
+                let (f, kp) = pressing_at(t, &t.nodes.map(|i| x[i]), value, how, want_k);
+                for (&i, f) in t.nodes.iter().zip(&f) {
                     for c in 0..3 {
                         fp[3 * (i - node_lo) + c] += f[c];
                     }
@@ -1494,15 +1566,13 @@ fn hand_over(
     }
     h.pressures.clear();
     for (l, load) in model.loads.iter().enumerate() {
-        let follower = match load {
-            LoadModel::Pressure { follower, .. } => *follower,
-            LoadModel::Volume { .. } => true,
-            _ => continue,
+        let Some(how) = Pressing::of(load) else {
+            continue;
         };
         let list = &pattern.pressed_order[l];
         let start = list.partition_point(|&e| pattern.tri_slot[e] < first);
         h.pressures
-            .push((l, model.load_value(l, u, loads), follower, start));
+            .push((l, model.load_value(l, u, loads), how, start));
     }
 }
 

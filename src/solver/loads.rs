@@ -3,6 +3,7 @@
 //! diagnosis weigh. Plain functions of the model, shared by every driver (load control, arc
 //! length, the predictor, the line search).
 
+use crate::model::pressure::SurfaceLaw;
 use crate::model::{LoadModel, Model};
 
 /// load(λ) = from + λ (to − from).
@@ -88,6 +89,25 @@ pub fn load_change(model: &Model, from: &[f64], to: &[f64]) -> f64 {
                     }
                 }
             }
+            // Snow per plan area (the reference one), a level change's pressure change γ_w Δh
+            // on the reference area.
+            LoadModel::Surface { triangles, law } => {
+                for &e in triangles {
+                    let t = &model.triangles[e];
+                    let n = t.reference.normal;
+                    let (share, dir) = match law {
+                        SurfaceLaw::Snow => (delta * t.reference.area * n.z / 3.0, [0.0, 0.0, 1.0]),
+                        SurfaceLaw::Ponding { gamma_w } => {
+                            (gamma_w * delta * t.reference.area / 3.0, [n.x, n.y, n.z])
+                        }
+                    };
+                    for &i in &t.nodes {
+                        for c in 0..3 {
+                            f[3 * i + c] += (share * dir[c]).abs();
+                        }
+                    }
+                }
+            }
             // A volume's pressure is an unknown: its forces count once assembled (|f_ext|∞).
             LoadModel::Displacement(_) | LoadModel::Volume { .. } => {}
         }
@@ -111,6 +131,17 @@ pub fn external_forces(model: &Model, loads: &[f64]) -> Vec<f64> {
                     let t = &model.triangles[e];
                     let share = t.reference.normal * (value * t.reference.area / 3.0);
                     for &i in &t.nodes {
+                        for c in 0..3 {
+                            f[3 * i + c] += share[c];
+                        }
+                    }
+                }
+            }
+            LoadModel::Surface { triangles, law } => {
+                for &e in triangles {
+                    let t = &model.triangles[e];
+                    let x = t.nodes.map(|i| model.reference[i]);
+                    for (&i, share) in t.nodes.iter().zip(&law.forces(value, &x)) {
                         for c in 0..3 {
                             f[3 * i + c] += share[c];
                         }

@@ -92,25 +92,20 @@ const FIRST_ORDER_KEPT: f64 = 0.1;
 pub fn external_forces_at(model: &Model, u: &[f64], loads: &[f64]) -> Vec<f64> {
     let mut f = vec![0.0f64; model.dof_count()];
     for (l, load) in model.loads.iter().enumerate() {
-        let (triangles, follower) = match load {
-            LoadModel::PointForce(dofs) => {
-                let value = model.load_value(l, u, loads);
-                for &(d, unit) in dofs {
-                    f[d] += unit * value;
-                }
-                continue;
+        if let LoadModel::PointForce(dofs) = load {
+            let value = model.load_value(l, u, loads);
+            for &(d, unit) in dofs {
+                f[d] += unit * value;
             }
-            LoadModel::Pressure {
-                triangles,
-                follower,
-            } => (triangles, *follower),
-            LoadModel::Volume { triangles, .. } => (triangles, true),
-            LoadModel::Displacement(_) => continue,
+            continue;
+        }
+        let Some(how) = assemble::Pressing::of(load) else {
+            continue;
         };
         let value = model.load_value(l, u, loads);
-        for &e in triangles {
-            let (share, _) = assemble::pressure_contribution(model, e, u, value, follower, false);
-            for &i in &model.triangles[e].nodes {
+        for &e in assemble::pressed_triangles(load) {
+            let (share, _) = assemble::pressing_contribution(model, e, u, value, how, false);
+            for (&i, share) in model.triangles[e].nodes.iter().zip(&share) {
                 for c in 0..3 {
                     f[3 * i + c] += share[c];
                 }

@@ -23,6 +23,7 @@
 //! line_search.rs  one backtracking search: potential, slope or residual merit (slope.rs)
 //! assemble.rs     pattern and assembly of residual and tangent over the model's elements
 //! linear.rs       sparse LDLT (factor.rs: faer's calls; split.rs: two halves on 2 threads)
+//! stability.rs    whether an equilibrium under ponding water is stable (K positive definite)
 //! core.rs         the Solver's workspace; settings.rs, report.rs, loads.rs, rows.rs: plain
 //!                 data and functions every phase shares
 //! ```
@@ -57,6 +58,7 @@ mod settings;
 pub mod slip;
 mod slope;
 mod split;
+pub mod stability;
 mod stepper;
 mod system;
 pub mod threads;

@@ -652,6 +652,19 @@ impl Solver {
                     }
                 }
             }
+            // Snow per Pa, ponding per metre of level, on the current geometry.
+            LoadModel::Surface { triangles, law } => {
+                let value = loads[k];
+                for &e in triangles {
+                    let nodes = model.triangles[e].nodes;
+                    let x = nodes.map(|i| model.position(u, i));
+                    for (&i, f) in nodes.iter().zip(&law.rate(value, &x)) {
+                        for c in 0..3 {
+                            g[3 * i + c] += f[c];
+                        }
+                    }
+                }
+            }
             // Refused by factor_tangent: no tangent exists for these.
             LoadModel::Volume { .. } => {}
             LoadModel::Displacement(prescribed) => {
@@ -782,25 +795,29 @@ fn solve_lu(
         )))
 }
 
-/// (K_p − K_pᵀ)/2 of every follower-pressure triangle under the loads (summed over the
-/// channels that load it).
+/// (K_p − K_pᵀ)/2 of every follower-pressure, snow and ponding triangle under the loads
+/// (summed over the channels that load it).
 fn skew_parts(model: &Model, u: &[f64], loads: &[f64]) -> Vec<([usize; 3], Mat9)> {
     let mut out = Vec::new();
     for (load, &value) in model.loads.iter().zip(loads) {
-        let LoadModel::Pressure {
-            triangles,
-            follower: true,
-        } = load
-        else {
-            continue;
+        let (triangles, law) = match load {
+            LoadModel::Pressure {
+                triangles,
+                follower: true,
+            } => (triangles, None),
+            LoadModel::Surface { triangles, law } => (triangles, Some(law)),
+            _ => continue,
         };
-        if value == 0.0 {
+        if value == 0.0 && law.is_none() {
             continue;
         }
         for &e in triangles {
             let nodes = model.triangles[e].nodes;
             let x = nodes.map(|i| model.position(u, i));
-            let k = pressure::follower_stiffness(value, &x);
+            let k = match law {
+                None => pressure::follower_stiffness(value, &x),
+                Some(law) => law.stiffness(value, &x),
+            };
             out.push((nodes, (k - k.transpose()) * 0.5));
         }
     }

@@ -258,3 +258,106 @@ fn a_bad_experiment_load_history_is_named_by_its_path() {
         "{err}"
     );
 }
+
+/// Snow, self weight and ponding inputs: each bad value named by its field.
+#[test]
+fn surface_load_problems_name_their_field() {
+    let scene = |membrane_extra: &str, cable_extra: &str, inputs: &str| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+      "geometry": {{"generators": [{{"kind": "rectangle", "name": "s", "origin": [0, 0, 0], "size": [1, 1], "divisions": [2, 2]}}]}},
+      "membranes": [{{"name": "m", "triangles": "s", "thickness": 1e-3, "material": {{"kind": "svk", "E": 1e8, "nu": 0.3}}{membrane_extra}}}],
+      "cables": [{{"name": "c", "nodes": "s.edge_bottom", "EA": 1e5{cable_extra}}}],
+      "supports": [{{"nodes": "s.boundary", "fix": ["x", "y", "z"]}}],
+      "inputs": {inputs}}}"#
+        )
+    };
+    let good = r#"[{"name": "s", "load": {"kind": "snow", "membrane": "m"}},
+                   {"name": "g", "load": {"kind": "self_weight"}},
+                   {"name": "h", "load": {"kind": "ponding", "membrane": "m", "zone": "s"}}]"#;
+    assert_eq!(
+        problems(&scene(r#", "density": 800"#, "", good)),
+        Vec::<String>::new()
+    );
+    assert_eq!(
+        problems(&scene("", r#", "mass_per_length": 2"#, good)),
+        Vec::<String>::new()
+    );
+    let p = problems(&scene("", "", good));
+    assert!(
+        p.len() == 1 && p[0].starts_with("inputs[1].load: a self_weight input needs mass"),
+        "{p:?}"
+    );
+    let p = problems(&scene(
+        r#", "density": -1"#,
+        r#", "mass_per_length": 0"#,
+        good,
+    ));
+    assert!(
+        p.iter()
+            .any(|m| m.starts_with("membranes[0].density: -1 is not a positive mass density")),
+        "{p:?}"
+    );
+    assert!(
+        p.iter().any(
+            |m| m.starts_with("cables[0].mass_per_length: 0 is not a positive mass per length")
+        ),
+        "{p:?}"
+    );
+    let bad = r#"[{"name": "s", "load": {"kind": "snow", "membrane": "roof"}},
+                  {"name": "g", "load": {"kind": "self_weight", "direction": [0, 0, 0]}},
+                  {"name": "h", "load": {"kind": "ponding", "membrane": "m", "gamma_w": -9810, "zone": "nowhere"}}]"#;
+    let p = problems(&scene(r#", "density": 800"#, "", bad));
+    for field in [
+        "inputs[0].load.membrane: no membrane group is named \"roof\"",
+        "inputs[1].load.direction: must be a non-zero finite vector",
+        "inputs[2].load.gamma_w: -9810 is not a positive unit weight of water",
+        "inputs[2].load.zone",
+    ] {
+        assert!(
+            p.iter().any(|m| m.starts_with(field)),
+            "{field} not in {p:?}"
+        );
+    }
+}
+
+/// Rigid placements and the cylindrical prestress: each bad value named by its field.
+#[test]
+fn tent_problems_name_their_field() {
+    let scene = |prestress: &str, place: &str| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+      "geometry": {{"generators": [{{"kind": "annulus", "name": "t", "center": [0, 0, 0], "inner_radius": 0.5, "outer_radius": 2, "rings": 2, "sectors": 8}}]}},
+      "membranes": [{{"name": "m", "triangles": "t", "thickness": 1e-3, "material": {{"kind": "svk", "E": 1e8, "nu": 0.3}},
+                      "prestress": {prestress}}}],
+      "supports": [{{"nodes": "t.boundary", "fix": ["x", "y", "z"]}}],
+      "form_finding": {{"place": {place}, "blend": true}}}}"#
+        )
+    };
+    let good = r#"{"kind": "cylindrical", "center": [0, 0, 0], "axis": [0, 0, 1], "n_r": 400, "n_theta": 100, "radius": 0.5}"#;
+    let place = r#"[{"nodes": "t.inner_rim", "translate": [0, 0, 0.5], "rotate": {"point": [0, 0, 0], "axis": [0, 0, 1], "angle": 0.1}}]"#;
+    assert_eq!(problems(&scene(good, place)), Vec::<String>::new());
+    let bad = r#"{"kind": "cylindrical", "center": [0, 0, 1e31], "axis": [0, 0, 0], "n_r": 0, "n_theta": -1, "radius": 0}"#;
+    let bad_place = r#"[{"nodes": "nowhere", "translate": [0, 0, 1e31]},
+                        {"node": 0, "nodes": "t.inner_rim", "position": [0, 0, 1]},
+                        {"node": 0},
+                        {"nodes": "t.inner_rim", "rotate": {"point": [0, 0, 0], "axis": [0, 0, 1], "angle": 1e9}}]"#;
+    let p = problems(&scene(bad, bad_place));
+    for field in [
+        "membranes[0].prestress.n_r: 0 is not a positive membrane force",
+        "membranes[0].prestress.n_theta: -1 is not a membrane force",
+        "membranes[0].prestress.radius: 0 is not a positive distance",
+        "membranes[0].prestress.center",
+        "membranes[0].prestress.axis",
+        "form_finding.place[0].nodes",
+        "form_finding.place[0].translate",
+        "form_finding.place[1]: give either",
+        "form_finding.place[2].position: missing",
+        "form_finding.place[3].rotate.angle",
+    ] {
+        assert!(
+            p.iter().any(|m| m.starts_with(field)),
+            "{field} not in {p:?}"
+        );
+    }
+}

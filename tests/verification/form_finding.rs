@@ -226,8 +226,11 @@ fn scherk_error_with(n: usize, graph: bool) -> (f64, usize) {
         .map(|&i| {
             let [x, y, _] = mesh.nodes[i];
             velarium::scene::Placement {
-                node: velarium::scene::OneNode::Id(i),
-                position: [x, y, scherk(x, y)],
+                node: Some(velarium::scene::OneNode::Id(i)),
+                position: Some([x, y, scherk(x, y)]),
+                nodes: None,
+                translate: None,
+                rotate: None,
             }
         })
         .collect();

@@ -207,6 +207,101 @@ fn follower_pressure_stiffness_matches_finite_differences() {
     }
 }
 
+/// Snow per current plan area and ponding (hydrostatic, follower, partly wet triangles
+/// included): the load stiffness −∂f/∂x of `pressure::SurfaceLaw` against central differences
+/// of its nodal forces, and ∂f/∂value (`SurfaceLaw::rate`, what the derivatives use) against a
+/// central difference in the value. Nodes are kept 1e-3 m or more from the water level, where
+/// the depth max(h − z, 0) has its kink.
+#[test]
+fn snow_and_ponding_stiffness_match_finite_differences() {
+    use pressure::SurfaceLaw;
+    let mut rng = Rng(29);
+    let (mut worst_k, mut worst_rate, mut partly_wet) = (0.0f64, 0.0f64, 0);
+    for trial in 0..300 {
+        let x: Vec<Vector3<f64>> = [
+            Vector3::zeros(),
+            Vector3::new(1.0, 0.0, 0.0),
+            Vector3::new(0.2, 1.0, 0.0),
+        ]
+        .iter()
+        .map(|p| p + rng.vec3(0.3))
+        .collect();
+        let (law, value) = if trial % 2 == 0 {
+            (SurfaceLaw::Snow, 1e3 * rng.next())
+        } else {
+            (SurfaceLaw::Ponding { gamma_w: 9810.0 }, 0.3 * rng.next())
+        };
+        if matches!(law, SurfaceLaw::Ponding { .. }) {
+            if x.iter().any(|p| (p.z - value).abs() < 1e-3) {
+                continue;
+            }
+            let wet = x.iter().filter(|p| p.z < value).count();
+            if wet == 0 {
+                continue;
+            }
+            partly_wet += (wet < 3) as usize;
+        }
+        let xa = [x[0], x[1], x[2]];
+        let k = law.stiffness(value, &xa);
+        let force = |y: &[Vector3<f64>]| {
+            let f = law.forces(value, &[y[0], y[1], y[2]]);
+            (0..9).map(|i| -f[i / 3][i % 3]).collect()
+        };
+        let err = fd_error(&x, &k, force, 1e-6);
+        worst_k = worst_k.max(err);
+        let h = 1e-6;
+        let (fp, fm, rate) = (
+            law.forces(value + h, &xa),
+            law.forces(value - h, &xa),
+            law.rate(value, &xa),
+        );
+        let scale = rate.iter().map(|v| v.abs().max()).fold(0.0, f64::max);
+        for a in 0..3 {
+            let fd = (fp[a] - fm[a]) / (2.0 * h);
+            worst_rate = worst_rate.max((fd - rate[a]).abs().max() / scale);
+        }
+    }
+    assert!(
+        partly_wet > 20,
+        "only {partly_wet} partly wet triangles tried"
+    );
+    assert!(worst_k < 1e-8, "snow/ponding stiffness error {worst_k:e}");
+    assert!(worst_rate < 1e-6, "snow/ponding rate error {worst_rate:e}");
+    eprintln!("snow/ponding: stiffness error {worst_k:.1e}, rate error {worst_rate:.1e}");
+}
+
+/// The snow load's nodal forces total s times the current plan area, downwards, whichever way
+/// the triangle faces, and a flat triangle under water of depth d carries the water column's
+/// weight γ_w d A (closed forms, to round-off).
+#[test]
+fn snow_and_ponding_totals_are_the_closed_forms() {
+    use pressure::SurfaceLaw;
+    let x = [
+        Vector3::new(0.0, 0.0, 0.3),
+        Vector3::new(2.0, 0.0, -0.1),
+        Vector3::new(0.5, 1.5, 0.7),
+    ];
+    let plan = 0.5 * 2.0 * 1.5;
+    for order in [[0, 1, 2], [0, 2, 1]] {
+        let y = order.map(|i| x[i]);
+        let f = SurfaceLaw::Snow.forces(800.0, &y);
+        let total: Vector3<f64> = f.iter().sum();
+        assert!((total - Vector3::new(0.0, 0.0, -800.0 * plan)).norm() < 1e-12 * 800.0 * plan);
+    }
+    let flat = [
+        Vector3::new(0.0, 0.0, -0.2),
+        Vector3::new(2.0, 0.0, -0.2),
+        Vector3::new(0.5, 1.5, -0.2),
+    ];
+    let f = SurfaceLaw::Ponding { gamma_w: 9810.0 }.forces(0.1, &flat);
+    let total: Vector3<f64> = f.iter().sum();
+    let weight = 9810.0 * 0.3 * plan;
+    assert!((total - Vector3::new(0.0, 0.0, -weight)).norm() < 1e-12 * weight);
+    // Above the level: dry.
+    let dry = SurfaceLaw::Ponding { gamma_w: 9810.0 }.forces(-0.3, &flat);
+    assert_eq!(dry.iter().map(|v| v.norm()).sum::<f64>(), 0.0);
+}
+
 /// The assembled tangent of a whole model (membrane, cables, follower pressure on a clamped
 /// disc) against central differences of the assembled residual, in a deformed state.
 #[test]
