@@ -1118,7 +1118,7 @@ fn is_one(n: &usize) -> bool {
 }
 
 fn default_step_iterations() -> usize {
-    500
+    1000
 }
 
 fn is_default_step_iterations(n: &usize) -> bool {
