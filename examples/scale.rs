@@ -213,11 +213,14 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
     let setup = built.elapsed().as_secs_f64();
     if std::env::args().any(|a| a == "--nnz-only") {
         println!(
-            "{:>7} {:>8} {:>13} {:>11}",
+            "{:>7} {:>8} {:>13} {:>11} {:>10.4e} setup {:.3} s split {:?}",
             problem.name,
             engine.free_dofs(),
             label,
-            engine.factor_nonzeros()
+            engine.factor_nonzeros(),
+            engine.factor_flops(),
+            setup,
+            engine.split_sizes()
         );
         return;
     }

@@ -101,7 +101,9 @@ impl Engine {
     /// the state is the undeformed configuration (call [`Engine::solve`] for the equilibrium
     /// under the start values).
     pub fn try_new(scene: Scene) -> Result<Engine, Error> {
+        crate::memory::phase("engine start");
         let (problems, size) = validate::validate_sized(&scene);
+        crate::memory::phase("validate_sized");
         if !problems.is_empty() {
             return Err(Error::Scene(problems));
         }
@@ -128,9 +130,12 @@ impl Engine {
         if !scene.debug.skip_memory_probes {
             memory::probe(size.memory_bytes, "the model and the solver")?;
         }
+        crate::memory::phase("probe");
         let arrays = variables::try_table(&scene)?;
         let variables = variables::scalars(&arrays);
+        crate::memory::phase("variables");
         let model = Model::try_build(&scene)?;
+        crate::memory::phase("model build");
         let count = |c: Causality| variables.iter().filter(|v| v.causality == c).count();
         if count(Causality::Input) != model.loads.len()
             || count(Causality::Output) != model.probes.len()
@@ -144,7 +149,9 @@ impl Engine {
             )));
         }
         let solver = Solver::try_new(&model, settings(&scene))?;
+        crate::memory::phase("solver (rest)");
         let state = initial_state(&scene, &variables, &model)?;
+        crate::memory::phase("initial state");
         let mut engine = Engine {
             scene,
             variables,
@@ -160,6 +167,7 @@ impl Engine {
             memory_estimate: size.memory_bytes,
         };
         engine.refresh_outputs()?;
+        crate::memory::phase("refresh outputs");
         Ok(engine)
     }
 
@@ -555,6 +563,12 @@ impl Engine {
     /// Stored entries of the tangent's LDLT factor (after AMD ordering), for the scaling benchmark.
     pub fn factor_nonzeros(&self) -> usize {
         self.solver.factor_nonzeros()
+    }
+
+    /// Flops of one numeric factorization of the tangent (Σ c² over the factor's columns, c
+    /// the entries below the diagonal; with two threads the halves' and the separator's).
+    pub fn factor_flops(&self) -> f64 {
+        self.solver.factor_flops()
     }
 
     /// Equations of the two halves and of their separator when the tangent is factored on two

@@ -103,9 +103,11 @@ enum Command {
         /// and solver and the process's peak resident set.
         #[arg(long)]
         memory: bool,
-        /// Solver threads (1-64), instead of the scene's `solver.threads` (default 1, the
-        /// FMU's count, so the CLI reproduces the FMU's numbers to the bit). 2 factors a
-        /// tangent of 20 000 equations or more in two halves at once (docs/performance.md).
+        /// Solver threads (1-64), instead of the scene's `solver.threads`; when neither gives
+        /// a count, the machine's cores (an FMU uses 1 unless its scene asks). 2 or more
+        /// factor and assemble a tangent of 20 000 equations or more in two halves at once
+        /// (docs/performance.md); below that size the count changes nothing, and above it
+        /// the results agree with 1 thread to round-off (`--threads 1` gives the FMU's bits).
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=64))]
         threads: Option<u64>,
     },
@@ -297,6 +299,26 @@ fn read_scene(path: &str) -> Result<Scene, Stop> {
         .map_err(|p| Stop::Failed(format!("{path}: {}", velarium::Error::Scene(p))))
 }
 
+/// Whether a scene's text sets `solver.threads` (a valid scene: it parsed).
+fn sets_threads(bytes: &[u8]) -> bool {
+    // Most scenes never name it: a search of the bytes spares them a second parse.
+    if !bytes.windows(9).any(|w| w == b"\"threads\"") {
+        return false;
+    }
+    serde_json::from_slice::<serde_json::Value>(bytes)
+        .ok()
+        .and_then(|v| v.get("solver").map(|s| s.get("threads").is_some()))
+        .unwrap_or(false)
+}
+
+/// `velarium solve`'s thread count when neither `--threads` nor the scene gives one: the cores
+/// the process may use (1 where that is unknown), at most the solver's bound.
+fn machine_threads() -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, velarium::solver::threads::MAX_THREADS)
+}
+
 /// Validate a scene and build its engine; problems name the file and every JSON path.
 fn engine_for(path: &str) -> Result<Engine, Stop> {
     Engine::try_new(read_scene(path)?).map_err(|e| Stop::Failed(format!("{path}: {e}")))
@@ -385,13 +407,20 @@ struct SolveArgs {
 
 fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
     let loads = args.loads.as_str();
-    let mut scene = read_scene(&args.scene)?;
-    if let Some(n) = args.threads {
-        scene.solver.threads = n;
+    let bytes = read_bytes(&args.scene)?;
+    let mut scene = Scene::parse(&bytes)
+        .map_err(|p| Stop::Failed(format!("{}: {}", args.scene, velarium::Error::Scene(p))))?;
+    velarium::memory::phase("read scene");
+    match args.threads {
+        Some(n) => scene.solver.threads = n,
+        // The user's machine: its cores, unless the scene asks for a count.
+        None if !sets_threads(&bytes) => scene.solver.threads = machine_threads(),
+        None => {}
     }
     let mut engine =
         Engine::try_new(scene).map_err(|e| Stop::Failed(format!("{}: {e}", args.scene)))?;
     let table = LoadTable::parse(&read_text(loads)?, loads, &mut engine).map_err(failed)?;
+    velarium::memory::phase("load table");
     let mut series = match &args.vtk {
         Some(dir) => {
             Some(vtk::Series::create(Path::new(dir), &engine.scene().name).map_err(failed)?)
@@ -414,6 +443,7 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
         },
     );
     progress.finish();
+    velarium::memory::phase("history run");
     if args.memory || (!args.quiet && std::io::stderr().is_terminal()) {
         eprintln!(
             "velarium: {}",
@@ -432,6 +462,7 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
         Some(out) => write_atomically(Path::new(out), csv.as_bytes()).map_err(failed)?,
         None => out!("{csv}"),
     }
+    velarium::memory::phase("write csv");
     match history.failure {
         None => Ok(ExitCode::SUCCESS),
         Some(f) => Err(Stop::Failed(format!(

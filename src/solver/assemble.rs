@@ -77,6 +77,9 @@ pub struct Pattern {
     /// pressure loop reads its triangles' data and maps front to back without a lookup by the
     /// user's triangle number (which in a shuffled numbering lands anywhere).
     pressed_slots: Vec<Vec<usize>>,
+    /// The factorization's fill-reducing order when it is not faer's AMD (`dissect.rs`):
+    /// `Solver::try_new` hands it to the factorization.
+    pub fill: Option<super::dissect::Fill>,
 }
 
 /// What one assembly found besides R and K.
@@ -126,8 +129,11 @@ impl Pattern {
     /// (`renumber.rs`), every buffer that grows with it allocated fallibly (`crate::memory`).
     pub fn try_ordered(model: &Model, order: NodeOrder) -> Result<Pattern, OutOfMemory> {
         let rank = renumber::node_rank(model, order)?;
+        crate::memory::phase("    node_rank");
         let (eq, n, by_rank) = number_equations(model, &rank)?;
+        crate::memory::phase("    number_equations");
         let visits = PerKind::try_from_fn(|kind| visit_order(model, kind, order, &rank))?;
+        crate::memory::phase("    visit_order");
         let tri_order = &visits[ElementKind::Membrane];
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {
@@ -150,8 +156,16 @@ impl Pattern {
             (by_rank, rank)
         };
         let (pressed_order, pressed_slots) = pressed_lists(model, &tri_slot)?;
+        crate::memory::phase("    tri copies+pressed");
         let (col_ptr, row_idx) = upper_pattern(model, &eq, n)?;
+        crate::memory::phase("    upper_pattern");
         let maps = position_maps(model, &eq, &col_ptr, &row_idx, &visits)?;
+        crate::memory::phase("    position_maps");
+        let fill = match std::env::var("VELARIUM_FILL").as_deref() {
+            Ok("nd") => Some(nested_dissection(model, &eq, n, &node_of, &rank)?),
+            _ => None,
+        };
+        crate::memory::phase("    position_maps");
         Ok(Pattern {
             eq,
             n,
@@ -165,6 +179,7 @@ impl Pattern {
             rank,
             pressed_order,
             pressed_slots,
+            fill,
         })
     }
 
@@ -178,6 +193,47 @@ impl Pattern {
         let len = kind.block_len();
         &self.maps[kind][slot * len..(slot + 1) * len]
     }
+}
+
+/// The nested-dissection order of the equations (`dissect.rs`), on the node graph in internal
+/// numbering (`node_of`, `rank`: empty under `NodeOrder::Given`, the user's numbering).
+fn nested_dissection(
+    model: &Model,
+    eq: &[usize],
+    n: usize,
+    node_of: &[usize],
+    rank: &[u32],
+) -> Result<super::dissect::Fill, OutOfMemory> {
+    const WHAT: &str = "the nested-dissection ordering";
+    let nodes = model.reference.len();
+    let user = |r: usize| if node_of.is_empty() { r } else { node_of[r] };
+    let internal = |v: usize| if rank.is_empty() { v } else { rank[v] as usize };
+    let (uptr, uadj) = renumber::node_graph(model)?;
+    let mut ptr = memory::with_capacity(nodes + 1, WHAT)?;
+    let mut adj = memory::with_capacity(uadj.len(), WHAT)?;
+    ptr.push(0);
+    for r in 0..nodes {
+        let v = user(r);
+        adj.extend(uadj[uptr[v]..uptr[v + 1]].iter().map(|&w| internal(w)));
+        ptr.push(adj.len());
+    }
+    drop((uptr, uadj));
+    let x = memory::collect(
+        (0..nodes).map(|r| {
+            let p = model.reference[user(r)];
+            [p.x, p.y, p.z]
+        }),
+        WHAT,
+    )?;
+    // Equations are numbered node by node in internal order: node r's are first[r]..first[r+1].
+    let mut first = memory::with_capacity(nodes + 1, WHAT)?;
+    first.push(0usize);
+    for r in 0..nodes {
+        let v = user(r);
+        let free = (0..3).filter(|&c| eq[3 * v + c] != NONE).count();
+        first.push(first[r] + free);
+    }
+    super::dissect::fill(&x, &ptr, &adj, |r| first[r]..first[r + 1], n)
 }
 
 /// Equation numbers handed out node by node in internal order (`rank[node]`), held DOFs

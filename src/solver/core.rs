@@ -81,6 +81,11 @@ impl Solver {
         self.linear.factor_nonzeros()
     }
 
+    /// Flops of one numeric factorization of the tangent (Σ c² over the factor's columns).
+    pub fn factor_flops(&self) -> f64 {
+        self.linear.factor_flops()
+    }
+
     /// Numeric factorizations of the tangent since the solver was made (every Newton
     /// direction, prescribed-displacement predictor, sensitivity and timing included).
     pub fn factorizations(&self) -> usize {
@@ -119,10 +124,12 @@ impl Solver {
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
         let mut pattern = Pattern::try_ordered(model, settings.node_order)?;
+        crate::memory::phase("pattern try_ordered");
         // The factorization takes over the pattern's row indices: nothing reads them from the
         // solver's pattern once its position maps are built, and a copy would be K's largest
         // index array twice (88 MB at 1M DOF).
         let row_idx = std::mem::take(&mut pattern.row_idx);
+        let fill = pattern.fill.take();
         let pool = if settings.threads > 1 && pattern.n >= linear::SPLIT_MIN_EQUATIONS {
             // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
             // Two threads at most: the factorization has two halves (`split.rs`).
@@ -142,12 +149,15 @@ impl Solver {
             Some(pool) => assemble::Parallel::try_new(std::sync::Arc::clone(pool), &pattern)?,
             None => None,
         };
-        let mut linear = Ldlt::try_with_pool(
+        crate::memory::phase("parallel");
+        let mut linear = Ldlt::try_filled(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
             row_idx,
             pool,
+            fill,
         )?;
+        crate::memory::phase("ldlt try_with_pool");
         // Each node's equations one group: the pivots are regularized relative to the node's
         // own stiffness (linear.rs).
         let mut groups = memory::zeros::<u32>(pattern.n, "the tangent's scaling")?;
@@ -157,6 +167,7 @@ impl Solver {
             }
         }
         linear.set_groups(groups)?;
+        crate::memory::phase("groups");
         let n = model.dof_count();
         let trial_len = model.unknown_count();
         let diagonal_positions = memory::collect(
