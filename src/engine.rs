@@ -101,9 +101,7 @@ impl Engine {
     /// the state is the undeformed configuration (call [`Engine::solve`] for the equilibrium
     /// under the start values).
     pub fn try_new(scene: Scene) -> Result<Engine, Error> {
-        crate::memory::phase("engine start");
         let (problems, size) = validate::validate_sized(&scene);
-        crate::memory::phase("validate_sized");
         if !problems.is_empty() {
             return Err(Error::Scene(problems));
         }
@@ -130,12 +128,9 @@ impl Engine {
         if !scene.debug.skip_memory_probes {
             memory::probe(size.memory_bytes, "the model and the solver")?;
         }
-        crate::memory::phase("probe");
         let arrays = variables::try_table(&scene)?;
         let variables = variables::scalars(&arrays);
-        crate::memory::phase("variables");
         let model = Model::try_build(&scene)?;
-        crate::memory::phase("model build");
         let count = |c: Causality| variables.iter().filter(|v| v.causality == c).count();
         if count(Causality::Input) != model.loads.len()
             || count(Causality::Output) != model.probes.len()
@@ -149,9 +144,7 @@ impl Engine {
             )));
         }
         let solver = Solver::try_new(&model, settings(&scene))?;
-        crate::memory::phase("solver (rest)");
         let state = initial_state(&scene, &variables, &model)?;
-        crate::memory::phase("initial state");
         let mut engine = Engine {
             scene,
             variables,
@@ -167,7 +160,6 @@ impl Engine {
             memory_estimate: size.memory_bytes,
         };
         engine.refresh_outputs()?;
-        crate::memory::phase("refresh outputs");
         Ok(engine)
     }
 

@@ -103,6 +103,11 @@ enum Command {
         /// and solver and the process's peak resident set.
         #[arg(long)]
         memory: bool,
+        /// Print on stderr where the run's time went: reading the scene, setting up (mesh,
+        /// model, pattern, ordering, symbolic factorization), solving the load rows, writing;
+        /// and the thread count (the scale example's `--e2e` reads this line).
+        #[arg(long)]
+        timings: bool,
         /// Solver threads (1-64), instead of the scene's `solver.threads`; when neither gives
         /// a count, the machine's cores (an FMU uses 1 unless its scene asks). 2 or more
         /// factor and assemble a tangent of 20 000 equations or more in two halves at once
@@ -250,6 +255,7 @@ fn main() -> ExitCode {
             vtk,
             quiet,
             memory,
+            timings,
             threads,
         } => cmd_solve(&SolveArgs {
             scene,
@@ -259,6 +265,7 @@ fn main() -> ExitCode {
             vtk,
             quiet,
             memory,
+            timings,
             threads: threads.map(|n| n as usize),
         }),
         Command::Check { scene } => cmd_check(&scene),
@@ -402,25 +409,28 @@ struct SolveArgs {
     vtk: Option<String>,
     quiet: bool,
     memory: bool,
+    timings: bool,
     threads: Option<usize>,
 }
 
 fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
     let loads = args.loads.as_str();
+    let started = Instant::now();
     let bytes = read_bytes(&args.scene)?;
     let mut scene = Scene::parse(&bytes)
         .map_err(|p| Stop::Failed(format!("{}: {}", args.scene, velarium::Error::Scene(p))))?;
-    velarium::memory::phase("read scene");
     match args.threads {
         Some(n) => scene.solver.threads = n,
         // The user's machine: its cores, unless the scene asks for a count.
         None if !sets_threads(&bytes) => scene.solver.threads = machine_threads(),
         None => {}
     }
+    let threads = scene.solver.threads;
+    let read = started.elapsed().as_secs_f64();
     let mut engine =
         Engine::try_new(scene).map_err(|e| Stop::Failed(format!("{}: {e}", args.scene)))?;
+    let setup = started.elapsed().as_secs_f64() - read;
     let table = LoadTable::parse(&read_text(loads)?, loads, &mut engine).map_err(failed)?;
-    velarium::memory::phase("load table");
     let mut series = match &args.vtk {
         Some(dir) => {
             Some(vtk::Series::create(Path::new(dir), &engine.scene().name).map_err(failed)?)
@@ -443,7 +453,7 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
         },
     );
     progress.finish();
-    velarium::memory::phase("history run");
+    let solved = started.elapsed().as_secs_f64();
     if args.memory || (!args.quiet && std::io::stderr().is_terminal()) {
         eprintln!(
             "velarium: {}",
@@ -462,7 +472,13 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
         Some(out) => write_atomically(Path::new(out), csv.as_bytes()).map_err(failed)?,
         None => out!("{csv}"),
     }
-    velarium::memory::phase("write csv");
+    if args.timings {
+        eprintln!(
+            "velarium: timings: read {read:.3} s, setup {setup:.3} s, solve {:.3} s, write {:.3} s, {threads} thread(s)",
+            solved - read - setup,
+            started.elapsed().as_secs_f64() - solved
+        );
+    }
     match history.failure {
         None => Ok(ExitCode::SUCCESS),
         Some(f) => Err(Stop::Failed(format!(

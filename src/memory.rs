@@ -170,19 +170,3 @@ mod tests {
         assert_eq!(collect(0..4, "x").unwrap(), vec![0, 1, 2, 3]);
     }
 }
-
-/// TEMP profiling: seconds since the previous mark, on stderr when VELARIUM_PHASES is set.
-pub fn phase(label: &str) {
-    use std::sync::Mutex;
-    use std::time::Instant;
-    static LAST: Mutex<Option<Instant>> = Mutex::new(None);
-    if std::env::var_os("VELARIUM_PHASES").is_none() {
-        return;
-    }
-    let now = Instant::now();
-    let mut last = LAST.lock().unwrap();
-    if let Some(t) = *last {
-        eprintln!("phase {label:<40} {:8.3} s", (now - t).as_secs_f64());
-    }
-    *last = Some(now);
-}

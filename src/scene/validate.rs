@@ -65,7 +65,6 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
         v.problems.extend(too_big);
         return v.problems;
     }
-    crate::memory::phase("  validate pre-mesh");
     let mesh = match try_resolve(&scene.geometry) {
         Ok(mesh) => mesh,
         Err(e) => {
@@ -77,7 +76,6 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
         }
     };
     v.explicit_geometry(scene, &mesh);
-    crate::memory::phase("  validate mesh resolve");
     v.generated_triangles(scene, &mesh);
     if v.problems.len() == before {
         let cables: Vec<Vec<usize>> = scene
@@ -99,7 +97,6 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
         if too_big.is_empty() {
             too_big = limits::check_memory(size, &mesh, &cables, limits);
         }
-        crate::memory::phase("  validate check_memory");
         if !too_big.is_empty() {
             v.problems.extend(too_big);
             return v.problems;

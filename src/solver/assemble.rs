@@ -129,11 +129,8 @@ impl Pattern {
     /// (`renumber.rs`), every buffer that grows with it allocated fallibly (`crate::memory`).
     pub fn try_ordered(model: &Model, order: NodeOrder) -> Result<Pattern, OutOfMemory> {
         let rank = renumber::node_rank(model, order)?;
-        crate::memory::phase("    node_rank");
         let (eq, n, by_rank) = number_equations(model, &rank)?;
-        crate::memory::phase("    number_equations");
         let visits = PerKind::try_from_fn(|kind| visit_order(model, kind, order, &rank))?;
-        crate::memory::phase("    visit_order");
         let tri_order = &visits[ElementKind::Membrane];
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {
@@ -156,16 +153,14 @@ impl Pattern {
             (by_rank, rank)
         };
         let (pressed_order, pressed_slots) = pressed_lists(model, &tri_slot)?;
-        crate::memory::phase("    tri copies+pressed");
         let (col_ptr, row_idx) = upper_pattern(model, &eq, n)?;
-        crate::memory::phase("    upper_pattern");
         let maps = position_maps(model, &eq, &col_ptr, &row_idx, &visits)?;
-        crate::memory::phase("    position_maps");
-        let fill = match std::env::var("VELARIUM_FILL").as_deref() {
-            Ok("nd") => Some(nested_dissection(model, &eq, n, &node_of, &rank)?),
-            _ => None,
+        // Large tangents: nested dissection, where it fills no more than faer's AMD and its
+        // top separator is the two-thread split (`dissect.rs`, docs/performance.md).
+        let fill = match n >= super::dissect::MIN_EQUATIONS {
+            true => Some(nested_dissection(model, &eq, n, &node_of, &rank)?),
+            false => None,
         };
-        crate::memory::phase("    position_maps");
         Ok(Pattern {
             eq,
             n,

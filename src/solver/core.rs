@@ -124,7 +124,6 @@ impl Solver {
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
         let mut pattern = Pattern::try_ordered(model, settings.node_order)?;
-        crate::memory::phase("pattern try_ordered");
         // The factorization takes over the pattern's row indices: nothing reads them from the
         // solver's pattern once its position maps are built, and a copy would be K's largest
         // index array twice (88 MB at 1M DOF).
@@ -149,7 +148,6 @@ impl Solver {
             Some(pool) => assemble::Parallel::try_new(std::sync::Arc::clone(pool), &pattern)?,
             None => None,
         };
-        crate::memory::phase("parallel");
         let mut linear = Ldlt::try_filled(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
@@ -157,7 +155,6 @@ impl Solver {
             pool,
             fill,
         )?;
-        crate::memory::phase("ldlt try_with_pool");
         // Each node's equations one group: the pivots are regularized relative to the node's
         // own stiffness (linear.rs).
         let mut groups = memory::zeros::<u32>(pattern.n, "the tangent's scaling")?;
@@ -167,7 +164,6 @@ impl Solver {
             }
         }
         linear.set_groups(groups)?;
-        crate::memory::phase("groups");
         let n = model.dof_count();
         let trial_len = model.unknown_count();
         let diagonal_positions = memory::collect(

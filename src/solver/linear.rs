@@ -14,8 +14,8 @@
 //! scaling and its undoing exact; a group with no positive diagonal keeps the largest diagonal
 //! of the whole tangent (the unscaled rule).
 
-use super::factor::{numeric_ldlt, symbolic_ldlt};
 use super::dissect::Fill;
+use super::factor::{numeric_ldlt, symbolic_ldlt};
 use super::split::Split;
 use super::threads::Pool;
 use crate::error::{Breakdown, Error};
@@ -114,7 +114,6 @@ impl Ldlt {
         let nnz = row_idx.len();
         let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let matrix = SparseColMat::new(sym, memory::lazy_zeros(nnz, "the tangent matrix")?);
-        crate::memory::phase("  ldlt matrix");
         let what = "the symbolic factorization of the tangent";
         let order = match &fill {
             Some(fill) if fill.perm.len() == n => {
@@ -134,20 +133,18 @@ impl Ldlt {
         {
             let sym = matrix.symbolic();
             split = Split::try_at(n, sym.col_ptr(), sym.row_idx(), inv, top, Arc::clone(pool))?;
-            crate::memory::phase("  ldlt split (nested dissection)");
         }
         let symbolic = if split.is_some() {
             None
         } else {
             let ordering = match &order {
-                Some((fwd, inv)) => SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(
-                    fwd, inv, n,
-                )),
+                Some((fwd, inv)) => {
+                    SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(fwd, inv, n))
+                }
                 None => SymmetricOrdering::Amd,
             };
             Some(symbolic_ldlt(&matrix, ordering, what)?)
         };
-        crate::memory::phase("  ldlt symbolic");
         if split.is_none() {
             if let (Some(pool), Some(symbolic)) = (pool_split, &symbolic) {
                 let sym = matrix.symbolic();
@@ -276,7 +273,9 @@ impl Ldlt {
         let result = match self.split.as_mut() {
             Some(split) => split.factor(self.matrix.val(), reg),
             None => numeric_ldlt(
-                self.symbolic.as_ref().expect("the whole tangent's symbolic factorization"),
+                self.symbolic
+                    .as_ref()
+                    .expect("the whole tangent's symbolic factorization"),
                 &mut self.l_values,
                 &self.matrix,
                 reg,
@@ -378,7 +377,10 @@ impl Ldlt {
                 Err(Breakdown::NonFinite(NON_FINITE).into())
             };
         }
-        let symbolic = self.symbolic.as_ref().expect("the whole tangent's symbolic factorization");
+        let symbolic = self
+            .symbolic
+            .as_ref()
+            .expect("the whole tangent's symbolic factorization");
         let ldlt = LdltRef::new(symbolic, &self.l_values);
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
         ldlt.solve_in_place_with_conj(

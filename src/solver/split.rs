@@ -332,8 +332,6 @@ impl Split {
         let Some(levels) = separator_levels(n, col_ptr, row_idx)? else {
             return Ok(None);
         };
-        crate::memory::phase("    separator_levels");
-        let what = "the two-domain factorization";
         // The two halves (symbolic analysis only) with level `sep` as the separator.
         let pair = |sep: usize| -> Result<Option<(Vec<usize>, Half, Half)>, OutOfMemory> {
             let side = |l: usize| {
@@ -361,7 +359,6 @@ impl Split {
         let Some(mut chosen) = pair(levels.sep)? else {
             return Ok(None);
         };
-        crate::memory::phase("    first pair");
         // Equal equation counts do not make equal work: the factorization waits for the
         // slower half (17 % more flops on one side of the 300k-DOF disc). The separator moves
         // towards the heavier half: the difference of the halves' flops as a function of the
@@ -410,7 +407,6 @@ impl Split {
             if heavier(&other) < heavier(&chosen) {
                 chosen = other;
             }
-            crate::memory::phase("    another pair");
         }
         let (s_eq, a, b) = chosen;
         Split::finish(
@@ -493,7 +489,6 @@ impl Split {
         }
         a.allocate()?;
         b.allocate()?;
-        crate::memory::phase("    allocate");
         let (a, b) = (Arc::new(Mutex::new(a)), Arc::new(Mutex::new(b)));
         let ns = s_eq.len();
         let mut pos = memory::filled(n, usize::MAX, what)?;
@@ -524,7 +519,6 @@ impl Split {
             what,
             bytes: (ns * 8) as u64,
         })?;
-        crate::memory::phase("    kss + schur mem");
         #[cfg(test)]
         let flops = [lock(&a).flops(), lock(&b).flops()];
         let job = Arc::clone(&b);
