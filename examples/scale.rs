@@ -2,7 +2,13 @@
 //! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N]
 //! [--problem=disc,square] [--threads=N] [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]
 //! [--thread-cpu] [--log] [--max-iterations=N] [--min-increment=X] [--artificial-prestress=PA]
-//! [--continuation=H]`.
+//! [--continuation=H]`; `[SIZE...] --e2e [--runs=N] [--threads=N]`.
+//!
+//! `--e2e`: what a user waits for, `velarium solve` from the scene file to the CSV as a process
+//! of its own (built next to this example: `cargo build --release` first), N runs per size
+//! (default 3) with the median and range of the whole process's wall time, the setup and
+//! solve it reports (`--timings`), its CPU time and peak resident set, the CPU model and the
+//! load average (fn `e2e`).
 //!
 //! `--log` prints each solve's per-iteration log on stderr; `--max-iterations=N` and
 //! `--min-increment=X` set `solver.max_iterations` and `solver.min_increment` (with X = 1 a
@@ -670,6 +676,8 @@ fn spread(v: &[f64]) -> (f64, f64, f64) {
 
 /// One `velarium solve` as a child process: (wall s, CPU s of the child, peak resident MiB of
 /// the child, its stderr).
+// The child is reaped by libc::wait4 (which also gives its rusage), not by Child::wait.
+#[allow(clippy::zombie_processes)]
 fn solve_process(velarium: &std::path::Path, args: &[String]) -> (f64, f64, f64, String) {
     use std::io::Read;
     let start = Instant::now();
