@@ -469,9 +469,9 @@ impl Blocks {
                 node[start..].sort_unstable();
                 node.push(r as u32);
                 let mut rows = 0u32;
-                for k in start..node.len() {
+                for &s in &node[start..] {
                     offset.push(rows);
-                    let s = node[k] as usize;
+                    let s = s as usize;
                     rows += (first[s + 1] - first[s]) as u32;
                 }
             }

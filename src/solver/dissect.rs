@@ -382,7 +382,7 @@ mod tests {
     fn fill_expands_nodes_to_equations() {
         let (x, ptr, adj) = grid(30, 30);
         // Node r has 3 equations, except every 7th with none (held).
-        let count = |r: usize| if r % 7 == 0 { 0 } else { 3 };
+        let count = |r: usize| if r.is_multiple_of(7) { 0 } else { 3 };
         let mut first = vec![0];
         for r in 0..x.len() {
             first.push(first[r] + count(r));
@@ -394,6 +394,6 @@ mod tests {
         assert_eq!(sorted, (0..n).collect::<Vec<_>>());
         let top = f.top.expect("a cut at the top");
         assert_eq!(top.iter().sum::<usize>(), n);
-        assert!(top.iter().all(|t| t % 3 == 0));
+        assert!(top.iter().all(|t| t.is_multiple_of(3)));
     }
 }
