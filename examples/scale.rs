@@ -2,7 +2,13 @@
 //! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N]
 //! [--problem=disc,square] [--threads=N] [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]
 //! [--thread-cpu] [--log] [--max-iterations=N] [--min-increment=X] [--artificial-prestress=PA]
-//! [--continuation=H]`.
+//! [--continuation=H]`; `[SIZE...] --e2e [--runs=N] [--threads=N]`.
+//!
+//! `--e2e`: what a user waits for, `velarium solve` from the scene file to the CSV as a process
+//! of its own (built next to this example: `cargo build --release` first), N runs per size
+//! (default 3) with the median and range of the whole process's wall time, the setup and
+//! solve it reports (`--timings`), its CPU time and peak resident set, the CPU model and the
+//! load average (fn `e2e`).
 //!
 //! `--log` prints each solve's per-iteration log on stderr; `--max-iterations=N` and
 //! `--min-increment=X` set `solver.max_iterations` and `solver.min_increment` (with X = 1 a
@@ -213,11 +219,14 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
     let setup = built.elapsed().as_secs_f64();
     if std::env::args().any(|a| a == "--nnz-only") {
         println!(
-            "{:>7} {:>8} {:>13} {:>11}",
+            "{:>7} {:>8} {:>13} {:>11} {:>10.4e} setup {:.3} s split {:?}",
             problem.name,
             engine.free_dofs(),
             label,
-            engine.factor_nonzeros()
+            engine.factor_nonzeros(),
+            engine.factor_flops(),
+            setup,
+            engine.split_sizes()
         );
         return;
     }
@@ -436,6 +445,18 @@ fn main() {
         scenes();
         return;
     }
+    if args.iter().any(|a| a == "--e2e") {
+        let threads = args
+            .iter()
+            .find_map(|a| a.strip_prefix("--threads="))
+            .map(|v| v.parse().expect("--threads=N"));
+        let runs = args
+            .iter()
+            .find_map(|a| a.strip_prefix("--runs="))
+            .map_or(3, |v| v.parse().expect("--runs=N"));
+        e2e(&sizes(&args), threads, runs);
+        return;
+    }
     let path = format!(
         "{}/modelDescription/HenckyDisc/scene.json",
         env!("CARGO_MANIFEST_DIR")
@@ -619,4 +640,179 @@ fn scenes() {
         let name = dir.file_name().unwrap().to_string_lossy().into_owned();
         println!("{name:<24} {dofs:>7}{line}");
     }
+}
+
+/// The CPU's model name (/proc/cpuinfo), or "unknown".
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown".into())
+}
+
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|t| t.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_default()
+}
+
+/// Median, least and largest of `v`.
+fn spread(v: &[f64]) -> (f64, f64, f64) {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let m = s.len() / 2;
+    let median = if s.len() % 2 == 1 {
+        s[m]
+    } else {
+        0.5 * (s[m - 1] + s[m])
+    };
+    (median, s[0], s[s.len() - 1])
+}
+
+/// One `velarium solve` as a child process: (wall s, CPU s of the child, peak resident MiB of
+/// the child, its stderr).
+// The child is reaped by libc::wait4 (which also gives its rusage), not by Child::wait.
+#[allow(clippy::zombie_processes)]
+fn solve_process(velarium: &std::path::Path, args: &[String]) -> (f64, f64, f64, String) {
+    use std::io::Read;
+    let start = Instant::now();
+    let mut child = std::process::Command::new(velarium)
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("velarium starts");
+    let mut stderr = String::new();
+    child
+        .stderr
+        .take()
+        .expect("piped")
+        .read_to_string(&mut stderr)
+        .expect("stderr");
+    // SAFETY: wait4 writes the child's status and one rusage into the zeroed values given; the
+    // child is ours and not yet waited for (std's Child is never waited on after this).
+    let mut status = 0;
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = child.id() as libc::pid_t;
+    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    let wall = start.elapsed().as_secs_f64();
+    assert_eq!(waited, pid, "wait4");
+    assert!(
+        libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        "velarium solve failed: {stderr}"
+    );
+    let secs = |t: libc::timeval| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64;
+    let cpu = secs(usage.ru_utime) + secs(usage.ru_stime);
+    (wall, cpu, usage.ru_maxrss as f64 / 1024.0, stderr)
+}
+
+/// `--e2e`: what a user waits for. For each size, the Hencky disc's scene (the shipped one at
+/// that many rings) and a one-row load table (40 Pa) are written to a scratch directory and
+/// `velarium solve` (built next to this example: `cargo build --release` first) runs them
+/// `runs` times as a process of its own; printed per run and as median [least, largest]: the
+/// whole process's wall time, its setup and solve (`--timings`), its CPU time and peak resident
+/// set (wait4), with the CPU model and the load average before each run. Threads: `--threads=N`
+/// if given, else `velarium solve`'s default (the machine's cores).
+fn e2e(sizes: &[(usize, usize)], threads: Option<usize>, runs: usize) {
+    let exe = std::env::current_exe().expect("this example's path");
+    let velarium = exe
+        .parent()
+        .and_then(|d| d.parent())
+        .map(|d| d.join("velarium"))
+        .expect("target/<profile>/velarium");
+    assert!(
+        velarium.exists(),
+        "{} missing: cargo build --release first",
+        velarium.display()
+    );
+    let dir = std::env::temp_dir().join(format!("velarium-e2e-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("scratch directory");
+    let path = format!(
+        "{}/modelDescription/HenckyDisc/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(&path).expect("shipped scene");
+    println!(
+        "e2e: `velarium solve` of the Hencky disc, flat to 40 Pa in one load row, {runs} runs per size; CPU {}, {} cores available",
+        cpu_model(),
+        std::thread::available_parallelism().map_or(0, |n| n.get())
+    );
+    for &(rings, _) in sizes {
+        let mut value: serde_json::Value = serde_json::from_str(&text).expect("scene JSON");
+        value["geometry"]["generators"][0]["rings"] = rings.into();
+        let scene = dir.join(format!("disc{rings}.json"));
+        std::fs::write(&scene, value.to_string()).expect("scene written");
+        let loads = dir.join("loads.csv");
+        std::fs::write(&loads, "time,pressure\n0,40\n").expect("loads written");
+        let out = dir.join("out.csv");
+        let mut args: Vec<String> = vec![
+            "solve".into(),
+            scene.display().to_string(),
+            "--loads".into(),
+            loads.display().to_string(),
+            "--out".into(),
+            out.display().to_string(),
+            "--quiet".into(),
+            "--timings".into(),
+        ];
+        if let Some(t) = threads {
+            args.push(format!("--threads={t}"));
+        }
+        let (mut wall, mut setup, mut solve, mut cpu, mut peak) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for run in 0..runs {
+            let load = load_average();
+            let (w, c, p, stderr) = solve_process(&velarium, &args);
+            let line = stderr
+                .lines()
+                .find(|l| l.contains("timings:"))
+                .unwrap_or_else(|| panic!("no timings line in: {stderr}"))
+                .to_string();
+            let field = |name: &str| -> f64 {
+                let rest = &line[line.find(name).expect("field") + name.len()..];
+                rest.split_whitespace()
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .expect("a number")
+            };
+            let (su, so) = (field("setup "), field("solve "));
+            let csv = std::fs::read_to_string(&out).expect("result CSV");
+            let row = csv.lines().nth(1).expect("one row");
+            let w0: f64 = row
+                .split(',')
+                .nth(1)
+                .and_then(|v| v.parse().ok())
+                .expect("w0");
+            let check = (w0 / 0.5 - W_FOLLOWER).abs() / W_FOLLOWER;
+            let used = line.rsplit(", ").next().unwrap_or("").to_string();
+            println!(
+                "disc {rings} rings, run {}: wall {w:.2} s, setup {su:.2} s, solve {so:.2} s, cpu {c:.2} s, peak {p:.0} MiB, {used}, w0 error {check:.2e}, load average before {load}",
+                run + 1
+            );
+            wall.push(w);
+            setup.push(su);
+            solve.push(so);
+            cpu.push(c);
+            peak.push(p);
+        }
+        let show = |name: &str, v: &[f64], unit: &str, digits: usize| {
+            let (m, lo, hi) = spread(v);
+            format!("{name} {m:.digits$} [{lo:.digits$}, {hi:.digits$}] {unit}")
+        };
+        println!(
+            "disc {rings} rings, median [range] of {runs}: {}, {}, {}, {}, {}; load average now {}",
+            show("wall", &wall, "s", 2),
+            show("setup", &setup, "s", 2),
+            show("solve", &solve, "s", 2),
+            show("cpu", &cpu, "s", 2),
+            show("peak", &peak, "MiB", 0),
+            load_average()
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

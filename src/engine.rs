@@ -557,6 +557,12 @@ impl Engine {
         self.solver.factor_nonzeros()
     }
 
+    /// Flops of one numeric factorization of the tangent (Σ c² over the factor's columns, c
+    /// the entries below the diagonal; with two threads the halves' and the separator's).
+    pub fn factor_flops(&self) -> f64 {
+        self.solver.factor_flops()
+    }
+
     /// Equations of the two halves and of their separator when the tangent is factored on two
     /// threads (`solver.threads` >= 2 on a large enough model: docs/performance.md, "Threads");
     /// None when it is factored whole on the solving thread.

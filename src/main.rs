@@ -107,9 +107,16 @@ enum Command {
         /// and solver and the process's peak resident set.
         #[arg(long)]
         memory: bool,
-        /// Solver threads (1-64), instead of the scene's `solver.threads` (default 1, the
-        /// FMU's count, so the CLI reproduces the FMU's numbers to the bit). 2 factors a
-        /// tangent of 20 000 equations or more in two halves at once (docs/performance.md).
+        /// Print on stderr where the run's time went: reading the scene, setting up (mesh,
+        /// model, pattern, ordering, symbolic factorization), solving the load rows, writing;
+        /// and the thread count (the scale example's `--e2e` reads this line).
+        #[arg(long)]
+        timings: bool,
+        /// Solver threads (1-64), instead of the scene's `solver.threads`; when neither gives
+        /// a count, the machine's cores (an FMU uses 1 unless its scene asks). 2 or more
+        /// factor and assemble a tangent of 20 000 equations or more in two halves at once
+        /// (docs/performance.md); below that size the count changes nothing, and above it
+        /// the results agree with 1 thread to round-off (`--threads 1` gives the FMU's bits).
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=64))]
         threads: Option<u64>,
     },
@@ -252,6 +259,7 @@ fn main() -> ExitCode {
             vtk,
             quiet,
             memory,
+            timings,
             threads,
         } => cmd_solve(&SolveArgs {
             scene,
@@ -261,6 +269,7 @@ fn main() -> ExitCode {
             vtk,
             quiet,
             memory,
+            timings,
             threads: threads.map(|n| n as usize),
         }),
         Command::Check { scene } => cmd_check(&scene),
@@ -299,6 +308,26 @@ fn read_text(path: &str) -> Result<String, Stop> {
 fn read_scene(path: &str) -> Result<Scene, Stop> {
     Scene::parse(&read_bytes(path)?)
         .map_err(|p| Stop::Failed(format!("{path}: {}", velarium::Error::Scene(p))))
+}
+
+/// Whether a scene's text sets `solver.threads` (a valid scene: it parsed).
+fn sets_threads(bytes: &[u8]) -> bool {
+    // Most scenes never name it: a search of the bytes spares them a second parse.
+    if !bytes.windows(9).any(|w| w == b"\"threads\"") {
+        return false;
+    }
+    serde_json::from_slice::<serde_json::Value>(bytes)
+        .ok()
+        .and_then(|v| v.get("solver").map(|s| s.get("threads").is_some()))
+        .unwrap_or(false)
+}
+
+/// `velarium solve`'s thread count when neither `--threads` nor the scene gives one: the cores
+/// the process may use (1 where that is unknown), at most the solver's bound.
+fn machine_threads() -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, velarium::solver::threads::MAX_THREADS)
 }
 
 /// Validate a scene and build its engine; problems name the file and every JSON path.
@@ -388,17 +417,27 @@ struct SolveArgs {
     vtk: Option<String>,
     quiet: bool,
     memory: bool,
+    timings: bool,
     threads: Option<usize>,
 }
 
 fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
     let loads = args.loads.as_str();
-    let mut scene = read_scene(&args.scene)?;
-    if let Some(n) = args.threads {
-        scene.solver.threads = n;
+    let started = Instant::now();
+    let bytes = read_bytes(&args.scene)?;
+    let mut scene = Scene::parse(&bytes)
+        .map_err(|p| Stop::Failed(format!("{}: {}", args.scene, velarium::Error::Scene(p))))?;
+    match args.threads {
+        Some(n) => scene.solver.threads = n,
+        // The user's machine: its cores, unless the scene asks for a count.
+        None if !sets_threads(&bytes) => scene.solver.threads = machine_threads(),
+        None => {}
     }
+    let threads = scene.solver.threads;
+    let read = started.elapsed().as_secs_f64();
     let mut engine =
         Engine::try_new(scene).map_err(|e| Stop::Failed(format!("{}: {e}", args.scene)))?;
+    let setup = started.elapsed().as_secs_f64() - read;
     let table = LoadTable::parse(&read_text(loads)?, loads, &mut engine).map_err(failed)?;
     let mut series = match &args.vtk {
         Some(dir) => {
@@ -422,6 +461,7 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
         },
     );
     progress.finish();
+    let solved = started.elapsed().as_secs_f64();
     if args.memory || (!args.quiet && std::io::stderr().is_terminal()) {
         eprintln!(
             "velarium: {}",
@@ -439,6 +479,13 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
     match &args.out {
         Some(out) => write_atomically(Path::new(out), csv.as_bytes()).map_err(failed)?,
         None => out!("{csv}"),
+    }
+    if args.timings {
+        eprintln!(
+            "velarium: timings: read {read:.3} s, setup {setup:.3} s, solve {:.3} s, write {:.3} s, {threads} thread(s)",
+            solved - read - setup,
+            started.elapsed().as_secs_f64() - solved
+        );
     }
     match history.failure {
         None => Ok(ExitCode::SUCCESS),

@@ -77,6 +77,18 @@ pub fn zeros<T: Clone + Default>(n: usize, what: &'static str) -> Result<Vec<T>,
     filled(n, T::default(), what)
 }
 
+/// `vec![T::default(); n]` for a number type whose default is all zero bits, with its pages
+/// left to the first write: the standard library asks the allocator for zeroed memory, which
+/// for a large block is fresh pages from the system, zero-filled only when first touched (by
+/// the thread that writes them). [`probe`] checks the bytes fallibly first, as for faer's
+/// dense matrices (`solver/split.rs`); only a shortage between the probe and the allocation
+/// would abort. For the largest buffers (the factor's values): the setup then costs no pass
+/// over them, and on two threads each half's factor is touched by the thread that factors it.
+pub fn lazy_zeros<T: Clone + Default>(n: usize, what: &'static str) -> Result<Vec<T>, OutOfMemory> {
+    probe(bytes_of::<T>(n), what)?;
+    Ok(vec![T::default(); n])
+}
+
 /// Collect an iterator of known length, fallible (the length is reserved exactly first; an
 /// iterator longer than it says grows the vector infallibly).
 pub fn collect<T, I>(iter: I, what: &'static str) -> Result<Vec<T>, OutOfMemory>

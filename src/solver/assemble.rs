@@ -77,6 +77,9 @@ pub struct Pattern {
     /// pressure loop reads its triangles' data and maps front to back without a lookup by the
     /// user's triangle number (which in a shuffled numbering lands anywhere).
     pressed_slots: Vec<Vec<usize>>,
+    /// The factorization's fill-reducing order when it is not faer's AMD (`dissect.rs`):
+    /// `Solver::try_new` hands it to the factorization.
+    pub fill: Option<super::dissect::Fill>,
 }
 
 /// What one assembly found besides R and K.
@@ -150,8 +153,16 @@ impl Pattern {
             (by_rank, rank)
         };
         let (pressed_order, pressed_slots) = pressed_lists(model, &tri_slot)?;
-        let (col_ptr, row_idx) = upper_pattern(model, &eq, n)?;
-        let maps = position_maps(model, &eq, &col_ptr, &row_idx, &visits)?;
+        let blocks = Blocks::try_new(model, &eq, &by_rank_or_identity(&node_of, model))?;
+        let (col_ptr, row_idx) = blocks.upper_pattern(n)?;
+        let maps = position_maps(model, &eq, &col_ptr, &blocks, &visits)?;
+        drop(blocks);
+        // Large tangents: nested dissection, where it fills no more than faer's AMD and its
+        // top separator is the two-thread split (`dissect.rs`, docs/performance.md).
+        let fill = match n >= super::dissect::MIN_EQUATIONS {
+            true => Some(nested_dissection(model, &eq, n, &node_of, &rank)?),
+            false => None,
+        };
         Ok(Pattern {
             eq,
             n,
@@ -165,6 +176,7 @@ impl Pattern {
             rank,
             pressed_order,
             pressed_slots,
+            fill,
         })
     }
 
@@ -178,6 +190,47 @@ impl Pattern {
         let len = kind.block_len();
         &self.maps[kind][slot * len..(slot + 1) * len]
     }
+}
+
+/// The nested-dissection order of the equations (`dissect.rs`), on the node graph in internal
+/// numbering (`node_of`, `rank`: empty under `NodeOrder::Given`, the user's numbering).
+fn nested_dissection(
+    model: &Model,
+    eq: &[usize],
+    n: usize,
+    node_of: &[usize],
+    rank: &[u32],
+) -> Result<super::dissect::Fill, OutOfMemory> {
+    const WHAT: &str = "the nested-dissection ordering";
+    let nodes = model.reference.len();
+    let user = |r: usize| if node_of.is_empty() { r } else { node_of[r] };
+    let internal = |v: usize| if rank.is_empty() { v } else { rank[v] as usize };
+    let (uptr, uadj) = renumber::node_graph(model)?;
+    let mut ptr = memory::with_capacity(nodes + 1, WHAT)?;
+    let mut adj = memory::with_capacity(uadj.len(), WHAT)?;
+    ptr.push(0);
+    for r in 0..nodes {
+        let v = user(r);
+        adj.extend(uadj[uptr[v]..uptr[v + 1]].iter().map(|&w| internal(w)));
+        ptr.push(adj.len());
+    }
+    drop((uptr, uadj));
+    let x = memory::collect(
+        (0..nodes).map(|r| {
+            let p = model.reference[user(r)];
+            [p.x, p.y, p.z]
+        }),
+        WHAT,
+    )?;
+    // Equations are numbered node by node in internal order: node r's are first[r]..first[r+1].
+    let mut first = memory::with_capacity(nodes + 1, WHAT)?;
+    first.push(0usize);
+    for r in 0..nodes {
+        let v = user(r);
+        let free = (0..3).filter(|&c| eq[3 * v + c] != NONE).count();
+        first.push(first[r] + free);
+    }
+    super::dissect::fill(&x, &ptr, &adj, |r| first[r]..first[r + 1], n)
 }
 
 /// Equation numbers handed out node by node in internal order (`rank[node]`), held DOFs
@@ -279,6 +332,7 @@ fn element_equations(eq: &[usize], nodes: &[usize], out: &mut [usize]) -> usize 
 }
 
 /// Calls `f` with the equations of every element of the model (NONE where held), kind by kind.
+#[cfg(test)]
 fn for_each_element(model: &Model, eq: &[usize], f: &mut dyn FnMut(&[usize])) {
     let mut d = [NONE; 3 * ElementKind::MAX_NODES];
     for (kind, e) in model.elements() {
@@ -289,7 +343,9 @@ fn for_each_element(model: &Model, eq: &[usize], f: &mut dyn FnMut(&[usize])) {
 
 /// K's upper CSC pattern (rows <= col) over the `n` equations `eq`: every pair of equations an
 /// element couples, and a diagonal entry for every equation. Column lists, flat: count, place,
-/// then sort and dedup each column.
+/// then sort and dedup each column. The pattern by elements, kept as the unit tests' reference
+/// for [`Blocks::upper_pattern`].
+#[cfg(test)]
 fn upper_pattern(
     model: &Model,
     eq: &[usize],
@@ -349,12 +405,139 @@ fn upper_pattern(
     Ok((col_ptr, row_idx))
 }
 
+/// The user's node at every internal position (`node_of`, or the identity under
+/// `NodeOrder::Given`, where `node_of` is empty).
+fn by_rank_or_identity(node_of: &[usize], model: &Model) -> Vec<usize> {
+    match node_of.is_empty() {
+        true => (0..model.reference.len()).collect(),
+        false => node_of.to_vec(),
+    }
+}
+
+/// K's upper pattern by nodes: equations are numbered node by node in internal order
+/// (`number_equations`), so column j of K (equation j of internal node r) holds, in
+/// ascending order, every equation of each node joined to r by an element that comes before r
+/// (the nodes' lists sorted), then r's own equations up to j. Built from the node graph
+/// once: no pass over the elements' 81 entry pairs and no sort per column, and an element
+/// entry's position is found in its column node's short list instead of by a binary search
+/// over the column's rows.
+struct Blocks {
+    /// Per internal node r, its range in `node` and `offset`.
+    ptr: Vec<usize>,
+    /// The nodes (internal positions) before r joined to r, ascending, then r itself.
+    node: Vec<u32>,
+    /// The rows in r's columns before that node's equations.
+    offset: Vec<u32>,
+    /// The internal node of every equation.
+    node_of_eq: Vec<u32>,
+    /// The first equation of every internal node (and the count at the end).
+    first: Vec<usize>,
+}
+
+impl Blocks {
+    fn try_new(model: &Model, eq: &[usize], by_rank: &[usize]) -> Result<Blocks, OutOfMemory> {
+        const WHAT: &str = "the tangent's pattern";
+        let nodes = by_rank.len();
+        let mut rank = memory::zeros::<u32>(nodes, WHAT)?;
+        for (r, &v) in by_rank.iter().enumerate() {
+            rank[v] = r as u32;
+        }
+        let free = |v: usize| (0..3).filter(|&c| eq[3 * v + c] != NONE).count();
+        let mut first = memory::with_capacity(nodes + 1, WHAT)?;
+        first.push(0usize);
+        for (r, &v) in by_rank.iter().enumerate() {
+            first.push(first[r] + free(v));
+        }
+        let mut node_of_eq = memory::zeros::<u32>(first[nodes], WHAT)?;
+        for r in 0..nodes {
+            node_of_eq[first[r]..first[r + 1]].fill(r as u32);
+        }
+        let (gptr, gadj) = renumber::node_graph(model)?;
+        let mut ptr = memory::with_capacity(nodes + 1, WHAT)?;
+        let mut node = memory::with_capacity(gadj.len() / 2 + nodes, WHAT)?;
+        let mut offset = memory::with_capacity(gadj.len() / 2 + nodes, WHAT)?;
+        ptr.push(0usize);
+        for (r, &v) in by_rank.iter().enumerate() {
+            let start = node.len();
+            if free(v) > 0 {
+                node.extend(
+                    gadj[gptr[v]..gptr[v + 1]]
+                        .iter()
+                        .filter(|&&w| (rank[w] as usize) < r && free(w) > 0)
+                        .map(|&w| rank[w]),
+                );
+                node[start..].sort_unstable();
+                node.push(r as u32);
+                let mut rows = 0u32;
+                for &s in &node[start..] {
+                    offset.push(rows);
+                    let s = s as usize;
+                    rows += (first[s + 1] - first[s]) as u32;
+                }
+            }
+            ptr.push(node.len());
+        }
+        Ok(Blocks {
+            ptr,
+            node,
+            offset,
+            node_of_eq,
+            first,
+        })
+    }
+
+    /// K's upper CSC pattern over the `n` equations.
+    fn upper_pattern(&self, n: usize) -> Result<(Vec<usize>, Vec<usize>), OutOfMemory> {
+        const WHAT: &str = "the tangent's pattern";
+        let nodes = self.ptr.len() - 1;
+        let mut entries = 0u64;
+        for r in 0..nodes {
+            let (a, b) = (self.ptr[r], self.ptr[r + 1]);
+            if a == b {
+                continue;
+            }
+            let own = (self.first[r + 1] - self.first[r]) as u64;
+            let before = self.offset[b - 1] as u64;
+            entries += own * before + own * (own + 1) / 2;
+        }
+        check_addressable(entries)?;
+        let mut col_ptr = memory::with_capacity(n + 1, WHAT)?;
+        let mut row_idx = memory::with_capacity(entries as usize, WHAT)?;
+        col_ptr.push(0);
+        for r in 0..nodes {
+            let (a, b) = (self.ptr[r], self.ptr[r + 1]);
+            for j in self.first[r]..self.first[r + 1] {
+                for &s in &self.node[a..b.saturating_sub(1)] {
+                    let s = s as usize;
+                    row_idx.extend(self.first[s]..self.first[s + 1]);
+                }
+                row_idx.extend(self.first[r]..=j);
+                col_ptr.push(row_idx.len());
+            }
+        }
+        debug_assert_eq!(col_ptr.len(), n + 1);
+        Ok((col_ptr, row_idx))
+    }
+
+    /// The row of equation i in column j (i <= j, joined by an element) from the column's
+    /// start.
+    fn offset(&self, i: usize, j: usize) -> usize {
+        let (ri, rj) = (self.node_of_eq[i], self.node_of_eq[j] as usize);
+        let list = &self.node[self.ptr[rj]..self.ptr[rj + 1]];
+        let k = list
+            .iter()
+            .position(|&s| s == ri)
+            .expect("pattern holds every element pair");
+        self.offset[self.ptr[rj] + k] as usize + (i - self.first[ri as usize])
+    }
+}
+
 /// Per element kind, the position maps of its elements in visit order `visits`.
 fn position_maps(
     model: &Model,
     eq: &[usize],
     col_ptr: &[usize],
-    row_idx: &[usize],
+    blocks: &Blocks,
     visits: &PerKind<Vec<usize>>,
 ) -> Result<PerKind<Vec<u32>>, OutOfMemory> {
     // Every position is below the stored entries <= MAX_ENTRIES (`upper_pattern`), so below
@@ -363,11 +546,7 @@ fn position_maps(
         if i == NONE || j == NONE || i > j {
             return UNMAPPED;
         }
-        let col = &row_idx[col_ptr[j]..col_ptr[j + 1]];
-        (col_ptr[j]
-            + col
-                .binary_search(&i)
-                .expect("pattern holds every element pair")) as u32
+        (col_ptr[j] + blocks.offset(i, j)) as u32
     };
     PerKind::try_from_fn(|kind| {
         let len = visits[kind].len().saturating_mul(kind.block_len());
@@ -1717,5 +1896,52 @@ mod tests {
         assert!(message.contains("4294967295"), "{message}");
         assert!(!message.contains("out of memory"), "{message}");
         assert!(check_addressable(u64::MAX).is_err());
+    }
+
+    /// The pattern by nodes is the pattern by elements, and every element entry's position
+    /// is its row in its column, on shipped scenes with held DOFs, cables and sleeve ties, in
+    /// the rings order and the user's.
+    #[test]
+    fn the_pattern_by_nodes_is_the_pattern_by_elements() {
+        for name in [
+            "SleeveCable",
+            "WrinkledShear",
+            "FourPointSail",
+            "HenckyDisc",
+        ] {
+            let path = format!(
+                "{}/modelDescription/{name}/scene.json",
+                env!("CARGO_MANIFEST_DIR")
+            );
+            let scene =
+                crate::scene::Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
+            let model = Model::try_build(&scene).unwrap();
+            for order in [NodeOrder::Rings, NodeOrder::Given] {
+                let pattern = Pattern::try_ordered(&model, order).unwrap();
+                let (cp, ri) = upper_pattern(&model, &pattern.eq, pattern.n).unwrap();
+                assert_eq!(cp, pattern.col_ptr, "{name} {order:?}");
+                assert_eq!(ri, pattern.row_idx, "{name} {order:?}");
+                let mut d = [NONE; 3 * ElementKind::MAX_NODES];
+                for kind in ElementKind::ALL {
+                    for (slot, &e) in pattern.order[kind].iter().enumerate() {
+                        let m =
+                            element_equations(&pattern.eq, model.element_nodes(kind, e), &mut d);
+                        let map = pattern.map(kind, slot);
+                        for a in 0..m {
+                            for b in 0..m {
+                                let (i, j) = (d[a], d[b]);
+                                if i == NONE || j == NONE || i > j {
+                                    assert_eq!(map[a * m + b], UNMAPPED);
+                                } else {
+                                    let p = map[a * m + b] as usize;
+                                    assert!(p >= cp[j] && p < cp[j + 1]);
+                                    assert_eq!(ri[p], i, "{name} {order:?}");
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -96,6 +96,11 @@ impl Solver {
         self.linear.factor_nonzeros()
     }
 
+    /// Flops of one numeric factorization of the tangent (Σ c² over the factor's columns).
+    pub fn factor_flops(&self) -> f64 {
+        self.linear.factor_flops()
+    }
+
     /// Numeric factorizations of the tangent since the solver was made (every Newton
     /// direction, prescribed-displacement predictor, sensitivity and timing included).
     pub fn factorizations(&self) -> usize {
@@ -138,6 +143,7 @@ impl Solver {
         // solver's pattern once its position maps are built, and a copy would be K's largest
         // index array twice (88 MB at 1M DOF).
         let row_idx = std::mem::take(&mut pattern.row_idx);
+        let fill = pattern.fill.take();
         let pool = if settings.threads > 1 && pattern.n >= linear::SPLIT_MIN_EQUATIONS {
             // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
             // Two threads at most: the factorization has two halves (`split.rs`).
@@ -157,11 +163,12 @@ impl Solver {
             Some(pool) => assemble::Parallel::try_new(std::sync::Arc::clone(pool), &pattern)?,
             None => None,
         };
-        let mut linear = Ldlt::try_with_pool(
+        let mut linear = Ldlt::try_filled(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
             row_idx,
             pool,
+            fill,
         )?;
         // Each node's equations one group: the pivots are regularized relative to the node's
         // own stiffness (linear.rs).

@@ -14,6 +14,7 @@
 //! scaling and its undoing exact; a group with no positive diagonal keeps the largest diagonal
 //! of the whole tangent (the unscaled rule).
 
+use super::dissect::Fill;
 use super::factor::{numeric_ldlt, symbolic_ldlt};
 use super::split::Split;
 use super::threads::Pool;
@@ -39,7 +40,9 @@ pub const SPLIT_MIN_EQUATIONS: usize = 20_000;
 
 pub struct Ldlt {
     matrix: SparseColMat<usize, f64>,
-    symbolic: SymbolicCholesky<usize>,
+    /// The whole tangent's symbolic factorization (None when the split was taken straight
+    /// from a nested-dissection order: its halves hold their own).
+    symbolic: Option<SymbolicCholesky<usize>>,
     l_values: Vec<f64>,
     factor_mem: MemBuffer,
     solve_mem: MemBuffer,
@@ -95,25 +98,66 @@ impl Ldlt {
         row_idx: Vec<usize>,
         pool: Option<Arc<Pool>>,
     ) -> Result<Ldlt, OutOfMemory> {
+        Ldlt::try_filled(n, col_ptr, row_idx, pool, None)
+    }
+
+    /// [`Ldlt::try_with_pool`] in the elimination order `fill` (`dissect.rs`) in place of
+    /// faer's AMD when given. With 2 threads its top separator, when it has one, is the
+    /// split's (`split.rs`): the whole tangent's symbolic analysis is then not needed.
+    pub fn try_filled(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        pool: Option<Arc<Pool>>,
+        fill: Option<Fill>,
+    ) -> Result<Ldlt, OutOfMemory> {
         let nnz = row_idx.len();
         let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let matrix = SparseColMat::new(sym, memory::zeros(nnz, "the tangent matrix")?);
-        let symbolic = symbolic_ldlt(
-            &matrix,
-            SymmetricOrdering::Amd,
-            "the symbolic factorization of the tangent",
-        )?;
-        let split = match pool {
-            Some(pool) if n >= SPLIT_MIN_EQUATIONS => {
-                let sym = matrix.symbolic();
-                let rank = symbolic.perm().map(|p| p.arrays().1);
-                Split::try_new(n, sym.col_ptr(), sym.row_idx(), rank, pool)?
+        let matrix = SparseColMat::new(sym, memory::lazy_zeros(nnz, "the tangent matrix")?);
+        let what = "the symbolic factorization of the tangent";
+        let order = match &fill {
+            Some(fill) if fill.perm.len() == n => {
+                let mut inv = memory::zeros::<usize>(n, what)?;
+                for (k, &e) in fill.perm.iter().enumerate() {
+                    inv[e] = k;
+                }
+                Some((memory::copy(&fill.perm, what)?, inv))
             }
             _ => None,
         };
+        let pool_split = pool.filter(|_| n >= SPLIT_MIN_EQUATIONS);
+        // With 2 threads and a top separator: the split straight from the order.
+        let mut split = None;
+        if let (Some(pool), Some((_, inv)), Some(top)) =
+            (&pool_split, &order, fill.as_ref().and_then(|f| f.top))
+        {
+            let sym = matrix.symbolic();
+            split = Split::try_at(n, sym.col_ptr(), sym.row_idx(), inv, top, Arc::clone(pool))?;
+        }
+        let symbolic = if split.is_some() {
+            None
+        } else {
+            let ordering = match &order {
+                Some((fwd, inv)) => {
+                    SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(fwd, inv, n))
+                }
+                None => SymmetricOrdering::Amd,
+            };
+            Some(symbolic_ldlt(&matrix, ordering, what)?)
+        };
+        if split.is_none() {
+            if let (Some(pool), Some(symbolic)) = (pool_split, &symbolic) {
+                let sym = matrix.symbolic();
+                let rank = symbolic.perm().map(|p| p.arrays().1);
+                split = Split::try_new(n, sym.col_ptr(), sym.row_idx(), rank, pool)?;
+            }
+        }
         // With a split its halves hold the factor.
-        let whole = if split.is_none() { 1 } else { 0 };
-        let l_values = memory::zeros(whole * symbolic.len_val(), "the factor of the tangent")?;
+        let whole = match (&split, &symbolic) {
+            (None, Some(symbolic)) => symbolic.len_val(),
+            _ => 0,
+        };
+        let l_values = memory::lazy_zeros(whole, "the factor of the tangent")?;
         let buffer = |req: StackReq, what: &'static str| {
             MemBuffer::try_new(req).map_err(|_| OutOfMemory {
                 what,
@@ -121,16 +165,19 @@ impl Ldlt {
             })
         };
         let factor_mem = buffer(
-            match split {
-                None => {
+            match (&split, &symbolic) {
+                (None, Some(symbolic)) => {
                     symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default())
                 }
-                Some(_) => StackReq::EMPTY,
+                _ => StackReq::EMPTY,
             },
             "the factorization workspace",
         )?;
         let solve_mem = buffer(
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+            match (&split, &symbolic) {
+                (None, Some(symbolic)) => symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+                _ => StackReq::EMPTY,
+            },
             "the solve workspace",
         )?;
         Ok(Ldlt {
@@ -155,9 +202,20 @@ impl Ldlt {
 
     /// Stored entries of the factor L (AMD ordering, supernodal), for the scaling benchmark.
     pub fn factor_nonzeros(&self) -> usize {
-        match &self.split {
-            Some(split) => split.factor_nonzeros(),
-            None => self.symbolic.len_val(),
+        match (&self.split, &self.symbolic) {
+            (Some(split), _) => split.factor_nonzeros(),
+            (None, Some(symbolic)) => symbolic.len_val(),
+            (None, None) => 0,
+        }
+    }
+
+    /// Flops of one numeric factorization, Σ c² over the factor's columns (c: the column's
+    /// entries below the diagonal; the halves' and the separator's with a split).
+    pub fn factor_flops(&self) -> f64 {
+        match (&self.split, &self.symbolic) {
+            (Some(split), _) => split.factor_flops(),
+            (None, Some(symbolic)) => super::factor::flops(symbolic),
+            (None, None) => 0.0,
         }
     }
 
@@ -215,7 +273,9 @@ impl Ldlt {
         let result = match self.split.as_mut() {
             Some(split) => split.factor(self.matrix.val(), reg),
             None => numeric_ldlt(
-                &self.symbolic,
+                self.symbolic
+                    .as_ref()
+                    .expect("the whole tangent's symbolic factorization"),
                 &mut self.l_values,
                 &self.matrix,
                 reg,
@@ -317,7 +377,11 @@ impl Ldlt {
                 Err(Breakdown::NonFinite(NON_FINITE).into())
             };
         }
-        let ldlt = LdltRef::new(&self.symbolic, &self.l_values);
+        let symbolic = self
+            .symbolic
+            .as_ref()
+            .expect("the whole tangent's symbolic factorization");
+        let ldlt = LdltRef::new(symbolic, &self.l_values);
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
         ldlt.solve_in_place_with_conj(
             Conj::No,

@@ -40,6 +40,7 @@ pub mod arc;
 pub mod assemble;
 mod core;
 mod dense;
+pub mod dissect;
 mod factor;
 mod line_search;
 pub mod linear;

@@ -83,7 +83,7 @@ pub fn node_rank(model: &Model, order: NodeOrder) -> Result<Vec<usize>, OutOfMem
 
 /// The node graph: every pair of nodes joined by an element of any kind (CSR, sorted, no self
 /// loops, no duplicates).
-fn node_graph(model: &Model) -> Result<(Vec<usize>, Vec<usize>), OutOfMemory> {
+pub(super) fn node_graph(model: &Model) -> Result<(Vec<usize>, Vec<usize>), OutOfMemory> {
     let n = model.reference.len();
     let edges = || {
         model

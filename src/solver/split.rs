@@ -332,7 +332,6 @@ impl Split {
         let Some(levels) = separator_levels(n, col_ptr, row_idx)? else {
             return Ok(None);
         };
-        let what = "the two-domain factorization";
         // The two halves (symbolic analysis only) with level `sep` as the separator.
         let pair = |sep: usize| -> Result<Option<(Vec<usize>, Half, Half)>, OutOfMemory> {
             let side = |l: usize| {
@@ -409,7 +408,80 @@ impl Split {
                 chosen = other;
             }
         }
-        let (s_eq, mut a, mut b) = chosen;
+        let (s_eq, a, b) = chosen;
+        Split::finish(
+            n,
+            col_ptr,
+            row_idx,
+            s_eq,
+            (a, b),
+            pool,
+            #[cfg(test)]
+            counted,
+        )
+    }
+
+    /// A split at the top separator of a nested-dissection order (`dissect.rs`): `rank` the
+    /// position of every equation in the order, `top` the equations of the first half, the
+    /// second and the separator, in this order. None when the separator is too large or the
+    /// halves too unequal (the caller then splits as [`Split::try_new`] does).
+    pub fn try_at(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        rank: &[usize],
+        top: [usize; 3],
+        pool: Arc<Pool>,
+    ) -> Result<Option<Split>, OutOfMemory> {
+        let least = (BALANCE * n as f64) as usize;
+        if pool.helpers() == 0
+            || row_idx.len() as u64 > u32::MAX as u64
+            || top[2] > MAX_SEPARATOR
+            || top[0].min(top[1]) < least
+            || top.iter().sum::<usize>() != n
+        {
+            return Ok(None);
+        }
+        let what = "the two-domain factorization";
+        let mut by_position = memory::zeros::<usize>(n, what)?;
+        for (g, &r) in rank.iter().enumerate() {
+            by_position[r] = g;
+        }
+        let (first, rest) = by_position.split_at(top[0]);
+        let (second, s_eq) = rest.split_at(top[1]);
+        let s_eq = memory::copy(s_eq, what)?;
+        let Some(a) = Half::try_new(n, col_ptr, row_idx, first, &s_eq, Some(rank))? else {
+            return Ok(None);
+        };
+        let Some(b) = Half::try_new(n, col_ptr, row_idx, second, &s_eq, Some(rank))? else {
+            return Ok(None);
+        };
+        drop(by_position);
+        #[cfg(test)]
+        let counted = [a.flops(), b.flops()];
+        Split::finish(
+            n,
+            col_ptr,
+            row_idx,
+            s_eq,
+            (a, b),
+            pool,
+            #[cfg(test)]
+            counted,
+        )
+    }
+
+    /// The split of the halves chosen: numeric buffers, K_SS's entries, the helper's job.
+    fn finish(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        s_eq: Vec<usize>,
+        (mut a, mut b): (Half, Half),
+        pool: Arc<Pool>,
+        #[cfg(test)] counted: [f64; 2],
+    ) -> Result<Option<Split>, OutOfMemory> {
+        let what = "the two-domain factorization";
         // The solving thread gathers its half's values after starting the helper and forms
         // the separator's Schur complement after both: it takes the lighter half.
         if a.flops() > b.flops() {
@@ -477,6 +549,15 @@ impl Split {
     #[cfg(test)]
     pub fn flops(&self) -> ([f64; 2], [f64; 2]) {
         (self.flops, self.counted)
+    }
+
+    /// Flops of one factorization (Σ c², c a column's entries below the diagonal): both
+    /// halves' factors, each with the separator block, and the separator's dense LDLT.
+    pub fn factor_flops(&self) -> f64 {
+        let ns = self.s_eq.len() as f64;
+        super::factor::flops(&lock(&self.a).symbolic)
+            + super::factor::flops(&lock(&self.b).symbolic)
+            + ns * (ns - 1.0) * (2.0 * ns - 1.0) / 6.0
     }
 
     /// Stored entries of both halves' factors.
@@ -757,7 +838,7 @@ impl Half {
             }
         }
         let sym = SymbolicSparseColMat::new_checked(m, m, count, None, rows);
-        let matrix = SparseColMat::new(sym, memory::zeros(nnz, what)?);
+        let matrix = SparseColMat::new(sym, memory::lazy_zeros(nnz, what)?);
         let symbolic = super::factor::symbolic_ldlt(&matrix, SymmetricOrdering::Identity, what)?;
         if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
             return Ok(None);
@@ -788,7 +869,7 @@ impl Half {
         let what = "the two-domain factorization";
         let (m, ns) = (self.eq.len(), self.eq.len() - self.nd);
         let symbolic = &self.symbolic;
-        self.l_values = memory::zeros(symbolic.len_val(), what)?;
+        self.l_values = memory::lazy_zeros(symbolic.len_val(), what)?;
         let tallest = match symbolic.raw() {
             SymbolicCholeskyRaw::Supernodal(sym) => (0..sym.n_supernodes())
                 .map(|s| sym.col_ptr_for_row_idx()[s + 1] - sym.col_ptr_for_row_idx()[s])
