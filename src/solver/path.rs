@@ -273,7 +273,10 @@ impl LoadPath {
             format!("increment λ {lambda:.6} -> {target:.6}: {why}; cutting back"),
         );
         self.dl *= 0.25;
-        let failed = self.dl < s.min_increment;
+        // A step whose work budget ran out inside this increment ends through the stepper's
+        // give-up (stepper.rs), whose message names the last increment that failed for a
+        // reason of its own, not this one's "budget spent".
+        let failed = self.dl < s.min_increment && !solver.work_spent();
         if failed {
             report.reached = lambda;
             report.message = format!(

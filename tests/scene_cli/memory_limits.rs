@@ -98,7 +98,15 @@ fn solve_under_a_low_address_space_limit_exits_1_naming_memory() {
     // One thread, as the sweep's levels were set for: `solve` now uses the machine's cores by
     // default, and a second thread's stack and malloc arena take more address space than the
     // whole one-thread solve (every level up to 140 MB then ran out of memory, honestly).
-    let args = ["solve", &scene, "--loads", &loads, "--quiet", "--threads", "1"];
+    let args = [
+        "solve",
+        &scene,
+        "--loads",
+        &loads,
+        "--quiet",
+        "--threads",
+        "1",
+    ];
     let (messages, ok) = sweep(&args, (8..=140).step_by(6));
     println!("solve: {} out-of-memory exits, {ok} solved", messages.len());
     assert!(
