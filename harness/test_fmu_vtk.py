@@ -132,12 +132,13 @@ def test_outputs_that_do_not_place_every_point_are_named(runs, tmp_path):
     with pytest.raises(ValueError, match=r"the outputs place 4 of the mesh's 81 points; a series needs a displacement_field"):
         fmu_vtk.write_series(fmu, simulate(fmu), tmp_path / "series")
     assert not (tmp_path / "series").exists(), "nothing written"
-    # run_main.py then falls back to `velarium solve --vtk`; with every point placed it does not.
-    import run_main
+    # run_main.py (velarium.run) then falls back to `velarium solve --vtk`; with every point
+    # placed it does not.
+    from velarium.run import series_of_rows
 
-    assert run_main.series_of_rows(fmu, simulate(fmu), tmp_path / "series") is None
+    assert series_of_rows(fmu, simulate(fmu), tmp_path / "series") is None
     rows = simulate(runs[1])
-    pvd = run_main.series_of_rows(runs[1], rows, tmp_path / "from_rows")
+    pvd = series_of_rows(runs[1], rows, tmp_path / "from_rows")
     assert pvd is not None and len(vr.series_files(pvd)) == len(rows)
 
 
