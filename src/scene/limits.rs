@@ -215,7 +215,9 @@ pub struct Factor {
 /// Σ_j c_j² over the columns of the node-level L (c_j its entries below the diagonal), from
 /// the supernodal structure: a supernode of w columns and r rows below its diagonal block
 /// has columns with w−1−k+r entries below the diagonal, k = 0..w.
-fn factor_flops(symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>) -> f64 {
+pub(crate) fn factor_flops(
+    symbolic: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+) -> f64 {
     use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
     match symbolic.raw() {
         SymbolicCholeskyRaw::Supernodal(s) => {

@@ -7,8 +7,7 @@ use crate::memory::OutOfMemory;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
-    SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::SparseColMat;
@@ -70,34 +69,8 @@ pub fn symbolic_ldlt(
 }
 
 /// Flops of one numeric factorization: Σ c² over the columns of L, c the column's entries
-/// below the diagonal (multiply-adds of the updates it sends).
+/// below the diagonal (multiply-adds of the updates it sends); the size check's count
+/// (`scene::limits`), one function for both.
 pub fn flops(symbolic: &SymbolicCholesky<usize>) -> f64 {
-    match symbolic.raw() {
-        SymbolicCholeskyRaw::Supernodal(s) => {
-            let (begin, end, rows) = (
-                s.supernode_begin(),
-                s.supernode_end(),
-                s.col_ptr_for_row_idx(),
-            );
-            let mut total = 0.0;
-            for k in 0..s.n_supernodes() {
-                let w = end[k] - begin[k];
-                let r = (rows[k + 1] - rows[k]) as f64;
-                for c in 0..w {
-                    let below = (w - 1 - c) as f64 + r;
-                    total += below * below;
-                }
-            }
-            total
-        }
-        SymbolicCholeskyRaw::Simplicial(s) => {
-            let cp = s.col_ptr();
-            (0..s.ncols())
-                .map(|j| {
-                    let c = ((cp[j + 1] - cp[j]) as f64 - 1.0).max(0.0);
-                    c * c
-                })
-                .sum()
-        }
-    }
+    crate::scene::limits::factor_flops(symbolic)
 }
