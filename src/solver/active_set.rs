@@ -187,6 +187,36 @@ impl ActiveSet {
         changed + merged
     }
 
+    /// Merge now the touching pairs the Newton step `ds` predicts (`order::predicted_closures`);
+    /// returns how many merged.
+    pub fn close_predicted(
+        &mut self,
+        model: &Model,
+        u: &mut [f64],
+        committed: &mut [f64],
+        ds: &[f64],
+        log: &mut Vec<String>,
+    ) -> usize {
+        if self.contact.is_empty() || self.contact_frozen {
+            return 0;
+        }
+        let close = super::order::predicted_closures(model, u, &self.contact, ds, self.merge_gap);
+        if !close.contains(&true) {
+            return 0;
+        }
+        let merged =
+            super::order::close_where(model, u, &mut self.contact, committed, |e, _| close[e]);
+        if merged > 0 {
+            push_log(
+                log,
+                format!(
+                    "  {merged} sleeve points the Newton step carries onto their neighbour: merged"
+                ),
+            );
+        }
+        merged
+    }
+
     /// At a point that meets the tolerance: are the states the laws' own? `natural_wrinkles`
     /// gives the laws' wrinkle states and the free residual with them (called only when
     /// wrinkle states are frozen); `tol_f` is the force tolerance of the cone test.

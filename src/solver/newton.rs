@@ -431,6 +431,10 @@ impl Solver {
                 &mut st.active.contact,
                 tolerance,
                 self.settings.reopen_gap,
+                (
+                    self.settings.roundoff_factor * f64::EPSILON,
+                    self.coordinate_size(model, u),
+                ),
             );
             if parted > 0 {
                 st.reopened += 1;
@@ -633,6 +637,20 @@ impl Solver {
     ) {
         let n3 = model.dof_count();
         let dlambda = if arc.is_some() { ds.pop() } else { None };
+        if !ds.is_empty()
+            && std::env::var_os("VEL_NO_PREDICT").is_none()
+            && st.reopened == 0
+            && step_limit(model, u, &ds, self.settings.keep_length) < 1.0
+            && st
+                .active
+                .close_predicted(model, u, &mut st.committed, &ds, log)
+                > 0
+        {
+            // The active set changed: the next iteration's direction sees the merged groups.
+            st.last_alpha = 1.0;
+            self.work.recycle(dx, ds);
+            return;
+        }
         let merit = self.merit(model, st, &eqs.info, &ds, arc.is_some());
         let (alpha, ok) = self.line_search(
             model,

@@ -113,6 +113,57 @@ pub(crate) fn close_gaps(
     anchor: &mut [f64],
     merge_gap: f64,
 ) -> usize {
+    close_where(model, u, states, anchor, |e, length| {
+        length <= merge_gap * model.segments[e].l0
+    })
+}
+
+/// The open gaps that the slip step `ds` (one entry per sleeve point) would close or carry
+/// past zero: segment e between two frictionless sleeve points i < j whose unstretched length
+/// L_e + ds_j − ds_i falls to `merge_gap` of its reference or below. One flag per segment.
+///
+/// This is the primal-dual active-set prediction (Hintermüller, Ito & Kunisch 2002: the
+/// semismooth Newton step of the Kuhn-Tucker conditions g >= 0, λ >= 0, λ g = 0 adds every
+/// constraint the linearised step violates at once). The fraction-to-the-boundary rule
+/// (`keep_length`) alone closes one gap per three iterations and shortens the whole step each
+/// time: a chain of n rings gathering at one point then needs about 3n iterations.
+pub(crate) fn predicted_closures(
+    model: &Model,
+    u: &[f64],
+    states: &[Contact],
+    ds: &[f64],
+    merge_gap: f64,
+) -> Vec<bool> {
+    let mut close = vec![false; model.segments.len()];
+    for j in 0..model.slips.len() {
+        if states[j] == Contact::Merged {
+            continue;
+        }
+        let Some(i) = leader_side(model, j) else {
+            continue;
+        };
+        if model.slips[i].mu > 0.0 || model.slips[j].mu > 0.0 {
+            continue;
+        }
+        let e = model.slips[j].segments[0];
+        let after = model.segment_l0(u, e) + ds[j] - ds[i];
+        if after <= merge_gap * model.segments[e].l0 {
+            close[e] = true;
+        }
+    }
+    close
+}
+
+/// Close the open gaps between neighbouring sleeve points for which `close(e, L_e)` holds (e
+/// the segment between them, L_e its unstretched length): the later point joins the earlier
+/// one's group (module docs). Returns how many closed.
+pub(crate) fn close_where(
+    model: &Model,
+    u: &mut [f64],
+    states: &mut [Contact],
+    anchor: &mut [f64],
+    close: impl Fn(usize, f64) -> bool,
+) -> usize {
     let n3 = model.dof_count();
     let mut closed = 0;
     for j in 0..model.slips.len() {
@@ -124,7 +175,7 @@ pub(crate) fn close_gaps(
         };
         let e = model.slips[j].segments[0];
         let reference = model.segments[e].l0;
-        if model.segment_l0(u, e) > merge_gap * reference {
+        if !close(e, model.segment_l0(u, e)) {
             continue;
         }
         // L_e = l0 + s_j − s_i  →  −δ l0.
@@ -192,6 +243,7 @@ pub(crate) fn open_gaps(
     states: &mut [Contact],
     tol_f: f64,
     reopen: f64,
+    (roundoff, size): (f64, f64),
 ) -> usize {
     let n3 = model.dof_count();
     let mut opened = 0;
@@ -214,12 +266,20 @@ pub(crate) fn open_gaps(
         let (t_out, d_out) = carried(model, u, e_out);
         let (t_c, d_c) = carried(model, u, e);
         let mu = model.slips[i].mu.max(model.slips[j].mu);
+        // The link force is known only to the round-off floor of its nodes' balance (system.rs:
+        // c ε K X, K the link's stiffness, X the coordinate size): a stiff link's force, read
+        // from the tiny distance between its points, resolves a pull no finer than that. With
+        // the points at rest on a straight cable (no load on the group) the contact force is
+        // zero and the reading is noise: parting on it sent ten unloaded rings apart and back
+        // together until the increment failed (the robustness corpus, rings, 2026-11-28).
+        let noise = roundoff * model.link_stiffness(e) * size;
         let pulls = |t_side: f64, (c, s): (f64, f64)| {
-            (t_c - t_side) * c > mu * (t_c + t_side) * s + tol_f + 1e-12 * (t_c + t_side)
+            (t_c - t_side) * c > mu * (t_c + t_side) * s + tol_f + noise + 1e-12 * (t_c + t_side)
         };
         if !(pulls(t_in, half_kink(&d_in, &d_c)) || pulls(t_out, half_kink(&d_c, &d_out))) {
             continue;
         }
+
         let segment = &model.segments[e];
         let new_l0 = reopen * segment.l0;
         let ds = (u[n3 + i] - segment.l0 + new_l0) - u[n3 + j];
