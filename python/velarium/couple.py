@@ -322,7 +322,8 @@ class Master:
                     return False, k, float("nan"), x, "the interface values are not finite"
                 if res <= tol or (weak and k == 1):
                     ok = True
-                    return True, k, res, x, ""
+                    # weak coupling carries B's fresh outputs into the next step
+                    return True, k, res, (hx if weak else x), ""
                 if k == max_iterations:
                     break
                 if method == "gs":
@@ -426,11 +427,12 @@ class Master:
         x = B.get(self.b_out)
         x_prev, h_prev = None, None
         records = [StepRecord(start, 0.0, 0, 0.0, [], values())]
-        rejected: list[tuple[float, float, str]] = []
+        #: the rejected attempts so far (t, h, why, residuals), kept when run raises
+        self.rejected = rejected = []
         t, h = start, step
         while t < stop - 1e-12 * max(1.0, abs(stop)):
             h = min(h, stop - t)
-            guess = x if x_prev is None else x + (x - x_prev) * (h / h_prev)
+            guess = x if (x_prev is None or weak) else x + (x - x_prev) * (h / h_prev)
             hist: list[float] = []
             ok, its, res, xk, why = self.macro_step(t, h, guess, method, tol, max_iterations, jacobian, omega0, weak,
                                                     hist)
