@@ -237,3 +237,29 @@ def test_a_bad_system_file_names_the_field(tmp_path):
     run = subprocess.run([sys.executable, "-m", "velarium.couple", str(bad)], capture_output=True, text=True)
     assert run.returncode == 1
     assert "fmus.a.fmu" in run.stderr or "fmus:" in run.stderr
+
+
+def test_the_system_as_an_ssp_package(system, tmp_path):
+    """The SSP 1.0 package (couple_ssp.py): valid against the SSP schema as fmpy's SSD reader
+    checks it, and our master runs it to the same numbers, bit for bit, as the system file."""
+    from fmpy.ssp.ssd import read_ssd
+
+    from velarium import couple_ssp
+
+    ssp = couple_ssp.write_ssp(system, tmp_path / "cushion_blower.ssp", "cushion_blower")
+    ssd = read_ssd(str(ssp), validate=True)
+    assert sorted(c.name for c in ssd.system.elements) == ["blower", "cushion"]
+    assert len(ssd.system.connections) == 4
+    back = couple.load_system(ssp)
+    try:
+        assert back["fmus"]["blower"]["start"]["V0"] > 0  # "cushion.V" resolved to its number
+        a = couple.run_system(system, "newton")
+        b = couple.run_system(back, "newton")
+        for col in a.records[0].values:
+            assert np.array_equal(a.column(col), b.column(col)), col
+        assert a.iterations.tolist() == b.iterations.tolist()
+        ref = couple.monolithic(back)
+        d = couple.difference(b, ref, back["monolithic"]["compare"])
+        assert all(v < 1e-9 for v in d.values()), d
+    finally:
+        couple_ssp.remove(back)

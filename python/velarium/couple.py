@@ -475,8 +475,13 @@ def _fmu_path(name: str, spec: Mapping[str, Any], base: Path, build: Path) -> Pa
 
 def load_system(path: str | Path, build: str | Path = "build/coupling") -> dict[str, Any]:
     """Read a system file (docs/coupling.md, "System files"): FMU paths resolved (scenes packed
-    into ``build``), everything else as written."""
+    into ``build``), everything else as written; an ``.ssp`` package is read by
+    ``couple_ssp.read_ssp``."""
     path = Path(path)
+    if path.suffix == ".ssp":
+        from .couple_ssp import read_ssp
+
+        return read_ssp(path)
     try:
         sysd = json.loads(path.read_text())
     except (OSError, json.JSONDecodeError) as e:
@@ -543,6 +548,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--jacobian", choices=("auto", "fd"), help="newton: the FMUs' derivatives or finite differences")
     ap.add_argument("--weak", action="store_true", help="weak coupling: one pass per macro step, accepted as it is")
     ap.add_argument("--build", default="build/coupling", help="where scenes are packed (build/coupling)")
+    ap.add_argument("--write-ssp", metavar="OUT.ssp", help="write the system as an SSP 1.0 package and stop")
     a = ap.parse_args(argv)
     opts: dict[str, Any] = {}
     if a.tol is not None:
@@ -555,6 +561,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         opts["weak"] = True
     try:
         sysd = load_system(a.system, a.build)
+        if a.write_ssp:
+            from .couple_ssp import write_ssp
+
+            print(write_ssp(sysd, a.write_ssp, Path(a.system).stem))
+            return 0
         res = run_system(sysd, a.method, a.step, **opts)
         print(f"{'time':>10} {'step':>8} {'iter':>4} {'residual':>10}  " + "  ".join(f"{k:>14}" for k in res.records[0].values))
         for r in res.records[1:]:
