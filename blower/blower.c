@@ -590,3 +590,332 @@ EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte in[], 
     *st = s;
     return fmi2OK;
 }
+
+/* ---- FMI 3 (Co-Simulation) ----
+ * The same model and state behind the FMI 3.0 functions: Float64 variables with the FMI 2
+ * value references, `time` (value reference 999) the independent variable; no event mode,
+ * no early return, no clocks. Functions of other interfaces (Model Exchange, Scheduled
+ * Execution, clocks, intervals) are an error naming themselves. */
+#include <stdbool.h>
+#include <stdint.h>
+
+typedef void *fmi3Instance;
+typedef void *fmi3InstanceEnvironment;
+typedef void *fmi3FMUState;
+typedef uint32_t fmi3ValueReference;
+typedef double fmi3Float64;
+typedef bool fmi3Boolean;
+typedef const char *fmi3String;
+typedef uint8_t fmi3Byte;
+typedef enum { fmi3OK, fmi3Warning, fmi3Discard, fmi3Error, fmi3Fatal } fmi3Status;
+typedef void (*fmi3LogMessageCallback)(fmi3InstanceEnvironment, fmi3Status, fmi3String, fmi3String);
+typedef void (*fmi3IntermediateUpdateCallback)(fmi3InstanceEnvironment, fmi3Float64, fmi3Boolean, fmi3Boolean, fmi3Boolean,
+                                               fmi3Boolean, fmi3Boolean *, fmi3Float64 *);
+
+#define VR_TIME 999u
+
+typedef struct {
+    Blower b; /* b.cb.logger unused: FMI 3 logs through log3 */
+    fmi3LogMessageCallback log3;
+    fmi3InstanceEnvironment env;
+    int in_init;
+} Blower3;
+
+static void say3(Blower3 *b, fmi3Status st, const char *fmt, ...) {
+    char msg[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    if (b && b->log3) b->log3(b->env, st, st >= fmi3Error ? "logStatusError" : "logAll", msg);
+}
+
+/* The FMI 2 logger's signature, forwarding to FMI 3's (the shared code logs through say). */
+static void forward2(fmi2ComponentEnvironment env, fmi2String name, fmi2Status st, fmi2String cat, fmi2String fmt, ...) {
+    (void)name;
+    (void)cat;
+    Blower3 *b = env;
+    char msg[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    if (b && b->log3) b->log3(b->env, (fmi3Status)st, st >= fmi2Error ? "logStatusError" : "logAll", msg);
+}
+
+EXPORT const char *fmi3GetVersion(void) { return "3.0"; }
+
+EXPORT fmi3Status fmi3SetDebugLogging(fmi3Instance i, fmi3Boolean on, size_t n, const fmi3String cats[]) {
+    (void)n;
+    (void)cats;
+    if (!i) return fmi3Error;
+    ((Blower3 *)i)->b.logging = on;
+    return fmi3OK;
+}
+
+EXPORT fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token, fmi3String res, fmi3Boolean vis,
+                                                 fmi3Boolean log, fmi3InstanceEnvironment env, fmi3LogMessageCallback cb) {
+    (void)name; (void)token; (void)res; (void)vis; (void)log;
+    if (cb) cb(env, fmi3Error, "logStatusError", "fmi3InstantiateModelExchange: Blower is a Co-Simulation FMU only");
+    return NULL;
+}
+
+EXPORT fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token, fmi3String res, fmi3Boolean vis,
+                                                      fmi3Boolean log, fmi3InstanceEnvironment env,
+                                                      fmi3LogMessageCallback cb, void *clockUpdate, void *lock, void *unlock) {
+    (void)name; (void)token; (void)res; (void)vis; (void)log; (void)clockUpdate; (void)lock; (void)unlock;
+    if (cb) cb(env, fmi3Error, "logStatusError", "fmi3InstantiateScheduledExecution: Blower is a Co-Simulation FMU only");
+    return NULL;
+}
+
+EXPORT fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String res, fmi3Boolean vis,
+                                                fmi3Boolean log, fmi3Boolean eventMode, fmi3Boolean earlyReturn,
+                                                const fmi3ValueReference req[], size_t nreq, fmi3InstanceEnvironment env,
+                                                fmi3LogMessageCallback cb, fmi3IntermediateUpdateCallback upd) {
+    (void)res; (void)vis; (void)earlyReturn; (void)req; (void)nreq; (void)upd;
+    if (!name) return NULL;
+    Blower3 *b = calloc(1, sizeof *b);
+    if (!b) return NULL;
+    b->log3 = cb;
+    b->env = env;
+    b->b.cb.logger = forward2;
+    b->b.cb.componentEnvironment = b;
+    snprintf(b->b.name, sizeof b->b.name, "%s", name);
+    b->b.logging = log;
+    if (eventMode) {
+        say3(b, fmi3Error, "fmi3InstantiateCoSimulation: Blower has no event mode (hasEventMode is false)");
+        free(b);
+        return NULL;
+    }
+    if (token && strcmp(token, GUID) != 0) {
+        say3(b, fmi3Error, "fmi3InstantiateCoSimulation: instantiation token %s does not match this binary's %s", token, GUID);
+        free(b);
+        return NULL;
+    }
+    defaults(&b->b.s);
+    return b;
+}
+
+EXPORT void fmi3FreeInstance(fmi3Instance i) { free(i); }
+
+EXPORT fmi3Status fmi3EnterInitializationMode(fmi3Instance i, fmi3Boolean tolDef, fmi3Float64 tol, fmi3Float64 t0,
+                                              fmi3Boolean stopDef, fmi3Float64 stop) {
+    (void)tolDef; (void)tol; (void)stopDef; (void)stop;
+    Blower3 *b = i;
+    if (!b) return fmi3Error;
+    b->b.s.t = t0;
+    b->in_init = 1;
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3ExitInitializationMode(fmi3Instance i) {
+    Blower3 *b = i;
+    if (!b) return fmi3Error;
+    b->in_init = 0;
+    return (fmi3Status)fmi2ExitInitializationMode(&b->b);
+}
+
+EXPORT fmi3Status fmi3EnterEventMode(fmi3Instance i) {
+    say3(i, fmi3Error, "fmi3EnterEventMode: Blower has no event mode");
+    return fmi3Error;
+}
+
+EXPORT fmi3Status fmi3Terminate(fmi3Instance i) { return i ? fmi3OK : fmi3Error; }
+
+EXPORT fmi3Status fmi3Reset(fmi3Instance i) {
+    if (!i) return fmi3Error;
+    defaults(&((Blower3 *)i)->b.s);
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetFloat64(fmi3Instance i, const fmi3ValueReference vr[], size_t n, fmi3Float64 v[], size_t nv) {
+    Blower3 *b = i;
+    if (!b || nv != n) return fmi3Error;
+    for (size_t k = 0; k < n; k++) {
+        if (vr[k] == VR_TIME) {
+            v[k] = b->b.s.t;
+            continue;
+        }
+        fmi3Status st = (fmi3Status)fmi2GetReal(&b->b, &vr[k], 1, &v[k]);
+        if (st != fmi3OK) return st;
+    }
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3SetFloat64(fmi3Instance i, const fmi3ValueReference vr[], size_t n, const fmi3Float64 v[], size_t nv) {
+    Blower3 *b = i;
+    if (!b || nv != n) return fmi3Error;
+    for (size_t k = 0; k < n; k++) {
+        if (vr[k] == VR_TIME) {
+            say3(b, fmi3Error, "fmi3SetFloat64: time (value reference 999) is the independent variable");
+            return fmi3Error;
+        }
+    }
+    return (fmi3Status)fmi2SetReal(&b->b, vr, n, v);
+}
+
+/* Every other variable type: Blower has none. */
+#define NO_TYPE3(name)                                                                                  \
+    EXPORT fmi3Status fmi3Get##name(fmi3Instance i, const fmi3ValueReference vr[], size_t n, void *v, size_t nv) { \
+        (void)vr; (void)v; (void)nv;                                                                    \
+        if (!i) return fmi3Error;                                                                       \
+        if (n) say3(i, fmi3Error, "fmi3Get" #name ": Blower has no variables of this type");          \
+        return n ? fmi3Error : fmi3OK;                                                                  \
+    }                                                                                                   \
+    EXPORT fmi3Status fmi3Set##name(fmi3Instance i, const fmi3ValueReference vr[], size_t n, const void *v, size_t nv) { \
+        (void)vr; (void)v; (void)nv;                                                                    \
+        if (!i) return fmi3Error;                                                                       \
+        if (n) say3(i, fmi3Error, "fmi3Set" #name ": Blower has no variables of this type");          \
+        return n ? fmi3Error : fmi3OK;                                                                  \
+    }
+NO_TYPE3(Float32)
+NO_TYPE3(Int8)
+NO_TYPE3(UInt8)
+NO_TYPE3(Int16)
+NO_TYPE3(UInt16)
+NO_TYPE3(Int32)
+NO_TYPE3(UInt32)
+NO_TYPE3(Int64)
+NO_TYPE3(UInt64)
+NO_TYPE3(Boolean)
+NO_TYPE3(String)
+
+EXPORT fmi3Status fmi3GetBinary(fmi3Instance i, const fmi3ValueReference vr[], size_t n, size_t sizes[], void *v, size_t nv) {
+    (void)vr; (void)sizes; (void)v; (void)nv;
+    if (!i) return fmi3Error;
+    if (n) say3(i, fmi3Error, "fmi3GetBinary: Blower has no variables of this type");
+    return n ? fmi3Error : fmi3OK;
+}
+EXPORT fmi3Status fmi3SetBinary(fmi3Instance i, const fmi3ValueReference vr[], size_t n, const size_t sizes[], const void *v,
+                                size_t nv) {
+    (void)vr; (void)sizes; (void)v; (void)nv;
+    if (!i) return fmi3Error;
+    if (n) say3(i, fmi3Error, "fmi3SetBinary: Blower has no variables of this type");
+    return n ? fmi3Error : fmi3OK;
+}
+EXPORT fmi3Status fmi3GetClock(fmi3Instance i, const fmi3ValueReference vr[], size_t n, void *v) {
+    (void)vr; (void)v;
+    if (!i) return fmi3Error;
+    if (n) say3(i, fmi3Error, "fmi3GetClock: Blower has no clocks");
+    return n ? fmi3Error : fmi3OK;
+}
+EXPORT fmi3Status fmi3SetClock(fmi3Instance i, const fmi3ValueReference vr[], size_t n, const void *v) {
+    (void)vr; (void)v;
+    if (!i) return fmi3Error;
+    if (n) say3(i, fmi3Error, "fmi3SetClock: Blower has no clocks");
+    return n ? fmi3Error : fmi3OK;
+}
+
+/* The outputs p, N, u, Q_fan, Q_valve depend on V and p_set (modelDescription.xml). */
+static int is_output(fmi3ValueReference vr) { return vr >= VR_P && vr <= VR_QVALVE; }
+
+EXPORT fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance i, fmi3ValueReference vr, size_t *n) {
+    if (!i || !n) return fmi3Error;
+    *n = is_output(vr) ? 2 : 0;
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetVariableDependencies(fmi3Instance i, fmi3ValueReference dep, size_t eDep[], fmi3ValueReference ind[],
+                                              size_t eInd[], int kinds[], size_t n) {
+    if (!i) return fmi3Error;
+    if (!is_output(dep)) return n ? fmi3Error : fmi3OK;
+    if (n < 2) return fmi3Error;
+    for (size_t k = 0; k < 2; k++) {
+        eDep[k] = 0;
+        ind[k] = k == 0 ? VR_V : VR_PSET;
+        eInd[k] = 0;
+        kinds[k] = 4; /* fmi3Dependent */
+    }
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetFMUState(fmi3Instance i, fmi3FMUState *s) { return i ? (fmi3Status)fmi2GetFMUstate(&((Blower3 *)i)->b, s) : fmi3Error; }
+EXPORT fmi3Status fmi3SetFMUState(fmi3Instance i, fmi3FMUState s) { return i ? (fmi3Status)fmi2SetFMUstate(&((Blower3 *)i)->b, s) : fmi3Error; }
+EXPORT fmi3Status fmi3FreeFMUState(fmi3Instance i, fmi3FMUState *s) { return i ? (fmi3Status)fmi2FreeFMUstate(&((Blower3 *)i)->b, s) : fmi3Error; }
+EXPORT fmi3Status fmi3SerializedFMUStateSize(fmi3Instance i, fmi3FMUState s, size_t *n) {
+    return i ? (fmi3Status)fmi2SerializedFMUstateSize(&((Blower3 *)i)->b, s, n) : fmi3Error;
+}
+EXPORT fmi3Status fmi3SerializeFMUState(fmi3Instance i, fmi3FMUState s, fmi3Byte out[], size_t n) {
+    return i ? (fmi3Status)fmi2SerializeFMUstate(&((Blower3 *)i)->b, s, (fmi2Byte *)out, n) : fmi3Error;
+}
+EXPORT fmi3Status fmi3DeserializeFMUState(fmi3Instance i, const fmi3Byte in[], size_t n, fmi3FMUState *s) {
+    return i ? (fmi3Status)fmi2DeSerializeFMUstate(&((Blower3 *)i)->b, (const fmi2Byte *)in, n, s) : fmi3Error;
+}
+
+EXPORT fmi3Status fmi3GetDirectionalDerivative(fmi3Instance i, const fmi3ValueReference unk[], size_t nu,
+                                               const fmi3ValueReference kn[], size_t nk, const fmi3Float64 seed[], size_t ns,
+                                               fmi3Float64 sens[], size_t nsens) {
+    if (!i || ns != nk || nsens != nu) return fmi3Error;
+    return (fmi3Status)fmi2GetDirectionalDerivative(&((Blower3 *)i)->b, unk, nu, kn, nk, seed, sens);
+}
+
+/* vᵀ J: one directional derivative per known (J is at most 5 x 2). */
+EXPORT fmi3Status fmi3GetAdjointDerivative(fmi3Instance i, const fmi3ValueReference unk[], size_t nu,
+                                           const fmi3ValueReference kn[], size_t nk, const fmi3Float64 seed[], size_t ns,
+                                           fmi3Float64 sens[], size_t nsens) {
+    if (!i || ns != nu || nsens != nk) return fmi3Error;
+    double col[8];
+    if (nu > 8) return fmi3Error;
+    for (size_t j = 0; j < nk; j++) {
+        double one = 1.0;
+        fmi3Status st = (fmi3Status)fmi2GetDirectionalDerivative(&((Blower3 *)i)->b, unk, nu, &kn[j], 1, &one, col);
+        if (st != fmi3OK) return st;
+        double acc = 0.0;
+        for (size_t k = 0; k < nu; k++) acc += seed[k] * col[k];
+        sens[j] = acc;
+    }
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3DoStep(fmi3Instance i, fmi3Float64 t, fmi3Float64 h, fmi3Boolean noPrior, fmi3Boolean *eventNeeded,
+                             fmi3Boolean *terminate, fmi3Boolean *early, fmi3Float64 *last) {
+    (void)noPrior;
+    Blower3 *b = i;
+    if (!b) return fmi3Error;
+    fmi3Status st = (fmi3Status)fmi2DoStep(&b->b, t, h, 0);
+    if (eventNeeded) *eventNeeded = false;
+    if (terminate) *terminate = false;
+    if (early) *early = false;
+    if (last) *last = b->b.s.t;
+    return st;
+}
+
+EXPORT fmi3Status fmi3EnterStepMode(fmi3Instance i) { return i ? fmi3OK : fmi3Error; }
+
+EXPORT fmi3Status fmi3GetOutputDerivatives(fmi3Instance i, const fmi3ValueReference vr[], size_t n, const int32_t o[],
+                                           fmi3Float64 v[], size_t nv) {
+    (void)vr; (void)o; (void)v; (void)nv;
+    if (!i) return fmi3Error;
+    if (n) say3(i, fmi3Error, "fmi3GetOutputDerivatives: not provided (maxOutputDerivativeOrder is 0)");
+    return n ? fmi3Error : fmi3OK;
+}
+
+/* The interfaces Blower does not implement: an error naming the function. */
+#define UNSUPPORTED3(name)                                                   \
+    EXPORT fmi3Status fmi3##name(fmi3Instance i) {                           \
+        say3(i, fmi3Error, "fmi3" #name ": not supported by Blower (Co-Simulation without events or clocks)"); \
+        return fmi3Error;                                                    \
+    }
+UNSUPPORTED3(EnterConfigurationMode)
+UNSUPPORTED3(ExitConfigurationMode)
+UNSUPPORTED3(GetIntervalDecimal)
+UNSUPPORTED3(GetIntervalFraction)
+UNSUPPORTED3(GetShiftDecimal)
+UNSUPPORTED3(GetShiftFraction)
+UNSUPPORTED3(SetIntervalDecimal)
+UNSUPPORTED3(SetIntervalFraction)
+UNSUPPORTED3(SetShiftDecimal)
+UNSUPPORTED3(SetShiftFraction)
+UNSUPPORTED3(EvaluateDiscreteStates)
+UNSUPPORTED3(UpdateDiscreteStates)
+UNSUPPORTED3(EnterContinuousTimeMode)
+UNSUPPORTED3(CompletedIntegratorStep)
+UNSUPPORTED3(SetTime)
+UNSUPPORTED3(SetContinuousStates)
+UNSUPPORTED3(GetContinuousStateDerivatives)
+UNSUPPORTED3(GetEventIndicators)
+UNSUPPORTED3(GetContinuousStates)
+UNSUPPORTED3(GetNominalsOfContinuousStates)
+UNSUPPORTED3(GetNumberOfEventIndicators)
+UNSUPPORTED3(GetNumberOfContinuousStates)
+UNSUPPORTED3(ActivateModelPartition)

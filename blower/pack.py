@@ -1,4 +1,5 @@
-"""Build the Blower FMU (blower.c, FMI 2.0 Co-Simulation) into DIR/Blower.fmu.
+"""Build the Blower FMUs (blower.c) into DIR/Blower.fmu (FMI 2.0 Co-Simulation) and
+DIR/Blower_fmi3.fmu (FMI 3.0 Co-Simulation, the same library).
 
     python3 blower/pack.py [DIR]        # default build/fmus
 
@@ -74,11 +75,54 @@ def model_description() -> str:
     return "\n".join(lines)
 
 
+BASE_UNITS = {"m3": 'm="3"', "Pa": 'kg="1" m="-1" s="-2"', "1": "", "m3/s": 'm="3" s="-1"',
+              "m3/(s.Pa0.5)": None, "1/Pa": 'kg="-1" m="1" s="2"', "1/(Pa.s)": 'kg="-1" m="1" s="1"', "s": 's="1"'}
+
+
+def model_description_3() -> str:
+    units = sorted({v[5] for v in VARIABLES} | {"s"})
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        '<fmiModelDescription fmiVersion="3.0" modelName="Blower" instantiationToken="%s"' % GUID,
+        '  description="A cushion\'s air supply: a fan with a fan curve and a relief valve under a PI pressure'
+        ' controller, isothermal ideal gas; input the cushion\'s volume, output its pressure (Velarium repository, blower/)"',
+        '  generationTool="velarium blower/pack.py" variableNamingConvention="flat">',
+        '  <CoSimulation modelIdentifier="Blower" canHandleVariableCommunicationStepSize="true"'
+        ' canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="true"'
+        ' providesAdjointDerivatives="true" hasEventMode="false"/>',
+        "  <UnitDefinitions>",
+    ]
+    for u in units:
+        base = BASE_UNITS.get(u)
+        lines.append('    <Unit name="%s">%s</Unit>' % (u, "" if base is None else "<BaseUnit %s/>" % base))
+    lines += ["  </UnitDefinitions>", '  <DefaultExperiment startTime="0" stopTime="10" stepSize="0.1"/>',
+              "  <ModelVariables>",
+              '    <Float64 name="time" valueReference="999" causality="independent" variability="continuous"'
+              ' unit="s" description="simulation time"/>']
+    for name, vr, caus, var, start, unit, desc in VARIABLES:
+        attrs = 'name="%s" valueReference="%d" causality="%s" variability="%s" unit="%s"' % (name, vr, caus, var, unit)
+        if start is not None:
+            attrs += ' start="%r"' % start
+        lines.append('    <Float64 %s description="%s"/>' % (attrs, desc))
+    lines += ["  </ModelVariables>", "  <ModelStructure>"]
+    for name in ("p", "N", "u", "Q_fan", "Q_valve"):
+        vr = next(v[1] for v in VARIABLES if v[0] == name)
+        lines.append('    <Output valueReference="%d" dependencies="0 1"/>' % vr)
+    for name in ("p", "N", "u", "Q_fan", "Q_valve"):
+        vr = next(v[1] for v in VARIABLES if v[0] == name)
+        lines.append('    <InitialUnknown valueReference="%d"/>' % vr)
+    lines += ["  </ModelStructure>", "</fmiModelDescription>", ""]
+    return "\n".join(lines)
+
+
 def pack(out_dir: str | os.PathLike = "build/fmus", cc: str | None = None) -> Path:
-    """Compile blower.c and write OUT_DIR/Blower.fmu; returns its path."""
+    """Compile blower.c and write OUT_DIR/Blower.fmu and OUT_DIR/Blower_fmi3.fmu; returns the
+    FMI 2 archive's path."""
     out = Path(out_dir) / "Blower.fmu"
+    out3 = out.with_name("Blower_fmi3.fmu")
     sources = [HERE / "blower.c", Path(__file__).resolve()]
-    if out.exists() and all(out.stat().st_mtime >= s.stat().st_mtime for s in sources):
+    if out.exists() and out3.exists() and all(
+            min(out.stat().st_mtime, out3.stat().st_mtime) >= s.stat().st_mtime for s in sources):
         return out
     out.parent.mkdir(parents=True, exist_ok=True)
     cc = cc or os.environ.get("CC", "cc")
@@ -86,12 +130,14 @@ def pack(out_dir: str | os.PathLike = "build/fmus", cc: str | None = None) -> Pa
         lib = Path(tmp) / "Blower.so"
         subprocess.run([cc, "-O2", "-std=c99", "-D_DEFAULT_SOURCE", "-Wall", "-Wextra", "-shared", "-fPIC",
                         "-fvisibility=hidden", "-o", str(lib), str(HERE / "blower.c"), "-lm"], check=True)
-        part = out.with_suffix(".fmu.part")
-        with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("modelDescription.xml", model_description())
-            z.write(lib, "binaries/linux64/Blower.so")
-            z.write(HERE / "blower.c", "sources/blower.c")
-        part.replace(out)
+        for target, md, platform in ((out, model_description(), "linux64"),
+                                     (out.with_name("Blower_fmi3.fmu"), model_description_3(), "x86_64-linux")):
+            part = target.with_suffix(".fmu.part")
+            with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
+                z.writestr("modelDescription.xml", md)
+                z.write(lib, f"binaries/{platform}/Blower.so")
+                z.write(HERE / "blower.c", "sources/blower.c")
+            part.replace(target)
     return out
 
 
