@@ -504,7 +504,7 @@ def run_system(sysd: Mapping[str, Any], method: str, step: float | None = None, 
     m = Master(sysd["fmu_paths"], sysd["connections"], sysd.get("inputs"),
                {n: s.get("start", {}) for n, s in sysd["fmus"].items()})
     with m:
-        record = [c for c in sysd.get("monolithic", {}).get("compare", {}) if c not in ()]
+        record = list(sysd.get("monolithic", {}).get("compare", {}))
         return m.run(float(sysd["stop"]), float(step or sysd["step"]), method, record=record, log=log,
                      **{**sysd.get("options", {}), **options})
 
