@@ -46,3 +46,7 @@ fi
 # The portable FMU library (glibc 2.17, what `velarium pack` ships by default); a notice and the
 # native library when its toolchain cannot be installed (docs/fmu.md, "Portable FMUs").
 bash harness/portable.sh
+
+# The Blower FMU of the coupling example (blower/, docs/coupling.md): needs only a C compiler,
+# takes under a second, and is rebuilt only when blower/ changed.
+python3 blower/pack.py build/fmus >/dev/null

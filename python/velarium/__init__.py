@@ -7,6 +7,7 @@
     fmu, fmu3 = velarium.pack(scene, "build/fmus")       # FMI 2.0 and 3.0 archives
     same = velarium.run_fmu(fmu, {"time": [0, 0.5, 1], "F": [0, 50, 100]})  # lag handled
     result = velarium.sweep.sweep(fmu, {"F": [50, 100]}, scheduler="synchronous")
+    master = velarium.couple.Master({"a": fmu, "b": "other.fmu"}, [["a.w", "b.w"], ["b.F", "a.F"]])
     pvd = velarium.write_vtk_series(scene, {"time": [0, 1], "F": [0, 100]}, "build/vtk")
 
 Load tables and results are NumPy structured arrays (``to_pandas`` for a DataFrame). The
@@ -27,9 +28,10 @@ __version__ = "0.1.0"
 
 
 def __getattr__(name: str):
-    # velarium.sweep (Dask) and velarium.run (matplotlib) are imported on first use, so that
-    # `import velarium` needs neither and `python -m velarium.sweep` runs the module once.
-    if name in ("sweep", "run"):
+    # velarium.sweep (Dask), velarium.run (matplotlib) and velarium.couple (the coupling master,
+    # docs/coupling.md) are imported on first use, so that `import velarium` needs neither and
+    # `python -m velarium.sweep` runs the module once.
+    if name in ("sweep", "run", "couple"):
         import importlib
 
         return importlib.import_module(f".{name}", __name__)

@@ -26,7 +26,7 @@
 
 use super::Engine;
 use crate::error::Error;
-use crate::model::{LoadModel, Model, ProbeModel};
+use crate::model::{pressure, LoadModel, Model, ProbeModel};
 use crate::results;
 use crate::solver::assemble;
 use crate::solver::sensitivity::{self, SolveCounts, Tangent};
@@ -472,6 +472,21 @@ impl Engine {
                     None => Vec::new(),
                 }
             }
+            // A volume or gas input's pressure is an unknown of the bordered system.
+            ProbeModel::EnclosedPressure(k) => vec![(model.volume_unknown(*k), 1.0)],
+            ProbeModel::EnclosedVolume(triangles) => {
+                let mut g = Vec::new();
+                for &e in triangles {
+                    let nodes = model.triangles[e].nodes;
+                    let x = nodes.map(|i| model.position(u, i));
+                    for (gi, &i) in pressure::enclosed_volume_gradient(&x).iter().zip(&nodes) {
+                        for c in 0..3 {
+                            g.push((3 * i + c, gi[c]));
+                        }
+                    }
+                }
+                g
+            }
             _ => return None,
         })
     }
@@ -654,6 +669,8 @@ fn kinematic(p: &ProbeModel) -> bool {
             | ProbeModel::CableSlip { .. }
             | ProbeModel::CableLength { .. }
             | ProbeModel::ContactGap { .. }
+            | ProbeModel::EnclosedVolume(_)
+            | ProbeModel::EnclosedPressure(_)
     )
 }
 

@@ -9,7 +9,10 @@
 //!                                                  tangent-only regularisation Reg (ε·D0)
 //!                                               N  the follower pressure's skew part (zero where
 //!                                                  the loaded surface is held at its boundary)
-//!                                               B, C, D  the slip columns and rows (slip.rs)
+//!                                               B, C, D  the slip columns and rows (slip.rs),
+//!                                                  then one per volume or gas input: its
+//!                                                  pressure's column −f_p and its row, the
+//!                                                  volume or the gas law (volume.rs)
 //! states        wrinkle states and stick/slip states frozen as converged; no damping, no
 //!               artificial prestress (both are tangent-only devices of the iteration)
 //! forward       J dz = g          g = −∂R/∂v · dv  (load sensitivity, [`Solver::load_rhs`])
@@ -196,9 +199,6 @@ impl Solver {
         wrinkle: &[WrinkleState],
         slip_states: &[Contact],
     ) -> Result<Tangent, Error> {
-        if model.volumes > 0 {
-            return Err(Error::Unsupported("derivatives of scenes with volume or gas inputs (their pressure unknowns are not in the sensitivity's border yet)".into()));
-        }
         let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
         let membranes = Membranes {
             forced: Some(&forced),
@@ -229,10 +229,14 @@ impl Solver {
         };
         // Without M every solve goes to the LU.
         let mut factored = self.linear.factor().is_ok();
-        let (n, m) = (self.pattern.n, model.slips.len());
+        // The border: the slips, then one pressure per volume or gas input (volume.rs), in the
+        // unknowns' order.
+        let (n, m) = (self.pattern.n, model.slips.len() + model.volumes);
         let n3 = model.dof_count();
-        let rows = slip_rows(model, &self.pattern.eq, u, &u[n3..], slip_states);
-        let columns = super::slip::slip_columns(model, &self.pattern.eq, u);
+        let mut rows = slip_rows(model, &self.pattern.eq, u, &u[n3..], slip_states);
+        rows.extend(super::volume::rows(model, &self.pattern.eq, u, loads));
+        let mut columns = super::slip::slip_columns(model, &self.pattern.eq, u);
+        columns.extend(super::volume::columns(model, &self.pattern.eq, u));
         let mut y = Vec::with_capacity(m);
         if factored {
             for col in &columns {
@@ -665,8 +669,13 @@ impl Solver {
                     }
                 }
             }
-            // Refused by factor_tangent: no tangent exists for these.
-            LoadModel::Volume { .. } => {}
+            // The row h = k_V (V or (p + p_atm) V/p_atm − V⁰ − value) moves by −k_V per unit
+            // value (volume.rs): g = −∂h/∂v = k_V on the input's pressure unknown.
+            LoadModel::Volume {
+                stiffness, unknown, ..
+            } => {
+                g[model.volume_unknown(*unknown)] = *stiffness;
+            }
             LoadModel::Displacement(prescribed) => {
                 // d(prescribed displacement)/d(value): exact for a component or a direction
                 // (linear in the value), a central difference for a rotation (smooth).
@@ -698,7 +707,8 @@ impl Solver {
                 }
                 if t.m > 0 {
                     let dr = slip_rows_derivative(model, &self.pattern.eq, u, &held, slip_states);
-                    for (j, v) in dr.iter().enumerate() {
+                    let dv = volume_rows_derivative(model, &self.pattern.eq, u, loads, &held);
+                    for (j, v) in dr.iter().chain(&dv).enumerate() {
                         g[n3 + j] = -v;
                     }
                 }
@@ -751,7 +761,8 @@ impl Solver {
         }
         if t.m > 0 {
             let every_dof: Vec<usize> = (0..n3).collect();
-            let columns = super::slip::slip_columns(model, &every_dof, u);
+            let mut columns = super::slip::slip_columns(model, &every_dof, u);
+            columns.extend(super::volume::columns(model, &every_dof, u));
             for (column, &dsj) in columns.iter().zip(ds) {
                 for &(d, b) in column {
                     product[d] += b * dsj;
@@ -800,12 +811,16 @@ fn solve_lu(
 fn skew_parts(model: &Model, u: &[f64], loads: &[f64]) -> Vec<([usize; 3], Mat9)> {
     let mut out = Vec::new();
     for (load, &value) in model.loads.iter().zip(loads) {
-        let (triangles, law) = match load {
+        let (triangles, law, value) = match load {
             LoadModel::Pressure {
                 triangles,
                 follower: true,
-            } => (triangles, None),
-            LoadModel::Surface { triangles, law } => (triangles, Some(law)),
+            } => (triangles, None, value),
+            LoadModel::Surface { triangles, law } => (triangles, Some(law), value),
+            // A volume or gas input's follower pressure is its unknown.
+            LoadModel::Volume {
+                triangles, unknown, ..
+            } => (triangles, None, u[model.volume_unknown(*unknown)]),
             _ => continue,
         };
         if value == 0.0 && law.is_none() {
@@ -1116,6 +1131,33 @@ fn slip_rows_derivative(
             *a += sign * h * d;
         }
         slip_rows(model, eq, &v, &u[n3..], slip_states)
+    };
+    let (plus, minus) = (at(1.0), at(-1.0));
+    plus.iter()
+        .zip(&minus)
+        .map(|(a, b)| (a.r - b.r) / (2.0 * h))
+        .collect()
+}
+
+/// ∂h/∂x · dx of the volume rows (volume.rs) for a change `dx` of DOFs (any, held included),
+/// by a central difference of the rows (the enclosed volume is a cubic in the positions).
+fn volume_rows_derivative(
+    model: &Model,
+    eq: &[usize],
+    u: &[f64],
+    loads: &[f64],
+    dx: &[f64],
+) -> Vec<f64> {
+    if model.volumes == 0 {
+        return Vec::new();
+    }
+    let h = 1e-6 * model.length_scale / dx.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
+    let at = |sign: f64| {
+        let mut v = u.to_vec();
+        for (a, d) in v.iter_mut().zip(dx) {
+            *a += sign * h * d;
+        }
+        super::volume::rows(model, eq, &v, loads)
     };
     let (plus, minus) = (at(1.0), at(-1.0));
     plus.iter()

@@ -516,3 +516,105 @@ fn reactions_with_sliding_cables_match_finite_differences() {
     assert!(worst_sleeve <= 1e-5, "SleeveCable {worst_sleeve:e}");
     assert!(worst_sliding <= 1e-5, "SlidingCable {worst_sliding:e}");
 }
+
+/// The cushion of the coupling example (examples/coupling/cushion_gas.json: two foil skins
+/// sharing a held rim, wrinkling off) under a snow load, its pressure an unknown of the bordered
+/// system: held by a `gas` input (isothermal gas law), by a `volume` input, and by the gas with
+/// one rim edge lifted by a prescribed displacement (the border's rows move with the held
+/// DOFs). Each at its operating point (half of its input ranges: ΔN 0.07 m³, ΔV 0.05 m³, snow
+/// 50 Pa, lift 5 cm), every output (p, V; p alone under volume control, where V is the control
+/// itself) against every input by the second-order one-sided differences of `check_scene_at`;
+/// tolerance 1e-5 as for the shipped scenes. Measured (2026-11-28): gas 5.2e-8, volume 9.6e-9,
+/// lifted 1.3e-7 (with a 5 mm lift the difference of V's equilibria is round-off over a step of
+/// 5e-8 m: 8.6e-6). The adjoint equals the transpose of the directional derivatives to 1e-9
+/// (measured 9.5e-11: the gas row, k_V V/p_atm against the skins' stiffness, conditions the
+/// bordered system more than SleeveCable's 3e-15).
+#[test]
+fn volume_and_gas_scenes_match_finite_differences() {
+    let path = format!(
+        "{}/examples/coupling/cushion_gas.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let base: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let dir = std::env::temp_dir().join(format!(
+        "velarium-volume-derivatives-{}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut gas = base.clone();
+    gas["inputs"][0]["max"] = 0.14.into();
+    gas["inputs"][1]["max"] = 100.0.into();
+    let mut volume = gas.clone();
+    volume["name"] = "CushionVolume".into();
+    volume["inputs"][0]["load"] = serde_json::json!({"kind": "volume", "membrane": "foil"});
+    volume["inputs"][0]["max"] = 0.1.into();
+    // V is the control itself: its derivatives are the seed's ΔV and 0, no test of the border.
+    volume["outputs"] =
+        serde_json::json!([{"name": "p", "probe": {"kind": "enclosed_pressure", "input": "dN"}}]);
+    let mut lifted = gas.clone();
+    lifted["name"] = "CushionLifted".into();
+    let edge: Vec<usize> = base["geometry"]["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p[0].as_f64().unwrap() == 0.0)
+        .map(|(i, _)| i)
+        .collect();
+    let rest: Vec<u64> = base["geometry"]["node_sets"]["rim"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .filter(|i| !edge.contains(&(*i as usize)))
+        .collect();
+    lifted["geometry"]["node_sets"]["edge"] = serde_json::json!(edge);
+    lifted["geometry"]["node_sets"]["rest"] = serde_json::json!(rest);
+    lifted["supports"] = serde_json::json!([
+        {"nodes": "rim", "fix": ["x", "y"]}, {"nodes": "rest", "fix": ["z"]}]);
+    lifted["inputs"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!(
+        {"name": "lift", "load": {"kind": "displacement", "nodes": "edge", "component": "z"},
+         "start": 0, "min": -0.1, "max": 0.1}));
+    let mut failures = Vec::new();
+    for scene in [&gas, &volume, &lifted] {
+        let name = scene["name"].as_str().unwrap().to_string();
+        let file = dir.join(format!("{name}.json"));
+        std::fs::write(&file, scene.to_string()).unwrap();
+        let (worst, _) = check_scene_at(&name, file.to_str().unwrap());
+        if worst > 1e-5 {
+            failures.push(format!("{name}: {worst:e}"));
+        }
+    }
+    // The adjoint: the transpose of the directional derivatives (gas scene, lifted).
+    let mut e = engine(read_scene(dir.join("CushionLifted.json").to_str().unwrap()));
+    solve(&mut e);
+    for k in 1..=3 {
+        set(&mut e, "dN", 0.02 * k as f64);
+        set(&mut e, "snow", 15.0 * k as f64);
+        set(&mut e, "lift", 0.015 * k as f64);
+        solve(&mut e);
+    }
+    let inputs = ["dN", "snow", "lift"].map(|n| Known::Input(slot(&e, n)));
+    let outputs = ["p", "V"].map(|n| slot(&e, n));
+    let mut jacobian = Vec::new();
+    for k in inputs {
+        jacobian.push(e.directional_derivative(&[k], &[1.0], &outputs).unwrap());
+    }
+    let seed = [0.3, -1.2];
+    let adjoint = e.adjoint_derivative(&outputs, &seed, &inputs).unwrap();
+    for (i, column) in jacobian.iter().enumerate() {
+        let expected: f64 = column.iter().zip(&seed).map(|(a, b)| a * b).sum();
+        let size: f64 = column.iter().zip(&seed).map(|(a, b)| (a * b).abs()).sum();
+        let err = (adjoint[i] - expected).abs() / size;
+        eprintln!("adjoint {i}: {:e} vs {expected:e}, rel {err:e}", adjoint[i]);
+        if err >= 1e-9 {
+            failures.push(format!("adjoint {i}: {err:e}"));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(failures.is_empty(), "{failures:?}");
+}
