@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -112,7 +113,7 @@ def picture(vtu: str | os.PathLike, out: str | os.PathLike, title: str = "", sca
         cables = cables.clip(normal="y", origin=centre, invert=True) if cables.n_cells else cables
     largest = float(np.linalg.norm(u, axis=1).max()) if len(u) else 0.0
     shown = [f for f in fields if f in grid.cell_data] or ["kind"]
-    plotter = pv.Plotter(off_screen=True, shape=(1, len(shown)), window_size=(760 * len(shown), 720), border=False)
+    plotter = pv.Plotter(off_screen=True, shape=(1, len(shown)), window_size=(max(1200, 760 * len(shown)), 760), border=False)
     units: dict[str, str] = {}
     how = f"displacements x{factor:g} (largest true displacement {largest:.3g} m)"
     if cut:
@@ -154,7 +155,7 @@ def picture(vtu: str | os.PathLike, out: str | os.PathLike, title: str = "", sca
             plotter.add_mesh(cables, color="black", line_width=4, render_lines_as_tubes=True)
         plotter.view_isometric()
         plotter.camera.elevation = plotter.camera.elevation - 12  # lower: the bulge shows against the sky
-        head = [title, how] if k == 0 else ["", ""]
+        head = textwrap.wrap(title, 90) + textwrap.wrap(how, 90) if k == 0 else []
         plotter.add_text("\n".join(head + [label]), position="upper_left", font_size=9)
     out.parent.mkdir(parents=True, exist_ok=True)
     plotter.screenshot(str(out))

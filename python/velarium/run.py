@@ -215,7 +215,10 @@ def run_any(target: str | os.PathLike, out: str | os.PathLike | None = None, fmu
         pvd = write_vtk_series(scene, table, out / "vtk")
     series = series_files(pvd)
     last_time, last_vtu = series[-1]
-    last = ", ".join(f"{v.name} = {format_cell(table[v.name][-1])} {unit(md, v.name)}" for v in vr.inputs(md))
+    named = varying_inputs(extended, md) or [v.name for v in vr.inputs(md)]
+    last = ", ".join(f"{n} = {format_cell(table[n][-1])} {unit(md, n)}" for n in named[:6])
+    if len(named) > 6:
+        last += f" and {len(named) - 6} more inputs"
     drawn = plot_3d(last_vtu, out / f"{name}_3d.png", f"{name} at {last}", scale=scale, cut=cut)
     print(f"wrote {shown(out / f'{name}.png')} (every output against {against})")
     how = f"displacements x{drawn['scale']:g}, largest true displacement {drawn['largest']:.3g} m"
