@@ -256,7 +256,8 @@ def plot(points: list[Point], path: Path, peer_note: str | None) -> None:
         ax.set_ylabel("relative error against the closed form [-]")
         ax.set_title(titles[case], fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
     if peer_note is None:
         fig.suptitle("Speed against error: Velarium and the peer (Kratos, MembraneElement3D3N) on identical meshes")
     else:

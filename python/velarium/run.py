@@ -35,7 +35,6 @@ Needs matplotlib and pyvista (pip install velarium[plots]).
 Examples:
   python -m velarium.run modelDescription/PrestressedCable/scene.json --loads examples/PrestressedCable-loads.csv --out build/runs/PrestressedCable
   python -m velarium.run modelDescription/ZonedCushion/scene.json --loads examples/ZonedCushion-loads.csv --scale 2
-  python -m velarium.run modelDescription/HenckyDisc/scene.json --out build/runs/HenckyDisc
 """
 
 from __future__ import annotations
