@@ -5,6 +5,9 @@ Output: a PNG, the deformed triangles seen from +z (x-y projection), coloured by
 short line along the tension direction of every wrinkled triangle.
 
     .venv/bin/python harness/plot_elements.py E.csv --out build/plots/elements.png [--time T]
+
+Examples:
+  .venv/bin/python harness/plot_elements.py build/WindSquare-elements.csv --out build/plots/WindSquare_elements.png
 """
 
 from __future__ import annotations
@@ -55,7 +58,7 @@ def plot(rows: np.ndarray, out: Path, title: str) -> None:
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("elements", type=Path)
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--time", type=float, help="row time to plot (default: the last)")

@@ -7,22 +7,17 @@ of any scene or FMU (README's tour, "Your own scene"; docs/harness.md, "Running 
    the sleeve friction to Table 1 through the FMU (harness/calibrate_sleeve.py), print our
    numbers beside the experiment and write build/plots/SleeveCable_table1.png and
    SleeveCable_deformed.png (harness/sleeve_table.py).
-3. With a scene file or an FMU (``run_main.py my_scene.json``), or --model NAME (a shipped
-   scene): `velarium.run` (the package's `python -m velarium.run`, docs/python.md) runs its
-   load table through fmpy: every input ramped from its start value to its
-   max (10x start, or 1.0, when it declares no max) over the default experiment, extended by
-   one step so that the last recorded row carries the ramp's last value (the one-step lag,
-   docs/fmu.md). Print the table (time, the loads each row carries, the outputs) and write
-   into build/runs/<Name>/ (or --out DIR):
-     <Name>.png           load-response plot (every output against the first input)
-     <Name>_3d.png        the deformed shape at the last load in 3-D, coloured by wrinkle
-                          state and by the major principal stress, cables drawn
-     vtk/<Name>.pvd       the ParaView series (vtk/<Name>_NNNN.vtu per load row), written by
-                          `velarium solve --vtk` on the same table; solve.csv and
-                          elements.csv beside it
+3. With a scene file or an FMU (``run_main.py SCENE.json``), or --model NAME (a shipped
+   scene): the package's `python -m velarium.run` (python/velarium/run.py, docs/python.md;
+   one implementation) runs it through fmpy, with --loads (a load table; default: every input
+   ramped to its max), --scale (the 3-D picture's displacement scale factor) and --cut/--no-cut
+   (a cushion cut open), and writes build/runs/<Name>/: <Name>.png (every output against the
+   input that varies, or time), <Name>_3d.png (pyvista, off screen: wrinkle state and major
+   principal stress in kPa/MPa, the scale factor stated) and the ParaView series vtk/<Name>.pvd.
+   Its --help (python -m velarium.run --help) explains the pressure sign on roofs.
 
-fmpy sets u(t_k) before DoStep(t_k, h) and records after it, so the row at t_{k+1} is the
-equilibrium under u(t_k). The table prints the load each row's equilibrium carries.
+Examples:
+  .venv/bin/python harness/run_main.py modelDescription/PrestressedCable/scene.json --loads examples/PrestressedCable-loads.csv
 """
 
 from __future__ import annotations
@@ -36,7 +31,7 @@ from pathlib import Path
 import velarium_run as vr
 from velarium.engine import VelariumError
 from velarium.fmu import RunEndedEarly
-from velarium.run import run_any
+from velarium.run import add_run_options, run_any
 
 RUNS = vr.ROOT / "build" / "runs"
 
@@ -60,6 +55,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--model", default=None, help="a shipped scene to run (default: the SleeveCable main job)")
     parser.add_argument("--out", type=Path, default=None, help="output directory of a run (default: build/runs/<Name>)")
     parser.add_argument("--velarium", type=Path, default=vr.VELARIUM, help="the velarium binary")
+    add_run_options(parser)
     args = parser.parse_args(argv)
     if not args.velarium.is_file():
         sys.exit(f"{args.velarium} is missing: run `cargo build --release` (or bash harness/setup.sh)")
@@ -69,7 +65,7 @@ def main(argv: list[str] | None = None) -> None:
         if not args.target.is_file():
             sys.exit(f"{args.target}: no such file")
         try:
-            run_any(args.target, args.out or RUNS / _name(args.target), vr.FMU_DIR)
+            run_any(args.target, args.out or RUNS / _name(args.target), vr.FMU_DIR, loads=args.loads, scale=args.scale, cut=args.cut)
         except (ValueError, VelariumError, RunEndedEarly) as e:
             sys.exit(str(e))
         return
@@ -86,7 +82,7 @@ def main(argv: list[str] | None = None) -> None:
         calibrate_sleeve.main()
         sleeve_table.main([])
         return
-    run_any(fmu, args.out or RUNS / fmu.stem, vr.FMU_DIR)
+    run_any(fmu, args.out or RUNS / fmu.stem, vr.FMU_DIR, loads=args.loads, scale=args.scale, cut=args.cut)
 
 
 def _name(target: Path) -> str:

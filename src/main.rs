@@ -41,7 +41,7 @@ enum Command {
     /// binary serves both) and resources/scene.json. The archives are reproducible and written
     /// through temporary files: a failed pack leaves nothing.
     #[command(
-        after_help = "Examples:\n  velarium pack modelDescription/HenckyDisc/scene.json --out build/fmus\n  velarium pack my_scene.json --out . --fmi 3\n  velarium pack my_scene.json --out . --lib target/release/libvelarium.so"
+        after_help = "Examples:\n  velarium pack modelDescription/HenckyDisc/scene.json --out build/fmus\n  velarium pack examples/WindSquare.json --out build/fmus --fmi 3\n  velarium pack examples/WindSquare.json --out build/fmus --lib target/release/libvelarium.so"
     )]
     Pack {
         /// The scene (JSON).
@@ -76,7 +76,7 @@ enum Command {
     /// is shown on stderr once a run takes longer than a second, only when stderr is a
     /// terminal and --quiet is not given.
     #[command(
-        after_help = "Examples:\n  velarium solve modelDescription/PrestressedCable/scene.json --loads loads.csv\n  velarium solve examples/WindSquare.json --loads examples/WindSquare-loads.csv --out build/WindSquare.csv --vtk build/WindSquare\n  velarium solve scene.json --loads loads.csv --elements elements.csv --quiet\n\nA load table (loads.csv):\n  time,P\n  0,0\n  0.5,5000\n  1,10000\n\nWith a load combination (1.35 dead + 1.5 wind):\n  combination,ULS,dead,1.35,wind,1.5\n  time,ULS\n  0,0\n  1,1"
+        after_help = "Examples:\n  velarium solve modelDescription/PrestressedCable/scene.json --loads examples/PrestressedCable-loads.csv\n  velarium solve examples/WindSquare.json --loads examples/WindSquare-loads.csv --out build/WindSquare.csv --vtk build/WindSquare\n  velarium solve examples/WindSquare.json --loads examples/WindSquare-loads.csv --elements build/WindSquare-elements.csv --quiet\n\nA load table (examples/PrestressedCable-loads.csv):\n  time,P\n  0,0\n  0.5,5000\n  1,10000\n\nWith a load combination (1.35 dead + 1.5 wind):\n  combination,ULS,dead,1.35,wind,1.5\n  time,ULS\n  0,0\n  1,1"
     )]
     Solve {
         /// The scene (JSON).
@@ -144,7 +144,7 @@ enum Command {
     /// analysis starts in equilibrium. Prints the iterations and the time; exits 1 if the shape
     /// is not found (nothing is written then).
     #[command(
-        after_help = "Examples:\n  velarium formfind modelDescription/FourPointSail/form.json --out sail.json\n  velarium formfind catenoid.json --out found.json --quiet"
+        after_help = "Examples:\n  velarium formfind modelDescription/FourPointSail/scene.json --out build/FourPointSail-found.json\n  velarium formfind modelDescription/ConicalTent/scene.json --out build/ConicalTent-found.json --quiet"
     )]
     Formfind {
         /// The scene (JSON).
@@ -159,7 +159,7 @@ enum Command {
     },
     /// Print the scene's modelDescription.xml.
     #[command(
-        after_help = "Examples:\n  velarium describe modelDescription/HenckyDisc/scene.json > modelDescription.xml"
+        after_help = "Examples:\n  velarium describe modelDescription/HenckyDisc/scene.json > build/modelDescription.xml"
     )]
     Describe {
         /// The scene (JSON).
@@ -167,7 +167,7 @@ enum Command {
         scene: String,
     },
     /// Print the JSON Schema of the scene format (every field, its unit and default).
-    #[command(after_help = "Examples:\n  velarium schema > scene.schema.json")]
+    #[command(after_help = "Examples:\n  velarium schema > build/scene.schema.json")]
     Schema,
     /// Print the version (as --version).
     #[command(hide = true)]

@@ -31,6 +31,9 @@ Output (DIR, default build/sweeps/<Name>/ under the current directory):
     sweep.png      every output's last value against the first swept variable (one line per
                    value of the second), runs that ended early (Discard) marked x
 and it prints the number of runs, the wall time of the compute and the throughput (runs/s).
+
+Examples:
+  python -m velarium.sweep modelDescription/PrestressedCable/scene.json --grid P=2000,4000 --steps 2 --scheduler synchronous --out build/sweeps/PrestressedCable
 """
 
 from __future__ import annotations
