@@ -140,17 +140,8 @@ impl Law {
             WrinkleState::Wrinkled => {
                 let (v, w) = v_w(angle);
                 match *self {
-                    Law::Svk { young, nu } => {
-                        // The rotation term 2 E e1/(e1 − e2) of the consistent tangent: inside
-                        // the wrinkled region (e2 < −ν e1) the gap is at least (1 + ν) e1, so
-                        // the term is at most 2E/(1 + ν). A state frozen against chatter is
-                        // evaluated outside its region too, where e1 ≈ e2 made the term grow
-                        // without bound (1e307 measured on a gathered drawstring edge at a
-                        // nearly equibiaxial strain, an infinite tangent diagonal): the gap is
-                        // taken at least at its region's bound, which leaves the tangent exact
-                        // wherever the law itself says wrinkled (tangent only: the stress and
-                        // so the equilibrium do not depend on it).
-                        let gap = (e1 - e2).max((1.0 + nu) * e1).max(f64::MIN_POSITIVE);
+                    Law::Svk { young, .. } => {
+                        let gap = (e1 - e2).max(f64::MIN_POSITIVE);
                         let c = v * v.transpose() * young
                             + w * w.transpose() * (2.0 * young * e1 / gap);
                         (v * (young * e1), c + reg, 0.5 * young * e1 * e1)
@@ -159,9 +150,7 @@ impl Law {
                         let (l1, l2) = (1.0 + 2.0 * e1, 1.0 + 2.0 * e2);
                         let d1 = 0.5 * mu * (1.0 - l1.powf(-1.5));
                         let d2 = 0.75 * mu * l1.powf(-2.5);
-                        // As for SVK: inside the region l2 < l1^(−1/2), so the gap l1 − l2
-                        // is at least l1 − l1^(−1/2) there; taken at least at that bound.
-                        let gap = (l1 - l2).max(l1 - l1.powf(-0.5)).max(f64::MIN_POSITIVE);
+                        let gap = (l1 - l2).max(f64::MIN_POSITIVE);
                         let c =
                             v * v.transpose() * (4.0 * d2) + w * w.transpose() * (8.0 * d1 / gap);
                         (
