@@ -26,6 +26,7 @@ use crate::variables::{self, Binding, Causality, VarType, Variability, Variable}
 use serde::{Deserialize, Serialize};
 
 pub mod derivatives;
+pub mod modes;
 pub mod stepping;
 
 /// Everything needed to continue a run: plain data, `Clone + Serialize`.

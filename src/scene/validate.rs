@@ -110,6 +110,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     v.parameters(scene);
     v.names(scene);
     v.form_finding(scene, &mesh);
+    v.dynamics(scene, &mesh);
     v.problems
 }
 
@@ -1730,6 +1731,35 @@ impl Validator {
                     );
                 }
             }
+        }
+    }
+
+    /// The `dynamics` section: damping factors non-negative and finite, point masses
+    /// positive on node sets that resolve.
+    fn dynamics(&mut self, s: &Scene, mesh: &Mesh) {
+        let Some(d) = &s.dynamics else {
+            return;
+        };
+        for (field, value, unit) in [
+            ("rayleigh_alpha", d.rayleigh_alpha, "1/s"),
+            ("rayleigh_beta", d.rayleigh_beta, "s"),
+        ] {
+            if !(value.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&value)) {
+                self.push(
+                    format!("dynamics.{field}"),
+                    format!("{value} is not a damping factor in {unit} (0 or more, at most 1e30)"),
+                );
+            }
+        }
+        for (k, pm) in d.point_masses.iter().enumerate() {
+            let p = format!("dynamics.point_masses[{k}]");
+            if !positive(pm.mass) {
+                self.push(
+                    format!("{p}.mass"),
+                    format!("{} is not a positive mass in kg {RANGE}", pm.mass),
+                );
+            }
+            self.nodes(mesh, &pm.nodes, &format!("{p}.nodes"));
         }
     }
 
