@@ -311,7 +311,13 @@ fn main() -> ExitCode {
             row,
             count,
             vtk,
-        } => cmd_modes(&scene, loads.as_deref(), row, count as usize, vtk.as_deref()),
+        } => cmd_modes(
+            &scene,
+            loads.as_deref(),
+            row,
+            count as usize,
+            vtk.as_deref(),
+        ),
         Command::Formfind { scene, out, quiet } => cmd_formfind(&scene, &out, quiet),
         Command::Describe { scene } => cmd_describe(&scene),
         Command::Schema => {

@@ -408,7 +408,10 @@ impl Model {
             length_scale,
             volumes,
             point_masses,
-            mass_kind: scene.dynamics.as_ref().map_or_else(Default::default, |d| d.mass),
+            mass_kind: scene
+                .dynamics
+                .as_ref()
+                .map_or_else(Default::default, |d| d.mass),
         })
     }
 
@@ -650,7 +653,9 @@ fn build_triangles(
                 reference.initial_strain =
                     prestress_strain(at, k, m, &material, pre, &reference, c.into())?;
             }
-            let mass = m.density.map_or(0.0, |rho| rho * m.thickness * reference.area);
+            let mass = m
+                .density
+                .map_or(0.0, |rho| rho * m.thickness * reference.area);
             out.push(Triangle {
                 id: t,
                 nodes,

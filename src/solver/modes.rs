@@ -127,7 +127,9 @@ fn lanczos(
     want: usize,
     seed: u64,
 ) -> Result<Vec<(f64, Vec<f64>)>, Error> {
-    let max_dim = (2 * want + EXTRA).min(n.saturating_sub(locked.len())).max(1);
+    let max_dim = (2 * want + EXTRA)
+        .min(n.saturating_sub(locked.len()))
+        .max(1);
     let what = "the Lanczos vectors";
     let mut mw = memory::zeros(n, what)?;
     let mut w = memory::zeros(n, what)?;
