@@ -594,10 +594,9 @@ fn cmd_modes(
         outln!("{},{}", k + 1, f);
     }
     eprintln!(
-        "velarium: {} of {count} frequencies in {seconds:.3} s ({} solves with K - sigma M, {} Lanczos run(s), sigma = {:.3e} 1/s2); equilibrium {solved:.3} s",
+        "velarium: {} of {count} frequencies in {seconds:.3} s ({} solves with K - sigma M, sigma = {:.3e} 1/s2); equilibrium {solved:.3} s",
         modes.frequencies.len(),
         modes.solves,
-        modes.runs,
         modes.shift
     );
     if let Some(dir) = vtk_dir {

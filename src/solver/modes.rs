@@ -13,17 +13,18 @@
 //!          factorization of K − σM with the solver's LDLT (`linear.rs`)
 //! operator A = (K − σM)⁻¹ M, self-adjoint in the M inner product; its largest eigenvalues
 //!          θ = 1/(ω² − σ) are the lowest frequencies
-//! Lanczos  q₁ = A r / |A r|_M (r a fixed pseudo-random vector, so runs repeat bit for bit),
-//!          A q_j = β_{j−1} q_{j−1} + α_j q_j + β_j q_{j+1}, every new vector M-orthogonalised
-//!          against all earlier ones twice (classical Gram-Schmidt, full reorthogonalisation);
-//!          a Ritz pair (θ, Q s) of the tridiagonal T_j has the residual |β_j s_j| (its last
-//!          component) and is converged when that is at most TOLERANCE θ
-//! deflation a single start vector sees one vector of each eigenspace: a repeated frequency
-//!          (the square membrane's f_12 = f_21) would be missed. So once the wanted count has
-//!          converged, Lanczos runs again from a new start M-orthogonal to the converged
-//!          vectors (which every new vector stays orthogonal to); a lower eigenvalue that run
-//!          finds joins the set, until a run finds none below the set's largest
-//! ```
+//! Lanczos  block Lanczos, BLOCK vectors at a time: Q₁ = A R M-orthonormalised (R fixed
+//!          pseudo-random vectors, so runs repeat bit for bit), then W = A Q_j (one solve
+//!          with BLOCK right-hand sides: one pass over the factor), every column
+//!          M-orthogonalised against the last two blocks, then against all earlier vectors
+//!          (classical Gram-Schmidt, full reorthogonalisation), and within the new block, W = Q_{j+1} B_j. The coefficients
+//!          form H = Qᵀ M A Q (block tridiagonal up to round-off); a Ritz pair (θ, Q s) of H
+//!          has the residual |B_j s_j| (s_j: its last block of components) in the M norm and
+//!          is converged when that is at most TOLERANCE θ_max
+//! multiple a single start vector sees one vector of each eigenspace; a block of BLOCK sees up
+//!          to BLOCK (the square membrane's f_12 = f_21, a straight cable's frequencies in two
+//!          planes, a disc's pairs): a frequency repeated more often than BLOCK times may be
+//!          reported fewer times
 //! A Ritz vector φ is M-normalised (φᵀ M φ = 1); f = ω / 2π, reported negative (−√|ω²|/2π)
 //! for a negative ω² (an unstable equilibrium: the tangent is not positive definite).
 //!
@@ -42,12 +43,13 @@ use crate::model::Model;
 
 /// The shift's magnitude relative to the largest K_ii/M_ii (a bound of the largest ω²).
 const SHIFT: f64 = 1e-8;
-/// A Ritz pair is converged when its residual |β_j s_j| is at most this times θ.
-const TOLERANCE: f64 = 1e-10;
-/// A Lanczos run stops at this many vectors beyond twice the wanted count.
+/// A Ritz pair is converged when its residual is at most this times the largest θ (the
+/// eigenvalue is then within about its square, relative).
+const TOLERANCE: f64 = 1e-6;
+/// Vectors per Lanczos block (the largest multiplicity seen: module docs).
+const BLOCK: usize = 4;
+/// A run stops at this many vectors beyond twice the wanted count.
 const EXTRA: usize = 40;
-/// Deflation runs after the first (each may add one eigenvalue).
-const MAX_DEFLATIONS: usize = 8;
 
 /// The lowest natural frequencies and modes.
 #[derive(Clone, Debug)]
@@ -60,17 +62,19 @@ pub struct Modes {
     pub shapes: Vec<Vec<f64>>,
     /// The shift σ (1/s²).
     pub shift: f64,
-    /// Solves with the factored K − σM (Lanczos steps of every run).
+    /// Solves with the factored K − σM (right-hand sides, BLOCK per pass over the factor).
     pub solves: usize,
-    /// Lanczos runs (1 + the deflation runs).
-    pub runs: usize,
+    /// Seconds of the assembly and factorization of K − σM, of the solves, and of the rest of
+    /// the Lanczos iteration (orthogonalisation, M products, Ritz pairs).
+    pub seconds: [f64; 3],
 }
 
-/// The operator of the runs: the factored K − σM and M.
+/// The operator of the Lanczos iteration: the factored K − σM and M.
 struct Operator<'a> {
     solver: &'a mut Solver,
     mass: &'a Mass,
     solves: usize,
+    solve_seconds: f64,
 }
 
 impl Operator<'_> {
@@ -78,31 +82,24 @@ impl Operator<'_> {
         self.solver.mass_product(self.mass, x, y);
     }
 
-    /// y = (K − σM)⁻¹ m (m = M x already formed).
-    fn solve(&mut self, m: &[f64], y: &mut [f64]) -> Result<(), Error> {
-        y.copy_from_slice(m);
-        self.solves += 1;
-        self.solver.linear.solve(y)
+    /// Y = (K − σM)⁻¹ Mx for the columns `mx` (M x already formed), in one pass.
+    fn solve_block(&mut self, mx: &[&[f64]]) -> Result<Vec<Vec<f64>>, Error> {
+        let n = mx.first().map_or(0, |c| c.len());
+        let mut buffer = memory::zeros(n * mx.len(), "the Lanczos vectors")?;
+        for (chunk, c) in buffer.chunks_mut(n.max(1)).zip(mx) {
+            chunk.copy_from_slice(c);
+        }
+        self.solves += mx.len();
+        let t = std::time::Instant::now();
+        let result = self.solver.linear.solve_columns(&mut buffer, mx.len());
+        self.solve_seconds += t.elapsed().as_secs_f64();
+        result?;
+        Ok(buffer.chunks(n.max(1)).map(<[f64]>::to_vec).collect())
     }
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// w ← w − Σ (qᵢᵀ M w) qᵢ over `basis`, twice; returns |w|_M after (and leaves M w in `mw`).
-fn orthogonalise(op: &Operator, basis: &[&[f64]], w: &mut [f64], mw: &mut [f64]) -> f64 {
-    for _ in 0..2 {
-        op.mass(w, mw);
-        let c: Vec<f64> = basis.iter().map(|q| dot(q, mw)).collect();
-        for (q, c) in basis.iter().zip(&c) {
-            for (wi, qi) in w.iter_mut().zip(q.iter()) {
-                *wi -= c * qi;
-            }
-        }
-    }
-    op.mass(w, mw);
-    dot(w, mw).max(0.0).sqrt()
 }
 
 /// A fixed pseudo-random vector (xorshift), the same every run for `seed`.
@@ -118,95 +115,162 @@ fn start_vector(n: usize, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-/// One Lanczos run on `op` in the M-orthogonal complement of `locked`: the converged Ritz
-/// pairs (θ descending, M-normalised vectors over the equations), at most `want` of them.
-fn lanczos(
-    op: &mut Operator,
-    n: usize,
-    locked: &[Vec<f64>],
-    want: usize,
-    seed: u64,
-) -> Result<Vec<(f64, Vec<f64>)>, Error> {
-    let max_dim = (2 * want + EXTRA)
-        .min(n.saturating_sub(locked.len()))
-        .max(1);
+/// Block Lanczos on `op` (module docs): the converged Ritz pairs (θ descending, M-normalised
+/// vectors over the equations), at most `want` of them.
+fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+    let max_dim = (2 * want + EXTRA).min(n).max(1);
+    let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
     let mut mw = memory::zeros(n, what)?;
-    let mut w = memory::zeros(n, what)?;
-    // q1 = A r in the complement of the locked vectors (A r lies in the range of A: no
-    // component along massless directions' infinite frequencies).
-    let r = start_vector(n, seed);
-    op.mass(&r, &mut mw);
-    op.solve(&mw, &mut w)?;
-    let locked_refs: Vec<&[f64]> = locked.iter().map(Vec::as_slice).collect();
-    let norm = orthogonalise(op, &locked_refs, &mut w, &mut mw);
-    if norm == 0.0 || !norm.is_finite() {
-        return Ok(Vec::new());
+    // The Lanczos vectors, their M products and H's columns (h[k][i] = (M qᵢ)ᵀ A q_k).
+    let mut q: Vec<Vec<f64>> = Vec::new();
+    let mut mq: Vec<Vec<f64>> = Vec::new();
+    let mut h: Vec<Vec<f64>> = Vec::new();
+    // The first block: A R, M-orthonormalised (A R lies in the range of A: no component along
+    // the massless directions' infinite frequencies).
+    let mut mr = Vec::with_capacity(block);
+    for seed in 0..block as u64 {
+        let r = start_vector(n, seed);
+        let mut m = memory::zeros(n, what)?;
+        op.mass(&r, &mut m);
+        mr.push(m);
     }
-    let mut q: Vec<Vec<f64>> = vec![w.iter().map(|x| x / norm).collect()];
-    let mut alpha: Vec<f64> = Vec::new();
-    let mut beta: Vec<f64> = Vec::new();
-    let mut mq = memory::zeros(n, what)?;
-    loop {
-        let j = q.len() - 1;
-        op.mass(&q[j], &mut mq);
-        op.solve(&mq, &mut w)?;
-        let a = dot(&mq, &w);
-        alpha.push(a);
-        let mut basis: Vec<&[f64]> = locked_refs.clone();
-        basis.extend(q.iter().map(Vec::as_slice));
-        let b = orthogonalise(op, &basis, &mut w, &mut mw);
-        beta.push(b);
-        let size = alpha.len();
-        let (theta, s) = tridiagonal_eigen(&alpha, &beta[..size - 1]);
-        // Descending θ: the lowest frequencies first.
-        let mut order: Vec<usize> = (0..size).collect();
-        order.sort_by(|&x, &y| theta[y].total_cmp(&theta[x]));
-        let scale = theta.iter().fold(0.0f64, |m, t| m.max(t.abs()));
-        let converged = |k: usize| (b * s[(size - 1, k)]).abs() <= TOLERANCE * scale;
-        let done = order.iter().take(want).filter(|&&k| converged(k)).count();
-        // An invariant subspace: every Ritz pair is exact.
-        let invariant = b <= 1e-14 * scale;
-        if invariant || size >= max_dim || (size >= want && done == want) {
-            let mut out = Vec::new();
-            for &k in order.iter().take(want) {
-                if !(converged(k) || invariant) {
-                    continue;
-                }
-                let mut y = memory::zeros(n, what)?;
-                for (i, qi) in q.iter().enumerate() {
-                    let c = s[(i, k)];
-                    for (yv, qv) in y.iter_mut().zip(qi) {
-                        *yv += c * qv;
-                    }
-                }
-                op.mass(&y, &mut mw);
-                let norm = dot(&y, &mw).max(0.0).sqrt();
-                if norm > 0.0 {
-                    y.iter_mut().for_each(|v| *v /= norm);
-                }
-                out.push((theta[k], y));
-            }
-            return Ok(out);
+    let first = op.solve_block(&mr.iter().map(Vec::as_slice).collect::<Vec<_>>())?;
+    let mut scale = 0.0f64;
+    for mut w in first {
+        let size = m_orthogonalise(op, &q, &mq, 0, &mut w, &mut mw).0;
+        if size > 1e-10 * scale && size.is_finite() {
+            scale = scale.max(size);
+            q.push(w.iter().map(|x| x / size).collect());
+            mq.push(mw.iter().map(|x| x / size).collect());
         }
-        q.push(w.iter().map(|x| x / b).collect());
+    }
+    let (mut previous, mut start) = (0, 0);
+    loop {
+        let end = q.len();
+        if start == end {
+            // No new direction: an invariant subspace, every Ritz pair exact.
+            return ritz_pairs(&q, &h, end, want, None);
+        }
+        let columns: Vec<&[f64]> = mq[start..end].iter().map(Vec::as_slice).collect();
+        let ws = op.solve_block(&columns)?;
+        for (k, mut w) in (start..end).zip(ws) {
+            let (size, c) = m_orthogonalise(op, &q, &mq, previous, &mut w, &mut mw);
+            let mut column = c;
+            scale = scale.max(column.get(k).copied().unwrap_or(0.0).abs());
+            if size > 1e-10 * scale && size.is_finite() && q.len() < n {
+                column.push(size);
+                q.push(w.iter().map(|x| x / size).collect());
+                mq.push(mw.iter().map(|x| x / size).collect());
+            }
+            h.push(column);
+        }
+        // Residual of a Ritz pair: the coefficients on the new block's vectors (B_j s_j).
+        let (theta, s) = projected_eigen(&h, end);
+        let mut order: Vec<usize> = (0..end).collect();
+        order.sort_by(|&x, &y| theta[y].total_cmp(&theta[x]));
+        let largest = theta.iter().fold(0.0f64, |m, t| m.max(t.abs()));
+        let residual = |k: usize| -> f64 {
+            (end..q.len())
+                .map(|i| {
+                    (start..end)
+                        .map(|c| h[c].get(i).copied().unwrap_or(0.0) * s[(c, k)])
+                        .sum::<f64>()
+                })
+                .map(|v| v * v)
+                .sum::<f64>()
+                .sqrt()
+        };
+        let wanted = want.min(end);
+        let done = order
+            .iter()
+            .take(wanted)
+            .all(|&k| residual(k) <= TOLERANCE * largest);
+        let invariant = q.len() == end;
+        if (end >= want && done) || invariant || q.len() >= max_dim {
+            let keep: Vec<usize> = order
+                .iter()
+                .take(wanted)
+                .copied()
+                .filter(|&k| invariant || residual(k) <= TOLERANCE * largest)
+                .collect();
+            return ritz_pairs(&q, &h, end, want, Some(&keep));
+        }
+        previous = start;
+        start = end;
     }
 }
 
-/// Eigenvalues and eigenvectors (columns) of the symmetric tridiagonal matrix with diagonal
-/// `alpha` and off-diagonal `beta`.
-fn tridiagonal_eigen(alpha: &[f64], beta: &[f64]) -> (Vec<f64>, nalgebra::DMatrix<f64>) {
-    let m = alpha.len();
-    let mut t = nalgebra::DMatrix::zeros(m, m);
-    for i in 0..m {
-        t[(i, i)] = alpha[i];
-        if i + 1 < m {
-            t[(i, i + 1)] = beta[i];
-            t[(i + 1, i)] = beta[i];
+/// w ← w − Σ ((M qᵢ)ᵀ w) qᵢ over the vectors from `local` on (the three-term recurrence's
+/// part: the last two blocks), then over every vector so far (the full reorthogonalisation);
+/// then M w into `mw`. Returns (|w|_M, the coefficients of both passes summed: A q's column of
+/// H).
+fn m_orthogonalise(
+    op: &Operator,
+    q: &[Vec<f64>],
+    mq: &[Vec<f64>],
+    local: usize,
+    w: &mut [f64],
+    mw: &mut [f64],
+) -> (f64, Vec<f64>) {
+    let mut total = vec![0.0; q.len()];
+    for from in [local.min(q.len()), 0] {
+        let c: Vec<f64> = mq[from..].iter().map(|m| dot(m, w)).collect();
+        for ((qi, c), t) in q[from..].iter().zip(&c).zip(&mut total[from..]) {
+            *t += c;
+            for (wi, qv) in w.iter_mut().zip(qi) {
+                *wi -= c * qv;
+            }
         }
     }
+    op.mass(w, mw);
+    (dot(w, mw).max(0.0).sqrt(), total)
+}
+
+/// Eigenpairs of the leading `m` × `m` block of H (columns `h`, symmetrised).
+fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64>) {
+    let at = |i: usize, k: usize| h[k].get(i).copied().unwrap_or(0.0);
+    let t = nalgebra::DMatrix::from_fn(m, m, |i, k| 0.5 * (at(i, k) + at(k, i)));
     let e = nalgebra::SymmetricEigen::new(t);
     (e.eigenvalues.iter().copied().collect(), e.eigenvectors)
+}
+
+/// The Ritz pairs (θ, Q s) of the leading `m` vectors: those of `keep` (indices into the
+/// eigenpairs of H), or the largest `want`.
+fn ritz_pairs(
+    q: &[Vec<f64>],
+    h: &[Vec<f64>],
+    m: usize,
+    want: usize,
+    keep: Option<&[usize]>,
+) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+    let m = m.min(h.len());
+    if m == 0 {
+        return Ok(Vec::new());
+    }
+    let (theta, s) = projected_eigen(h, m);
+    let chosen: Vec<usize> = match keep {
+        Some(k) => k.to_vec(),
+        None => {
+            let mut order: Vec<usize> = (0..m).collect();
+            order.sort_by(|&x, &y| theta[y].total_cmp(&theta[x]));
+            order.truncate(want);
+            order
+        }
+    };
+    let n = q.first().map_or(0, Vec::len);
+    let mut out = Vec::with_capacity(chosen.len());
+    for k in chosen {
+        let mut y = memory::zeros(n, "the mode shapes")?;
+        for (i, qi) in q.iter().take(m).enumerate() {
+            let c = s[(i, k)];
+            for (yv, qv) in y.iter_mut().zip(qi) {
+                *yv += c * qv;
+            }
+        }
+        out.push((theta[k], y));
+    }
+    Ok(out)
 }
 
 impl Solver {
@@ -235,6 +299,7 @@ impl Solver {
             ));
         }
         let n = self.pattern.n;
+        let started = std::time::Instant::now();
         // The true tangent (as `factor_tangent`): states frozen, no artificial prestress.
         let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
         let membranes = Membranes {
@@ -267,33 +332,22 @@ impl Solver {
         let shift = -SHIFT * largest.max(f64::MIN_POSITIVE);
         mass.add_to(-shift, self.linear.values_mut());
         self.linear.factor()?;
+        let factored = started.elapsed().as_secs_f64();
         let mut op = Operator {
             solver: self,
             mass,
             solves: 0,
+            solve_seconds: 0.0,
         };
         let count = count.min(n);
-        let mut found = lanczos(&mut op, n, &[], count, 0)?;
-        let mut runs = 1;
-        // Deflation (module docs): look for eigenvalues the first run's start did not see.
-        for seed in 1..=MAX_DEFLATIONS as u64 {
-            if found.len() < count || found.len() >= n {
-                break;
-            }
-            let locked: Vec<Vec<f64>> = found.iter().map(|(_, y)| y.clone()).collect();
-            let more = lanczos(&mut op, n, &locked, 1, seed)?;
-            runs += 1;
-            let smallest = found.iter().map(|(t, _)| *t).fold(f64::INFINITY, f64::min);
-            match more.into_iter().next() {
-                Some((theta, y)) if theta > smallest * (1.0 + 1e-9) => {
-                    found.push((theta, y));
-                    found.sort_by(|a, b| b.0.total_cmp(&a.0));
-                    found.truncate(count);
-                }
-                _ => break,
-            }
-        }
+        let found = block_lanczos(&mut op, n, count)?;
         let solves = op.solves;
+        let lanczos_seconds = started.elapsed().as_secs_f64() - factored;
+        let seconds = [
+            factored,
+            op.solve_seconds,
+            lanczos_seconds - op.solve_seconds,
+        ];
         let eq = &self.pattern.eq;
         let mut modes = Modes {
             eigenvalues: Vec::new(),
@@ -301,7 +355,7 @@ impl Solver {
             shapes: Vec::new(),
             shift,
             solves,
-            runs,
+            seconds,
         };
         for (theta, y) in found {
             let lambda = shift + 1.0 / theta;
