@@ -648,7 +648,7 @@ impl Engine {
         self.state.wrinkle = membranes.iter().map(|e| e.state).collect();
         self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
         self.membranes = membranes;
-        Ok(())
+        self.natural_frequency_outputs()
     }
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.

@@ -5,6 +5,7 @@
 
 use super::Engine;
 use crate::error::Error;
+use crate::model::ProbeModel;
 use crate::solver::modes::Modes;
 
 impl Engine {
@@ -29,5 +30,35 @@ impl Engine {
             &states,
             count,
         )
+    }
+}
+
+impl Engine {
+    /// The `natural_frequency` outputs of the committed state (`Engine::refresh_outputs`):
+    /// one modal analysis for the highest mode asked for. Nothing to do without such outputs.
+    pub(super) fn natural_frequency_outputs(&mut self) -> Result<(), Error> {
+        let wanted: Vec<(usize, usize)> = self
+            .model
+            .probes
+            .iter()
+            .enumerate()
+            .filter_map(|(slot, p)| match p {
+                ProbeModel::NaturalFrequency { mode } => Some((slot, *mode)),
+                _ => None,
+            })
+            .collect();
+        let Some(count) = wanted.iter().map(|&(_, k)| k).max() else {
+            return Ok(());
+        };
+        let modes = self.modes(count)?;
+        for (slot, k) in wanted {
+            self.outputs[slot] = modes.frequencies.get(k - 1).copied().ok_or_else(|| {
+                Error::Unsupported(format!(
+                    "natural frequency {k}: only {} converged at this state",
+                    modes.frequencies.len()
+                ))
+            })?;
+        }
+        Ok(())
     }
 }

@@ -263,6 +263,11 @@ pub enum ProbeModel {
         component: usize,
     },
     NewtonIterations,
+    /// The `mode`-th lowest natural frequency, Hz (filled in by the engine after each
+    /// converged step: `Engine::modes`).
+    NaturalFrequency {
+        mode: usize,
+    },
     /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
     /// indices).
     WrinkledFraction(Vec<usize>),
@@ -1346,6 +1351,7 @@ fn build_probe(
             }
         }
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
+        Probe::NaturalFrequency { mode } => ProbeModel::NaturalFrequency { mode: *mode },
         Probe::EnclosedVolume { membrane } => {
             ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)
         }

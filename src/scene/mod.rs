@@ -797,6 +797,11 @@ pub enum Probe {
     ZoneForce { zone: String, component: Component },
     /// Newton iterations used by the last step (all internal increments), Integer.
     NewtonIterations,
+    /// The `mode`-th lowest natural frequency (Hz, `mode` 1-based, at most 1000) of small
+    /// vibrations about each converged equilibrium (docs/dynamics.md): the scene needs mass
+    /// and no sleeves or volume inputs. Each step computes the lowest `mode` frequencies (a
+    /// factorization and a Lanczos iteration more per step). No derivative.
+    NaturalFrequency { mode: usize },
     /// Fraction (0..1) of the reference area that is wrinkled, of one membrane group or of all.
     WrinkledFraction {
         #[serde(default, skip_serializing_if = "Option::is_none")]

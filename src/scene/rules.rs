@@ -238,6 +238,7 @@ pub const RULES: &[FieldRule] = &[
     at("dynamics.rayleigh_alpha", NON_NEGATIVE),
     at("dynamics.rayleigh_beta", NON_NEGATIVE),
     at("dynamics.point_masses[].mass", POSITIVE),
+    at("outputs[].probe{natural_frequency}.mode", count(1, 1000)),
 ];
 
 /// One step of a field path.
@@ -511,7 +512,8 @@ mod tests {
                  {"name": "water", "load": {"kind": "ponding", "membrane": "m", "gamma_w": 9810}}],
       "cables": [{"name": "c", "nodes": "s.edge_bottom", "EA": 1e5, "mass_per_length": 0.5}],
       "outputs": [{"name": "ur", "probe": {"kind": "polar_displacement", "node": "s.center",
-                                           "center": [0, 0, 0], "axis": "z", "component": "radial"}}],
+                                           "center": [0, 0, 0], "axis": "z", "component": "radial"}},
+                  {"name": "f1", "probe": {"kind": "natural_frequency", "mode": 1}}],
       "solver": {"arc_length": 0.01, "artificial_prestress": 10, "threads": 1},
       "dynamics": {"mass": "lumped", "rayleigh_alpha": 0.1, "rayleigh_beta": 0.001,
                    "point_masses": [{"nodes": "s.corner_tr", "mass": 2}]}

@@ -1490,6 +1490,34 @@ impl Validator {
                     }
                 }
                 Probe::NewtonIterations => {}
+                Probe::NaturalFrequency { mode } => {
+                    if !(1..=1000).contains(mode) {
+                        self.push(
+                            format!("{p}.mode"),
+                            format!("{mode} is not a mode number in 1..=1000"),
+                        );
+                    }
+                    let massive = s.membranes.iter().any(|m| m.density.is_some())
+                        || s.cables.iter().any(|c| c.mass_per_length.is_some())
+                        || s.dynamics.iter().any(|d| !d.point_masses.is_empty());
+                    if !massive {
+                        self.push(
+                            p.clone(),
+                            "a natural_frequency output needs mass: give a membrane group a density (kg/m3), a cable a mass_per_length (kg/m) or dynamics.point_masses",
+                        );
+                    }
+                    let sleeves = s.cables.iter().any(|c| c.sleeve.is_some());
+                    let volumes = s
+                        .inputs
+                        .iter()
+                        .any(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }));
+                    if sleeves || volumes {
+                        self.push(
+                            p.clone(),
+                            "a natural_frequency output is not available with sleeves or volume inputs (their unknowns are not in the eigenproblem yet)",
+                        );
+                    }
+                }
                 Probe::EnclosedVolume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.membrane"));
                 }

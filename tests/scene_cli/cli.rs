@@ -1130,7 +1130,11 @@ fn modes_prints_frequencies_and_writes_the_series() {
     let path = write(&dir, "massless.json", &massless.to_string());
     let out = velarium(&["modes", s(&path), "--count", "2"]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(text(&out.stderr).contains("density"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("density"),
+        "{}",
+        text(&out.stderr)
+    );
 
     let mut bad = massless.clone();
     bad["dynamics"]["point_masses"] = serde_json::json!([{"nodes": "s.center", "mass": -1}]);
