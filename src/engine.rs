@@ -26,6 +26,7 @@ use crate::variables::{self, Binding, Causality, VarType, Variability, Variable}
 use serde::{Deserialize, Serialize};
 
 pub mod derivatives;
+pub mod modes;
 pub mod stepping;
 
 /// Everything needed to continue a run: plain data, `Clone + Serialize`.
@@ -647,7 +648,7 @@ impl Engine {
         self.state.wrinkle = membranes.iter().map(|e| e.state).collect();
         self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
         self.membranes = membranes;
-        Ok(())
+        self.natural_frequency_outputs()
     }
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.

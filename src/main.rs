@@ -120,6 +120,38 @@ enum Command {
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=64))]
         threads: Option<u64>,
     },
+    /// Print the lowest natural frequencies about an equilibrium and write the mode shapes.
+    ///
+    /// The equilibrium is the scene's start (its inputs' start values) or, with --loads, the
+    /// load table's row K (rows 0 to K solved as `velarium solve` does). The frequencies are
+    /// those of small vibrations about it: the true tangent there (the prestress's geometric
+    /// stiffness, wrinkled and slack states as converged, held DOFs removed) and the mass of
+    /// the membranes' `density`, the cables' `mass_per_length` and the `dynamics` section's
+    /// point masses, consistent or lumped as that section says (consistent without it);
+    /// shift-invert Lanczos (docs/dynamics.md). Exits 1 if the scene has no mass, the
+    /// equilibrium is not reached or the factorization fails.
+    #[command(
+        after_help = "Examples:\n  velarium modes examples/VibratingMembrane.json --count 6\n  velarium modes scene.json --loads loads.csv --row 3 --count 10 --vtk build/modes"
+    )]
+    Modes {
+        /// The scene (JSON).
+        #[arg(value_name = "SCENE.json")]
+        scene: String,
+        /// A load table (as `velarium solve`'s) whose row --row is the equilibrium.
+        #[arg(long, value_name = "LOADS.csv")]
+        loads: Option<String>,
+        /// The row of --loads (0-based; default: the last).
+        #[arg(long, value_name = "K", requires = "loads")]
+        row: Option<usize>,
+        /// How many of the lowest frequencies.
+        #[arg(long, value_name = "N", default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        count: u64,
+        /// Write the mode shapes as a ParaView series into DIR: <name>_modes_NNNN.vtu per mode
+        /// (the equilibrium's arrays plus `mode_shape`, largest amplitude 1, and
+        /// `frequency_Hz`; time = the mode's number) and <name>_modes.pvd.
+        #[arg(long, value_name = "DIR")]
+        vtk: Option<String>,
+    },
     /// List every problem of a scene by JSON path; exit 1 if there is any.
     ///
     /// A valid scene gets a summary, a cost line and a `warning: path: message` line for each
@@ -273,6 +305,19 @@ fn main() -> ExitCode {
             threads: threads.map(|n| n as usize),
         }),
         Command::Check { scene } => cmd_check(&scene),
+        Command::Modes {
+            scene,
+            loads,
+            row,
+            count,
+            vtk,
+        } => cmd_modes(
+            &scene,
+            loads.as_deref(),
+            row,
+            count as usize,
+            vtk.as_deref(),
+        ),
         Command::Formfind { scene, out, quiet } => cmd_formfind(&scene, &out, quiet),
         Command::Describe { scene } => cmd_describe(&scene),
         Command::Schema => {
@@ -497,6 +542,80 @@ fn cmd_solve(args: &SolveArgs) -> Result<ExitCode, Stop> {
             history.rows.len()
         ))),
     }
+}
+
+fn cmd_modes(
+    path: &str,
+    loads: Option<&str>,
+    row: Option<usize>,
+    count: usize,
+    vtk_dir: Option<&str>,
+) -> Result<ExitCode, Stop> {
+    let started = Instant::now();
+    let mut engine = engine_for(path)?;
+    match loads {
+        Some(loads) => {
+            let mut table =
+                LoadTable::parse(&read_text(loads)?, loads, &mut engine).map_err(failed)?;
+            let last = table.rows.len().saturating_sub(1);
+            let k = row.unwrap_or(last);
+            if k > last {
+                return Err(Stop::Failed(format!(
+                    "--row {k}: {loads} has rows 0 to {last}"
+                )));
+            }
+            table.rows.truncate(k + 1);
+            let history = history::run_observed(&mut engine, &table, false, &mut |_, _| Ok(()))
+                .map_err(failed)?;
+            if let Some(f) = history.failure {
+                return Err(Stop::Failed(format!(
+                    "{loads}: line {}: the step to time {} did not converge: {}",
+                    f.line, f.time, f.message
+                )));
+            }
+        }
+        None => {
+            let report = engine.solve();
+            if !report.converged() {
+                return Err(Stop::Failed(format!(
+                    "{path}: the equilibrium under the start values was not reached: {}",
+                    report.message
+                )));
+            }
+        }
+    }
+    let solved = started.elapsed().as_secs_f64();
+    let modes = engine
+        .modes(count)
+        .map_err(|e| Stop::Failed(format!("{path}: {e}")))?;
+    let seconds = started.elapsed().as_secs_f64() - solved;
+    outln!("mode,frequency_Hz");
+    for (k, f) in modes.frequencies.iter().enumerate() {
+        outln!("{},{}", k + 1, f);
+    }
+    eprintln!(
+        "velarium: {} of {count} frequencies in {seconds:.3} s ({} solves with K - sigma M, sigma = {:.3e} 1/s2); equilibrium {solved:.3} s",
+        modes.frequencies.len(),
+        modes.solves,
+        modes.shift
+    );
+    if let Some(dir) = vtk_dir {
+        let stem = format!("{}_modes", engine.scene().name);
+        let mut series = vtk::Series::create(Path::new(dir), &stem).map_err(failed)?;
+        for (k, (f, shape)) in modes.frequencies.iter().zip(&modes.shapes).enumerate() {
+            series
+                .write_mode(&engine, k + 1, *f, shape)
+                .map_err(failed)?;
+        }
+        series.finish().map_err(failed)?;
+    }
+    if modes.frequencies.len() < count.min(engine.free_dofs()) {
+        return Err(Stop::Failed(format!(
+            "{path}: only {} of the {count} lowest frequencies converged",
+            modes.frequencies.len()
+        )));
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// The progress line of `velarium solve` on stderr: redrawn a few times a second by a thread

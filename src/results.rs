@@ -133,6 +133,8 @@ pub fn evaluate(
                 zone_force(model, u, applied, zone)[*component]
             }
             ProbeModel::NewtonIterations => iterations as f64,
+            // The engine fills it in (`Engine::refresh_outputs`).
+            ProbeModel::NaturalFrequency { .. } => 0.0,
             ProbeModel::WrinkledFraction(tris) => fraction(tris, WrinkleState::Wrinkled),
             ProbeModel::SlackFraction(tris) => fraction(tris, WrinkleState::Slack),
             ProbeModel::MaxPrincipalStress(tris) => tris

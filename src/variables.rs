@@ -107,6 +107,7 @@ pub const UNITS: &[(&str, [i32; 4])] = &[
     ("m/s2", [0, 1, -2, 0]),
     ("N.m", [1, 2, -2, 0]),
     ("rad", [0, 0, 0, 1]),
+    ("Hz", [0, 0, -1, 0]),
 ];
 
 /// Build the table of a (validated) scene. Parameter start values are read from the scene.
@@ -212,6 +213,7 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
             Probe::ReactionMoment { .. } => (VarType::Real, Variability::Continuous, Some("N.m")),
             Probe::EnclosedVolume { .. } => (VarType::Real, Variability::Continuous, Some("m3")),
             Probe::EnclosedPressure { .. } => (VarType::Real, Variability::Continuous, Some("Pa")),
+            Probe::NaturalFrequency { .. } => (VarType::Real, Variability::Continuous, Some("Hz")),
         };
         vars.push(Variable {
             name: out.name.clone(),

@@ -43,6 +43,42 @@ impl Series {
         Ok(())
     }
 
+    /// Write mode `k` (1-based) of the engine's committed equilibrium as the next row of the
+    /// series, at time `k`: the state's arrays plus the point data `mode_shape` (3: the mode,
+    /// scaled to a largest nodal amplitude of 1, dimensionless; Warp By Vector with a scale
+    /// in m draws it) and the field data `frequency_Hz`.
+    pub fn write_mode(
+        &mut self,
+        engine: &Engine,
+        k: usize,
+        frequency: f64,
+        shape: &[f64],
+    ) -> Result<(), Error> {
+        use crate::vtu::{DataArray, Values};
+        let nodes = engine.model().reference.len();
+        let shape = &shape[..3 * nodes];
+        let largest = shape
+            .chunks(3)
+            .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+            .fold(0.0f64, f64::max);
+        let scale = if largest > 0.0 { 1.0 / largest } else { 1.0 };
+        let mut grid = Grid::state(engine, Some(k as f64));
+        grid.point_data.push(DataArray::new(
+            "mode_shape",
+            3,
+            Values::Float64(shape.iter().map(|v| v * scale).collect()),
+        ));
+        grid.field_data.push(DataArray::new(
+            "frequency_Hz",
+            1,
+            Values::Float64(vec![frequency]),
+        ));
+        let name = format!("{}_{:04}.vtu", self.stem, self.written.len());
+        write_atomically(&self.dir.join(&name), &grid.binary())?;
+        self.written.push((k as f64, name));
+        Ok(())
+    }
+
     /// Write `<stem>.pvd` listing every row written so far; returns its path.
     pub fn finish(&self) -> Result<PathBuf, Error> {
         let path = self.dir.join(format!("{}.pvd", self.stem));

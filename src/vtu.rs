@@ -125,7 +125,7 @@ pub struct DataArray {
 }
 
 impl DataArray {
-    fn new(name: &str, components: usize, values: Values) -> DataArray {
+    pub fn new(name: &str, components: usize, values: Values) -> DataArray {
         DataArray {
             name: name.to_string(),
             components,

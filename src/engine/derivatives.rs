@@ -261,6 +261,16 @@ impl Engine {
         dv: &[f64],
         dp: &[f64],
     ) -> Result<Vec<f64>, Error> {
+        if unknowns.iter().any(|&o| {
+            matches!(
+                self.model.probes.get(o),
+                Some(ProbeModel::NaturalFrequency { .. })
+            )
+        }) {
+            return Err(Error::Unsupported(
+                "derivatives of a natural_frequency output (not implemented: the eigenvalue's derivative needs the mode's)".into(),
+            ));
+        }
         let mut out = vec![0.0; unknowns.len()];
         let mut needs_difference = Vec::new();
         // A parameter may enter a probe itself (EA in a tension): only the kinematic probes

@@ -186,8 +186,14 @@ impl Engine {
         self.state.applied = applied;
         self.state.last_iterations = report.iterations as u32;
         if let Err(e) = self.refresh_outputs() {
-            // Nothing of the outputs was changed: back to the state they belong to.
+            // Back to the state the outputs belong to. A failed memory probe changed nothing;
+            // a failed natural_frequency output came after the other outputs, which are
+            // evaluated again for the previous state.
             self.state = previous;
+            if matches!(e, Error::Memory(_)) {
+                return StepReport::failed_with(e.to_string());
+            }
+            let _ = self.refresh_outputs();
             return StepReport::failed_with(e.to_string());
         }
         // A converged answer is never returned non-finite: loads so large that a position, a

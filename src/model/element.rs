@@ -38,10 +38,11 @@
 //! formfind             what form finding prescribes on each kind (check_kinds)
 //! ```
 //!
-//! Mass: [`Element::lumped_mass`] and [`Element::consistent_mass`] default to massless. They
-//! are the place the dynamics (a mass matrix M on the tangent's pattern, which already couples
-//! every pair of an element's DOFs) fills in, per kind, with the density it adds to the
-//! element data.
+//! Mass: [`Element::lumped_mass`] and [`Element::consistent_mass`] default to massless (the
+//! tie); the membrane triangle and the cable segment give theirs from the mass they carry
+//! (`Triangle::mass`, `Segment::mass`: the group's `density`, the cable's `mass_per_length`).
+//! `solver::mass` assembles them into M on the tangent's pattern, which already couples every
+//! pair of an element's DOFs.
 
 /// The kinds of element a model may hold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -145,15 +146,15 @@ pub trait Element {
     /// reference diagonal D (`solver::core`, `newton.rs`).
     fn reference_stiffness(&self, a: usize) -> f64;
 
-    /// Lumped mass (kg) at local node `a`. Massless until the dynamics gives elements a
-    /// density (a membrane triangle ρ t A/3, a cable segment ρ_l L/2 per node).
+    /// Lumped mass (kg) at local node `a` (a membrane triangle ρ t A/3, a cable segment
+    /// ρ_l L/2 per node; massless by default).
     fn lumped_mass(&self, _a: usize) -> f64 {
         0.0
     }
 
-    /// Consistent mass (kg) coupling local nodes `a` and `b`, times the 3x3 identity. Massless
-    /// until the dynamics fills it in (a membrane triangle ρ t A (1 + δ_ab)/12, a cable segment
-    /// ρ_l L (1 + δ_ab)/6).
+    /// Consistent mass (kg) coupling local nodes `a` and `b`, times the 3x3 identity (a
+    /// membrane triangle ρ t A (1 + δ_ab)/12, a cable segment ρ_l L (1 + δ_ab)/6; massless by
+    /// default). Its rows sum to [`Element::lumped_mass`].
     fn consistent_mass(&self, _a: usize, _b: usize) -> f64 {
         0.0
     }
@@ -201,8 +202,15 @@ mod tests {
                     assert!(i < nodes, "{} {e} names node {i} of {nodes}", kind.name());
                     let k = element.reference_stiffness(a);
                     assert!(k > 0.0 && k.is_finite(), "{} {e}: {k}", kind.name());
-                    assert_eq!(element.lumped_mass(a), 0.0);
-                    assert_eq!(element.consistent_mass(a, a), 0.0);
+                    // The consistent rows sum to the lumped mass (mass is conserved).
+                    let row: f64 = (0..kind.node_count())
+                        .map(|b| element.consistent_mass(a, b))
+                        .sum();
+                    let lumped = element.lumped_mass(a);
+                    assert!(lumped >= 0.0 && (row - lumped).abs() <= 1e-15 * lumped.max(1.0));
+                    if kind == ElementKind::Tie {
+                        assert_eq!(lumped, 0.0, "a tie is massless");
+                    }
                 }
             }
             total += count;

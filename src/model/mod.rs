@@ -49,6 +49,8 @@ pub struct Triangle {
     pub material: membrane::Material,
     /// Tangent-only artificial prestress, Pa.
     pub prestress: f64,
+    /// Mass ρ t A₀ in kg (the group's `density`; 0: massless).
+    pub mass: f64,
 }
 
 #[derive(Clone, Debug)]
@@ -60,6 +62,8 @@ pub struct Segment {
     /// Slip unknowns (indices into `Model::slips`) at the start and end point: the unstretched
     /// length is `l0 + s_end − s_start` (material flows through sleeve points).
     pub slip: [Option<usize>; 2],
+    /// Mass μ ℓ in kg, ℓ as drawn (the cable's `mass_per_length`; 0: massless).
+    pub mass: f64,
 }
 
 impl Element for Triangle {
@@ -72,6 +76,16 @@ impl Element for Triangle {
         let k = self.material.modulus() * self.material.thickness * self.reference.area;
         k * self.reference.grad[a].norm_squared()
     }
+
+    /// ρ t A₀/3.
+    fn lumped_mass(&self, _a: usize) -> f64 {
+        self.mass / 3.0
+    }
+
+    /// ρ t A₀ (1 + δ_ab)/12 (∫ N_a N_b dA of the linear triangle).
+    fn consistent_mass(&self, a: usize, b: usize) -> f64 {
+        self.mass * if a == b { 2.0 } else { 1.0 } / 12.0
+    }
 }
 
 impl Element for Segment {
@@ -82,6 +96,16 @@ impl Element for Segment {
     /// EA/L0.
     fn reference_stiffness(&self, _a: usize) -> f64 {
         self.ea / self.l0
+    }
+
+    /// μ ℓ/2.
+    fn lumped_mass(&self, _a: usize) -> f64 {
+        self.mass / 2.0
+    }
+
+    /// μ ℓ (1 + δ_ab)/6 (∫ N_a N_b ds of the linear segment).
+    fn consistent_mass(&self, a: usize, b: usize) -> f64 {
+        self.mass * if a == b { 2.0 } else { 1.0 } / 6.0
     }
 }
 
@@ -239,6 +263,11 @@ pub enum ProbeModel {
         component: usize,
     },
     NewtonIterations,
+    /// The `mode`-th lowest natural frequency, Hz (filled in by the engine after each
+    /// converged step: `Engine::modes`).
+    NaturalFrequency {
+        mode: usize,
+    },
     /// Area fractions and principal-stress extremes over these triangles (`Model::triangles`
     /// indices).
     WrinkledFraction(Vec<usize>),
@@ -270,6 +299,11 @@ pub struct Model {
     pub length_scale: f64,
     /// Pressure unknowns of volume inputs (stored after the slips).
     pub volumes: usize,
+    /// Point masses (node, kg) of the scene's `dynamics` section, one entry per node and
+    /// point-mass entry.
+    pub point_masses: Vec<(usize, f64)>,
+    /// The mass matrix the dynamics uses (consistent without a `dynamics` section).
+    pub mass_kind: crate::scene::MassKind,
 }
 
 impl Model {
@@ -361,6 +395,10 @@ impl Model {
             .chain(segments.iter().map(|s| s.ea))
             .fold(0.0, f64::max);
         let length_scale = bounding_diagonal(&reference, &used);
+        let mut point_masses = Vec::new();
+        for pm in scene.dynamics.iter().flat_map(|d| &d.point_masses) {
+            point_masses.extend(node_ids(&mesh, &pm.nodes).into_iter().map(|i| (i, pm.mass)));
+        }
         Ok(Model {
             reference,
             triangles,
@@ -374,6 +412,11 @@ impl Model {
             force_scale,
             length_scale,
             volumes,
+            point_masses,
+            mass_kind: scene
+                .dynamics
+                .as_ref()
+                .map_or_else(Default::default, |d| d.mass),
         })
     }
 
@@ -615,12 +658,16 @@ fn build_triangles(
                 reference.initial_strain =
                     prestress_strain(at, k, m, &material, pre, &reference, c.into())?;
             }
+            let mass = m
+                .density
+                .map_or(0.0, |rho| rho * m.thickness * reference.area);
             out.push(Triangle {
                 id: t,
                 nodes,
                 reference,
                 material,
                 prestress: 0.0,
+                mass,
             });
         }
         // Every group, flat or curved, gets the same tangent-only artificial prestress: each
@@ -773,6 +820,7 @@ fn build_cables(
                 ea: c.ea,
                 law,
                 slip: [slip_of_point[k], slip_of_point[k + 1]],
+                mass: c.mass_per_length.map_or(0.0, |mu| mu * l),
             });
         }
         cables.push(CableInfo {
@@ -1303,6 +1351,7 @@ fn build_probe(
             }
         }
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
+        Probe::NaturalFrequency { mode } => ProbeModel::NaturalFrequency { mode: *mode },
         Probe::EnclosedVolume { membrane } => {
             ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)
         }

@@ -79,6 +79,54 @@ pub struct Scene {
     /// leave this out; test variants add it (and may expose its fields as parameters).
     #[serde(default, skip_serializing_if = "DebugSettings::is_off")]
     pub debug: DebugSettings,
+    /// Mass and damping for the dynamics (docs/dynamics.md): which mass matrix, point masses
+    /// on node sets and Rayleigh damping. The membranes' `density` and the cables'
+    /// `mass_per_length` give the distributed mass. Absent: the scene is quasi-static and
+    /// its results do not depend on any of this (`velarium modes` still uses the distributed
+    /// mass, consistent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dynamics: Option<Dynamics>,
+}
+
+/// Mass and damping (docs/dynamics.md).
+#[derive(Clone, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Dynamics {
+    /// The mass matrix: `consistent` (the default: ∫ρ N_a N_b over each element, frequencies
+    /// from above) or `lumped` (diagonal, each element's mass shared equally among its nodes).
+    #[serde(default)]
+    pub mass: MassKind,
+    /// Rayleigh damping C = alpha M + beta K0: the mass-proportional factor alpha in 1/s
+    /// (>= 0, default 0). Stored for the time integration.
+    #[serde(default)]
+    pub rayleigh_alpha: f64,
+    /// Rayleigh damping's stiffness-proportional factor beta in s (>= 0, default 0). Stored
+    /// for the time integration.
+    #[serde(default)]
+    pub rayleigh_beta: f64,
+    /// Point masses: `mass` kg at every node of `nodes` (masts' heads, fittings, ballast).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub point_masses: Vec<PointMass>,
+}
+
+/// Which mass matrix the dynamics uses.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MassKind {
+    /// ∫ρ N_a N_b: a membrane triangle ρ t A (1 + δ_ab)/12, a cable segment μ ℓ (1 + δ_ab)/6.
+    #[default]
+    Consistent,
+    /// Diagonal: a membrane triangle ρ t A/3 and a cable segment μ ℓ/2 at each of its nodes.
+    Lumped,
+}
+
+/// A point mass at every node of a set.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PointMass {
+    pub nodes: NodeRef,
+    /// Mass in kg at each node (> 0).
+    pub mass: f64,
 }
 
 /// Explicit mesh data plus generators. Generated nodes and triangles are appended after the
@@ -749,6 +797,11 @@ pub enum Probe {
     ZoneForce { zone: String, component: Component },
     /// Newton iterations used by the last step (all internal increments), Integer.
     NewtonIterations,
+    /// The `mode`-th lowest natural frequency (Hz, `mode` 1-based, at most 1000) of small
+    /// vibrations about each converged equilibrium (docs/dynamics.md): the scene needs mass
+    /// and no sleeves or volume inputs. Each step computes the lowest `mode` frequencies (a
+    /// factorization and a Lanczos iteration more per step). No derivative.
+    NaturalFrequency { mode: usize },
     /// Fraction (0..1) of the reference area that is wrinkled, of one membrane group or of all.
     WrinkledFraction {
         #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -234,6 +234,11 @@ pub const RULES: &[FieldRule] = &[
     at("form_finding.place[].translate[]", COORDINATE),
     at("form_finding.place[].rotate.point[]", COORDINATE),
     at("form_finding.place[].rotate.angle", closed(-1e3, 1e3)),
+    // Dynamics.
+    at("dynamics.rayleigh_alpha", NON_NEGATIVE),
+    at("dynamics.rayleigh_beta", NON_NEGATIVE),
+    at("dynamics.point_masses[].mass", POSITIVE),
+    at("outputs[].probe{natural_frequency}.mode", count(1, 1000)),
 ];
 
 /// One step of a field path.
@@ -507,8 +512,11 @@ mod tests {
                  {"name": "water", "load": {"kind": "ponding", "membrane": "m", "gamma_w": 9810}}],
       "cables": [{"name": "c", "nodes": "s.edge_bottom", "EA": 1e5, "mass_per_length": 0.5}],
       "outputs": [{"name": "ur", "probe": {"kind": "polar_displacement", "node": "s.center",
-                                           "center": [0, 0, 0], "axis": "z", "component": "radial"}}],
-      "solver": {"arc_length": 0.01, "artificial_prestress": 10, "threads": 1}
+                                           "center": [0, 0, 0], "axis": "z", "component": "radial"}},
+                  {"name": "f1", "probe": {"kind": "natural_frequency", "mode": 1}}],
+      "solver": {"arc_length": 0.01, "artificial_prestress": 10, "threads": 1},
+      "dynamics": {"mass": "lumped", "rayleigh_alpha": 0.1, "rayleigh_beta": 0.001,
+                   "point_masses": [{"nodes": "s.corner_tr", "mass": 2}]}
     }"#;
 
     const TETRA: &str = r#"{

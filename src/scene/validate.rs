@@ -110,6 +110,7 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     v.parameters(scene);
     v.names(scene);
     v.form_finding(scene, &mesh);
+    v.dynamics(scene, &mesh);
     v.problems
 }
 
@@ -1489,6 +1490,34 @@ impl Validator {
                     }
                 }
                 Probe::NewtonIterations => {}
+                Probe::NaturalFrequency { mode } => {
+                    if !(1..=1000).contains(mode) {
+                        self.push(
+                            format!("{p}.mode"),
+                            format!("{mode} is not a mode number in 1..=1000"),
+                        );
+                    }
+                    let massive = s.membranes.iter().any(|m| m.density.is_some())
+                        || s.cables.iter().any(|c| c.mass_per_length.is_some())
+                        || s.dynamics.iter().any(|d| !d.point_masses.is_empty());
+                    if !massive {
+                        self.push(
+                            p.clone(),
+                            "a natural_frequency output needs mass: give a membrane group a density (kg/m3), a cable a mass_per_length (kg/m) or dynamics.point_masses",
+                        );
+                    }
+                    let sleeves = s.cables.iter().any(|c| c.sleeve.is_some());
+                    let volumes = s
+                        .inputs
+                        .iter()
+                        .any(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }));
+                    if sleeves || volumes {
+                        self.push(
+                            p.clone(),
+                            "a natural_frequency output is not available with sleeves or volume inputs (their unknowns are not in the eigenproblem yet)",
+                        );
+                    }
+                }
                 Probe::EnclosedVolume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.membrane"));
                 }
@@ -1730,6 +1759,35 @@ impl Validator {
                     );
                 }
             }
+        }
+    }
+
+    /// The `dynamics` section: damping factors non-negative and finite, point masses
+    /// positive on node sets that resolve.
+    fn dynamics(&mut self, s: &Scene, mesh: &Mesh) {
+        let Some(d) = &s.dynamics else {
+            return;
+        };
+        for (field, value, unit) in [
+            ("rayleigh_alpha", d.rayleigh_alpha, "1/s"),
+            ("rayleigh_beta", d.rayleigh_beta, "s"),
+        ] {
+            if !(value.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&value)) {
+                self.push(
+                    format!("dynamics.{field}"),
+                    format!("{value} is not a damping factor in {unit} (0 or more, at most 1e30)"),
+                );
+            }
+        }
+        for (k, pm) in d.point_masses.iter().enumerate() {
+            let p = format!("dynamics.point_masses[{k}]");
+            if !positive(pm.mass) {
+                self.push(
+                    format!("{p}.mass"),
+                    format!("{} is not a positive mass in kg {RANGE}", pm.mass),
+                );
+            }
+            self.nodes(mesh, &pm.nodes, &format!("{p}.nodes"));
         }
     }
 

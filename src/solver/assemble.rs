@@ -185,6 +185,17 @@ impl Pattern {
         &self.order[ElementKind::Membrane]
     }
 
+    /// Every element of `kind` with its position map (`ElementKind::block_len` entries, row
+    /// major over the element's local DOFs; [`UNMAPPED`]: held or lower triangle), in visit
+    /// order: what an assembly of another matrix on the tangent's pattern (the mass,
+    /// `mass.rs`) scatters through.
+    pub fn element_maps(&self, kind: ElementKind) -> impl Iterator<Item = (usize, &[u32])> {
+        self.order[kind]
+            .iter()
+            .enumerate()
+            .map(move |(slot, &e)| (e, self.map(kind, slot)))
+    }
+
     /// The position map of the element at `slot` of `kind`'s visit order.
     fn map(&self, kind: ElementKind, slot: usize) -> &[u32] {
         let len = kind.block_len();

@@ -366,6 +366,56 @@ impl Ldlt {
         result
     }
 
+    /// Solve with the last factorization for `columns` right-hand sides at once (column
+    /// major in `rhs`, each of the equations' length): one pass over the factor for all of
+    /// them (the block Lanczos of `modes.rs`); with the two-domain split, one after another.
+    pub fn solve_columns(&mut self, rhs: &mut [f64], columns: usize) -> Result<(), Error> {
+        if columns == 0 || rhs.is_empty() {
+            return Ok(());
+        }
+        let n = rhs.len() / columns;
+        if self.split.is_some() || columns == 1 {
+            for column in rhs.chunks_mut(n) {
+                self.solve(column)?;
+            }
+            return Ok(());
+        }
+        let scaled = self.scale.len() == n;
+        if scaled {
+            for column in rhs.chunks_mut(n) {
+                column
+                    .iter_mut()
+                    .zip(&self.scale)
+                    .for_each(|(x, s)| *x *= s);
+            }
+        }
+        let symbolic = self
+            .symbolic
+            .as_ref()
+            .expect("the whole tangent's symbolic factorization");
+        let req = symbolic.solve_in_place_scratch::<f64>(columns, Par::Seq);
+        let mut mem = MemBuffer::try_new(req).map_err(|_| OutOfMemory {
+            what: "the solve workspace",
+            bytes: req.size_bytes() as u64,
+        })?;
+        let ldlt = LdltRef::new(symbolic, &self.l_values);
+        let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, columns);
+        ldlt.solve_in_place_with_conj(Conj::No, rhs_mat, Par::Seq, MemStack::new(&mut mem));
+        if scaled {
+            for column in rhs.chunks_mut(n) {
+                column
+                    .iter_mut()
+                    .zip(&self.scale)
+                    .for_each(|(x, s)| *x *= s);
+            }
+        }
+        if rhs.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(Breakdown::NonFinite(NON_FINITE).into())
+        }
+    }
+
     /// Solve with the factor as held (of S K S when scaled).
     fn solve_scaled(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
         let n = rhs.len();

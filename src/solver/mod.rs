@@ -23,6 +23,8 @@
 //! line_search.rs  one backtracking search: potential, slope or residual merit (slope.rs)
 //! assemble.rs     pattern and assembly of residual and tangent over the model's elements
 //! linear.rs       sparse LDLT (factor.rs: faer's calls; split.rs: two halves on 2 threads)
+//! mass.rs         the mass matrix on the tangent's pattern (consistent or lumped)
+//! modes.rs        natural frequencies and modes: shift-invert Lanczos on K and M
 //! stability.rs    whether an equilibrium under ponding water is stable (K positive definite)
 //! core.rs         the Solver's workspace; settings.rs, report.rs, loads.rs, rows.rs: plain
 //!                 data and functions every phase shares
@@ -45,7 +47,9 @@ mod factor;
 mod line_search;
 pub mod linear;
 pub mod loads;
+pub mod mass;
 pub mod mechanism;
+pub mod modes;
 mod newton;
 mod order;
 mod path;

@@ -841,7 +841,7 @@ fn skew_parts(model: &Model, u: &[f64], loads: &[f64]) -> Vec<([usize; 3], Mat9)
 
 /// The tangent-only parts that the factored tangent holds and the true one lacks, per element
 /// kind: the regularisation ε·D0 of the wrinkled and slack triangles.
-fn regularisation_parts(
+pub(super) fn regularisation_parts(
     model: &Model,
     u: &[f64],
     wrinkle: &[WrinkleState],

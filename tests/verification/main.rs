@@ -17,6 +17,7 @@ mod form_finding;
 mod hencky_disc;
 mod lame_annulus;
 mod lifted_membrane;
+mod natural_frequencies;
 mod orthotropic;
 mod patch_test;
 mod prestressed_membrane;

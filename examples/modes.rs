@@ -1,0 +1,75 @@
+//! Natural-frequency benchmark, printed (not asserted; issue 31's target: ten modes of a
+//! 100k-DOF membrane in at most the time of five factorizations):
+//! `cargo run --release --example modes -- [DIVISIONS] [--count=N]`.
+//!
+//! A flat rectangular membrane 1 m x 0.7 m, 1 mm, SVK E 1 GPa, nu 0.3, isotropic prestress
+//! 1 kN/m, density 1000 kg/m3, clamped on its boundary (tests/verification/
+//! natural_frequencies.rs's case), DIVISIONS x round(0.7 DIVISIONS) cells (default 230: about
+//! 100k free DOF), one solver thread. Printed: free DOF, the time of one numeric factorization
+//! and one solve of the tangent at the equilibrium (best of 3, `Engine::time_floor_parts`), the
+//! wall time of `Engine::modes` (its assembly, mass, one factorization of K - sigma M, the
+//! block Lanczos's solves and reorthogonalisation), its solves, the ratio
+//! to one factorization, and the lowest frequencies against the closed form.
+
+use std::time::Instant;
+use velarium::{Engine, Scene};
+
+fn main() {
+    let mut divisions = 230usize;
+    let mut count = 10usize;
+    for arg in std::env::args().skip(1) {
+        if let Some(n) = arg.strip_prefix("--count=") {
+            count = n.parse().expect("--count=N");
+        } else {
+            divisions = arg.parse().expect("DIVISIONS: a whole number");
+        }
+    }
+    let ny = ((0.7 * divisions as f64).round() as usize).max(1);
+    let text = serde_json::json!({
+        "format": 1, "name": "ModesBenchmark",
+        "geometry": {"generators": [{"kind": "rectangle", "name": "s", "origin": [0, 0, 0],
+                                     "size": [1.0, 0.7], "divisions": [divisions, ny]}]},
+        "membranes": [{"name": "m", "triangles": "s", "thickness": 0.001, "density": 1000.0,
+                       "material": {"kind": "svk", "E": 1e9, "nu": 0.3},
+                       "prestress": {"kind": "isotropic", "n": 1000.0}}],
+        "supports": [{"nodes": "s.boundary", "fix": ["x", "y", "z"]}],
+        "solver": {"threads": 1}
+    })
+    .to_string();
+    let scene = Scene::from_json(&text).expect("the benchmark scene");
+    let mut engine = Engine::try_new(scene).expect("the benchmark engine");
+    let report = engine.solve();
+    assert!(report.converged(), "{}", report.message);
+    let (_, factor, solve) = engine.time_floor_parts(3);
+    let started = Instant::now();
+    let modes = engine.modes(count).expect("the modes");
+    let seconds = started.elapsed().as_secs_f64();
+    println!(
+        "free DOF {}, one factorization {factor:.3} s, one solve {solve:.4} s",
+        engine.free_dofs()
+    );
+    println!(
+        "{} modes in {seconds:.3} s = {:.2} factorizations ({} right-hand sides solved, 4 per pass)",
+        modes.frequencies.len(),
+        seconds / factor,
+        modes.solves
+    );
+    println!(
+        "  of which: assembly and factorization of K - sigma M {:.3} s, solves {:.3} s, the rest of Lanczos {:.3} s",
+        modes.seconds[0], modes.seconds[1], modes.seconds[2]
+    );
+    let c = (1000.0f64 / 1.0).sqrt();
+    let mut exact: Vec<f64> = (1..12)
+        .flat_map(|m| (1..12).map(move |n| (m as f64, n as f64)))
+        .map(|(m, n)| 0.5 * c * (m * m + (n / 0.7) * (n / 0.7)).sqrt())
+        .collect();
+    exact.sort_by(f64::total_cmp);
+    for (k, f) in modes.frequencies.iter().enumerate() {
+        println!(
+            "  f{} = {f:.4} Hz, closed form {:.4} Hz, {:+.4} %",
+            k + 1,
+            exact[k],
+            100.0 * (f - exact[k]) / exact[k]
+        );
+    }
+}
