@@ -33,7 +33,7 @@
 //! Symmetric Eigenvalue Problem*, ch. 13 (Lanczos, full reorthogonalisation); Golub & Van Loan
 //! 2013, §10.1.
 
-use super::assemble::{self, Membranes, NONE};
+use super::assemble::NONE;
 use super::core::Solver;
 use super::mass::Mass;
 use crate::error::Error;
@@ -301,22 +301,7 @@ impl Solver {
         let n = self.pattern.n;
         let started = std::time::Instant::now();
         // The true tangent (as `factor_tangent`): states frozen, no artificial prestress.
-        let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
-        let membranes = Membranes {
-            forced: Some(&forced),
-            prestress_factor: Some(0.0),
-            ..Default::default()
-        };
-        let mut r = vec![0.0; model.dof_count()];
-        assemble::assemble_with(
-            model,
-            &self.pattern,
-            u,
-            loads,
-            &mut r,
-            Some(self.linear.values_mut()),
-            membranes,
-        );
+        self.assemble_true_tangent(model, u, loads, wrinkle);
         self.remove_regularisation(model, u, wrinkle);
         // The shift: below ω² = 0 by SHIFT of the largest K_ii/M_ii.
         let mut largest = 0.0f64;

@@ -189,16 +189,17 @@ struct Lu {
 }
 
 impl Solver {
-    /// Assemble the consistent tangent at the converged state `u` (wrinkle states `wrinkle`,
-    /// stick/slip states `slip_states`, both frozen) and factor it once.
-    pub fn factor_tangent(
+    /// The true tangent at the converged state `u` into the linear solver's values: the wrinkle
+    /// states `wrinkle` frozen, no artificial prestress (the regularisation of wrinkled and
+    /// slack triangles is still in; `remove_regularisation` takes it out). Shared by the
+    /// sensitivities and the natural frequencies (modes.rs).
+    pub(super) fn assemble_true_tangent(
         &mut self,
         model: &Model,
         u: &[f64],
         loads: &[f64],
         wrinkle: &[WrinkleState],
-        slip_states: &[Contact],
-    ) -> Result<Tangent, Error> {
+    ) {
         let forced: Vec<Option<WrinkleState>> = wrinkle.iter().copied().map(Some).collect();
         let membranes = Membranes {
             forced: Some(&forced),
@@ -215,6 +216,19 @@ impl Solver {
             Some(self.linear.values_mut()),
             membranes,
         );
+    }
+
+    /// Assemble the consistent tangent at the converged state `u` (wrinkle states `wrinkle`,
+    /// stick/slip states `slip_states`, both frozen) and factor it once.
+    pub fn factor_tangent(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        wrinkle: &[WrinkleState],
+        slip_states: &[Contact],
+    ) -> Result<Tangent, Error> {
+        self.assemble_true_tangent(model, u, loads, wrinkle);
         let upper = {
             let a = self.linear.matrix();
             let what = "the sensitivity's copy of the tangent";
