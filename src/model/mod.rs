@@ -23,6 +23,7 @@ pub mod orthotropic;
 pub mod plane_stress;
 pub mod pressure;
 pub mod sleeve;
+pub mod state;
 pub mod wrinkling;
 
 use crate::error::Error;
@@ -304,6 +305,9 @@ pub struct Model {
     pub point_masses: Vec<(usize, f64)>,
     /// The mass matrix the dynamics uses (consistent without a `dynamics` section).
     pub mass_kind: crate::scene::MassKind,
+    /// The committed plastic strains the assembly reads (`state.rs`; empty without an
+    /// elastoplastic group).
+    pub plastic: state::PlasticStore,
 }
 
 impl Model {
@@ -417,7 +421,14 @@ impl Model {
                 .dynamics
                 .as_ref()
                 .map_or_else(Default::default, |d| d.mass),
+            plastic: Default::default(),
         })
+    }
+
+    /// Length of the plastic history (`state::History::plastic`): 4 per triangle when a
+    /// membrane group is elastoplastic, 0 otherwise.
+    pub fn plastic_len(&self) -> usize {
+        0
     }
 
     /// True when every load has a potential (no follower pressure).
