@@ -450,13 +450,13 @@ mod tests {
     #[test]
     fn another_format_version_is_refused() {
         let bytes = encode(&sample(), "{abc}").unwrap();
-        for version in [0, 1, 2, 5, u32::MAX] {
+        for version in [0, 1, 2, 6, u32::MAX] {
             let e = decode(&seal(version, "{abc}", &payload(&bytes, "{abc}")), "{abc}")
                 .unwrap_err()
                 .to_string();
             assert!(
                 e.contains(&format!(
-                    "version check failed: format version {version}, this FMU reads 3 and 4"
+                    "version check failed: format version {version}, this FMU reads 3 and 5"
                 )),
                 "{e}"
             );
@@ -471,8 +471,7 @@ mod tests {
         let mut snapshot = sample();
         // Comparable with ==: no NaN.
         snapshot.engine.displacement[4] = 0.5;
-        let bytes = encode(&snapshot, "{abc}").unwrap();
-        let old = seal(3, "{abc}", &payload(&bytes, "{abc}"));
+        let old = seal(3, "{abc}", &legacy_payload(&snapshot));
         let (mut back, version) = decode(&old, "{abc}").unwrap();
         assert_eq!((version, &back), (3, &snapshot));
         let n = snapshot.engine.displacement.len();
@@ -547,5 +546,40 @@ mod tests {
                 let _ = decode(&seal(STATE_FORMAT_VERSION, guid, &bad), guid);
             }
         }
+    }
+
+    /// The payload of formats 3 and 4 for a snapshot without plastic strains: format 5's less
+    /// the empty `plastic` (its varint length 0, the engine state's last byte).
+    fn legacy_payload(snapshot: &Snapshot) -> Vec<u8> {
+        assert!(snapshot.engine.plastic.is_empty());
+        let body = postcard::to_allocvec(snapshot).unwrap();
+        let engine_len = postcard::to_allocvec(&snapshot.engine).unwrap().len();
+        assert_eq!(body[engine_len - 1], 0);
+        [&body[..engine_len - 1], &body[engine_len..]].concat()
+    }
+
+    // GOAL: the plastic strains of an elastoplastic model travel bit for bit (format 5), and a
+    // state written in format 4 (the same payload without them) is still read, with none.
+    #[test]
+    fn plastic_strains_round_trip_and_format_4_is_read() {
+        let guid = "{abc}";
+        let mut with = sample();
+        // Comparable with ==: no NaN.
+        with.engine.displacement[4] = 0.5;
+        with.engine.plastic = vec![0.1 + 0.2, -1e-300, 2.5e-2, f64::MIN_POSITIVE];
+        let (back, version) = decode(&encode(&with, guid).unwrap(), guid).unwrap();
+        assert_eq!(version, 5);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.engine.plastic), bits(&with.engine.plastic));
+        assert_eq!(back, with);
+        // Format 4: the engine state ends before `plastic`.
+        let mut plain = sample();
+        plain.engine.displacement[4] = 0.5;
+        let old = legacy_payload(&plain);
+        let (back, version) = decode(&seal(4, guid, &old), guid).unwrap();
+        assert_eq!(version, 4);
+        assert_eq!(back, plain);
+        // The format 4 layout is refused as format 5 (a byte short).
+        assert!(decode(&seal(5, guid, &old), guid).is_err());
     }
 }

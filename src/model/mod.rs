@@ -18,6 +18,7 @@
 
 pub mod cable;
 pub mod element;
+pub mod etfe;
 pub mod membrane;
 pub mod orthotropic;
 pub mod plane_stress;
@@ -307,7 +308,7 @@ pub struct Model {
     pub mass_kind: crate::scene::MassKind,
     /// The committed plastic strains the assembly reads (`state.rs`; empty without an
     /// elastoplastic group).
-    pub plastic: state::PlasticStore,
+    pub plastic: etfe::PlasticStore,
 }
 
 impl Model {
@@ -428,7 +429,11 @@ impl Model {
     /// Length of the plastic history (`state::History::plastic`): 4 per triangle when a
     /// membrane group is elastoplastic, 0 otherwise.
     pub fn plastic_len(&self) -> usize {
-        0
+        if self.triangles.iter().any(|t| t.material.plastic.is_some()) {
+            4 * self.triangles.len()
+        } else {
+            0
+        }
     }
 
     /// True when every load has a potential (no follower pressure).
@@ -621,6 +626,7 @@ fn build_triangles(
         let law = match m.material {
             Material::Svk { young, nu } => wrinkling::Law::Svk { young, nu },
             Material::NeoHookean { mu } => wrinkling::Law::NeoHookean { mu },
+            Material::Etfe { young, nu, .. } => wrinkling::Law::Svk { young, nu },
             // The warp angle is set per triangle below.
             Material::Orthotropic {
                 e_warp,
@@ -637,6 +643,25 @@ fn build_triangles(
             thickness: m.thickness,
             wrinkling: m.wrinkling,
             residual: m.residual_stiffness.unwrap_or(0.0),
+            plastic: match m.material {
+                Material::Etfe {
+                    young,
+                    yield_stress,
+                    second_yield_stress,
+                    second_yield_strain,
+                    tangent_modulus,
+                    ..
+                } => Some(etfe::Etfe {
+                    hardening: etfe::Hardening::from_curve(
+                        young,
+                        yield_stress,
+                        (second_yield_strain, second_yield_stress),
+                        tangent_modulus,
+                    ),
+                    slot: 0,
+                }),
+                _ => None,
+            },
         };
         let first = out.len();
         for (k, &t) in triangle_ids(mesh, &m.triangles).iter().enumerate() {
@@ -653,6 +678,10 @@ fn build_triangles(
                 used[i] = true;
             }
             let mut material = material;
+            if let Some(p) = &mut material.plastic {
+                // The triangle's place in the plastic history: its model index.
+                p.slot = out.len();
+            }
             if let (wrinkling::Law::Orthotropic(o), Material::Orthotropic { warp, .. }) =
                 (material.law, &m.material)
             {

@@ -9,13 +9,13 @@
 //! ```
 //! During Newton the history is read, never written: the sleeve points' trial states live in
 //! the iteration, and the plastic strains of a trial point are the return mapping from the
-//! committed ones (`etfe::evaluate`). An accepted increment makes its point the new history
+//! committed ones (`etfe::response`). An accepted increment makes its point the new history
 //! ([`History::advanced`]); a rejected one keeps the old. The assembly reads the committed
-//! plastic strains from the model's store ([`crate::model::PlasticStore`]), which the path
+//! plastic strains from the model's store (`etfe::PlasticStore`), which the path
 //! drivers keep equal to their last converged history ([`History::install`]).
 
 use super::sleeve::Contact;
-use super::Model;
+use super::{etfe, membrane, Model};
 use serde::{Deserialize, Serialize};
 
 /// The converged history (module docs).
@@ -36,10 +36,13 @@ impl History {
 
     /// The history after a converged increment ending at `u` with the sleeve points' states
     /// `contact`: the plastic strains are returned from this history's at `u`
-    /// (`etfe::advance`). The model's store is set to the result.
+    /// ([`advance`]). The model's store is set to the result.
     pub fn advanced(&self, model: &Model, u: &[f64], contact: Vec<Contact>) -> History {
-        let _ = u;
-        let plastic = self.plastic.clone();
+        let plastic = if self.plastic.is_empty() {
+            Vec::new()
+        } else {
+            advance(model, u, &self.plastic)
+        };
         let next = History { contact, plastic };
         next.install(model);
         next
@@ -51,30 +54,24 @@ impl History {
     }
 }
 
-/// The committed plastic strains the assembly reads (4 per triangle, [`History`]), held by the
-/// model behind a lock so that the path drivers can set them through the shared `&Model` the
-/// solver works with. Read once per assembly; written only between Newton solves.
-#[derive(Debug, Default)]
-pub struct PlasticStore(std::sync::RwLock<Vec<f64>>);
-
-impl PlasticStore {
-    /// Replace the stored strains by `values` (same length or a first fill).
-    pub fn set(&self, values: &[f64]) {
-        let mut held = self.0.write().unwrap_or_else(|e| e.into_inner());
-        if held.as_slice() != values {
-            held.clear();
-            held.extend_from_slice(values);
+/// The plastic history at the converged point `u` from the committed one `old` (4 values per
+/// triangle): every elastoplastic triangle's return from its committed state (`etfe::response`,
+/// the wrinkle state found by the law, not frozen).
+pub fn advance(model: &Model, u: &[f64], old: &[f64]) -> Vec<f64> {
+    let mut out = old.to_vec();
+    for t in &model.triangles {
+        let Some(p) = t.material.plastic else {
+            continue;
+        };
+        let x = t.nodes.map(|i| model.position(u, i));
+        let f = membrane::deformation_gradient(&t.reference, &x);
+        let strain = membrane::green_lagrange(&f) + t.reference.initial_strain;
+        let point = etfe::Point::read(old, p.slot);
+        let sheet = t.material.sheet();
+        let (_, next) = etfe::response(sheet, &p.hardening, &strain, &point, None, 0.0);
+        if let Some(slot) = out.get_mut(4 * p.slot..4 * p.slot + 4) {
+            next.write(slot);
         }
     }
-
-    /// The stored strains, for the duration of the guard.
-    pub fn read(&self) -> std::sync::RwLockReadGuard<'_, Vec<f64>> {
-        self.0.read().unwrap_or_else(|e| e.into_inner())
-    }
-}
-
-impl Clone for PlasticStore {
-    fn clone(&self) -> PlasticStore {
-        PlasticStore(std::sync::RwLock::new(self.read().clone()))
-    }
+    out
 }

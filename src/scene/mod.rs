@@ -396,6 +396,26 @@ pub enum Material {
         g: f64,
         warp: [f64; 3],
     },
+    /// ETFE foil: the SVK sheet (`E`, `nu` as for `svk`) made elastoplastic, von Mises with
+    /// isotropic hardening fitted to the uniaxial curve of ETFE design data: elastic up to the
+    /// first yield stress `yield_stress` (Pa, at strain yield_stress/E), straight to the second
+    /// yield point (`second_yield_strain`, `second_yield_stress`: total uniaxial strain and Pa),
+    /// then the tangent modulus `tangent_modulus` (Pa, default 0: no further hardening).
+    /// Ranges: 0 < yield_stress < second_yield_stress; second_yield_strain beyond
+    /// second_yield_stress/E (the curve between the yield points rises less steeply than E);
+    /// 0 <= tangent_modulus < E. Plastic strain is history (saved with the FMU state);
+    /// wrinkling acts on the elastoplastic stress (docs/etfe.md). Not with
+    /// `residual_stiffness`.
+    Etfe {
+        #[serde(rename = "E")]
+        young: f64,
+        nu: f64,
+        yield_stress: f64,
+        second_yield_stress: f64,
+        second_yield_strain: f64,
+        #[serde(default)]
+        tangent_modulus: f64,
+    },
 }
 
 /// Strain law of a cable.

@@ -768,6 +768,25 @@ impl Validator {
                         );
                     }
                 }
+                Material::Etfe {
+                    young,
+                    nu,
+                    yield_stress,
+                    second_yield_stress,
+                    second_yield_strain,
+                    tangent_modulus,
+                } => self.etfe(
+                    &p,
+                    m,
+                    [
+                        young,
+                        nu,
+                        yield_stress,
+                        second_yield_stress,
+                        second_yield_strain,
+                        tangent_modulus,
+                    ],
+                ),
                 Material::NeoHookean { mu } => {
                     if !positive(mu) {
                         self.push(
@@ -2124,4 +2143,69 @@ fn on_axis(x: [f64; 3], center: &[f64; 3], k: usize) -> bool {
         size = size.max(x[c].abs()).max(center[c].abs());
     }
     off.sqrt() <= 1e-12 * size.max(1e-300)
+}
+
+impl Validator {
+    /// An `etfe` material (`Material::Etfe`): the elastic constants as for `svk`, the two yield
+    /// points in order and below the elastic line, the last tangent modulus below E, no
+    /// residual stiffness, and a prestress below the first yield stress.
+    fn etfe(&mut self, p: &str, m: &crate::scene::Membrane, values: [f64; 6]) {
+        let [young, nu, s1, s2, e2, et3] = values;
+        let at = |field: &str| format!("{p}.material.{field}");
+        if !positive(young) {
+            self.push(
+                at("E"),
+                format!("{young} is not a positive Young's modulus in Pa {RANGE}"),
+            );
+        }
+        if !(nu.is_finite() && (0.0..SVK_NU_BOUND).contains(&nu)) {
+            self.push(
+                at("nu"),
+                format!("{nu}: Poisson's ratio must be in [0, 0.5) for the ETFE membrane"),
+            );
+        }
+        if !positive(s1) {
+            self.push(
+                at("yield_stress"),
+                format!("{s1} is not a positive first yield stress in Pa {RANGE}"),
+            );
+        }
+        if !(s2.is_finite() && s2 > s1) {
+            self.push(
+                at("second_yield_stress"),
+                format!("{s2} must be a stress in Pa above yield_stress {s1}"),
+            );
+        }
+        if positive(young) && s2.is_finite() && !(e2.is_finite() && e2 > s2 / young) {
+            self.push(
+                at("second_yield_strain"),
+                format!(
+                    "{e2} must be a total uniaxial strain beyond second_yield_stress / E = {:.6} (the curve between the yield points rises less steeply than E)",
+                    s2 / young
+                ),
+            );
+        }
+        if !(et3.is_finite() && et3 >= 0.0 && (!positive(young) || et3 < young)) {
+            self.push(
+                at("tangent_modulus"),
+                format!("{et3} must be a tangent modulus in Pa in [0, E) (beyond the second yield point)"),
+            );
+        }
+        if m.residual_stiffness.is_some_and(|r| r != 0.0) {
+            self.push(
+                format!("{p}.residual_stiffness"),
+                "is not offered with the etfe material (wrinkled states carry the tension-field stress only)",
+            );
+        }
+        if let Some(pre) = &m.prestress {
+            let (warp, fill, _) = pre.components();
+            let s = warp.max(fill) / m.thickness;
+            if positive(m.thickness) && s.is_finite() && positive(s1) && s >= s1 {
+                self.push(
+                    format!("{p}.prestress"),
+                    format!("{s:e} Pa (the largest prestress / thickness) is not below the first yield stress {s1:e} Pa: an ETFE prestress must be elastic"),
+                );
+            }
+        }
+    }
 }

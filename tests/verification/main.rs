@@ -13,6 +13,7 @@ mod cable_midspan;
 mod capstan_sleeve;
 mod conical_tent;
 mod distant_member;
+mod etfe;
 mod form_finding;
 mod hencky_disc;
 mod lame_annulus;
