@@ -736,7 +736,14 @@ pub(super) fn triangle_contribution(
 ) -> (membrane::Vec9, Evaluation, f64) {
     let t = &model.triangles[e];
     let x = gather(model, u, t.nodes);
-    let plastic = model.plastic.read();
+    // The lock only for an elastoplastic triangle: nodal relaxation calls this per triangle.
+    let held;
+    let plastic: &[f64] = if t.material.plastic.is_some() {
+        held = model.plastic.read();
+        &held
+    } else {
+        &[]
+    };
     let (f, eval) = membrane::triangle_plastic(
         &t.reference,
         &t.material,
@@ -746,7 +753,7 @@ pub(super) fn triangle_contribution(
         ke,
         regularization,
         aid.pre_strain,
-        &plastic,
+        plastic,
     );
     (f, eval, membrane::signed_area_ratio(&t.reference, &x))
 }
