@@ -682,10 +682,17 @@ fn build_triangles(
                 // The triangle's place in the plastic history: its model index.
                 p.slot = out.len();
             }
-            if let (wrinkling::Law::Orthotropic(o), Material::Orthotropic { warp, .. }) =
-                (material.law, &m.material)
+            if let (
+                wrinkling::Law::Orthotropic(o),
+                Material::Orthotropic {
+                    warp, warp_axis, ..
+                },
+            ) = (material.law, &m.material)
             {
-                let w = Vector3::from(*warp);
+                // A radial warp is taken at the centroid (validation: off the axis).
+                let c = nodes.map(|i| x[i]).iter().sum::<Vector3<f64>>() / 3.0;
+                let radial = warp_axis.as_ref().and_then(|a| a.radial(c.into()));
+                let w = Vector3::from(radial.unwrap_or(*warp));
                 let angle = w.dot(&reference.frame[1]).atan2(w.dot(&reference.frame[0]));
                 material.law = wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
                     o.e_warp, o.e_fill, o.nu_wf, o.g, angle,

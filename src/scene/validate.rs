@@ -801,6 +801,7 @@ impl Validator {
                     nu_wf,
                     g,
                     warp,
+                    ref warp_axis,
                 } => {
                     for (name, v, what) in [
                         ("E_warp", e_warp, "Young's modulus"),
@@ -824,7 +825,9 @@ impl Validator {
                         }
                     }
                     let length = warp.iter().map(|x| x * x).sum::<f64>().sqrt();
-                    if !positive(length) || warp.iter().any(|x| !coordinate(*x)) {
+                    if let Some(axis) = warp_axis {
+                        self.warp_axis(&p, mesh, m, axis);
+                    } else if !positive(length) || warp.iter().any(|x| !coordinate(*x)) {
                         self.push(
                             format!("{p}.material.warp"),
                             "must be a non-zero finite vector (the warp direction)",
@@ -2205,6 +2208,58 @@ impl Validator {
                     format!("{p}.prestress"),
                     format!("{s:e} Pa (the largest prestress / thickness) is not below the first yield stress {s1:e} Pa: an ETFE prestress must be elastic"),
                 );
+            }
+        }
+    }
+}
+
+impl Validator {
+    /// An orthotropic group's `warp_axis`: finite, a non-zero axis, and on every triangle a
+    /// radial direction at its centroid that is off the axis and not normal to the triangle.
+    fn warp_axis(
+        &mut self,
+        p: &str,
+        mesh: &Mesh,
+        m: &crate::scene::Membrane,
+        axis: &super::WarpAxis,
+    ) {
+        let at = format!("{p}.material.warp_axis");
+        if axis
+            .center
+            .iter()
+            .chain(&axis.axis)
+            .any(|x| !coordinate(*x))
+        {
+            self.push(at, "must be finite with |x| <= 1e30 m");
+            return;
+        }
+        let n = axis.axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !positive(n) {
+            self.push(format!("{at}.axis"), "must be a non-zero finite vector");
+            return;
+        }
+        let Some(ids) = group_triangles(mesh, &m.triangles) else {
+            return;
+        };
+        for t in ids {
+            let tri = mesh.triangles[t];
+            let Some(normal) = unit_normal(mesh, &tri) else {
+                continue;
+            };
+            let c = [0, 1, 2].map(|k| tri.iter().map(|&i| mesh.nodes[i][k]).sum::<f64>() / 3.0);
+            let Some(w) = axis.radial(c) else {
+                self.push(
+                    at,
+                    format!(
+                        "triangle {t}'s centroid lies on the axis: no radial warp direction there"
+                    ),
+                );
+                return;
+            };
+            let along = (w[0] * normal[0] + w[1] * normal[1] + w[2] * normal[2]).abs();
+            if (1.0 - along * along).max(0.0).sqrt() < WARP_IN_PLANE {
+                self.push(at, format!("the radial direction is (nearly) normal to triangle {t}: its projection onto the triangle gives no warp direction"));
+                return;
             }
         }
     }

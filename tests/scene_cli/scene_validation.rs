@@ -402,3 +402,37 @@ fn etfe_problems_are_located() {
         "{p:#?}"
     );
 }
+
+/// An orthotropic `warp_axis`: a zero axis and a triangle whose centroid lies on the axis are
+/// named by their path; a good axis passes.
+#[test]
+fn warp_axis_problems_are_located() {
+    let scene = |axis: &str| {
+        format!(
+            r#"{{"format": 1, "name": "Fabric",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}},
+              "membranes": [{{"name": "m", "triangles": [0], "thickness": 1e-3,
+                 "material": {{"kind": "orthotropic", "E_warp": 1e9, "E_fill": 5e8, "nu_wf": 0.3,
+                               "G": 3e7, "warp": [1, 0, 0], "warp_axis": {axis}}}}}],
+              "supports": [{{"nodes": [0, 1, 2], "fix": ["x", "y", "z"]}}]}}"#
+        )
+    };
+    let ok = problems(&scene(r#"{"center": [-1, -1, 0], "axis": [0, 0, 1]}"#));
+    assert_eq!(ok, Vec::<String>::new());
+    let p = problems(&scene(r#"{"center": [0, 0, 0], "axis": [0, 0, 0]}"#));
+    assert!(
+        p.iter()
+            .any(|x| x.starts_with("membranes[0].material.warp_axis.axis: must be a non-zero")),
+        "{p:#?}"
+    );
+    let third = 1.0 / 3.0;
+    let p = problems(&scene(&format!(
+        r#"{{"center": [{third}, {third}, 0], "axis": [0, 0, 1]}}"#
+    )));
+    assert!(
+        p.iter().any(|x| x.starts_with(
+            "membranes[0].material.warp_axis: triangle 0's centroid lies on the axis"
+        )),
+        "{p:#?}"
+    );
+}

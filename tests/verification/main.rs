@@ -22,6 +22,7 @@ mod natural_frequencies;
 mod orthotropic;
 mod patch_test;
 mod prestressed_membrane;
+mod radial_warp;
 mod rigid_motion;
 mod shear_wrinkling;
 mod sleeve_cable;
