@@ -53,6 +53,9 @@ pub struct EngineState {
     /// Tension direction of every membrane triangle: angle (rad) of the major principal strain
     /// direction in the triangle's reference frame (first edge = 0).
     pub tension_angle: Vec<f64>,
+    /// Plastic strain of every membrane triangle at the last converged increment (4 per
+    /// triangle, `model::state::History`; empty when no membrane group is elastoplastic).
+    pub plastic: Vec<f64>,
 }
 
 impl EngineState {
@@ -62,7 +65,8 @@ impl EngineState {
             + self.applied.len()
             + self.inputs.len()
             + self.parameters.len()
-            + self.tension_angle.len();
+            + self.tension_angle.len()
+            + self.plastic.len();
         8 * floats as u64
             + (self.slip_state.len() * size_of::<Contact>()
                 + self.wrinkle.len() * size_of::<WrinkleState>()) as u64
@@ -387,6 +391,12 @@ impl Engine {
                 s.tension_angle.len(),
                 "membrane triangles",
             ),
+            (
+                "plastic",
+                state.plastic.len(),
+                s.plastic.len(),
+                "plastic strain values (4 per triangle of an elastoplastic model)",
+            ),
         ] {
             if given != want {
                 return bad(format!(
@@ -426,6 +436,16 @@ impl Engine {
                     ));
                 }
             }
+        }
+        if let Some(i) = state
+            .plastic
+            .iter()
+            .position(|x| !(x.is_finite() && x.abs() <= 1e3))
+        {
+            return bad(format!(
+                "plastic[{i}] = {} is not a finite plastic strain with |value| <= 1e3",
+                state.plastic[i]
+            ));
         }
         if let Some(i) = state.tension_angle.iter().position(|x| !x.is_finite()) {
             return bad(format!(
@@ -633,6 +653,8 @@ impl Engine {
         )?;
         self.tangent = None;
         let s = &self.state;
+        // The assembly reads the committed plastic strains from the model (model/state.rs).
+        self.model.plastic.set(&s.plastic);
         let membranes = self
             .solver
             .evaluate_membranes(&self.model, &s.displacement, &s.applied);
@@ -728,6 +750,7 @@ fn initial_state(_scene: &Scene, vars: &[Variable], model: &Model) -> Result<Eng
         last_iterations: 0,
         wrinkle: memory::zeros(model.triangles.len(), WHAT)?,
         tension_angle: memory::zeros(model.triangles.len(), WHAT)?,
+        plastic: memory::zeros(model.plastic_len(), WHAT)?,
     })
 }
 

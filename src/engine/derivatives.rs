@@ -219,6 +219,7 @@ impl Engine {
         let (plus, minus, h) = self.parameter_models(i)?;
         let s = &self.state;
         let r = |m: &Model| -> Result<Vec<f64>, Error> {
+            m.plastic.set(&s.plastic);
             let pattern = assemble::Pattern::try_new(m)?;
             let mut r = vec![0.0; m.dof_count()];
             assemble::assemble(m, &pattern, &s.displacement, &s.applied, &mut r, None);

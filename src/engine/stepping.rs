@@ -15,6 +15,7 @@
 use super::Engine;
 use crate::error::Error;
 use crate::memory;
+use crate::model::state::History;
 use crate::solver::{Attempt, Outcome, StepReport, Stepper};
 
 /// One step in progress.
@@ -76,7 +77,10 @@ impl Engine {
             &s.applied,
             &s.inputs,
             &s.displacement,
-            &s.slip_state,
+            &History {
+                contact: s.slip_state.clone(),
+                plastic: s.plastic.clone(),
+            },
         );
         // Under arc length a step the arc-length corrector cannot take is load-controlled as a
         // whole: the log says so (docs/solver.md, arc length).
@@ -99,7 +103,10 @@ impl Engine {
         if self.scene.debug.skip_memory_probes {
             return Ok(());
         }
-        let state_bytes = 8 * (self.state.displacement.len() + self.state.slip_state.len()) as u64
+        let state_bytes = 8
+            * (self.state.displacement.len()
+                + self.state.slip_state.len()
+                + self.state.plastic.len()) as u64
             + 9 * self.state.wrinkle.len() as u64;
         let step_bytes = self
             .solver
@@ -139,9 +146,14 @@ impl Engine {
         self.tangent = None;
         let applied = step.stepper.applied();
         let previous = self.state.clone();
-        let mut report = step
-            .stepper
-            .finish(&mut self.state.displacement, &mut self.state.slip_state);
+        let s = &mut self.state;
+        let mut history = History {
+            contact: std::mem::take(&mut s.slip_state),
+            plastic: std::mem::take(&mut s.plastic),
+        };
+        let mut report = step.stepper.finish(&mut s.displacement, &mut history);
+        history.install(&self.model);
+        (s.slip_state, s.plastic) = (history.contact, history.plastic);
         if let Some(why) = step.fallback {
             report.log.insert(
                 0,
@@ -177,6 +189,7 @@ impl Engine {
             ) {
                 let why = self.ponding_reason(l, applied[l], "at the equilibrium found");
                 self.state = previous;
+                self.model.plastic.set(&self.state.plastic);
                 report.outcome = Outcome::Failed;
                 report.reached = 0.0;
                 report.message = format!("the equilibrium found is unstable: {why}");
@@ -190,6 +203,7 @@ impl Engine {
             // a failed natural_frequency output came after the other outputs, which are
             // evaluated again for the previous state.
             self.state = previous;
+            self.model.plastic.set(&self.state.plastic);
             if matches!(e, Error::Memory(_)) {
                 return StepReport::failed_with(e.to_string());
             }

@@ -22,7 +22,10 @@
 //! by the version check; 4 appends the sleeve ties' multipliers (3 per tie, model/sleeve.rs) to
 //! the engine's unknown vector `engine.displacement`. The payload's layout is 3's, so a
 //! version 3 state is still read: [`upgrade`] gives it multipliers 0 (the penalty equilibrium
-//! it holds; the next step closes the ties).
+//! it holds; the next step closes the ties). 5 appends the plastic strains of the membrane
+//! triangles (`EngineState::plastic`, 4 per triangle of an elastoplastic model, empty
+//! otherwise) to the engine's state; 3 and 4 are read through [`Legacy`] with no plastic
+//! strain (neither could hold an elastoplastic model).
 //!
 //! The payload format is postcard's (fields in declaration order, no names; `f64` as its IEEE bits,
 //! little-endian, so NaN payloads and ±Inf come back bit for bit; lengths, enum tags and integers
@@ -46,8 +49,9 @@ use serde::{Deserialize, Serialize};
 /// First bytes of every serialized state.
 pub const STATE_MAGIC: &[u8; 8] = b"VLRMSTAT";
 /// Version of the byte layout and payload; bumped on any change to either.
-pub const STATE_FORMAT_VERSION: u32 = 4;
-/// The oldest version [`decode`] reads (module docs: 3 is 4 without the tie multipliers).
+pub const STATE_FORMAT_VERSION: u32 = 5;
+/// The oldest version [`decode`] reads (module docs: 3 is 4 without the tie multipliers, 4 is
+/// 5 without the plastic strains).
 pub const OLDEST_STATE_FORMAT_VERSION: u32 = 3;
 
 /// Everything needed to continue a run from the moment it was taken.
@@ -62,6 +66,55 @@ pub struct Snapshot {
     pub wants_to_terminate: bool,
     pub fsm: FsmState,
     pub experiment: Experiment,
+}
+
+/// The payload of format versions 3 and 4: [`Snapshot`] whose engine state ends before the
+/// plastic strains (postcard writes fields in order, without names or counts).
+#[derive(Deserialize)]
+struct Legacy {
+    engine: LegacyEngine,
+    time: f64,
+    last_successful_time: f64,
+    wants_to_terminate: bool,
+    fsm: FsmState,
+    experiment: Experiment,
+}
+
+/// [`EngineState`] of format versions 3 and 4.
+#[derive(Deserialize)]
+struct LegacyEngine {
+    displacement: Vec<f64>,
+    slip_state: Vec<crate::model::sleeve::Contact>,
+    applied: Vec<f64>,
+    inputs: Vec<f64>,
+    parameters: Vec<f64>,
+    last_iterations: u32,
+    wrinkle: Vec<crate::model::wrinkling::WrinkleState>,
+    tension_angle: Vec<f64>,
+}
+
+impl From<Legacy> for Snapshot {
+    fn from(l: Legacy) -> Snapshot {
+        let e = l.engine;
+        Snapshot {
+            engine: EngineState {
+                displacement: e.displacement,
+                slip_state: e.slip_state,
+                applied: e.applied,
+                inputs: e.inputs,
+                parameters: e.parameters,
+                last_iterations: e.last_iterations,
+                wrinkle: e.wrinkle,
+                tension_angle: e.tension_angle,
+                plastic: Vec::new(),
+            },
+            time: l.time,
+            last_successful_time: l.last_successful_time,
+            wants_to_terminate: l.wants_to_terminate,
+            fsm: l.fsm,
+            experiment: l.experiment,
+        }
+    }
 }
 
 /// What `fmi2SetupExperiment` recorded.
@@ -148,8 +201,13 @@ pub fn decode(bytes: &[u8], guid: &str) -> Result<(Snapshot, u32), Error> {
             ),
         ));
     }
-    let (snapshot, rest) = postcard::take_from_bytes(&bytes[r.at..body_end])
-        .map_err(|e| failed("payload", e.to_string()))?;
+    let payload = &bytes[r.at..body_end];
+    let (snapshot, rest) = if version >= 5 {
+        postcard::take_from_bytes::<Snapshot>(payload)
+    } else {
+        postcard::take_from_bytes::<Legacy>(payload).map(|(l, rest)| (l.into(), rest))
+    }
+    .map_err(|e| failed("payload", e.to_string()))?;
     if !rest.is_empty() {
         return Err(failed(
             "payload",
@@ -392,13 +450,13 @@ mod tests {
     #[test]
     fn another_format_version_is_refused() {
         let bytes = encode(&sample(), "{abc}").unwrap();
-        for version in [0, 1, 2, 5, u32::MAX] {
+        for version in [0, 1, 2, 6, u32::MAX] {
             let e = decode(&seal(version, "{abc}", &payload(&bytes, "{abc}")), "{abc}")
                 .unwrap_err()
                 .to_string();
             assert!(
                 e.contains(&format!(
-                    "version check failed: format version {version}, this FMU reads 3 and 4"
+                    "version check failed: format version {version}, this FMU reads 3 and 5"
                 )),
                 "{e}"
             );
@@ -413,8 +471,7 @@ mod tests {
         let mut snapshot = sample();
         // Comparable with ==: no NaN.
         snapshot.engine.displacement[4] = 0.5;
-        let bytes = encode(&snapshot, "{abc}").unwrap();
-        let old = seal(3, "{abc}", &payload(&bytes, "{abc}"));
+        let old = seal(3, "{abc}", &legacy_payload(&snapshot));
         let (mut back, version) = decode(&old, "{abc}").unwrap();
         assert_eq!((version, &back), (3, &snapshot));
         let n = snapshot.engine.displacement.len();
@@ -489,5 +546,40 @@ mod tests {
                 let _ = decode(&seal(STATE_FORMAT_VERSION, guid, &bad), guid);
             }
         }
+    }
+
+    /// The payload of formats 3 and 4 for a snapshot without plastic strains: format 5's less
+    /// the empty `plastic` (its varint length 0, the engine state's last byte).
+    fn legacy_payload(snapshot: &Snapshot) -> Vec<u8> {
+        assert!(snapshot.engine.plastic.is_empty());
+        let body = postcard::to_allocvec(snapshot).unwrap();
+        let engine_len = postcard::to_allocvec(&snapshot.engine).unwrap().len();
+        assert_eq!(body[engine_len - 1], 0);
+        [&body[..engine_len - 1], &body[engine_len..]].concat()
+    }
+
+    // GOAL: the plastic strains of an elastoplastic model travel bit for bit (format 5), and a
+    // state written in format 4 (the same payload without them) is still read, with none.
+    #[test]
+    fn plastic_strains_round_trip_and_format_4_is_read() {
+        let guid = "{abc}";
+        let mut with = sample();
+        // Comparable with ==: no NaN.
+        with.engine.displacement[4] = 0.5;
+        with.engine.plastic = vec![0.1 + 0.2, -1e-300, 2.5e-2, f64::MIN_POSITIVE];
+        let (back, version) = decode(&encode(&with, guid).unwrap(), guid).unwrap();
+        assert_eq!(version, 5);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.engine.plastic), bits(&with.engine.plastic));
+        assert_eq!(back, with);
+        // Format 4: the engine state ends before `plastic`.
+        let mut plain = sample();
+        plain.engine.displacement[4] = 0.5;
+        let old = legacy_payload(&plain);
+        let (back, version) = decode(&seal(4, guid, &old), guid).unwrap();
+        assert_eq!(version, 4);
+        assert_eq!(back, plain);
+        // The format 4 layout is refused as format 5 (a byte short).
+        assert!(decode(&seal(5, guid, &old), guid).is_err());
     }
 }

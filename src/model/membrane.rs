@@ -78,6 +78,9 @@ pub struct Material {
     pub wrinkling: bool,
     /// Residual stiffness ρ of wrinkled and slack states (0: the pure tension-field law).
     pub residual: f64,
+    /// Elastoplastic (ETFE foil, `super::etfe`) on the SVK law: the hardening and the
+    /// triangle's place in the plastic history. None: elastic.
+    pub plastic: Option<super::etfe::Etfe>,
 }
 
 impl Material {
@@ -122,6 +125,21 @@ impl Material {
                 state: WrinkleState::Taut,
                 angle,
             }
+        }
+    }
+
+    /// The elastic constants of an elastoplastic group's SVK law and its wrinkling switch
+    /// (`super::etfe`; the model builds those groups on the SVK law only).
+    pub fn sheet(&self) -> super::etfe::Sheet {
+        let d = self.law.small_strain();
+        let (young, nu) = match self.law {
+            Law::Svk { young, nu } => (young, nu),
+            _ => (d[(0, 0)], 0.0),
+        };
+        super::etfe::Sheet {
+            young,
+            nu,
+            wrinkling: self.wrinkling,
         }
     }
 
@@ -214,7 +232,7 @@ pub fn triangle(
 /// depend on it) and an isotropic pre-strain `pre_strain` added to the strain the law sees:
 /// E + E0 + h (1, 1, 0). The pre-strain is the solver's prestress continuation (a real,
 /// energy-consistent prestress of an intermediate problem, `solver/path.rs`), 0 otherwise.
-#[allow(non_snake_case, clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)]
 pub fn triangle_with(
     r: &TriangleRef,
     mat: &Material,
@@ -225,12 +243,36 @@ pub fn triangle_with(
     eps: f64,
     pre_strain: f64,
 ) -> (Vec9, Evaluation) {
+    triangle_plastic(r, mat, prestress, x, forced, tangent, eps, pre_strain, &[])
+}
+
+/// [`triangle_with`] with the committed plastic history `plastic` (`state::History`, read at
+/// the material's slot; empty: no plastic strain) for an elastoplastic material: the law is
+/// the return from it (`etfe::response`), which the element never writes back.
+#[allow(non_snake_case, clippy::too_many_arguments)]
+pub fn triangle_plastic(
+    r: &TriangleRef,
+    mat: &Material,
+    prestress: f64,
+    x: &[Vector3<f64>; 3],
+    forced: Option<WrinkleState>,
+    tangent: Option<&mut Mat9>,
+    eps: f64,
+    pre_strain: f64,
+    plastic: &[f64],
+) -> (Vec9, Evaluation) {
     let F = deformation_gradient(r, x);
     // The prestress enters here, and only here: the law (wrinkling included) sees the total
     // strain E + E0, so the stress is the total stress S0 + ΔS and the tension-field criterion
     // acts on it. The same holds for the continuation's pre-strain.
     let E = green_lagrange(&F) + r.initial_strain + Vector3::new(pre_strain, pre_strain, 0.0);
-    let resp = mat.response_with(&E, forced, eps);
+    let resp = match &mat.plastic {
+        None => mat.response_with(&E, forced, eps),
+        Some(p) => {
+            let point = super::etfe::Point::read(plastic, p.slot);
+            super::etfe::response(mat.sheet(), &p.hardening, &E, &point, forced, eps).0
+        }
+    };
     let S = resp.stress;
     let vol = r.area * mat.thickness;
     let Smat = Matrix2::new(S[0], S[2], S[2], S[1]);

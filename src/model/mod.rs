@@ -18,11 +18,13 @@
 
 pub mod cable;
 pub mod element;
+pub mod etfe;
 pub mod membrane;
 pub mod orthotropic;
 pub mod plane_stress;
 pub mod pressure;
 pub mod sleeve;
+pub mod state;
 pub mod wrinkling;
 
 use crate::error::Error;
@@ -304,6 +306,9 @@ pub struct Model {
     pub point_masses: Vec<(usize, f64)>,
     /// The mass matrix the dynamics uses (consistent without a `dynamics` section).
     pub mass_kind: crate::scene::MassKind,
+    /// The committed plastic strains the assembly reads (`state.rs`; empty without an
+    /// elastoplastic group).
+    pub plastic: etfe::PlasticStore,
 }
 
 impl Model {
@@ -417,7 +422,18 @@ impl Model {
                 .dynamics
                 .as_ref()
                 .map_or_else(Default::default, |d| d.mass),
+            plastic: Default::default(),
         })
+    }
+
+    /// Length of the plastic history (`state::History::plastic`): 4 per triangle when a
+    /// membrane group is elastoplastic, 0 otherwise.
+    pub fn plastic_len(&self) -> usize {
+        if self.triangles.iter().any(|t| t.material.plastic.is_some()) {
+            4 * self.triangles.len()
+        } else {
+            0
+        }
     }
 
     /// True when every load has a potential (no follower pressure).
@@ -610,6 +626,7 @@ fn build_triangles(
         let law = match m.material {
             Material::Svk { young, nu } => wrinkling::Law::Svk { young, nu },
             Material::NeoHookean { mu } => wrinkling::Law::NeoHookean { mu },
+            Material::Etfe { young, nu, .. } => wrinkling::Law::Svk { young, nu },
             // The warp angle is set per triangle below.
             Material::Orthotropic {
                 e_warp,
@@ -626,6 +643,25 @@ fn build_triangles(
             thickness: m.thickness,
             wrinkling: m.wrinkling,
             residual: m.residual_stiffness.unwrap_or(0.0),
+            plastic: match m.material {
+                Material::Etfe {
+                    young,
+                    yield_stress,
+                    second_yield_stress,
+                    second_yield_strain,
+                    tangent_modulus,
+                    ..
+                } => Some(etfe::Etfe {
+                    hardening: etfe::Hardening::from_curve(
+                        young,
+                        yield_stress,
+                        (second_yield_strain, second_yield_stress),
+                        tangent_modulus,
+                    ),
+                    slot: 0,
+                }),
+                _ => None,
+            },
         };
         let first = out.len();
         for (k, &t) in triangle_ids(mesh, &m.triangles).iter().enumerate() {
@@ -642,10 +678,21 @@ fn build_triangles(
                 used[i] = true;
             }
             let mut material = material;
-            if let (wrinkling::Law::Orthotropic(o), Material::Orthotropic { warp, .. }) =
-                (material.law, &m.material)
+            if let Some(p) = &mut material.plastic {
+                // The triangle's place in the plastic history: its model index.
+                p.slot = out.len();
+            }
+            if let (
+                wrinkling::Law::Orthotropic(o),
+                Material::Orthotropic {
+                    warp, warp_axis, ..
+                },
+            ) = (material.law, &m.material)
             {
-                let w = Vector3::from(*warp);
+                // A radial warp is taken at the centroid (validation: off the axis).
+                let c = nodes.map(|i| x[i]).iter().sum::<Vector3<f64>>() / 3.0;
+                let radial = warp_axis.as_ref().and_then(|a| a.radial(c.into()));
+                let w = Vector3::from(radial.unwrap_or(*warp));
                 let angle = w.dot(&reference.frame[1]).atan2(w.dot(&reference.frame[0]));
                 material.law = wrinkling::Law::Orthotropic(orthotropic::Orthotropic::new(
                     o.e_warp, o.e_fill, o.nu_wf, o.g, angle,

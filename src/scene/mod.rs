@@ -297,7 +297,7 @@ pub enum Prestress {
     /// force at the distance `radius` from the axis; elsewhere n_r(r) = n_θ + (n_r − n_θ)
     /// radius / r, the one radial field in equilibrium with a uniform hoop force on any surface
     /// of revolution (meridional equilibrium, d(r n_r)/ds = n_θ dr/ds). For warp/fill fabric
-    /// give its material `warp` radial too (the material's warp is one direction per group).
+    /// give its material the same axis as `warp_axis`, so that its warp runs radially too.
     Cylindrical {
         /// A point on the axis, m.
         center: [f64; 3],
@@ -395,7 +395,60 @@ pub enum Material {
         #[serde(rename = "G")]
         g: f64,
         warp: [f64; 3],
+        /// Optional: the warp of each triangle runs radially away from this axis, taken at the
+        /// triangle's centroid and projected on its plane (a tent's fabric, warp down the
+        /// meridians: the direction a `cylindrical` prestress calls radial); `warp` is then
+        /// not used. No triangle's centroid may lie on the axis.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        warp_axis: Option<WarpAxis>,
     },
+    /// ETFE foil: the SVK sheet (`E`, `nu` as for `svk`) made elastoplastic, von Mises with
+    /// isotropic hardening fitted to the uniaxial curve of ETFE design data: elastic up to the
+    /// first yield stress `yield_stress` (Pa, at strain yield_stress/E), straight to the second
+    /// yield point (`second_yield_strain`, `second_yield_stress`: total uniaxial strain and Pa),
+    /// then the tangent modulus `tangent_modulus` (Pa, default 0: no further hardening).
+    /// Ranges: 0 < yield_stress < second_yield_stress; second_yield_strain beyond
+    /// second_yield_stress/E (the curve between the yield points rises less steeply than E);
+    /// 0 <= tangent_modulus < E. Plastic strain is history (saved with the FMU state);
+    /// wrinkling acts on the elastoplastic stress (docs/etfe.md). Not with
+    /// `residual_stiffness`.
+    Etfe {
+        #[serde(rename = "E")]
+        young: f64,
+        nu: f64,
+        yield_stress: f64,
+        second_yield_stress: f64,
+        second_yield_strain: f64,
+        #[serde(default)]
+        tangent_modulus: f64,
+    },
+}
+
+/// An axis a warp direction runs radially away from (`Material::Orthotropic::warp_axis`).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WarpAxis {
+    /// A point on the axis, m.
+    pub center: [f64; 3],
+    /// Axis direction (any length but zero; normalised).
+    pub axis: [f64; 3],
+}
+
+impl WarpAxis {
+    /// The unit direction away from the axis at `c` (None on the axis or for a zero axis).
+    pub fn radial(&self, c: [f64; 3]) -> Option<[f64; 3]> {
+        let len = (self.axis.iter().map(|v| v * v).sum::<f64>()).sqrt();
+        if !(len > 0.0 && len.is_finite()) {
+            return None;
+        }
+        let a = self.axis.map(|v| v / len);
+        let v = [0, 1, 2].map(|i| c[i] - self.center[i]);
+        let along = v[0] * a[0] + v[1] * a[1] + v[2] * a[2];
+        let radial = [0, 1, 2].map(|i| v[i] - along * a[i]);
+        let r = (radial.iter().map(|v| v * v).sum::<f64>()).sqrt();
+        (r > 1e-12 * (1.0 + v.iter().map(|x| x.abs()).fold(0.0, f64::max)) && r.is_finite())
+            .then(|| radial.map(|v| v / r))
+    }
 }
 
 /// Strain law of a cable.

@@ -197,7 +197,9 @@ fn percent(strain: f64) -> String {
 /// A modulus far outside the usual range of its material kind.
 fn modulus(material: &Material, path: &str, out: &mut Vec<Measure>) {
     let (fields, (lo, hi), what): (Vec<(&str, f64)>, _, _) = match material {
-        Material::Svk { young, .. } => (vec![("E", *young)], USUAL_SHEET_MODULUS, "a sheet"),
+        Material::Svk { young, .. } | Material::Etfe { young, .. } => {
+            (vec![("E", *young)], USUAL_SHEET_MODULUS, "a sheet")
+        }
         Material::Orthotropic {
             e_warp, e_fill, g, ..
         } => (
@@ -284,7 +286,9 @@ fn prestress(p: &Prestress, material: &Material, t: f64, group: usize, out: &mut
 /// "E t = 6e5 N/m" and the like, for the message.
 fn stiffness(material: &Material, t: f64) -> String {
     match material {
-        Material::Svk { young, nu } => format!("E t = {} N/m, nu {nu}", num(young * t)),
+        Material::Svk { young, nu } | Material::Etfe { young, nu, .. } => {
+            format!("E t = {} N/m, nu {nu}", num(young * t))
+        }
         Material::NeoHookean { mu } => format!("3 mu t = {} N/m", num(3.0 * mu * t)),
         Material::Orthotropic { e_warp, e_fill, .. } => format!(
             "E_warp t = {}, E_fill t = {} N/m",
@@ -299,7 +303,7 @@ fn stiffness(material: &Material, t: f64) -> String {
 fn strain(material: &Material, t: f64, n1: f64, n2: f64, aligned: bool) -> f64 {
     let isotropic = |e: f64, nu: f64| ((n1 - nu * n2) / (e * t)).max((n2 - nu * n1) / (e * t));
     match material {
-        Material::Svk { young, nu } => isotropic(*young, *nu),
+        Material::Svk { young, nu } | Material::Etfe { young, nu, .. } => isotropic(*young, *nu),
         Material::NeoHookean { mu } => isotropic(3.0 * mu, 0.5),
         Material::Orthotropic {
             e_warp,
@@ -361,7 +365,7 @@ fn penalty(scene: &Scene, mesh: &Mesh, i: usize, k: f64, out: &mut Vec<Measure>)
     let mut et = 0.0f64;
     for m in &scene.membranes {
         let e = match &m.material {
-            Material::Svk { young, .. } => *young,
+            Material::Svk { young, .. } | Material::Etfe { young, .. } => *young,
             Material::NeoHookean { mu } => 3.0 * mu,
             Material::Orthotropic { e_warp, e_fill, .. } => e_warp.max(*e_fill),
         };

@@ -41,6 +41,8 @@ pub fn parameter_value(scene: &Scene, target: &str) -> Option<f64> {
             match (field, &m.material) {
                 ("E", Material::Svk { young, .. }) => Some(*young),
                 ("nu", Material::Svk { nu, .. }) => Some(*nu),
+                ("E", Material::Etfe { young, .. }) => Some(*young),
+                ("nu", Material::Etfe { nu, .. }) => Some(*nu),
                 ("mu", Material::NeoHookean { mu }) => Some(*mu),
                 ("E_warp", Material::Orthotropic { e_warp, .. }) => Some(*e_warp),
                 ("E_fill", Material::Orthotropic { e_fill, .. }) => Some(*e_fill),
@@ -81,6 +83,8 @@ pub fn set_parameter_value(scene: &mut Scene, target: &str, value: f64) -> bool 
             match (field, &mut m.material) {
                 ("E", Material::Svk { young, .. }) => *young = value,
                 ("nu", Material::Svk { nu, .. }) => *nu = value,
+                ("E", Material::Etfe { young, .. }) => *young = value,
+                ("nu", Material::Etfe { nu, .. }) => *nu = value,
                 ("mu", Material::NeoHookean { mu }) => *mu = value,
                 ("E_warp", Material::Orthotropic { e_warp, .. }) => *e_warp = value,
                 ("E_fill", Material::Orthotropic { e_fill, .. }) => *e_fill = value,

@@ -768,6 +768,25 @@ impl Validator {
                         );
                     }
                 }
+                Material::Etfe {
+                    young,
+                    nu,
+                    yield_stress,
+                    second_yield_stress,
+                    second_yield_strain,
+                    tangent_modulus,
+                } => self.etfe(
+                    &p,
+                    m,
+                    [
+                        young,
+                        nu,
+                        yield_stress,
+                        second_yield_stress,
+                        second_yield_strain,
+                        tangent_modulus,
+                    ],
+                ),
                 Material::NeoHookean { mu } => {
                     if !positive(mu) {
                         self.push(
@@ -782,6 +801,7 @@ impl Validator {
                     nu_wf,
                     g,
                     warp,
+                    ref warp_axis,
                 } => {
                     for (name, v, what) in [
                         ("E_warp", e_warp, "Young's modulus"),
@@ -805,7 +825,9 @@ impl Validator {
                         }
                     }
                     let length = warp.iter().map(|x| x * x).sum::<f64>().sqrt();
-                    if !positive(length) || warp.iter().any(|x| !coordinate(*x)) {
+                    if let Some(axis) = warp_axis {
+                        self.warp_axis(&p, mesh, m, axis);
+                    } else if !positive(length) || warp.iter().any(|x| !coordinate(*x)) {
                         self.push(
                             format!("{p}.material.warp"),
                             "must be a non-zero finite vector (the warp direction)",
@@ -2124,4 +2146,121 @@ fn on_axis(x: [f64; 3], center: &[f64; 3], k: usize) -> bool {
         size = size.max(x[c].abs()).max(center[c].abs());
     }
     off.sqrt() <= 1e-12 * size.max(1e-300)
+}
+
+impl Validator {
+    /// An `etfe` material (`Material::Etfe`): the elastic constants as for `svk`, the two yield
+    /// points in order and below the elastic line, the last tangent modulus below E, no
+    /// residual stiffness, and a prestress below the first yield stress.
+    fn etfe(&mut self, p: &str, m: &crate::scene::Membrane, values: [f64; 6]) {
+        let [young, nu, s1, s2, e2, et3] = values;
+        let at = |field: &str| format!("{p}.material.{field}");
+        if !positive(young) {
+            self.push(
+                at("E"),
+                format!("{young} is not a positive Young's modulus in Pa {RANGE}"),
+            );
+        }
+        if !(nu.is_finite() && (0.0..SVK_NU_BOUND).contains(&nu)) {
+            self.push(
+                at("nu"),
+                format!("{nu}: Poisson's ratio must be in [0, 0.5) for the ETFE membrane"),
+            );
+        }
+        if !positive(s1) {
+            self.push(
+                at("yield_stress"),
+                format!("{s1} is not a positive first yield stress in Pa {RANGE}"),
+            );
+        }
+        if !(s2.is_finite() && s2 > s1) {
+            self.push(
+                at("second_yield_stress"),
+                format!("{s2} must be a stress in Pa above yield_stress {s1}"),
+            );
+        }
+        if positive(young) && s2.is_finite() && !(e2.is_finite() && e2 > s2 / young) {
+            self.push(
+                at("second_yield_strain"),
+                format!(
+                    "{e2} must be a total uniaxial strain beyond second_yield_stress / E = {:.6} (the curve between the yield points rises less steeply than E)",
+                    s2 / young
+                ),
+            );
+        }
+        if !(et3.is_finite() && et3 >= 0.0 && (!positive(young) || et3 < young)) {
+            self.push(
+                at("tangent_modulus"),
+                format!("{et3} must be a tangent modulus in Pa in [0, E) (beyond the second yield point)"),
+            );
+        }
+        if m.residual_stiffness.is_some_and(|r| r != 0.0) {
+            self.push(
+                format!("{p}.residual_stiffness"),
+                "is not offered with the etfe material (wrinkled states carry the tension-field stress only)",
+            );
+        }
+        if let Some(pre) = &m.prestress {
+            let (warp, fill, _) = pre.components();
+            let s = warp.max(fill) / m.thickness;
+            if positive(m.thickness) && s.is_finite() && positive(s1) && s >= s1 {
+                self.push(
+                    format!("{p}.prestress"),
+                    format!("{s:e} Pa (the largest prestress / thickness) is not below the first yield stress {s1:e} Pa: an ETFE prestress must be elastic"),
+                );
+            }
+        }
+    }
+}
+
+impl Validator {
+    /// An orthotropic group's `warp_axis`: finite, a non-zero axis, and on every triangle a
+    /// radial direction at its centroid that is off the axis and not normal to the triangle.
+    fn warp_axis(
+        &mut self,
+        p: &str,
+        mesh: &Mesh,
+        m: &crate::scene::Membrane,
+        axis: &super::WarpAxis,
+    ) {
+        let at = format!("{p}.material.warp_axis");
+        if axis
+            .center
+            .iter()
+            .chain(&axis.axis)
+            .any(|x| !coordinate(*x))
+        {
+            self.push(at, "must be finite with |x| <= 1e30 m");
+            return;
+        }
+        let n = axis.axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !positive(n) {
+            self.push(format!("{at}.axis"), "must be a non-zero finite vector");
+            return;
+        }
+        let Some(ids) = group_triangles(mesh, &m.triangles) else {
+            return;
+        };
+        for t in ids {
+            let tri = mesh.triangles[t];
+            let Some(normal) = unit_normal(mesh, &tri) else {
+                continue;
+            };
+            let c = [0, 1, 2].map(|k| tri.iter().map(|&i| mesh.nodes[i][k]).sum::<f64>() / 3.0);
+            let Some(w) = axis.radial(c) else {
+                self.push(
+                    at,
+                    format!(
+                        "triangle {t}'s centroid lies on the axis: no radial warp direction there"
+                    ),
+                );
+                return;
+            };
+            let along = (w[0] * normal[0] + w[1] * normal[1] + w[2] * normal[2]).abs();
+            if (1.0 - along * along).max(0.0).sqrt() < WARP_IN_PLANE {
+                self.push(at, format!("the radial direction is (nearly) normal to triangle {t}: its projection onto the triangle gives no warp direction"));
+                return;
+            }
+        }
+    }
 }

@@ -63,6 +63,7 @@ use super::settings::Settings;
 use super::slip::slip_rows;
 use crate::error::{Breakdown, Error};
 use crate::model::sleeve::Contact;
+use crate::model::state::History;
 use crate::model::Model;
 
 /// A converged load-controlled increment: displacements, stick/slip states, iterations.
@@ -89,8 +90,8 @@ pub struct PathPoint {
 struct Committed {
     u: Vec<f64>,
     lambda: f64,
-    /// Stick/slip states of the sleeve points there.
-    contact: Vec<Contact>,
+    /// The history there (stick/slip states of the sleeve points, plastic strains).
+    history: History,
     /// The step to it on the equations (None before the first increment): the path's sense.
     previous: Option<Vec<f64>>,
     /// The largest load fraction any converged point of the step reached.
@@ -226,7 +227,7 @@ impl Solver {
     ) -> Result<Converged, (usize, String)> {
         let loads = loads_at(from, to, lambda);
         let mut trial = at.u.clone();
-        let mut contact = at.contact.clone();
+        let mut contact = at.history.contact.clone();
         // Moves the prescribed displacements to λ (and predicts the free DOFs) as load
         // control does.
         let predicted = self.predict(model, &loads, &mut trial);
@@ -240,12 +241,20 @@ impl Solver {
             .map_err(|(i, why)| (i + predicted, why))
     }
 
-    /// Make (u, λ, contact) the path's last converged point; `previous` becomes the step to it.
-    fn commit(&self, at: &mut Committed, u: Vec<f64>, lambda: f64, contact: Vec<Contact>) {
+    /// Make (u, λ, contact) the path's last converged point (the history advanced to it);
+    /// `previous` becomes the step to it.
+    fn commit(
+        &self,
+        model: &Model,
+        at: &mut Committed,
+        u: Vec<f64>,
+        lambda: f64,
+        contact: Vec<Contact>,
+    ) {
         at.previous = Some(self.equation_difference(&u, &at.u));
+        at.history = at.history.advanced(model, &u, contact);
         at.u = u;
         at.lambda = lambda;
-        at.contact = contact;
         at.lambda_max = at.lambda_max.max(lambda);
     }
 
@@ -253,7 +262,7 @@ impl Solver {
     /// `count` arc-length increments of fixed length `ds` (RMS metres), without stopping at the
     /// target load and without the load-control fallback: the converged points in order. For
     /// verification and studies of a whole path (a limit point and what lies past it). Sleeve
-    /// points start from their default states.
+    /// points start from their default states, plastic strains from none.
     pub fn trace_arc_length(
         &mut self,
         model: &Model,
@@ -272,6 +281,8 @@ impl Solver {
         let mut log = Vec::new();
         let (mut u_n, mut lambda_n) = (u.to_vec(), 0.0);
         let mut contact = vec![Contact::default(); model.slips.len()];
+        let mut history = History::start(model);
+        history.install(model);
         let mut previous: Option<Vec<f64>> = None;
         let mut points = Vec::new();
         for k in 0..count {
@@ -299,6 +310,7 @@ impl Solver {
                     Error::PathStopped(format!("increment {k}: {why}\n{}", log.join("\n")))
                 })?;
             previous = Some(self.equation_difference(&u, &u_n));
+            history = history.advanced(model, &u, contact.clone());
             points.push(PathPoint {
                 lambda,
                 u: u.clone(),
@@ -342,7 +354,8 @@ pub struct ArcPath {
 }
 
 impl ArcPath {
-    /// The step `from` → `to` from the equilibrium `u` with the stick/slip states `contact`;
+    /// The step `from` → `to` from the equilibrium `u` with the history `history` (installed
+    /// in the model: `state.rs`);
     /// None where arc length does not apply (the loads do not change): load control then.
     pub fn begin(
         model: &Model,
@@ -350,11 +363,12 @@ impl ArcPath {
         from: &[f64],
         to: &[f64],
         u: &[f64],
-        contact: Vec<Contact>,
+        history: History,
     ) -> Option<ArcPath> {
         if not_applicable(model, from, to).is_some() {
             return None;
         }
+        history.install(model);
         Some(ArcPath {
             from: from.to_vec(),
             to: to.to_vec(),
@@ -362,7 +376,7 @@ impl ArcPath {
             at: Committed {
                 u: u.to_vec(),
                 lambda: 0.0,
-                contact,
+                history,
                 previous: None,
                 lambda_max: 0.0,
             },
@@ -374,9 +388,9 @@ impl ArcPath {
         })
     }
 
-    /// The last converged point: displacements, load fraction and stick/slip states.
-    pub fn converged(&self) -> (&[f64], f64, &[Contact]) {
-        (&self.at.u, self.at.lambda, &self.at.contact)
+    /// The last converged point: displacements, load fraction and history.
+    pub fn converged(&self) -> (&[f64], f64, &History) {
+        (&self.at.u, self.at.lambda, &self.at.history)
     }
 
     /// The largest load fraction any converged point of the path reached (beyond a limit
@@ -426,7 +440,7 @@ impl ArcPath {
             &self.to,
             lambda_n,
             &at.u,
-            &at.contact,
+            &at.history.contact,
             at.previous.as_deref(),
         );
         let (t, dlds, w) = match tangent {
@@ -437,7 +451,7 @@ impl ArcPath {
             }
         };
         let predicted = lambda_n + self.ds * dlds;
-        let mut contact = self.at.contact.clone();
+        let mut contact = self.at.history.contact.clone();
         let outcome = if predicted >= 1.0 {
             Err((0, String::from("the predictor passes the target")))
         } else {
@@ -513,7 +527,7 @@ impl ArcPath {
             Ok((u_new, contact, iters)) => {
                 report.iterations += iters;
                 report.increments += 1;
-                solver.commit(&mut self.at, u_new, target, contact);
+                solver.commit(model, &mut self.at, u_new, target, contact);
                 let d = self.at.previous.as_deref().unwrap_or_default();
                 self.ds = (dot(d, d) / solver.pattern.n as f64).sqrt();
                 let ds = self.ds;
@@ -565,7 +579,7 @@ impl ArcPath {
                         format!("  arc length: no path tangent at λ {lambda_n:.6} ({why})"),
                     );
                     push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {target:.6} (load control where the path tangent is not defined): converged in {it2} iterations"));
-                    solver.commit(&mut self.at, u_lc, target, redone);
+                    solver.commit(model, &mut self.at, u_lc, target, redone);
                     self.done = self.at.lambda >= 1.0;
                     return self.progress(report);
                 }
@@ -600,7 +614,7 @@ impl ArcPath {
         let before = solver.wrinkle_states(model, &loads_at(from, to, lambda_n), &self.at.u);
         let after = solver.wrinkle_states(model, &loads_at(from, to, lambda), &u_new);
         let wrinkles = before.iter().zip(&after).filter(|(a, b)| a != b).count();
-        let sleeves = (self.at.contact.iter())
+        let sleeves = (self.at.history.contact.iter())
             .zip(&contact)
             .filter(|(a, b)| a != b)
             .count();
@@ -631,7 +645,7 @@ impl ArcPath {
         let (u_new, lambda, iters, how, contact) = accepted;
         report.increments += 1;
         push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {lambda:.6} ({how}, Δs {ds:.3e} m): converged in {iters} iterations"));
-        solver.commit(&mut self.at, u_new, lambda, contact);
+        solver.commit(model, &mut self.at, u_new, lambda, contact);
         if lambda < 0.0 && self.at.lambda_max > 0.0 {
             let lambda_max = self.at.lambda_max;
             report.reached = lambda_max;
@@ -670,7 +684,7 @@ impl ArcPath {
                 report.increments += 1;
                 push_log(&mut report.log, format!("  arc length: {why}"));
                 push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> {predicted:.6} (load control after the arc-length corrector failed, Δs {ds:.3e} m): converged in {it2} iterations"));
-                solver.commit(&mut self.at, u_lc, predicted, redone);
+                solver.commit(model, &mut self.at, u_lc, predicted, redone);
                 return self.progress(report);
             }
         }
@@ -705,7 +719,7 @@ impl ArcPath {
                 report.iterations += iters;
                 report.increments += 1;
                 push_log(&mut report.log, format!("increment λ {lambda_n:.6} -> 1 (load control to the target): converged in {iters} iterations"));
-                solver.commit(&mut self.at, u_new, 1.0, contact);
+                solver.commit(model, &mut self.at, u_new, 1.0, contact);
                 self.done = true;
             }
             Err((iters, why)) => {

@@ -736,7 +736,15 @@ pub(super) fn triangle_contribution(
 ) -> (membrane::Vec9, Evaluation, f64) {
     let t = &model.triangles[e];
     let x = gather(model, u, t.nodes);
-    let (f, eval) = membrane::triangle_with(
+    // The lock only for an elastoplastic triangle: nodal relaxation calls this per triangle.
+    let held;
+    let plastic: &[f64] = if t.material.plastic.is_some() {
+        held = model.plastic.read();
+        &held
+    } else {
+        &[]
+    };
+    let (f, eval) = membrane::triangle_plastic(
         &t.reference,
         &t.material,
         t.prestress * aid.prestress_factor,
@@ -745,6 +753,7 @@ pub(super) fn triangle_contribution(
         ke,
         regularization,
         aid.pre_strain,
+        plastic,
     );
     (f, eval, membrane::signed_area_ratio(&t.reference, &x))
 }
@@ -758,19 +767,22 @@ fn triangle_of(
     aid: Aid,
     forced: Option<WrinkleState>,
     ke: Option<&mut membrane::Mat9>,
+    plastic: &[f64],
 ) -> (membrane::Vec9, Evaluation, f64) {
-    triangle_at(t, &gather(model, u, t.nodes), aid, forced, ke)
+    triangle_at(t, &gather(model, u, t.nodes), aid, forced, ke, plastic)
 }
 
-/// One triangle's force, evaluation and area ratio at current node positions `x`.
+/// One triangle's force, evaluation and area ratio at current node positions `x`, with the
+/// committed plastic history `plastic` (the model's store: `model::state`).
 fn triangle_at(
     t: &crate::model::Triangle,
     x: &[Vector3<f64>; 3],
     aid: Aid,
     forced: Option<WrinkleState>,
     ke: Option<&mut membrane::Mat9>,
+    plastic: &[f64],
 ) -> (membrane::Vec9, Evaluation, f64) {
-    let (f, eval) = membrane::triangle_with(
+    let (f, eval) = membrane::triangle_plastic(
         &t.reference,
         &t.material,
         t.prestress * aid.prestress_factor,
@@ -779,6 +791,7 @@ fn triangle_at(
         ke,
         REGULARIZATION,
         aid.pre_strain,
+        plastic,
     );
     (f, eval, membrane::signed_area_ratio(&t.reference, x))
 }
@@ -1088,18 +1101,20 @@ fn triangles_one(
     let internal = !pattern.triangles.is_empty();
     let AssemblyScratch { xi, ri, mi, ei, .. } = scratch;
     let mut ke = membrane::Mat9::zeros();
+    let plastic = model.plastic.read();
     for (slot, &e) in pattern.tri_order().iter().enumerate() {
         let user = &model.triangles[e];
         let forced = extra.forced.and_then(|f| f[e]);
         let kk = want_k.then_some(&mut ke);
         let (f, eval, ratio) = if internal {
             let t = &pattern.triangles[slot];
-            let (f, eval, ratio) = triangle_at(t, &t.nodes.map(|i| xi[i]), factor, forced, kk);
+            let x = t.nodes.map(|i| xi[i]);
+            let (f, eval, ratio) = triangle_at(t, &x, factor, forced, kk, &plastic);
             let mut m = (!mi.is_empty()).then_some(&mut mi[..]);
             add_force(ri, &t.nodes, f.as_slice(), &mut m);
             (f, eval, ratio)
         } else {
-            let (f, eval, ratio) = triangle_of(model, user, u, factor, forced, kk);
+            let (f, eval, ratio) = triangle_of(model, user, u, factor, forced, kk, &plastic);
             add_force(r, &user.nodes, f.as_slice(), &mut extra.magnitude);
             (f, eval, ratio)
         };
@@ -1349,6 +1364,7 @@ fn triangles_into(
     mut m: Option<&mut [f64]>,
     mut k: Option<(&mut [f64], usize)>,
     mut out: impl FnMut(usize, &Evaluation),
+    plastic: &[f64],
 ) -> Sums {
     let want_k = k.is_some();
     let mut ke = membrane::Mat9::zeros();
@@ -1356,7 +1372,8 @@ fn triangles_into(
     for slot in slots {
         let t = &pattern.triangles[slot];
         let kk = want_k.then_some(&mut ke);
-        let (f, eval, ratio) = triangle_at(t, &t.nodes.map(|i| x[i]), factor, forced(slot), kk);
+        let xt = t.nodes.map(|i| x[i]);
+        let (f, eval, ratio) = triangle_at(t, &xt, factor, forced(slot), kk, plastic);
         add_force(r, &t.nodes.map(|i| i - base), f.as_slice(), &mut m);
         sums.carried = sums.carried.max(largest(f.as_slice()));
         if let Some((k, offset)) = k.as_mut() {
@@ -1415,6 +1432,8 @@ struct HelperHalf {
     use_forced: bool,
     /// Frozen states of the helper's slots (when `use_forced`).
     forced: Vec<Option<WrinkleState>>,
+    /// The model's committed plastic history (`model::state`; empty when elastic).
+    plastic: Vec<f64>,
     /// Per pressing load: (load, value, how it presses, first index of
     /// `pattern.pressed_order[l]` in the helper's half).
     pressures: Vec<(usize, f64, Pressing, usize)>,
@@ -1444,6 +1463,7 @@ impl HelperHalf {
             factor,
             use_forced,
             forced,
+            plastic,
             pressures,
             k,
             r,
@@ -1485,6 +1505,7 @@ impl HelperHalf {
                     evals.push(*eval)
                 }
             },
+            plastic,
         );
         if !pressures.is_empty() {
             fp.fill(0.0);
@@ -1554,6 +1575,7 @@ impl Parallel {
             want_out: false,
             factor: Aid::PLAIN,
             use_forced: false,
+            plastic: Vec::new(),
             forced: memory::with_capacity(count - first, what)?,
             pressures: memory::with_capacity(pattern.pressed_order.len(), what)?,
             k: memory::zeros(nnz - k_lo, what)?,
@@ -1749,6 +1771,7 @@ fn hand_over(
     h.want_out = extra.out.is_some();
     h.factor = Aid::of(extra);
     h.use_forced = extra.forced.is_some();
+    h.plastic.clone_from(&model.plastic.read());
     h.forced.clear();
     if let Some(f) = extra.forced {
         h.forced
@@ -1820,6 +1843,7 @@ fn first_half(
                 out[pattern.tri_order()[slot]] = *eval;
             }
         },
+        &model.plastic.read(),
     );
     let mut no_held: Option<(&[f64], &mut [f64])> = None;
     external_loads(

@@ -39,6 +39,7 @@ use super::report::{push_log, StepReport};
 use super::rows::Increment;
 use super::settings::Settings;
 use crate::model::sleeve::Contact;
+use crate::model::state::History;
 use crate::model::Model;
 
 /// What one increment attempt of a driver did (`stepper.rs`).
@@ -67,7 +68,7 @@ pub struct LoadPath {
     pub(super) lambda: f64,
     dl: f64,
     pub(super) converged: Vec<f64>,
-    pub(super) contact: Vec<Contact>,
+    pub(super) history: History,
     /// The prestress continuation runs at most once per step: where it failed, a smaller
     /// increment from a start as unstressed meets the same difficulty.
     continued: bool,
@@ -76,15 +77,17 @@ pub struct LoadPath {
 }
 
 impl LoadPath {
-    /// The step `from` → `to` from the equilibrium `u` with the stick/slip states `contact`.
+    /// The step `from` → `to` from the equilibrium `u` with the history `history` (installed
+    /// in the model: `state.rs`).
     pub fn begin(
         model: &Model,
         settings: &Settings,
         from: &[f64],
         to: &[f64],
         u: &[f64],
-        contact: Vec<Contact>,
+        history: History,
     ) -> LoadPath {
+        history.install(model);
         LoadPath {
             from: from.to_vec(),
             to: to.to_vec(),
@@ -93,7 +96,7 @@ impl LoadPath {
             lambda: 0.0,
             dl: settings.initial_increment,
             converged: u.to_vec(),
-            contact,
+            history,
             continued: false,
             continuation_failed: None,
         }
@@ -143,7 +146,7 @@ impl LoadPath {
         let loads = self.loads(target);
         let (result, trial, trial_states) = self.attempt(solver, model, &loads, target, report);
         Some(match result {
-            Ok(iters) => self.accept(&s, report, target, iters, trial, trial_states),
+            Ok(iters) => self.accept(model, &s, report, target, iters, trial, trial_states),
             Err((iters, why)) => self.reject(solver, model, &s, report, target, iters, why),
         })
     }
@@ -162,7 +165,7 @@ impl LoadPath {
         let lambda = self.lambda;
         let mut trial = self.converged.clone();
         let predicted = solver.predict(model, loads, &mut trial);
-        let mut trial_states = self.contact.clone();
+        let mut trial_states = self.history.contact.clone();
         let increment = Increment {
             loads,
             change: self.change,
@@ -198,7 +201,7 @@ impl LoadPath {
                 );
                 trial = self.converged.clone();
                 let predicted = solver.predict(model, loads, &mut trial);
-                trial_states = self.contact.clone();
+                trial_states = self.history.contact.clone();
                 let failed = &mut self.continuation_failed;
                 solver
                     .continuation(
@@ -222,9 +225,12 @@ impl LoadPath {
         (result, trial, trial_states)
     }
 
-    /// A converged increment: its point becomes the last converged one and Δλ grows.
+    /// A converged increment: its point becomes the last converged one (the history advanced
+    /// to it) and Δλ grows.
+    #[allow(clippy::too_many_arguments)]
     fn accept(
         &mut self,
+        model: &Model,
         s: &Settings,
         report: &mut StepReport,
         target: f64,
@@ -241,8 +247,8 @@ impl LoadPath {
                 self.lambda
             ),
         );
+        self.history = self.history.advanced(model, &trial, trial_states);
         self.converged = trial;
-        self.contact = trial_states;
         self.lambda = target;
         self.dl *= growth(iters, s.target_iterations, s.max_iterations);
         Attempt::Accepted {

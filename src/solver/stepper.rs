@@ -17,7 +17,7 @@ use super::arc::ArcPath;
 use super::core::Solver;
 use super::path::{Attempt, LoadPath};
 use super::report::{Outcome, StepReport};
-use crate::model::sleeve::Contact;
+use crate::model::state::History;
 use crate::model::Model;
 
 enum Path {
@@ -35,21 +35,21 @@ pub struct Stepper {
     to: Vec<f64>,
     /// An arc-length step's start (displacements, stick/slip states), kept for the fallback to
     /// load control as a whole; None under load control (its path holds the start already).
-    arc_start: Option<(Vec<f64>, Vec<Contact>)>,
+    arc_start: Option<(Vec<f64>, History)>,
 }
 
 impl Stepper {
     /// Start the step `from` → `to` from the equilibrium `u` (displacements then slips) with
-    /// the stick/slip codes `states` of the sleeve points.
+    /// the history `states` (stick/slip codes of the sleeve points, plastic strains).
     pub fn begin(
         solver: &mut Solver,
         model: &Model,
         from: &[f64],
         to: &[f64],
         u: &[f64],
-        states: &[Contact],
+        states: &History,
     ) -> Stepper {
-        let contact = states.to_vec();
+        let contact = states.clone();
         solver.step_work = 0;
         let s = &solver.settings;
         let arc = if s.arc_length_path {
@@ -170,9 +170,9 @@ impl Stepper {
     }
 
     /// The last converged point: displacements then slips, load fraction, stick/slip states.
-    pub fn converged(&self) -> (&[f64], f64, &[Contact]) {
+    pub fn converged(&self) -> (&[f64], f64, &History) {
         match &self.path {
-            Path::Load(p) => (&p.converged, p.lambda, &p.contact),
+            Path::Load(p) => (&p.converged, p.lambda, &p.history),
             Path::Arc(p) => p.converged(),
         }
     }
@@ -193,16 +193,17 @@ impl Stepper {
 
     /// End the step at the last converged point: `u` and `states` become it and the report
     /// says Converged with the load fraction reached, unless the step failed (then nothing is
-    /// changed and the report says why).
-    pub fn finish(self, u: &mut Vec<f64>, states: &mut Vec<Contact>) -> StepReport {
+    /// changed and the report says why). The model's plastic store may hold a later history
+    /// than `states` after a failed step: the caller installs the one it keeps
+    /// (`History::install`).
+    pub fn finish(self, u: &mut Vec<f64>, states: &mut History) -> StepReport {
         if self.failed {
             return self.report;
         }
         let (point, lambda, contact) = self.converged();
         u.clear();
         u.extend_from_slice(point);
-        states.clear();
-        states.extend_from_slice(contact);
+        states.clone_from(contact);
         let mut report = self.report;
         report.outcome = Outcome::Converged;
         report.reached = lambda;
@@ -212,8 +213,8 @@ impl Stepper {
 
 impl Solver {
     /// Apply the load change `from` → `to` starting from the equilibrium `u` (displacements
-    /// then slips, `Model::unknown_count`), `states` the stick/slip code of every sleeve point
-    /// (`model::sleeve`): the whole step through the [`Stepper`]. On convergence `u` and
+    /// then slips, `Model::unknown_count`), `states` the history (the stick/slip code of every
+    /// sleeve point, `model::sleeve`, and the plastic strains, `model::state`): the whole step through the [`Stepper`]. On convergence `u` and
     /// `states` are the new equilibrium; otherwise both are unchanged. The history (slips,
     /// states) advances only at converged increments.
     pub fn solve_step_with(
@@ -222,11 +223,13 @@ impl Solver {
         from: &[f64],
         to: &[f64],
         u: &mut Vec<f64>,
-        states: &mut Vec<Contact>,
+        states: &mut History,
     ) -> StepReport {
         let mut stepper = Stepper::begin(self, model, from, to, u, states);
         while stepper.advance(self, model).is_some() {}
-        stepper.finish(u, states)
+        let report = stepper.finish(u, states);
+        states.install(model);
+        report
     }
 
     /// [`Solver::solve_step_with`] for a model without sleeves.
@@ -237,7 +240,7 @@ impl Solver {
         to: &[f64],
         u: &mut Vec<f64>,
     ) -> StepReport {
-        let mut states = vec![Contact::Stick; model.slips.len()];
+        let mut states = History::start(model);
         self.solve_step_with(model, from, to, u, &mut states)
     }
 }

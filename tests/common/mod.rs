@@ -91,6 +91,7 @@ pub fn equal_warp_and_fill(scene: &mut Scene, warp: [f64; 3]) {
                 nu_wf: nu,
                 g: young / (2.0 * (1.0 + nu)),
                 warp,
+                warp_axis: None,
             };
         }
     }

@@ -361,3 +361,78 @@ fn tent_problems_name_their_field() {
         );
     }
 }
+
+/// The `etfe` material: every out-of-range field is named by its path (the two yield points in
+/// order, the second beyond the elastic line, the last slope below E, no residual stiffness, a
+/// prestress below the first yield), and a good one passes.
+#[test]
+fn etfe_problems_are_located() {
+    let scene = |material: &str, extra: &str| {
+        format!(
+            r#"{{"format": 1, "name": "Foil",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}},
+              "membranes": [{{"name": "m", "triangles": [0], "thickness": 2e-4,
+                             "material": {material}{extra}}}],
+              "supports": [{{"nodes": [0, 1, 2], "fix": ["x", "y", "z"]}}]}}"#
+        )
+    };
+    let good = r#"{"kind": "etfe", "E": 1e9, "nu": 0.43, "yield_stress": 16e6, "second_yield_stress": 24e6, "second_yield_strain": 0.1, "tangent_modulus": 1e7}"#;
+    assert_eq!(problems(&scene(good, "")), Vec::<String>::new());
+    let bad = r#"{"kind": "etfe", "E": 1e9, "nu": 0.5, "yield_stress": 16e6, "second_yield_stress": 12e6, "second_yield_strain": 0.01, "tangent_modulus": 2e9}"#;
+    let p = problems(&scene(bad, r#", "residual_stiffness": 1e-4"#));
+    for e in [
+        "membranes[0].material.nu: 0.5: Poisson's ratio must be in [0, 0.5)",
+        "membranes[0].material.second_yield_stress: 12000000 must be a stress",
+        "membranes[0].material.second_yield_strain: 0.01 must be a total",
+        "membranes[0].material.tangent_modulus: 2000000000 must be a tangent",
+        "membranes[0].residual_stiffness: is not offered with the etfe material",
+    ] {
+        assert!(
+            p.iter().any(|x| x.starts_with(e)),
+            "missing {e:?} in {p:#?}"
+        );
+    }
+    let p = problems(&scene(
+        good,
+        r#", "prestress": {"kind": "isotropic", "n": 4000}"#,
+    ));
+    assert!(
+        p.iter()
+            .any(|x| x.starts_with("membranes[0].prestress: 2e7 Pa")),
+        "{p:#?}"
+    );
+}
+
+/// An orthotropic `warp_axis`: a zero axis and a triangle whose centroid lies on the axis are
+/// named by their path; a good axis passes.
+#[test]
+fn warp_axis_problems_are_located() {
+    let scene = |axis: &str| {
+        format!(
+            r#"{{"format": 1, "name": "Fabric",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}},
+              "membranes": [{{"name": "m", "triangles": [0], "thickness": 1e-3,
+                 "material": {{"kind": "orthotropic", "E_warp": 1e9, "E_fill": 5e8, "nu_wf": 0.3,
+                               "G": 3e7, "warp": [1, 0, 0], "warp_axis": {axis}}}}}],
+              "supports": [{{"nodes": [0, 1, 2], "fix": ["x", "y", "z"]}}]}}"#
+        )
+    };
+    let ok = problems(&scene(r#"{"center": [-1, -1, 0], "axis": [0, 0, 1]}"#));
+    assert_eq!(ok, Vec::<String>::new());
+    let p = problems(&scene(r#"{"center": [0, 0, 0], "axis": [0, 0, 0]}"#));
+    assert!(
+        p.iter()
+            .any(|x| x.starts_with("membranes[0].material.warp_axis.axis: must be a non-zero")),
+        "{p:#?}"
+    );
+    let third = 1.0 / 3.0;
+    let p = problems(&scene(&format!(
+        r#"{{"center": [{third}, {third}, 0], "axis": [0, 0, 1]}}"#
+    )));
+    assert!(
+        p.iter().any(|x| x.starts_with(
+            "membranes[0].material.warp_axis: triangle 0's centroid lies on the axis"
+        )),
+        "{p:#?}"
+    );
+}

@@ -323,7 +323,7 @@ fn a_gap_that_cannot_close_fails_the_step_naming_the_sleeve() {
     }
     let mut solver = Solver::try_new(&model, Settings::default()).unwrap();
     let mut u = vec![0.0; model.unknown_count()];
-    let mut states = vec![velarium::model::sleeve::Contact::Stick; model.slips.len()];
+    let mut states = velarium::model::state::History::start(&model);
     let report = solver.solve_step_with(&model, &[T0], &[60.0], &mut u, &mut states);
     println!("message: {}", report.message);
     assert!(!report.converged());

@@ -92,6 +92,7 @@ fn membrane_tangent_matches_finite_differences() {
             thickness: 1e-4,
             wrinkling: false,
             residual: 0.0,
+            plastic: None,
         };
         // Large displacements and rotations, strains up to ~20 %.
         let x: Vec<Vector3<f64>> = reference
@@ -132,6 +133,7 @@ fn membrane_force_is_the_gradient_of_its_energy() {
         thickness: 1e-3,
         wrinkling: false,
         residual: 0.0,
+        plastic: None,
     };
     let x: Vec<Vector3<f64>> = reference.iter().map(|p| p + rng.vec3(0.1)).collect();
     let (f, _, _) = tri(&r, &mat, &x);
@@ -474,6 +476,7 @@ fn pre_strained_tangent_matches_finite_differences_entry_by_entry() {
         thickness: 1e-4,
         wrinkling: true,
         residual: 0.0,
+        plastic: None,
     };
     let eps = velarium::model::wrinkling::REGULARIZATION;
     let (_, at_rest) = membrane::triangle_with(&r, &mat, 0.0, &reference, None, None, eps, 1e-3);
@@ -520,6 +523,7 @@ fn wrinkling_fd_samples(
             thickness: 1e-4,
             wrinkling: true,
             residual,
+            plastic: None,
         };
         // Stretch in one direction, compress or stretch in the other, rotate out of plane:
         // taut, wrinkled and slack states all occur.
@@ -627,6 +631,7 @@ fn prestressed_membrane_tangent_matches_finite_differences() {
             thickness: 1e-4,
             wrinkling,
             residual: 0.0,
+            plastic: None,
         };
         let u01 = |v: f64| 0.5 + 0.5 * v;
         let (warp, fill) = (
@@ -748,6 +753,7 @@ fn prestressed_orthotropic_tangent_matches_finite_differences() {
             thickness: 1e-4,
             wrinkling,
             residual: 0.0,
+            plastic: None,
         };
         let u01 = |v: f64| 0.5 + 0.5 * v;
         let (warp, fill) = (
