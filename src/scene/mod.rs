@@ -10,7 +10,8 @@
 //! ```text
 //! format      always 1
 //! name        model name: a C identifier, used as the FMU's modelIdentifier
-//! geometry    explicit nodes / triangles / named sets, plus generators (rectangle, disc, annulus)
+//! geometry    explicit nodes / triangles / named sets, plus generators (rectangle, disc, annulus,
+//!             cushion)
 //! membranes   groups of triangles: thickness, material
 //! cables      tension-only polylines of nodes: EA, strain law, pretension or unstretched length
 //! supports    fixed displacement components on node sets
@@ -20,6 +21,7 @@
 //! solver      tolerances, increments, artificial prestress
 //! ```
 
+pub mod cushion;
 pub mod generate;
 pub mod limits;
 pub mod plausibility;
@@ -196,6 +198,19 @@ pub enum Generator {
         sectors: usize,
         #[serde(default = "one")]
         grading: f64,
+    },
+    /// Air cushion: two sheets over one rim (`scene::cushion`): the plan `outline` about
+    /// `center` in `rings` rings, the top sheet raised by `rise[0]` and the bottom lowered by
+    /// `rise[1]` at the centre (paraboloid of the ring parameter; default flat). Node sets:
+    /// `all`, `rim`, `boundary` (= rim), `top`, `bottom` (interior nodes, in matching order),
+    /// `top_center`, `bottom_center`; triangle sets `<name>`, `<name>.top`, `<name>.bottom`.
+    Cushion {
+        name: String,
+        center: [f64; 3],
+        outline: cushion::Outline,
+        rings: usize,
+        #[serde(default)]
+        rise: [f64; 2],
     },
 }
 

@@ -342,7 +342,8 @@ impl Validator {
             let name = match g {
                 Generator::Rectangle { name, .. }
                 | Generator::Disc { name, .. }
-                | Generator::Annulus { name, .. } => name,
+                | Generator::Annulus { name, .. }
+                | Generator::Cushion { name, .. } => name,
             };
             if !is_identifier(name) {
                 self.push(
@@ -432,6 +433,32 @@ impl Validator {
                     }
                     if !positive(*grading) {
                         self.push(format!("{p}.grading"), "must be positive (1 = uniform)");
+                    }
+                }
+                Generator::Cushion {
+                    center,
+                    outline,
+                    rings,
+                    rise,
+                    ..
+                } => {
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(format!("{p}.center"), "must be finite with |x| <= 1e30 m");
+                    }
+                    if let Some((field, why)) = outline.problem() {
+                        self.push(format!("{p}.outline.{field}"), why);
+                    }
+                    if *rings == 0 {
+                        self.push(format!("{p}.rings"), "needs at least one ring");
+                    }
+                    if rise
+                        .iter()
+                        .any(|x| !(x.is_finite() && *x >= 0.0 && *x <= 1e30))
+                    {
+                        self.push(
+                            format!("{p}.rise"),
+                            "both rises (top up, bottom down, m) must be finite and >= 0",
+                        );
                     }
                 }
             }
@@ -2036,7 +2063,8 @@ fn generator_name(g: &Generator) -> &str {
     match g {
         Generator::Rectangle { name, .. }
         | Generator::Disc { name, .. }
-        | Generator::Annulus { name, .. } => name,
+        | Generator::Annulus { name, .. }
+        | Generator::Cushion { name, .. } => name,
     }
 }
 
