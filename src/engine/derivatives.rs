@@ -431,6 +431,8 @@ impl Engine {
             {
                 return None
             }
+            // Contacts: by differences (their multipliers move with the active set).
+            ProbeModel::ContactTotal { .. } | ProbeModel::ContactArea(_) => return None,
             ProbeModel::ContactGap { slips }
                 if slips
                     .iter()
@@ -694,5 +696,6 @@ fn continuous(p: &ProbeModel) -> bool {
             | ProbeModel::ElementState(_)
             | ProbeModel::WrinkledFraction(_)
             | ProbeModel::SlackFraction(_)
+            | ProbeModel::ContactArea(_)
     )
 }

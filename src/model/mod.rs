@@ -10,13 +10,16 @@
 //! slips        sleeve points: one slip unknown each, stored after the 3 N displacements
 //!              (u[3 N + j]); each sleeve point is its own node, tied to its sleeve node
 //! ties         penalty springs between a cable's sleeve point and its sleeve node
-//!              (triangles, segments and ties are the element kinds: `element.rs`)
+//! contacts     unilateral contacts (`contact.rs`): node pairs of two sheets, nodes against
+//!              rigid surfaces, each with a multiplier stored after the ties'
+//!              (triangles, segments, ties and contacts are the element kinds: `element.rs`)
 //! loads        one per input: force per unit value, pressure triangles, prescribed DOFs
 //! probes       one per output, with node ids and DOFs resolved
 //! ```
 //! "Model only what a scene needs": only the element kinds and loads the scene declares exist.
 
 pub mod cable;
+pub mod contact;
 pub mod element;
 pub mod membrane;
 pub mod orthotropic;
@@ -35,6 +38,8 @@ use crate::scene::{
 use nalgebra::Vector3;
 
 pub use element::{Element, ElementKind, PerKind};
+
+mod contact_build;
 
 /// Default artificial prestress of a membrane group, as a fraction of its E (3μ for
 /// neo-Hookean).
@@ -279,6 +284,14 @@ pub enum ProbeModel {
     EnclosedVolume(Vec<usize>),
     /// The pressure unknown of a volume input (index among the volume unknowns).
     EnclosedPressure(usize),
+    /// Σ p over the contact set's elements, or component `component` of Σ p ∇g at their
+    /// first node (index into `Model::contacts`).
+    ContactTotal {
+        set: usize,
+        component: Option<usize>,
+    },
+    /// Tributary area of the contact set's pressed nodes (index into `Model::contacts`).
+    ContactArea(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -289,6 +302,11 @@ pub struct Model {
     pub cables: Vec<CableInfo>,
     pub slips: Vec<sleeve::SlipPoint>,
     pub ties: Vec<sleeve::Tie>,
+    /// Unilateral contacts (`contact.rs`): sheet pairs, rigid points, and the scene's contact
+    /// entries they come from.
+    pub contact_pairs: Vec<contact::ContactPair>,
+    pub contact_points: Vec<contact::ContactPoint>,
+    pub contacts: Vec<contact::ContactSet>,
     pub loads: Vec<LoadModel>,
     pub probes: Vec<ProbeModel>,
     /// Per DOF: held (not an unknown of the solver).
@@ -380,6 +398,7 @@ impl Model {
                 }
             }
         }
+        let built_contacts = contact_build::build(scene, &mesh, &reference, &triangles, &segments);
         let groups = group_ranges(scene, &mesh);
         let probes = scene
             .outputs
@@ -406,6 +425,9 @@ impl Model {
             cables,
             slips: sleeves.slips,
             ties: sleeves.ties,
+            contact_pairs: built_contacts.0,
+            contact_points: built_contacts.1,
+            contacts: built_contacts.2,
             loads,
             probes,
             held,
@@ -443,6 +465,13 @@ impl Model {
     /// between solves (`model::sleeve`, augmented Lagrangian), but they are part of the
     /// converged state and travel with it.
     pub fn unknown_count(&self) -> usize {
+        self.contact_base() + self.contact_pairs.len() + self.contact_points.len()
+    }
+
+    /// Index in the unknown vector of the first contact multiplier (the pairs', then the rigid
+    /// points'): after the ties' multipliers. Like those, held within a solve and updated
+    /// between solves (`contact.rs`).
+    pub fn contact_base(&self) -> usize {
         self.dof_count() + self.slips.len() + self.volumes + 3 * self.ties.len()
     }
 
@@ -546,6 +575,8 @@ impl Model {
             ElementKind::Membrane => self.triangles.len(),
             ElementKind::Cable => self.segments.len(),
             ElementKind::Tie => self.ties.len(),
+            ElementKind::ContactPair => self.contact_pairs.len(),
+            ElementKind::ContactPoint => self.contact_points.len(),
         }
     }
 
@@ -555,6 +586,8 @@ impl Model {
             ElementKind::Membrane => &self.triangles[e],
             ElementKind::Cable => &self.segments[e],
             ElementKind::Tie => &self.ties[e],
+            ElementKind::ContactPair => &self.contact_pairs[e],
+            ElementKind::ContactPoint => &self.contact_points[e],
         }
     }
 
@@ -1354,6 +1387,13 @@ fn build_probe(
         Probe::NaturalFrequency { mode } => ProbeModel::NaturalFrequency { mode: *mode },
         Probe::EnclosedVolume { membrane } => {
             ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)
+        }
+        Probe::ContactTotal { contact, component } => ProbeModel::ContactTotal {
+            set: contact_build::position(scene, contact),
+            component: component.map(|c| c.index()),
+        },
+        Probe::ContactArea { contact } => {
+            ProbeModel::ContactArea(contact_build::position(scene, contact))
         }
         Probe::EnclosedPressure { input } => {
             let unknown = scene

@@ -59,6 +59,10 @@ pub struct Scene {
     pub cables: Vec<Cable>,
     #[serde(default)]
     pub supports: Vec<Support>,
+    /// Unilateral frictionless contacts: nodes against rigid planes, spheres and cylinders,
+    /// and a cushion's two sheets against each other (`model::contact`, docs/contact.md).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub contacts: Vec<Contact>,
     #[serde(default)]
     pub inputs: Vec<Input>,
     #[serde(default)]
@@ -229,6 +233,73 @@ pub enum DiagonalPattern {
     /// Alternating diagonals (a symmetric "union jack" on cell pairs).
     #[default]
     Crossed,
+}
+
+/// A unilateral frictionless contact (`model::contact`). `penalty` (N/m, optional) defaults to
+/// 10 times the neighbouring stiffness and is raised to it when given softer; the answer does
+/// not depend on it (augmented Lagrangian).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Contact {
+    /// Two sheets, node to node: the i-th node of `top` stays on the side `direction` points
+    /// to of the i-th node of `bottom` (the two sets list partners in the same order: a
+    /// cushion generator's `top` and `bottom`).
+    Sheets {
+        name: String,
+        top: NodeRef,
+        bottom: NodeRef,
+        direction: [f64; 3],
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        penalty: Option<f64>,
+    },
+    /// The nodes stay on the side `normal` points to of the plane through `point`.
+    Plane {
+        name: String,
+        nodes: NodeRef,
+        point: [f64; 3],
+        normal: [f64; 3],
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        penalty: Option<f64>,
+    },
+    /// The nodes stay outside the rigid sphere.
+    Sphere {
+        name: String,
+        nodes: NodeRef,
+        center: [f64; 3],
+        radius: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        penalty: Option<f64>,
+    },
+    /// The nodes stay outside the rigid (infinitely long) cylinder through `point` along `axis`.
+    Cylinder {
+        name: String,
+        nodes: NodeRef,
+        point: [f64; 3],
+        axis: [f64; 3],
+        radius: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        penalty: Option<f64>,
+    },
+}
+
+impl Contact {
+    pub fn name(&self) -> &str {
+        match self {
+            Contact::Sheets { name, .. }
+            | Contact::Plane { name, .. }
+            | Contact::Sphere { name, .. }
+            | Contact::Cylinder { name, .. } => name,
+        }
+    }
+
+    pub fn penalty(&self) -> Option<f64> {
+        match self {
+            Contact::Sheets { penalty, .. }
+            | Contact::Plane { penalty, .. }
+            | Contact::Sphere { penalty, .. }
+            | Contact::Cylinder { penalty, .. } => *penalty,
+        }
+    }
 }
 
 /// A reference to nodes: explicit ids or the name of a node set.
@@ -873,6 +944,17 @@ pub enum Probe {
     EnclosedVolume { membrane: String },
     /// Pressure (Pa) that holds the prescribed volume of a `volume` input (the input's name).
     EnclosedPressure { input: String },
+    /// Total contact force (N) of a contact (`contacts[].name`): the sum of its nodes' normal
+    /// forces, or with `component` that component of the force it puts on the structure (on
+    /// the top sheet for `sheets`).
+    ContactTotal {
+        contact: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<Component>,
+    },
+    /// Contact area (m²) of a contact: the current tributary area (a third of each adjacent
+    /// triangle) of its pressed nodes (the top sheet's for `sheets`).
+    ContactArea { contact: String },
 }
 
 /// A scene value exposed as an FMU parameter.

@@ -111,8 +111,11 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     v.names(scene);
     v.form_finding(scene, &mesh);
     v.dynamics(scene, &mesh);
+    v.contacts(scene, &mesh, &held);
     v.problems
 }
+
+mod contacts;
 
 struct Validator {
     problems: Vec<Problem>,
@@ -1538,6 +1541,12 @@ impl Validator {
                         .inputs
                         .iter()
                         .any(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }));
+                    if !s.contacts.is_empty() {
+                        self.push(
+                            p.clone(),
+                            "a natural_frequency output is not available with contacts (their multipliers are not in the eigenproblem)",
+                        );
+                    }
                     if sleeves || volumes {
                         self.push(
                             p.clone(),
@@ -1547,6 +1556,9 @@ impl Validator {
                 }
                 Probe::EnclosedVolume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.membrane"));
+                }
+                Probe::ContactTotal { contact, .. } | Probe::ContactArea { contact } => {
+                    self.contact_name(s, contact, &format!("{p}.contact"));
                 }
                 Probe::EnclosedPressure { input } => {
                     let volume = s.inputs.iter().any(|i| {
