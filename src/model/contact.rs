@@ -37,6 +37,10 @@
 //! matching meshes; a cushion pressed flat by snow keeps its sheets in plan (measured below in
 //! the tests and docs/contact.md).
 //!
+//! A node held in every component (support, prescribed displacement) gets no contact: nothing
+//! the contact does can move it. A contact at a node a prescribed displacement pushes into the
+//! body fails its increment with that contact named (its gap cannot close).
+//!
 //! Outputs: the total contact force (Σ p, or one component of the force on the structure Σ p
 //! ∇g at the contacting node, the top node of a pair) and the contact area (the current
 //! tributary area of the pressed nodes, a third of each of their triangles).

@@ -55,7 +55,11 @@ pub(super) fn build(
     reference: &[Vector3<f64>],
     triangles: &[Triangle],
     segments: &[Segment],
+    held: &[bool],
 ) -> (Vec<ContactPair>, Vec<ContactPoint>, Vec<ContactSet>) {
+    // A node held in every component (a support, a prescribed displacement) cannot be moved
+    // by a contact: it gets none (a pair none when both its nodes are so held).
+    let fixed = |i: usize| held[3 * i..3 * i + 3].iter().all(|&h| h);
     let (mut pairs, mut points, mut sets) = (Vec::new(), Vec::new(), Vec::new());
     if scene.contacts.is_empty() {
         return (pairs, points, sets);
@@ -65,7 +69,7 @@ pub(super) fn build(
         let (p0, q0) = (pairs.len(), points.len());
         let given = c.penalty();
         let mut rigid = |nodes: &crate::scene::NodeRef, surface: Surface| {
-            for i in node_ids(mesh, nodes) {
+            for i in node_ids(mesh, nodes).into_iter().filter(|&i| !fixed(i)) {
                 points.push(ContactPoint {
                     nodes: [i],
                     surface: surface.clone(),
@@ -83,6 +87,9 @@ pub(super) fn build(
             } => {
                 let direction = unit(direction);
                 for (t, b) in node_ids(mesh, top).into_iter().zip(node_ids(mesh, bottom)) {
+                    if fixed(t) && fixed(b) {
+                        continue;
+                    }
                     pairs.push(ContactPair {
                         nodes: [t, b],
                         direction,

@@ -398,7 +398,8 @@ impl Model {
                 }
             }
         }
-        let built_contacts = contact_build::build(scene, &mesh, &reference, &triangles, &segments);
+        let built_contacts =
+            contact_build::build(scene, &mesh, &reference, &triangles, &segments, &held);
         let groups = group_ranges(scene, &mesh);
         let probes = scene
             .outputs
