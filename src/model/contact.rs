@@ -51,6 +51,9 @@
 //! §17.4 (the bound-constrained augmented Lagrangian, max(0, λ − k g)).
 
 use super::element::Element;
+use crate::scene::generate::Mesh;
+use crate::scene::shape::node_ids;
+use crate::scene::{Contact, Scene};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// Default penalty as a multiple of the neighbouring stiffness (module docs).
@@ -207,6 +210,149 @@ pub fn pair_gap(
     let n = c.direction;
     let grad = SVector::<f64, 6>::from_column_slice(&[n.x, n.y, n.z, -n.x, -n.y, -n.z]);
     (n.dot(&(top - bottom)), grad, SMatrix::zeros())
+}
+
+/// The scene's contacts as the model holds them (built by `Model::try_build`).
+/// Index of the contact named `name` in the scene (validated to exist).
+pub fn position(scene: &Scene, name: &str) -> usize {
+    scene
+        .contacts
+        .iter()
+        .position(|c| c.name() == name)
+        .expect("validated: a contact of that name")
+}
+
+/// The penalty of a contact at nodes whose neighbouring stiffness is `near`: the scene's
+/// (raised to `near`) or `PENALTY_FACTOR × near`. A node with no stiffness at all (held
+/// everywhere) keeps a unit penalty so that its element stays well formed.
+fn penalty(given: Option<f64>, near: f64) -> f64 {
+    let near = if near > 0.0 { near } else { 1.0 };
+    match given {
+        Some(k) => k.max(near),
+        None => PENALTY_FACTOR * near,
+    }
+}
+
+fn unit(v: &[f64; 3]) -> Vector3<f64> {
+    Vector3::from(*v).normalize()
+}
+
+/// Pairs, points and sets of the scene's contacts.
+pub fn build(
+    scene: &Scene,
+    mesh: &Mesh,
+    near: &[f64],
+    held: &[bool],
+) -> (Vec<ContactPair>, Vec<ContactPoint>, Vec<ContactSet>) {
+    // A node held in every component (a support, a prescribed displacement) cannot be moved
+    // by a contact: it gets none (a pair none when both its nodes are so held).
+    let fixed = |i: usize| held[3 * i..3 * i + 3].iter().all(|&h| h);
+    let (mut pairs, mut points, mut sets) = (Vec::new(), Vec::new(), Vec::new());
+    if scene.contacts.is_empty() {
+        return (pairs, points, sets);
+    }
+    for (set, c) in scene.contacts.iter().enumerate() {
+        let (p0, q0) = (pairs.len(), points.len());
+        let given = c.penalty();
+        let mut rigid = |nodes: &crate::scene::NodeRef, surface: Surface| {
+            for i in node_ids(mesh, nodes).into_iter().filter(|&i| !fixed(i)) {
+                points.push(ContactPoint {
+                    nodes: [i],
+                    surface: surface.clone(),
+                    k: penalty(given, near[i]),
+                    set,
+                });
+            }
+        };
+        match c {
+            Contact::Sheets {
+                top,
+                bottom,
+                direction,
+                ..
+            } => {
+                let direction = unit(direction);
+                for (t, b) in node_ids(mesh, top).into_iter().zip(node_ids(mesh, bottom)) {
+                    if fixed(t) && fixed(b) {
+                        continue;
+                    }
+                    pairs.push(ContactPair {
+                        nodes: [t, b],
+                        direction,
+                        k: penalty(given, near[t].max(near[b])),
+                        set,
+                    });
+                }
+            }
+            Contact::Plane {
+                nodes,
+                point,
+                normal,
+                ..
+            } => rigid(
+                nodes,
+                Surface::Plane {
+                    point: Vector3::from(*point),
+                    normal: unit(normal),
+                },
+            ),
+            Contact::Sphere {
+                nodes,
+                center,
+                radius,
+                ..
+            } => rigid(
+                nodes,
+                Surface::Sphere {
+                    center: Vector3::from(*center),
+                    radius: *radius,
+                },
+            ),
+            Contact::Cylinder {
+                nodes,
+                point,
+                axis,
+                radius,
+                ..
+            } => rigid(
+                nodes,
+                Surface::Cylinder {
+                    point: Vector3::from(*point),
+                    axis: unit(axis),
+                    radius: *radius,
+                },
+            ),
+        }
+        sets.push(ContactSet {
+            name: c.name().to_string(),
+            pairs: p0..pairs.len(),
+            points: q0..points.len(),
+        });
+    }
+    (pairs, points, sets)
+}
+
+/// One contact's state at `u`, for the multiplier updates and the outputs.
+#[derive(Clone, Copy, Debug)]
+pub struct ContactState {
+    /// Index of its multiplier in the unknown vector.
+    pub index: usize,
+    pub lambda: f64,
+    pub k: f64,
+    pub gap: f64,
+    /// Its nodes (a rigid point's second entry repeats the first) and ∇g at each (a rigid
+    /// point's second is zero).
+    pub nodes: [usize; 2],
+    pub grad: [Vector3<f64>; 2],
+    /// Index into `Model::contacts`.
+    pub set: usize,
+}
+
+impl ContactState {
+    /// p = max(0, λ − k g).
+    pub fn pressure(&self) -> f64 {
+        pressure(self.lambda, self.k, self.gap)
+    }
 }
 
 #[cfg(test)]

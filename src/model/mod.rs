@@ -39,8 +39,6 @@ use nalgebra::Vector3;
 
 pub use element::{Element, ElementKind, PerKind};
 
-mod contact_build;
-
 /// Default artificial prestress of a membrane group, as a fraction of its E (3μ for
 /// neo-Hookean).
 pub const AUTO_PRESTRESS_FRACTION: f64 = 1e-4;
@@ -398,8 +396,12 @@ impl Model {
                 }
             }
         }
-        let built_contacts =
-            contact_build::build(scene, &mesh, &reference, &triangles, &segments, &held);
+        let built_contacts = contact::build(
+            scene,
+            &mesh,
+            &neighbouring(reference.len(), &triangles, &segments),
+            &held,
+        );
         let groups = group_ranges(scene, &mesh);
         let probes = scene
             .outputs
@@ -603,6 +605,133 @@ impl Model {
         ElementKind::ALL
             .into_iter()
             .flat_map(move |kind| (0..self.element_count(kind)).map(move |e| (kind, e)))
+    }
+}
+
+/// The neighbouring stiffness of every node (N/m): the diagonal stiffness its membrane
+/// triangles and cable segments give it if taut (`Element::reference_stiffness`): the
+/// contacts' penalty scale (`contact.rs`).
+fn neighbouring(n: usize, triangles: &[Triangle], segments: &[Segment]) -> Vec<f64> {
+    let mut k = vec![0.0; n];
+    for t in triangles {
+        for (a, &i) in t.nodes.iter().enumerate() {
+            k[i] += t.reference_stiffness(a);
+        }
+    }
+    for s in segments {
+        for (a, &i) in s.nodes.iter().enumerate() {
+            k[i] += s.reference_stiffness(a);
+        }
+    }
+    k
+}
+
+type Vec6 = nalgebra::SVector<f64, 6>;
+type Mat6 = nalgebra::SMatrix<f64, 6, 6>;
+
+/// The contacts' kernels and outputs (`contact.rs`).
+impl Model {
+    /// Index in the unknown vector of contact pair `e`'s multiplier.
+    pub fn pair_multiplier_index(&self, e: usize) -> usize {
+        self.contact_base() + e
+    }
+
+    /// Index in the unknown vector of rigid contact point `e`'s multiplier.
+    pub fn point_multiplier_index(&self, e: usize) -> usize {
+        self.contact_base() + self.contact_pairs.len() + e
+    }
+
+    /// Contact pair `e`'s internal force (top, bottom), tangent and energy at `u`.
+    pub fn pair_contribution(&self, e: usize, u: &[f64]) -> (Vec6, Mat6, f64) {
+        let c = &self.contact_pairs[e];
+        let [t, b] = c.nodes;
+        let (g, grad, hess) = contact::pair_gap(c, &self.position(u, t), &self.position(u, b));
+        let lambda = u[self.pair_multiplier_index(e)];
+        contact::augmented(lambda, c.k, g, &grad, &hess)
+    }
+
+    /// Rigid contact point `e`'s internal force, tangent and energy at `u`.
+    pub fn point_contribution(
+        &self,
+        e: usize,
+        u: &[f64],
+    ) -> (nalgebra::SVector<f64, 3>, nalgebra::SMatrix<f64, 3, 3>, f64) {
+        let c = &self.contact_points[e];
+        let (g, grad, hess) = c.surface.gap(&self.position(u, c.nodes[0]));
+        let lambda = u[self.point_multiplier_index(e)];
+        contact::augmented(lambda, c.k, g, &grad, &hess)
+    }
+
+    /// Every contact's state at `u`: the pairs, then the rigid points.
+    pub fn contact_states<'a>(
+        &'a self,
+        u: &'a [f64],
+    ) -> impl Iterator<Item = contact::ContactState> + 'a {
+        let pairs = self.contact_pairs.iter().enumerate().map(move |(e, c)| {
+            let [t, b] = c.nodes;
+            let index = self.pair_multiplier_index(e);
+            contact::ContactState {
+                index,
+                lambda: u[index],
+                k: c.k,
+                gap: c
+                    .direction
+                    .dot(&(self.position(u, t) - self.position(u, b))),
+                nodes: [t, b],
+                grad: [c.direction, -c.direction],
+                set: c.set,
+            }
+        });
+        let points = self.contact_points.iter().enumerate().map(move |(e, c)| {
+            let i = c.nodes[0];
+            let index = self.point_multiplier_index(e);
+            let (gap, grad, _) = c.surface.gap(&self.position(u, i));
+            contact::ContactState {
+                index,
+                lambda: u[index],
+                k: c.k,
+                gap,
+                nodes: [i, i],
+                grad: [grad, Vector3::zeros()],
+                set: c.set,
+            }
+        });
+        pairs.chain(points)
+    }
+
+    /// Total force (N) of contact `set` at `u`: Σ p, or component `component` of the force on
+    /// the structure at the contacting nodes, Σ p ∇g (the top sheet's for a pair).
+    pub fn contact_total(&self, u: &[f64], set: usize, component: Option<usize>) -> f64 {
+        self.contact_states(u)
+            .filter(|c| c.set == set)
+            .map(|c| match component {
+                None => c.pressure(),
+                Some(k) => c.pressure() * c.grad[0][k],
+            })
+            .sum()
+    }
+
+    /// Contact area (m²) of contact `set` at `u`: a third of the current area of every
+    /// triangle at each pressed node (the top node of a pair).
+    pub fn contact_area(&self, u: &[f64], set: usize) -> f64 {
+        let mut pressed = vec![false; self.reference.len()];
+        let mut any = false;
+        for c in self.contact_states(u).filter(|c| c.set == set) {
+            if c.pressure() > 0.0 {
+                pressed[c.nodes[0]] = true;
+                any = true;
+            }
+        }
+        if !any {
+            return 0.0;
+        }
+        let mut area = 0.0;
+        for t in &self.triangles {
+            let x = t.nodes.map(|i| self.position(u, i));
+            let a = 0.5 * (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
+            area += t.nodes.iter().filter(|&&i| pressed[i]).count() as f64 * a / 3.0;
+        }
+        area
     }
 }
 
@@ -1390,11 +1519,11 @@ fn build_probe(
             ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)
         }
         Probe::ContactTotal { contact, component } => ProbeModel::ContactTotal {
-            set: contact_build::position(scene, contact),
+            set: contact::position(scene, contact),
             component: component.map(|c| c.index()),
         },
         Probe::ContactArea { contact } => {
-            ProbeModel::ContactArea(contact_build::position(scene, contact))
+            ProbeModel::ContactArea(contact::position(scene, contact))
         }
         Probe::EnclosedPressure { input } => {
             let unknown = scene

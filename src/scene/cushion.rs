@@ -21,22 +21,16 @@
 //! (interior nodes of each sheet, in matching order), `.top_center`, `.bottom_center`;
 //! triangle sets `<name>` (both sheets), `<name>.top`, `<name>.bottom`.
 
-use super::generate::Mesh;
-use schemars::JsonSchema;
-use serde::{Deserialize, Serialize};
+use super::Outline;
+use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
-/// The plan outline of a cushion, about its centre.
-#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
-#[serde(tag = "shape", rename_all = "snake_case", deny_unknown_fields)]
-pub enum Outline {
-    /// Rectangle of `size` [a, b] in m (x, y), centred.
-    Rectangle { size: [f64; 2] },
-    /// Circle of `radius` in m.
-    Circle { radius: f64 },
-    /// Polygon: its corners [x, y] in m relative to the centre, counter-clockwise, each
-    /// visible from the centre (every consecutive pair turns counter-clockwise about it).
-    Polygon { points: Vec<[f64; 2]> },
+/// Where a generator writes: the mesh's node and triangle lists and its named sets.
+pub struct Target<'a> {
+    pub nodes: &'a mut Vec<[f64; 3]>,
+    pub triangles: &'a mut Vec<[usize; 3]>,
+    pub node_sets: &'a mut BTreeMap<String, Vec<usize>>,
+    pub triangle_sets: &'a mut BTreeMap<String, Vec<usize>>,
 }
 
 impl Outline {
@@ -115,7 +109,7 @@ pub fn counts(sides: usize, rings: usize) -> (u64, u64) {
 
 /// Append the cushion to `mesh` (module docs).
 pub fn cushion(
-    mesh: &mut Mesh,
+    mesh: Target,
     name: &str,
     center: [f64; 3],
     outline: &Outline,
@@ -227,11 +221,18 @@ pub fn cushion(
 mod tests {
     use super::*;
     use crate::model::pressure::enclosed_volume;
+    use crate::scene::generate::Mesh;
     use nalgebra::Vector3;
 
     fn build(outline: Outline, rings: usize, rise: [f64; 2]) -> Mesh {
         let mut mesh = Mesh::default();
-        cushion(&mut mesh, "c", [1.0, -2.0, 0.5], &outline, rings, rise);
+        let target = Target {
+            nodes: &mut mesh.nodes,
+            triangles: &mut mesh.triangles,
+            node_sets: &mut mesh.node_sets,
+            triangle_sets: &mut mesh.triangle_sets,
+        };
+        cushion(target, "c", [1.0, -2.0, 0.5], &outline, rings, rise);
         mesh
     }
 

@@ -138,7 +138,19 @@ pub fn try_resolve(geometry: &Geometry) -> Result<Mesh, OutOfMemory> {
                 outline,
                 rings,
                 rise,
-            } => super::cushion::cushion(&mut mesh, name, *center, outline, *rings, *rise),
+            } => super::cushion::cushion(
+                super::cushion::Target {
+                    nodes: &mut mesh.nodes,
+                    triangles: &mut mesh.triangles,
+                    node_sets: &mut mesh.node_sets,
+                    triangle_sets: &mut mesh.triangle_sets,
+                },
+                name,
+                *center,
+                outline,
+                *rings,
+                *rise,
+            ),
         }
     }
     for (k, t) in geometry.triangles.iter().enumerate() {

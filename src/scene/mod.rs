@@ -161,7 +161,8 @@ pub struct Geometry {
     pub generators: Vec<Generator>,
 }
 
-/// A mesh generator. All generated meshes lie in a plane parallel to x-y.
+/// A mesh generator. Generated meshes lie in a plane parallel to x-y (a cushion's sheets with
+/// a rise bulge out of it).
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Generator {
@@ -211,11 +212,24 @@ pub enum Generator {
     Cushion {
         name: String,
         center: [f64; 3],
-        outline: cushion::Outline,
+        outline: Outline,
         rings: usize,
         #[serde(default)]
         rise: [f64; 2],
     },
+}
+
+/// The plan outline of a cushion, about its centre.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "shape", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Outline {
+    /// Rectangle of `size` [a, b] in m (x, y), centred.
+    Rectangle { size: [f64; 2] },
+    /// Circle of `radius` in m.
+    Circle { radius: f64 },
+    /// Polygon: its corners [x, y] in m relative to the centre, counter-clockwise, each
+    /// visible from the centre (every consecutive pair turns counter-clockwise about it).
+    Polygon { points: Vec<[f64; 2]> },
 }
 
 fn one() -> f64 {
