@@ -375,6 +375,11 @@ impl Engine {
             .zip(dz)
             .map(|(a, b)| a + t * b)
             .collect();
+        // The contact multipliers after the sensitivity's unknowns: held (model::contact).
+        let mut u = u;
+        if u.len() < s.displacement.len() {
+            u.extend_from_slice(&s.displacement[u.len()..]);
+        }
         let v: Vec<f64> = s.applied.iter().zip(dv).map(|(a, b)| a + t * b).collect();
         let model = if dp.iter().any(|x| *x != 0.0) {
             let mut scene = self.scene.clone();
