@@ -288,6 +288,8 @@ fn check_kinds(model: &Model) -> Result<(), crate::Error> {
             ElementKind::Cable => (true, "cables"),
             // Validation refuses sleeved cables in a scene to form-find.
             ElementKind::Tie => (false, "cables[].sleeve"),
+            // Validation refuses contacts in a scene to form-find.
+            ElementKind::ContactPair | ElementKind::ContactPoint => (false, "contacts"),
         };
         if !handled && model.element_count(kind) > 0 {
             return Err(crate::Error::Scene(vec![crate::scene::Problem {

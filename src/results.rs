@@ -148,6 +148,8 @@ pub fn evaluate(
             ProbeModel::ElementState(e) => state_code(membranes[*e].state) as f64,
             ProbeModel::EnclosedVolume(tris) => model.enclosed_volume(u, tris),
             ProbeModel::EnclosedPressure(k) => u[model.volume_unknown(*k)],
+            ProbeModel::ContactTotal { set, component } => model.contact_total(u, *set, *component),
+            ProbeModel::ContactArea(set) => model.contact_area(u, *set),
         })
         .collect()
 }

@@ -103,6 +103,7 @@ pub const UNITS: &[(&str, [i32; 4])] = &[
     ("N", [1, 1, -2, 0]),
     ("Pa", [1, -1, -2, 0]),
     ("N/m", [1, 0, -2, 0]),
+    ("m2", [0, 2, 0, 0]),
     ("m3", [0, 3, 0, 0]),
     ("m/s2", [0, 1, -2, 0]),
     ("N.m", [1, 2, -2, 0]),
@@ -213,6 +214,8 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
             Probe::ReactionMoment { .. } => (VarType::Real, Variability::Continuous, Some("N.m")),
             Probe::EnclosedVolume { .. } => (VarType::Real, Variability::Continuous, Some("m3")),
             Probe::EnclosedPressure { .. } => (VarType::Real, Variability::Continuous, Some("Pa")),
+            Probe::ContactTotal { .. } => (VarType::Real, Variability::Continuous, Some("N")),
+            Probe::ContactArea { .. } => (VarType::Real, Variability::Continuous, Some("m2")),
             Probe::NaturalFrequency { .. } => (VarType::Real, Variability::Continuous, Some("Hz")),
         };
         vars.push(Variable {

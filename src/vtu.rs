@@ -198,6 +198,8 @@ fn cells(engine: &Engine) -> Vec<Cell<'_>> {
             // Not drawn: a tie joins a sleeve's cable point to its sleeve node, at the same
             // place to the tie's gap; its force and gap are the sleeve probes'.
             ElementKind::Tie => {}
+            // Not drawn: contacts act at nodes; their totals are the contact probes'.
+            ElementKind::ContactPair | ElementKind::ContactPoint => {}
         }
     }
     cells

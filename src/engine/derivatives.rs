@@ -376,6 +376,11 @@ impl Engine {
             .zip(dz)
             .map(|(a, b)| a + t * b)
             .collect();
+        // The contact multipliers after the sensitivity's unknowns: held (model::contact).
+        let mut u = u;
+        if u.len() < s.displacement.len() {
+            u.extend_from_slice(&s.displacement[u.len()..]);
+        }
         let v: Vec<f64> = s.applied.iter().zip(dv).map(|(a, b)| a + t * b).collect();
         let model = if dp.iter().any(|x| *x != 0.0) {
             let mut scene = self.scene.clone();
@@ -432,6 +437,8 @@ impl Engine {
             {
                 return None
             }
+            // Contacts: by differences (their multipliers move with the active set).
+            ProbeModel::ContactTotal { .. } | ProbeModel::ContactArea(_) => return None,
             ProbeModel::ContactGap { slips }
                 if slips
                     .iter()
@@ -695,5 +702,6 @@ fn continuous(p: &ProbeModel) -> bool {
             | ProbeModel::ElementState(_)
             | ProbeModel::WrinkledFraction(_)
             | ProbeModel::SlackFraction(_)
+            | ProbeModel::ContactArea(_)
     )
 }

@@ -6,6 +6,8 @@
 //! Membrane    Model::triangles   3       membrane::triangle_with (wrinkling, prestress)
 //! Cable       Model::segments    2       cable::segment (tension only; slips, closed links)
 //! Tie         Model::ties        2       sleeve::augmented_tie_force, sleeve::tie_stiffness (penalty)
+//! ContactPair Model::contact_pairs  2    contact::augmented (two sheets, node to node)
+//! ContactPoint Model::contact_points 1   contact::augmented (a node against a rigid surface)
 //! ```
 //! Loads (pressure on triangles, point forces) and sleeve points (slip unknowns) are not
 //! elements: they act on elements or nodes and are handled by their own code.
@@ -53,12 +55,22 @@ pub enum ElementKind {
     Cable,
     /// Penalty tie between a sleeve's cable point and its sleeve node: `Model::ties`.
     Tie,
+    /// Unilateral contact of two sheets' partner nodes: `Model::contact_pairs`.
+    ContactPair,
+    /// Unilateral contact of a node with a rigid surface: `Model::contact_points`.
+    ContactPoint,
 }
 
 impl ElementKind {
     /// Every kind, in the order an assembly adds them (membranes first: the order of every
     /// floating-point sum measured so far).
-    pub const ALL: [ElementKind; 3] = [ElementKind::Membrane, ElementKind::Cable, ElementKind::Tie];
+    pub const ALL: [ElementKind; 5] = [
+        ElementKind::Membrane,
+        ElementKind::Cable,
+        ElementKind::Tie,
+        ElementKind::ContactPair,
+        ElementKind::ContactPoint,
+    ];
 
     /// Number of kinds.
     pub const COUNT: usize = ElementKind::ALL.len();
@@ -88,6 +100,8 @@ impl ElementKind {
             ElementKind::Membrane => 3,
             ElementKind::Cable => 2,
             ElementKind::Tie => 2,
+            ElementKind::ContactPair => 2,
+            ElementKind::ContactPoint => 1,
         }
     }
 
@@ -103,6 +117,8 @@ impl ElementKind {
             ElementKind::Membrane => "membrane triangle",
             ElementKind::Cable => "cable segment",
             ElementKind::Tie => "sleeve tie",
+            ElementKind::ContactPair => "sheet contact pair",
+            ElementKind::ContactPoint => "rigid contact point",
         }
     }
 }
@@ -173,6 +189,22 @@ mod tests {
         Model::build(&scene)
     }
 
+    /// A cushion on a rigid plane: both contact kinds.
+    fn model_with_contacts() -> Model {
+        let text = r#"{"format": 1, "name": "C",
+            "geometry": {"generators": [{"kind": "cushion", "name": "c", "center": [0, 0, 0],
+                "outline": {"shape": "circle", "radius": 1}, "rings": 2, "rise": [0.1, 0.1]}]},
+            "membranes": [{"name": "m", "triangles": "c", "thickness": 1e-3,
+                "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}],
+            "supports": [{"nodes": "c.rim", "fix": ["x", "y", "z"]}],
+            "contacts": [{"kind": "sheets", "name": "s", "top": "c.top", "bottom": "c.bottom", "direction": [0, 0, 1]},
+                         {"kind": "plane", "name": "p", "nodes": "c.bottom", "point": [0, 0, -0.05], "normal": [0, 0, 1]}]}"#;
+        let scene = crate::Scene::from_json(text).expect("the contact scene parses");
+        let problems = crate::scene::validate::validate(&scene);
+        assert!(problems.is_empty(), "{problems:?}");
+        Model::build(&scene)
+    }
+
     /// The registration is complete: `ALL` lists every kind once at its index, and every kind
     /// answers for its count, nodes and reference stiffness on a model that holds it.
     #[test]
@@ -188,9 +220,17 @@ mod tests {
             assert_eq!(per[kind], kind.index());
         }
         let model = model_with_every_kind();
+        let contacts = model_with_contacts();
         let nodes = model.reference.len();
         let mut total = 0;
         for kind in ElementKind::ALL {
+            // The contact kinds on a scene of their own (the sleeve example has none).
+            let (model, nodes) = match kind {
+                ElementKind::Membrane | ElementKind::Cable | ElementKind::Tie => (&model, nodes),
+                ElementKind::ContactPair | ElementKind::ContactPoint => {
+                    (&contacts, contacts.reference.len())
+                }
+            };
             let count = model.element_count(kind);
             assert!(count > 0, "the example holds no {}", kind.name());
             for e in 0..count {
@@ -208,14 +248,20 @@ mod tests {
                         .sum();
                     let lumped = element.lumped_mass(a);
                     assert!(lumped >= 0.0 && (row - lumped).abs() <= 1e-15 * lumped.max(1.0));
-                    if kind == ElementKind::Tie {
-                        assert_eq!(lumped, 0.0, "a tie is massless");
+                    match kind {
+                        ElementKind::Membrane | ElementKind::Cable => {}
+                        ElementKind::Tie | ElementKind::ContactPair | ElementKind::ContactPoint => {
+                            assert_eq!(lumped, 0.0, "{} is massless", kind.name())
+                        }
                     }
                 }
             }
             total += count;
         }
-        assert_eq!(model.elements().count(), total);
+        assert_eq!(
+            model.elements().count() + contacts.elements().count(),
+            total + contacts.element_count(ElementKind::Membrane)
+        );
     }
 
     /// The arms of every `match` in `text` whose arms name `ElementKind::` variants that are

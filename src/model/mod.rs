@@ -10,13 +10,16 @@
 //! slips        sleeve points: one slip unknown each, stored after the 3 N displacements
 //!              (u[3 N + j]); each sleeve point is its own node, tied to its sleeve node
 //! ties         penalty springs between a cable's sleeve point and its sleeve node
-//!              (triangles, segments and ties are the element kinds: `element.rs`)
+//! contacts     unilateral contacts (`contact.rs`): node pairs of two sheets, nodes against
+//!              rigid surfaces, each with a multiplier stored after the ties'
+//!              (triangles, segments, ties and contacts are the element kinds: `element.rs`)
 //! loads        one per input: force per unit value, pressure triangles, prescribed DOFs
 //! probes       one per output, with node ids and DOFs resolved
 //! ```
 //! "Model only what a scene needs": only the element kinds and loads the scene declares exist.
 
 pub mod cable;
+pub mod contact;
 pub mod element;
 pub mod etfe;
 pub mod membrane;
@@ -281,6 +284,14 @@ pub enum ProbeModel {
     EnclosedVolume(Vec<usize>),
     /// The pressure unknown of a volume input (index among the volume unknowns).
     EnclosedPressure(usize),
+    /// Σ p over the contact set's elements, or component `component` of Σ p ∇g at their
+    /// first node (index into `Model::contacts`).
+    ContactTotal {
+        set: usize,
+        component: Option<usize>,
+    },
+    /// Tributary area of the contact set's pressed nodes (index into `Model::contacts`).
+    ContactArea(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -291,6 +302,11 @@ pub struct Model {
     pub cables: Vec<CableInfo>,
     pub slips: Vec<sleeve::SlipPoint>,
     pub ties: Vec<sleeve::Tie>,
+    /// Unilateral contacts (`contact.rs`): sheet pairs, rigid points, and the scene's contact
+    /// entries they come from.
+    pub contact_pairs: Vec<contact::ContactPair>,
+    pub contact_points: Vec<contact::ContactPoint>,
+    pub contacts: Vec<contact::ContactSet>,
     pub loads: Vec<LoadModel>,
     pub probes: Vec<ProbeModel>,
     /// Per DOF: held (not an unknown of the solver).
@@ -385,6 +401,12 @@ impl Model {
                 }
             }
         }
+        let built_contacts = contact::build(
+            scene,
+            &mesh,
+            &neighbouring(reference.len(), &triangles, &segments),
+            &held,
+        );
         let groups = group_ranges(scene, &mesh);
         let probes = scene
             .outputs
@@ -411,6 +433,9 @@ impl Model {
             cables,
             slips: sleeves.slips,
             ties: sleeves.ties,
+            contact_pairs: built_contacts.0,
+            contact_points: built_contacts.1,
+            contacts: built_contacts.2,
             loads,
             probes,
             held,
@@ -459,6 +484,13 @@ impl Model {
     /// between solves (`model::sleeve`, augmented Lagrangian), but they are part of the
     /// converged state and travel with it.
     pub fn unknown_count(&self) -> usize {
+        self.contact_base() + self.contact_pairs.len() + self.contact_points.len()
+    }
+
+    /// Index in the unknown vector of the first contact multiplier (the pairs', then the rigid
+    /// points'): after the ties' multipliers. Like those, held within a solve and updated
+    /// between solves (`contact.rs`).
+    pub fn contact_base(&self) -> usize {
         self.dof_count() + self.slips.len() + self.volumes + 3 * self.ties.len()
     }
 
@@ -562,6 +594,8 @@ impl Model {
             ElementKind::Membrane => self.triangles.len(),
             ElementKind::Cable => self.segments.len(),
             ElementKind::Tie => self.ties.len(),
+            ElementKind::ContactPair => self.contact_pairs.len(),
+            ElementKind::ContactPoint => self.contact_points.len(),
         }
     }
 
@@ -571,6 +605,8 @@ impl Model {
             ElementKind::Membrane => &self.triangles[e],
             ElementKind::Cable => &self.segments[e],
             ElementKind::Tie => &self.ties[e],
+            ElementKind::ContactPair => &self.contact_pairs[e],
+            ElementKind::ContactPoint => &self.contact_points[e],
         }
     }
 
@@ -585,6 +621,133 @@ impl Model {
         ElementKind::ALL
             .into_iter()
             .flat_map(move |kind| (0..self.element_count(kind)).map(move |e| (kind, e)))
+    }
+}
+
+/// The neighbouring stiffness of every node (N/m): the diagonal stiffness its membrane
+/// triangles and cable segments give it if taut (`Element::reference_stiffness`): the
+/// contacts' penalty scale (`contact.rs`).
+fn neighbouring(n: usize, triangles: &[Triangle], segments: &[Segment]) -> Vec<f64> {
+    let mut k = vec![0.0; n];
+    for t in triangles {
+        for (a, &i) in t.nodes.iter().enumerate() {
+            k[i] += t.reference_stiffness(a);
+        }
+    }
+    for s in segments {
+        for (a, &i) in s.nodes.iter().enumerate() {
+            k[i] += s.reference_stiffness(a);
+        }
+    }
+    k
+}
+
+type Vec6 = nalgebra::SVector<f64, 6>;
+type Mat6 = nalgebra::SMatrix<f64, 6, 6>;
+
+/// The contacts' kernels and outputs (`contact.rs`).
+impl Model {
+    /// Index in the unknown vector of contact pair `e`'s multiplier.
+    pub fn pair_multiplier_index(&self, e: usize) -> usize {
+        self.contact_base() + e
+    }
+
+    /// Index in the unknown vector of rigid contact point `e`'s multiplier.
+    pub fn point_multiplier_index(&self, e: usize) -> usize {
+        self.contact_base() + self.contact_pairs.len() + e
+    }
+
+    /// Contact pair `e`'s internal force (top, bottom), tangent and energy at `u`.
+    pub fn pair_contribution(&self, e: usize, u: &[f64]) -> (Vec6, Mat6, f64) {
+        let c = &self.contact_pairs[e];
+        let [t, b] = c.nodes;
+        let (g, grad, hess) = contact::pair_gap(c, &self.position(u, t), &self.position(u, b));
+        let lambda = u[self.pair_multiplier_index(e)];
+        contact::augmented(lambda, c.k, g, &grad, &hess)
+    }
+
+    /// Rigid contact point `e`'s internal force, tangent and energy at `u`.
+    pub fn point_contribution(
+        &self,
+        e: usize,
+        u: &[f64],
+    ) -> (nalgebra::SVector<f64, 3>, nalgebra::SMatrix<f64, 3, 3>, f64) {
+        let c = &self.contact_points[e];
+        let (g, grad, hess) = c.surface.gap(&self.position(u, c.nodes[0]));
+        let lambda = u[self.point_multiplier_index(e)];
+        contact::augmented(lambda, c.k, g, &grad, &hess)
+    }
+
+    /// Every contact's state at `u`: the pairs, then the rigid points.
+    pub fn contact_states<'a>(
+        &'a self,
+        u: &'a [f64],
+    ) -> impl Iterator<Item = contact::ContactState> + 'a {
+        let pairs = self.contact_pairs.iter().enumerate().map(move |(e, c)| {
+            let [t, b] = c.nodes;
+            let index = self.pair_multiplier_index(e);
+            contact::ContactState {
+                index,
+                lambda: u[index],
+                k: c.k,
+                gap: c
+                    .direction
+                    .dot(&(self.position(u, t) - self.position(u, b))),
+                nodes: [t, b],
+                grad: [c.direction, -c.direction],
+                set: c.set,
+            }
+        });
+        let points = self.contact_points.iter().enumerate().map(move |(e, c)| {
+            let i = c.nodes[0];
+            let index = self.point_multiplier_index(e);
+            let (gap, grad, _) = c.surface.gap(&self.position(u, i));
+            contact::ContactState {
+                index,
+                lambda: u[index],
+                k: c.k,
+                gap,
+                nodes: [i, i],
+                grad: [grad, Vector3::zeros()],
+                set: c.set,
+            }
+        });
+        pairs.chain(points)
+    }
+
+    /// Total force (N) of contact `set` at `u`: Σ p, or component `component` of the force on
+    /// the structure at the contacting nodes, Σ p ∇g (the top sheet's for a pair).
+    pub fn contact_total(&self, u: &[f64], set: usize, component: Option<usize>) -> f64 {
+        self.contact_states(u)
+            .filter(|c| c.set == set)
+            .map(|c| match component {
+                None => c.pressure(),
+                Some(k) => c.pressure() * c.grad[0][k],
+            })
+            .sum()
+    }
+
+    /// Contact area (m²) of contact `set` at `u`: a third of the current area of every
+    /// triangle at each pressed node (the top node of a pair).
+    pub fn contact_area(&self, u: &[f64], set: usize) -> f64 {
+        let mut pressed = vec![false; self.reference.len()];
+        let mut any = false;
+        for c in self.contact_states(u).filter(|c| c.set == set) {
+            if c.pressure() > 0.0 {
+                pressed[c.nodes[0]] = true;
+                any = true;
+            }
+        }
+        if !any {
+            return 0.0;
+        }
+        let mut area = 0.0;
+        for t in &self.triangles {
+            let x = t.nodes.map(|i| self.position(u, i));
+            let a = 0.5 * (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
+            area += t.nodes.iter().filter(|&&i| pressed[i]).count() as f64 * a / 3.0;
+        }
+        area
     }
 }
 
@@ -1401,6 +1564,13 @@ fn build_probe(
         Probe::NaturalFrequency { mode } => ProbeModel::NaturalFrequency { mode: *mode },
         Probe::EnclosedVolume { membrane } => {
             ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)
+        }
+        Probe::ContactTotal { contact, component } => ProbeModel::ContactTotal {
+            set: contact::position(scene, contact),
+            component: component.map(|c| c.index()),
+        },
+        Probe::ContactArea { contact } => {
+            ProbeModel::ContactArea(contact::position(scene, contact))
         }
         Probe::EnclosedPressure { input } => {
             let unknown = scene

@@ -6,8 +6,10 @@
 //! disc       1 + 3 n (n+1) nodes: centre, ring k (1..=n) has 6k nodes at radius k a/n;
 //!            6 n² triangles, nearly equilateral
 //! annulus    (rings+1) · sectors nodes, 2 rings · sectors triangles, radii graded geometrically
+//! cushion    2 + m rings² nodes, 2 m rings² triangles (m corners of the outline): `cushion.rs`
 //! ```
-//! Triangles are counter-clockwise seen from +z, so their normals point to +z.
+//! Triangles are counter-clockwise seen from +z, so their normals point to +z (a cushion's
+//! bottom sheet the other way: outward).
 
 use super::{DiagonalPattern, Generator, Geometry, OneNode};
 use crate::memory::{self, OutOfMemory};
@@ -46,6 +48,9 @@ pub fn generator_counts(gen: &Generator) -> (u64, u64) {
                 r.saturating_add(1).saturating_mul(s),
                 2u64.saturating_mul(r).saturating_mul(s),
             )
+        }
+        Generator::Cushion { outline, rings, .. } => {
+            super::cushion::counts(outline.sides(), *rings)
         }
     }
 }
@@ -126,6 +131,25 @@ pub fn try_resolve(geometry: &Geometry) -> Result<Mesh, OutOfMemory> {
                 [*inner_radius, *outer_radius],
                 [*rings, *sectors],
                 *grading,
+            ),
+            Generator::Cushion {
+                name,
+                center,
+                outline,
+                rings,
+                rise,
+            } => super::cushion::cushion(
+                super::cushion::Target {
+                    nodes: &mut mesh.nodes,
+                    triangles: &mut mesh.triangles,
+                    node_sets: &mut mesh.node_sets,
+                    triangle_sets: &mut mesh.triangle_sets,
+                },
+                name,
+                *center,
+                outline,
+                *rings,
+                *rise,
             ),
         }
     }

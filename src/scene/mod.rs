@@ -10,7 +10,8 @@
 //! ```text
 //! format      always 1
 //! name        model name: a C identifier, used as the FMU's modelIdentifier
-//! geometry    explicit nodes / triangles / named sets, plus generators (rectangle, disc, annulus)
+//! geometry    explicit nodes / triangles / named sets, plus generators (rectangle, disc, annulus,
+//!             cushion)
 //! membranes   groups of triangles: thickness, material
 //! cables      tension-only polylines of nodes: EA, strain law, pretension or unstretched length
 //! supports    fixed displacement components on node sets
@@ -20,6 +21,7 @@
 //! solver      tolerances, increments, artificial prestress
 //! ```
 
+pub mod cushion;
 pub mod generate;
 pub mod limits;
 pub mod plausibility;
@@ -57,6 +59,10 @@ pub struct Scene {
     pub cables: Vec<Cable>,
     #[serde(default)]
     pub supports: Vec<Support>,
+    /// Unilateral frictionless contacts: nodes against rigid planes, spheres and cylinders,
+    /// and a cushion's two sheets against each other (`model::contact`, docs/contact.md).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub contacts: Vec<Contact>,
     #[serde(default)]
     pub inputs: Vec<Input>,
     #[serde(default)]
@@ -155,7 +161,8 @@ pub struct Geometry {
     pub generators: Vec<Generator>,
 }
 
-/// A mesh generator. All generated meshes lie in a plane parallel to x-y.
+/// A mesh generator. Generated meshes lie in a plane parallel to x-y (a cushion's sheets with
+/// a rise bulge out of it).
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Generator {
@@ -197,6 +204,32 @@ pub enum Generator {
         #[serde(default = "one")]
         grading: f64,
     },
+    /// Air cushion: two sheets over one rim (`scene::cushion`): the plan `outline` about
+    /// `center` in `rings` rings, the top sheet raised by `rise[0]` and the bottom lowered by
+    /// `rise[1]` at the centre (paraboloid of the ring parameter; default flat). Node sets:
+    /// `all`, `rim`, `boundary` (= rim), `top`, `bottom` (interior nodes, in matching order),
+    /// `top_center`, `bottom_center`; triangle sets `<name>`, `<name>.top`, `<name>.bottom`.
+    Cushion {
+        name: String,
+        center: [f64; 3],
+        outline: Outline,
+        rings: usize,
+        #[serde(default)]
+        rise: [f64; 2],
+    },
+}
+
+/// The plan outline of a cushion, about its centre.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "shape", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Outline {
+    /// Rectangle of `size` [a, b] in m (x, y), centred.
+    Rectangle { size: [f64; 2] },
+    /// Circle of `radius` in m.
+    Circle { radius: f64 },
+    /// Polygon: its corners [x, y] in m relative to the centre, counter-clockwise, each
+    /// visible from the centre (every consecutive pair turns counter-clockwise about it).
+    Polygon { points: Vec<[f64; 2]> },
 }
 
 fn one() -> f64 {
@@ -214,6 +247,73 @@ pub enum DiagonalPattern {
     /// Alternating diagonals (a symmetric "union jack" on cell pairs).
     #[default]
     Crossed,
+}
+
+/// A unilateral frictionless contact (`model::contact`). `penalty` (N/m, optional) defaults to
+/// 10 times the neighbouring stiffness and is raised to it when given softer; the answer does
+/// not depend on it (augmented Lagrangian).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Contact {
+    /// Two sheets, node to node: the i-th node of `top` stays on the side `direction` points
+    /// to of the i-th node of `bottom` (the two sets list partners in the same order: a
+    /// cushion generator's `top` and `bottom`).
+    Sheets {
+        name: String,
+        top: NodeRef,
+        bottom: NodeRef,
+        direction: [f64; 3],
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        penalty: Option<f64>,
+    },
+    /// The nodes stay on the side `normal` points to of the plane through `point`.
+    Plane {
+        name: String,
+        nodes: NodeRef,
+        point: [f64; 3],
+        normal: [f64; 3],
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        penalty: Option<f64>,
+    },
+    /// The nodes stay outside the rigid sphere.
+    Sphere {
+        name: String,
+        nodes: NodeRef,
+        center: [f64; 3],
+        radius: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        penalty: Option<f64>,
+    },
+    /// The nodes stay outside the rigid (infinitely long) cylinder through `point` along `axis`.
+    Cylinder {
+        name: String,
+        nodes: NodeRef,
+        point: [f64; 3],
+        axis: [f64; 3],
+        radius: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        penalty: Option<f64>,
+    },
+}
+
+impl Contact {
+    pub fn name(&self) -> &str {
+        match self {
+            Contact::Sheets { name, .. }
+            | Contact::Plane { name, .. }
+            | Contact::Sphere { name, .. }
+            | Contact::Cylinder { name, .. } => name,
+        }
+    }
+
+    pub fn penalty(&self) -> Option<f64> {
+        match self {
+            Contact::Sheets { penalty, .. }
+            | Contact::Plane { penalty, .. }
+            | Contact::Sphere { penalty, .. }
+            | Contact::Cylinder { penalty, .. } => *penalty,
+        }
+    }
 }
 
 /// A reference to nodes: explicit ids or the name of a node set.
@@ -911,6 +1011,17 @@ pub enum Probe {
     EnclosedVolume { membrane: String },
     /// Pressure (Pa) that holds the prescribed volume of a `volume` input (the input's name).
     EnclosedPressure { input: String },
+    /// Total contact force (N) of a contact (`contacts[].name`): the sum of its nodes' normal
+    /// forces, or with `component` that component of the force it puts on the structure (on
+    /// the top sheet for `sheets`).
+    ContactTotal {
+        contact: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        component: Option<Component>,
+    },
+    /// Contact area (m²) of a contact: the current tributary area (a third of each adjacent
+    /// triangle) of its pressed nodes (the top sheet's for `sheets`).
+    ContactArea { contact: String },
 }
 
 /// A scene value exposed as an FMU parameter.

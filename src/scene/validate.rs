@@ -111,8 +111,11 @@ fn validate_into(scene: &Scene, size: &mut limits::Size) -> Vec<Problem> {
     v.names(scene);
     v.form_finding(scene, &mesh);
     v.dynamics(scene, &mesh);
+    v.contacts(scene, &mesh, &held);
     v.problems
 }
+
+mod contacts;
 
 struct Validator {
     problems: Vec<Problem>,
@@ -342,7 +345,8 @@ impl Validator {
             let name = match g {
                 Generator::Rectangle { name, .. }
                 | Generator::Disc { name, .. }
-                | Generator::Annulus { name, .. } => name,
+                | Generator::Annulus { name, .. }
+                | Generator::Cushion { name, .. } => name,
             };
             if !is_identifier(name) {
                 self.push(
@@ -432,6 +436,32 @@ impl Validator {
                     }
                     if !positive(*grading) {
                         self.push(format!("{p}.grading"), "must be positive (1 = uniform)");
+                    }
+                }
+                Generator::Cushion {
+                    center,
+                    outline,
+                    rings,
+                    rise,
+                    ..
+                } => {
+                    if center.iter().any(|x| !coordinate(*x)) {
+                        self.push(format!("{p}.center"), "must be finite with |x| <= 1e30 m");
+                    }
+                    if let Some((field, why)) = outline.problem() {
+                        self.push(format!("{p}.outline.{field}"), why);
+                    }
+                    if *rings == 0 {
+                        self.push(format!("{p}.rings"), "needs at least one ring");
+                    }
+                    if rise
+                        .iter()
+                        .any(|x| !(x.is_finite() && *x >= 0.0 && *x <= 1e30))
+                    {
+                        self.push(
+                            format!("{p}.rise"),
+                            "both rises (top up, bottom down, m) must be finite and >= 0",
+                        );
                     }
                 }
             }
@@ -1533,6 +1563,12 @@ impl Validator {
                         .inputs
                         .iter()
                         .any(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }));
+                    if !s.contacts.is_empty() {
+                        self.push(
+                            p.clone(),
+                            "a natural_frequency output is not available with contacts (their multipliers are not in the eigenproblem)",
+                        );
+                    }
                     if sleeves || volumes {
                         self.push(
                             p.clone(),
@@ -1542,6 +1578,9 @@ impl Validator {
                 }
                 Probe::EnclosedVolume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.membrane"));
+                }
+                Probe::ContactTotal { contact, .. } | Probe::ContactArea { contact } => {
+                    self.contact_name(s, contact, &format!("{p}.contact"));
                 }
                 Probe::EnclosedPressure { input } => {
                     let volume = s.inputs.iter().any(|i| {
@@ -2058,7 +2097,8 @@ fn generator_name(g: &Generator) -> &str {
     match g {
         Generator::Rectangle { name, .. }
         | Generator::Disc { name, .. }
-        | Generator::Annulus { name, .. } => name,
+        | Generator::Annulus { name, .. }
+        | Generator::Cushion { name, .. } => name,
     }
 }
 

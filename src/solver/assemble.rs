@@ -300,7 +300,10 @@ fn visit_order(
         }
         // Model order (cable by cable along each cable; sleeve point by sleeve point): the
         // order of every measurement with them so far; they are few next to the triangles.
-        ElementKind::Cable | ElementKind::Tie => {}
+        ElementKind::Cable
+        | ElementKind::Tie
+        | ElementKind::ContactPair
+        | ElementKind::ContactPoint => {}
     }
     Ok(list)
 }
@@ -1016,6 +1019,28 @@ pub fn assemble_with(
                 &mut info,
                 |e| tie_contribution(model, e, u),
             ),
+            ElementKind::ContactPair => elements_into(
+                model,
+                pattern,
+                kind,
+                r,
+                &mut k,
+                &mut extra.magnitude,
+                &mut extra.held_step,
+                &mut info,
+                |e| model.pair_contribution(e, u),
+            ),
+            ElementKind::ContactPoint => elements_into(
+                model,
+                pattern,
+                kind,
+                r,
+                &mut k,
+                &mut extra.magnitude,
+                &mut extra.held_step,
+                &mut info,
+                |e| model.point_contribution(e, u),
+            ),
         }
     }
     let AssemblyScratch {
@@ -1677,6 +1702,28 @@ fn assemble_two(
                 &mut no_held,
                 &mut info,
                 |e| tie_contribution(model, e, u),
+            ),
+            ElementKind::ContactPair => elements_into(
+                model,
+                pattern,
+                kind,
+                r,
+                &mut k,
+                &mut extra.magnitude,
+                &mut no_held,
+                &mut info,
+                |e| model.pair_contribution(e, u),
+            ),
+            ElementKind::ContactPoint => elements_into(
+                model,
+                pattern,
+                kind,
+                r,
+                &mut k,
+                &mut extra.magnitude,
+                &mut no_held,
+                &mut info,
+                |e| model.point_contribution(e, u),
             ),
         }
     }

@@ -283,6 +283,8 @@ fn constraints(model: &Model, u: &[f64], moving: &BTreeSet<usize>) -> Vec<Constr
             ElementKind::Tie => {
                 gaps.insert((nodes[0], nodes[1]));
             }
+            // Unilateral: no constraint while apart, so none for the mechanism count.
+            ElementKind::ContactPair | ElementKind::ContactPoint => {}
         }
     }
     let mut out: Vec<Constraint> = lengths

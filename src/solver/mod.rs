@@ -40,6 +40,7 @@
 mod active_set;
 pub mod arc;
 pub mod assemble;
+mod contact;
 mod core;
 mod dense;
 pub mod dissect;

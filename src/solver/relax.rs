@@ -168,6 +168,19 @@ fn local(
                 let lines = at.iter().map(|&(e, a)| (tie_contribution(model, e, u), a));
                 local_lines(lines, &mut out)
             }
+            // Contacts (model/contact.rs): a pair as a line, a rigid point on its own node.
+            ElementKind::ContactPair => {
+                let lines = at.iter().map(|&(e, a)| (model.pair_contribution(e, u), a));
+                local_lines(lines, &mut out)
+            }
+            ElementKind::ContactPoint => {
+                for &(e, _) in at {
+                    let (f, k, w) = model.point_contribution(e, u);
+                    out.r += f;
+                    out.k += k;
+                    out.potential = out.potential.map(|p| p + w);
+                }
+            }
         }
     }
     for &(l, c, f) in &adj.forces[node] {
@@ -615,6 +628,20 @@ impl PatchElements<'_> {
                             Some(kt.as_slice()),
                             &mut k,
                         );
+                    }
+                }
+                ElementKind::ContactPair => {
+                    for &e in list {
+                        let (f, kc, _) = model.pair_contribution(e, u);
+                        let on = &model.contact_pairs[e].nodes;
+                        add(on, f.as_slice(), Some(kc.as_slice()), &mut k);
+                    }
+                }
+                ElementKind::ContactPoint => {
+                    for &e in list {
+                        let (f, kc, _) = model.point_contribution(e, u);
+                        let on = &model.contact_points[e].nodes;
+                        add(on, f.as_slice(), Some(kc.as_slice()), &mut k);
                     }
                 }
             }

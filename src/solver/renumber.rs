@@ -150,7 +150,10 @@ fn node_normals(model: &Model) -> Result<Vec<Vector3<f64>>, OutOfMemory> {
             }
             // Lines have no surface: a node only on cables has no normal, and its neighbours
             // go by degree (as in Cuthill-McKee).
-            ElementKind::Cable | ElementKind::Tie => {}
+            ElementKind::Cable
+            | ElementKind::Tie
+            | ElementKind::ContactPair
+            | ElementKind::ContactPoint => {}
         }
     }
     for v in &mut normal {

@@ -866,7 +866,10 @@ pub(super) fn regularisation_parts(
             ElementKind::Membrane => triangle_regularisation(model, u, wrinkle, &mut out),
             // The exact tangent: a slack segment has none (`cable::segment`), a closed
             // segment's link and a tie are linear springs.
-            ElementKind::Cable | ElementKind::Tie => {}
+            ElementKind::Cable
+            | ElementKind::Tie
+            | ElementKind::ContactPair
+            | ElementKind::ContactPoint => {}
         }
     }
     out

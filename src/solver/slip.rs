@@ -553,6 +553,10 @@ impl Solver {
         if self.pre_strain > 0.0 {
             return Ties::Closed;
         }
+        // The contacts first (contact.rs), sharing the rounds.
+        if let Some(contacts) = self.close_contacts(model, u, rounds, log) {
+            return contacts;
+        }
         let Some((j, gap)) = widest_gap(model, u) else {
             return Ties::Closed;
         };

@@ -12,6 +12,7 @@ mod arc_length_fallbacks;
 mod cable_midspan;
 mod capstan_sleeve;
 mod conical_tent;
+mod contact;
 mod distant_member;
 mod etfe;
 mod form_finding;

@@ -1,0 +1,366 @@
+//! GOAL: unilateral frictionless contact (`model::contact`): a prestressed membrane held on a
+//!       rigid cylinder carries the contact pressure N/R, on a rigid sphere 2N/R; the
+//!       penetration after the augmented-Lagrangian rounds is within the gap tolerance
+//!       whatever the penalty (1e-2 to 1e4 times the neighbouring stiffness) and the answer does
+//!       not depend on it; a snow-loaded cushion's top sheet rests on its bottom sheet and the
+//!       rim reaction equals the snow load.
+//! MESH: (a) a closed tube of radius R(1 − δ) about the y axis, 48 equal chords around, 1 m
+//!       along y in 4 cells (each cell split in two); (b) a sphere of radius R(1 − δ): the
+//!       octahedron subdivided 8 times per edge, projected (tests/common octasphere, 256
+//!       triangles of unequal shape); (c) the cushion generator: 3 m x 3 m rectangle, 6 rings,
+//!       top sheet flat, bottom sheet lowered 0.1 m at the centre; (d) the shipped EtfeCushion.
+//! BOUNDARY CONDITIONS: (a) the two end circles held in y (no strain along the axis), the line
+//!       at polar angle 0 held in x (the rotation about the axis); (b) the pole (0, 0, R) held
+//!       in x, y and the equator node (R, 0, 0) in y, z (the three rotations; both move
+//!       radially in the exact solution); (c), (d) the rim held.
+//! PARAMETERS: R = 1 m, δ = 1e-4 (every node starts inside the rigid body by δ R = 0.1 mm:
+//!       the contact pushes the membrane out onto it); SVK E t = 1e5 N/m (E = 1e8 Pa,
+//!       t = 1 mm), ν = 0.3; isotropic prestress N0 = 1000 N/m. (c) SVK E = 9e8 Pa, ν = 0.43,
+//!       t = 0.25 mm, snow q = 600 Pa on the top sheet, no gas. Default penalty (10 times the
+//!       neighbouring stiffness) unless stated.
+//! REFERENCE: a membrane with membrane force N lying on a rigid surface of principal
+//!       curvatures κ1, κ2 presses on it with p = N1 κ1 + N2 κ2 (the membrane equation normal to
+//!       the surface, e.g. Timoshenko & Woinowsky-Krieger, *Theory of Plates and Shells*, 2nd
+//!       ed. 1959, §105): the cylinder p = N_θ/R, the sphere (isotropic N) p = 2N/R. Pushed out
+//!       from R(1 − δ) to R the membrane stretches by λ = 1/(1 − δ): hoop N_θ = λ (N0 + E t
+//!       E_G/(1 − ν²)) on the tube (no strain along the axis), N = N0 + E t E_G/(1 − ν) on the
+//!       sphere, E_G = (λ² − 1)/2 the Green strain (SVK, prestress a PK2 stress; force per
+//!       current length). A node's pressure is its contact force over its tributary area (a
+//!       third of each adjacent triangle).
+//!       (c), (d): the snow is per plan area and the rim is held, so the sheet's plan area stays
+//!       a b: Σ R_z = q a b (equilibrium); the gas pressure is internal and adds nothing.
+//! TOLERANCES: the exact discrete solution is the uniform radial scaling by λ = 1/(1 − δ)
+//!       (every triangle stretched alike: hoop only on the tube, equibiaxial on the sphere),
+//!       so the closed forms hold to round-off. (a) each node's force 2 N Δy sin(Δφ/2) over its
+//!       area Δy 2 R sin(Δφ/2) is N/R exactly: every node within 1e-8. (b) node by node the
+//!       third-of-triangle area is not the area the force belongs to on unequal triangles
+//!       (printed: single nodes scatter by tens of per cent); the mean pressure Σ p / A would
+//!       be 2N/R exactly under a uniform N (Euler's theorem, in the test), but on unequal
+//!       triangles the uniform state's nodal forces are not radial and the frictionless nodes
+//!       slide: N varies by O(h²). Measured 3.7e-5 at 8 divisions,
+//!       measured 2.5e-6 at 16;
+//!       tolerance 1e-5 at 16 divisions, and at least a 3x fall per halving. Penetration: at most
+//!       `contact::GAP_TOLERANCE` (1e-10) of the length scale for every penalty; the pressures
+//!       of every penalty within 1e-6 of the default's (the gap tolerance over δ R). (c) Σ R_z
+//!       within 1e-9 q a b (the force tolerance of the solve); the sheets touch (contact area
+//!       > 0, contact force > 0) with no pair closer than −GAP_TOLERANCE × L.
+
+use crate::common;
+use common::*;
+use std::f64::consts::PI;
+use velarium::model::contact::GAP_TOLERANCE;
+use velarium::model::Model;
+use velarium::Scene;
+
+const R: f64 = 1.0;
+const DELTA: f64 = 1e-4;
+const N0: f64 = 1000.0;
+const ET: f64 = 1e5;
+const NU: f64 = 0.3;
+
+fn membrane_scene(
+    nodes: &[[f64; 3]],
+    triangles: &[[usize; 3]],
+    sets: serde_json::Value,
+    supports: serde_json::Value,
+    contact: serde_json::Value,
+) -> Scene {
+    let text = serde_json::json!({
+        "format": 1, "name": "ContactCase",
+        "geometry": {"nodes": nodes, "triangles": triangles, "node_sets": sets},
+        "membranes": [{"name": "film", "triangles": (0..triangles.len()).collect::<Vec<_>>(),
+                       "thickness": 1e-3, "material": {"kind": "svk", "E": ET / 1e-3, "nu": NU},
+                       "prestress": {"kind": "isotropic", "n": N0}}],
+        "supports": supports,
+        "contacts": [contact],
+        "inputs": [{"name": "F", "load": {"kind": "point_force", "nodes": "loaded", "direction": [0, 0, 1]}, "start": 0}],
+        "outputs": [{"name": "area", "probe": {"kind": "contact_area", "contact": "body"}},
+                    {"name": "total", "probe": {"kind": "contact_total", "contact": "body"}}]
+    });
+    Scene::from_json(&text.to_string()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Solve at the start values; the model and the solution.
+fn solved(scene: Scene) -> (Model, Vec<f64>) {
+    let mut e = engine(scene);
+    set(&mut e, "F", 0.0);
+    solve(&mut e);
+    (e.model().clone(), e.state().displacement.clone())
+}
+
+/// Tributary area (a third of each adjacent triangle, current) of every node.
+fn tributary(model: &Model, u: &[f64]) -> Vec<f64> {
+    let mut a = vec![0.0; model.reference.len()];
+    for t in &model.triangles {
+        let x = t.nodes.map(|i| model.position(u, i));
+        let area = 0.5 * (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
+        for &i in &t.nodes {
+            a[i] += area / 3.0;
+        }
+    }
+    a
+}
+
+/// Node pressure p_i / A_i of the contact at `node` (a rigid contact point).
+fn node_pressure(model: &Model, u: &[f64], node: usize) -> f64 {
+    let area = tributary(model, u);
+    let c = model
+        .contact_states(u)
+        .find(|c| c.nodes[0] == node)
+        .expect("a contact at the node");
+    c.pressure() / area[node]
+}
+
+/// The widest penetration (−g, m) over every contact, and the largest |gap| of a pressed one.
+fn penetration(model: &Model, u: &[f64]) -> f64 {
+    model
+        .contact_states(u)
+        .map(|c| {
+            if c.pressure() > 0.0 {
+                c.gap.abs()
+            } else {
+                (-c.gap).max(0.0)
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+const M: usize = 48;
+const NY: usize = 4;
+
+/// The cylindrical tube (module header), with the given penalty.
+fn cylinder(penalty: Option<f64>) -> Scene {
+    let r = R * (1.0 - DELTA);
+    let id = |i: usize, j: usize| j * M + i % M;
+    let mut nodes = Vec::new();
+    for j in 0..=NY {
+        for i in 0..M {
+            let phi = 2.0 * PI * i as f64 / M as f64;
+            nodes.push([r * phi.sin(), j as f64 / NY as f64, r * phi.cos()]);
+        }
+    }
+    let mut triangles = Vec::new();
+    for j in 0..NY {
+        for i in 0..M {
+            triangles.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            triangles.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let line: Vec<usize> = (0..=NY).map(|j| id(0, j)).collect();
+    let ends: Vec<usize> = (0..M).flat_map(|i| [id(i, 0), id(i, NY)]).collect();
+    let mut contact = serde_json::json!({"kind": "cylinder", "name": "body", "nodes": "all",
+        "point": [0, 0, 0], "axis": [0, 1, 0], "radius": R});
+    if let Some(k) = penalty {
+        contact["penalty"] = k.into();
+    }
+    membrane_scene(
+        &nodes,
+        &triangles,
+        serde_json::json!({"all": (0..nodes.len()).collect::<Vec<_>>(), "line": line,
+                           "ends": ends, "loaded": [id(M / 2, NY / 2)]}),
+        serde_json::json!([{"nodes": "ends", "fix": ["y"]}, {"nodes": "line", "fix": ["x"]}]),
+        contact,
+    )
+}
+
+/// The tube's nodes.
+fn cylinder_nodes() -> Vec<usize> {
+    (0..(NY + 1) * M).collect()
+}
+
+#[test]
+fn membrane_on_a_cylinder_carries_n_over_r() {
+    let (model, u) = solved(cylinder(None));
+    // Hoop stretch λ = 1/(1 − δ), none along the axis: Green strain E = (λ² − 1)/2, PK2
+    // N0 + E t E/(1 − ν²), force per current length σ t = λ S t0 (J = λ λ_z, t = t0 λ_z).
+    let lambda = 1.0 / (1.0 - DELTA);
+    let n_theta = lambda * (N0 + ET * (lambda * lambda - 1.0) / 2.0 / (1.0 - NU * NU));
+    let exact = n_theta / R;
+    let mut worst: f64 = 0.0;
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for i in cylinder_nodes() {
+        let p = node_pressure(&model, &u, i);
+        worst = worst.max(rel(p, exact));
+        (lo, hi) = (lo.min(p), hi.max(p));
+    }
+    println!("cylinder: p = N/R = {exact:.9} Pa, nodes {lo:.9} to {hi:.9} Pa, worst relative error {worst:.2e}");
+    assert!(worst < 1e-8, "worst relative error {worst:.2e}");
+    let gap = penetration(&model, &u);
+    assert!(gap <= GAP_TOLERANCE * model.length_scale, "gap {gap:.2e}");
+}
+
+/// The penalty is numerical: 1e-2, 1, 1e2, 1e4 times the neighbouring stiffness (the largest
+/// node's, E t |∇N|² A summed over its triangles) give the default's pressures, closed.
+#[test]
+fn cylinder_answer_does_not_depend_on_the_penalty() {
+    let (model, u) = solved(cylinder(None));
+    let reference: Vec<f64> = cylinder_nodes()
+        .into_iter()
+        .map(|i| node_pressure(&model, &u, i))
+        .collect();
+    // The neighbouring stiffness: the default penalty over its factor.
+    let near = model.contact_points.iter().map(|c| c.k).fold(0.0, f64::max)
+        / velarium::model::contact::PENALTY_FACTOR;
+    for factor in [1e-2, 1.0, 1e2, 1e4] {
+        let (m, v) = solved(cylinder(Some(factor * near)));
+        let gap = penetration(&m, &v);
+        let worst = cylinder_nodes()
+            .into_iter()
+            .zip(&reference)
+            .map(|(i, &p)| rel(node_pressure(&m, &v, i), p))
+            .fold(0.0, f64::max);
+        println!("penalty {factor:e} x k_n: gap {gap:.2e} m, pressures within {worst:.2e}");
+        assert!(
+            gap <= GAP_TOLERANCE * m.length_scale,
+            "penalty {factor:e}: gap {gap:.2e}"
+        );
+        assert!(
+            worst < 1e-6,
+            "penalty {factor:e}: pressures differ by {worst:.2e}"
+        );
+    }
+}
+
+/// The octasphere with `n` divisions per edge on the sphere: the mean pressure's relative
+/// error against 2N/R and the single nodes' largest.
+fn sphere(n: usize) -> (f64, f64) {
+    let (nodes, triangles) = octasphere(n, R * (1.0 - DELTA));
+    let find = |p: [f64; 3]| {
+        nodes
+            .iter()
+            .position(|q| (0..3).all(|c| (q[c] - p[c] * R * (1.0 - DELTA)).abs() < 1e-9))
+            .expect("an octahedron vertex")
+    };
+    let (pole, equator) = (find([0.0, 0.0, 1.0]), find([1.0, 0.0, 0.0]));
+    let scene = membrane_scene(
+        &nodes,
+        &triangles,
+        serde_json::json!({"all": (0..nodes.len()).collect::<Vec<_>>(),
+                           "pole": [pole], "equator": [equator], "loaded": [pole]}),
+        serde_json::json!([{"nodes": "pole", "fix": ["x", "y"]},
+                           {"nodes": "equator", "fix": ["y", "z"]}]),
+        serde_json::json!({"kind": "sphere", "name": "body", "nodes": "all",
+                           "center": [0, 0, 0], "radius": R}),
+    );
+    let mut e = engine(scene);
+    set(&mut e, "F", 0.0);
+    solve(&mut e);
+    // Equibiaxial stretch λ = 1/(1 − δ): Green strain E = (λ² − 1)/2, PK2 N0 + E t E/(1 − ν),
+    // force per current length σ t = S t0 (J = λ² λ_z, t = t0 λ_z).
+    let lambda = 1.0 / (1.0 - DELTA);
+    let force = N0 + ET * (lambda * lambda - 1.0) / 2.0 / (1.0 - NU);
+    let exact = 2.0 * force / R;
+    // Every node pressed: the contact area is the whole current area A and Σ p R = Σ f_i·x_i
+    // = 2 N A (Euler: A is homogeneous of degree 2 in the positions), so the mean pressure
+    // Σ p / A is 2N/R on any mesh of the sphere.
+    let (total, area) = (get(&e, "total"), get(&e, "area"));
+    let mean = total / area;
+    let model = e.model();
+    let u = &e.state().displacement;
+    let pressures: Vec<f64> = (0..nodes.len())
+        .map(|i| node_pressure(model, u, i))
+        .collect();
+    let spread = pressures.iter().map(|&p| rel(p, exact)).fold(0.0, f64::max);
+    println!("sphere ({n} divisions): 2N/R = {exact:.9} Pa, mean pressure {mean:.9} Pa (relative {:.2e}); single nodes within {spread:.2e}", rel(mean, exact));
+    assert!(
+        pressures.iter().all(|&p| p > 0.0),
+        "every node presses on the sphere"
+    );
+    let gap = penetration(model, u);
+    assert!(gap <= GAP_TOLERANCE * model.length_scale, "gap {gap:.2e}");
+    (rel(mean, exact), spread)
+}
+
+#[test]
+fn membrane_on_a_sphere_carries_2n_over_r() {
+    let (coarse, _) = sphere(8);
+    let (fine, _) = sphere(16);
+    assert!(
+        fine < 1e-5,
+        "mean pressure off by {fine:.2e} at 16 divisions"
+    );
+    assert!(
+        fine < coarse / 3.0,
+        "no O(h²) convergence: {coarse:.2e} -> {fine:.2e}"
+    );
+}
+
+/// A cushion with a flat top sheet and a bottom sheet lowered 0.1 m, no gas, under snow q on
+/// the top sheet: the top comes down onto the bottom.
+#[test]
+fn snow_loaded_cushion_rests_on_its_bottom_sheet() {
+    let q = 600.0;
+    let text = serde_json::json!({
+        "format": 1, "name": "SnowCushion",
+        "geometry": {"generators": [{"kind": "cushion", "name": "c", "center": [0, 0, 0],
+            "outline": {"shape": "rectangle", "size": [3.0, 3.0]}, "rings": 6, "rise": [0.0, 0.1]}]},
+        "membranes": [{"name": "foil", "triangles": "c", "thickness": 0.00025,
+                       "material": {"kind": "svk", "E": 9e8, "nu": 0.43}}],
+        "supports": [{"nodes": "c.rim", "fix": ["x", "y", "z"]}],
+        "contacts": [{"kind": "sheets", "name": "sheets", "top": "c.top", "bottom": "c.bottom", "direction": [0, 0, 1]}],
+        "inputs": [{"name": "snow", "load": {"kind": "snow", "membrane": "foil", "zone": "c.top"}, "start": 0, "max": 1000}],
+        "outputs": [{"name": "R_z", "probe": {"kind": "reaction", "nodes": "c.rim", "component": "z"}},
+                    {"name": "force", "probe": {"kind": "contact_total", "contact": "sheets", "component": "z"}},
+                    {"name": "area", "probe": {"kind": "contact_area", "contact": "sheets"}}]
+    });
+    let scene = Scene::from_json(&text.to_string()).unwrap();
+    let mut e = engine(scene);
+    for k in 1..=6 {
+        set(&mut e, "snow", q * k as f64 / 6.0);
+        solve(&mut e);
+    }
+    let load = q * 3.0 * 3.0;
+    let (r, force, area) = (get(&e, "R_z"), get(&e, "force"), get(&e, "area"));
+    println!("snow cushion: R_z {r:.9e} N against q a b {load:.9e} N; contact force {force:.4e} N over {area:.4} m2");
+    assert!(rel(r, load) < 1e-9, "R_z {r} against {load}");
+    assert!(force > 0.0 && force <= load * (1.0 + 1e-9) && area > 0.0);
+    let model = e.model();
+    let u = &e.state().displacement;
+    let worst = model
+        .contact_states(u)
+        .map(|c| (-c.gap).max(0.0))
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= GAP_TOLERANCE * model.length_scale,
+        "penetration {worst:.2e}"
+    );
+}
+
+/// The shipped EtfeCushion through its experiment: at its end the sheets touch and the rim
+/// carries the snow.
+#[test]
+fn shipped_etfe_cushion_ends_in_contact_carrying_the_snow() {
+    let scene = read_scene(&shipped("EtfeCushion"));
+    let loads = scene
+        .experiment
+        .loads
+        .clone()
+        .expect("an experiment load history");
+    let mut e = engine(scene);
+    let last = loads.time.len() - 1;
+    let value = |name: &str, k: usize| match &loads.inputs[name][k] {
+        velarium::scene::LoadValue::All(v) => *v,
+        velarium::scene::LoadValue::Each(v) => v[0],
+    };
+    // Through the history's rows, each in ten steps (linear between the rows).
+    for k in 1..=last {
+        for s in 1..=10 {
+            let f = s as f64 / 10.0;
+            for name in ["gas", "snow"] {
+                let v = value(name, k - 1) + f * (value(name, k) - value(name, k - 1));
+                set(&mut e, name, v);
+            }
+            solve(&mut e);
+        }
+    }
+    let snow = value("snow", last) * 9.0;
+    let r = get(&e, "R_z");
+    println!(
+        "EtfeCushion: p {:.1} Pa, R_z {r:.6e} N against {snow:.6e} N, contact {:.3e} N over {:.4} m2",
+        get(&e, "p"),
+        get(&e, "contact_force"),
+        get(&e, "contact_area")
+    );
+    assert!(rel(r, snow) < 1e-9);
+    assert!(get(&e, "contact_area") > 0.0 && get(&e, "contact_force") > 0.0);
+}
