@@ -16,7 +16,7 @@ pub struct Settings {
     /// `solver.max_iterations`).
     pub max_iterations: usize,
     /// Newton iterations a whole step may spend (every increment, cut-back and continuation)
-    /// before it fails, saying so (`Stepper`). Default 500 (the scene's
+    /// before it fails, saying so (`Stepper`). Default 1000 (the scene's
     /// `solver.max_step_iterations`).
     pub max_step_iterations: usize,
     /// Iterations an increment may continue past `max_iterations` while its residual still
@@ -179,7 +179,7 @@ impl Default for Settings {
         Settings {
             tolerance: 1e-9,
             max_iterations: 50,
-            max_step_iterations: 500,
+            max_step_iterations: 1000,
             max_iterations_progressing: 200,
             initial_increment: 1.0,
             min_increment: 1e-4,

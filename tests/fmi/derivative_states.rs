@@ -238,10 +238,6 @@ fn run(mut case: Case) -> Measured {
     }
     let mut scene = case.scene;
     scene.solver.tolerance = case.solver_tolerance;
-    // The default work budget (500 iterations' worth, ten times a converging step's 50) is
-    // sized for the default tolerance 1e-6; these solves ask for 1e-11 to 1e-13 so that the
-    // differences resolve the derivatives, and near slack states that costs more.
-    scene.solver.max_step_iterations = 1000;
     let mut e = engine(scene);
     solve(&mut e);
     let point = case.via.last().expect("an operating point").clone();
@@ -816,7 +812,6 @@ fn the_direct_solve_agrees_with_gmres() {
         let seeds: Vec<Values> = case.seeds.iter().map(|s| s.moves.clone()).collect();
         let mut scene = case.scene;
         scene.solver.tolerance = case.solver_tolerance;
-        scene.solver.max_step_iterations = 1000;
         let mut e = engine(scene);
         solve(&mut e);
         for to in &case.via {
