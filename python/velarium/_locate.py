@@ -52,7 +52,7 @@ def binaries_dir() -> Path:
     raise FileNotFoundError(
         "velarium: the `velarium` command was not found; looked in "
         + ("; ".join(tried) or "nowhere (no VELARIUM_HOME, no bundled binaries, no checkout)")
-        + ". Install the wheel (pip install ./python), build the checkout (cargo build --release) "
+        + ". Install the wheel (pip install . at the repository's root), build the checkout (cargo build --release) "
         "or set VELARIUM_HOME to a directory holding velarium and libvelarium.so"
     )
 
