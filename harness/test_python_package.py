@@ -153,6 +153,42 @@ def test_the_wheel_is_tagged_by_the_glibc_its_binaries_need(fresh):
         assert tags == ["py3-none-linux_x86_64"]
 
 
+def test_the_hooks_elf_reader_agrees_with_objdump():
+    """setup.py's own ELF reader (what the tag is decided on) against binutils: the same GLIBC
+    versions needed, on the native and the portable binaries; the native ones (glibc 2.34,
+    libgcc_s) get the plain tag, the portable ones manylinux2014."""
+    import importlib.util
+
+    if shutil.which("objdump") is None or shutil.which("readelf") is None:
+        pytest.skip("objdump/readelf (binutils) are not installed")
+    spec = importlib.util.spec_from_file_location("velarium_wheel_hook", vr.ROOT / "setup.py")
+    hook = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hook)
+    checked = 0
+    for directory in (vr.VELARIUM.parent, vr.VELARIUM.parent.parent / "x86_64-unknown-linux-gnu" / "release"):
+        files = [directory / name for name in ("velarium", "libvelarium.so")]
+        if not all(f.is_file() for f in files):
+            continue
+        for f in files:
+            machine, needed, versions = hook.elf_requirements(f)
+            ours = {v for names in versions.values() for v in names if v.startswith("GLIBC_")}
+            dump = subprocess.run(["objdump", "-T", str(f)], capture_output=True, text=True, check=True).stdout
+            assert ours == set(re.findall(r"\b(GLIBC_[0-9.]+)\b", dump)), f
+            dynamic = subprocess.run(["readelf", "-d", str(f)], capture_output=True, text=True, check=True).stdout
+            assert needed == re.findall(r"\(NEEDED\)\s+Shared library: \[(.*?)\]", dynamic), f
+            assert machine == "x86_64"
+            checked += 1
+        tag, why = hook.platform_tag(files, "linux_x86_64")
+        highest = max(highest_glibc(f) for f in files)
+        print(directory, tag, why)
+        if highest <= (2, 17):
+            assert tag == "manylinux_2_17_x86_64.manylinux2014_x86_64", why
+        elif any("libgcc_s.so.1" in hook.elf_requirements(f)[1] for f in files):
+            assert tag == "linux_x86_64", why
+    if checked == 0:
+        pytest.skip(f"no binaries in {vr.VELARIUM.parent}: run `cargo build --release`")
+
+
 def test_the_root_and_python_projects_declare_the_same_package():
     import tomllib
 
