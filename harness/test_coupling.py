@@ -494,3 +494,21 @@ def test_the_ssp_package_in_a_second_tool(system, reference, tool, tmp_path):
         print(f"{tool} {col}: {tool_error:.3e} from the monolithic answer (ours: weak {weak_error:.3e}, "
               f"strong {strong_error:.3e})")
         assert tool_error <= 1.5 * weak_error + 1e-6, (col, tool_error, weak_error)
+
+
+def test_an_ssp_package_of_fmi3_archives(system3, tmp_path):
+    """write_ssp of the FMI 3 system: the package holds the FMI 3 archives, and our master runs
+    it to the numbers of the FMI 3 system file, bit for bit."""
+    from velarium import couple_ssp
+
+    ssp = couple_ssp.write_ssp(system3, tmp_path / "cushion_blower_fmi3.ssp", "cushion_blower")
+    back = couple.load_system(ssp)
+    try:
+        assert sorted(Path(p).name for p in back["fmu_paths"].values()) == ["Blower_fmi3.fmu", "CushionPressure_fmi3.fmu"]
+        a, b = couple.run_system(system3, "newton"), couple.run_system(back, "newton")
+        assert b.fmi == {"cushion": 3, "blower": 3}
+        assert a.iterations.tolist() == b.iterations.tolist()
+        for col in a.records[0].values:
+            assert np.array_equal(a.column(col), b.column(col)), col
+    finally:
+        couple_ssp.remove(back)
