@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# The portable FMU library (docs/fmu.md, "Portable FMUs: the glibc 2.17 build"): libvelarium.so
-# built with cargo-zigbuild for x86_64-unknown-linux-gnu.2.17 (zig's linker and glibc 2.17's
-# symbol stubs, manylinux2014), a second build of the cdylib only. `velarium pack` ships it by
-# default from <target dir>/x86_64-unknown-linux-gnu/release/libvelarium.so when it is not older
-# than the native library (src/pack.rs, choose_library).
+# The portable FMU library and command (docs/fmu.md, "Portable FMUs: the glibc 2.17 build"):
+# libvelarium.so and the `velarium` command built with cargo-zigbuild for
+# x86_64-unknown-linux-gnu.2.17 (zig's linker and glibc 2.17's symbol stubs, manylinux2014), a
+# second build of the cdylib and the binary. `velarium pack` ships the library by default from
+# <target dir>/x86_64-unknown-linux-gnu/release/libvelarium.so when it is not older than the
+# native library (src/pack.rs, choose_library); the Python wheel (setup.py) bundles both files
+# from there on the same rule, and is then tagged manylinux2014.
 #
 # The toolchain comes from PyPI (ziglang, cargo-zigbuild, pinned below) into .venv. When it
 # cannot be installed (no PyPI, an unsupported platform), this prints a notice and exits 0: the
@@ -25,8 +27,11 @@ if ! .venv/bin/python -m pip install --quiet --disable-pip-version-check "ziglan
 fi
 
 start=$(date +%s)
-PATH="$PWD/.venv/bin:$PATH" cargo zigbuild --release --lib --target "$TARGET.2.17"
+PATH="$PWD/.venv/bin:$PATH" cargo zigbuild --release --lib --bins --target "$TARGET.2.17"
 dir=$(cargo metadata --format-version 1 --no-deps | .venv/bin/python -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')
-LIB="$dir/$TARGET/release/libvelarium.so"
-highest=$(objdump -T "$LIB" 2>/dev/null | grep -o 'GLIBC_[0-9.]*' | sort -u -V | tail -1 || true)
-echo "portable.sh: $LIB (highest symbol version ${highest:-unknown: objdump missing}) in $(($(date +%s) - start)) s"
+for file in libvelarium.so velarium; do
+  path="$dir/$TARGET/release/$file"
+  highest=$(objdump -T "$path" 2>/dev/null | grep -o 'GLIBC_[0-9.]*' | sort -u -V | tail -1 || true)
+  echo "portable.sh: $path (highest symbol version ${highest:-unknown: objdump missing})"
+done
+echo "portable.sh: built in $(($(date +%s) - start)) s"

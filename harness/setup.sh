@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Build the release binary and library, and install the harness's Python environment in .venv
 # (fmpy, fmutool, pytest, numpy, scipy, matplotlib, meshio, pyvista/vtk, dask from
-# harness/requirements.txt) with the `velarium` Python package (python/, docs/python.md) installed
-# editable, so the harness runs the package's code as it is in the checkout. Idempotent: pip runs
-# only when requirements.txt (or python/pyproject.toml, python/setup.py) changed since the last
-# install; the system libraries VTK needs to render off screen (GL, EGL, X11 client
+# harness/requirements.txt) with the `velarium` Python package (pyproject.toml and setup.py at the
+# root, python/velarium; docs/python.md) installed editable, so the harness runs the package's code
+# as it is in the checkout. Idempotent: pip runs only when requirements.txt (or pyproject.toml,
+# setup.py) changed since the last install; the system libraries VTK needs to render off screen (GL, EGL, X11 client
 # libraries; no X server) are installed from Debian only if one of them is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,9 +24,9 @@ if ! cmp -s harness/requirements.txt .venv/.requirements.installed; then
   cp harness/requirements.txt .venv/.requirements.installed
 fi
 # The package, editable: it finds target/release in this checkout (docs/python.md, "Installing").
-if ! cat python/pyproject.toml python/setup.py | cmp -s - .venv/.velarium.installed; then
-  .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e python
-  cat python/pyproject.toml python/setup.py > .venv/.velarium.installed
+if ! cat pyproject.toml setup.py | cmp -s - .venv/.velarium.installed; then
+  .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
+  cat pyproject.toml setup.py > .venv/.velarium.installed
 fi
 
 # VTK's wheels load libGL/libEGL (Mesa's software renderer when there is no GPU or display)

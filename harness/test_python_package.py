@@ -1,18 +1,27 @@
-"""The Python package (python/, docs/python.md): `pip install` of its wheel into a fresh virtual
-environment runs every Python block of docs/python.md with the bundled command; bad input is a
-ValueError naming the field; `python -m velarium.run` and `python -m velarium.sweep` work.
+"""The Python package (pyproject.toml and setup.py at the root, python/velarium; docs/python.md):
+`pip install .` at the repository's root into a fresh virtual environment runs every Python block
+of docs/python.md with the bundled command; the wheel's platform tag is what its binaries need
+(manylinux2014 for the portable glibc 2.17 build, checked with objdump, not with setup.py's own
+ELF reader); the sdist holds the crate and the package and builds a wheel; `pip install ./python`
+builds the same wheel; bad input is a ValueError naming the field; `python -m velarium.run` and
+`python -m velarium.sweep` work.
 
-The fresh environment is made without pip and without the project's .venv on its path; the wheel
-goes in with `--no-deps --no-index`, and numpy, fmpy and Dask come from .venv's site-packages
-through a path file (a path file's directory is on sys.path, but the path files in it, such as
-.venv's editable install of velarium, are not run), so nothing is downloaded.
+The fresh environment is made without pip and without the project's .venv on its path; the
+package goes in with `pip --python FRESH install --no-deps --no-index --no-build-isolation .`
+(run in the repository's root: setup.py runs `cargo build --release`, a no-op after
+`bash .ci/run`), and numpy, fmpy, Dask and setuptools come from .venv's site-packages through a
+path file (a path file's directory is on sys.path, but the path files in it, such as .venv's
+editable install of velarium, are not run), so nothing is downloaded. The sdist's wheel is built
+with VELARIUM_BINARIES (the crate's build from it takes minutes: measured by hand, docs/python.md).
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -40,32 +49,50 @@ def clean_env(**extra: str) -> dict:
     return env
 
 
+def highest_glibc(path: Path) -> tuple[int, ...]:
+    """The highest GLIBC_x.y symbol version ``path`` needs, read by objdump (binutils)."""
+    dump = subprocess.run(["objdump", "-T", str(path)], capture_output=True, text=True, check=True).stdout
+    versions = {tuple(int(n) for n in v.split(".")) for v in re.findall(r"GLIBC_(\d+(?:\.\d+)*)", dump)}
+    return max(versions)
+
+
+def portable_build() -> Path | None:
+    """The portable glibc 2.17 build's directory when both binaries are there and not older
+    than the native ones (what setup.py bundles then), else None."""
+    portable = vr.VELARIUM.parent.parent / "x86_64-unknown-linux-gnu" / "release"
+    for name in ("velarium", "libvelarium.so"):
+        p, n = portable / name, vr.VELARIUM.parent / name
+        if not p.is_file() or p.stat().st_mtime < n.stat().st_mtime:
+            return None
+    return portable
+
+
 @pytest.fixture(scope="module")
 def fresh(tmp_path_factory) -> Path:
-    """The python of a fresh virtual environment with the package's wheel installed."""
+    """The python of a fresh virtual environment into which `pip install .` was run at the
+    repository's root."""
     library = vr.VELARIUM.parent / "libvelarium.so"
     if not vr.VELARIUM.is_file() or not library.is_file():
         pytest.skip(f"{vr.VELARIUM} or {library} is missing: run `cargo build --release`")
     root = tmp_path_factory.mktemp("fresh")
-    build = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--quiet", str(vr.ROOT / "python"),
-         "--wheel-dir", str(root / "wheels")],
-        capture_output=True, text=True, env=clean_env(VELARIUM_BINARIES=str(vr.VELARIUM.parent)), timeout=300,
-    )
-    assert build.returncode == 0, build.stdout + build.stderr
-    wheels = list((root / "wheels").glob("velarium-*.whl"))
-    assert len(wheels) == 1, wheels
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(root / "venv")], check=True, timeout=120)
     python = root / "venv" / "bin" / "python"
-    install = subprocess.run(
-        [sys.executable, "-m", "pip", "--python", str(python), "install", "--quiet", "--no-deps", "--no-index", str(wheels[0])],
-        capture_output=True, text=True, timeout=300,
-    )
-    assert install.returncode == 0, install.stdout + install.stderr
     purelib = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                              capture_output=True, text=True, check=True).stdout.strip()
     (Path(purelib) / "velarium-test-deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    install = subprocess.run(
+        [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index",
+         "--no-build-isolation", "."],
+        capture_output=True, text=True, cwd=vr.ROOT, timeout=900,
+        env=clean_env(CARGO_TARGET_DIR=str(vr.VELARIUM.parent.parent), VELARIUM_CARGO_JOBS="1"),
+    )
+    assert install.returncode == 0, install.stdout + install.stderr
     return python
+
+
+def site_packages(python: Path) -> Path:
+    return Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['platlib'])"],
+                               capture_output=True, text=True, check=True).stdout.strip())
 
 
 def test_the_wheel_bundles_and_runs_its_own_command(fresh, tmp_path):
@@ -78,7 +105,9 @@ def test_the_wheel_bundles_and_runs_its_own_command(fresh, tmp_path):
     venv = fresh.parent.parent
     for path in (module, command, library):
         assert Path(path).is_relative_to(venv), path
-    assert Path(command).read_bytes() == vr.VELARIUM.read_bytes()
+    bundled = portable_build() or vr.VELARIUM.parent
+    assert Path(command).read_bytes() == (bundled / "velarium").read_bytes()
+    assert Path(library).read_bytes() == (bundled / "libvelarium.so").read_bytes()
     assert os.access(command, os.X_OK)
     assert summary.startswith("ok: PrestressedCable, 3 nodes")
     # VELARIUM_HOME (a checkout) comes before the bundled binaries.
@@ -102,6 +131,130 @@ def test_the_docs_examples_run_in_the_fresh_environment(fresh, tmp_path):
             assert any(line.startswith(comment.split(" (...)")[0]) for line in printed), comment
         else:
             assert comment in printed, f"{comment!r} not in {printed}"
+
+
+def test_the_wheel_is_tagged_by_the_glibc_its_binaries_need(fresh):
+    """The installed wheel's platform tag against objdump's reading of the bundled binaries:
+    manylinux_2_17 + manylinux2014 when they need glibc 2.17 at most (the portable build, which
+    `bash .ci/run` makes and which must then be what is bundled), the plain linux tag when a
+    binary needs more (the native build: glibc 2.34 and libgcc_s here)."""
+    if shutil.which("objdump") is None:
+        pytest.skip("objdump (binutils) is not installed: it reads the binaries' GLIBC versions here")
+    site = site_packages(fresh)
+    wheel = (site / "velarium-0.1.0.dist-info" / "WHEEL").read_text()
+    tags = sorted(line.split(": ", 1)[1] for line in wheel.splitlines() if line.startswith("Tag: "))
+    highest = max(highest_glibc(site / "velarium" / "_bin" / name) for name in ("velarium", "libvelarium.so"))
+    print("bundled binaries need GLIBC_" + ".".join(map(str, highest)), "; tags", tags)
+    if portable_build() is not None:
+        assert highest == (2, 17)
+    if highest <= (2, 17):
+        assert tags == ["py3-none-manylinux2014_x86_64", "py3-none-manylinux_2_17_x86_64"]
+    else:
+        assert tags == ["py3-none-linux_x86_64"]
+
+
+def test_the_hooks_elf_reader_agrees_with_objdump():
+    """setup.py's own ELF reader (what the tag is decided on) against binutils: the same GLIBC
+    versions needed, on the native and the portable binaries; the native ones (glibc 2.34,
+    libgcc_s) get the plain tag, the portable ones manylinux2014."""
+    import importlib.util
+
+    if shutil.which("objdump") is None or shutil.which("readelf") is None:
+        pytest.skip("objdump/readelf (binutils) are not installed")
+    spec = importlib.util.spec_from_file_location("velarium_wheel_hook", vr.ROOT / "setup.py")
+    hook = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hook)
+    checked = 0
+    for directory in (vr.VELARIUM.parent, vr.VELARIUM.parent.parent / "x86_64-unknown-linux-gnu" / "release"):
+        files = [directory / name for name in ("velarium", "libvelarium.so")]
+        if not all(f.is_file() for f in files):
+            continue
+        for f in files:
+            machine, needed, versions = hook.elf_requirements(f)
+            ours = {v for names in versions.values() for v in names if v.startswith("GLIBC_")}
+            dump = subprocess.run(["objdump", "-T", str(f)], capture_output=True, text=True, check=True).stdout
+            assert ours == set(re.findall(r"\b(GLIBC_[0-9.]+)\b", dump)), f
+            dynamic = subprocess.run(["readelf", "-d", str(f)], capture_output=True, text=True, check=True).stdout
+            assert needed == re.findall(r"\(NEEDED\)\s+Shared library: \[(.*?)\]", dynamic), f
+            assert machine == "x86_64"
+            checked += 1
+        tag, why = hook.platform_tag(files, "linux_x86_64")
+        highest = max(highest_glibc(f) for f in files)
+        print(directory, tag, why)
+        if highest <= (2, 17):
+            assert tag == "manylinux_2_17_x86_64.manylinux2014_x86_64", why
+        elif any("libgcc_s.so.1" in hook.elf_requirements(f)[1] for f in files):
+            assert tag == "linux_x86_64", why
+    if checked == 0:
+        pytest.skip(f"no binaries in {vr.VELARIUM.parent}: run `cargo build --release`")
+
+
+def test_the_root_and_python_projects_declare_the_same_package():
+    import tomllib
+
+    root = tomllib.loads((vr.ROOT / "pyproject.toml").read_text())
+    python = tomllib.loads((vr.ROOT / "python" / "pyproject.toml").read_text())
+    assert root["build-system"] == python["build-system"]
+    assert root["project"].pop("readme") == "python/README.md" and python["project"].pop("readme") == "README.md"
+    assert root["project"] == python["project"]
+    assert root["tool"]["setuptools"]["package-dir"] == {"": "python"}
+
+
+def _wheel_names(path: Path) -> list[str]:
+    import zipfile
+
+    with zipfile.ZipFile(path) as z:
+        return sorted(n for n in z.namelist() if ".dist-info/" not in n)
+
+
+def test_the_sdist_holds_the_crate_and_builds_the_wheel(tmp_path):
+    """The root's sdist: every source file of the crate (git ls-files) and of the package, no
+    build output; cargo reads its manifest; a wheel builds from it (with VELARIUM_BINARIES, so
+    cargo is not run here: the crate's build from the sdist is measured in docs/python.md) and
+    holds what `pip wheel ./python` puts in its wheel."""
+    import tarfile
+
+    if not vr.VELARIUM.is_file():
+        pytest.skip(f"{vr.VELARIUM} is missing: run `cargo build --release`")
+    build = subprocess.run([sys.executable, "-c", "import sys; from setuptools import build_meta as b; "
+                            "print(b.build_sdist(sys.argv[1]))", str(tmp_path / "sdist")],
+                           capture_output=True, text=True, cwd=vr.ROOT, env=clean_env(), timeout=300)
+    assert build.returncode == 0, build.stderr
+    sdist = tmp_path / "sdist" / build.stdout.split()[-1]
+    assert sdist.name == "velarium-0.1.0.tar.gz"
+    with tarfile.open(sdist) as tar:
+        names = {n.split("/", 1)[1] for n in tar.getnames() if "/" in n}
+        tar.extractall(tmp_path / "unpacked", filter="data")
+    listed = subprocess.run(["git", "ls-files", "src", "Cargo.toml", "Cargo.lock", "python/velarium"],
+                            capture_output=True, text=True, cwd=vr.ROOT)
+    if listed.returncode == 0 and listed.stdout.strip():
+        wanted = set(listed.stdout.split())
+    else:  # not a git checkout: the files on disk
+        wanted = {str(p.relative_to(vr.ROOT)) for p in (vr.ROOT / "src").rglob("*.rs")} | {"Cargo.toml", "Cargo.lock"}
+    assert wanted <= names, sorted(wanted - names)[:10]
+    assert {"pyproject.toml", "setup.py", "python/README.md", "PKG-INFO"} <= names
+    assert not [n for n in names if n.split("/")[0] in ("target", "build", "harness", "tests", ".venv")]
+    assert sdist.stat().st_size < 2_000_000
+    unpacked = tmp_path / "unpacked" / "velarium-0.1.0"
+    if shutil.which("cargo"):
+        meta = subprocess.run(["cargo", "metadata", "--format-version", "1", "--no-deps", "--offline",
+                               "--manifest-path", str(unpacked / "Cargo.toml")], capture_output=True, text=True, timeout=120)
+        assert meta.returncode == 0, meta.stderr
+        kinds = sorted(k for t in json.loads(meta.stdout)["packages"][0]["targets"] for k in t["kind"])
+        assert {"bin", "cdylib", "rlib"} <= set(kinds), kinds
+    wheels = {}
+    for label, source in (("sdist", sdist), ("python", vr.ROOT / "python")):
+        out = tmp_path / f"wheels-{label}"
+        run = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--quiet",
+                              str(source), "--wheel-dir", str(out)], capture_output=True, text=True, timeout=300,
+                             env=clean_env(VELARIUM_BINARIES=str(portable_build() or vr.VELARIUM.parent)))
+        assert run.returncode == 0, run.stdout + run.stderr
+        [wheels[label]] = out.glob("velarium-0.1.0-py3-none-*.whl")
+    assert wheels["sdist"].name == wheels["python"].name
+    names = _wheel_names(wheels["sdist"])
+    assert names == _wheel_names(wheels["python"])
+    assert {"velarium/_bin/velarium", "velarium/_bin/libvelarium.so", "velarium/__init__.py", "velarium/py.typed",
+            "velarium/couple.py"} <= set(names)
 
 
 # ----------------------------------------------------------------------------- named errors

@@ -7,7 +7,10 @@ In this order:
 3. the checkout this package sits in (an editable install: ``<checkout>/target/release``, or
    ``$CARGO_TARGET_DIR/release``).
 
-The first that has the command wins; nothing found is an error that names all three.
+The first that has the command wins; nothing found is an error that names all three. The FMU
+library is the one beside the command, except in a checkout's layout where the portable glibc
+2.17 build (``<target>/x86_64-unknown-linux-gnu/release/libvelarium.so``, harness/portable.sh)
+is there and not older: then that one, the file `velarium pack` ships by default.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from pathlib import Path
 
 COMMAND = "velarium"
 LIBRARY = "libvelarium.so"
+PORTABLE_TARGET = "x86_64-unknown-linux-gnu"
 
 
 def _candidates() -> list[tuple[str, Path]]:
@@ -48,7 +52,7 @@ def binaries_dir() -> Path:
     raise FileNotFoundError(
         "velarium: the `velarium` command was not found; looked in "
         + ("; ".join(tried) or "nowhere (no VELARIUM_HOME, no bundled binaries, no checkout)")
-        + ". Install the wheel (pip install ./python), build the checkout (cargo build --release) "
+        + ". Install the wheel (pip install . at the repository's root), build the checkout (cargo build --release) "
         "or set VELARIUM_HOME to a directory holding velarium and libvelarium.so"
     )
 
@@ -59,8 +63,12 @@ def command() -> Path:
 
 
 def library() -> Path:
-    """The FMU library `velarium pack` copies into archives (libvelarium.so beside the command)."""
+    """The FMU library `velarium pack` copies into archives: libvelarium.so beside the command,
+    or its portable build when current (src/pack.rs, choose_library: the same rule)."""
     path = binaries_dir() / LIBRARY
     if not path.is_file():
         raise FileNotFoundError(f"velarium: {path} is missing (the `velarium` command is there, its library is not)")
+    portable = path.parent.parent / PORTABLE_TARGET / path.parent.name / LIBRARY
+    if portable.is_file() and portable.stat().st_mtime >= path.stat().st_mtime:
+        return portable
     return path

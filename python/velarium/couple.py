@@ -1,5 +1,5 @@
-"""A coupling master for two FMI 2.0 Co-Simulation FMUs wired by a connection list
-(docs/coupling.md).
+"""A coupling master for two Co-Simulation FMUs, FMI 2.0 or FMI 3.0 (each its own), wired by a
+connection list (docs/coupling.md).
 
 Each macro step [t, t+h] is repeated from the saved FMU states until the interface residual
 converges (strong coupling). The interface unknown x is the vector of the first FMU's inputs that
@@ -16,9 +16,15 @@ and the residual r = H(x) - x. The methods differ in the next x:
 - ``iqn``:    IQN-ILS (interface quasi-Newton, inverse Jacobian by least squares on the
               differences of residuals and of H's values within the macro step);
 - ``newton``: x <- x + (I - J_B J_A)⁻¹ r with J_A, J_B the FMUs' interface Jacobians from
-              ``fmi2GetDirectionalDerivative`` (after the step, with respect to that step's
-              inputs), or finite differences of steps from the saved states when an FMU does
-              not provide derivatives (``jacobian="fd"`` forces them).
+              ``fmi2GetDirectionalDerivative`` / ``fmi3GetDirectionalDerivative`` (after the
+              step, with respect to that step's inputs), or finite differences of steps from the
+              saved states when an FMU does not provide derivatives (``jacobian="fd"`` forces
+              them).
+
+Both FMI versions are driven through the same calls: get/set FMU state (``fmi2GetFMUstate`` /
+``fmi3GetFMUState``...), Real / Float64 values, ``doStep`` (FMI 3 with
+``noSetFMUStatePriorToCurrentPoint`` false, since the master rolls back; a step that returns
+early or asks to terminate counts as refused).
 
 External inputs (set points, loads) are given as piecewise-linear tables and set at the end
 of each macro step (t+h): a quasi-static FMU's step reaches the equilibrium under the inputs
@@ -39,6 +45,8 @@ import shutil
 import sys
 import tempfile
 import time as _time
+import xml.etree.ElementTree as ET
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
@@ -46,6 +54,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi3 import FMU3Slave
 
 METHODS = ("newton", "iqn", "aitken", "gs", "jacobi")
 
@@ -55,8 +64,18 @@ class CouplingError(RuntimeError):
     system is ill-formed (the message names the field)."""
 
 
+def _fmi3_provides_derivatives(path: Path) -> bool:
+    """providesDirectionalDerivatives of an FMI 3 archive's CoSimulation element (fmpy 0.3 reads
+    only the FMI 2 attribute, providesDirectionalDerivative)."""
+    with zipfile.ZipFile(path) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    cs = root.find("CoSimulation")
+    return cs is not None and cs.get("providesDirectionalDerivatives") in ("true", "1")
+
+
 class Unit:
-    """One FMU instance: set/get by name, step, save/restore its state, interface Jacobians."""
+    """One FMU instance, FMI 2.0 or 3.0 Co-Simulation: set/get by name, step, save/restore its
+    state, interface Jacobians."""
 
     def __init__(self, name: str, path: str | Path, start: Mapping[str, float] | None = None):
         self.name = name
@@ -66,16 +85,25 @@ class Unit:
         self.md = read_model_description(str(self.path))
         if self.md.coSimulation is None:
             raise CouplingError(f"fmus.{name}: {self.path} is not a Co-Simulation FMU")
+        if self.md.fmiVersion not in ("2.0", "3.0"):
+            raise CouplingError(f"fmus.{name}: {self.path} is FMI {self.md.fmiVersion}; the master drives FMI 2.0 "
+                                "and 3.0")
+        self.fmi = 3 if self.md.fmiVersion == "3.0" else 2
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
-        self.provides_derivatives = bool(self.md.coSimulation.providesDirectionalDerivative)
+        if self.fmi == 3:
+            self.provides_derivatives = _fmi3_provides_derivatives(self.path)
+        else:
+            self.provides_derivatives = bool(self.md.coSimulation.providesDirectionalDerivative)
         self.can_save = bool(self.md.coSimulation.canGetAndSetFMUstate)
         if not self.can_save:
-            raise CouplingError(f"fmus.{name}: {self.path} cannot get and set its FMU state (canGetAndSetFMUstate)")
+            flag = "canGetAndSetFMUState" if self.fmi == 3 else "canGetAndSetFMUstate"
+            raise CouplingError(f"fmus.{name}: {self.path} cannot get and set its FMU state ({flag})")
         self._dir = tempfile.mkdtemp(prefix=f"couple-{name}-")
         extract(str(self.path), self._dir)
-        self.slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self._dir,
-                               modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        kwargs = dict(guid=self.md.guid, unzipDirectory=self._dir,
+                      modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.slave = FMU3Slave(**kwargs) if self.fmi == 3 else FMU2Slave(**kwargs)
         self.slave.instantiate()
         self.start = dict(start or {})
         self.steps = 0
@@ -92,8 +120,11 @@ class Unit:
                 raise CouplingError(f"{what}: {self.name}.{n} is a {v.causality}, not an {'/'.join(causality)}")
 
     def initialize(self, t0: float, inputs: Mapping[str, float]) -> None:
-        self.slave.setupExperiment(startTime=t0)
-        self.slave.enterInitializationMode()
+        if self.fmi == 3:
+            self.slave.enterInitializationMode(startTime=t0)
+        else:
+            self.slave.setupExperiment(startTime=t0)
+            self.slave.enterInitializationMode()
         values = {**self.start, **inputs}
         if values:
             self.set(values)
@@ -101,30 +132,50 @@ class Unit:
 
     def set(self, values: Mapping[str, float]) -> None:
         names = list(values)
-        self.slave.setReal([self.vr[n] for n in names], [float(values[n]) for n in names])
+        refs, numbers = [self.vr[n] for n in names], [float(values[n]) for n in names]
+        if self.fmi == 3:
+            self.slave.setFloat64(refs, numbers)
+        else:
+            self.slave.setReal(refs, numbers)
 
     def get(self, names: Sequence[str]) -> np.ndarray:
-        return np.array(self.slave.getReal([self.vr[n] for n in names]))
+        refs = [self.vr[n] for n in names]
+        return np.array(self.slave.getFloat64(refs) if self.fmi == 3 else self.slave.getReal(refs))
 
     def step(self, t: float, h: float) -> None:
         self.steps += 1
         t0 = _time.perf_counter()
         try:
-            self.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+            if self.fmi == 3:
+                # the master restores states from before t: not "no set FMU state prior to t"
+                _, terminate, early, reached = self.slave.doStep(
+                    currentCommunicationPoint=t, communicationStepSize=h, noSetFMUStatePriorToCurrentPoint=False)
+                if terminate or early:
+                    raise RuntimeError(f"{self.name}: fmi3DoStep from t = {t:g} ended at {reached:g} "
+                                       f"({'terminateSimulation' if terminate else 'earlyReturn'})")
+            else:
+                self.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
         finally:
             self.step_seconds += _time.perf_counter() - t0
 
     def save(self):
-        return self.slave.getFMUstate()
+        return self.slave.getFMUState() if self.fmi == 3 else self.slave.getFMUstate()
 
     def restore(self, state) -> None:
-        self.slave.setFMUstate(state)
+        if self.fmi == 3:
+            self.slave.setFMUState(state)
+        else:
+            self.slave.setFMUstate(state)
 
     def free_state(self, state) -> None:
-        self.slave.freeFMUstate(state)
+        if self.fmi == 3:
+            self.slave.freeFMUState(state)
+        else:
+            self.slave.freeFMUstate(state)
 
     def jacobian(self, outs: Sequence[str], ins: Sequence[str]) -> np.ndarray:
-        """d outs / d ins of the last step, from GetDirectionalDerivative (one seed per input)."""
+        """d outs / d ins of the last step, from fmi2/fmi3GetDirectionalDerivative (one seed per
+        input)."""
         t0 = _time.perf_counter()
         self.jacobians += 1
         J = np.zeros((len(outs), len(ins)))
@@ -175,6 +226,8 @@ class Result:
     seconds: float
     #: per FMU: (seconds in DoStep, seconds in GetDirectionalDerivative, Jacobians taken)
     timing: dict[str, tuple[float, float, int]] = field(default_factory=dict)
+    #: per FMU: the FMI version it was driven in (2 or 3)
+    fmi: dict[str, int] = field(default_factory=dict)
 
     def column(self, name: str) -> np.ndarray:
         return np.array([r.values[name] for r in self.records])
@@ -455,28 +508,43 @@ class Master:
             h = min(step, 2 * h)
         return Result(method, records, rejected, {n: u.steps for n, u in self.units.items()},
                       _time.perf_counter() - t0,
-                      {n: (u.step_seconds, u.jacobian_seconds, u.jacobians) for n, u in self.units.items()})
+                      {n: (u.step_seconds, u.jacobian_seconds, u.jacobians) for n, u in self.units.items()},
+                      {n: u.fmi for n, u in self.units.items()})
 
 
 # ---- system files and the command line ----
 
-def _fmu_path(name: str, spec: Mapping[str, Any], base: Path, build: Path) -> Path:
+def _fmu_path(name: str, spec: Mapping[str, Any], base: Path, build: Path, fmi: int | None = None) -> Path:
+    """The archive of ``fmus.<name>``: its ``fmu`` (with ``fmi=3``, the FMI 3 archive beside it,
+    ``<stem>_fmi3.fmu`` as `velarium pack` and blower/pack.py name them), or its ``scene``
+    packed into ``build`` as FMI ``spec["fmi"]`` (2 by default; ``fmi`` overrides)."""
     if not isinstance(spec, Mapping) or ("fmu" in spec) == ("scene" in spec):
         raise CouplingError(f"fmus.{name}: give exactly one of \"fmu\" (an archive) or \"scene\" (a Velarium scene)")
+    version = spec.get("fmi", 2) if fmi is None else fmi
+    if version not in (2, 3):
+        raise CouplingError(f"{'fmi' if fmi is not None else f'fmus.{name}.fmi'}: {version!r} is not 2 or 3")
     if "fmu" in spec:
-        return (base / spec["fmu"]).resolve()
+        path = (base / spec["fmu"]).resolve()
+        if fmi == 3 and not path.stem.endswith("_fmi3"):
+            fmi3 = path.with_name(f"{path.stem}_fmi3.fmu")
+            if not fmi3.exists():
+                raise CouplingError(f"fmus.{name}.fmu: FMI 3 was asked for, but there is no {fmi3.name} beside {path} "
+                                    "(the FMI 3 archive's name as velarium pack and blower/pack.py write it)")
+            path = fmi3
+        return path
     from .engine import pack
 
     scene = (base / spec["scene"]).resolve()
     if not scene.exists():
         raise CouplingError(f"fmus.{name}.scene: {scene} does not exist")
-    return pack(scene, build, fmi=2)[0]
+    return pack(scene, build, fmi=version)[0]
 
 
-def load_system(path: str | Path, build: str | Path = "build/coupling") -> dict[str, Any]:
+def load_system(path: str | Path, build: str | Path = "build/coupling", fmi: int | None = None) -> dict[str, Any]:
     """Read a system file (docs/coupling.md, "System files"): FMU paths resolved (scenes packed
-    into ``build``), everything else as written; an ``.ssp`` package is read by
-    ``couple_ssp.read_ssp``."""
+    into ``build``), everything else as written; ``fmi=3`` (or 2) takes every FMU, the
+    monolithic reference's too, in that FMI version (scenes packed so, archives' FMI 3 siblings).
+    An ``.ssp`` package is read by ``couple_ssp.read_ssp`` (its archives as they are)."""
     path = Path(path)
     if path.suffix == ".ssp":
         from .couple_ssp import read_ssp
@@ -490,12 +558,12 @@ def load_system(path: str | Path, build: str | Path = "build/coupling") -> dict[
         if key not in sysd:
             raise CouplingError(f"{path}: missing field {key!r}")
     base = path.resolve().parent
-    sysd["fmu_paths"] = {n: _fmu_path(n, s, base, Path(build)) for n, s in sysd["fmus"].items()}
+    sysd["fmu_paths"] = {n: _fmu_path(n, s, base, Path(build), fmi) for n, s in sysd["fmus"].items()}
     mono = sysd.get("monolithic")
     if mono is not None:
         if mono.get("kind") != "cushion_gas":
             raise CouplingError(f"monolithic.kind: {mono.get('kind')!r} is not \"cushion_gas\"")
-        mono["fmu_path"] = _fmu_path("monolithic", mono, base, Path(build))
+        mono["fmu_path"] = _fmu_path("monolithic", mono, base, Path(build), fmi)
     return sysd
 
 
@@ -548,6 +616,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--jacobian", choices=("auto", "fd"), help="newton: the FMUs' derivatives or finite differences")
     ap.add_argument("--weak", action="store_true", help="weak coupling: one pass per macro step, accepted as it is")
     ap.add_argument("--build", default="build/coupling", help="where scenes are packed (build/coupling)")
+    ap.add_argument("--fmi", type=int, choices=(2, 3),
+                    help="run every FMU in this FMI version (scenes packed so; an archive's X_fmi3.fmu sibling)")
     ap.add_argument("--write-ssp", metavar="OUT.ssp", help="write the system as an SSP 1.0 package and stop")
     a = ap.parse_args(argv)
     opts: dict[str, Any] = {}
@@ -560,7 +630,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if a.weak:
         opts["weak"] = True
     try:
-        sysd = load_system(a.system, a.build)
+        if a.fmi is not None and a.system.endswith(".ssp"):
+            raise CouplingError("--fmi: an .ssp package holds its own archives; it is run as it is")
+        sysd = load_system(a.system, a.build, a.fmi)
         if a.write_ssp:
             from .couple_ssp import write_ssp
 
@@ -572,7 +644,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{r.time:10.6g} {r.step:8.4g} {r.iterations:4d} {r.residual:10.3e}  "
                   + "  ".join(f"{v:14.8g}" for v in r.values.values()))
         its = res.iterations[1:]
-        print(f"{a.method}: {len(its)} macro steps, iterations per step {its.min()}-{its.max()} (mean {its.mean():.2f}), "
+        versions = ", ".join(f"{n} FMI {u}" for n, u in res.fmi.items())
+        print(f"{a.method} ({versions}): {len(its)} macro steps, iterations per step {its.min()}-{its.max()} (mean {its.mean():.2f}), "
               f"{len(res.rejected)} rejected, FMU steps {res.fmu_steps}, {res.seconds:.2f} s")
         if "monolithic" in sysd:
             ref = monolithic(sysd, a.step)

@@ -5,8 +5,11 @@ and the FMUs under ``resources/``.
   connections, their start values inline parameter sets (``ssv:ParameterSet``) in the
   components' parameter bindings (a start value that names another FMU's output is resolved to
   its number when the package is written);
-- the external inputs are connectors of the system, connected to the components' inputs; their
-  time tables, the macro step and the monolithic reference (tool-specific data SSP has no
+- the external inputs are input connectors of the system, connected to the components' inputs;
+  the values the monolithic reference compares (``monolithic.compare``) are output connectors of
+  the system, connected from the component outputs that carry them (an input such as
+  ``cushion.p`` from the output that feeds it), so that another tool's result holds them; the
+  inputs' time tables, the macro step and the monolithic reference (tool-specific data SSP has no
   element for) are an annotation of the default experiment, type ``org.velarium.couple``,
   holding JSON in a ``vc:Couple`` element (namespace ``urn:velarium:couple:1``).
 
@@ -79,13 +82,19 @@ def write_ssp(sysd: Mapping[str, Any], out: str | Path, name: str = "System") ->
     inputs = sysd.get("inputs", {})
     # one system connector per external input, named fmu_var
     ext_names = {key: key.replace(".", "_") for key in inputs}
-    if ext_names:
+    conns = [tuple(c) for c in sysd["connections"]]
+    fed_by = {b: a for a, b in conns}
+    # one system output per compared value, named fmu_var, from the output that carries it
+    out_names = {key: fed_by.get(key, key) for key in sysd.get("monolithic", {}).get("compare", {})}
+    if ext_names or out_names:
         sc = ET.SubElement(system, _q(SSD, "Connectors"))
         for key, n in ext_names.items():
             ET.SubElement(ET.SubElement(sc, _q(SSD, "Connector"), {"name": n, "kind": "input"}), _q(SSC, "Real"))
+        for key in out_names:
+            ET.SubElement(ET.SubElement(sc, _q(SSD, "Connector"), {"name": key.replace(".", "_"), "kind": "output"}),
+                          _q(SSC, "Real"))
     elements = ET.SubElement(system, _q(SSD, "Elements"))
     starts = _resolved_starts(sysd)
-    conns = [tuple(c) for c in sysd["connections"]]
     resources = {}
     for fname in sysd["fmus"]:
         path = Path(sysd["fmu_paths"][fname])
@@ -101,11 +110,12 @@ def write_ssp(sysd: Mapping[str, Any], out: str | Path, name: str = "System") ->
                 if u == fname and v not in seen:
                     seen.add(v)
                     ET.SubElement(ET.SubElement(cc, _q(SSD, "Connector"), {"name": v, "kind": kind}), _q(SSC, "Real"))
-        for key in inputs:
+        for key in list(inputs) + list(out_names.values()):
             u, _, v = key.partition(".")
+            kind = "input" if key in inputs else "output"
             if u == fname and v not in seen:
                 seen.add(v)
-                ET.SubElement(ET.SubElement(cc, _q(SSD, "Connector"), {"name": v, "kind": "input"}), _q(SSC, "Real"))
+                ET.SubElement(ET.SubElement(cc, _q(SSD, "Connector"), {"name": v, "kind": kind}), _q(SSC, "Real"))
         if starts.get(fname):
             pb = ET.SubElement(ET.SubElement(comp, _q(SSD, "ParameterBindings")), _q(SSD, "ParameterBinding"))
             pv = ET.SubElement(pb, _q(SSD, "ParameterValues"))
@@ -122,6 +132,10 @@ def write_ssp(sysd: Mapping[str, Any], out: str | Path, name: str = "System") ->
     for key, n in ext_names.items():
         u, _, v = key.partition(".")
         ET.SubElement(cs, _q(SSD, "Connection"), {"startConnector": n, "endElement": u, "endConnector": v})
+    for key, source in out_names.items():
+        u, _, v = source.partition(".")
+        ET.SubElement(cs, _q(SSD, "Connection"),
+                      {"startElement": u, "startConnector": v, "endConnector": key.replace(".", "_")})
     exp = ET.SubElement(root, _q(SSD, "DefaultExperiment"), {"startTime": "0", "stopTime": repr(float(sysd["stop"]))})
     data: dict[str, Any] = {"step": sysd["step"], "inputs": {ext_names[k]: v for k, v in inputs.items()}}
     for key in ("options", "description"):
@@ -189,6 +203,8 @@ def read_ssp(path: str | Path, directory: str | Path | None = None) -> dict[str,
         se, sc, ee, ec = (c.get(k) for k in ("startElement", "startConnector", "endElement", "endConnector"))
         if se is None:
             external[sc] = f"{ee}.{ec}"
+        elif ee is None:
+            continue  # a system output (a compared value, for other tools' results)
         else:
             connections.append([f"{se}.{sc}", f"{ee}.{ec}"])
     inputs = {}
