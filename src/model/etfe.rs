@@ -231,20 +231,9 @@ fn flow_matrix() -> Matrix3<f64> {
     Matrix3::new(2.0, -1.0, 0.0, -1.0, 2.0, 0.0, 0.0, 0.0, 6.0) / 3.0
 }
 
-/// The isotropic plane-stress D.
+/// The isotropic plane-stress D: the SVK law's small-strain matrix.
 fn isotropic(young: f64, nu: f64) -> Matrix3<f64> {
-    let c = young / (1.0 - nu * nu);
-    Matrix3::new(
-        c,
-        c * nu,
-        0.0,
-        c * nu,
-        c,
-        0.0,
-        0.0,
-        0.0,
-        0.5 * c * (1.0 - nu),
-    )
+    super::wrinkling::Law::Svk { young, nu }.small_strain()
 }
 
 /// The elastic constants and the wrinkling switch of an elastoplastic sheet.
