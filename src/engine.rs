@@ -18,7 +18,7 @@ use crate::memory;
 use crate::model::membrane::Evaluation;
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
-use crate::model::Model;
+use crate::model::{Model, ProbeModel};
 use crate::results;
 use crate::scene::{validate, DebugSettings, Scene};
 use crate::solver::{Settings, Solver, StepReport};
@@ -56,6 +56,10 @@ pub struct EngineState {
     /// Plastic strain of every membrane triangle at the last converged increment (4 per
     /// triangle, `model::state::History`; empty when no membrane group is elastoplastic).
     pub plastic: Vec<f64>,
+    /// Velocity and acceleration of every DOF (3 per node) of a scene with time integration
+    /// (`dynamics.time_integration`, docs/dynamics.md); empty in a quasi-static scene.
+    pub velocity: Vec<f64>,
+    pub acceleration: Vec<f64>,
 }
 
 impl EngineState {
@@ -66,7 +70,9 @@ impl EngineState {
             + self.inputs.len()
             + self.parameters.len()
             + self.tension_angle.len()
-            + self.plastic.len();
+            + self.plastic.len()
+            + self.velocity.len()
+            + self.acceleration.len();
         8 * floats as u64
             + (self.slip_state.len() * size_of::<Contact>()
                 + self.wrinkle.len() * size_of::<WrinkleState>()) as u64
@@ -99,6 +105,9 @@ pub struct Engine {
     /// Estimated peak bytes of model and solver (`scene::limits::memory_bytes`), from the
     /// validation that admitted the scene.
     memory_estimate: u64,
+    /// The length (s) of the next step of a scene with time integration
+    /// ([`Engine::set_step_duration`]); 0: the next solve is a static equilibrium.
+    duration: f64,
 }
 
 impl Engine {
@@ -163,6 +172,7 @@ impl Engine {
             tangent: None,
             converged: false,
             memory_estimate: size.memory_bytes,
+            duration: 0.0,
         };
         engine.refresh_outputs()?;
         Ok(engine)
@@ -312,7 +322,28 @@ impl Engine {
     /// of zero) the ones it carries, and no parameter changed since. Then [`Engine::keep`]
     /// stands for [`Engine::solve`] without running the solver.
     pub fn settled(&self) -> bool {
-        self.converged && !self.model_stale && self.state.inputs == self.state.applied
+        // With time integration, a state at rest in equilibrium stays at rest: only then.
+        let at_rest = self.state.velocity.iter().all(|v| *v == 0.0)
+            && self.state.acceleration.iter().all(|a| *a == 0.0);
+        self.converged && !self.model_stale && self.state.inputs == self.state.applied && at_rest
+    }
+
+    /// Whether the scene integrates in time (`dynamics.time_integration`, docs/dynamics.md).
+    pub fn is_dynamic(&self) -> bool {
+        is_dynamic(&self.scene)
+    }
+
+    /// The length (s) of the next step of a scene with time integration: from its committed
+    /// state, the next [`Engine::solve`] (or [`Engine::begin_step`]) advances time by
+    /// `duration`, the loads going linearly from the applied inputs to the set ones. 0 (the
+    /// start): the next solve is the static equilibrium under the set inputs, at rest (an
+    /// FMU's initialization). Ignored by a quasi-static scene.
+    pub fn set_step_duration(&mut self, duration: f64) {
+        self.duration = if duration.is_finite() && duration > 0.0 {
+            duration
+        } else {
+            0.0
+        };
     }
 
     /// The step of a [`settled`](Engine::settled) engine: the equilibrium stays as it is (no
@@ -354,6 +385,18 @@ impl Engine {
         // Lengths first: everything below indexes the vectors by the model's counts.
         let s = &self.state;
         for (field, given, want, of) in [
+            (
+                "velocity",
+                state.velocity.len(),
+                s.velocity.len(),
+                "velocities (3 per node with dynamics.time_integration, else none)",
+            ),
+            (
+                "acceleration",
+                state.acceleration.len(),
+                s.acceleration.len(),
+                "accelerations (3 per node with dynamics.time_integration, else none)",
+            ),
             (
                 "displacement",
                 state.displacement.len(),
@@ -446,6 +489,20 @@ impl Engine {
                 "plastic[{i}] = {} is not a finite plastic strain with |value| <= 1e3",
                 state.plastic[i]
             ));
+        }
+        for (field, values) in [
+            ("velocity", &state.velocity),
+            ("acceleration", &state.acceleration),
+        ] {
+            if let Some(i) = values
+                .iter()
+                .position(|x| !(x.is_finite() && x.abs() <= max))
+            {
+                return bad(format!(
+                    "{field}[{i}] = {} is not finite with |value| <= {max:e}",
+                    values[i]
+                ));
+            }
         }
         if let Some(i) = state.tension_angle.iter().position(|x| !x.is_finite()) {
             return bad(format!(
@@ -670,7 +727,28 @@ impl Engine {
         self.state.wrinkle = membranes.iter().map(|e| e.state).collect();
         self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
         self.membranes = membranes;
+        self.motion_outputs();
         self.natural_frequency_outputs()
+    }
+
+    /// The outputs of the committed motion: velocities, accelerations and the kinetic energy
+    /// (0 in a quasi-static scene).
+    fn motion_outputs(&mut self) {
+        let s = &self.state;
+        for (slot, probe) in self.model.probes.iter().enumerate() {
+            let value = match probe {
+                ProbeModel::Velocity { dof } => s.velocity.get(*dof).copied().unwrap_or(0.0),
+                ProbeModel::Acceleration { dof } => {
+                    s.acceleration.get(*dof).copied().unwrap_or(0.0)
+                }
+                ProbeModel::KineticEnergy => {
+                    self.solver
+                        .kinetic_energy(&self.model, self.model.mass_kind, &s.velocity)
+                }
+                _ => continue,
+            };
+            self.outputs[slot] = value;
+        }
     }
 
     /// Rebuild model and solver workspace from the scene with the current parameter values.
@@ -722,6 +800,27 @@ fn settings(scene: &Scene) -> Settings {
     }
 }
 
+/// Whether a scene integrates in time (`dynamics.time_integration`).
+fn is_dynamic(scene: &Scene) -> bool {
+    scene
+        .dynamics
+        .as_ref()
+        .is_some_and(|d| d.time_integration.is_some())
+}
+
+/// The time integration's settings of a scene (None: quasi-static).
+fn integration(scene: &Scene) -> Option<crate::solver::Integration> {
+    let d = scene.dynamics.as_ref()?;
+    let t = d.time_integration.as_ref()?;
+    Some(crate::solver::Integration {
+        rho_inf: t.rho_inf,
+        max_time_step: t.max_time_step,
+        mass: d.mass,
+        rayleigh_alpha: d.rayleigh_alpha,
+        rayleigh_beta: d.rayleigh_beta,
+    })
+}
+
 fn type_name(t: VarType) -> &'static str {
     match t {
         VarType::Real => "Real",
@@ -730,7 +829,12 @@ fn type_name(t: VarType) -> &'static str {
     }
 }
 
-fn initial_state(_scene: &Scene, vars: &[Variable], model: &Model) -> Result<EngineState, Error> {
+fn initial_state(scene: &Scene, vars: &[Variable], model: &Model) -> Result<EngineState, Error> {
+    let motion = if is_dynamic(scene) {
+        model.dof_count()
+    } else {
+        0
+    };
     let start = |b: fn(Binding) -> bool| -> Vec<f64> {
         vars.iter()
             .filter(|v| b(v.binding))
@@ -751,6 +855,8 @@ fn initial_state(_scene: &Scene, vars: &[Variable], model: &Model) -> Result<Eng
         wrinkle: memory::zeros(model.triangles.len(), WHAT)?,
         tension_angle: memory::zeros(model.triangles.len(), WHAT)?,
         plastic: memory::zeros(model.plastic_len(), WHAT)?,
+        velocity: memory::zeros(motion, WHAT)?,
+        acceleration: memory::zeros(motion, WHAT)?,
     })
 }
 

@@ -442,6 +442,25 @@ pub fn run_observed(
     }
     let total = table.rows.len();
     for (index, row) in table.rows.iter().enumerate() {
+        // With time integration row k is reached from row k-1 in t_k - t_{k-1} seconds (the
+        // loads linear in between); row 0 is the static equilibrium at rest.
+        let duration = match index {
+            0 => 0.0,
+            _ => row.time - table.rows[index - 1].time,
+        };
+        if engine.is_dynamic() && index > 0 && !(duration > 0.0 && duration.is_finite()) {
+            return Err(Error::LoadTable {
+                path: table.file.clone(),
+                line: Some(row.line),
+                cell: Some("time".into()),
+                message: format!(
+                    "time {} does not follow the previous row's {}: a scene with dynamics.time_integration needs increasing times (a row's time is when its loads are reached)",
+                    row.time,
+                    table.rows[index - 1].time
+                ),
+            });
+        }
+        engine.set_step_duration(duration);
         table.apply(engine, row)?;
         observer(engine, Event::Start { index, total, row })?;
         let report = engine.solve();

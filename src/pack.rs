@@ -503,6 +503,8 @@ pub fn reference_results(
                 engine.set_real(vr, value)?;
             }
         }
+        // With time integration the step from t_{k-1} advances time by t_k - t_{k-1}.
+        engine.set_step_duration(if k == 0 { 0.0 } else { t - points[k - 1] });
         let converged = match engine.keep() {
             Some(report) => report.converged(),
             None => engine.solve().converged(),

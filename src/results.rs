@@ -135,6 +135,11 @@ pub fn evaluate(
             ProbeModel::NewtonIterations => iterations as f64,
             // The engine fills it in (`Engine::refresh_outputs`).
             ProbeModel::NaturalFrequency { .. } => 0.0,
+            // From the engine's state (velocities, the mass): filled in by the engine.
+            ProbeModel::Velocity { .. }
+            | ProbeModel::Acceleration { .. }
+            | ProbeModel::KineticEnergy => 0.0,
+            ProbeModel::StrainEnergy => solver.stored_energy(model, u, applied),
             ProbeModel::WrinkledFraction(tris) => fraction(tris, WrinkleState::Wrinkled),
             ProbeModel::SlackFraction(tris) => fraction(tris, WrinkleState::Slack),
             ProbeModel::MaxPrincipalStress(tris) => tris

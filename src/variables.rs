@@ -105,7 +105,9 @@ pub const UNITS: &[(&str, [i32; 4])] = &[
     ("N/m", [1, 0, -2, 0]),
     ("m2", [0, 2, 0, 0]),
     ("m3", [0, 3, 0, 0]),
+    ("m/s", [0, 1, -1, 0]),
     ("m/s2", [0, 1, -2, 0]),
+    ("J", [1, 2, -2, 0]),
     ("N.m", [1, 2, -2, 0]),
     ("rad", [0, 0, 0, 1]),
     ("Hz", [0, 0, -1, 0]),
@@ -217,6 +219,11 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
             Probe::ContactTotal { .. } => (VarType::Real, Variability::Continuous, Some("N")),
             Probe::ContactArea { .. } => (VarType::Real, Variability::Continuous, Some("m2")),
             Probe::NaturalFrequency { .. } => (VarType::Real, Variability::Continuous, Some("Hz")),
+            Probe::Velocity { .. } => (VarType::Real, Variability::Continuous, Some("m/s")),
+            Probe::Acceleration { .. } => (VarType::Real, Variability::Continuous, Some("m/s2")),
+            Probe::KineticEnergy | Probe::StrainEnergy => {
+                (VarType::Real, Variability::Continuous, Some("J"))
+            }
         };
         vars.push(Variable {
             name: out.name.clone(),

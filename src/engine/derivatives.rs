@@ -61,6 +61,7 @@ impl Engine {
         seed: &[f64],
         unknowns: &[usize],
     ) -> Result<Vec<f64>, Error> {
+        self.static_scene()?;
         let (dz, dv, dp) = self.forward(knowns, seed)?;
         self.output_derivative(unknowns, &dz, &dv, &dp)
     }
@@ -72,6 +73,7 @@ impl Engine {
         seed: &[f64],
         knowns: &[Known],
     ) -> Result<Vec<f64>, Error> {
+        self.static_scene()?;
         let linear = unknowns
             .iter()
             .zip(seed)
@@ -254,6 +256,17 @@ impl Engine {
         Ok((build(p + h)?, build(p - h)?, h))
     }
 
+    /// Derivatives are those of a quasi-static equilibrium: a scene with time integration has
+    /// none (the change of a step's end state with its inputs is not implemented).
+    fn static_scene(&self) -> Result<(), Error> {
+        if self.is_dynamic() {
+            return Err(Error::Unsupported(
+                "derivatives of a scene with dynamics.time_integration (not implemented: the outputs after a time step depend on its whole history)".into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// dy of the output slots for the change (dz, dv, dp).
     fn output_derivative(
         &mut self,
@@ -262,6 +275,21 @@ impl Engine {
         dv: &[f64],
         dp: &[f64],
     ) -> Result<Vec<f64>, Error> {
+        if unknowns.iter().any(|&o| {
+            matches!(
+                self.model.probes.get(o),
+                Some(
+                    ProbeModel::Velocity { .. }
+                        | ProbeModel::Acceleration { .. }
+                        | ProbeModel::KineticEnergy
+                        | ProbeModel::StrainEnergy
+                )
+            )
+        }) {
+            return Err(Error::Unsupported(
+                "derivatives of a velocity, acceleration or energy output (not implemented)".into(),
+            ));
+        }
         if unknowns.iter().any(|&o| {
             matches!(
                 self.model.probes.get(o),

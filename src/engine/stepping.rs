@@ -71,17 +71,33 @@ impl Engine {
         // Probed before the stepper copies the state: those copies are part of what it checks.
         let ready = rebuilt.and_then(|()| self.probe_step());
         let s = &self.state;
-        let mut stepper = Stepper::begin(
-            &mut self.solver,
-            &self.model,
-            &s.applied,
-            &s.inputs,
-            &s.displacement,
-            &History {
-                contact: s.slip_state.clone(),
-                plastic: s.plastic.clone(),
-            },
-        );
+        let history = History {
+            contact: s.slip_state.clone(),
+            plastic: s.plastic.clone(),
+        };
+        let dynamic = super::integration(&self.scene).filter(|_| self.duration > 0.0);
+        let mut stepper = match dynamic {
+            // A step of time integration (docs/dynamics.md).
+            Some(integration) => Stepper::begin_dynamic(
+                &mut self.solver,
+                &self.model,
+                &integration,
+                self.duration,
+                &s.applied,
+                &s.inputs,
+                &s.displacement,
+                (&s.velocity, &s.acceleration),
+                &history,
+            ),
+            None => Stepper::begin(
+                &mut self.solver,
+                &self.model,
+                &s.applied,
+                &s.inputs,
+                &s.displacement,
+                &history,
+            ),
+        };
         // Under arc length a step the arc-length corrector cannot take is load-controlled as a
         // whole: the log says so (docs/solver.md, arc length).
         let fallback = if self.scene.solver.path == crate::scene::PathMethod::ArcLength
@@ -146,6 +162,13 @@ impl Engine {
         self.tangent = None;
         let applied = step.stepper.applied();
         let previous = self.state.clone();
+        // A dynamic step's velocities and accelerations; a static solve of a scene with time
+        // integration (its initialization) ends at rest.
+        let motion = step
+            .stepper
+            .motion()
+            .filter(|_| !step.stepper.has_failed())
+            .map(|(v, a)| (v.to_vec(), a.to_vec()));
         let s = &mut self.state;
         let mut history = History {
             contact: std::mem::take(&mut s.slip_state),
@@ -154,6 +177,15 @@ impl Engine {
         let mut report = step.stepper.finish(&mut s.displacement, &mut history);
         history.install(&self.model);
         (s.slip_state, s.plastic) = (history.contact, history.plastic);
+        if report.converged() {
+            match motion {
+                Some((v, a)) => (s.velocity, s.acceleration) = (v, a),
+                None => {
+                    s.velocity.fill(0.0);
+                    s.acceleration.fill(0.0);
+                }
+            }
+        }
         if let Some(why) = step.fallback {
             report.log.insert(
                 0,

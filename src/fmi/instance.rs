@@ -341,6 +341,8 @@ impl Instance {
             };
             self.engine.set_state(start)?;
         }
+        // The initial equilibrium is static (at rest), also with time integration.
+        self.engine.set_step_duration(0.0);
         let report = self.solve()?;
         if !report.converged() {
             self.fsm = FsmState::Error;
@@ -587,6 +589,8 @@ impl Instance {
     /// debug switches' forced outcome); converged: the instance's time moves to `t + h`.
     fn step(&mut self, t: f64, h: f64) -> Result<StepReport, Error> {
         self.check_step(t, h)?;
+        // With time integration the step advances time by h (docs/dynamics.md).
+        self.engine.set_step_duration(h);
         let report = match self.forced_failure(t + h) {
             Some(report) => report,
             None => match self.keep()? {

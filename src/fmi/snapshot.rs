@@ -25,7 +25,10 @@
 //! it holds; the next step closes the ties). 5 appends the plastic strains of the membrane
 //! triangles (`EngineState::plastic`, 4 per triangle of an elastoplastic model, empty
 //! otherwise) to the engine's state; 3 and 4 are read through [`Legacy`] with no plastic
-//! strain (neither could hold an elastoplastic model).
+//! strain (neither could hold an elastoplastic model). 6 appends the velocities and
+//! accelerations of a scene with time integration (`EngineState::velocity`, `acceleration`,
+//! 3 per node, empty in a quasi-static scene); 5 is read through [`Legacy5`] with none (it
+//! could not hold a dynamic scene).
 //!
 //! The payload format is postcard's (fields in declaration order, no names; `f64` as its IEEE bits,
 //! little-endian, so NaN payloads and ±Inf come back bit for bit; lengths, enum tags and integers
@@ -49,9 +52,9 @@ use serde::{Deserialize, Serialize};
 /// First bytes of every serialized state.
 pub const STATE_MAGIC: &[u8; 8] = b"VLRMSTAT";
 /// Version of the byte layout and payload; bumped on any change to either.
-pub const STATE_FORMAT_VERSION: u32 = 5;
+pub const STATE_FORMAT_VERSION: u32 = 6;
 /// The oldest version [`decode`] reads (module docs: 3 is 4 without the tie multipliers, 4 is
-/// 5 without the plastic strains).
+/// 5 without the plastic strains, 5 is 6 without the velocities and accelerations).
 pub const OLDEST_STATE_FORMAT_VERSION: u32 = 3;
 
 /// Everything needed to continue a run from the moment it was taken.
@@ -107,6 +110,60 @@ impl From<Legacy> for Snapshot {
                 wrinkle: e.wrinkle,
                 tension_angle: e.tension_angle,
                 plastic: Vec::new(),
+                velocity: Vec::new(),
+                acceleration: Vec::new(),
+            },
+            time: l.time,
+            last_successful_time: l.last_successful_time,
+            wants_to_terminate: l.wants_to_terminate,
+            fsm: l.fsm,
+            experiment: l.experiment,
+        }
+    }
+}
+
+/// The payload of format version 5: [`Snapshot`] whose engine state ends before the
+/// velocities and accelerations.
+#[derive(Deserialize)]
+struct Legacy5 {
+    engine: Engine5,
+    time: f64,
+    last_successful_time: f64,
+    wants_to_terminate: bool,
+    fsm: FsmState,
+    experiment: Experiment,
+}
+
+/// [`EngineState`] of format version 5.
+#[derive(Deserialize)]
+struct Engine5 {
+    displacement: Vec<f64>,
+    slip_state: Vec<crate::model::sleeve::Contact>,
+    applied: Vec<f64>,
+    inputs: Vec<f64>,
+    parameters: Vec<f64>,
+    last_iterations: u32,
+    wrinkle: Vec<crate::model::wrinkling::WrinkleState>,
+    tension_angle: Vec<f64>,
+    plastic: Vec<f64>,
+}
+
+impl From<Legacy5> for Snapshot {
+    fn from(l: Legacy5) -> Snapshot {
+        let e = l.engine;
+        Snapshot {
+            engine: EngineState {
+                displacement: e.displacement,
+                slip_state: e.slip_state,
+                applied: e.applied,
+                inputs: e.inputs,
+                parameters: e.parameters,
+                last_iterations: e.last_iterations,
+                wrinkle: e.wrinkle,
+                tension_angle: e.tension_angle,
+                plastic: e.plastic,
+                velocity: Vec::new(),
+                acceleration: Vec::new(),
             },
             time: l.time,
             last_successful_time: l.last_successful_time,
@@ -168,7 +225,7 @@ pub fn decode(bytes: &[u8], guid: &str) -> Result<(Snapshot, u32), Error> {
     if !(OLDEST_STATE_FORMAT_VERSION..=STATE_FORMAT_VERSION).contains(&version) {
         return Err(failed(
             "version",
-            format!("format version {version}, this FMU reads {OLDEST_STATE_FORMAT_VERSION} and {STATE_FORMAT_VERSION}"),
+            format!("format version {version}, this FMU reads {OLDEST_STATE_FORMAT_VERSION} to {STATE_FORMAT_VERSION}"),
         ));
     }
     let guid_len = r.u32("GUID length")? as usize;
@@ -202,8 +259,10 @@ pub fn decode(bytes: &[u8], guid: &str) -> Result<(Snapshot, u32), Error> {
         ));
     }
     let payload = &bytes[r.at..body_end];
-    let (snapshot, rest) = if version >= 5 {
+    let (snapshot, rest) = if version >= 6 {
         postcard::take_from_bytes::<Snapshot>(payload)
+    } else if version == 5 {
+        postcard::take_from_bytes::<Legacy5>(payload).map(|(l, rest)| (l.into(), rest))
     } else {
         postcard::take_from_bytes::<Legacy>(payload).map(|(l, rest)| (l.into(), rest))
     }
@@ -450,13 +509,13 @@ mod tests {
     #[test]
     fn another_format_version_is_refused() {
         let bytes = encode(&sample(), "{abc}").unwrap();
-        for version in [0, 1, 2, 6, u32::MAX] {
+        for version in [0, 1, 2, 7, u32::MAX] {
             let e = decode(&seal(version, "{abc}", &payload(&bytes, "{abc}")), "{abc}")
                 .unwrap_err()
                 .to_string();
             assert!(
                 e.contains(&format!(
-                    "version check failed: format version {version}, this FMU reads 3 and 5"
+                    "version check failed: format version {version}, this FMU reads 3 to 6"
                 )),
                 "{e}"
             );
@@ -548,14 +607,21 @@ mod tests {
         }
     }
 
-    /// The payload of formats 3 and 4 for a snapshot without plastic strains: format 5's less
-    /// the empty `plastic` (its varint length 0, the engine state's last byte).
+    /// The payload of formats 3 and 4 for a snapshot without plastic strains: format 6's less
+    /// the empty `plastic`, `velocity` and `acceleration` (varint lengths 0, the engine
+    /// state's last 3 bytes).
     fn legacy_payload(snapshot: &Snapshot) -> Vec<u8> {
         assert!(snapshot.engine.plastic.is_empty());
+        drop_engine_tail(snapshot, 3)
+    }
+
+    /// Format 6's payload less the engine state's last `k` bytes (empty vectors' lengths).
+    fn drop_engine_tail(snapshot: &Snapshot, k: usize) -> Vec<u8> {
+        assert!(snapshot.engine.velocity.is_empty() && snapshot.engine.acceleration.is_empty());
         let body = postcard::to_allocvec(snapshot).unwrap();
         let engine_len = postcard::to_allocvec(&snapshot.engine).unwrap().len();
-        assert_eq!(body[engine_len - 1], 0);
-        [&body[..engine_len - 1], &body[engine_len..]].concat()
+        assert!(body[engine_len - k..engine_len].iter().all(|b| *b == 0));
+        [&body[..engine_len - k], &body[engine_len..]].concat()
     }
 
     // GOAL: the plastic strains of an elastoplastic model travel bit for bit (format 5), and a
@@ -568,7 +634,7 @@ mod tests {
         with.engine.displacement[4] = 0.5;
         with.engine.plastic = vec![0.1 + 0.2, -1e-300, 2.5e-2, f64::MIN_POSITIVE];
         let (back, version) = decode(&encode(&with, guid).unwrap(), guid).unwrap();
-        assert_eq!(version, 5);
+        assert_eq!(version, STATE_FORMAT_VERSION);
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&back.engine.plastic), bits(&with.engine.plastic));
         assert_eq!(back, with);
@@ -581,5 +647,32 @@ mod tests {
         assert_eq!(back, plain);
         // The format 4 layout is refused as format 5 (a byte short).
         assert!(decode(&seal(5, guid, &old), guid).is_err());
+        // Format 5: the engine state ends before `velocity` and `acceleration`; the plastic
+        // strains come back, the motion empty.
+        let five = drop_engine_tail(&with, 2);
+        let (back, version) = decode(&seal(5, guid, &five), guid).unwrap();
+        assert_eq!(version, 5);
+        assert_eq!(back, with);
+        assert!(decode(&seal(6, guid, &five), guid).is_err());
+    }
+
+    // GOAL: a dynamic scene's velocities and accelerations travel bit for bit (format 6).
+    #[test]
+    fn motion_round_trips() {
+        let guid = "{abc}";
+        let mut with = sample();
+        // Comparable with ==: no NaN.
+        with.engine.displacement[4] = 0.5;
+        with.engine.velocity = vec![0.1 + 0.2, -1e-300, 2.5e-2];
+        with.engine.acceleration = vec![-3.0, f64::MIN_POSITIVE, 1e30];
+        let (back, version) = decode(&encode(&with, guid).unwrap(), guid).unwrap();
+        assert_eq!(version, 6);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.engine.velocity), bits(&with.engine.velocity));
+        assert_eq!(
+            bits(&back.engine.acceleration),
+            bits(&with.engine.acceleration)
+        );
+        assert_eq!(back, with);
     }
 }

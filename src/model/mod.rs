@@ -268,6 +268,18 @@ pub enum ProbeModel {
         component: usize,
     },
     NewtonIterations,
+    /// Velocity and acceleration of one DOF (filled in by the engine from its state: 0 in a
+    /// quasi-static scene).
+    Velocity {
+        dof: usize,
+    },
+    Acceleration {
+        dof: usize,
+    },
+    /// ½ vᵀ M v (filled in by the engine).
+    KineticEnergy,
+    /// The elements' stored energy.
+    StrainEnergy,
     /// The `mode`-th lowest natural frequency, Hz (filled in by the engine after each
     /// converged step: `Engine::modes`).
     NaturalFrequency {
@@ -1561,6 +1573,14 @@ fn build_probe(
             }
         }
         Probe::NewtonIterations => ProbeModel::NewtonIterations,
+        Probe::Velocity { node, component } => ProbeModel::Velocity {
+            dof: 3 * one_node(mesh, node) + component.index(),
+        },
+        Probe::Acceleration { node, component } => ProbeModel::Acceleration {
+            dof: 3 * one_node(mesh, node) + component.index(),
+        },
+        Probe::KineticEnergy => ProbeModel::KineticEnergy,
+        Probe::StrainEnergy => ProbeModel::StrainEnergy,
         Probe::NaturalFrequency { mode } => ProbeModel::NaturalFrequency { mode: *mode },
         Probe::EnclosedVolume { membrane } => {
             ProbeModel::EnclosedVolume(elements(&Some(membrane.clone()))?)

@@ -113,6 +113,41 @@ pub struct Dynamics {
     /// Point masses: `mass` kg at every node of `nodes` (masts' heads, fittings, ballast).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub point_masses: Vec<PointMass>,
+    /// Time integration (docs/dynamics.md): present, a step of the FMU (and a row of
+    /// `velarium solve`) advances physical time by its length with generalized-alpha; absent,
+    /// the scene is quasi-static whatever else this section holds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_integration: Option<TimeIntegration>,
+}
+
+/// Generalized-alpha time integration (Chung & Hulbert 1993): its spectral radius at infinite
+/// frequency and the largest sub-step.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TimeIntegration {
+    /// High-frequency dissipation: the spectral radius at infinite frequency, 0 to 1
+    /// (1: the trapezoidal rule, no numerical dissipation, energy conserved in the linear
+    /// regime; 0: the strongest damping of the highest modes). Default 0.9.
+    #[serde(default = "default_rho_inf")]
+    pub rho_inf: f64,
+    /// The largest time sub-step in s: a step of length h is taken in ceil(h / max_time_step)
+    /// equal sub-steps (absent: one sub-step per step). A sub-step that does not converge is
+    /// cut by 4 and taken again from its start.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_time_step: Option<f64>,
+}
+
+fn default_rho_inf() -> f64 {
+    0.9
+}
+
+impl Default for TimeIntegration {
+    fn default() -> Self {
+        TimeIntegration {
+            rho_inf: default_rho_inf(),
+            max_time_step: None,
+        }
+    }
 }
 
 /// Which mass matrix the dynamics uses.
@@ -950,6 +985,16 @@ pub enum Probe {
     ZoneForce { zone: String, component: Component },
     /// Newton iterations used by the last step (all internal increments), Integer.
     NewtonIterations,
+    /// Velocity component (m/s) of one node: 0 in a quasi-static scene (docs/dynamics.md).
+    Velocity { node: OneNode, component: Component },
+    /// Acceleration component (m/s²) of one node: 0 in a quasi-static scene.
+    Acceleration { node: OneNode, component: Component },
+    /// Kinetic energy ½ vᵀ M v (J) of the whole model, with the scene's mass matrix: 0 in a
+    /// quasi-static scene.
+    KineticEnergy,
+    /// Energy stored in the membranes, cables and ties (J): the strain energy of the
+    /// deformation from the reference configuration, the prestress's included.
+    StrainEnergy,
     /// The `mode`-th lowest natural frequency (Hz, `mode` 1-based, at most 1000) of small
     /// vibrations about each converged equilibrium (docs/dynamics.md): the scene needs mass
     /// and no sleeves or volume inputs. Each step computes the lowest `mode` frequencies (a

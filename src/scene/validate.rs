@@ -1431,9 +1431,13 @@ impl Validator {
         for (i, out) in s.outputs.iter().enumerate() {
             let p = format!("outputs[{i}].probe");
             match &out.probe {
-                Probe::Displacement { node, .. } | Probe::Position { node, .. } => {
+                Probe::Displacement { node, .. }
+                | Probe::Position { node, .. }
+                | Probe::Velocity { node, .. }
+                | Probe::Acceleration { node, .. } => {
                     self.one_node(mesh, node, &format!("{p}.node"));
                 }
+                Probe::KineticEnergy | Probe::StrainEnergy => {}
                 Probe::PolarDisplacement {
                     node, center, axis, ..
                 } => {
@@ -1849,6 +1853,34 @@ impl Validator {
                 );
             }
             self.nodes(mesh, &pm.nodes, &format!("{p}.nodes"));
+        }
+        if let Some(t) = &d.time_integration {
+            if !(t.rho_inf.is_finite() && (0.0..=1.0).contains(&t.rho_inf)) {
+                self.push(
+                    "dynamics.time_integration.rho_inf",
+                    format!(
+                        "{} is not a spectral radius in [0, 1] (1: no numerical dissipation)",
+                        t.rho_inf
+                    ),
+                );
+            }
+            if let Some(dt) = t.max_time_step {
+                if !positive(dt) {
+                    self.push(
+                        "dynamics.time_integration.max_time_step",
+                        format!("{dt} is not a positive time step in s {RANGE}"),
+                    );
+                }
+            }
+            let massive = s.membranes.iter().any(|m| m.density.is_some())
+                || s.cables.iter().any(|c| c.mass_per_length.is_some())
+                || !d.point_masses.is_empty();
+            if !massive {
+                self.push(
+                    "dynamics.time_integration",
+                    "time integration needs mass: give a membrane group a density (kg/m3), a cable a mass_per_length (kg/m) or dynamics.point_masses",
+                );
+            }
         }
     }
 

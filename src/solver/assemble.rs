@@ -87,6 +87,8 @@ pub struct Pattern {
 pub struct AssemblyInfo {
     /// Stored energy minus the work of dead loads (the potential; follower pressure excluded).
     pub potential: f64,
+    /// The stored (strain) energy alone: the elements' energies, no load's work.
+    pub stored: f64,
     /// |f_ext|∞ over all DOFs.
     pub external: f64,
     /// Smallest signed current/reference area ratio of a membrane triangle (inversion check:
@@ -1158,6 +1160,7 @@ fn triangles_one(
             out[e] = eval;
         }
         info.potential += eval.energy;
+        info.stored += eval.energy;
         info.min_area_ratio = info.min_area_ratio.min(ratio);
     }
     if internal {
@@ -1212,6 +1215,7 @@ fn elements_into<const N: usize>(
         add_force(r, nodes, f.as_slice(), magnitude);
         info.carried = info.carried.max(largest(f.as_slice()));
         info.potential += w;
+        info.stored += w;
         if let Some(k) = k.as_deref_mut() {
             scatter(&ke, pattern.map(kind, slot), k);
         }
@@ -1788,6 +1792,7 @@ fn triangles_two(
     }
     add_helper(pattern, par, &h, k, ri, mi, fext, &mut out);
     info.potential += sums.potential + h.sums.potential;
+    info.stored += sums.potential + h.sums.potential;
     info.min_area_ratio = info
         .min_area_ratio
         .min(sums.min_ratio.min(h.sums.min_ratio));

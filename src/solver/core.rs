@@ -76,6 +76,12 @@ pub struct Solver {
     /// Conjugate-gradient vectors of inexact Newton (four of the equations' length, allocated
     /// at the first inexact direction and reused).
     pub(super) pcg_work: Vec<f64>,
+    /// The inertia force of the time sub-step being solved (`dynamic.rs`); None in statics.
+    pub(super) inertia: Option<super::inertia::Inertia>,
+    /// M and C of the time integration, built at the first dynamic step.
+    pub(super) dynamic_matrices: Option<super::inertia::Matrices>,
+    /// M for the kinetic energy output, built at its first use.
+    pub(super) kinetic_mass: Option<Vec<f64>>,
 }
 
 /// One Newton iteration in the step's work budget (`Solver::step_work` counts halves).
@@ -214,6 +220,9 @@ impl Solver {
             },
             last_direction_residual: f64::INFINITY,
             pcg_work: Vec::new(),
+            inertia: None,
+            dynamic_matrices: None,
+            kinetic_mass: None,
             pattern,
         })
     }
@@ -261,6 +270,18 @@ impl Solver {
         };
         assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
         r
+    }
+
+    /// The energy stored in the elements at `u` under `loads` (J): membranes, cables, ties and
+    /// contacts, no load's work (the `strain_energy` output).
+    pub fn stored_energy(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> f64 {
+        let mut r = vec![0.0; model.dof_count()];
+        let membranes = assemble::Membranes {
+            forced: self.probe_states.as_deref(),
+            scratch: Some(&mut self.work.scratch),
+            ..Default::default()
+        };
+        assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes).stored
     }
 
     /// Wrinkle states that [`Solver::residual`] and [`Solver::evaluate_membranes`] hold instead

@@ -173,6 +173,9 @@ impl Solver {
                 ..Default::default()
             },
         );
+        let trial = std::mem::take(&mut self.trial);
+        let inertia = self.add_inertia(&trial, false, false);
+        self.trial = trial;
         let inverted = super::core::check_inversion(model, &info).is_err();
         let work = &mut self.work;
         work.trial_slip.clear();
@@ -192,7 +195,7 @@ impl Solver {
                 .iter()
                 .map(|r| r.r),
         );
-        (info.potential, inverted)
+        (info.potential + inertia, inverted)
     }
 
     /// Δu·R: the displacement direction dotted with the residual on the free DOFs.

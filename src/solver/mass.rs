@@ -16,6 +16,7 @@
 
 use super::assemble::{Pattern, NONE, UNMAPPED};
 use super::core::Solver;
+pub use super::inertia::symmetric_product;
 use crate::memory::{self, OutOfMemory};
 use crate::model::{ElementKind, Model};
 use crate::scene::MassKind;
@@ -89,33 +90,6 @@ pub fn assemble_mass(
                 values[diagonal[e]] += m;
             }
         }
-    }
-}
-
-/// y = A x for a symmetric A stored as its upper triangle in CSC (`col_ptr`, `row_idx`,
-/// `values`), over the equations.
-pub fn symmetric_product(
-    col_ptr: &[usize],
-    row_idx: &[usize],
-    values: &[f64],
-    x: &[f64],
-    y: &mut [f64],
-) {
-    y.fill(0.0);
-    for j in 0..x.len() {
-        let xj = x[j];
-        let mut sum = 0.0;
-        for p in col_ptr[j]..col_ptr[j + 1] {
-            let i = row_idx[p];
-            let a = values[p];
-            if i == j {
-                sum += a * xj;
-            } else {
-                y[i] += a * xj;
-                sum += a * x[i];
-            }
-        }
-        y[j] += sum;
     }
 }
 

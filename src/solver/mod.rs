@@ -24,6 +24,8 @@
 //! assemble.rs     pattern and assembly of residual and tangent over the model's elements
 //! linear.rs       sparse LDLT (factor.rs: faer's calls; split.rs: two halves on 2 threads)
 //! mass.rs         the mass matrix on the tangent's pattern (consistent or lumped)
+//! dynamic.rs      time integration: generalized-α sub-steps (inertia.rs: the inertia force
+//!                 on the System's equations)
 //! modes.rs        natural frequencies and modes: shift-invert Lanczos on K and M
 //! stability.rs    whether an equilibrium under ponding water is stable (K positive definite)
 //! core.rs         the Solver's workspace; settings.rs, report.rs, loads.rs, rows.rs: plain
@@ -44,7 +46,9 @@ mod contact;
 mod core;
 mod dense;
 pub mod dissect;
+pub mod dynamic;
 mod factor;
+mod inertia;
 mod line_search;
 pub mod linear;
 pub mod loads;
@@ -72,6 +76,7 @@ mod volume;
 mod work;
 
 pub use self::core::Solver;
+pub use dynamic::Integration;
 pub use path::Attempt;
 pub use report::{push_log, Outcome, StepReport, MAX_LOG_LINES};
 pub use settings::{InexactNewton, Settings, INEXACT_MIN_EQUATIONS, MIN_AREA_RATIO};

@@ -360,7 +360,12 @@ impl Solver {
             check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE),
             self.settings.prestress_fade,
         );
-        if !check.within_floor && stalled(it, check.free, st.last_free, st.last_alpha) {
+        // Not in a time sub-step: relaxation moves nodes to their static equilibrium, which
+        // the inertia force does not hold (dynamic.rs).
+        if self.inertia.is_none()
+            && !check.within_floor
+            && stalled(it, check.free, st.last_free, st.last_alpha)
+        {
             let (moved, patch_iterations) = self.relax(model, &st.loads, u, check.free, tolerance);
             if moved > 0 {
                 let info = self.assemble_at(model, &st.loads, u);

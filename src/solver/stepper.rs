@@ -9,12 +9,15 @@
 //!                              increment the step has failed); None once λ = 1 or failed
 //! converged()                  the last converged point: what a caller commits, all of the
 //!                              step or where it stopped early
+//! begin_dynamic(..., h, v, a)  a step of time integration instead (dynamic.rs): each
+//!                              advance() one time sub-step, λ the fraction of h reached
 //! ```
 //! A step is the same sequence of increments whoever drives it, so every driver reaches the
 //! same equilibrium in the same iterations.
 
 use super::arc::ArcPath;
 use super::core::Solver;
+use super::dynamic::{DynamicPath, Integration};
 use super::path::{Attempt, LoadPath};
 use super::report::{Outcome, StepReport};
 use crate::model::state::History;
@@ -23,6 +26,7 @@ use crate::model::Model;
 enum Path {
     Load(LoadPath),
     Arc(ArcPath),
+    Dynamic(DynamicPath),
 }
 
 /// One step in progress (module docs).
@@ -74,6 +78,52 @@ impl Stepper {
         }
     }
 
+    /// A step of time integration (dynamic.rs) of length `duration` (s) from `from` to `to`,
+    /// starting from `u`, the velocities and accelerations `motion` (per DOF; empty: at rest)
+    /// and the history `states`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn begin_dynamic(
+        solver: &mut Solver,
+        model: &Model,
+        integration: &Integration,
+        duration: f64,
+        from: &[f64],
+        to: &[f64],
+        u: &[f64],
+        motion: (&[f64], &[f64]),
+        states: &History,
+    ) -> Stepper {
+        solver.step_work = 0;
+        let path = DynamicPath::begin(
+            solver,
+            model,
+            integration,
+            duration,
+            from,
+            to,
+            u,
+            motion,
+            states.clone(),
+        );
+        Stepper {
+            path: Path::Dynamic(path),
+            report: StepReport::failed(),
+            failed: false,
+            from: from.to_vec(),
+            to: to.to_vec(),
+            arc_start: None,
+        }
+    }
+
+    /// The velocities and accelerations of the last converged point of a dynamic step (None
+    /// under load control or arc length).
+    pub fn motion(&self) -> Option<(&[f64], &[f64])> {
+        match &self.path {
+            Path::Dynamic(p) => Some((&p.velocity, &p.acceleration)),
+            _ => None,
+        }
+    }
+
     /// A step that cannot start (why in the report): `advance` does nothing.
     pub fn fail(&mut self, message: String) {
         self.failed = true;
@@ -96,6 +146,7 @@ impl Stepper {
         }
         let attempt = match &mut self.path {
             Path::Load(p) => p.advance(solver, model, &mut self.report),
+            Path::Dynamic(p) => p.advance(solver, model, &mut self.report),
             Path::Arc(p) => match p.advance(solver, model, &mut self.report) {
                 Ok(a) => a,
                 Err(super::arc::LoadControlInstead) => {
@@ -131,7 +182,9 @@ impl Stepper {
             .iter()
             .rev()
             .find(|l| {
-                l.starts_with("increment") && l.contains("cutting back") && !l.contains(spent)
+                (l.starts_with("increment") || l.starts_with("time step"))
+                    && l.contains("cutting back")
+                    && !l.contains(spent)
             })
             .map_or(String::new(), |l| {
                 format!("; the last failed increment: {l}")
@@ -146,6 +199,9 @@ impl Stepper {
                 "no equilibrium found beyond load fraction {lambda:.6} of the step by arc length: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one) is spent{last} (largest load fraction reached {:.6})",
                 p.largest_lambda()
             ),
+            Path::Dynamic(_) => format!(
+                "no dynamic equilibrium found beyond time fraction {lambda:.6} of the step: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one) is spent{last}"
+            ),
         };
         if let Path::Load(p) = &self.path {
             if let Some(note) = p.continuation_note() {
@@ -154,9 +210,11 @@ impl Stepper {
                     .push_str(&format!("; the prestress continuation was tried: {note}"));
             }
         }
-        let u = self.converged().0.to_vec();
-        let known = solver.diagnose_failure(model, &u, &self.to, lambda);
-        self.report.message.push_str(&known);
+        if !matches!(self.path, Path::Dynamic(_)) {
+            let u = self.converged().0.to_vec();
+            let known = solver.diagnose_failure(model, &u, &self.to, lambda);
+            self.report.message.push_str(&known);
+        }
     }
 
     /// The load fraction of the last converged point.
@@ -174,6 +232,7 @@ impl Stepper {
         match &self.path {
             Path::Load(p) => (&p.converged, p.lambda, &p.history),
             Path::Arc(p) => p.converged(),
+            Path::Dynamic(p) => (&p.converged, p.lambda(), &p.history),
         }
     }
 

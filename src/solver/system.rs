@@ -266,7 +266,7 @@ impl Solver {
             magnitude: Some(&mut self.magnitude),
             scratch: Some(&mut self.work.scratch),
         };
-        assemble_with(
+        let mut info = assemble_with(
             model,
             &self.pattern,
             u,
@@ -274,7 +274,10 @@ impl Solver {
             &mut self.residual,
             Some(self.linear.values_mut()),
             membranes,
-        )
+        );
+        // A time sub-step's inertia force and its tangent (dynamic.rs).
+        info.potential += self.add_inertia(u, true, true);
+        info
     }
 
     /// The wrinkle states the mixed criterion gives at `u` (no freezing), and whether the
@@ -298,7 +301,7 @@ impl Solver {
             scratch: Some(&mut self.work.scratch),
             ..Default::default()
         };
-        let info = assemble_with(
+        let mut info = assemble_with(
             model,
             &self.pattern,
             u,
@@ -307,6 +310,7 @@ impl Solver {
             None,
             membranes,
         );
+        info.potential += self.add_inertia(u, false, true);
         self.measure_load_scale(model);
         let check = self.check(model, &info, rows, u, inc, it);
         let met = check.strict || check.within_floor;

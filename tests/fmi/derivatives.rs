@@ -340,6 +340,22 @@ fn every_shipped_scene_matches_finite_differences() {
     names.sort();
     assert!(names.len() >= 6, "{names:?}");
     for name in &names {
+        // A scene with time integration refuses derivatives (docs/dynamics.md): checked below.
+        let mut e = engine(read_scene(&shipped(name)));
+        if e.is_dynamic() {
+            solve(&mut e);
+            let slots: Vec<usize> = (0..e.outputs().len()).collect();
+            let inputs: Vec<Known> = (0..e.state().inputs.len()).map(Known::Input).collect();
+            let seed = vec![1.0; inputs.len()];
+            let err = e
+                .directional_derivative(&inputs, &seed, &slots)
+                .expect_err("a dynamic scene has no derivatives");
+            assert!(
+                err.to_string().contains("time_integration"),
+                "{name}: {err}"
+            );
+            continue;
+        }
         let (worst, _) = check_scene(name);
         if worst > 1e-5 {
             failures.push(format!("{name}: {worst:e}"));

@@ -14,6 +14,7 @@ mod capstan_sleeve;
 mod conical_tent;
 mod contact;
 mod distant_member;
+mod dynamics;
 mod etfe;
 mod form_finding;
 mod hencky_disc;

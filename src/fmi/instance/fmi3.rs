@@ -369,6 +369,7 @@ impl Instance {
         callback: IntermediateUpdate,
     ) -> Result<(crate::solver::StepReport, bool), Error> {
         self.check_step(t, h)?;
+        self.engine.set_step_duration(h);
         if let Some(report) = self.forced_failure(t + h) {
             return Ok((report, false));
         }

@@ -1,0 +1,494 @@
+//! Time integration: generalized-α (Chung & Hulbert 1993) in the one Newton loop.
+//!
+//! A step of a scene with `dynamics.time_integration` advances physical time by its length h,
+//! the loads going linearly from the step's start values to its end values over it, in
+//! sub-steps Δt (h / ceil(h / max_time_step), cut by 4 on failure and grown back). Each
+//! sub-step n → n+1 solves for u_{n+1}
+//!
+//! ```text
+//! M a_{n+1-αm} + C v_{n+1-αf} + (1-αf) R(u_{n+1}, t_{n+1}) + αf R(u_n, t_n) = 0
+//! a_{n+1} = (u_{n+1} - u_n - Δt v_n)/(β Δt²) - (1-2β)/(2β) a_n       (Newmark)
+//! v_{n+1} = v_n + Δt ((1-γ) a_n + γ a_{n+1})
+//! x_{n+1-α} = (1-α) x_{n+1} + α x_n
+//! αm = (2ρ∞-1)/(ρ∞+1), αf = ρ∞/(ρ∞+1), γ = 1/2 - αm + αf, β = (1 - αm + αf)²/4
+//! ```
+//! R = f_int − f_ext the static residual of the System boundary (system.rs). Divided by
+//! 1 − αf, the equation is the static one at u_{n+1} plus a force g affine in δ = u_{n+1} − u_n,
+//! g = b + K_d δ, with K_d = [(1−αm)/(β Δt²) M + (1−αf) γ/(β Δt) C]/(1−αf) symmetric: so the
+//! Newton loop, its line search (the potential gains ½ δᵀK_d δ + bᵀδ), its active set and its
+//! convergence test run unchanged on R + g ([`Inertia`], added where the System assembles).
+//! The history (stick/slip, plastic strain, wrinkle states) is evaluated at u_{n+1}, as in
+//! statics. ρ∞ = 1 is the trapezoidal rule (αm = αf = ½, β = ¼, γ = ½): no numerical
+//! dissipation, energy conserved in the linear regime; second order for every ρ∞.
+//!
+//! M is the scene's mass matrix (`mass.rs`), C = α M + β K₀ Rayleigh damping with K₀ the
+//! tangent of the reference configuration (undeformed, the prestress in, no load). Both live
+//! on the tangent's pattern over the equations: held DOFs carry no inertia, and a moving
+//! support drives its neighbours through their stiffness only (with the lumped mass this is
+//! exact; with the consistent mass the coupling M_fp a_p of a support's acceleration is left
+//! out). Slips, volume pressures and tie multipliers are massless: their rows hold at t_{n+1}.
+//!
+//! The state a step starts from is (u_n, v_n, a_n) and the history; R(u_n, t_n) is assembled
+//! once at the step's start and carried from sub-step to sub-step.
+
+use super::assemble::{self, Membranes, NONE};
+use super::core::Solver;
+use super::inertia::{symmetric_product, Inertia, Matrices};
+use super::loads::{load_change, loads_at, prescribe};
+use super::path::Attempt;
+use super::report::{push_log, StepReport};
+use super::rows::Increment;
+use crate::model::state::History;
+use crate::model::Model;
+use crate::scene::MassKind;
+
+/// The time integration's settings (the scene's `dynamics` section).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Integration {
+    /// Spectral radius at infinite frequency, 0 to 1.
+    pub rho_inf: f64,
+    /// Largest sub-step (s); None: one sub-step per step.
+    pub max_time_step: Option<f64>,
+    pub mass: MassKind,
+    /// Rayleigh damping C = alpha M + beta K₀.
+    pub rayleigh_alpha: f64,
+    pub rayleigh_beta: f64,
+}
+
+/// Generalized-α's parameters of a spectral radius ρ∞ (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Alpha {
+    pub am: f64,
+    pub af: f64,
+    pub beta: f64,
+    pub gamma: f64,
+}
+
+impl Alpha {
+    pub fn new(rho_inf: f64) -> Alpha {
+        let r = rho_inf.clamp(0.0, 1.0);
+        let am = (2.0 * r - 1.0) / (r + 1.0);
+        let af = r / (r + 1.0);
+        let gamma = 0.5 - am + af;
+        let beta = 0.25 * (1.0 - am + af).powi(2);
+        Alpha {
+            am,
+            af,
+            beta,
+            gamma,
+        }
+    }
+
+    /// a_{n+1} and v_{n+1} of one DOF from its δ = u_{n+1} − u_n (Newmark).
+    pub fn update(&self, dt: f64, delta: f64, v: f64, a: f64) -> (f64, f64) {
+        let a1 = delta / (self.beta * dt * dt)
+            - v / (self.beta * dt)
+            - (1.0 - 2.0 * self.beta) / (2.0 * self.beta) * a;
+        let v1 = v + dt * ((1.0 - self.gamma) * a + self.gamma * a1);
+        (v1, a1)
+    }
+}
+
+impl Solver {
+    /// M and C of the time integration (built at the first dynamic step, then kept: both
+    /// depend on reference quantities only).
+    fn dynamic_matrices(&mut self, model: &Model, integration: &Integration) -> Matrices {
+        if let Some(m) = &self.dynamic_matrices {
+            return m.clone();
+        }
+        let m = self
+            .mass(model, integration.mass)
+            .map(|m| m.values().to_vec())
+            .unwrap_or_default();
+        let c = if integration.rayleigh_alpha > 0.0 || integration.rayleigh_beta > 0.0 {
+            let k0 = if integration.rayleigh_beta > 0.0 {
+                self.reference_tangent(model)
+            } else {
+                vec![0.0; m.len()]
+            };
+            m.iter()
+                .zip(&k0)
+                .map(|(m, k)| integration.rayleigh_alpha * m + integration.rayleigh_beta * k)
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let matrices = Matrices { m, c };
+        self.dynamic_matrices = Some(matrices.clone());
+        matrices
+    }
+
+    /// K₀: the tangent at the reference configuration with no load (wrinkle states from the
+    /// law), on the tangent's pattern.
+    fn reference_tangent(&mut self, model: &Model) -> Vec<f64> {
+        let u = vec![0.0; model.unknown_count()];
+        let loads = vec![0.0; model.loads.len()];
+        let mut r = vec![0.0; model.dof_count()];
+        assemble::assemble_with(
+            model,
+            &self.pattern,
+            &u,
+            &loads,
+            &mut r,
+            Some(self.linear.values_mut()),
+            Membranes::default(),
+        );
+        self.linear.values().to_vec()
+    }
+
+    /// The static residual R(u, loads) on the equations (law's wrinkle states).
+    fn static_residual(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<f64> {
+        let held = self.probe_states.take();
+        let r = self.residual(model, u, loads);
+        self.probe_states = held;
+        let mut out = vec![0.0; self.pattern.n];
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                out[e] = r[d];
+            }
+        }
+        out
+    }
+
+    /// ½ vᵀ M v over the free DOFs (`velocity` per DOF, model order) with the mass matrix of
+    /// `kind` (built at the first call, then kept).
+    pub fn kinetic_energy(&mut self, model: &Model, kind: MassKind, velocity: &[f64]) -> f64 {
+        if velocity.iter().all(|v| *v == 0.0) {
+            return 0.0;
+        }
+        if self.kinetic_mass.is_none() {
+            self.kinetic_mass = Some(
+                self.mass(model, kind)
+                    .map(|m| m.values().to_vec())
+                    .unwrap_or_default(),
+            );
+        }
+        let m = self.kinetic_mass.as_deref().unwrap_or_default();
+        let n = self.pattern.n;
+        let mut v = vec![0.0; n];
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                v[e] = velocity.get(d).copied().unwrap_or(0.0);
+            }
+        }
+        if m.len() != self.linear.values().len() {
+            return 0.0;
+        }
+        let mut mv = vec![0.0; n];
+        let a = self.linear.matrix();
+        let symbolic = a.symbolic();
+        symmetric_product(symbolic.col_ptr(), symbolic.row_idx(), m, &v, &mut mv);
+        0.5 * v.iter().zip(&mv).map(|(a, b)| a * b).sum::<f64>()
+    }
+
+    /// g of the current sub-step into the last assembly's residual (and K_d into the tangent,
+    /// the force magnitudes into the convergence test's), when a sub-step is being solved;
+    /// returns the potential to add (0 otherwise).
+    pub(super) fn add_inertia(&mut self, u: &[f64], tangent: bool, magnitude: bool) -> f64 {
+        let Some(inertia) = self.inertia.as_mut() else {
+            return 0.0;
+        };
+        let values = if tangent {
+            Some(self.linear.values_mut())
+        } else {
+            None
+        };
+        let m = if magnitude {
+            Some(&mut self.magnitude[..])
+        } else {
+            None
+        };
+        inertia.apply(&self.pattern.eq, u, &mut self.residual, values, m)
+    }
+}
+
+/// One step of time integration in progress (module docs): the last converged sub-step's
+/// state and the next sub-step.
+pub struct DynamicPath {
+    from: Vec<f64>,
+    to: Vec<f64>,
+    change: f64,
+    moved: bool,
+    /// The step's length h (s), the time reached in it (s) and the next sub-step Δt.
+    duration: f64,
+    time: f64,
+    dt: f64,
+    /// The sub-step an unhindered step takes: h / ceil(h / max_time_step).
+    nominal: f64,
+    alpha: Alpha,
+    matrices: Matrices,
+    pub(super) converged: Vec<f64>,
+    pub(super) history: History,
+    pub(super) velocity: Vec<f64>,
+    pub(super) acceleration: Vec<f64>,
+    /// R(u_n, t_n) on the equations.
+    residual_n: Vec<f64>,
+}
+
+impl DynamicPath {
+    /// The step of length `duration` from `from` to `to`, from (u, v, a) and the history.
+    #[allow(clippy::too_many_arguments)]
+    pub fn begin(
+        solver: &mut Solver,
+        model: &Model,
+        integration: &Integration,
+        duration: f64,
+        from: &[f64],
+        to: &[f64],
+        u: &[f64],
+        motion: (&[f64], &[f64]),
+        history: History,
+    ) -> DynamicPath {
+        history.install(model);
+        let n3 = model.dof_count();
+        let take = |x: &[f64]| {
+            if x.len() == n3 {
+                x.to_vec()
+            } else {
+                vec![0.0; n3]
+            }
+        };
+        let pieces = integration
+            .max_time_step
+            .map_or(1.0, |m| (duration / m).ceil().max(1.0));
+        let nominal = duration / pieces;
+        let matrices = solver.dynamic_matrices(model, integration);
+        let residual_n = solver.static_residual(model, u, from);
+        DynamicPath {
+            from: from.to_vec(),
+            to: to.to_vec(),
+            change: load_change(model, from, to),
+            moved: from != to,
+            duration,
+            time: 0.0,
+            dt: nominal,
+            nominal,
+            alpha: Alpha::new(integration.rho_inf),
+            matrices,
+            converged: u.to_vec(),
+            history,
+            velocity: take(motion.0),
+            acceleration: take(motion.1),
+            residual_n,
+        }
+    }
+
+    /// The fraction of the step's time reached.
+    pub fn lambda(&self) -> f64 {
+        if self.time >= self.duration {
+            1.0
+        } else {
+            self.time / self.duration
+        }
+    }
+
+    /// One sub-step attempt; None once the step's time is reached.
+    pub fn advance(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        report: &mut StepReport,
+    ) -> Option<Attempt> {
+        if self.time >= self.duration {
+            return None;
+        }
+        let s = solver.settings.clone();
+        let lambda = self.lambda();
+        if report.increments + report.cutbacks >= s.max_increments {
+            report.reached = lambda;
+            report.message = format!(
+                "no dynamic equilibrium found beyond time {:.6e} s of the step ({} sub-steps used)",
+                self.time, s.max_increments
+            );
+            return Some(Attempt::Rejected {
+                lambda,
+                iterations: 0,
+                failed: true,
+            });
+        }
+        let remaining = self.duration - self.time;
+        let dt = if self.dt >= remaining * (1.0 - 1e-12) {
+            remaining
+        } else {
+            self.dt
+        };
+        let end = if dt == remaining {
+            1.0
+        } else {
+            (self.time + dt) / self.duration
+        };
+        let loads = loads_at(&self.from, &self.to, end);
+        let (result, trial, contact) = self.attempt(solver, model, &loads, dt, report);
+        Some(match result {
+            Ok(iterations) => {
+                report.iterations += iterations;
+                report.increments += 1;
+                push_log(
+                    &mut report.log,
+                    format!(
+                        "time step {:.6e} -> {:.6e} s: converged in {iterations} iterations",
+                        self.time,
+                        self.time + dt
+                    ),
+                );
+                self.commit(solver, model, &loads, dt, trial, contact);
+                self.time = if end >= 1.0 {
+                    self.duration
+                } else {
+                    self.time + dt
+                };
+                if iterations <= s.target_iterations {
+                    self.dt = (2.0 * dt).min(self.nominal);
+                }
+                Attempt::Accepted {
+                    lambda: self.lambda(),
+                    iterations,
+                }
+            }
+            Err((iterations, why)) => {
+                report.iterations += iterations;
+                report.cutbacks += 1;
+                push_log(
+                    &mut report.log,
+                    format!(
+                        "time step {:.6e} -> {:.6e} s: {why}; cutting back",
+                        self.time,
+                        self.time + dt
+                    ),
+                );
+                self.dt = 0.25 * dt;
+                let failed = self.dt < s.min_increment * self.duration && !solver.work_spent();
+                if failed {
+                    report.reached = lambda;
+                    report.message = format!(
+                        "no dynamic equilibrium found beyond time {:.6e} s of the step of {:.6e} s (smallest sub-step {:.1e} of the step failed: {why})",
+                        self.time, self.duration, s.min_increment
+                    );
+                }
+                Attempt::Rejected {
+                    lambda,
+                    iterations,
+                    failed,
+                }
+            }
+        })
+    }
+
+    /// Newton for the sub-step of length `dt` to `loads`: the outcome, the trial point and its
+    /// stick/slip states.
+    #[allow(clippy::type_complexity)]
+    fn attempt(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        loads: &[f64],
+        dt: f64,
+        report: &mut StepReport,
+    ) -> (
+        Result<usize, (usize, String)>,
+        Vec<f64>,
+        Vec<crate::model::sleeve::Contact>,
+    ) {
+        solver.inertia = Some(self.inertia(solver, dt));
+        // The predictor: constant acceleration over the sub-step; then the supports.
+        let mut trial = self.converged.clone();
+        for ((x, v), a) in trial.iter_mut().zip(&self.velocity).zip(&self.acceleration) {
+            *x += dt * v + 0.5 * dt * dt * a;
+        }
+        prescribe(model, loads, &mut trial);
+        let mut contact = self.history.contact.clone();
+        let increment = Increment {
+            loads,
+            change: self.change,
+            moved: self.moved,
+        };
+        let result = solver.newton(
+            model,
+            &increment,
+            &mut trial,
+            &mut contact,
+            None,
+            &mut report.log,
+        );
+        solver.inertia = None;
+        (result, trial, contact)
+    }
+
+    /// K_d, u_n and b of a sub-step of length `dt` (module docs).
+    fn inertia(&self, solver: &Solver, dt: f64) -> Inertia {
+        let Alpha {
+            am,
+            af,
+            beta,
+            gamma,
+        } = self.alpha;
+        let n = solver.pattern.n;
+        let eq = &solver.pattern.eq;
+        let cm = (1.0 - am) / (beta * dt * dt) / (1.0 - af);
+        let cc = gamma / (beta * dt);
+        let (m, c) = (&self.matrices.m, &self.matrices.c);
+        let k: Vec<f64> = if c.is_empty() {
+            m.iter().map(|m| cm * m).collect()
+        } else {
+            m.iter().zip(c).map(|(m, c)| cm * m + cc * c).collect()
+        };
+        // At δ = 0: a_{n+1-αm} and v_{n+1-αf} per equation.
+        let mut u_n = vec![0.0; n];
+        let mut a_mid = vec![0.0; n];
+        let mut v_mid = vec![0.0; n];
+        for (d, &e) in eq.iter().enumerate() {
+            if e == NONE {
+                continue;
+            }
+            u_n[e] = self.converged[d];
+            let (v, a) = (self.velocity[d], self.acceleration[d]);
+            let (v1, a1) = self.alpha.update(dt, 0.0, v, a);
+            a_mid[e] = (1.0 - am) * a1 + am * a;
+            v_mid[e] = (1.0 - af) * v1 + af * v;
+        }
+        let a = solver.linear.matrix();
+        let symbolic = a.symbolic();
+        let (col_ptr, row_idx) = (symbolic.col_ptr().to_vec(), symbolic.row_idx().to_vec());
+        let mut b = vec![0.0; n];
+        symmetric_product(&col_ptr, &row_idx, m, &a_mid, &mut b);
+        if !c.is_empty() {
+            let mut cv = vec![0.0; n];
+            symmetric_product(&col_ptr, &row_idx, c, &v_mid, &mut cv);
+            for (b, cv) in b.iter_mut().zip(&cv) {
+                *b += cv;
+            }
+        }
+        for (b, r) in b.iter_mut().zip(&self.residual_n) {
+            *b = (*b + af * r) / (1.0 - af);
+        }
+        Inertia {
+            k,
+            u_n,
+            b,
+            delta: vec![0.0; n],
+            g: vec![0.0; n],
+            col_ptr,
+            row_idx,
+        }
+    }
+
+    /// A converged sub-step: velocities and accelerations by Newmark, the history advanced,
+    /// R(u_{n+1}, t_{n+1}) for the next.
+    fn commit(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        loads: &[f64],
+        dt: f64,
+        trial: Vec<f64>,
+        contact: Vec<crate::model::sleeve::Contact>,
+    ) {
+        let motion = self.velocity.iter_mut().zip(self.acceleration.iter_mut());
+        for ((v, a), (x1, x0)) in motion.zip(trial.iter().zip(&self.converged)) {
+            (*v, *a) = self.alpha.update(dt, x1 - x0, *v, *a);
+        }
+        self.history = self.history.advanced(model, &trial, contact);
+        self.residual_n = solver.static_residual(model, &trial, loads);
+        self.converged = trial;
+    }
+}
