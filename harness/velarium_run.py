@@ -15,6 +15,7 @@ test always runs the build it names; the package's own functions run the bundled
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import zipfile
@@ -69,6 +70,14 @@ def portable_library_is_current() -> bool:
 def shipped_models() -> list[str]:
     """Names of the shipped scenes: every modelDescription/<Name>/scene.json."""
     return sorted(p.parent.name for p in SCENES.glob("*/scene.json"))
+
+
+def is_dynamic(model: str) -> bool:
+    """Whether a shipped scene integrates in time (its `dynamics.time_integration`,
+    docs/dynamics.md): its results depend on the communication steps, and it has no
+    derivatives."""
+    scene = json.loads((SCENES / model / "scene.json").read_text())
+    return "time_integration" in (scene.get("dynamics") or {})
 
 
 def solve(scene: Path, table: np.ndarray, workdir: Path, binary: Path = VELARIUM) -> np.ndarray:

@@ -113,7 +113,14 @@ impl Solver {
         } else {
             Vec::new()
         };
-        let matrices = Matrices { m, c };
+        let a = self.linear.matrix();
+        let symbolic = a.symbolic();
+        let matrices = Matrices {
+            m,
+            c,
+            col_ptr: symbolic.col_ptr().to_vec(),
+            row_idx: symbolic.row_idx().to_vec(),
+        };
         self.dynamic_matrices = Some(matrices.clone());
         matrices
     }
@@ -223,6 +230,11 @@ pub struct DynamicPath {
     pub(super) acceleration: Vec<f64>,
     /// R(u_n, t_n) on the equations.
     residual_n: Vec<f64>,
+    /// The inertia force's buffers, kept from sub-step to sub-step (K_d rebuilt only when Δt
+    /// changes: `k_dt`), and R(u_{n+1}, t_{n+1}) of the last converged attempt.
+    buffers: Option<Inertia>,
+    k_dt: f64,
+    residual_trial: Vec<f64>,
 }
 
 impl DynamicPath {
@@ -250,7 +262,9 @@ impl DynamicPath {
         };
         let pieces = integration
             .max_time_step
-            .map_or(1.0, |m| (duration / m).ceil().max(1.0));
+            // A step longer than a whole number of sub-steps by round-off only (a master's
+            // summed times: 0.020000000000000004 for 0.02) takes that number.
+            .map_or(1.0, |m| (duration / m * (1.0 - 1e-9)).ceil().max(1.0));
         let nominal = duration / pieces;
         let matrices = solver.dynamic_matrices(model, integration);
         let residual_n = solver.static_residual(model, u, from);
@@ -270,6 +284,9 @@ impl DynamicPath {
             velocity: take(motion.0),
             acceleration: take(motion.1),
             residual_n,
+            buffers: None,
+            k_dt: 0.0,
+            residual_trial: Vec::new(),
         }
     }
 
@@ -331,7 +348,7 @@ impl DynamicPath {
                         self.time + dt
                     ),
                 );
-                self.commit(solver, model, &loads, dt, trial, contact);
+                self.commit(model, dt, trial, contact);
                 self.time = if end >= 1.0 {
                     self.duration
                 } else {
@@ -389,7 +406,8 @@ impl DynamicPath {
         Vec<f64>,
         Vec<crate::model::sleeve::Contact>,
     ) {
-        solver.inertia = Some(self.inertia(solver, dt));
+        let inertia = self.inertia(solver, dt);
+        solver.inertia = Some(inertia);
         // The predictor: constant acceleration over the sub-step; then the supports.
         let mut trial = self.converged.clone();
         for ((x, v), a) in trial.iter_mut().zip(&self.velocity).zip(&self.acceleration) {
@@ -410,12 +428,24 @@ impl DynamicPath {
             None,
             &mut report.log,
         );
-        solver.inertia = None;
+        let inertia = solver.inertia.take();
+        if let (Ok(_), Some(inertia)) = (&result, &inertia) {
+            // The last assembly was at the converged point (newton.rs ends on an assembled
+            // iterate): R + g there, so R(u_{n+1}, t_{n+1}) = (R + g) − g with no assembly more.
+            self.residual_trial.clear();
+            self.residual_trial.resize(solver.pattern.n, 0.0);
+            for (d, &e) in solver.pattern.eq.iter().enumerate() {
+                if e != NONE {
+                    self.residual_trial[e] = solver.residual[d] - inertia.g[e];
+                }
+            }
+        }
+        self.buffers = inertia;
         (result, trial, contact)
     }
 
-    /// K_d, u_n and b of a sub-step of length `dt` (module docs).
-    fn inertia(&self, solver: &Solver, dt: f64) -> Inertia {
+    /// K_d, u_n and b of a sub-step of length `dt` (module docs), in the kept buffers.
+    fn inertia(&mut self, solver: &Solver, dt: f64) -> Inertia {
         let Alpha {
             am,
             af,
@@ -424,61 +454,57 @@ impl DynamicPath {
         } = self.alpha;
         let n = solver.pattern.n;
         let eq = &solver.pattern.eq;
-        let cm = (1.0 - am) / (beta * dt * dt) / (1.0 - af);
-        let cc = gamma / (beta * dt);
         let (m, c) = (&self.matrices.m, &self.matrices.c);
-        let k: Vec<f64> = if c.is_empty() {
-            m.iter().map(|m| cm * m).collect()
-        } else {
-            m.iter().zip(c).map(|(m, c)| cm * m + cc * c).collect()
-        };
-        // At δ = 0: a_{n+1-αm} and v_{n+1-αf} per equation.
-        let mut u_n = vec![0.0; n];
-        let mut a_mid = vec![0.0; n];
-        let mut v_mid = vec![0.0; n];
+        let mut x = self.buffers.take().unwrap_or_else(|| Inertia {
+            u_n: vec![0.0; n],
+            b: vec![0.0; n],
+            delta: vec![0.0; n],
+            g: vec![0.0; n],
+            col_ptr: self.matrices.col_ptr.clone(),
+            row_idx: self.matrices.row_idx.clone(),
+            ..Default::default()
+        });
+        if x.k.len() != m.len() || self.k_dt != dt {
+            let cm = (1.0 - am) / (beta * dt * dt) / (1.0 - af);
+            let cc = gamma / (beta * dt);
+            x.k.clear();
+            if c.is_empty() {
+                x.k.extend(m.iter().map(|m| cm * m));
+            } else {
+                x.k.extend(m.iter().zip(c).map(|(m, c)| cm * m + cc * c));
+            }
+            self.k_dt = dt;
+        }
+        // At δ = 0: a_{n+1-αm} into delta and v_{n+1-αf} into g (scratch here).
         for (d, &e) in eq.iter().enumerate() {
             if e == NONE {
                 continue;
             }
-            u_n[e] = self.converged[d];
+            x.u_n[e] = self.converged[d];
             let (v, a) = (self.velocity[d], self.acceleration[d]);
             let (v1, a1) = self.alpha.update(dt, 0.0, v, a);
-            a_mid[e] = (1.0 - am) * a1 + am * a;
-            v_mid[e] = (1.0 - af) * v1 + af * v;
+            x.delta[e] = (1.0 - am) * a1 + am * a;
+            x.g[e] = (1.0 - af) * v1 + af * v;
         }
-        let a = solver.linear.matrix();
-        let symbolic = a.symbolic();
-        let (col_ptr, row_idx) = (symbolic.col_ptr().to_vec(), symbolic.row_idx().to_vec());
-        let mut b = vec![0.0; n];
-        symmetric_product(&col_ptr, &row_idx, m, &a_mid, &mut b);
+        symmetric_product(&x.col_ptr, &x.row_idx, m, &x.delta, &mut x.b);
         if !c.is_empty() {
             let mut cv = vec![0.0; n];
-            symmetric_product(&col_ptr, &row_idx, c, &v_mid, &mut cv);
-            for (b, cv) in b.iter_mut().zip(&cv) {
+            symmetric_product(&x.col_ptr, &x.row_idx, c, &x.g, &mut cv);
+            for (b, cv) in x.b.iter_mut().zip(&cv) {
                 *b += cv;
             }
         }
-        for (b, r) in b.iter_mut().zip(&self.residual_n) {
+        for (b, r) in x.b.iter_mut().zip(&self.residual_n) {
             *b = (*b + af * r) / (1.0 - af);
         }
-        Inertia {
-            k,
-            u_n,
-            b,
-            delta: vec![0.0; n],
-            g: vec![0.0; n],
-            col_ptr,
-            row_idx,
-        }
+        x
     }
 
     /// A converged sub-step: velocities and accelerations by Newmark, the history advanced,
     /// R(u_{n+1}, t_{n+1}) for the next.
     fn commit(
         &mut self,
-        solver: &mut Solver,
         model: &Model,
-        loads: &[f64],
         dt: f64,
         trial: Vec<f64>,
         contact: Vec<crate::model::sleeve::Contact>,
@@ -488,7 +514,7 @@ impl DynamicPath {
             (*v, *a) = self.alpha.update(dt, x1 - x0, *v, *a);
         }
         self.history = self.history.advanced(model, &trial, contact);
-        self.residual_n = solver.static_residual(model, &trial, loads);
+        std::mem::swap(&mut self.residual_n, &mut self.residual_trial);
         self.converged = trial;
     }
 }

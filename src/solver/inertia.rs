@@ -38,6 +38,9 @@ pub struct Matrices {
     pub m: Vec<f64>,
     /// Empty when the scene has no Rayleigh damping.
     pub c: Vec<f64>,
+    /// The tangent's pattern over the equations (column pointers, row indices).
+    pub col_ptr: Vec<usize>,
+    pub row_idx: Vec<usize>,
 }
 
 /// The inertia and history force of one sub-step, g = b + K_d δ (module docs), on the
