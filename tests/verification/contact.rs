@@ -351,7 +351,9 @@ fn shipped_etfe_cushion_touches_under_snow_and_unloads() {
     let inflated = (0..peak)
         .max_by(|&i, &j| value("gas", i).total_cmp(&value("gas", j)))
         .unwrap();
-    assert!(peak < last && value("snow", last) == 0.0 && value("gas", last) == value("gas", inflated));
+    assert!(
+        peak < last && value("snow", last) == 0.0 && value("gas", last) == value("gas", inflated)
+    );
     let mut w_inflated = 0.0;
     // Through the history's rows, each in ten steps (linear between the rows).
     for k in 1..=last {
@@ -385,7 +387,9 @@ fn shipped_etfe_cushion_touches_under_snow_and_unloads() {
         get(&e, "p"),
         get(&e, "R_z")
     );
-    assert!(get(&e, "contact_force") == 0.0 && get(&e, "R_z").abs() < 1e-9 * value("snow", peak) * 9.0);
+    assert!(
+        get(&e, "contact_force") == 0.0 && get(&e, "R_z").abs() < 1e-9 * value("snow", peak) * 9.0
+    );
     assert!(rel(w, w_inflated) < 1e-8, "{w} vs {w_inflated}");
 }
 
@@ -537,15 +541,24 @@ fn blower_cushion_under_snow_yields_and_keeps_plastic_strain() {
             alpha(&e)
         );
         assert!((r - q * a * a).abs() < 1e-9 * scale, "row {k}: R_z {r}");
-        assert!((c - top).abs() < 1e-9 * scale, "row {k}: C {c} vs top sheet {top}");
-        assert!((c - bottom).abs() < 1e-9 * scale, "row {k}: C {c} vs bottom sheet {bottom}");
+        assert!(
+            (c - top).abs() < 1e-9 * scale,
+            "row {k}: C {c} vs top sheet {top}"
+        );
+        assert!(
+            (c - bottom).abs() < 1e-9 * scale,
+            "row {k}: C {c} vs bottom sheet {bottom}"
+        );
         if k == 2 {
             alpha_inflated = alpha(&e);
         }
         if k == 7 {
             alpha_peak = alpha(&e);
             peak_contact = c;
-            assert!(c > 0.0 && get(&e, "area") > 0.0, "the sheets must touch at q = 2p");
+            assert!(
+                c > 0.0 && get(&e, "area") > 0.0,
+                "the sheets must touch at q = 2p"
+            );
         }
     }
     let alpha_end = alpha(&e);
