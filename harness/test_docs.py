@@ -89,13 +89,14 @@ def test_schema_states_units_and_the_pressure_sign():
     loads = {v["properties"]["kind"]["const"]: v["description"] for v in schema["$defs"]["Load"]["oneOf"]}
     assert set(loads) == {"point_force", "pressure", "displacement", "radial_edge_load", "volume", "gas",
                           "rotation", "polar_displacement", "zone_pressure", "support_displacement",
-                          "snow", "self_weight", "ponding"}
+                          "snow", "self_weight", "ponding", "water_volume"}
     assert "in N " in loads["point_force"] and "in Pa" in loads["pressure"]
     assert "in m " in loads["displacement"] and "in N/m" in loads["radial_edge_load"]
     assert "in m³" in loads["volume"] and "closed" in loads["volume"]
     assert "in m³" in loads["gas"] and "closed" in loads["gas"]
     assert "in Pa" in loads["snow"] and "plan area" in loads["snow"]
     assert "in m/s²" in loads["self_weight"] and "in m " in loads["ponding"] and "gamma_w" in loads["ponding"]
+    assert "in m³" in loads["water_volume"] and "water_level" in loads["water_volume"]
     assert "in rad " in loads["rotation"] and "in m " in loads["polar_displacement"]
     assert "in Pa" in loads["zone_pressure"] and "in m " in loads["support_displacement"]
     assert "counter-clockwise" in loads["pressure"] and "positive" in loads["pressure"]

@@ -152,7 +152,7 @@ pub fn evaluate(
                 .fold(f64::INFINITY, f64::min),
             ProbeModel::ElementState(e) => state_code(membranes[*e].state) as f64,
             ProbeModel::EnclosedVolume(tris) => model.enclosed_volume(u, tris),
-            ProbeModel::EnclosedPressure(k) => u[model.volume_unknown(*k)],
+            ProbeModel::EnclosedPressure(k) => model.unknown_value(u, *k),
             ProbeModel::ContactTotal { set, component } => model.contact_total(u, *set, *component),
             ProbeModel::ContactArea(set) => model.contact_area(u, *set),
         })
@@ -171,8 +171,18 @@ fn zone_force(model: &Model, u: &[f64], applied: &[f64], zone: &[bool]) -> nalge
                 follower,
             } => (triangles, *follower),
             LoadModel::Volume { triangles, .. } => (triangles, true),
-            LoadModel::Surface { triangles, law } => {
-                let value = applied[l];
+            LoadModel::Surface { .. } | LoadModel::Water { .. } => {
+                let (triangles, law) = match load {
+                    LoadModel::Surface { triangles, law } => (triangles, *law),
+                    LoadModel::Water {
+                        triangles, gamma_w, ..
+                    } => (
+                        triangles,
+                        pressure::SurfaceLaw::Ponding { gamma_w: *gamma_w },
+                    ),
+                    _ => unreachable!(),
+                };
+                let value = model.load_value(l, u, applied);
                 for &e in triangles.iter().filter(|&&e| zone.get(e) == Some(&true)) {
                     let x = model.triangles[e].nodes.map(|i| model.position(u, i));
                     total += law.forces(value, &x).iter().sum::<nalgebra::Vector3<f64>>();

@@ -167,6 +167,7 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
                 Load::Pressure { .. } | Load::ZonePressure { .. } | Load::Snow { .. } => "Pa",
                 Load::SelfWeight { .. } => "m/s2",
                 Load::Ponding { .. } => "m",
+                Load::WaterVolume { .. } => "m3",
                 Load::Displacement { .. }
                 | Load::PolarDisplacement { .. }
                 | Load::SupportDisplacement { .. } => "m",
@@ -216,6 +217,7 @@ pub fn try_table(scene: &Scene) -> Result<Vec<Variable>, crate::memory::OutOfMem
             Probe::ReactionMoment { .. } => (VarType::Real, Variability::Continuous, Some("N.m")),
             Probe::EnclosedVolume { .. } => (VarType::Real, Variability::Continuous, Some("m3")),
             Probe::EnclosedPressure { .. } => (VarType::Real, Variability::Continuous, Some("Pa")),
+            Probe::WaterLevel { .. } => (VarType::Real, Variability::Continuous, Some("m")),
             Probe::ContactTotal { .. } => (VarType::Real, Variability::Continuous, Some("N")),
             Probe::ContactArea { .. } => (VarType::Real, Variability::Continuous, Some("m2")),
             Probe::NaturalFrequency { .. } => (VarType::Real, Variability::Continuous, Some("Hz")),

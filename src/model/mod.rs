@@ -157,6 +157,19 @@ pub enum LoadModel {
         stiffness: f64,
         atmosphere: Option<f64>,
     },
+    /// Ponding with the water volume given (a `water_volume` input): the ponding load
+    /// (`pressure::SurfaceLaw::Ponding`) on `triangles` at the level h = `datum` + the
+    /// unknown `u[Model::volume_unknown(unknown)]` (numbered with the volume inputs'
+    /// pressures), with the row `gamma_w · (V_w(u, h) − value)` (N: the weight of the water
+    /// missing or in excess), V_w the water above the current surface up to h
+    /// (`solver/volume.rs`). `datum`: the lowest reference z of the triangles' nodes, so the
+    /// unknown 0 is the level of an empty region.
+    Water {
+        triangles: Vec<usize>,
+        gamma_w: f64,
+        unknown: usize,
+        datum: f64,
+    },
 }
 
 /// DOFs an input prescribes. Where several inputs prescribe one DOF their displacements add
@@ -294,7 +307,8 @@ pub enum ProbeModel {
     ElementState(usize),
     /// Volume enclosed by these triangles (`Model::triangles` indices).
     EnclosedVolume(Vec<usize>),
-    /// The pressure unknown of a volume input (index among the volume unknowns).
+    /// The pressure unknown of a volume input, or the level of a water volume (index among the
+    /// volume unknowns; the value is `Model::unknown_value`).
     EnclosedPressure(usize),
     /// Σ p over the contact set's elements, or component `component` of Σ p ∇g at their
     /// first node (index into `Model::contacts`).
@@ -401,7 +415,7 @@ impl Model {
         }
         let mut volumes = 0;
         for l in &mut loads {
-            if let LoadModel::Volume { unknown, .. } = l {
+            if let LoadModel::Volume { unknown, .. } | LoadModel::Water { unknown, .. } = l {
                 *unknown = volumes;
                 volumes += 1;
             }
@@ -481,6 +495,7 @@ impl Model {
                 LoadModel::Pressure { follower: true, .. }
                     | LoadModel::Volume { .. }
                     | LoadModel::Surface { .. }
+                    | LoadModel::Water { .. }
             )
         })
     }
@@ -536,12 +551,28 @@ impl Model {
     }
 
     /// The value load `l` applies under `u` and the input values `loads`: the input's value,
-    /// except for a volume input, whose load is the pressure unknown.
+    /// except for a volume input, whose load is the pressure unknown, and a water volume,
+    /// whose load is ponding at the level its unknown gives.
     pub fn load_value(&self, l: usize, u: &[f64], loads: &[f64]) -> f64 {
         match &self.loads[l] {
             LoadModel::Volume { unknown, .. } => u[self.volume_unknown(*unknown)],
+            LoadModel::Water { unknown, datum, .. } => datum + u[self.volume_unknown(*unknown)],
             _ => loads[l],
         }
+    }
+
+    /// The value of the k-th volume unknown as its probe reads it: the pressure of a volume or
+    /// gas input, the water level (datum + unknown) of a water volume.
+    pub fn unknown_value(&self, u: &[f64], k: usize) -> f64 {
+        let datum = self
+            .loads
+            .iter()
+            .find_map(|l| match l {
+                LoadModel::Water { unknown, datum, .. } if *unknown == k => Some(*datum),
+                _ => None,
+            })
+            .unwrap_or(0.0);
+        datum + u[self.volume_unknown(k)]
     }
 
     /// Volume enclosed by triangles `tris` (`Model::triangles` indices) under `u`.
@@ -1135,6 +1166,24 @@ fn build_loads(
             triangles: loaded(membrane, zone.as_deref())?,
             law: pressure::SurfaceLaw::Ponding { gamma_w: *gamma_w },
         }],
+        Load::WaterVolume {
+            membrane,
+            zone,
+            gamma_w,
+        } => {
+            let list = loaded(membrane, zone.as_deref())?;
+            let datum = list
+                .iter()
+                .flat_map(|&e| triangles[e].nodes)
+                .map(|i| mesh.nodes[i][2])
+                .fold(f64::INFINITY, f64::min);
+            vec![LoadModel::Water {
+                triangles: list,
+                gamma_w: *gamma_w,
+                unknown: 0,
+                datum: if datum.is_finite() { datum } else { 0.0 },
+            }]
+        }
         Load::ZonePressure {
             membrane,
             zones,
@@ -1265,7 +1314,8 @@ fn build_load(
         | Load::ZonePressure { .. }
         | Load::SupportDisplacement { .. }
         | Load::Snow { .. }
-        | Load::Ponding { .. } => {
+        | Load::Ponding { .. }
+        | Load::WaterVolume { .. } => {
             unreachable!("built by build_loads")
         }
     })
@@ -1592,13 +1642,14 @@ fn build_probe(
         Probe::ContactArea { contact } => {
             ProbeModel::ContactArea(contact::position(scene, contact))
         }
-        Probe::EnclosedPressure { input } => {
+        // The level of a water volume is read as its unknown, as a volume's pressure.
+        Probe::EnclosedPressure { input } | Probe::WaterLevel { input } => {
             let unknown = scene
                 .inputs
                 .iter()
-                .filter(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }))
+                .filter(|i| i.load.has_unknown())
                 .position(|i| &i.name == input)
-                .expect("validated: a volume input");
+                .expect("validated: a volume, gas or water volume input");
             ProbeModel::EnclosedPressure(unknown)
         }
         Probe::WrinkledFraction { membrane } => ProbeModel::WrinkledFraction(elements(membrane)?),

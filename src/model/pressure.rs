@@ -172,6 +172,27 @@ pub fn ponding_forces(gamma_w: f64, h: f64, x: &[Vector3<f64>; 3]) -> [Vector3<f
     [0, 1, 2].map(|a| -c * ((p[a] + sum) / 24.0))
 }
 
+/// The water [`ponding_forces`] puts on a triangle at `x` up to level `h`, as a volume: its
+/// signed plan area c_z/2 times the mean of the nodes' depths d_i = max(h − z_i, 0),
+/// V = c_z (d_1 + d_2 + d_3)/6 (so that γ_w V is the vertical resultant of the forces, and
+/// V > 0 on a triangle facing up); with ∂V/∂x_i (x: (y_{i+1} − y_{i−1}) D/6, y:
+/// (x_{i−1} − x_{i+1}) D/6, z: −c_z w_i/6; D = Σ d, w_i = 1 where wet) and ∂V/∂h = c_z Σ w/6.
+/// A water volume's row (`solver/volume.rs`).
+pub fn ponding_volume(h: f64, x: &[Vector3<f64>; 3]) -> (f64, [Vector3<f64>; 3], f64) {
+    let cz = (x[1] - x[0]).cross(&(x[2] - x[0])).z;
+    let depth: f64 = x.iter().map(|xi| (h - xi.z).max(0.0)).sum();
+    let wet = x.map(|xi| if h > xi.z { 1.0 } else { 0.0 });
+    let grad = [0, 1, 2].map(|i| {
+        let (next, prev) = (x[(i + 1) % 3], x[(i + 2) % 3]);
+        Vector3::new(
+            (next.y - prev.y) * depth / 6.0,
+            (prev.x - next.x) * depth / 6.0,
+            -cz * wet[i] / 6.0,
+        )
+    });
+    (cz * depth / 6.0, grad, cz * wet.iter().sum::<f64>() / 6.0)
+}
+
 /// Load stiffness −∂f/∂x of [`ponding_forces`] (9x9, not symmetric).
 pub fn ponding_stiffness(gamma_w: f64, h: f64, x: &[Vector3<f64>; 3]) -> Mat9 {
     let c = (x[1] - x[0]).cross(&(x[2] - x[0]));

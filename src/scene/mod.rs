@@ -875,6 +875,35 @@ pub enum Load {
         #[serde(default = "water")]
         gamma_w: f64,
     },
+    /// Ponding with the water volume given: the input's value is the volume V_w in m³ of
+    /// water on the group's triangles (or its part in `zone`), and the level h is an unknown
+    /// of the solve, found so that the water above the current surface up to h, over the
+    /// region, is V_w (Σ over its triangles of the plan area times the mean of the nodes'
+    /// depths max(h − z, 0): the volume whose weight the `ponding` load puts on the region).
+    /// The load is then `ponding`'s at that level. Read the level with a `water_level` probe.
+    /// Where the water comes from (rain collected on a roof) is the volume; the level follows
+    /// the deflection. `start` 0: no water (the level at the region's lowest point).
+    WaterVolume {
+        /// Name of the membrane group loaded.
+        membrane: String,
+        /// Load only the group's triangles in this zone (a named triangle set).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        zone: Option<String>,
+        /// Unit weight of the water, N/m³ (default 9810).
+        #[serde(default = "water")]
+        gamma_w: f64,
+    },
+}
+
+impl Load {
+    /// True for the inputs whose load carries an unknown of the solve (the pressure of a
+    /// `volume` or `gas` input, the level of a `water_volume` input), numbered in input order.
+    pub fn has_unknown(&self) -> bool {
+        matches!(
+            self,
+            Load::Volume { .. } | Load::Gas { .. } | Load::WaterVolume { .. }
+        )
+    }
 }
 
 fn down() -> [f64; 3] {
@@ -1056,6 +1085,9 @@ pub enum Probe {
     EnclosedVolume { membrane: String },
     /// Pressure (Pa) that holds the prescribed volume of a `volume` input (the input's name).
     EnclosedPressure { input: String },
+    /// Water level h (m, a z coordinate) that holds the water volume of a `water_volume`
+    /// input (the input's name).
+    WaterLevel { input: String },
     /// Total contact force (N) of a contact (`contacts[].name`): the sum of its nodes' normal
     /// forces, or with `component` that component of the force it puts on the structure (on
     /// the top sheet for `sheets`).

@@ -1303,13 +1303,17 @@ impl Validator {
                 Load::Volume { membrane } => {
                     self.closed_group(s, mesh, membrane, &format!("{p}.load.membrane"));
                 }
-                Load::Snow { membrane, zone } | Load::Ponding { membrane, zone, .. } => {
+                Load::Snow { membrane, zone }
+                | Load::Ponding { membrane, zone, .. }
+                | Load::WaterVolume { membrane, zone, .. } => {
                     if self.membrane_name(s, membrane, &format!("{p}.load.membrane")) {
                         if let Some(zone) = zone {
                             self.zone(s, mesh, membrane, zone, &format!("{p}.load.zone"));
                         }
                     }
-                    if let Load::Ponding { gamma_w, .. } = &input.load {
+                    if let Load::Ponding { gamma_w, .. } | Load::WaterVolume { gamma_w, .. } =
+                        &input.load
+                    {
                         if !positive(*gamma_w) {
                             self.push(
                                 format!("{p}.load.gamma_w"),
@@ -1563,10 +1567,7 @@ impl Validator {
                         );
                     }
                     let sleeves = s.cables.iter().any(|c| c.sleeve.is_some());
-                    let volumes = s
-                        .inputs
-                        .iter()
-                        .any(|i| matches!(i.load, Load::Volume { .. } | Load::Gas { .. }));
+                    let volumes = s.inputs.iter().any(|i| i.load.has_unknown());
                     if !s.contacts.is_empty() {
                         self.push(
                             p.clone(),
@@ -1576,7 +1577,7 @@ impl Validator {
                     if sleeves || volumes {
                         self.push(
                             p.clone(),
-                            "a natural_frequency output is not available with sleeves or volume inputs (their unknowns are not in the eigenproblem yet)",
+                            "a natural_frequency output is not available with sleeves or volume, gas or water_volume inputs (their unknowns are not in the eigenproblem yet)",
                         );
                     }
                 }
@@ -1602,6 +1603,19 @@ impl Validator {
                             format!(
                                 "no input of kind volume or gas is named \"{input}\"{}",
                                 suggest(input, names.into_iter())
+                            ),
+                        );
+                    }
+                }
+                Probe::WaterLevel { input } => {
+                    let water = |i: &&super::Input| matches!(i.load, Load::WaterVolume { .. });
+                    if !s.inputs.iter().filter(water).any(|i| &i.name == input) {
+                        let names = s.inputs.iter().filter(water).map(|i| &i.name);
+                        self.push(
+                            format!("{p}.input"),
+                            format!(
+                                "no input of kind water_volume is named \"{input}\"{}",
+                                suggest(input, names)
                             ),
                         );
                     }

@@ -321,7 +321,8 @@ fn pressed_lists(model: &Model, tri_slot: &[usize]) -> Result<(PerLoad, PerLoad)
         let mut list = match load {
             LoadModel::Pressure { triangles, .. }
             | LoadModel::Volume { triangles, .. }
-            | LoadModel::Surface { triangles, .. } => memory::copy(triangles, "the element order")?,
+            | LoadModel::Surface { triangles, .. }
+            | LoadModel::Water { triangles, .. } => memory::copy(triangles, "the element order")?,
             _ => Vec::new(),
         };
         list.sort_unstable_by_key(|&e| tri_slot[e]);
@@ -889,6 +890,12 @@ impl Pressing {
             }),
             LoadModel::Volume { .. } => Some(Pressing::Pressure { follower: true }),
             LoadModel::Surface { law, .. } => Some(Pressing::Law(*law)),
+            // Ponding at the level its unknown gives (`Model::load_value`).
+            LoadModel::Water { gamma_w, .. } => {
+                Some(Pressing::Law(pressure::SurfaceLaw::Ponding {
+                    gamma_w: *gamma_w,
+                }))
+            }
             LoadModel::PointForce(_) | LoadModel::Displacement(_) => None,
         }
     }
@@ -899,7 +906,8 @@ pub(super) fn pressed_triangles(load: &LoadModel) -> &[usize] {
     match load {
         LoadModel::Pressure { triangles, .. }
         | LoadModel::Volume { triangles, .. }
-        | LoadModel::Surface { triangles, .. } => triangles,
+        | LoadModel::Surface { triangles, .. }
+        | LoadModel::Water { triangles, .. } => triangles,
         LoadModel::PointForce(_) | LoadModel::Displacement(_) => &[],
     }
 }
@@ -1276,14 +1284,18 @@ fn external_loads_into(
                     }
                 }
             }
-            LoadModel::Pressure { .. } | LoadModel::Volume { .. } | LoadModel::Surface { .. } => {
+            LoadModel::Pressure { .. }
+            | LoadModel::Volume { .. }
+            | LoadModel::Surface { .. }
+            | LoadModel::Water { .. } => {
                 let how = Pressing::of(load).expect("a pressing load");
                 let triangles = pressed_triangles(load);
                 let range = pressed(l);
                 if range.is_empty() {
                     continue;
                 }
-                // A volume input's load is the follower pressure held in its unknown.
+                // A volume input's load is the follower pressure held in its unknown, a water
+                // volume's the ponding at the level its unknown gives.
                 let value = model.load_value(l, u, loads);
                 debug_assert_eq!(triangles.len(), pattern.pressed_order[l].len());
                 for (&slot, &e) in pattern.pressed_slots[l][range.clone()]

@@ -108,8 +108,9 @@ pub fn load_change(model: &Model, from: &[f64], to: &[f64]) -> f64 {
                     }
                 }
             }
-            // A volume's pressure is an unknown: its forces count once assembled (|f_ext|∞).
-            LoadModel::Displacement(_) | LoadModel::Volume { .. } => {}
+            // A volume's pressure and a water volume's level are unknowns: their forces count
+            // once assembled (|f_ext|∞).
+            LoadModel::Displacement(_) | LoadModel::Volume { .. } | LoadModel::Water { .. } => {}
         }
     }
     f.iter().fold(0.0, |m, v| m.max(v.abs()))
@@ -148,7 +149,7 @@ pub fn external_forces(model: &Model, loads: &[f64]) -> Vec<f64> {
                     }
                 }
             }
-            LoadModel::Displacement(_) | LoadModel::Volume { .. } => {}
+            LoadModel::Displacement(_) | LoadModel::Volume { .. } | LoadModel::Water { .. } => {}
         }
     }
     f

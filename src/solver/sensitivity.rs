@@ -690,6 +690,12 @@ impl Solver {
             } => {
                 g[model.volume_unknown(*unknown)] = *stiffness;
             }
+            // The row h = γ_w (V_w − value) (volume.rs) likewise moves by −γ_w per m³.
+            LoadModel::Water {
+                gamma_w, unknown, ..
+            } => {
+                g[model.volume_unknown(*unknown)] = *gamma_w;
+            }
             LoadModel::Displacement(prescribed) => {
                 // d(prescribed displacement)/d(value): exact for a component or a direction
                 // (linear in the value), a central difference for a rotation (smooth).
@@ -824,17 +830,25 @@ fn solve_lu(
 /// (summed over the channels that load it).
 fn skew_parts(model: &Model, u: &[f64], loads: &[f64]) -> Vec<([usize; 3], Mat9)> {
     let mut out = Vec::new();
-    for (load, &value) in model.loads.iter().zip(loads) {
+    for (l, (load, &value)) in model.loads.iter().zip(loads).enumerate() {
         let (triangles, law, value) = match load {
             LoadModel::Pressure {
                 triangles,
                 follower: true,
             } => (triangles, None, value),
-            LoadModel::Surface { triangles, law } => (triangles, Some(law), value),
+            LoadModel::Surface { triangles, law } => (triangles, Some(*law), value),
             // A volume or gas input's follower pressure is its unknown.
             LoadModel::Volume {
                 triangles, unknown, ..
             } => (triangles, None, u[model.volume_unknown(*unknown)]),
+            // A water volume's ponding at the level its unknown gives.
+            LoadModel::Water {
+                triangles, gamma_w, ..
+            } => (
+                triangles,
+                Some(pressure::SurfaceLaw::Ponding { gamma_w: *gamma_w }),
+                model.load_value(l, u, loads),
+            ),
             _ => continue,
         };
         if value == 0.0 && law.is_none() {

@@ -17,6 +17,22 @@
 //! h = k_V ((p + p_atm) V/p_atm − V⁰ − ΔN), ΔN the added gas as its volume at p_atm; the border
 //! then has the diagonal entry k_V V/p_atm and the row k_V (p + p_atm)/p_atm gᵀ.
 //!
+//! Water-volume control (`water_volume` inputs, `LoadModel::Water`) is the same border with
+//! the ponding level h in place of the pressure:
+//!
+//! ```text
+//! row        h_W = γ_w (V_w(u, h) − V_w⁰)      V_w = Σ c_z (d_1 + d_2 + d_3)/6 over the region,
+//!                                              d_i = max(h − z_i, 0) (model/pressure.rs,
+//!                                              ponding_volume): γ_w V_w is the vertical
+//!                                              resultant of the ponding forces, so the row is
+//!                                              the weight of water missing (N)
+//! border     ∂h_W/∂u = γ_w ∂V_w/∂u, ∂h_W/∂h = γ_w A_wet (the wet plan area c_z Σ w/6;
+//!            the region's whole plan area while it is dry, so that an empty region's first
+//!            step fills it to the mean depth V_w⁰/A)
+//! column     ∂R/∂h = −∂f_ponding/∂h (SurfaceLaw::rate)
+//! unknown    η with h = datum + η, the datum the region's lowest reference z
+//! ```
+//!
 //! The border goes through the same Schur elimination as the slip unknowns (`slip.rs`: these
 //! are its extra rows and columns). Under pressure control the sphere's tangent K − p K_p
 //! turns singular at the limit pressure and the step fails there; under volume control the
@@ -34,10 +50,23 @@ use super::rows::Row;
 use crate::model::{pressure, LoadModel, Model};
 
 /// One row per volume input: h = k_V (V(u) − V⁰ − ΔV) and its derivative k_V g on the free
-/// equations.
+/// equations (a water volume's row in its place: [`water_row`]).
 pub(super) fn rows(model: &Model, eq: &[usize], u: &[f64], loads: &[f64]) -> Vec<Row> {
     let mut out = Vec::new();
     for (l, load) in model.loads.iter().enumerate() {
+        if let LoadModel::Water {
+            triangles,
+            gamma_w,
+            unknown,
+            ..
+        } = load
+        {
+            let h = model.load_value(l, u, loads);
+            out.push(water_row(
+                model, eq, u, triangles, *gamma_w, *unknown, h, loads[l],
+            ));
+            continue;
+        }
         let LoadModel::Volume {
             triangles,
             reference,
@@ -90,11 +119,78 @@ pub(super) fn rows(model: &Model, eq: &[usize], u: &[f64], loads: &[f64]) -> Vec
     out
 }
 
+/// The row of a water volume (module docs): h = γ_w (V_w(u, level) − target).
+#[allow(clippy::too_many_arguments)]
+fn water_row(
+    model: &Model,
+    eq: &[usize],
+    u: &[f64],
+    triangles: &[usize],
+    gamma_w: f64,
+    unknown: usize,
+    level: f64,
+    target: f64,
+) -> Row {
+    let mut grad = vec![0.0; eq.len()];
+    let (mut volume, mut wet, mut plan) = (0.0, 0.0, 0.0);
+    for &e in triangles {
+        let nodes = model.triangles[e].nodes;
+        let x = nodes.map(|i| model.position(u, i));
+        let (v, g, dh) = pressure::ponding_volume(level, &x);
+        volume += v;
+        wet += dh;
+        plan += 0.5 * (x[1] - x[0]).cross(&(x[2] - x[0])).z;
+        for (g, &i) in g.iter().zip(&nodes) {
+            for c in 0..3 {
+                grad[3 * i + c] += g[c];
+            }
+        }
+    }
+    // Dry everywhere: the level's own derivative is 0; the whole plan area in its place.
+    let own = if wet > 0.0 { wet } else { plan.abs() };
+    let dx = grad
+        .iter()
+        .enumerate()
+        .filter(|&(d, g)| eq[d] != NONE && *g != 0.0)
+        .map(|(d, g)| (eq[d], gamma_w * g))
+        .collect();
+    Row {
+        r: gamma_w * (volume - target),
+        dx,
+        ds: vec![(model.slips.len() + unknown, gamma_w * own)],
+        magnitude: gamma_w * volume.abs().max(target.abs()),
+        damped: false,
+    }
+}
+
 /// One column per volume input: ∂R/∂p = −f_p (the follower force per unit pressure) on the
-/// free equations.
+/// free equations; per water volume ∂R/∂h = −∂f/∂h of its ponding forces.
 pub(super) fn columns(model: &Model, eq: &[usize], u: &[f64]) -> Vec<Vec<(usize, f64)>> {
     let mut out = Vec::new();
-    for load in &model.loads {
+    for (l, load) in model.loads.iter().enumerate() {
+        if let LoadModel::Water {
+            triangles, gamma_w, ..
+        } = load
+        {
+            // The level is the load's value whatever the input values (`load_value`).
+            let level = model.load_value(l, u, &[]);
+            let law = pressure::SurfaceLaw::Ponding { gamma_w: *gamma_w };
+            let mut col = Vec::new();
+            for &e in triangles {
+                let nodes = model.triangles[e].nodes;
+                let rate = law.rate(level, &nodes.map(|i| model.position(u, i)));
+                for (&i, f) in nodes.iter().zip(&rate) {
+                    for c in 0..3 {
+                        let q = eq[3 * i + c];
+                        if q != NONE && f[c] != 0.0 {
+                            col.push((q, -f[c]));
+                        }
+                    }
+                }
+            }
+            out.push(col);
+            continue;
+        }
         let LoadModel::Volume { triangles, .. } = load else {
             continue;
         };
@@ -127,6 +223,7 @@ pub(super) fn load_rates(model: &Model, from: &[f64], to: &[f64]) -> Vec<f64> {
         .zip(from.iter().zip(to))
         .filter_map(|(load, (a, b))| match load {
             LoadModel::Volume { stiffness, .. } => Some(-stiffness * (b - a)),
+            LoadModel::Water { gamma_w, .. } => Some(-gamma_w * (b - a)),
             _ => None,
         })
         .collect()

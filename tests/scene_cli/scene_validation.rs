@@ -321,6 +321,42 @@ fn surface_load_problems_name_their_field() {
     }
 }
 
+/// A water volume input and its level probe: each bad value named by its field.
+#[test]
+fn water_volume_problems_name_their_field() {
+    let scene = |inputs: &str, outputs: &str| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+      "geometry": {{"generators": [{{"kind": "rectangle", "name": "s", "origin": [0, 0, 0], "size": [1, 1], "divisions": [2, 2]}}]}},
+      "membranes": [{{"name": "m", "triangles": "s", "thickness": 1e-3, "material": {{"kind": "svk", "E": 1e8, "nu": 0.3}}}}],
+      "supports": [{{"nodes": "s.boundary", "fix": ["x", "y", "z"]}}],
+      "inputs": {inputs}, "outputs": {outputs}}}"#
+        )
+    };
+    let good = r#"[{"name": "V", "load": {"kind": "water_volume", "membrane": "m", "zone": "s"}},
+                   {"name": "h", "load": {"kind": "ponding", "membrane": "m"}}]"#;
+    let level = r#"[{"name": "hw", "probe": {"kind": "water_level", "input": "V"}}]"#;
+    assert_eq!(problems(&scene(good, level)), Vec::<String>::new());
+    let bad = r#"[{"name": "V", "load": {"kind": "water_volume", "membrane": "roof"}},
+                  {"name": "W", "load": {"kind": "water_volume", "membrane": "m", "gamma_w": 0, "zone": "nowhere"}},
+                  {"name": "h", "load": {"kind": "ponding", "membrane": "m"}}]"#;
+    let outputs = r#"[{"name": "a", "probe": {"kind": "water_level", "input": "h"}},
+                      {"name": "b", "probe": {"kind": "enclosed_pressure", "input": "W"}}]"#;
+    let p = problems(&scene(bad, outputs));
+    for field in [
+        "inputs[0].load.membrane: no membrane group is named \"roof\"",
+        "inputs[1].load.gamma_w: 0 is not a positive unit weight of water",
+        "inputs[1].load.zone",
+        "outputs[0].probe.input: no input of kind water_volume is named \"h\"",
+        "outputs[1].probe.input: no input of kind volume or gas is named \"W\"",
+    ] {
+        assert!(
+            p.iter().any(|m| m.starts_with(field)),
+            "{field} not in {p:?}"
+        );
+    }
+}
+
 /// Rigid placements and the cylindrical prestress: each bad value named by its field.
 #[test]
 fn tent_problems_name_their_field() {

@@ -272,6 +272,68 @@ fn snow_and_ponding_stiffness_match_finite_differences() {
     eprintln!("snow/ponding: stiffness error {worst_k:.1e}, rate error {worst_rate:.1e}");
 }
 
+/// The water volume of a `water_volume` input's row (`pressure::ponding_volume`): its
+/// gradients ∂V/∂x and ∂V/∂h against central differences (partly wet triangles included,
+/// nodes 1e-3 m or more from the level as above), and γ_w V against the vertical resultant of
+/// the ponding forces it stands for (−Σ f_z = γ_w V, an identity: to round-off). Tolerances:
+/// 1e-9 of the largest gradient entry (step 1e-6: truncation 1e-12, round-off about 1e-10,
+/// measured 1.0e-10) and 1e-14 for the identity (measured 4.4e-16).
+#[test]
+fn ponding_volume_gradients_match_finite_differences() {
+    use pressure::{ponding_volume, SurfaceLaw};
+    let mut rng = Rng(292);
+    let (mut worst, mut worst_total, mut partly_wet, mut tried) = (0.0f64, 0.0f64, 0, 0);
+    for _ in 0..300 {
+        let x: Vec<Vector3<f64>> = [
+            Vector3::zeros(),
+            Vector3::new(1.0, 0.0, 0.0),
+            Vector3::new(0.2, 1.0, 0.0),
+        ]
+        .iter()
+        .map(|p| p + rng.vec3(0.3))
+        .collect();
+        let h = 0.3 * rng.next();
+        let wet = x.iter().filter(|p| p.z < h).count();
+        if wet == 0 || x.iter().any(|p| (p.z - h).abs() < 1e-3) {
+            continue;
+        }
+        tried += 1;
+        partly_wet += (wet < 3) as usize;
+        let xa = [x[0], x[1], x[2]];
+        let (v, grad, dh) = ponding_volume(h, &xa);
+        let step = 1e-6;
+        let mut scale = dh.abs();
+        let mut err = 0.0f64;
+        for a in 0..3 {
+            for c in 0..3 {
+                let (mut plus, mut minus) = (xa, xa);
+                plus[a][c] += step;
+                minus[a][c] -= step;
+                let fd = (ponding_volume(h, &plus).0 - ponding_volume(h, &minus).0) / (2.0 * step);
+                err = err.max((fd - grad[a][c]).abs());
+                scale = scale.max(grad[a][c].abs());
+            }
+        }
+        let fd_h =
+            (ponding_volume(h + step, &xa).0 - ponding_volume(h - step, &xa).0) / (2.0 * step);
+        err = err.max((fd_h - dh).abs());
+        worst = worst.max(err / scale);
+        let f = SurfaceLaw::Ponding { gamma_w: 9810.0 }.forces(h, &xa);
+        let fz: f64 = f.iter().map(|v| v.z).sum();
+        worst_total = worst_total.max((9810.0 * v + fz).abs() / (9810.0 * v.abs()).max(1e-300));
+    }
+    eprintln!("ponding volume: {tried} triangles ({partly_wet} partly wet), gradient error {worst:.1e}, γV vs −Σf_z {worst_total:.1e}");
+    assert!(
+        partly_wet > 20,
+        "only {partly_wet} partly wet triangles tried"
+    );
+    assert!(worst < 1e-9, "ponding volume gradient error {worst:e}");
+    assert!(
+        worst_total < 1e-14,
+        "γ V against the ponding forces {worst_total:e}"
+    );
+}
+
 /// The snow load's nodal forces total s times the current plan area, downwards, whichever way
 /// the triangle faces, and a flat triangle under water of depth d carries the water column's
 /// weight γ_w d A (closed forms, to round-off).
