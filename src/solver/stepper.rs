@@ -26,7 +26,7 @@ use crate::model::Model;
 enum Path {
     Load(LoadPath),
     Arc(ArcPath),
-    Dynamic(DynamicPath),
+    Dynamic(Box<DynamicPath>),
 }
 
 /// One step in progress (module docs).
@@ -106,7 +106,7 @@ impl Stepper {
             states.clone(),
         );
         Stepper {
-            path: Path::Dynamic(path),
+            path: Path::Dynamic(Box::new(path)),
             report: StepReport::failed(),
             failed: false,
             from: from.to_vec(),
