@@ -11,7 +11,8 @@
 # LiftedMembrane through fmpy with its ParaView series and 3-D plot (build/runs/LiftedMembrane/)
 # and render the series headless with pyvista (build/plots/LiftedMembrane_pyvista.png), and
 # the form-found FourPointSail under its wind ramp (build/runs/FourPointSail/; the FMU
-# form-finds the sail at instantiation). Last, speed against error (harness/speed_error.py):
+# form-finds the sail at instantiation), then the two dynamic FMUs in time
+# (harness/dynamics_plots.py: build/plots/VibratingMembrane.png, GustSail.png). Last, speed against error (harness/speed_error.py):
 # the error against the closed form over wall time, Hencky disc and wrinkled Lamé annulus at
 # growing meshes, with the optional peer (Kratos in /tmp/kratos-venv) beside ours when it is
 # installed (build/plots/speed_error.png and .csv).
@@ -26,4 +27,5 @@ bash harness/setup.sh
 .venv/bin/python harness/run_main.py --model LiftedMembrane
 .venv/bin/python harness/screenshot.py build/runs/LiftedMembrane/vtk/LiftedMembrane.pvd build/plots/LiftedMembrane_pyvista.png
 .venv/bin/python harness/run_main.py --model FourPointSail
+.venv/bin/python harness/dynamics_plots.py
 .venv/bin/python harness/speed_error.py
