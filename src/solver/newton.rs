@@ -560,6 +560,11 @@ impl Solver {
         log: &mut Vec<String>,
     ) -> Result<(Vec<f64>, Vec<f64>), Failure> {
         let bordered = eqs.bordered.as_ref();
+        if pending.is_none() && self.chord_applies(st, it) {
+            if let Some(d) = self.chord_direction() {
+                return Ok(d);
+            }
+        }
         let direction = match pending {
             Some(d) => Ok(d),
             None => self.direction_of(model, u, &st.rows, bordered, st.damping),
@@ -578,6 +583,33 @@ impl Solver {
             }
             Err(why) => Err((it + 1, why.to_string())),
         }
+    }
+
+    /// In a time sub-step (dynamic.rs), once Newton is in its quadratic basin (the last step
+    /// cut the relative residual by 100 or more), the next direction comes from the last
+    /// factorization (a chord step): the tangent K + K_d changes little within the sub-step,
+    /// K_d (the inertia's) being constant. Not with slip or volume rows or damping.
+    fn chord_applies(&self, st: &Iteration, it: usize) -> bool {
+        let h = &st.history;
+        self.inertia.is_some()
+            && it >= 1
+            && st.rows.is_empty()
+            && st.damping == 0.0
+            && self.linear.has_factor()
+            && h.len() >= 2
+            && h[h.len() - 1] <= 1e-2 * h[h.len() - 2]
+    }
+
+    /// −K⁻¹R with the last factorization (None if the solve fails).
+    fn chord_direction(&mut self) -> Option<(Vec<f64>, Vec<f64>)> {
+        let mut dx = vec![0.0; self.pattern.n];
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                dx[e] = -self.residual[d];
+            }
+        }
+        self.linear.solve(&mut dx).ok()?;
+        dx.iter().all(|v| v.is_finite()).then_some((dx, Vec::new()))
     }
 
     /// The line search's merit for this direction. Frictionless sliding points are
