@@ -2,7 +2,11 @@
 //! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N]
 //! [--problem=disc,square] [--threads=N] [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]
 //! [--thread-cpu] [--log] [--max-iterations=N] [--min-increment=X] [--artificial-prestress=PA]
-//! [--continuation=H]`; `[SIZE...] --e2e [--runs=N] [--threads=N]`.
+//! [--continuation=H] [--timings]`; `[SIZE...] --e2e [--runs=N] [--threads=N]`.
+//!
+//! `--timings`: no solve; the wall and CPU seconds of each phase of building the engine
+//! (`velarium::phases`: mesh generation, the model, renumbering, pattern, ordering, symbolic
+//! analyses, allocation) and of the scene validation and variable table (fn `setup_timings`).
 //!
 //! `--e2e`: what a user waits for, `velarium solve` from the scene file to the CSV as a process
 //! of its own (built next to this example: `cargo build --release` first), N runs per size
@@ -212,7 +216,67 @@ fn value_reference(engine: &Engine, name: &str) -> u32 {
         .value_reference
 }
 
+/// `--timings`: the setup's phases (`velarium::phases`) of one `Engine::try_new`, each with
+/// its wall and CPU seconds (the process's, every thread), indented by nesting; before it, the
+/// scene validation and the variable table each timed in a call of their own (the engine
+/// repeats both: `Engine::try_new` is `src/engine.rs`), and after it what the engine does
+/// besides the model and the solver (the validation, the variable table, the initial state
+/// and outputs), as the engine's total less the phases measured inside it.
+fn setup_timings(label: &str, scene: &Scene) {
+    use velarium::phases;
+    let load = load_average();
+    phases::enable(true);
+    phases::take();
+    let timed = |name: &str, f: &mut dyn FnMut()| {
+        let (wall, cpu) = (Instant::now(), cpu_seconds());
+        f();
+        let (wall, cpu) = (wall.elapsed().as_secs_f64(), cpu_seconds() - cpu);
+        let inner = phases::take();
+        println!("  {name:<52} wall {wall:7.3} s  cpu {cpu:7.3} s");
+        for p in &inner {
+            println!(
+                "  {:indent$}{:<width$} wall {:7.3} s  cpu {:7.3} s",
+                "",
+                p.name,
+                p.wall,
+                p.cpu,
+                indent = 2 * (p.depth + 1),
+                width = 50 - 2 * p.depth
+            );
+        }
+        (wall, cpu, inner)
+    };
+    println!("setup phases of {label} (load average before: {load}):");
+    timed("scene validation (validate_sized, separate call)", &mut || {
+        let (problems, _) = velarium::scene::validate::validate_sized(scene);
+        assert!(problems.is_empty(), "{problems:?}");
+    });
+    timed("variable table (variables::try_table, separate call)", &mut || {
+        velarium::variables::try_table(scene).expect("variable table");
+    });
+    let mut engine = None;
+    let (wall, cpu, inner) = timed("Engine::try_new", &mut || {
+        engine = Some(Engine::try_new(scene.clone()).expect("valid scene"));
+    });
+    let outer = inner.iter().filter(|p| p.depth == 0);
+    let (w, c) = outer.fold((0.0, 0.0), |(w, c), p| (w + p.wall, c + p.cpu));
+    println!(
+        "  {:<52} wall {:7.3} s  cpu {:7.3} s",
+        "  Engine::try_new less the phases above",
+        wall - w,
+        cpu - c
+    );
+    let peak = peak_rss_mib();
+    drop(engine);
+    println!("  peak resident {peak:.0} MiB; load average after: {}", load_average());
+    phases::enable(false);
+}
+
 fn run(problem: &Problem, label: &str, scene: Scene) {
+    if std::env::args().any(|a| a == "--timings") {
+        setup_timings(&format!("{} {label}", problem.name), &scene);
+        return;
+    }
     let reset = reset_peak_rss();
     let built = Instant::now();
     let mut engine = Engine::try_new(scene).expect("valid scene");

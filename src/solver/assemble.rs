@@ -128,9 +128,18 @@ impl Pattern {
     /// Pattern and position maps of `model` with equations numbered node by node in `order`
     /// (`renumber.rs`), every buffer that grows with it allocated fallibly (`crate::memory`).
     pub fn try_ordered(model: &Model, order: NodeOrder) -> Result<Pattern, OutOfMemory> {
+        use crate::phases::start;
+        let _phase = start("pattern (Pattern::try_ordered)");
+        let phase = start("renumbering (node_rank)");
         let rank = renumber::node_rank(model, order)?;
+        drop(phase);
+        let phase = start("equation numbers");
         let (eq, n, by_rank) = number_equations(model, &rank)?;
+        drop(phase);
+        let phase = start("visit order");
         let visits = PerKind::try_from_fn(|kind| visit_order(model, kind, order, &rank))?;
+        drop(phase);
+        let phase = start("triangle slots and copy, pressed lists");
         let tri_order = &visits[ElementKind::Membrane];
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {
@@ -153,12 +162,20 @@ impl Pattern {
             (by_rank, rank)
         };
         let (pressed_order, pressed_slots) = pressed_lists(model, &tri_slot)?;
+        drop(phase);
+        let phase = start("node blocks (Blocks::try_new)");
         let blocks = Blocks::try_new(model, &eq, &by_rank_or_identity(&node_of, model))?;
+        drop(phase);
+        let phase = start("K's pattern (upper_pattern)");
         let (col_ptr, row_idx) = blocks.upper_pattern(n)?;
+        drop(phase);
+        let phase = start("position maps");
         let maps = position_maps(model, &eq, &col_ptr, &blocks, &visits)?;
         drop(blocks);
+        drop(phase);
         // Large tangents: nested dissection, where it fills no more than faer's AMD and its
         // top separator is the two-thread split (`dissect.rs`, docs/performance.md).
+        let _ordering = start("ordering (nested dissection)");
         let fill = match n >= super::dissect::MIN_EQUATIONS {
             true => Some(nested_dissection(model, &eq, n, &node_of, &rank)?),
             false => None,
@@ -216,6 +233,7 @@ fn nested_dissection(
     let nodes = model.reference.len();
     let user = |r: usize| if node_of.is_empty() { r } else { node_of[r] };
     let internal = |v: usize| if rank.is_empty() { v } else { rank[v] as usize };
+    let phase = crate::phases::start("node graph in internal order");
     let (uptr, uadj) = renumber::node_graph(model)?;
     let mut ptr = memory::with_capacity(nodes + 1, WHAT)?;
     let mut adj = memory::with_capacity(uadj.len(), WHAT)?;
@@ -241,6 +259,8 @@ fn nested_dissection(
         let free = (0..3).filter(|&c| eq[3 * v + c] != NONE).count();
         first.push(first[r] + free);
     }
+    drop(phase);
+    let _phase = crate::phases::start("dissect::fill");
     super::dissect::fill(&x, &ptr, &adj, |r| first[r]..first[r + 1], n)
 }
 

@@ -138,6 +138,8 @@ impl Solver {
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
+        use crate::phases::start;
+        let _phase = start("Solver::try_new");
         let mut pattern = Pattern::try_ordered(model, settings.node_order)?;
         // The factorization takes over the pattern's row indices: nothing reads them from the
         // solver's pattern once its position maps are built, and a copy would be K's largest
@@ -157,12 +159,15 @@ impl Solver {
             None
         };
         let pattern = std::sync::Arc::new(pattern);
+        let phase = start("parallel assembly's halves");
         // The same gate as the factorization's split: with a pool, the assembly's element loop
         // runs in two halves too (`assemble::Parallel`).
         let parallel = match &pool {
             Some(pool) => assemble::Parallel::try_new(std::sync::Arc::clone(pool), &pattern)?,
             None => None,
         };
+        drop(phase);
+        let phase = start("factorization set-up (Ldlt::try_filled)");
         let mut linear = Ldlt::try_filled(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
@@ -179,6 +184,8 @@ impl Solver {
             }
         }
         linear.set_groups(groups)?;
+        drop(phase);
+        let phase = start("solver vectors, reference diagonal, adjacency");
         let n = model.dof_count();
         let trial_len = model.unknown_count();
         let diagonal_positions = memory::collect(
@@ -188,6 +195,8 @@ impl Solver {
         let reference_diagonal = reference_diagonal(model, &pattern)?;
         let reference_size = model.reference.iter().fold(0.0f64, |m, x| m.max(x.amax()));
         let vector = |len| memory::zeros(len, "the solver's vectors");
+        let adjacency = relax::Adjacency::try_new(model)?;
+        drop(phase);
         Ok(Solver {
             settings,
             linear,
@@ -204,7 +213,7 @@ impl Solver {
             reference_size,
             evaluations: memory::with_capacity(model.triangles.len(), "the element evaluations")?,
             frozen: None,
-            adjacency: relax::Adjacency::try_new(model)?,
+            adjacency,
             prestress_factor: 1.0,
             pre_strain: 0.0,
             probe_states: None,

@@ -112,6 +112,7 @@ impl Ldlt {
         fill: Option<Fill>,
     ) -> Result<Ldlt, OutOfMemory> {
         let nnz = row_idx.len();
+        use crate::phases::start;
         let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let matrix = SparseColMat::new(sym, memory::lazy_zeros(nnz, "the tangent matrix")?);
         let what = "the symbolic factorization of the tangent";
@@ -131,6 +132,7 @@ impl Ldlt {
         if let (Some(pool), Some((_, inv)), Some(top)) =
             (&pool_split, &order, fill.as_ref().and_then(|f| f.top))
         {
+            let _phase = start("two halves at the top separator (Split::try_at)");
             let sym = matrix.symbolic();
             split = Split::try_at(n, sym.col_ptr(), sym.row_idx(), inv, top, Arc::clone(pool))?;
         }
@@ -143,12 +145,14 @@ impl Ldlt {
                 }
                 None => SymmetricOrdering::Amd,
             };
+            let _phase = start("symbolic factorization of the whole tangent");
             Some(symbolic_ldlt(&matrix, ordering, what)?)
         };
         if split.is_none() {
             if let (Some(pool), Some(symbolic)) = (pool_split, &symbolic) {
                 let sym = matrix.symbolic();
                 let rank = symbolic.perm().map(|p| p.arrays().1);
+                let _phase = start("two halves by breadth-first levels (Split::try_new)");
                 split = Split::try_new(n, sym.col_ptr(), sym.row_idx(), rank, pool)?;
             }
         }
@@ -157,6 +161,7 @@ impl Ldlt {
             (None, Some(symbolic)) => symbolic.len_val(),
             _ => 0,
         };
+        let _phase = start("factor values and workspaces");
         let l_values = memory::lazy_zeros(whole, "the factor of the tangent")?;
         let buffer = |req: StackReq, what: &'static str| {
             MemBuffer::try_new(req).map_err(|_| OutOfMemory {

@@ -450,13 +450,18 @@ impl Split {
         let (first, rest) = by_position.split_at(top[0]);
         let (second, s_eq) = rest.split_at(top[1]);
         let s_eq = memory::copy(s_eq, what)?;
+        let phase = crate::phases::start("half A");
         let Some(a) = Half::try_new(n, col_ptr, row_idx, first, &s_eq, Some(rank))? else {
             return Ok(None);
         };
+        drop(phase);
+        let phase = crate::phases::start("half B");
         let Some(b) = Half::try_new(n, col_ptr, row_idx, second, &s_eq, Some(rank))? else {
             return Ok(None);
         };
+        drop(phase);
         drop(by_position);
+        let _phase = crate::phases::start("halves' buffers, K_SS (Split::finish)");
         #[cfg(test)]
         let counted = [a.flops(), b.flops()];
         Split::finish(
@@ -782,6 +787,7 @@ impl Half {
         nd: usize,
     ) -> Result<Option<Half>, OutOfMemory> {
         let what = "the two-domain factorization";
+        let phase = crate::phases::start("the half's matrix");
         let ns = eq.len() - nd;
         let mut local = memory::filled(n, usize::MAX, what)?;
         for (k, &g) in eq.iter().enumerate() {
@@ -839,6 +845,8 @@ impl Half {
         }
         let sym = SymbolicSparseColMat::new_checked(m, m, count, None, rows);
         let matrix = SparseColMat::new(sym, memory::lazy_zeros(nnz, what)?);
+        drop(phase);
+        let _phase = crate::phases::start("the half's symbolic factorization");
         let symbolic = super::factor::symbolic_ldlt(&matrix, SymmetricOrdering::Identity, what)?;
         if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
             return Ok(None);

@@ -1,0 +1,138 @@
+//! Wall and CPU time of the named phases of building an engine (mesh generation, the model,
+//! the pattern, renumbering, ordering, symbolic analyses, allocation): off unless switched on
+//! by [`enable`] or the environment variable `VELARIUM_SETUP_TIMINGS=1` (read at the first
+//! phase), so that an ordinary build pays one relaxed atomic load per phase and nothing else.
+//!
+//! A phase is timed from [`start`] to the drop of the guard it returns; phases nest (the
+//! depth on the thread is recorded, so a report can indent them). The CPU time is the whole process's
+//! (`getrusage(RUSAGE_SELF)`: every thread, the helper's included), so two engines built at
+//! once would see each other's; the scaling benchmark builds one at a time
+//! (`examples/scale.rs --timings`, docs/performance.md "Setup phases").
+
+use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// 0: not yet decided (the environment is read once), 1: off, 2: on.
+static STATE: AtomicU8 = AtomicU8::new(0);
+static LOG: Mutex<Vec<Phase>> = Mutex::new(Vec::new());
+/// Phases started so far (each phase's [`Phase::seq`]).
+static STARTED: AtomicU64 = AtomicU64::new(0);
+thread_local! {
+    /// Phases open on this thread.
+    static DEPTH: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// One timed phase.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Phase {
+    pub name: &'static str,
+    /// How many phases enclose it on its thread (0: outermost).
+    pub depth: usize,
+    /// Its place in the order the phases started.
+    pub seq: u64,
+    /// Seconds of wall time.
+    pub wall: f64,
+    /// Seconds of CPU time of the whole process (user + system) over the phase.
+    pub cpu: f64,
+}
+
+/// Switch recording on or off for the rest of the process (overrides the environment).
+pub fn enable(on: bool) {
+    STATE.store(if on { 2 } else { 1 }, Ordering::Relaxed);
+}
+
+/// Whether phases are recorded.
+pub fn enabled() -> bool {
+    match STATE.load(Ordering::Relaxed) {
+        0 => {
+            let on = std::env::var("VELARIUM_SETUP_TIMINGS").is_ok_and(|v| v == "1");
+            enable(on);
+            on
+        }
+        s => s == 2,
+    }
+}
+
+/// The phases recorded so far, in the order they started; the record is emptied.
+pub fn take() -> Vec<Phase> {
+    let mut out = std::mem::take(&mut *LOG.lock().unwrap_or_else(|e| e.into_inner()));
+    out.sort_by_key(|p| p.seq);
+    out
+}
+
+/// CPU seconds (user + system) of the process so far, every thread included (NaN where
+/// getrusage fails).
+pub fn process_cpu() -> f64 {
+    // SAFETY: getrusage writes one rusage into the zeroed struct it is given.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
+        return f64::NAN;
+    }
+    let secs = |t: libc::timeval| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64;
+    secs(usage.ru_utime) + secs(usage.ru_stime)
+}
+
+/// Times one phase until the guard is dropped (None when recording is off).
+pub fn start(name: &'static str) -> Option<Timer> {
+    if !enabled() {
+        return None;
+    }
+    let depth = DEPTH.with(|d| d.replace(d.get() + 1));
+    Some(Timer {
+        name,
+        depth,
+        seq: STARTED.fetch_add(1, Ordering::Relaxed),
+        wall: Instant::now(),
+        cpu: process_cpu(),
+    })
+}
+
+/// The running phase (see [`start`]).
+pub struct Timer {
+    name: &'static str,
+    depth: usize,
+    seq: u64,
+    wall: Instant,
+    cpu: f64,
+}
+
+impl Drop for Timer {
+    fn drop(&mut self) {
+        let phase = Phase {
+            name: self.name,
+            depth: self.depth,
+            seq: self.seq,
+            wall: self.wall.elapsed().as_secs_f64(),
+            cpu: process_cpu() - self.cpu,
+        };
+        DEPTH.with(|d| d.set(d.get().saturating_sub(1)));
+        LOG.lock().unwrap_or_else(|e| e.into_inner()).push(phase);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nested_phases_are_recorded_with_their_depth_and_nonnegative_times() {
+        enable(true);
+        take();
+        {
+            let _outer = start("outer");
+            let _inner = start("inner");
+        }
+        let phases = take();
+        enable(false);
+        let names: Vec<_> = phases.iter().map(|p| (p.name, p.depth)).collect();
+        // Other tests of the library run in parallel and may record phases of their own
+        // while recording is on: only this test's two are checked.
+        assert!(names.contains(&("inner", 1)), "{names:?}");
+        let at = |name| names.iter().position(|&(n, _)| n == name);
+        assert!(at("outer") < at("inner"), "in the order they started: {names:?}");
+        assert!(names.contains(&("outer", 0)), "{names:?}");
+        assert!(phases.iter().all(|p| p.wall >= 0.0 && p.cpu >= 0.0));
+        assert!(start("off").is_none());
+    }
+}
