@@ -31,10 +31,15 @@ pub struct Phase {
     pub depth: usize,
     /// Its place in the order the phases started.
     pub seq: u64,
+    /// The thread it ran on (a helper's phases overlap the solving thread's).
+    pub thread: std::thread::ThreadId,
     /// Seconds of wall time.
     pub wall: f64,
     /// Seconds of CPU time of the whole process (user + system) over the phase.
     pub cpu: f64,
+    /// Seconds of CPU time of the phase's own thread: on an idle machine with a core for
+    /// each thread, what the phase's wall time would be where it waits for nothing.
+    pub thread_cpu: f64,
 }
 
 /// Switch recording on or off for the rest of the process (overrides the environment).
@@ -64,13 +69,27 @@ pub fn take() -> Vec<Phase> {
 /// CPU seconds (user + system) of the process so far, every thread included (NaN where
 /// getrusage fails).
 pub fn process_cpu() -> f64 {
+    cpu(libc::RUSAGE_SELF)
+}
+
+/// CPU seconds (user + system) of the calling thread so far (NaN where getrusage fails).
+pub fn thread_cpu() -> f64 {
+    cpu(libc::RUSAGE_THREAD)
+}
+
+fn cpu(who: libc::c_int) -> f64 {
     // SAFETY: getrusage writes one rusage into the zeroed struct it is given.
     let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
+    if unsafe { libc::getrusage(who, &mut usage) } != 0 {
         return f64::NAN;
     }
     let secs = |t: libc::timeval| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64;
     secs(usage.ru_utime) + secs(usage.ru_stime)
+}
+
+/// Phases open on this thread (what a job handed to a helper passes to [`start_under`]).
+pub fn depth() -> usize {
+    DEPTH.with(|d| d.get())
 }
 
 /// Times one phase until the guard is dropped (None when recording is off).
@@ -79,13 +98,30 @@ pub fn start(name: &'static str) -> Option<Timer> {
         return None;
     }
     let depth = DEPTH.with(|d| d.replace(d.get() + 1));
-    Some(Timer {
-        name,
-        depth,
-        seq: STARTED.fetch_add(1, Ordering::Relaxed),
-        wall: Instant::now(),
-        cpu: process_cpu(),
-    })
+    Some(Timer::new(name, depth))
+}
+
+/// [`start`] on a helper thread for work handed over by a thread with `depth` phases open
+/// ([`depth`]): the phase and those inside it are recorded as nested there.
+pub fn start_under(name: &'static str, depth: usize) -> Option<Timer> {
+    if !enabled() {
+        return None;
+    }
+    DEPTH.with(|d| d.set(depth + 1));
+    Some(Timer::new(name, depth))
+}
+
+impl Timer {
+    fn new(name: &'static str, depth: usize) -> Timer {
+        Timer {
+            name,
+            depth,
+            seq: STARTED.fetch_add(1, Ordering::Relaxed),
+            wall: Instant::now(),
+            cpu: process_cpu(),
+            thread_cpu: thread_cpu(),
+        }
+    }
 }
 
 /// The running phase (see [`start`]).
@@ -95,6 +131,7 @@ pub struct Timer {
     seq: u64,
     wall: Instant,
     cpu: f64,
+    thread_cpu: f64,
 }
 
 impl Drop for Timer {
@@ -103,10 +140,12 @@ impl Drop for Timer {
             name: self.name,
             depth: self.depth,
             seq: self.seq,
+            thread: std::thread::current().id(),
             wall: self.wall.elapsed().as_secs_f64(),
             cpu: process_cpu() - self.cpu,
+            thread_cpu: thread_cpu() - self.thread_cpu,
         };
-        DEPTH.with(|d| d.set(d.get().saturating_sub(1)));
+        DEPTH.with(|d| d.set(self.depth));
         LOG.lock().unwrap_or_else(|e| e.into_inner()).push(phase);
     }
 }
@@ -122,6 +161,10 @@ mod tests {
         {
             let _outer = start("outer");
             let _inner = start("inner");
+            let depth = depth();
+            std::thread::spawn(move || drop(start_under("handed over", depth)))
+                .join()
+                .unwrap();
         }
         let phases = take();
         enable(false);
@@ -129,10 +172,13 @@ mod tests {
         // Other tests of the library run in parallel and may record phases of their own
         // while recording is on: only this test's two are checked.
         assert!(names.contains(&("inner", 1)), "{names:?}");
+        assert!(names.contains(&("handed over", 2)), "{names:?}");
         let at = |name| names.iter().position(|&(n, _)| n == name);
         assert!(at("outer") < at("inner"), "in the order they started: {names:?}");
         assert!(names.contains(&("outer", 0)), "{names:?}");
-        assert!(phases.iter().all(|p| p.wall >= 0.0 && p.cpu >= 0.0));
+        assert!(phases
+            .iter()
+            .all(|p| p.wall >= 0.0 && p.cpu >= 0.0 && p.thread_cpu >= 0.0));
         assert!(start("off").is_none());
     }
 }

@@ -140,13 +140,10 @@ impl Solver {
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
         use crate::phases::start;
         let _phase = start("Solver::try_new");
-        let mut pattern = Pattern::try_ordered(model, settings.node_order)?;
-        // The factorization takes over the pattern's row indices: nothing reads them from the
-        // solver's pattern once its position maps are built, and a copy would be K's largest
-        // index array twice (88 MB at 1M DOF).
-        let row_idx = std::mem::take(&mut pattern.row_idx);
-        let fill = pattern.fill.take();
-        let pool = if settings.threads > 1 && pattern.n >= linear::SPLIT_MIN_EQUATIONS {
+        // The equations (free DOFs) before the pattern: the pool is started first, so that
+        // the pattern's ordering runs on its helper (`Pattern::try_ordered_on`).
+        let equations = model.held.iter().filter(|&&held| !held).count();
+        let pool = if settings.threads > 1 && equations >= linear::SPLIT_MIN_EQUATIONS {
             // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
             // Two threads at most: the factorization has two halves (`split.rs`).
             let pool =
@@ -158,6 +155,12 @@ impl Solver {
         } else {
             None
         };
+        let mut pattern = Pattern::try_ordered_on(model, settings.node_order, pool.as_ref())?;
+        // The factorization takes over the pattern's row indices: nothing reads them from the
+        // solver's pattern once its position maps are built, and a copy would be K's largest
+        // index array twice (88 MB at 1M DOF).
+        let row_idx = std::mem::take(&mut pattern.row_idx);
+        let fill = pattern.fill.take();
         let pattern = std::sync::Arc::new(pattern);
         let phase = start("parallel assembly's halves");
         // The same gate as the factorization's split: with a pool, the assembly's element loop
