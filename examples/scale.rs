@@ -231,9 +231,9 @@ fn setup_timings(label: &str, scene: &Scene) {
     phases::enable(true);
     phases::take();
     let timed = |name: &str, f: &mut dyn FnMut()| {
-        let (wall, cpu, own) = (Instant::now(), cpu_seconds(), phases::thread_cpu());
+        let (wall, cpu, own) = (Instant::now(), phases::process_cpu(), phases::thread_cpu());
         f();
-        let (wall, cpu) = (wall.elapsed().as_secs_f64(), cpu_seconds() - cpu);
+        let (wall, cpu) = (wall.elapsed().as_secs_f64(), phases::process_cpu() - cpu);
         let own = phases::thread_cpu() - own;
         let inner = phases::take();
         println!("  {name:<52} wall {wall:7.3} s  cpu {cpu:7.3} s  thread cpu {own:7.3} s");

@@ -4,8 +4,9 @@
 //! phase), so that an ordinary build pays one relaxed atomic load per phase and nothing else.
 //!
 //! A phase is timed from [`start`] to the drop of the guard it returns; phases nest (the
-//! depth on the thread is recorded, so a report can indent them). The CPU time is the whole process's
-//! (`getrusage(RUSAGE_SELF)`: every thread, the helper's included), so two engines built at
+//! depth on the thread is recorded, so a report can indent them). The CPU time is the whole
+//! process's (every thread, the helper's included) and the phase's own thread's, from the
+//! scheduler's run times in /proc (no `unsafe` outside src/fmi), so two engines built at
 //! once would see each other's; the scaling benchmark builds one at a time
 //! (`examples/scale.rs --timings`, docs/performance.md "Setup phases").
 
@@ -66,25 +67,32 @@ pub fn take() -> Vec<Phase> {
     out
 }
 
-/// CPU seconds (user + system) of the process so far, every thread included (NaN where
-/// getrusage fails).
+/// CPU seconds (user + system) of the process's live threads so far: the sum of their
+/// scheduler run times (/proc/self/task/*/schedstat, nanoseconds; a thread that has ended is
+/// not counted, the solver's helper lives as long as the solver). NaN where that is missing
+/// (not Linux).
 pub fn process_cpu() -> f64 {
-    cpu(libc::RUSAGE_SELF)
-}
-
-/// CPU seconds (user + system) of the calling thread so far (NaN where getrusage fails).
-pub fn thread_cpu() -> f64 {
-    cpu(libc::RUSAGE_THREAD)
-}
-
-fn cpu(who: libc::c_int) -> f64 {
-    // SAFETY: getrusage writes one rusage into the zeroed struct it is given.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    if unsafe { libc::getrusage(who, &mut usage) } != 0 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
         return f64::NAN;
+    };
+    let mut sum = 0.0;
+    for task in tasks.flatten() {
+        sum += run_time(&task.path().join("schedstat")).unwrap_or(0.0);
     }
-    let secs = |t: libc::timeval| t.tv_sec as f64 + 1e-6 * t.tv_usec as f64;
-    secs(usage.ru_utime) + secs(usage.ru_stime)
+    sum
+}
+
+/// CPU seconds (user + system) of the calling thread so far (/proc/thread-self/schedstat;
+/// NaN where that is missing).
+pub fn thread_cpu() -> f64 {
+    run_time(std::path::Path::new("/proc/thread-self/schedstat")).unwrap_or(f64::NAN)
+}
+
+/// The first field of a schedstat file: nanoseconds on a CPU, in seconds.
+fn run_time(path: &std::path::Path) -> Option<f64> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let ns: u64 = text.split_whitespace().next()?.parse().ok()?;
+    Some(ns as f64 * 1e-9)
 }
 
 /// Phases open on this thread (what a job handed to a helper passes to [`start_under`]).
