@@ -258,13 +258,19 @@ fn setup_timings(label: &str, scene: &Scene) {
         (wall, cpu, own, inner)
     };
     println!("setup phases of {label} (load average before: {load}):");
-    timed("scene validation (validate_sized, separate call)", &mut || {
-        let (problems, _) = velarium::scene::validate::validate_sized(scene);
-        assert!(problems.is_empty(), "{problems:?}");
-    });
-    timed("variable table (variables::try_table, separate call)", &mut || {
-        velarium::variables::try_table(scene).expect("variable table");
-    });
+    timed(
+        "scene validation (validate_sized, separate call)",
+        &mut || {
+            let (problems, _) = velarium::scene::validate::validate_sized(scene);
+            assert!(problems.is_empty(), "{problems:?}");
+        },
+    );
+    timed(
+        "variable table (variables::try_table, separate call)",
+        &mut || {
+            velarium::variables::try_table(scene).expect("variable table");
+        },
+    );
     let mut engine = None;
     let (wall, cpu, own, inner) = timed("Engine::try_new", &mut || {
         engine = Some(Engine::try_new(scene.clone()).expect("valid scene"));
@@ -284,7 +290,10 @@ fn setup_timings(label: &str, scene: &Scene) {
     );
     let peak = peak_rss_mib();
     drop(engine);
-    println!("  peak resident {peak:.0} MiB; load average after: {}", load_average());
+    println!(
+        "  peak resident {peak:.0} MiB; load average after: {}",
+        load_average()
+    );
     phases::enable(false);
 }
 

@@ -182,7 +182,10 @@ mod tests {
         assert!(names.contains(&("inner", 1)), "{names:?}");
         assert!(names.contains(&("handed over", 2)), "{names:?}");
         let at = |name| names.iter().position(|&(n, _)| n == name);
-        assert!(at("outer") < at("inner"), "in the order they started: {names:?}");
+        assert!(
+            at("outer") < at("inner"),
+            "in the order they started: {names:?}"
+        );
         assert!(names.contains(&("outer", 0)), "{names:?}");
         assert!(phases
             .iter()

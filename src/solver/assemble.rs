@@ -256,7 +256,13 @@ impl DissectionInput {
     fn fill(self) -> Result<super::dissect::Fill, OutOfMemory> {
         let _phase = crate::phases::start("dissect::fill");
         let first = &self.first;
-        super::dissect::fill(&self.x, &self.ptr, &self.adj, |r| first[r]..first[r + 1], self.n)
+        super::dissect::fill(
+            &self.x,
+            &self.ptr,
+            &self.adj,
+            |r| first[r]..first[r + 1],
+            self.n,
+        )
     }
 }
 
@@ -420,10 +426,8 @@ fn visit_order(
                 };
                 // The keys computed once, not twice per comparison (each a look-up of the
                 // triangle and its three ranks): the same order, every key being distinct.
-                let mut keyed = memory::collect(
-                    list.iter().map(|&e| (ranks(e), e)),
-                    "the element order",
-                )?;
+                let mut keyed =
+                    memory::collect(list.iter().map(|&e| (ranks(e), e)), "the element order")?;
                 keyed.sort_unstable();
                 for (slot, &(_, e)) in list.iter_mut().zip(&keyed) {
                     *slot = e;

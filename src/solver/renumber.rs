@@ -216,7 +216,7 @@ fn cuthill_mckee(
         // Pseudo-peripheral node (George & Liu): from the seed, jump to a lowest-degree node
         // of the deepest level while the depth grows.
         let mut root = seed;
-        let mut depth = bfs_levels(root, &ptr, &adj, &mut level, &mut reached);
+        let mut depth = bfs_levels(root, ptr, adj, &mut level, &mut reached);
         let deepest = |level: &[usize], reached: &[usize], depth: usize| {
             reached
                 .iter()
@@ -228,10 +228,10 @@ fn cuthill_mckee(
         for _ in 0..16 {
             let far = deepest(&level, &reached, depth);
             clear(&mut level, &reached);
-            let d = bfs_levels(far, &ptr, &adj, &mut level, &mut reached);
+            let d = bfs_levels(far, ptr, adj, &mut level, &mut reached);
             if d <= depth {
                 clear(&mut level, &reached);
-                depth = bfs_levels(root, &ptr, &adj, &mut level, &mut reached);
+                depth = bfs_levels(root, ptr, adj, &mut level, &mut reached);
                 break;
             }
             root = far;
@@ -247,7 +247,7 @@ fn cuthill_mckee(
             let from_root: Vec<(usize, usize)> =
                 memory::collect(reached.iter().copied().zip(far_level.iter().copied()), WHAT)?;
             clear(&mut level, &reached);
-            bfs_levels(far, &ptr, &adj, &mut level, &mut reached);
+            bfs_levels(far, ptr, adj, &mut level, &mut reached);
             start = from_root
                 .iter()
                 .map(|&(i, l)| (l.max(level[i]), keys[i], i))

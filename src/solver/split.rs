@@ -883,7 +883,12 @@ impl Half {
         for c in 0..m {
             let (lo, hi) = (count[c], count[c + 1]);
             pairs.clear();
-            pairs.extend(rows[lo..hi].iter().copied().zip(map[lo..hi].iter().copied()));
+            pairs.extend(
+                rows[lo..hi]
+                    .iter()
+                    .copied()
+                    .zip(map[lo..hi].iter().copied()),
+            );
             pairs.sort_unstable();
             for (k, &(r, p)) in pairs.iter().enumerate() {
                 rows[lo + k] = r;
