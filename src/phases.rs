@@ -1,7 +1,8 @@
 //! Wall and CPU time of the named phases of building an engine (mesh generation, the model,
 //! the pattern, renumbering, ordering, symbolic analyses, allocation): off unless switched on
-//! by [`enable`] or the environment variable `VELARIUM_SETUP_TIMINGS=1` (read at the first
-//! phase), so that an ordinary build pays one relaxed atomic load per phase and nothing else.
+//! by [`enable`] (the scaling benchmark's `--timings`), so that an ordinary build pays one
+//! relaxed atomic load per phase and nothing else. No environment variable switches it on:
+//! in a host that never calls [`take`] (an FMU's) the record would only grow.
 //!
 //! A phase is timed from [`start`] to the drop of the guard it returns; phases nest (the
 //! depth on the thread is recorded, so a report can indent them). The CPU time is the whole
@@ -10,12 +11,12 @@
 //! once would see each other's; the scaling benchmark builds one at a time
 //! (`examples/scale.rs --timings`, docs/performance.md "Setup phases").
 
-use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// 0: not yet decided (the environment is read once), 1: off, 2: on.
-static STATE: AtomicU8 = AtomicU8::new(0);
+/// Whether phases are recorded.
+static ON: AtomicBool = AtomicBool::new(false);
 static LOG: Mutex<Vec<Phase>> = Mutex::new(Vec::new());
 /// Phases started so far (each phase's [`Phase::seq`]).
 static STARTED: AtomicU64 = AtomicU64::new(0);
@@ -43,21 +44,14 @@ pub struct Phase {
     pub thread_cpu: f64,
 }
 
-/// Switch recording on or off for the rest of the process (overrides the environment).
+/// Switch recording on or off for the whole process.
 pub fn enable(on: bool) {
-    STATE.store(if on { 2 } else { 1 }, Ordering::Relaxed);
+    ON.store(on, Ordering::Relaxed);
 }
 
 /// Whether phases are recorded.
 pub fn enabled() -> bool {
-    match STATE.load(Ordering::Relaxed) {
-        0 => {
-            let on = std::env::var("VELARIUM_SETUP_TIMINGS").is_ok_and(|v| v == "1");
-            enable(on);
-            on
-        }
-        s => s == 2,
-    }
+    ON.load(Ordering::Relaxed)
 }
 
 /// The phases recorded so far, in the order they started; the record is emptied.

@@ -165,7 +165,7 @@ impl Pattern {
         let phase = start("visit order");
         let visits = PerKind::try_from_fn(|kind| visit_order(model, kind, order, &rank))?;
         drop(phase);
-        let phase = start("triangle slots and copy, pressed lists");
+        let phase = start("triangle slots and copy");
         let tri_order = &visits[ElementKind::Membrane];
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {
@@ -187,7 +187,9 @@ impl Pattern {
             let rank = memory::collect(rank.iter().map(|&r| r as u32), "the equation numbers")?;
             (by_rank, rank)
         };
-        let (pressed_order, pressed_slots) = pressed_lists(model, &tri_slot)?;
+        drop(phase);
+        let phase = start("pressed lists");
+        let (pressed_order, pressed_slots) = pressed_lists(model, tri_order, &tri_slot)?;
         drop(phase);
         let phase = start("node blocks (Blocks::try_new)");
         let blocks = Blocks::try_new(&eq, &by_rank_or_identity(&node_of, model), &graph)?;
@@ -449,17 +451,48 @@ type PerLoad = Vec<Vec<usize>>;
 
 /// Per load, its pressed triangles in visit order (empty for other loads), and the same as
 /// slots (positions in the triangles' visit order).
-fn pressed_lists(model: &Model, tri_slot: &[usize]) -> Result<(PerLoad, PerLoad), OutOfMemory> {
-    let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
+fn pressed_lists(
+    model: &Model,
+    tri_order: &[usize],
+    tri_slot: &[usize],
+) -> Result<(PerLoad, PerLoad), OutOfMemory> {
+    const WHAT: &str = "the element order";
+    let mut pressed_order = memory::with_capacity(model.loads.len(), WHAT)?;
+    // How often each triangle is in the load's list (a list may name one twice).
+    let mut times: Vec<u32> = Vec::new();
     for load in &model.loads {
-        let mut list = match load {
+        let list = match load {
             LoadModel::Pressure { triangles, .. }
             | LoadModel::Volume { triangles, .. }
-            | LoadModel::Surface { triangles, .. } => memory::copy(triangles, "the element order")?,
-            _ => Vec::new(),
+            | LoadModel::Surface { triangles, .. } => triangles,
+            _ => {
+                pressed_order.push(Vec::new());
+                continue;
+            }
         };
-        list.sort_unstable_by_key(|&e| tri_slot[e]);
-        pressed_order.push(list);
+        // The list in visit order. A short list (below a sixteenth of the triangles) sorted
+        // by slot; a long one by a pass over the visit order (slot by slot) taking each listed
+        // triangle as often as it is listed: the same order, without the sort's look-ups.
+        if list.len().saturating_mul(16) < tri_order.len() {
+            let mut sorted = memory::copy(list, WHAT)?;
+            sorted.sort_unstable_by_key(|&e| tri_slot[e]);
+            pressed_order.push(sorted);
+            continue;
+        }
+        if times.is_empty() {
+            times = memory::zeros(tri_order.len(), WHAT)?;
+        }
+        for &e in list {
+            times[e] += 1;
+        }
+        let mut sorted = memory::with_capacity(list.len(), WHAT)?;
+        for &e in tri_order {
+            for _ in 0..times[e] {
+                sorted.push(e);
+            }
+            times[e] = 0;
+        }
+        pressed_order.push(sorted);
     }
     let mut pressed_slots = memory::with_capacity(model.loads.len(), "the element order")?;
     for list in &pressed_order {
