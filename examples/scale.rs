@@ -2,7 +2,11 @@
 //! `cargo run --release --example scale -- [SIZE...] [--no-shuffle] [--shuffled-only] [--floor-only=N]
 //! [--problem=disc,square] [--threads=N] [--order=rings,rcm,hilbert,given] [--inexact=auto,on,off]
 //! [--thread-cpu] [--log] [--max-iterations=N] [--min-increment=X] [--artificial-prestress=PA]
-//! [--continuation=H]`; `[SIZE...] --e2e [--runs=N] [--threads=N]`.
+//! [--continuation=H] [--timings]`; `[SIZE...] --e2e [--runs=N] [--threads=N]`.
+//!
+//! `--timings`: no solve; the wall and CPU seconds of each phase of building the engine
+//! (`velarium::phases`: mesh generation, the model, renumbering, pattern, ordering, symbolic
+//! analyses, allocation) and of the scene validation and variable table (fn `setup_timings`).
 //!
 //! `--e2e`: what a user waits for, `velarium solve` from the scene file to the CSV as a process
 //! of its own (built next to this example: `cargo build --release` first), N runs per size
@@ -212,7 +216,92 @@ fn value_reference(engine: &Engine, name: &str) -> u32 {
         .value_reference
 }
 
+/// `--timings`: the setup's phases (`velarium::phases`) of one `Engine::try_new`, each with
+/// its wall and CPU seconds (the process's, every thread) and its own thread's CPU seconds
+/// (`[helper]`: a phase on the solver's helper thread, overlapping the solving thread's),
+/// indented by nesting; the solving thread's CPU time of the whole `Engine::try_new` is what
+/// an idle two-core machine's wall time would be, the helper's work running beside it. Before it, the
+/// scene validation and the variable table each timed in a call of their own (the engine
+/// repeats both: `Engine::try_new` is `src/engine.rs`), and after it what the engine does
+/// besides the model and the solver (the validation, the variable table, the initial state
+/// and outputs), as the engine's total less the phases measured inside it.
+fn setup_timings(label: &str, scene: &Scene) {
+    use velarium::phases;
+    let load = load_average();
+    phases::enable(true);
+    phases::take();
+    let timed = |name: &str, f: &mut dyn FnMut()| {
+        let (wall, cpu, own) = (Instant::now(), phases::process_cpu(), phases::thread_cpu());
+        f();
+        let (wall, cpu) = (wall.elapsed().as_secs_f64(), phases::process_cpu() - cpu);
+        let own = phases::thread_cpu() - own;
+        let inner = phases::take();
+        println!("  {name:<52} wall {wall:7.3} s  cpu {cpu:7.3} s  thread cpu {own:7.3} s");
+        // A helper's phases are marked; their depth counts on the helper's thread.
+        let here = std::thread::current().id();
+        for p in &inner {
+            let name = match p.thread == here {
+                true => p.name.to_string(),
+                false => format!("[helper] {}", p.name),
+            };
+            println!(
+                "  {:indent$}{:<width$} wall {:7.3} s  cpu {:7.3} s  thread cpu {:7.3} s",
+                "",
+                name,
+                p.wall,
+                p.cpu,
+                p.thread_cpu,
+                indent = 2 * (p.depth + 1),
+                width = 50 - 2 * p.depth
+            );
+        }
+        (wall, cpu, own, inner)
+    };
+    println!("setup phases of {label} (load average before: {load}):");
+    timed(
+        "scene validation (validate_sized, separate call)",
+        &mut || {
+            let (problems, _) = velarium::scene::validate::validate_sized(scene);
+            assert!(problems.is_empty(), "{problems:?}");
+        },
+    );
+    timed(
+        "variable table (variables::try_table, separate call)",
+        &mut || {
+            velarium::variables::try_table(scene).expect("variable table");
+        },
+    );
+    let mut engine = None;
+    let (wall, cpu, own, inner) = timed("Engine::try_new", &mut || {
+        engine = Some(Engine::try_new(scene.clone()).expect("valid scene"));
+    });
+    // The outermost phases on this thread (a helper's run at the same time).
+    let here = std::thread::current().id();
+    let outer = inner.iter().filter(|p| p.depth == 0 && p.thread == here);
+    let (w, c, t) = outer.fold((0.0, 0.0, 0.0), |(w, c, t), p| {
+        (w + p.wall, c + p.cpu, t + p.thread_cpu)
+    });
+    println!(
+        "  {:<52} wall {:7.3} s  cpu {:7.3} s  thread cpu {:7.3} s",
+        "  Engine::try_new less the phases above",
+        wall - w,
+        cpu - c,
+        own - t
+    );
+    let peak = peak_rss_mib();
+    drop(engine);
+    println!(
+        "  peak resident {peak:.0} MiB; load average after: {}",
+        load_average()
+    );
+    phases::enable(false);
+}
+
 fn run(problem: &Problem, label: &str, scene: Scene) {
+    if std::env::args().any(|a| a == "--timings") {
+        setup_timings(&format!("{} {label}", problem.name), &scene);
+        return;
+    }
     let reset = reset_peak_rss();
     let built = Instant::now();
     let mut engine = Engine::try_new(scene).expect("valid scene");

@@ -5,6 +5,7 @@
 //!
 //! ```text
 //! format     text of numbers and CSV cells shared by every writer   src/format.rs
+//! phases     wall and CPU time of the setup's phases (off by default) src/phases.rs
 //! memory     fallible allocation of what grows with the input       src/memory.rs
 //! scene      validated plain data (serde), mesh generators          src/scene/
 //! error      the library's error type (scene problems, memory)      src/error.rs
@@ -43,6 +44,7 @@ pub mod history;
 pub mod memory;
 pub mod model;
 pub mod pack;
+pub mod phases;
 pub mod results;
 pub mod scene;
 pub mod solver;

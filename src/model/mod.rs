@@ -366,6 +366,7 @@ impl Model {
     /// that cannot be had is [`Error::Memory`]: the mesh and the model's arrays are reserved
     /// fallibly after a probe of the whole build (`crate::memory`).
     pub fn try_build(scene: &Scene) -> Result<Model, Error> {
+        let _phase = crate::phases::start("Model::try_build");
         let mesh = try_resolve(&scene.geometry)?;
         let (nodes, triangles) = (mesh.nodes.len() as u64, mesh.triangles.len() as u64);
         // The arrays below, the per-group triangle lists and the loads' and probes' lists: at

@@ -67,6 +67,7 @@ pub fn resolve(geometry: &Geometry) -> Mesh {
 /// one index per node and per triangle) are probed first, so that a shortage of memory is an
 /// [`OutOfMemory`], never an abort.
 pub fn try_resolve(geometry: &Geometry) -> Result<Mesh, OutOfMemory> {
+    let _phase = crate::phases::start("mesh generation (try_resolve)");
     let (mut n, mut t) = (geometry.nodes.len() as u64, geometry.triangles.len() as u64);
     for g in &geometry.generators {
         let (gn, gt) = generator_counts(g);

@@ -130,9 +130,44 @@ impl Pattern {
     /// Pattern and position maps of `model` with equations numbered node by node in `order`
     /// (`renumber.rs`), every buffer that grows with it allocated fallibly (`crate::memory`).
     pub fn try_ordered(model: &Model, order: NodeOrder) -> Result<Pattern, OutOfMemory> {
-        let rank = renumber::node_rank(model, order)?;
+        Pattern::try_ordered_on(model, order, None)
+    }
+
+    /// [`Pattern::try_ordered`], with the nested dissection (large tangents) on `pool`'s
+    /// helper while this thread builds K's pattern and the position maps; the helper must be
+    /// idle. The same pattern and order as without the pool.
+    pub fn try_ordered_on(
+        model: &Model,
+        order: NodeOrder,
+        pool: Option<&std::sync::Arc<super::threads::Pool>>,
+    ) -> Result<Pattern, OutOfMemory> {
+        use crate::phases::start;
+        let _phase = start("pattern (Pattern::try_ordered)");
+        // The node graph, read by the renumbering, the dissection and K's pattern.
+        let phase = start("node graph");
+        let graph = renumber::node_graph(model)?;
+        drop(phase);
+        let phase = start("renumbering (node_rank)");
+        let rank = renumber::node_rank_on(model, order, &graph)?;
+        drop(phase);
+        let phase = start("equation numbers");
         let (eq, n, by_rank) = number_equations(model, &rank)?;
+        drop(phase);
+        // Large tangents: nested dissection, where it fills no more than faer's AMD and its
+        // top separator is the two-thread split (`dissect.rs`, docs/performance.md). It needs
+        // only the node graph, positions and equation counts in internal order: on a helper,
+        // it runs while this thread builds the rest.
+        let dissection = match n >= super::dissect::MIN_EQUATIONS {
+            true => Some(Dissection::start(
+                dissection_input(model, &eq, n, &by_rank, &rank, &graph)?,
+                pool.filter(|p| p.helpers() > 0),
+            )),
+            false => None,
+        };
+        let phase = start("visit order");
         let visits = PerKind::try_from_fn(|kind| visit_order(model, kind, order, &rank))?;
+        drop(phase);
+        let phase = start("triangle slots and copy");
         let tri_order = &visits[ElementKind::Membrane];
         let mut tri_slot = memory::zeros::<usize>(tri_order.len(), "the element order")?;
         for (k, &e) in tri_order.iter().enumerate() {
@@ -154,17 +189,22 @@ impl Pattern {
             let rank = memory::collect(rank.iter().map(|&r| r as u32), "the equation numbers")?;
             (by_rank, rank)
         };
-        let (pressed_order, pressed_slots) = pressed_lists(model, &tri_slot)?;
-        let blocks = Blocks::try_new(model, &eq, &by_rank_or_identity(&node_of, model))?;
+        drop(phase);
+        let phase = start("pressed lists");
+        let (pressed_order, pressed_slots) = pressed_lists(model, tri_order, &tri_slot)?;
+        drop(phase);
+        let phase = start("node blocks (Blocks::try_new)");
+        let blocks = Blocks::try_new(&eq, &by_rank_or_identity(&node_of, model), &graph)?;
+        drop(graph);
+        drop(phase);
+        let phase = start("K's pattern (upper_pattern)");
         let (col_ptr, row_idx) = blocks.upper_pattern(n)?;
+        drop(phase);
+        let phase = start("position maps");
         let maps = position_maps(model, &eq, &col_ptr, &blocks, &visits)?;
         drop(blocks);
-        // Large tangents: nested dissection, where it fills no more than faer's AMD and its
-        // top separator is the two-thread split (`dissect.rs`, docs/performance.md).
-        let fill = match n >= super::dissect::MIN_EQUATIONS {
-            true => Some(nested_dissection(model, &eq, n, &node_of, &rank)?),
-            false => None,
-        };
+        drop(phase);
+        let fill = dissection.map(Dissection::finish).transpose()?;
         Ok(Pattern {
             eq,
             n,
@@ -205,20 +245,106 @@ impl Pattern {
     }
 }
 
-/// The nested-dissection order of the equations (`dissect.rs`), on the node graph in internal
-/// numbering (`node_of`, `rank`: empty under `NodeOrder::Given`, the user's numbering).
-fn nested_dissection(
+/// What the nested dissection reads (`dissect::fill`), owned, in internal numbering: node
+/// positions, the node graph (CSR), each node's first equation (node r's are
+/// first[r]..first[r + 1]) and the number of equations.
+struct DissectionInput {
+    x: Vec<[f64; 3]>,
+    ptr: Vec<usize>,
+    adj: Vec<usize>,
+    first: Vec<usize>,
+    n: usize,
+}
+
+impl DissectionInput {
+    fn fill(self) -> Result<super::dissect::Fill, OutOfMemory> {
+        let _phase = crate::phases::start("dissect::fill");
+        let first = &self.first;
+        super::dissect::fill(
+            &self.x,
+            &self.ptr,
+            &self.adj,
+            |r| first[r]..first[r + 1],
+            self.n,
+        )
+    }
+}
+
+type Filled = Result<super::dissect::Fill, OutOfMemory>;
+
+/// The nested dissection, running on a helper or not yet run.
+enum Dissection {
+    Here(DissectionInput),
+    Helper(
+        std::sync::Arc<super::threads::Pool>,
+        std::sync::Arc<std::sync::Mutex<Option<Filled>>>,
+    ),
+}
+
+impl Dissection {
+    /// Started on `pool`'s first helper (slot `threads::FACTOR`, free until the
+    /// factorization installs its job) when there is one.
+    fn start(input: DissectionInput, pool: Option<&std::sync::Arc<super::threads::Pool>>) -> Self {
+        use std::sync::{Arc, Mutex};
+        let Some(pool) = pool else {
+            return Dissection::Here(input);
+        };
+        let input = Mutex::new(Some(input));
+        let output: Arc<Mutex<Option<Filled>>> = Arc::new(Mutex::new(None));
+        let job_output = Arc::clone(&output);
+        let depth = crate::phases::depth();
+        pool.set_job(
+            0,
+            Box::new(move || {
+                let taken = input.lock().unwrap_or_else(|e| e.into_inner()).take();
+                if let Some(input) = taken {
+                    let _phase = crate::phases::start_under("ordering (on the helper)", depth);
+                    let filled = input.fill();
+                    *job_output.lock().unwrap_or_else(|e| e.into_inner()) = Some(filled);
+                }
+            }),
+        );
+        pool.start(0);
+        Dissection::Helper(Arc::clone(pool), output)
+    }
+
+    /// The order (waiting for the helper). A helper that failed is an error of the ordering's
+    /// memory: it holds nothing else that could fail.
+    fn finish(self) -> Filled {
+        let _phase = crate::phases::start("ordering (nested dissection), or its wait");
+        match self {
+            Dissection::Here(input) => input.fill(),
+            Dissection::Helper(pool, output) => {
+                let waited = pool.wait(0);
+                let filled = output.lock().unwrap_or_else(|e| e.into_inner()).take();
+                match (waited, filled) {
+                    (Ok(()), Some(filled)) => filled,
+                    _ => Err(OutOfMemory {
+                        what: "the nested-dissection ordering (its thread failed)",
+                        bytes: 0,
+                    }),
+                }
+            }
+        }
+    }
+}
+
+/// The input of the nested-dissection order of the equations (`dissect.rs`): the node graph
+/// in internal numbering (`by_rank`: the node at every internal position, `rank` its
+/// inverse).
+fn dissection_input(
     model: &Model,
     eq: &[usize],
     n: usize,
-    node_of: &[usize],
-    rank: &[u32],
-) -> Result<super::dissect::Fill, OutOfMemory> {
+    by_rank: &[usize],
+    rank: &[usize],
+    (uptr, uadj): &(Vec<usize>, Vec<usize>),
+) -> Result<DissectionInput, OutOfMemory> {
     const WHAT: &str = "the nested-dissection ordering";
     let nodes = model.reference.len();
-    let user = |r: usize| if node_of.is_empty() { r } else { node_of[r] };
-    let internal = |v: usize| if rank.is_empty() { v } else { rank[v] as usize };
-    let (uptr, uadj) = renumber::node_graph(model)?;
+    let user = |r: usize| by_rank[r];
+    let internal = |v: usize| rank[v];
+    let _phase = crate::phases::start("node graph in internal order");
     let mut ptr = memory::with_capacity(nodes + 1, WHAT)?;
     let mut adj = memory::with_capacity(uadj.len(), WHAT)?;
     ptr.push(0);
@@ -227,7 +353,6 @@ fn nested_dissection(
         adj.extend(uadj[uptr[v]..uptr[v + 1]].iter().map(|&w| internal(w)));
         ptr.push(adj.len());
     }
-    drop((uptr, uadj));
     let x = memory::collect(
         (0..nodes).map(|r| {
             let p = model.reference[user(r)];
@@ -243,7 +368,13 @@ fn nested_dissection(
         let free = (0..3).filter(|&c| eq[3 * v + c] != NONE).count();
         first.push(first[r] + free);
     }
-    super::dissect::fill(&x, &ptr, &adj, |r| first[r]..first[r + 1], n)
+    Ok(DissectionInput {
+        x,
+        ptr,
+        adj,
+        first,
+        n,
+    })
 }
 
 /// Equation numbers handed out node by node in internal order (`rank[node]`), held DOFs
@@ -297,7 +428,14 @@ fn visit_order(
                     r.sort_unstable();
                     [r[0], r[2], r[1]]
                 };
-                list.sort_unstable_by_key(|&e| (ranks(e), e));
+                // The keys computed once, not twice per comparison (each a look-up of the
+                // triangle and its three ranks): the same order, every key being distinct.
+                let mut keyed =
+                    memory::collect(list.iter().map(|&e| (ranks(e), e)), "the element order")?;
+                keyed.sort_unstable();
+                for (slot, &(_, e)) in list.iter_mut().zip(&keyed) {
+                    *slot = e;
+                }
             }
         }
         // Model order (cable by cable along each cable; sleeve point by sleeve point): the
@@ -315,18 +453,49 @@ type PerLoad = Vec<Vec<usize>>;
 
 /// Per load, its pressed triangles in visit order (empty for other loads), and the same as
 /// slots (positions in the triangles' visit order).
-fn pressed_lists(model: &Model, tri_slot: &[usize]) -> Result<(PerLoad, PerLoad), OutOfMemory> {
-    let mut pressed_order = memory::with_capacity(model.loads.len(), "the element order")?;
+fn pressed_lists(
+    model: &Model,
+    tri_order: &[usize],
+    tri_slot: &[usize],
+) -> Result<(PerLoad, PerLoad), OutOfMemory> {
+    const WHAT: &str = "the element order";
+    let mut pressed_order = memory::with_capacity(model.loads.len(), WHAT)?;
+    // How often each triangle is in the load's list (a list may name one twice).
+    let mut times: Vec<u32> = Vec::new();
     for load in &model.loads {
-        let mut list = match load {
+        let list = match load {
             LoadModel::Pressure { triangles, .. }
             | LoadModel::Volume { triangles, .. }
             | LoadModel::Surface { triangles, .. }
-            | LoadModel::Water { triangles, .. } => memory::copy(triangles, "the element order")?,
-            _ => Vec::new(),
+            | LoadModel::Water { triangles, .. } => triangles,
+            _ => {
+                pressed_order.push(Vec::new());
+                continue;
+            }
         };
-        list.sort_unstable_by_key(|&e| tri_slot[e]);
-        pressed_order.push(list);
+        // The list in visit order. A short list (below a sixteenth of the triangles) sorted
+        // by slot; a long one by a pass over the visit order (slot by slot) taking each listed
+        // triangle as often as it is listed: the same order, without the sort's look-ups.
+        if list.len().saturating_mul(16) < tri_order.len() {
+            let mut sorted = memory::copy(list, WHAT)?;
+            sorted.sort_unstable_by_key(|&e| tri_slot[e]);
+            pressed_order.push(sorted);
+            continue;
+        }
+        if times.is_empty() {
+            times = memory::zeros(tri_order.len(), WHAT)?;
+        }
+        for &e in list {
+            times[e] += 1;
+        }
+        let mut sorted = memory::with_capacity(list.len(), WHAT)?;
+        for &e in tri_order {
+            for _ in 0..times[e] {
+                sorted.push(e);
+            }
+            times[e] = 0;
+        }
+        pressed_order.push(sorted);
     }
     let mut pressed_slots = memory::with_capacity(model.loads.len(), "the element order")?;
     for list in &pressed_order {
@@ -452,7 +621,11 @@ struct Blocks {
 }
 
 impl Blocks {
-    fn try_new(model: &Model, eq: &[usize], by_rank: &[usize]) -> Result<Blocks, OutOfMemory> {
+    fn try_new(
+        eq: &[usize],
+        by_rank: &[usize],
+        (gptr, gadj): &(Vec<usize>, Vec<usize>),
+    ) -> Result<Blocks, OutOfMemory> {
         const WHAT: &str = "the tangent's pattern";
         let nodes = by_rank.len();
         let mut rank = memory::zeros::<u32>(nodes, WHAT)?;
@@ -469,7 +642,6 @@ impl Blocks {
         for r in 0..nodes {
             node_of_eq[first[r]..first[r + 1]].fill(r as u32);
         }
-        let (gptr, gadj) = renumber::node_graph(model)?;
         let mut ptr = memory::with_capacity(nodes + 1, WHAT)?;
         let mut node = memory::with_capacity(gadj.len() / 2 + nodes, WHAT)?;
         let mut offset = memory::with_capacity(gadj.len() / 2 + nodes, WHAT)?;
@@ -538,14 +710,16 @@ impl Blocks {
 
     /// The row of equation i in column j (i <= j, joined by an element) from the column's
     /// start.
-    fn offset(&self, i: usize, j: usize) -> usize {
+    /// The row of the first equation of i's node in column j (i <= j, joined by an
+    /// element) from the column's start (the same in every column of j's node).
+    fn block_offset(&self, i: usize, j: usize) -> usize {
         let (ri, rj) = (self.node_of_eq[i], self.node_of_eq[j] as usize);
         let list = &self.node[self.ptr[rj]..self.ptr[rj + 1]];
         let k = list
             .iter()
             .position(|&s| s == ri)
             .expect("pattern holds every element pair");
-        self.offset[self.ptr[rj] + k] as usize + (i - self.first[ri as usize])
+        self.offset[self.ptr[rj] + k] as usize
     }
 }
 
@@ -559,21 +733,33 @@ fn position_maps(
 ) -> Result<PerKind<Vec<u32>>, OutOfMemory> {
     // Every position is below the stored entries <= MAX_ENTRIES (`upper_pattern`), so below
     // UNMAPPED.
-    let position = |i: usize, j: usize| -> u32 {
-        if i == NONE || j == NONE || i > j {
-            return UNMAPPED;
-        }
-        (col_ptr[j] + blocks.offset(i, j)) as u32
-    };
+    // The block of a pair of the element's nodes is looked up once (in the column node's
+    // list of a few nodes), not once for each of its 9 entries: `block[na][nb]` holds the
+    // row offset of node na's block in the columns of node nb (the same in each of them)
+    // less na's first equation, so that equation i's position in column j is
+    // col_ptr[j] + block + i (mod 2^64: the block term alone may be negative).
     PerKind::try_from_fn(|kind| {
         let len = visits[kind].len().saturating_mul(kind.block_len());
         let mut maps = memory::with_capacity(len, "the element position maps")?;
         let mut d = [NONE; 3 * ElementKind::MAX_NODES];
+        let mut block = [[None; ElementKind::MAX_NODES]; ElementKind::MAX_NODES];
         for &e in &visits[kind] {
             let m = element_equations(eq, model.element_nodes(kind, e), &mut d);
+            for row in block.iter_mut().take(m / 3) {
+                row[..m / 3].fill(None);
+            }
             for a in 0..m {
                 for b in 0..m {
-                    maps.push(position(d[a], d[b]));
+                    let (i, j) = (d[a], d[b]);
+                    if i == NONE || j == NONE || i > j {
+                        maps.push(UNMAPPED);
+                        continue;
+                    }
+                    let cached = *block[a / 3][b / 3].get_or_insert_with(|| {
+                        let first = blocks.first[blocks.node_of_eq[i] as usize];
+                        blocks.block_offset(i, j).wrapping_sub(first)
+                    });
+                    maps.push(col_ptr[j].wrapping_add(cached).wrapping_add(i) as u32);
                 }
             }
         }

@@ -144,13 +144,12 @@ impl Solver {
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
-        let mut pattern = Pattern::try_ordered(model, settings.node_order)?;
-        // The factorization takes over the pattern's row indices: nothing reads them from the
-        // solver's pattern once its position maps are built, and a copy would be K's largest
-        // index array twice (88 MB at 1M DOF).
-        let row_idx = std::mem::take(&mut pattern.row_idx);
-        let fill = pattern.fill.take();
-        let pool = if settings.threads > 1 && pattern.n >= linear::SPLIT_MIN_EQUATIONS {
+        use crate::phases::start;
+        let _phase = start("Solver::try_new");
+        // The equations (free DOFs) before the pattern: the pool is started first, so that
+        // the pattern's ordering runs on its helper (`Pattern::try_ordered_on`).
+        let equations = model.held.iter().filter(|&&held| !held).count();
+        let pool = if settings.threads > 1 && equations >= linear::SPLIT_MIN_EQUATIONS {
             // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
             // Two threads at most: the factorization has two halves (`split.rs`).
             let pool =
@@ -162,13 +161,22 @@ impl Solver {
         } else {
             None
         };
+        let mut pattern = Pattern::try_ordered_on(model, settings.node_order, pool.as_ref())?;
+        // The factorization takes over the pattern's row indices: nothing reads them from the
+        // solver's pattern once its position maps are built, and a copy would be K's largest
+        // index array twice (88 MB at 1M DOF).
+        let row_idx = std::mem::take(&mut pattern.row_idx);
+        let fill = pattern.fill.take();
         let pattern = std::sync::Arc::new(pattern);
+        let phase = start("parallel assembly's halves");
         // The same gate as the factorization's split: with a pool, the assembly's element loop
         // runs in two halves too (`assemble::Parallel`).
         let parallel = match &pool {
             Some(pool) => assemble::Parallel::try_new(std::sync::Arc::clone(pool), &pattern)?,
             None => None,
         };
+        drop(phase);
+        let phase = start("factorization set-up (Ldlt::try_filled)");
         let mut linear = Ldlt::try_filled(
             pattern.n,
             memory::copy(&pattern.col_ptr, "the tangent's pattern")?,
@@ -185,6 +193,8 @@ impl Solver {
             }
         }
         linear.set_groups(groups)?;
+        drop(phase);
+        let phase = start("solver vectors, reference diagonal, adjacency");
         let n = model.dof_count();
         let trial_len = model.unknown_count();
         let diagonal_positions = memory::collect(
@@ -194,6 +204,8 @@ impl Solver {
         let reference_diagonal = reference_diagonal(model, &pattern)?;
         let reference_size = model.reference.iter().fold(0.0f64, |m, x| m.max(x.amax()));
         let vector = |len| memory::zeros(len, "the solver's vectors");
+        let adjacency = relax::Adjacency::try_new(model)?;
+        drop(phase);
         Ok(Solver {
             settings,
             linear,
@@ -210,7 +222,7 @@ impl Solver {
             reference_size,
             evaluations: memory::with_capacity(model.triangles.len(), "the element evaluations")?,
             frozen: None,
-            adjacency: relax::Adjacency::try_new(model)?,
+            adjacency,
             prestress_factor: 1.0,
             pre_strain: 0.0,
             probe_states: None,

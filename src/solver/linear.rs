@@ -112,8 +112,7 @@ impl Ldlt {
         fill: Option<Fill>,
     ) -> Result<Ldlt, OutOfMemory> {
         let nnz = row_idx.len();
-        let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let matrix = SparseColMat::new(sym, memory::lazy_zeros(nnz, "the tangent matrix")?);
+        use crate::phases::start;
         let what = "the symbolic factorization of the tangent";
         let order = match &fill {
             Some(fill) if fill.perm.len() == n => {
@@ -126,14 +125,21 @@ impl Ldlt {
             _ => None,
         };
         let pool_split = pool.filter(|_| n >= SPLIT_MIN_EQUATIONS);
-        // With 2 threads and a top separator: the split straight from the order.
+        // With 2 threads and a top separator: the split straight from the order, its halves
+        // built on both threads (the pattern shared with the helper meanwhile).
         let mut split = None;
-        if let (Some(pool), Some((_, inv)), Some(top)) =
-            (&pool_split, &order, fill.as_ref().and_then(|f| f.top))
-        {
-            let sym = matrix.symbolic();
-            split = Split::try_at(n, sym.col_ptr(), sym.row_idx(), inv, top, Arc::clone(pool))?;
-        }
+        let (col_ptr, row_idx) = match (&pool_split, &order, fill.as_ref().and_then(|f| f.top)) {
+            (Some(pool), Some((_, inv)), Some(top)) => {
+                let _phase = start("two halves at the top separator (Split::try_at)");
+                let shared = Arc::new((col_ptr, row_idx));
+                split = Split::try_at(n, &shared, inv, top, Arc::clone(pool))?;
+                // The helper has dropped its reference (`Split::try_at`): no copy is made.
+                Arc::unwrap_or_clone(shared)
+            }
+            _ => (col_ptr, row_idx),
+        };
+        let sym = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        let matrix = SparseColMat::new(sym, memory::lazy_zeros(nnz, "the tangent matrix")?);
         let symbolic = if split.is_some() {
             None
         } else {
@@ -143,12 +149,14 @@ impl Ldlt {
                 }
                 None => SymmetricOrdering::Amd,
             };
+            let _phase = start("symbolic factorization of the whole tangent");
             Some(symbolic_ldlt(&matrix, ordering, what)?)
         };
         if split.is_none() {
             if let (Some(pool), Some(symbolic)) = (pool_split, &symbolic) {
                 let sym = matrix.symbolic();
                 let rank = symbolic.perm().map(|p| p.arrays().1);
+                let _phase = start("two halves by breadth-first levels (Split::try_new)");
                 split = Split::try_new(n, sym.col_ptr(), sym.row_idx(), rank, pool)?;
             }
         }
@@ -157,6 +165,7 @@ impl Ldlt {
             (None, Some(symbolic)) => symbolic.len_val(),
             _ => 0,
         };
+        let _phase = start("factor values and workspaces");
         let l_values = memory::lazy_zeros(whole, "the factor of the tangent")?;
         let buffer = |req: StackReq, what: &'static str| {
             MemBuffer::try_new(req).map_err(|_| OutOfMemory {

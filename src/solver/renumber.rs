@@ -66,11 +66,24 @@ pub enum NodeOrder {
 
 /// Internal position of every node of `model` under `order` (`rank[node]`), a permutation.
 pub fn node_rank(model: &Model, order: NodeOrder) -> Result<Vec<usize>, OutOfMemory> {
+    match order {
+        NodeOrder::Rcm | NodeOrder::Rings => node_rank_on(model, order, &node_graph(model)?),
+        _ => node_rank_on(model, order, &(Vec::new(), Vec::new())),
+    }
+}
+
+/// [`node_rank`] with the model's [`node_graph`] built by the caller (the pattern reads it
+/// too: built once; unread under `Hilbert` and `Given`).
+pub(super) fn node_rank_on(
+    model: &Model,
+    order: NodeOrder,
+    graph: &(Vec<usize>, Vec<usize>),
+) -> Result<Vec<usize>, OutOfMemory> {
     let n = model.reference.len();
     let sequence = match order {
         NodeOrder::Given => return memory::collect(0..n, WHAT),
-        NodeOrder::Rcm => cuthill_mckee(model, false)?,
-        NodeOrder::Rings => cuthill_mckee(model, true)?,
+        NodeOrder::Rcm => cuthill_mckee(model, false, graph)?,
+        NodeOrder::Rings => cuthill_mckee(model, true, graph)?,
         NodeOrder::Hilbert => hilbert(model)?,
     };
     let mut rank = memory::filled(n, usize::MAX, WHAT)?;
@@ -171,9 +184,12 @@ fn node_normals(model: &Model) -> Result<Vec<Vector3<f64>>, OutOfMemory> {
 /// `central`: start each component at a central node (the most balanced between the two ends
 /// of a pseudo-diameter) and keep the breadth-first order (levels grow outward, like a
 /// generator's rings); otherwise start at a pseudo-peripheral node and reverse (RCM).
-fn cuthill_mckee(model: &Model, central: bool) -> Result<Vec<usize>, OutOfMemory> {
+fn cuthill_mckee(
+    model: &Model,
+    central: bool,
+    (ptr, adj): &(Vec<usize>, Vec<usize>),
+) -> Result<Vec<usize>, OutOfMemory> {
     let n = model.reference.len();
-    let (ptr, adj) = node_graph(model)?;
     let keys = hilbert_keys(model)?;
     let degree = |i: usize| ptr[i + 1] - ptr[i];
     let mut seeds = memory::collect(0..n, WHAT)?;
@@ -200,7 +216,7 @@ fn cuthill_mckee(model: &Model, central: bool) -> Result<Vec<usize>, OutOfMemory
         // Pseudo-peripheral node (George & Liu): from the seed, jump to a lowest-degree node
         // of the deepest level while the depth grows.
         let mut root = seed;
-        let mut depth = bfs_levels(root, &ptr, &adj, &mut level, &mut reached);
+        let mut depth = bfs_levels(root, ptr, adj, &mut level, &mut reached);
         let deepest = |level: &[usize], reached: &[usize], depth: usize| {
             reached
                 .iter()
@@ -212,10 +228,10 @@ fn cuthill_mckee(model: &Model, central: bool) -> Result<Vec<usize>, OutOfMemory
         for _ in 0..16 {
             let far = deepest(&level, &reached, depth);
             clear(&mut level, &reached);
-            let d = bfs_levels(far, &ptr, &adj, &mut level, &mut reached);
+            let d = bfs_levels(far, ptr, adj, &mut level, &mut reached);
             if d <= depth {
                 clear(&mut level, &reached);
-                depth = bfs_levels(root, &ptr, &adj, &mut level, &mut reached);
+                depth = bfs_levels(root, ptr, adj, &mut level, &mut reached);
                 break;
             }
             root = far;
@@ -231,7 +247,7 @@ fn cuthill_mckee(model: &Model, central: bool) -> Result<Vec<usize>, OutOfMemory
             let from_root: Vec<(usize, usize)> =
                 memory::collect(reached.iter().copied().zip(far_level.iter().copied()), WHAT)?;
             clear(&mut level, &reached);
-            bfs_levels(far, &ptr, &adj, &mut level, &mut reached);
+            bfs_levels(far, ptr, adj, &mut level, &mut reached);
             start = from_root
                 .iter()
                 .map(|&(i, l)| (l.max(level[i]), keys[i], i))

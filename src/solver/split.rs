@@ -49,6 +49,10 @@ use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Accum, Conj, Mat, MatMut, MatRef, Par};
 use std::sync::{Arc, Mutex, MutexGuard};
 
+/// K's upper CSC pattern (column pointers, row indices), shared with the helper thread while
+/// the halves of [`Split::try_at`] are built.
+pub type SharedPattern = Arc<(Vec<usize>, Vec<usize>)>;
+
 /// Largest separator (equations) the dense Schur complement is built for: its buffers take
 /// 7 |S|^2 doubles (|S| = 2500: 350 MB) and its LDLT |S|^3 / 3 flops.
 pub const MAX_SEPARATOR: usize = 2500;
@@ -423,16 +427,21 @@ impl Split {
 
     /// A split at the top separator of a nested-dissection order (`dissect.rs`): `rank` the
     /// position of every equation in the order, `top` the equations of the first half, the
-    /// second and the separator, in this order. None when the separator is too large or the
-    /// halves too unequal (the caller then splits as [`Split::try_new`] does).
+    /// second and the separator, in this order; `pattern` K's upper CSC (column pointers, row
+    /// indices). None when the separator is too large or the halves too unequal (the caller
+    /// then splits as [`Split::try_new`] does).
+    ///
+    /// The two halves are built side by side: the second (its matrix, symbolic analysis and
+    /// buffers) on the pool's helper, which holds a reference to `pattern` only while it runs,
+    /// the first on the calling thread. The halves are those a serial build makes.
     pub fn try_at(
         n: usize,
-        col_ptr: &[usize],
-        row_idx: &[usize],
+        pattern: &SharedPattern,
         rank: &[usize],
         top: [usize; 3],
         pool: Arc<Pool>,
     ) -> Result<Option<Split>, OutOfMemory> {
+        let (col_ptr, row_idx) = (&pattern.0[..], &pattern.1[..]);
         let least = (BALANCE * n as f64) as usize;
         if pool.helpers() == 0
             || row_idx.len() as u64 > u32::MAX as u64
@@ -447,16 +456,54 @@ impl Split {
         for (g, &r) in rank.iter().enumerate() {
             by_position[r] = g;
         }
+        // by_position is in the order: each domain's equations are in it already, and each
+        // half's numbering is its domain, then the separator.
         let (first, rest) = by_position.split_at(top[0]);
         let (second, s_eq) = rest.split_at(top[1]);
+        let numbering = |domain: &[usize]| -> Result<Vec<usize>, OutOfMemory> {
+            let mut eq = memory::with_capacity(domain.len() + s_eq.len(), what)?;
+            eq.extend_from_slice(domain);
+            eq.extend_from_slice(s_eq);
+            Ok(eq)
+        };
+        let (eq_a, eq_b) = (numbering(first)?, numbering(second)?);
         let s_eq = memory::copy(s_eq, what)?;
-        let Some(a) = Half::try_new(n, col_ptr, row_idx, first, &s_eq, Some(rank))? else {
-            return Ok(None);
-        };
-        let Some(b) = Half::try_new(n, col_ptr, row_idx, second, &s_eq, Some(rank))? else {
-            return Ok(None);
-        };
         drop(by_position);
+        // The second half on the helper: its input is taken (and its reference to the
+        // pattern dropped) inside the job, so the caller holds the pattern alone afterwards.
+        type Built = Result<Option<Half>, OutOfMemory>;
+        let input = Arc::new(Mutex::new(Some((Arc::clone(pattern), eq_b, top[1]))));
+        let output: Arc<Mutex<Option<Built>>> = Arc::new(Mutex::new(None));
+        let (job_input, job_output) = (Arc::clone(&input), Arc::clone(&output));
+        let depth = crate::phases::depth();
+        pool.set_job(
+            0,
+            Box::new(move || {
+                let taken = job_input.lock().unwrap_or_else(|e| e.into_inner()).take();
+                if let Some((pattern, eq, nd)) = taken {
+                    let _phase = crate::phases::start_under("half B (on the helper)", depth);
+                    let half = Half::numbered(n, &pattern.0, &pattern.1, eq, nd)
+                        .and_then(|h| h.map(Half::allocated).transpose());
+                    drop(pattern);
+                    *job_output.lock().unwrap_or_else(|e| e.into_inner()) = Some(half);
+                }
+            }),
+        );
+        pool.start(0);
+        let phase = crate::phases::start("half A");
+        let a = Half::numbered(n, col_ptr, row_idx, eq_a, top[0])
+            .and_then(|h| h.map(Half::allocated).transpose());
+        drop(phase);
+        // Always waited for, whatever half A gave: the helper is idle and holds nothing after.
+        let waited = pool.wait(0);
+        drop(input);
+        let b = output.lock().unwrap_or_else(|e| e.into_inner()).take();
+        let (Some(a), Ok(()), Some(Some(b))) = (a?, waited, b.transpose()?) else {
+            // A coupling between the domains, a simplicial half or a helper that failed:
+            // the caller splits another way.
+            return Ok(None);
+        };
+        let _phase = crate::phases::start("halves' buffers, K_SS (Split::finish)");
         #[cfg(test)]
         let counted = [a.flops(), b.flops()];
         Split::finish(
@@ -487,8 +534,12 @@ impl Split {
         if a.flops() > b.flops() {
             std::mem::swap(&mut a, &mut b);
         }
-        a.allocate()?;
-        b.allocate()?;
+        if !a.is_allocated() {
+            a.allocate()?;
+        }
+        if !b.is_allocated() {
+            b.allocate()?;
+        }
         let (a, b) = (Arc::new(Mutex::new(a)), Arc::new(Mutex::new(b)));
         let ns = s_eq.len();
         let mut pos = memory::filled(n, usize::MAX, what)?;
@@ -497,10 +548,10 @@ impl Split {
         }
         let entries: usize = s_eq.iter().map(|&j| col_ptr[j + 1] - col_ptr[j]).sum();
         let mut kss = memory::with_capacity(entries, what)?;
-        for j in 0..n {
-            if pos[j] == usize::MAX {
-                continue;
-            }
+        // The separator's columns in K's order (not a pass over all of K's columns).
+        let mut columns = memory::copy(&s_eq, what)?;
+        columns.sort_unstable();
+        for j in columns {
             let column = col_ptr[j]..col_ptr[j + 1];
             for (p, &i) in column.clone().zip(&row_idx[column]) {
                 if pos[i] != usize::MAX {
@@ -782,25 +833,28 @@ impl Half {
         nd: usize,
     ) -> Result<Option<Half>, OutOfMemory> {
         let what = "the two-domain factorization";
+        let phase = crate::phases::start("the half's matrix");
         let ns = eq.len() - nd;
         let mut local = memory::filled(n, usize::MAX, what)?;
         for (k, &g) in eq.iter().enumerate() {
             local[g] = k;
         }
         // Its upper CSC: every entry of K between two of its equations, placed at
-        // (min, max) of their local numbers, with its position in K.
+        // (min, max) of their local numbers, with its position in K. K is upper: an entry
+        // lies in the column of the later of its two equations, so only the half's own
+        // columns are read (not all of K's, twice per half).
         let m = nd + ns;
         let mut count = memory::zeros::<usize>(m + 1, what)?;
-        for j in 0..n {
-            for p in col_ptr[j]..col_ptr[j + 1] {
-                let (li, lj) = (local[row_idx[p]], local[j]);
-                match (li == usize::MAX, lj == usize::MAX) {
-                    (false, false) => count[li.max(lj) + 1] += 1,
-                    (true, true) => {}
-                    // An entry between the half and the rest: it must lie in the separator.
-                    (false, true) if li >= nd => {}
-                    (true, false) if lj >= nd => {}
-                    _ => return Ok(None),
+        for (lj, &j) in eq.iter().enumerate() {
+            for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
+                let li = local[i];
+                if li != usize::MAX {
+                    count[li.max(lj) + 1] += 1;
+                } else if lj < nd {
+                    // An entry between the domain and an equation outside the half: not a
+                    // separator. (One in a column outside the half whose row is in this
+                    // domain is found by the other half's build, which reads that column.)
+                    return Ok(None);
                 }
             }
         }
@@ -811,10 +865,10 @@ impl Half {
         let mut next = memory::copy(&count[..m], what)?;
         let mut rows = memory::zeros::<usize>(nnz, what)?;
         let mut map = memory::zeros::<u32>(nnz, what)?;
-        for j in 0..n {
+        for (lj, &j) in eq.iter().enumerate() {
             for p in col_ptr[j]..col_ptr[j + 1] {
-                let (li, lj) = (local[row_idx[p]], local[j]);
-                if li != usize::MAX && lj != usize::MAX {
+                let li = local[row_idx[p]];
+                if li != usize::MAX {
                     let c = li.max(lj);
                     rows[next[c]] = li.min(lj);
                     map[next[c]] = p as u32;
@@ -824,21 +878,27 @@ impl Half {
         }
         drop(next);
         drop(local);
+        // Each column's rows ascending (one scratch for all: a column holds a few dozen).
+        let mut pairs: Vec<(usize, u32)> = Vec::new();
         for c in 0..m {
             let (lo, hi) = (count[c], count[c + 1]);
-            let mut pairs: Vec<(usize, u32)> = rows[lo..hi]
-                .iter()
-                .copied()
-                .zip(map[lo..hi].iter().copied())
-                .collect();
+            pairs.clear();
+            pairs.extend(
+                rows[lo..hi]
+                    .iter()
+                    .copied()
+                    .zip(map[lo..hi].iter().copied()),
+            );
             pairs.sort_unstable();
-            for (k, (r, p)) in pairs.into_iter().enumerate() {
+            for (k, &(r, p)) in pairs.iter().enumerate() {
                 rows[lo + k] = r;
                 map[lo + k] = p;
             }
         }
         let sym = SymbolicSparseColMat::new_checked(m, m, count, None, rows);
         let matrix = SparseColMat::new(sym, memory::lazy_zeros(nnz, what)?);
+        drop(phase);
+        let _phase = crate::phases::start("the half's symbolic factorization");
         let symbolic = super::factor::symbolic_ldlt(&matrix, SymmetricOrdering::Identity, what)?;
         if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
             return Ok(None);
@@ -861,6 +921,17 @@ impl Half {
             phase: Phase::Factor,
             status: Ok(()),
         }))
+    }
+
+    /// The half with its numeric buffers ([`Half::allocate`]).
+    fn allocated(mut self) -> Result<Half, OutOfMemory> {
+        self.allocate()?;
+        Ok(self)
+    }
+
+    /// Whether [`Half::allocate`] has run.
+    fn is_allocated(&self) -> bool {
+        self.x.len() == self.eq.len()
     }
 
     /// The numeric buffers (factor values, workspaces, the separator's dense blocks), once

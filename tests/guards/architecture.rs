@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 /// before them.
 const LAYERS: &[&str] = &[
     "format",
+    "phases",
     "memory",
     "scene",
     "error",
