@@ -50,23 +50,7 @@ impl Engine {
         let Some(count) = wanted.iter().map(|&(_, k)| k).max() else {
             return Ok(());
         };
-        // On a thread of its own, joined here: the factorization's thread-local scratch must
-        // not outlive the call on the host's thread (an FMU refreshes its outputs on the
-        // calling thread at instantiation, reset and restored states, and a thread-local with
-        // a destructor keeps the library mapped after FreeInstance and dlclose).
-        let modes = std::thread::scope(|scope| {
-            let job = std::thread::Builder::new()
-                .stack_size(crate::solver::threads::STACK_BYTES)
-                .spawn_scoped(scope, || self.modes(count))
-                .map_err(|e| {
-                    Error::Thread(crate::error::ThreadFailure::Start {
-                        count: 1,
-                        reason: e.to_string(),
-                    })
-                })?;
-            job.join()
-                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-        })?;
+        let modes = self.modes(count)?;
         for (slot, k) in wanted {
             self.outputs[slot] = modes.frequencies.get(k - 1).copied().ok_or_else(|| {
                 Error::Unsupported(format!(

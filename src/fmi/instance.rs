@@ -339,7 +339,7 @@ impl Instance {
                 parameters: current.parameters.clone(),
                 ..base.clone()
             };
-            self.engine.set_state(start)?;
+            self.on_worker(|engine| engine.set_state(start))?;
         }
         // The initial equilibrium is static (at rest), also with time integration.
         self.engine.set_step_duration(0.0);
@@ -379,7 +379,7 @@ impl Instance {
     pub fn reset(&mut self) -> Status {
         self.call(Func::Reset, String::new(), |s| {
             if !s.heal()? {
-                s.engine.reset()?;
+                s.on_worker(|engine| engine.reset())?;
             }
             s.fsm = FsmState::Instantiated;
             s.experiment = Experiment::default();
@@ -392,12 +392,22 @@ impl Instance {
         })
     }
 
+    /// `work` on the engine on the instance's worker thread: everything that may evaluate the
+    /// outputs (a restored state, a reset; a `natural_frequency` output factorizes), so that
+    /// no thread-local of the linear algebra lands on the master's thread and keeps the
+    /// library mapped after FreeInstance (worker.rs).
+    pub(super) fn on_worker<T: Send>(&mut self, work: impl FnOnce(&mut Engine) -> T + Send) -> T {
+        let engine = &mut self.engine;
+        self.worker.run(|| work(engine))
+    }
+
     /// After a panic, rebuild the engine from its scene. Returns whether it did.
     fn heal(&mut self) -> Result<bool, Error> {
         if !self.poisoned {
             return Ok(false);
         }
-        self.engine = Engine::try_new(self.engine.scene().clone())?;
+        let scene = self.engine.scene().clone();
+        self.engine = self.worker.run(|| Engine::try_new(scene))?;
         self.poisoned = false;
         Ok(true)
     }
@@ -505,7 +515,7 @@ impl Instance {
             let backup = s.engine.state().clone();
             for (r, v) in vr.iter().zip(values) {
                 if let Err(e) = s.engine.set_real(*r, *v) {
-                    let _ = s.engine.set_state(backup);
+                    let _ = s.on_worker(|engine| engine.set_state(backup));
                     return Err(e);
                 }
             }

@@ -48,7 +48,8 @@ impl Instance {
             // The engine's copy, the initialization base, and the state they replace.
             Self::probe_state(snapshot.engine.bytes(), 3)?;
             s.heal()?;
-            s.engine.set_state(snapshot.engine.clone())?;
+            let engine_state = snapshot.engine.clone();
+            s.on_worker(|engine| engine.set_state(engine_state))?;
             s.time = snapshot.time;
             s.last_successful_time = snapshot.last_successful_time;
             s.wants_to_terminate = snapshot.wants_to_terminate;
