@@ -97,10 +97,11 @@ struct LegacyEngine {
 }
 
 impl From<Legacy> for Snapshot {
+    /// Format 5's reading with no plastic strain (neither 3 nor 4 could hold one).
     fn from(l: Legacy) -> Snapshot {
         let e = l.engine;
-        Snapshot {
-            engine: EngineState {
+        Legacy5 {
+            engine: Engine5 {
                 displacement: e.displacement,
                 slip_state: e.slip_state,
                 applied: e.applied,
@@ -110,8 +111,6 @@ impl From<Legacy> for Snapshot {
                 wrinkle: e.wrinkle,
                 tension_angle: e.tension_angle,
                 plastic: Vec::new(),
-                velocity: Vec::new(),
-                acceleration: Vec::new(),
             },
             time: l.time,
             last_successful_time: l.last_successful_time,
@@ -119,6 +118,7 @@ impl From<Legacy> for Snapshot {
             fsm: l.fsm,
             experiment: l.experiment,
         }
+        .into()
     }
 }
 
