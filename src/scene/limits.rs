@@ -205,9 +205,10 @@ fn edge_count(mesh: &Mesh, cables: &[Vec<usize>]) -> Result<u64, OutOfMemory> {
     let mut count = 0u64;
     for i in 0..n {
         let list = &mut upper[start[i]..start[i + 1]];
-        list.sort_unstable();
-        count += 1 + list.windows(2).filter(|w| w[0] != w[1]).count() as u64;
-        count -= u64::from(list.is_empty());
+        if !list.is_empty() {
+            list.sort_unstable();
+            count += 1 + list.windows(2).filter(|w| w[0] != w[1]).count() as u64;
+        }
     }
     Ok(count)
 }
@@ -479,10 +480,7 @@ fn memory_problems(
                 size.unknowns, limits.max_memory_gb
             ),
         });
-    } else if let Some(avail) = Some(())
-        .filter(|_| limits.check_available_memory)
-        .and_then(|_| available())
-    {
+    } else if let Some(avail) = limits.check_available_memory.then(available).flatten() {
         if size.memory_bytes > avail {
             out.push(Problem {
                 path: "geometry".into(),
@@ -671,7 +669,7 @@ mod tests {
             });
             // A cable along mesh edges (no new pairs), one across (new ones), a repeated node.
             let n = mesh.nodes.len();
-            let cables = vec![mesh.triangles[0].to_vec(), vec![0, n - 1, n - 1, n / 2]];
+            let cables = [mesh.triangles[0].to_vec(), vec![0, n - 1, n - 1, n / 2]];
             for c in [&cables[..0], &cables[..]] {
                 let sorted = edges(&mesh, c).unwrap().len() as u64;
                 assert_eq!(edge_count(&mesh, c).unwrap(), sorted);
