@@ -297,6 +297,51 @@ fn setup_timings(label: &str, scene: &Scene) {
     phases::enable(false);
 }
 
+/// `--solve-timings`: the solve's phases (`velarium::phases`: assembly, factorization, each
+/// half's numeric LDLT and S block, the separator, substitutions, inexact Newton), summed by
+/// name and thread (the solving thread, `[helper]` the solver's helper), with the number of
+/// times each ran, its wall seconds and its own thread's CPU seconds; then the solve's wall
+/// time, the process's CPU time and the solving thread's, and the solving thread's CPU time
+/// outside every outermost phase (the Newton loop's vector work, relaxation, the line
+/// search's bookkeeping, the output evaluation).
+fn print_solve_phases(label: &str, wall: f64, cpu: f64, own: f64) {
+    let phases = velarium::phases::take();
+    let here = std::thread::current().id();
+    let mut rows: Vec<(String, usize, usize, f64, f64)> = Vec::new();
+    for p in &phases {
+        let name = match p.thread == here {
+            true => p.name.to_string(),
+            false => format!("[helper] {}", p.name),
+        };
+        match rows.iter_mut().find(|r| r.0 == name) {
+            Some(r) => {
+                r.2 += 1;
+                r.3 += p.wall;
+                r.4 += p.thread_cpu;
+            }
+            None => rows.push((name, p.depth, 1, p.wall, p.thread_cpu)),
+        }
+    }
+    println!("solve phases of {label} (sums over the solve):");
+    for (name, depth, count, wall, thread_cpu) in &rows {
+        println!(
+            "  {:indent$}{:<width$} x{count:<4} wall {wall:8.3} s  thread cpu {thread_cpu:8.3} s",
+            "",
+            name,
+            indent = 2 * depth,
+            width = 56 - 2 * depth
+        );
+    }
+    let outer = phases
+        .iter()
+        .filter(|p| p.depth == 0 && p.thread == here)
+        .fold(0.0, |a, p| a + p.thread_cpu);
+    println!(
+        "  solve: wall {wall:.3} s, process cpu {cpu:.3} s, solving thread cpu {own:.3} s, of it outside the phases {:.3} s",
+        own - outer
+    );
+}
+
 fn run(problem: &Problem, label: &str, scene: Scene) {
     if std::env::args().any(|a| a == "--timings") {
         setup_timings(&format!("{} {label}", problem.name), &scene);
@@ -341,11 +386,22 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
     let counts = engine.linear_counts();
     let per_thread = std::env::args().any(|a| a == "--thread-cpu");
     let tasks = if per_thread { thread_cpu() } else { Vec::new() };
+    let solve_timings = std::env::args().any(|a| a == "--solve-timings");
+    if solve_timings {
+        velarium::phases::enable(true);
+        velarium::phases::take();
+    }
+    let own = velarium::phases::thread_cpu();
     let cpu = cpu_seconds();
     let t = Instant::now();
     engine.set_real(vr, problem.value).unwrap();
     let report = engine.solve();
     let time = t.elapsed().as_secs_f64();
+    if solve_timings {
+        let own = velarium::phases::thread_cpu() - own;
+        velarium::phases::enable(false);
+        print_solve_phases(label, time, cpu_seconds() - cpu, own);
+    }
     if std::env::args().any(|a| a == "--log") {
         // The solve's per-iteration log (what an FMU shows on logSolver), on stderr.
         for l in &report.log {
@@ -452,8 +508,63 @@ fn sizes(args: &[String]) -> Vec<(usize, usize)> {
     out
 }
 
+/// `--dense-rate`: the rate of faer's dense LDLT (the kernel the sparse factorization's
+/// supernodes run) on this thread, `Par::Seq`, for a few sizes: n³/3 flops (the Σ c² the
+/// factorization's flop count uses) over the wall and the thread's CPU seconds, best of 3.
+fn dense_rate() {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::cholesky::ldlt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+    println!(
+        "dense LDLT, 1 thread (load average before: {}):",
+        load_average()
+    );
+    for n in [256usize, 512, 1000, 2000, 4000] {
+        let a = faer::Mat::<f64>::from_fn(n, n, |i, j| {
+            if i == j {
+                n as f64
+            } else {
+                1.0 / (1.0 + (i + j) as f64)
+            }
+        });
+        let mut mem = MemBuffer::new(cholesky_in_place_scratch::<f64>(
+            n,
+            faer::Par::Seq,
+            Default::default(),
+        ));
+        let repeats = (4e9 / (n * n * n) as f64).ceil() as usize;
+        let (mut wall, mut cpu) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..3 {
+            let mut m = a.clone();
+            let (t, c) = (Instant::now(), velarium::phases::thread_cpu());
+            for _ in 0..repeats {
+                m.copy_from(&a);
+                cholesky_in_place(
+                    m.as_mut(),
+                    Default::default(),
+                    faer::Par::Seq,
+                    MemStack::new(&mut mem),
+                    Default::default(),
+                )
+                .expect("positive definite");
+            }
+            wall = wall.min(t.elapsed().as_secs_f64() / repeats as f64);
+            cpu = cpu.min((velarium::phases::thread_cpu() - c) / repeats as f64);
+        }
+        let flops = (n * n * n) as f64 / 3.0;
+        println!(
+            "  n {n:5}: {:6.1} GFlop/s wall, {:6.1} GFlop/s thread CPU",
+            flops / wall * 1e-9,
+            flops / cpu * 1e-9
+        );
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.iter().any(|a| a == "--dense-rate") {
+        dense_rate();
+        return;
+    }
     let no_shuffle = args.iter().any(|a| a == "--no-shuffle");
     // `--shuffled-only`: skip the generator's numbering (to profile the shuffled case alone).
     let shuffled_only = args.iter().any(|a| a == "--shuffled-only");

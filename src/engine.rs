@@ -115,7 +115,15 @@ impl Engine {
     /// the state is the undeformed configuration (call [`Engine::solve`] for the equilibrium
     /// under the start values).
     pub fn try_new(scene: Scene) -> Result<Engine, Error> {
-        let (problems, size) = validate::validate_sized(&scene);
+        // The size check's factor comes from the solver's own symbolic analysis below
+        // (`scene::limits`, "check_factor"), not from a second ordering of the mesh. A scene
+        // that asks for form finding keeps the check as `velarium check` runs it: its engine
+        // is built from the found scene.
+        let (problems, mut size) = if scene.form_finding.is_none() {
+            crate::scene::limits::with_factor_from_solver(|| validate::validate_sized(&scene))
+        } else {
+            validate::validate_sized(&scene)
+        };
         if !problems.is_empty() {
             return Err(Error::Scene(problems));
         }
@@ -157,7 +165,29 @@ impl Engine {
                 model.probes.len()
             )));
         }
-        let solver = Solver::try_new(&model, settings(&scene))?;
+        let solver = match Solver::try_new(&model, settings(&scene)) {
+            Ok(solver) => solver,
+            // Short of memory before the size check had the factor: the check's own verdict
+            // (located, naming the limit) where it has one.
+            Err(e) if size.factor_deferred => {
+                drop(model);
+                let (problems, _) = validate::validate_sized(&scene);
+                return Err(match problems.is_empty() {
+                    true => e.into(),
+                    false => Error::Scene(problems),
+                });
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let problems = crate::scene::limits::check_factor(
+            &mut size,
+            solver.factor_nonzeros() as u64,
+            solver.factor_flops(),
+            &scene.solver.limits,
+        );
+        if !problems.is_empty() {
+            return Err(Error::Scene(problems));
+        }
         let state = initial_state(&scene, &variables, &model)?;
         let mut engine = Engine {
             scene,

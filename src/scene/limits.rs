@@ -12,6 +12,12 @@
 //!              MemAvailable and the address-space limit)
 //! ```
 //!
+//! An engine (`Engine::try_new`) runs step 2 without its own symbolic analysis
+//! ([`with_factor_from_solver`]): the solver orders and analyses the tangent anyway, and the
+//! factor's entries it reports then give the estimate ([`check_factor`]) before the first
+//! numeric factorization touches the factor's pages. `velarium check` (and every other
+//! validation) keeps the node-level analysis above.
+//!
 //! The defaults fit a 24 GB machine: the Hencky disc at 334 rings (1.0 million unknowns,
 //! about 1 GB estimated) passes; a 3000-ring disc (81 million unknowns) is stopped by the
 //! counts, a mesh whose factor needs more than 16 GB by the memory estimate.
@@ -39,6 +45,33 @@ pub struct Size {
     pub memory_bytes: u64,
     /// The solver's threads (`solver.threads`; 0 is taken as 1).
     pub threads: u64,
+    /// Stored entries of the tangent (upper triangle: 9 per node-graph edge and 6 per node;
+    /// 0 before step 2 ran).
+    pub matrix_entries: u64,
+    /// Step 2 ran without the factor ([`with_factor_from_solver`]): `factor_entries`,
+    /// `factor_flops` are 0 and `memory_bytes` counts everything but the factor until
+    /// [`check_factor`] fills them in from the solver's own symbolic analysis.
+    pub factor_deferred: bool,
+}
+
+thread_local! {
+    /// Whether [`check_memory`] leaves the factor to the solver ([`with_factor_from_solver`]).
+    static FROM_SOLVER: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` (a validation) with step 2's symbolic analysis left to the solver: on this thread
+/// [`check_memory`] then counts the tangent's entries (no ordering, no symbolic analysis),
+/// checks them, and marks the size `factor_deferred`; the caller must call [`check_factor`]
+/// with the solver's factor before factoring (`Engine::try_new` does).
+pub fn with_factor_from_solver<T>(f: impl FnOnce() -> T) -> T {
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            FROM_SOLVER.with(|c| c.set(self.0));
+        }
+    }
+    let _restore = Restore(FROM_SOLVER.with(|c| c.replace(true)));
+    f()
 }
 
 /// Counts from the scene's numbers alone: no mesh is built. Saturating, so that absurd
@@ -71,6 +104,8 @@ pub fn count(scene: &Scene) -> Size {
         factor_flops: 0.0,
         memory_bytes: 0,
         threads: 1,
+        matrix_entries: 0,
+        factor_deferred: false,
     }
 }
 
@@ -134,6 +169,48 @@ fn edges(mesh: &Mesh, cables: &[Vec<usize>]) -> Result<Vec<(u32, u32)>, OutOfMem
     e.sort_unstable();
     e.dedup();
     Ok(e)
+}
+
+/// Node-graph edges of the mesh and cables (each pair once), counted without sorting them
+/// all: each edge is listed at its lower node (a counting sort), and each node's short list
+/// is deduplicated on its own. What [`edges`]`.len()` gives, in time linear in the triangles.
+fn edge_count(mesh: &Mesh, cables: &[Vec<usize>]) -> Result<u64, OutOfMemory> {
+    const WHAT: &str = "the size estimate's edge count";
+    let n = mesh.nodes.len();
+    let pairs = || {
+        let tris = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]);
+        let segs = cables
+            .iter()
+            .flat_map(|c| c.windows(2).map(|w| (w[0], w[1])));
+        tris.chain(segs)
+            .filter(|(a, b)| a != b)
+            .map(|(a, b)| (a.min(b), a.max(b)))
+    };
+    let mut start = memory::filled(n + 1, 0usize, WHAT)?;
+    for (a, _) in pairs() {
+        start[a + 1] += 1;
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut next = memory::copy(&start[..n], WHAT)?;
+    let mut upper = memory::zeros::<u32>(start[n], WHAT)?;
+    for (a, b) in pairs() {
+        upper[next[a]] = b as u32;
+        next[a] += 1;
+    }
+    let mut count = 0u64;
+    for i in 0..n {
+        let list = &mut upper[start[i]..start[i + 1]];
+        if !list.is_empty() {
+            list.sort_unstable();
+            count += 1 + list.windows(2).filter(|w| w[0] != w[1]).count() as u64;
+        }
+    }
+    Ok(count)
 }
 
 /// The symbolic analysis of the node graph (faer, AMD, supernodal as the solver's): the LDLT
@@ -316,32 +393,85 @@ pub fn check_memory(
     cables: &[Vec<usize>],
     limits: &Limits,
 ) -> Vec<Problem> {
+    if FROM_SOLVER.with(|c| c.get()) {
+        let edges = match edge_count(mesh, cables) {
+            Ok(e) => e,
+            Err(e) => return estimate_failed(e),
+        };
+        size.factor_entries = 0;
+        size.factor_flops = 0.0;
+        size.factor_deferred = true;
+        size.matrix_entries = 9u64.saturating_mul(edges) + 6 * size.nodes;
+        size.memory_bytes = memory_bytes(size, size.matrix_entries);
+        return matrix_problems(size.matrix_entries).into_iter().collect();
+    }
     let factor = match factor_entries(mesh, cables) {
         Ok(f) => f,
-        Err(e) => {
-            return vec![Problem {
-                path: "geometry".into(),
-                message: format!(
-                    "the size estimate itself could not get its memory ({e}); the scene is too large for this process"
-                ),
-            }]
-        }
+        Err(e) => return estimate_failed(e),
     };
     let entries = factor.entries;
     size.factor_entries = entries;
     size.factor_flops = factor.flops;
     let matrix_entries = 9u64.saturating_mul(factor.edges) + 6 * size.nodes;
+    size.matrix_entries = matrix_entries;
     size.memory_bytes = memory_bytes(size, matrix_entries);
+    let mut out: Vec<Problem> = matrix_problems(matrix_entries).into_iter().collect();
+    out.extend(memory_problems(size, limits, available_bytes));
+    out
+}
+
+/// The located problem of a size estimate that could not get its own memory.
+fn estimate_failed(e: OutOfMemory) -> Vec<Problem> {
+    vec![Problem {
+        path: "geometry".into(),
+        message: format!(
+            "the size estimate itself could not get its memory ({e}); the scene is too large for this process"
+        ),
+    }]
+}
+
+/// A tangent too large for the solver's 32-bit position maps.
+fn matrix_problems(matrix_entries: u64) -> Option<Problem> {
+    (matrix_entries > MAX_MATRIX_ENTRIES).then(|| Problem {
+        path: "geometry".into(),
+        message: format!(
+            "the tangent would have about {matrix_entries} stored entries, more than the {MAX_MATRIX_ENTRIES} the solver's 32-bit position maps address; coarsen the mesh"
+        ),
+    })
+}
+
+/// Step 2 deferred to the solver ([`with_factor_from_solver`]): the factor's entries and
+/// flops as the solver's symbolic analysis gives them (`Solver::factor_nonzeros`, with two
+/// threads both halves'), the memory estimate from them, checked against `max_memory_gb` and
+/// (unless `check_available_memory` is off) against the memory still available: by then the
+/// model, the pattern and the maps are resident, so only what is not yet touched (the factor's
+/// values and the split's buffers) is compared with MemAvailable. Nothing to do on a size
+/// whose step 2 was not deferred.
+pub fn check_factor(size: &mut Size, entries: u64, flops: f64, limits: &Limits) -> Vec<Problem> {
+    if !size.factor_deferred {
+        return Vec::new();
+    }
+    size.factor_deferred = false;
+    size.factor_entries = entries;
+    size.factor_flops = flops;
+    let without = size.memory_bytes;
+    size.memory_bytes = memory_bytes(size, size.matrix_entries);
+    let untouched = size.memory_bytes.saturating_sub(without);
+    memory_problems(size, limits, || {
+        available_physical().map(|a| a.saturating_add(size.memory_bytes - untouched))
+    })
+}
+
+/// The estimate against `max_memory_gb` and, unless `check_available_memory` is off, against
+/// `available()`.
+fn memory_problems(
+    size: &Size,
+    limits: &Limits,
+    available: impl FnOnce() -> Option<u64>,
+) -> Vec<Problem> {
+    let entries = size.factor_entries;
     let gb = size.memory_bytes as f64 / 1e9;
     let mut out = Vec::new();
-    if matrix_entries > MAX_MATRIX_ENTRIES {
-        out.push(Problem {
-            path: "geometry".into(),
-            message: format!(
-                "the tangent would have about {matrix_entries} stored entries, more than the {MAX_MATRIX_ENTRIES} the solver's 32-bit position maps address; coarsen the mesh"
-            ),
-        });
-    }
     if gb > limits.max_memory_gb {
         out.push(Problem {
             path: "geometry".into(),
@@ -350,7 +480,7 @@ pub fn check_memory(
                 size.unknowns, limits.max_memory_gb
             ),
         });
-    } else if let Some(avail) = available_bytes().filter(|_| limits.check_available_memory) {
+    } else if let Some(avail) = limits.check_available_memory.then(available).flatten() {
         if size.memory_bytes > avail {
             out.push(Problem {
                 path: "geometry".into(),
@@ -364,16 +494,21 @@ pub fn check_memory(
     out
 }
 
-/// Bytes this process can still allocate: the smaller of MemAvailable (Linux) and the
-/// address-space limit minus what is mapped. None when neither is known.
-pub fn available_bytes() -> Option<u64> {
-    let meminfo = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+/// MemAvailable (Linux), None where it is not known.
+fn available_physical() -> Option<u64> {
+    std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
         t.lines()
             .find(|l| l.starts_with("MemAvailable:"))
             .and_then(|l| l.split_whitespace().nth(1))
             .and_then(|kb| kb.parse::<u64>().ok())
             .map(|kb| kb * 1024)
-    });
+    })
+}
+
+/// Bytes this process can still allocate: the smaller of MemAvailable (Linux) and the
+/// address-space limit minus what is mapped. None when neither is known.
+pub fn available_bytes() -> Option<u64> {
+    let meminfo = available_physical();
     let rlimit = address_space_left();
     match (meminfo, rlimit) {
         (Some(a), Some(b)) => Some(a.min(b)),
@@ -509,6 +644,92 @@ mod tests {
                 estimate >= actual && estimate <= 3 * actual,
                 "{estimate} vs {actual}"
             );
+        }
+    }
+
+    #[test]
+    fn the_edge_count_is_the_sorted_edge_lists_length() {
+        let disc = Generator::Disc {
+            name: "d".into(),
+            center: [0.0; 3],
+            radius: 1.0,
+            rings: 12,
+        };
+        let rect = Generator::Rectangle {
+            name: "r".into(),
+            origin: [0.0; 3],
+            size: [1.0, 1.0],
+            divisions: [7, 3],
+            pattern: DiagonalPattern::Crossed,
+        };
+        for g in [disc, rect] {
+            let mesh = resolve(&Geometry {
+                generators: vec![g],
+                ..Default::default()
+            });
+            // A cable along mesh edges (no new pairs), one across (new ones), a repeated node.
+            let n = mesh.nodes.len();
+            let cables = [mesh.triangles[0].to_vec(), vec![0, n - 1, n - 1, n / 2]];
+            for c in [&cables[..0], &cables[..]] {
+                let sorted = edges(&mesh, c).unwrap().len() as u64;
+                assert_eq!(edge_count(&mesh, c).unwrap(), sorted);
+                assert!(sorted > 0);
+            }
+        }
+    }
+
+    /// An engine takes the factor's size from its solver: its validation runs no symbolic
+    /// analysis, and the limit is still applied, with the same located message.
+    #[test]
+    fn an_engine_checks_the_memory_limit_with_the_solvers_factor() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/modelDescription/HenckyDisc/scene.json"
+        );
+        let mut scene: crate::scene::Scene =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] else {
+            panic!("the shipped Hencky disc is generated")
+        };
+        *rings = 40;
+        let (problems, full) = crate::scene::validate::validate_sized(&scene);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert!(full.factor_entries > 0 && !full.factor_deferred);
+        let (problems, deferred) =
+            with_factor_from_solver(|| crate::scene::validate::validate_sized(&scene));
+        assert!(problems.is_empty(), "{problems:?}");
+        assert!(deferred.factor_deferred && deferred.factor_entries == 0);
+        assert_eq!(deferred.matrix_entries, full.matrix_entries);
+        assert!(deferred.memory_bytes < full.memory_bytes);
+        // The flag is this call's only.
+        let (_, again) = crate::scene::validate::validate_sized(&scene);
+        assert_eq!(again, full);
+
+        let engine = crate::Engine::try_new(scene.clone()).unwrap();
+        let factor_bytes = 16 * engine.factor_nonzeros() as u64;
+        assert!(factor_bytes > 0);
+        // The solver's DOF-level factor is below the node-level upper bound (at most 3x:
+        // node_graph_estimate_bounds_the_dof_factor) and is in the engine's estimate.
+        assert!(
+            engine.memory_estimate() >= deferred.memory_bytes + factor_bytes
+                && engine.memory_estimate() <= full.memory_bytes,
+            "{} vs {} + {factor_bytes} and {}",
+            engine.memory_estimate(),
+            deferred.memory_bytes,
+            full.memory_bytes
+        );
+        scene.solver.limits.max_memory_gb = 0.001;
+        match crate::Engine::try_new(scene) {
+            Err(crate::Error::Scene(p)) => {
+                assert_eq!(p.len(), 1, "{p:?}");
+                assert!(
+                    p[0].to_string().contains("max_memory_gb = 0.001"),
+                    "{}",
+                    p[0]
+                );
+            }
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("a 40-ring disc passed a 1 MB limit"),
         }
     }
 }

@@ -1163,6 +1163,10 @@ pub fn assemble_with(
     mut k: Option<&mut [f64]>,
     mut extra: Membranes,
 ) -> AssemblyInfo {
+    let _phase = crate::phases::start(match k {
+        Some(_) => "solve: assembly (R and K)",
+        None => "solve: assembly (R only)",
+    });
     let mut own = AssemblyScratch::default();
     let scratch = extra.scratch.take().unwrap_or(&mut own);
     // Two threads when the scratch has a helper's half for this very pattern (the solver's,

@@ -270,6 +270,7 @@ impl Ldlt {
         if self.matrix.ncols() == 0 {
             return Ok(());
         }
+        let _phase = crate::phases::start("solve: numeric factorization (Ldlt::factor)");
         let max_diag = self.max_diagonal();
         if !(max_diag.is_finite() && max_diag > 0.0) {
             return Err(Breakdown::Diagonal(max_diag).into());
@@ -364,6 +365,7 @@ impl Ldlt {
         if n == 0 {
             return Ok(());
         }
+        let _phase = crate::phases::start("solve: substitution (Ldlt::solve)");
         let scaled = self.scale.len() == n;
         if scaled {
             rhs.iter_mut().zip(&self.scale).for_each(|(x, s)| *x *= s);
@@ -475,6 +477,7 @@ impl Ldlt {
         if !self.factored || n == 0 || n != self.matrix.ncols() || x.len() != n {
             return None;
         }
+        let _phase = crate::phases::start("solve: inexact Newton (Ldlt::pcg)");
         work.clear();
         // Allocated once, fallibly: short of memory the caller factors instead.
         if work.try_reserve_exact(4 * n).is_err() {
@@ -528,6 +531,7 @@ impl Ldlt {
 
     /// y = K x with the current values (upper triangle stored, symmetric).
     fn multiply(&self, x: &[f64], y: &mut [f64]) {
+        let _phase = crate::phases::start("solve: K p (pcg)");
         let sym = self.matrix.symbolic();
         let (cp, ri) = (sym.col_ptr(), sym.row_idx());
         let v = self.matrix.val();

@@ -155,6 +155,7 @@ impl Half {
     }
 
     fn factor(&mut self) -> Result<(), Error> {
+        let phase = crate::phases::start("solve: a half's numeric LDLT");
         super::factor::numeric_ldlt(
             &self.symbolic,
             &mut self.l_values,
@@ -163,6 +164,8 @@ impl Half {
             &mut self.mem,
             "a half of the tangent",
         )?;
+        drop(phase);
+        let _phase = crate::phases::start("solve: a half's S block (L_SS D_S L_SS^T)");
         // L_SS and D_S of the separator block, then S_h = L_SS D_S L_SS^T.
         let (nd, ns) = (self.nd, self.eq.len() - self.nd);
         let mut lss = std::mem::replace(&mut self.lss, Mat::new());
@@ -633,8 +636,12 @@ impl Split {
             a.run();
             std::mem::replace(&mut a.status, Ok(()))
         };
-        self.pool.wait(0)?;
+        {
+            let _phase = crate::phases::start("solve: factor, wait for the helper's half");
+            self.pool.wait(0)?;
+        }
         mine?;
+        let _phase = crate::phases::start("solve: factor, the separator's Schur LDLT");
         let a = lock(&self.a);
         let b = lock(&self.b);
         b.status.clone()?;
@@ -667,6 +674,7 @@ impl Split {
 
     /// Solve K x = rhs in place with the last factorization.
     pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
+        let _phase = crate::phases::start("solve: split forward/back substitution");
         let ns = self.s_eq.len();
         {
             let mut b = lock(&self.b);
