@@ -811,6 +811,7 @@ fn settings(scene: &Scene) -> Settings {
         min_increment: s.min_increment,
         target_iterations: s.target_iterations,
         continuation_strain: s.prestress_continuation,
+        proximal_start: s.proximal_continuation,
         line_search: s.line_search,
         arc_length_path: s.path == crate::scene::PathMethod::ArcLength,
         arc_length: s.arc_length.unwrap_or(0.0),

@@ -191,7 +191,23 @@ pub const FAMILIES: &[(&str, &str)] = &[
     ("cable", "pretensioned cable under a midspan point load or pulled along its axis, 1 N-1e9 N (closed forms), engineering and Green-Lagrange strain"),
 ];
 
-fn scene_of(v: Value) -> Scene {
+fn scene_of(mut v: Value) -> Scene {
+    // Experiments: CORPUS_MAX_ITERATIONS=N and CORPUS_MAX_STEP_ITERATIONS=N set every
+    // member's solver.max_iterations and solver.max_step_iterations.
+    for (var, key) in [
+        ("CORPUS_MAX_ITERATIONS", "max_iterations"),
+        ("CORPUS_MAX_STEP_ITERATIONS", "max_step_iterations"),
+    ] {
+        let Some(n) = std::env::var(var).ok().and_then(|s| s.parse::<u64>().ok()) else {
+            continue;
+        };
+        if let Some(o) = v.as_object_mut() {
+            let solver = o.entry("solver").or_insert_with(|| serde_json::json!({}));
+            if let Some(s) = solver.as_object_mut() {
+                s.insert(key.into(), n.into());
+            }
+        }
+    }
     Scene::from_json(&v.to_string()).unwrap_or_else(|p| panic!("corpus scene: {p}"))
 }
 

@@ -1367,6 +1367,15 @@ pub struct SolverSettings {
     /// the problem).
     #[serde(skip_serializing_if = "is_default_continuation")]
     pub prestress_continuation: f64,
+    /// First spring of the proximal continuation, relative to the stiffness every DOF would
+    /// have with every element taut and unstressed: an increment Newton could not solve is
+    /// solved again from its start through problems that tie each point to the last one by a
+    /// spring of that stiffness, a pseudo-time step of an overdamped motion, the spring
+    /// weakened after each, then the scene's own problem from the last point (docs/solver.md).
+    /// It changes the path, not the equilibrium. Not with sleeve points or in a time step.
+    /// 0 switches it off; range [0, 1].
+    #[serde(skip_serializing_if = "is_default_proximal")]
+    pub proximal_continuation: f64,
     /// Energy (slope) line search on every Newton correction.
     pub line_search: bool,
     /// How a step follows its path: `load_control` (load increments, the default) or
@@ -1423,6 +1432,10 @@ fn is_default_continuation(h: &f64) -> bool {
     *h == SolverSettings::default().prestress_continuation
 }
 
+fn is_default_proximal(t: &f64) -> bool {
+    *t == SolverSettings::default().proximal_continuation
+}
+
 impl Default for SolverSettings {
     fn default() -> Self {
         SolverSettings {
@@ -1434,6 +1447,7 @@ impl Default for SolverSettings {
             target_iterations: 6,
             artificial_prestress: None,
             prestress_continuation: 1e-3,
+            proximal_continuation: 1e-3,
             line_search: true,
             path: PathMethod::LoadControl,
             arc_length: None,

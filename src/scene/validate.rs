@@ -2108,6 +2108,13 @@ impl Validator {
                 format!("{h} must be a strain from 0 (off) to {MAX_PRESTRESS_CONTINUATION}"),
             );
         }
+        let t = st.proximal_continuation;
+        if !(t.is_finite() && (0.0..=1.0).contains(&t)) {
+            self.push(
+                "solver.proximal_continuation",
+                format!("{t} must be a relative stiffness from 0 (off) to 1"),
+            );
+        }
         if let Some(p) = st.artificial_prestress {
             if !(p.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&p)) {
                 self.push(

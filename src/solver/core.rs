@@ -64,6 +64,9 @@ pub struct Solver {
     pub(super) adjacency: relax::Adjacency,
     /// Factor on the artificial prestress in the tangent of the current Newton iteration.
     pub(super) prestress_factor: f64,
+    /// Inside a problem of the proximal continuation with a spring (proximal.rs): no
+    /// artificial prestress, and solved at a relative residual of `proximal::ACCEPT`.
+    pub(super) proximal: bool,
     /// The prestress continuation's isotropic pre-strain of every membrane triangle while one
     /// of its intermediate problems is solved (`path.rs`); 0 otherwise.
     pub(super) pre_strain: f64,
@@ -224,6 +227,7 @@ impl Solver {
             frozen: None,
             adjacency,
             prestress_factor: 1.0,
+            proximal: false,
             pre_strain: 0.0,
             probe_states: None,
             work: work::Work {

@@ -58,6 +58,7 @@ pub mod modes;
 mod newton;
 mod order;
 mod path;
+mod proximal;
 pub mod relax;
 mod relaxation;
 pub mod renumber;

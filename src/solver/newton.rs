@@ -172,7 +172,7 @@ impl Solver {
         let max = self.settings.max_iterations;
         let hard_max = max.max(self.settings.max_iterations_progressing);
         self.frozen = None;
-        self.prestress_factor = 1.0;
+        self.prestress_factor = if self.proximal { 0.0 } else { 1.0 };
         // Allocated once per increment, reused by every iteration (`work.rs`).
         let mut state = Iteration {
             committed: u[n3..].to_vec(),
@@ -356,10 +356,14 @@ impl Solver {
         let tolerance = self.settings.tolerance * check.scale;
         // Also for the iterations that restart at this point (a re-check, a parting).
         st.last_relative = check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE);
-        self.prestress_factor = prestress_factor(
-            check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE),
-            self.settings.prestress_fade,
-        );
+        self.prestress_factor = if self.proximal {
+            0.0
+        } else {
+            prestress_factor(
+                check.free.max(check.slip) / check.scale.max(f64::MIN_POSITIVE),
+                self.settings.prestress_fade,
+            )
+        };
         // Not in a time sub-step: relaxation moves nodes to their static equilibrium, which
         // the inertia force does not hold (dynamic.rs).
         if self.inertia.is_none()
@@ -405,6 +409,14 @@ impl Solver {
     ) -> Result<Verdict, Failure> {
         let check = &eqs.check;
         let tolerance = self.settings.tolerance * check.scale;
+        // An inexact proximal problem (proximal.rs): solved once its residual is small against
+        // its own scale; the scene's own problem at the end gets the full test.
+        if self.proximal
+            && eqs.arc_met
+            && check.free.max(check.slip) <= super::proximal::ACCEPT * check.scale
+        {
+            return Ok(Verdict::Done(it));
+        }
         // Within the round-off floor but not the tolerance: converged only when the Newton
         // correction from here is within the tolerance of the coordinates, tol · X at every
         // unknown (a floor reached at every DOF could still leave a net force on a soft part

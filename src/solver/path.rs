@@ -72,6 +72,8 @@ pub struct LoadPath {
     /// The prestress continuation runs at most once per step: where it failed, a smaller
     /// increment from a start as unstressed meets the same difficulty.
     continued: bool,
+    /// The proximal continuation (proximal.rs) likewise runs at most once per step.
+    proximal_tried: bool,
     /// Why the continuation failed, for the step's message if the step fails.
     continuation_failed: Option<String>,
 }
@@ -98,6 +100,7 @@ impl LoadPath {
             converged: u.to_vec(),
             history,
             continued: false,
+            proximal_tried: false,
             continuation_failed: None,
         }
     }
@@ -162,7 +165,6 @@ impl LoadPath {
         target: f64,
         report: &mut StepReport,
     ) -> (Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>) {
-        let lambda = self.lambda;
         let mut trial = self.converged.clone();
         let predicted = solver.predict(model, loads, &mut trial);
         let mut trial_states = self.history.contact.clone();
@@ -171,7 +173,7 @@ impl LoadPath {
             change: self.change,
             moved: self.moved,
         };
-        let result = solver
+        let mut result = solver
             .newton(
                 model,
                 &increment,
@@ -182,47 +184,139 @@ impl LoadPath {
             )
             .map(|i| i + predicted)
             .map_err(|(i, why)| (i + predicted, why));
-        let result = match result {
-            Err((iters, why))
-                if !self.continued
-                    && (solver.unstressed(model, &self.converged, loads)
-                        || solver.unstressed(model, &trial, loads)) =>
-            {
-                self.continued = true;
-                report.iterations += iters;
-                let whence = if solver.unstressed(model, &self.converged, loads) {
-                    "from an unstressed membrane"
-                } else {
-                    "towards an unstressed membrane"
-                };
-                push_log(
-                    &mut report.log,
-                    format!("increment λ {lambda:.6} -> {target:.6}: {why}; {whence}: prestress continuation from pre-strain {:.1e}", solver.settings.continuation_strain),
-                );
-                trial = self.converged.clone();
-                let predicted = solver.predict(model, loads, &mut trial);
-                trial_states = self.history.contact.clone();
-                let failed = &mut self.continuation_failed;
-                solver
-                    .continuation(
+        if result.is_err() {
+            // The prestress continuation where it applies (from or towards an unstressed
+            // membrane), then the proximal one (proximal.rs; measured orders:
+            // docs/robustness.md).
+            let last_unstressed = solver.unstressed(model, &trial, loads);
+            for stage in [0, 1] {
+                let Err((iters, why)) = result else { break };
+                let again = if stage == 0 {
+                    self.prestress_stage(
+                        solver,
                         model,
                         &increment,
-                        &mut trial,
-                        &mut trial_states,
-                        &mut report.log,
+                        (target, last_unstressed),
+                        report,
+                        iters,
+                        why,
                     )
-                    .map(|i| i + predicted)
-                    .map_err(|(i, later)| {
-                        *failed = Some(format!("from load fraction {lambda:.6} it failed {later}"));
-                        (
-                            i + predicted,
-                            format!("{why}; the prestress continuation failed too, {later}"),
-                        )
-                    })
+                } else {
+                    self.proximal_stage(solver, model, &increment, target, report, iters, why)
+                };
+                result = match again {
+                    Ok((outcome, t, states)) => {
+                        trial = t;
+                        trial_states = states;
+                        outcome
+                    }
+                    Err(unchanged) => Err(unchanged),
+                };
             }
-            other => other,
-        };
+        }
         (result, trial, trial_states)
+    }
+
+    /// The prestress continuation of a failed increment where it applies (once per step, from
+    /// or towards an unstressed membrane): Ok(its outcome, point, states), or Err(the failure
+    /// unchanged) where it does not apply.
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn prestress_stage(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        increment: &Increment,
+        (target, last_unstressed): (f64, bool),
+        report: &mut StepReport,
+        iters: usize,
+        why: String,
+    ) -> Result<(Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>), (usize, String)> {
+        let lambda = self.lambda;
+        let loads = increment.loads;
+        let mut trial = self.converged.clone();
+        let from = solver.unstressed(model, &self.converged, loads);
+        if self.continued || !(from || last_unstressed) {
+            return Err((iters, why));
+        }
+        self.continued = true;
+        report.iterations += iters;
+        let whence = if from {
+            "from an unstressed membrane"
+        } else {
+            "towards an unstressed membrane"
+        };
+        push_log(
+            &mut report.log,
+            format!("increment λ {lambda:.6} -> {target:.6}: {why}; {whence}: prestress continuation from pre-strain {:.1e}", solver.settings.continuation_strain),
+        );
+        let predicted = solver.predict(model, loads, &mut trial);
+        let mut trial_states = self.history.contact.clone();
+        let failed = &mut self.continuation_failed;
+        let outcome = solver
+            .continuation(
+                model,
+                increment,
+                &mut trial,
+                &mut trial_states,
+                &mut report.log,
+            )
+            .map(|i| i + predicted)
+            .map_err(|(i, later)| {
+                *failed = Some(format!("from load fraction {lambda:.6} it failed {later}"));
+                (
+                    i + predicted,
+                    format!("{why}; the prestress continuation failed too, {later}"),
+                )
+            });
+        Ok((outcome, trial, trial_states))
+    }
+
+    /// The proximal continuation (proximal.rs) of a failed increment where it applies (once
+    /// per step): as [`LoadPath::prestress_stage`].
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn proximal_stage(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        increment: &Increment,
+        target: f64,
+        report: &mut StepReport,
+        iters: usize,
+        why: String,
+    ) -> Result<(Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>), (usize, String)> {
+        if self.proximal_tried || !solver.proximal_applies(model) || solver.work_spent() {
+            return Err((iters, why));
+        }
+        let lambda = self.lambda;
+        let loads = increment.loads;
+        self.proximal_tried = true;
+        report.iterations += iters;
+        push_log(
+            &mut report.log,
+            format!(
+                "increment λ {lambda:.6} -> {target:.6}: {why}; proximal continuation from τ {:.1e}",
+                solver.settings.proximal_start
+            ),
+        );
+        let mut trial = self.converged.clone();
+        let predicted = solver.predict(model, loads, &mut trial);
+        let mut trial_states = self.history.contact.clone();
+        let outcome = solver
+            .proximal(
+                model,
+                increment,
+                &mut trial,
+                &mut trial_states,
+                &mut report.log,
+            )
+            .map(|i| i + predicted)
+            .map_err(|(i, later)| {
+                (
+                    i + predicted,
+                    format!("{why}; the proximal continuation failed too, {later}"),
+                )
+            });
+        Ok((outcome, trial, trial_states))
     }
 
     /// A converged increment: its point becomes the last converged one (the history advanced

@@ -89,6 +89,12 @@ pub struct Settings {
     /// Default 1e-3 (a tension of about 1.4e-3 E for SVK: of the order of the stress of a
     /// pressurised sheet at qa/Eh = 1e-3).
     pub continuation_strain: f64,
+    /// First spring τ0 (relative to the taut, unstressed diagonal stiffness D) of the proximal
+    /// continuation (`proximal.rs`): an increment Newton could not solve is solved again
+    /// through problems R(u) + τ D (u − u_k) = 0 with τ falling from τ0, each from the last
+    /// one's solution, then the scene's own problem. Not with sleeve points or in a time
+    /// sub-step. 0 switches it off. Default 1e-3 (the damping's start).
+    pub proximal_start: f64,
     /// Nodal relaxation takes the nodes whose residual is at least this share of the largest.
     /// Default 0.1.
     pub relax_share: f64,
@@ -199,6 +205,7 @@ impl Default for Settings {
             armijo: 1e-4,
             prestress_fade: 1e-2,
             continuation_strain: 1e-3,
+            proximal_start: 1e-3,
             relax_share: 0.1,
             relax_max_share: 0.1,
             relax_rounds: 20,

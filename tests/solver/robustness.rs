@@ -112,3 +112,22 @@ fn a_hundred_and_two_hundred_rings_converge_right() {
         );
     }
 }
+
+/// The 16x16 quarter cushion reported from outside (issue 27: "converges on an 8x8 mesh and
+/// fails at 16x16 and finer"), inflated from flat and unloaded at default settings. Through
+/// the proximal continuation (src/solver/proximal.rs) it converges. REQUIRED: both rows come
+/// back right by the slice's independent checks (header).
+#[test]
+fn the_reported_16x16_quarter_cushion_converges_right() {
+    let runs = run(|m| m.family == "cushion-quarter" && m.label.starts_with("square n=16 a=1.52"));
+    assert_eq!(runs.len(), 2, "loaded and unloaded");
+    for r in &runs {
+        assert!(
+            matches!(r.verdict, Verdict::Right),
+            "{} {}: {}",
+            r.row,
+            r.member,
+            corpus::short(&r.verdict)
+        );
+    }
+}
