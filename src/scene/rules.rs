@@ -238,6 +238,8 @@ pub const RULES: &[FieldRule] = &[
     at("dynamics.rayleigh_alpha", NON_NEGATIVE),
     at("dynamics.rayleigh_beta", NON_NEGATIVE),
     at("dynamics.point_masses[].mass", POSITIVE),
+    at("dynamics.air[].added_mass", NON_NEGATIVE),
+    at("dynamics.air[].damping", NON_NEGATIVE),
     at("dynamics.time_integration.rho_inf", closed(0.0, 1.0)),
     at("dynamics.time_integration.max_time_step", POSITIVE),
     at("outputs[].probe{natural_frequency}.mode", count(1, 1000)),

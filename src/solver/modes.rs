@@ -37,6 +37,8 @@ use super::assemble::NONE;
 use super::core::Solver;
 use super::mass::Mass;
 use crate::error::Error;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, MatMut, MatRef, Par};
 use crate::memory;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
@@ -48,6 +50,16 @@ const SHIFT: f64 = 1e-8;
 const TOLERANCE: f64 = 1e-6;
 /// Vectors per Lanczos block (the largest multiplicity seen: module docs).
 const BLOCK: usize = 4;
+/// The most columns one pass of the blocked M product handles.
+const BLOCK_MAX: usize = 16;
+
+fn tolerance() -> f64 {
+    std::env::var("VELARIUM_MODES_TOL").ok().and_then(|s| s.parse().ok()).unwrap_or(TOLERANCE)
+}
+
+fn block_size() -> usize {
+    std::env::var("VELARIUM_MODES_BLOCK").ok().and_then(|s| s.parse().ok()).unwrap_or(BLOCK)
+}
 /// A run stops at this many vectors beyond twice the wanted count.
 const EXTRA: usize = 40;
 
@@ -64,9 +76,30 @@ pub struct Modes {
     pub shift: f64,
     /// Solves with the factored K − σM (right-hand sides, BLOCK per pass over the factor).
     pub solves: usize,
-    /// Seconds of the assembly and factorization of K − σM, of the solves, and of the rest of
-    /// the Lanczos iteration (orthogonalisation, M products, Ritz pairs).
-    pub seconds: [f64; 3],
+    /// Where the time went ([`Seconds`]).
+    pub seconds: Seconds,
+}
+
+/// Wall seconds of the parts of one modal analysis.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Seconds {
+    /// Assembly of the true tangent, the shift and the numeric factorization of K − σM.
+    pub factorization: f64,
+    /// Solves with the factor (every pass of BLOCK right-hand sides).
+    pub solves: f64,
+    /// M products (one pass over M per block).
+    pub mass_products: f64,
+    /// M-orthogonalisation of each new block against the earlier vectors and within itself.
+    pub orthogonalisation: f64,
+    /// The projected eigenproblems, the convergence tests and the Ritz vectors (shapes).
+    pub ritz: f64,
+}
+
+impl Seconds {
+    /// The total.
+    pub fn total(&self) -> f64 {
+        self.factorization + self.solves + self.mass_products + self.orthogonalisation + self.ritz
+    }
 }
 
 /// The operator of the Lanczos iteration: the factored K − σM and M.
@@ -74,27 +107,66 @@ struct Operator<'a> {
     solver: &'a mut Solver,
     mass: &'a Mass,
     solves: usize,
-    solve_seconds: f64,
+    seconds: Seconds,
 }
 
 impl Operator<'_> {
-    fn mass(&self, x: &[f64], y: &mut [f64]) {
-        self.solver.mass_product(self.mass, x, y);
+    /// Y = M X for the `columns` columns of X (column-major, n rows), in one pass over M.
+    fn mass(&mut self, x: &[f64], y: &mut [f64], columns: usize) {
+        let t = std::time::Instant::now();
+        let a = self.solver.linear.matrix();
+        let s = a.symbolic();
+        symmetric_product_columns(s.col_ptr(), s.row_idx(), self.mass.values(), x, y, columns);
+        self.seconds.mass_products += t.elapsed().as_secs_f64();
     }
 
-    /// Y = (K − σM)⁻¹ Mx for the columns `mx` (M x already formed), in one pass.
-    fn solve_block(&mut self, mx: &[&[f64]]) -> Result<Vec<Vec<f64>>, Error> {
-        let n = mx.first().map_or(0, |c| c.len());
-        let mut buffer = memory::zeros(n * mx.len(), "the Lanczos vectors")?;
-        for (chunk, c) in buffer.chunks_mut(n.max(1)).zip(mx) {
-            chunk.copy_from_slice(c);
-        }
-        self.solves += mx.len();
+    /// X ← (K − σM)⁻¹ X for the `columns` columns of X (M x already formed), in one pass.
+    fn solve(&mut self, x: &mut [f64], columns: usize) -> Result<(), Error> {
+        self.solves += columns;
         let t = std::time::Instant::now();
-        let result = self.solver.linear.solve_columns(&mut buffer, mx.len());
-        self.solve_seconds += t.elapsed().as_secs_f64();
-        result?;
-        Ok(buffer.chunks(n.max(1)).map(<[f64]>::to_vec).collect())
+        let result = self.solver.linear.solve_columns(x, columns);
+        self.seconds.solves += t.elapsed().as_secs_f64();
+        result
+    }
+}
+
+/// Y = A X for a symmetric A stored as its upper triangle in CSC and the `columns` columns of
+/// X and Y (column-major, `col_ptr.len() − 1` rows): one pass over A for all of them.
+fn symmetric_product_columns(
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    values: &[f64],
+    x: &[f64],
+    y: &mut [f64],
+    columns: usize,
+) {
+    let n = col_ptr.len() - 1;
+    y[..n * columns].fill(0.0);
+    let mut sum = [0.0; BLOCK_MAX];
+    for c0 in (0..columns).step_by(BLOCK_MAX) {
+        let width = BLOCK_MAX.min(columns - c0);
+        for j in 0..n {
+            let sum = &mut sum[..width];
+            sum.fill(0.0);
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[p];
+                let a = values[p];
+                if i == j {
+                    for (c, s) in sum.iter_mut().enumerate() {
+                        *s += a * x[(c0 + c) * n + j];
+                    }
+                } else {
+                    for (c, s) in sum.iter_mut().enumerate() {
+                        let col = (c0 + c) * n;
+                        y[col + i] += a * x[col + j];
+                        *s += a * x[col + i];
+                    }
+                }
+            }
+            for (c, s) in sum.iter().enumerate() {
+                y[(c0 + c) * n + j] += s;
+            }
+        }
     }
 }
 
@@ -115,63 +187,178 @@ fn start_vector(n: usize, seed: u64) -> Vec<f64> {
         .collect()
 }
 
+/// The Lanczos basis: Q and M Q as column-major n × k matrices (one allocation each, grown
+/// by blocks), so that the orthogonalisation and the Ritz vectors are matrix products that
+/// read Q once per block rather than once per vector.
+struct Basis {
+    n: usize,
+    q: Vec<f64>,
+    mq: Vec<f64>,
+}
+
+impl Basis {
+    fn len(&self) -> usize {
+        self.q.len() / self.n.max(1)
+    }
+
+    fn q(&self, k: usize) -> &[f64] {
+        &self.q[k * self.n..(k + 1) * self.n]
+    }
+
+    fn mq(&self, k: usize) -> &[f64] {
+        &self.mq[k * self.n..(k + 1) * self.n]
+    }
+
+    fn q_mat(&self) -> MatRef<'_, f64> {
+        MatRef::from_column_major_slice(&self.q, self.n, self.len())
+    }
+
+    fn mq_mat(&self) -> MatRef<'_, f64> {
+        MatRef::from_column_major_slice(&self.mq, self.n, self.len())
+    }
+
+    fn push(&mut self, w: &[f64], mw: &[f64], size: f64) -> Result<(), Error> {
+        for v in [&mut self.q, &mut self.mq] {
+            v.try_reserve(self.n).map_err(|_| memory::OutOfMemory {
+                what: "the Lanczos vectors",
+                bytes: 8 * self.n as u64,
+            })?;
+        }
+        self.q.extend(w.iter().map(|x| x / size));
+        self.mq.extend(mw.iter().map(|x| x / size));
+        Ok(())
+    }
+}
+
+/// Orthonormalise the `columns` columns of W (M W in `mw`) in the M inner product: twice
+/// against every vector of `basis` as a block (classical Gram-Schmidt with one
+/// reorthogonalisation, Q and M Q read once per pass), then M W afresh, then one column after
+/// the other against the block's earlier accepted columns (twice). Accepted columns (M norm
+/// above 1e-10 `scale`) join `basis`. Returns per column its coefficients on the basis (the
+/// column of H: the earlier vectors', the block's accepted ones', then its own M norm if
+/// accepted).
+fn orthonormalise_block(
+    op: &mut Operator,
+    basis: &mut Basis,
+    w: &mut [f64],
+    mw: &mut [f64],
+    columns: usize,
+    scale: &mut f64,
+    diagonal_of: Option<usize>,
+) -> Result<Vec<Vec<f64>>, Error> {
+    let n = basis.n;
+    let old = basis.len();
+    let t = std::time::Instant::now();
+    let mut total = vec![0.0; old * columns];
+    if old > 0 {
+        let mut c = vec![0.0; old * columns];
+        for _ in 0..2 {
+            let mut cm = MatMut::from_column_major_slice_mut(&mut c, old, columns);
+            let wm = MatRef::from_column_major_slice(w, n, columns);
+            matmul(&mut cm, Accum::Replace, basis.mq_mat().transpose(), wm, 1.0, Par::Seq);
+            let wm = MatMut::from_column_major_slice_mut(w, n, columns);
+            matmul(wm, Accum::Add, basis.q_mat(), cm.as_ref(), -1.0, Par::Seq);
+            for (t, c) in total.iter_mut().zip(&c) {
+                *t += c;
+            }
+        }
+    }
+    op.seconds.orthogonalisation += t.elapsed().as_secs_f64();
+    op.mass(w, mw, columns);
+    let t = std::time::Instant::now();
+    let mut out = Vec::with_capacity(columns);
+    let mut accepted = 0;
+    for c in 0..columns {
+        let mut column = total[c * old..(c + 1) * old].to_vec();
+        let mut within = vec![0.0; accepted];
+        let (wc, mwc) = (&mut w[c * n..(c + 1) * n], &mut mw[c * n..(c + 1) * n]);
+        for _ in 0..2 {
+            for (slot, coefficient_sum) in within.iter_mut().enumerate() {
+                let (qk, mqk) = (basis.q(old + slot), basis.mq(old + slot));
+                let coefficient = dot(mqk, wc);
+                *coefficient_sum += coefficient;
+                for (x, y) in wc.iter_mut().zip(qk) {
+                    *x -= coefficient * y;
+                }
+                for (x, y) in mwc.iter_mut().zip(mqk) {
+                    *x -= coefficient * y;
+                }
+            }
+        }
+        column.extend_from_slice(&within);
+        if let Some(start) = diagonal_of {
+            *scale = scale.max(column.get(start + c).copied().unwrap_or(0.0).abs());
+        }
+        let size = dot(wc, mwc).max(0.0).sqrt();
+        if size > 1e-10 * *scale && size.is_finite() && basis.len() < n {
+            if diagonal_of.is_none() {
+                *scale = scale.max(size);
+            }
+            column.push(size);
+            basis.push(wc, mwc, size)?;
+            accepted += 1;
+        }
+        out.push(column);
+    }
+    op.seconds.orthogonalisation += t.elapsed().as_secs_f64();
+    Ok(out)
+}
+
 /// Block Lanczos on `op` (module docs): the converged Ritz pairs (θ descending, M-normalised
 /// vectors over the equations), at most `want` of them.
 fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, Vec<f64>)>, Error> {
-    let max_dim = (2 * want + EXTRA).min(n).max(1);
-    let block = BLOCK.min(n);
+    let extra = std::env::var("VELARIUM_MODES_EXTRA").ok().and_then(|s| s.parse().ok()).unwrap_or(EXTRA);
+    let max_dim = (2 * want + extra).min(n).max(1);
+    let block = block_size().min(n);
     let what = "the Lanczos vectors";
-    let mut mw = memory::zeros(n, what)?;
-    // The Lanczos vectors, their M products and H's columns (h[k][i] = (M qᵢ)ᵀ A q_k).
-    let mut q: Vec<Vec<f64>> = Vec::new();
-    let mut mq: Vec<Vec<f64>> = Vec::new();
+    let mut w = memory::zeros(n * block, what)?;
+    let mut mw = memory::zeros(n * block, what)?;
+    let mut basis = Basis {
+        n,
+        q: memory::with_capacity(n * (max_dim + block), what)?,
+        mq: memory::with_capacity(n * (max_dim + block), what)?,
+    };
+    // H's columns (h[k][i] = (M qᵢ)ᵀ A q_k).
     let mut h: Vec<Vec<f64>> = Vec::new();
     // The first block: A R, M-orthonormalised (A R lies in the range of A: no component along
     // the massless directions' infinite frequencies).
-    let mut mr = Vec::with_capacity(block);
-    for seed in 0..block as u64 {
-        let r = start_vector(n, seed);
-        let mut m = memory::zeros(n, what)?;
-        op.mass(&r, &mut m);
-        mr.push(m);
+    let mut r = memory::zeros(n * block, what)?;
+    for seed in 0..block {
+        r[seed * n..(seed + 1) * n].copy_from_slice(&start_vector(n, seed as u64));
     }
-    let first = op.solve_block(&mr.iter().map(Vec::as_slice).collect::<Vec<_>>())?;
+    op.mass(&r, &mut w, block);
+    op.solve(&mut w, block)?;
     let mut scale = 0.0f64;
-    for mut w in first {
-        let size = m_orthogonalise(op, &q, &mq, 0, &mut w, &mut mw).0;
-        if size > 1e-10 * scale && size.is_finite() {
-            scale = scale.max(size);
-            q.push(w.iter().map(|x| x / size).collect());
-            mq.push(mw.iter().map(|x| x / size).collect());
-        }
-    }
-    let (mut previous, mut start) = (0, 0);
+    orthonormalise_block(op, &mut basis, &mut w, &mut mw, block, &mut scale, None)?;
+    let mut start = 0;
     loop {
-        let end = q.len();
+        let end = basis.len();
         if start == end {
             // No new direction: an invariant subspace, every Ritz pair exact.
-            return ritz_pairs(&q, &h, end, want, None);
+            return ritz_pairs(op, &basis, &h, end, want, None);
         }
-        let columns: Vec<&[f64]> = mq[start..end].iter().map(Vec::as_slice).collect();
-        let ws = op.solve_block(&columns)?;
-        for (k, mut w) in (start..end).zip(ws) {
-            let (size, c) = m_orthogonalise(op, &q, &mq, previous, &mut w, &mut mw);
-            let mut column = c;
-            scale = scale.max(column.get(k).copied().unwrap_or(0.0).abs());
-            if size > 1e-10 * scale && size.is_finite() && q.len() < n {
-                column.push(size);
-                q.push(w.iter().map(|x| x / size).collect());
-                mq.push(mw.iter().map(|x| x / size).collect());
-            }
-            h.push(column);
-        }
+        let columns = end - start;
+        w[..n * columns].copy_from_slice(&basis.mq[start * n..end * n]);
+        op.solve(&mut w, columns)?;
+        let new = orthonormalise_block(
+            op,
+            &mut basis,
+            &mut w[..n * columns],
+            &mut mw[..n * columns],
+            columns,
+            &mut scale,
+            Some(start),
+        )?;
+        h.extend(new);
+        let t = std::time::Instant::now();
         // Residual of a Ritz pair: the coefficients on the new block's vectors (B_j s_j).
         let (theta, s) = projected_eigen(&h, end);
         let mut order: Vec<usize> = (0..end).collect();
         order.sort_by(|&x, &y| theta[y].total_cmp(&theta[x]));
         let largest = theta.iter().fold(0.0f64, |m, t| m.max(t.abs()));
+        let total = basis.len();
         let residual = |k: usize| -> f64 {
-            (end..q.len())
+            (end..total)
                 .map(|i| {
                     (start..end)
                         .map(|c| h[c].get(i).copied().unwrap_or(0.0) * s[(c, k)])
@@ -185,46 +372,20 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, V
         let done = order
             .iter()
             .take(wanted)
-            .all(|&k| residual(k) <= TOLERANCE * largest);
-        let invariant = q.len() == end;
-        if (end >= want && done) || invariant || q.len() >= max_dim {
+            .all(|&k| residual(k) <= tolerance() * largest);
+        let invariant = total == end;
+        op.seconds.ritz += t.elapsed().as_secs_f64();
+        if (end >= want && done) || invariant || total >= max_dim {
             let keep: Vec<usize> = order
                 .iter()
                 .take(wanted)
                 .copied()
-                .filter(|&k| invariant || residual(k) <= TOLERANCE * largest)
+                .filter(|&k| invariant || residual(k) <= tolerance() * largest)
                 .collect();
-            return ritz_pairs(&q, &h, end, want, Some(&keep));
+            return ritz_pairs(op, &basis, &h, end, want, Some(&keep));
         }
-        previous = start;
         start = end;
     }
-}
-
-/// w ← w − Σ ((M qᵢ)ᵀ w) qᵢ over the vectors from `local` on (the three-term recurrence's
-/// part: the last two blocks), then over every vector so far (the full reorthogonalisation);
-/// then M w into `mw`. Returns (|w|_M, the coefficients of both passes summed: A q's column of
-/// H).
-fn m_orthogonalise(
-    op: &Operator,
-    q: &[Vec<f64>],
-    mq: &[Vec<f64>],
-    local: usize,
-    w: &mut [f64],
-    mw: &mut [f64],
-) -> (f64, Vec<f64>) {
-    let mut total = vec![0.0; q.len()];
-    for from in [local.min(q.len()), 0] {
-        let c: Vec<f64> = mq[from..].iter().map(|m| dot(m, w)).collect();
-        for ((qi, c), t) in q[from..].iter().zip(&c).zip(&mut total[from..]) {
-            *t += c;
-            for (wi, qv) in w.iter_mut().zip(qi) {
-                *wi -= c * qv;
-            }
-        }
-    }
-    op.mass(w, mw);
-    (dot(w, mw).max(0.0).sqrt(), total)
 }
 
 /// Eigenpairs of the leading `m` × `m` block of H (columns `h`, symmetrised).
@@ -236,14 +397,16 @@ fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64
 }
 
 /// The Ritz pairs (θ, Q s) of the leading `m` vectors: those of `keep` (indices into the
-/// eigenpairs of H), or the largest `want`.
+/// eigenpairs of H), or the largest `want`; the vectors as one product Q S.
 fn ritz_pairs(
-    q: &[Vec<f64>],
+    op: &mut Operator,
+    basis: &Basis,
     h: &[Vec<f64>],
     m: usize,
     want: usize,
     keep: Option<&[usize]>,
 ) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+    let t = std::time::Instant::now();
     let m = m.min(h.len());
     if m == 0 {
         return Ok(Vec::new());
@@ -258,18 +421,31 @@ fn ritz_pairs(
             order
         }
     };
-    let n = q.first().map_or(0, Vec::len);
-    let mut out = Vec::with_capacity(chosen.len());
-    for k in chosen {
-        let mut y = memory::zeros(n, "the mode shapes")?;
-        for (i, qi) in q.iter().take(m).enumerate() {
-            let c = s[(i, k)];
-            for (yv, qv) in y.iter_mut().zip(qi) {
-                *yv += c * qv;
-            }
+    let n = basis.n;
+    let count = chosen.len();
+    let mut coefficients = vec![0.0; m * count];
+    for (j, &k) in chosen.iter().enumerate() {
+        for i in 0..m {
+            coefficients[j * m + i] = s[(i, k)];
         }
-        out.push((theta[k], y));
     }
+    let mut y = memory::zeros(n * count, "the mode shapes")?;
+    let q = MatRef::from_column_major_slice(&basis.q[..n * m], n, m);
+    let c = MatRef::from_column_major_slice(&coefficients, m, count);
+    matmul(
+        MatMut::from_column_major_slice_mut(&mut y, n, count),
+        Accum::Replace,
+        q,
+        c,
+        1.0,
+        Par::Seq,
+    );
+    let out = chosen
+        .iter()
+        .zip(y.chunks(n.max(1)))
+        .map(|(&k, v)| (theta[k], v.to_vec()))
+        .collect();
+    op.seconds.ritz += t.elapsed().as_secs_f64();
     Ok(out)
 }
 
@@ -318,21 +494,27 @@ impl Solver {
         mass.add_to(-shift, self.linear.values_mut());
         self.linear.factor()?;
         let factored = started.elapsed().as_secs_f64();
+        if std::env::var("VELARIUM_SOLVE_PROFILE").is_ok() {
+            for k in [1usize, 1, 2, 4, 8, 12, 16, 24, 32] {
+                let mut x = start_vector(n * k, 7);
+                let t = std::time::Instant::now();
+                self.linear.solve_columns(&mut x, k)?;
+                let dt = t.elapsed().as_secs_f64();
+                eprintln!("solve_columns {k}: {dt:.4} s, {:.4} s per column", dt / k as f64);
+            }
+        }
         let mut op = Operator {
             solver: self,
             mass,
             solves: 0,
-            solve_seconds: 0.0,
+            seconds: Seconds {
+                factorization: factored,
+                ..Seconds::default()
+            },
         };
         let count = count.min(n);
         let found = block_lanczos(&mut op, n, count)?;
-        let solves = op.solves;
-        let lanczos_seconds = started.elapsed().as_secs_f64() - factored;
-        let seconds = [
-            factored,
-            op.solve_seconds,
-            lanczos_seconds - op.solve_seconds,
-        ];
+        let (solves, seconds) = (op.solves, op.seconds);
         let eq = &self.pattern.eq;
         let mut modes = Modes {
             eigenvalues: Vec::new(),
