@@ -765,8 +765,12 @@ mod tests {
         assert!(at("dynamics.air[2].damping"), "{found:?}");
         let scene = with(&base, "/dynamics/air/0/damping", Value::from(-2.0));
         let found = problems(&scene);
-        assert!(found.iter().any(|p| p.path == "dynamics.air[0].damping"
-            && p.message.contains("N s/m3")), "{found:?}");
+        assert!(
+            found
+                .iter()
+                .any(|p| p.path == "dynamics.air[0].damping" && p.message.contains("N s/m3")),
+            "{found:?}"
+        );
     }
 
     #[test]

@@ -103,24 +103,26 @@ impl Solver {
             .map(|m| m.values().to_vec())
             .unwrap_or_default();
         let air = self.air_damping(model, integration.mass);
-        let c = if integration.rayleigh_alpha > 0.0 || integration.rayleigh_beta > 0.0 || air.is_some() {
-            let k0 = if integration.rayleigh_beta > 0.0 {
-                self.reference_tangent(model)
+        let c =
+            if integration.rayleigh_alpha > 0.0 || integration.rayleigh_beta > 0.0 || air.is_some()
+            {
+                let k0 = if integration.rayleigh_beta > 0.0 {
+                    self.reference_tangent(model)
+                } else {
+                    vec![0.0; m.len()]
+                };
+                let mut c: Vec<f64> = m
+                    .iter()
+                    .zip(&k0)
+                    .map(|(m, k)| integration.rayleigh_alpha * m + integration.rayleigh_beta * k)
+                    .collect();
+                if let Some(air) = air {
+                    c.iter_mut().zip(&air).for_each(|(c, a)| *c += a);
+                }
+                c
             } else {
-                vec![0.0; m.len()]
+                Vec::new()
             };
-            let mut c: Vec<f64> = m
-                .iter()
-                .zip(&k0)
-                .map(|(m, k)| integration.rayleigh_alpha * m + integration.rayleigh_beta * k)
-                .collect();
-            if let Some(air) = air {
-                c.iter_mut().zip(&air).for_each(|(c, a)| *c += a);
-            }
-            c
-        } else {
-            Vec::new()
-        };
         let a = self.linear.matrix();
         let symbolic = a.symbolic();
         let matrices = Matrices {
@@ -641,7 +643,10 @@ mod tests {
                     }
                 }
             }
-            println!("{kind}: |K_d - FD| max {:.2e} of max |K_d| {scale:.3e}", worst);
+            println!(
+                "{kind}: |K_d - FD| max {:.2e} of max |K_d| {scale:.3e}",
+                worst
+            );
             // g is affine in u: the differences are exact up to round-off, ε |g| / h (measured
             // 0.8e-13 and 1.6e-13 of the largest entry).
             assert!(worst <= 1e-12 * scale, "{kind}: {worst} of {scale}");
@@ -653,7 +658,11 @@ mod tests {
             let structural = {
                 let mut scene_model = model.clone();
                 scene_model.air.clear();
-                solver.mass(&scene_model, model.mass_kind).unwrap().values().to_vec()
+                solver
+                    .mass(&scene_model, model.mass_kind)
+                    .unwrap()
+                    .values()
+                    .to_vec()
             };
             let k0 = solver.reference_tangent(&model);
             let mut expected = vec![0.0; n * n];
@@ -679,10 +688,7 @@ mod tests {
                         };
                         for i in 0..3 {
                             for k in 0..3 {
-                                let (ei, ek) = (
-                                    eq[3 * tri.nodes[a] + i],
-                                    eq[3 * tri.nodes[b] + k],
-                                );
+                                let (ei, ek) = (eq[3 * tri.nodes[a] + i], eq[3 * tri.nodes[b] + k]);
                                 if ei == NONE || ek == NONE {
                                     continue;
                                 }

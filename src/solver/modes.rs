@@ -15,9 +15,11 @@
 //!          θ = 1/(ω² − σ) are the lowest frequencies
 //! Lanczos  block Lanczos, BLOCK vectors at a time: Q₁ = A R M-orthonormalised (R fixed
 //!          pseudo-random vectors, so runs repeat bit for bit), then W = A Q_j (one solve
-//!          with BLOCK right-hand sides: one pass over the factor), every column
+//!          with BLOCK right-hand sides: one pass over the factor), the block
 //!          M-orthogonalised against the last two blocks, then against all earlier vectors
-//!          (classical Gram-Schmidt, full reorthogonalisation), and within the new block, W = Q_{j+1} B_j. The coefficients
+//!          (classical Gram-Schmidt, full reorthogonalisation; each pass two dense products
+//!          with Q and M Q held as n × k matrices, so a pass reads the basis once per block,
+//!          not once per vector), then within itself, W = Q_{j+1} B_j. The coefficients
 //!          form H = Qᵀ M A Q (block tridiagonal up to round-off); a Ritz pair (θ, Q s) of H
 //!          has the residual |B_j s_j| (s_j: its last block of components) in the M norm and
 //!          is converged when that is at most TOLERANCE θ_max
@@ -25,6 +27,8 @@
 //!          to BLOCK (the square membrane's f_12 = f_21, a straight cable's frequencies in two
 //!          planes, a disc's pairs): a frequency repeated more often than BLOCK times may be
 //!          reported fewer times
+//! M x      over M's nonzero entries only (the tangent's pattern also holds M's zeros: a
+//!          membrane's M couples x with x only), one pass over M per block
 //! A Ritz vector φ is M-normalised (φᵀ M φ = 1); f = ω / 2π, reported negative (−√|ω²|/2π)
 //! for a negative ω² (an unstable equilibrium: the tangent is not positive definite).
 //!
@@ -37,11 +41,11 @@ use super::assemble::NONE;
 use super::core::Solver;
 use super::mass::Mass;
 use crate::error::Error;
-use faer::linalg::matmul::matmul;
-use faer::{Accum, MatMut, MatRef, Par};
 use crate::memory;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, MatMut, MatRef, Par};
 
 /// The shift's magnitude relative to the largest K_ii/M_ii (a bound of the largest ω²).
 const SHIFT: f64 = 1e-8;
@@ -52,14 +56,6 @@ const TOLERANCE: f64 = 1e-6;
 const BLOCK: usize = 4;
 /// The most columns one pass of the blocked M product handles.
 const BLOCK_MAX: usize = 16;
-
-fn tolerance() -> f64 {
-    std::env::var("VELARIUM_MODES_TOL").ok().and_then(|s| s.parse().ok()).unwrap_or(TOLERANCE)
-}
-
-fn block_size() -> usize {
-    std::env::var("VELARIUM_MODES_BLOCK").ok().and_then(|s| s.parse().ok()).unwrap_or(BLOCK)
-}
 /// A run stops at this many vectors beyond twice the wanted count.
 const EXTRA: usize = 40;
 
@@ -76,6 +72,8 @@ pub struct Modes {
     pub shift: f64,
     /// Solves with the factored K − σM (right-hand sides, BLOCK per pass over the factor).
     pub solves: usize,
+    /// Passes over the factor (solves with a block of right-hand sides).
+    pub passes: usize,
     /// Where the time went ([`Seconds`]).
     pub seconds: Seconds,
 }
@@ -93,6 +91,11 @@ pub struct Seconds {
     pub orthogonalisation: f64,
     /// The projected eigenproblems, the convergence tests and the Ritz vectors (shapes).
     pub ritz: f64,
+    /// CPU seconds of the calling thread (`phases::thread_cpu`, NaN off Linux): the numeric
+    /// factorization of K − σM alone, and the whole analysis. With one solver thread their
+    /// ratio is the analysis's cost in factorizations, whatever else the machine runs.
+    pub factor_cpu: f64,
+    pub total_cpu: f64,
 }
 
 impl Seconds {
@@ -105,24 +108,63 @@ impl Seconds {
 /// The operator of the Lanczos iteration: the factored K − σM and M.
 struct Operator<'a> {
     solver: &'a mut Solver,
-    mass: &'a Mass,
+    passes: usize,
+    /// M's nonzero entries only (upper triangle, CSC over the equations): the tangent's
+    /// pattern holds M's zeros too (a consistent or lumped M couples x with x only, so two
+    /// thirds of a membrane's entries are zero), which a product need not read.
+    mass: (Vec<usize>, Vec<usize>, Vec<f64>),
     solves: usize,
     seconds: Seconds,
 }
 
-impl Operator<'_> {
+impl<'a> Operator<'a> {
+    fn new(solver: &'a mut Solver, mass: &Mass, seconds: Seconds) -> Result<Operator<'a>, Error> {
+        let t = std::time::Instant::now();
+        let compressed = {
+            let a = solver.linear.matrix();
+            let s = a.symbolic();
+            let (col_ptr, row_idx) = (s.col_ptr(), s.row_idx());
+            let values = mass.values();
+            let nonzero = values.iter().filter(|v| **v != 0.0).count();
+            let what = "the mass matrix's nonzeros";
+            let mut ptr = memory::with_capacity(col_ptr.len(), what)?;
+            let mut rows = memory::with_capacity(nonzero, what)?;
+            let mut vals = memory::with_capacity(nonzero, what)?;
+            ptr.push(0);
+            for j in 0..col_ptr.len() - 1 {
+                for p in col_ptr[j]..col_ptr[j + 1] {
+                    if values[p] != 0.0 {
+                        rows.push(row_idx[p]);
+                        vals.push(values[p]);
+                    }
+                }
+                ptr.push(rows.len());
+            }
+            (ptr, rows, vals)
+        };
+        let mut op = Operator {
+            solver,
+            mass: compressed,
+            passes: 0,
+            solves: 0,
+            seconds,
+        };
+        op.seconds.mass_products += t.elapsed().as_secs_f64();
+        Ok(op)
+    }
+
     /// Y = M X for the `columns` columns of X (column-major, n rows), in one pass over M.
     fn mass(&mut self, x: &[f64], y: &mut [f64], columns: usize) {
         let t = std::time::Instant::now();
-        let a = self.solver.linear.matrix();
-        let s = a.symbolic();
-        symmetric_product_columns(s.col_ptr(), s.row_idx(), self.mass.values(), x, y, columns);
+        let (col_ptr, row_idx, values) = &self.mass;
+        symmetric_product_columns(col_ptr, row_idx, values, x, y, columns);
         self.seconds.mass_products += t.elapsed().as_secs_f64();
     }
 
     /// X ← (K − σM)⁻¹ X for the `columns` columns of X (M x already formed), in one pass.
     fn solve(&mut self, x: &mut [f64], columns: usize) -> Result<(), Error> {
         self.solves += columns;
+        self.passes += 1;
         let t = std::time::Instant::now();
         let result = self.solver.linear.solve_columns(x, columns);
         self.seconds.solves += t.elapsed().as_secs_f64();
@@ -209,14 +251,6 @@ impl Basis {
         &self.mq[k * self.n..(k + 1) * self.n]
     }
 
-    fn q_mat(&self) -> MatRef<'_, f64> {
-        MatRef::from_column_major_slice(&self.q, self.n, self.len())
-    }
-
-    fn mq_mat(&self) -> MatRef<'_, f64> {
-        MatRef::from_column_major_slice(&self.mq, self.n, self.len())
-    }
-
     fn push(&mut self, w: &[f64], mw: &[f64], size: f64) -> Result<(), Error> {
         for v in [&mut self.q, &mut self.mq] {
             v.try_reserve(self.n).map_err(|_| memory::OutOfMemory {
@@ -230,10 +264,11 @@ impl Basis {
     }
 }
 
-/// Orthonormalise the `columns` columns of W (M W in `mw`) in the M inner product: twice
-/// against every vector of `basis` as a block (classical Gram-Schmidt with one
-/// reorthogonalisation, Q and M Q read once per pass), then M W afresh, then one column after
-/// the other against the block's earlier accepted columns (twice). Accepted columns (M norm
+/// Orthonormalise the `columns` columns of W (M W in `mw`) in the M inner product: against
+/// the last two blocks (from `local`: the three-term recurrence), then against every vector of
+/// `basis` (the full reorthogonalisation), each pass as two matrix products that read Q and
+/// M Q once for the whole block (classical Gram-Schmidt); then M W afresh, then one column
+/// after the other against the block's earlier accepted columns (twice). Accepted columns (M norm
 /// above 1e-10 `scale`) join `basis`. Returns per column its coefficients on the basis (the
 /// column of H: the earlier vectors', the block's accepted ones', then its own M norm if
 /// accepted).
@@ -245,21 +280,30 @@ fn orthonormalise_block(
     columns: usize,
     scale: &mut f64,
     diagonal_of: Option<usize>,
+    local: usize,
 ) -> Result<Vec<Vec<f64>>, Error> {
     let n = basis.n;
     let old = basis.len();
     let t = std::time::Instant::now();
     let mut total = vec![0.0; old * columns];
-    if old > 0 {
-        let mut c = vec![0.0; old * columns];
-        for _ in 0..2 {
-            let mut cm = MatMut::from_column_major_slice_mut(&mut c, old, columns);
-            let wm = MatRef::from_column_major_slice(w, n, columns);
-            matmul(&mut cm, Accum::Replace, basis.mq_mat().transpose(), wm, 1.0, Par::Seq);
-            let wm = MatMut::from_column_major_slice_mut(w, n, columns);
-            matmul(wm, Accum::Add, basis.q_mat(), cm.as_ref(), -1.0, Par::Seq);
-            for (t, c) in total.iter_mut().zip(&c) {
-                *t += c;
+    let mut c = vec![0.0; old * columns];
+    // The three-term recurrence's part (the last two blocks, from `local`), then the full
+    // reorthogonalisation against every vector so far.
+    for from in [local.min(old), 0] {
+        let k = old - from;
+        if k == 0 {
+            continue;
+        }
+        let q = MatRef::from_column_major_slice(&basis.q[from * n..old * n], n, k);
+        let mq = MatRef::from_column_major_slice(&basis.mq[from * n..old * n], n, k);
+        let mut cm = MatMut::from_column_major_slice_mut(&mut c[..k * columns], k, columns);
+        let wm = MatRef::from_column_major_slice(w, n, columns);
+        matmul(&mut cm, Accum::Replace, mq.transpose(), wm, 1.0, Par::Seq);
+        let wm = MatMut::from_column_major_slice_mut(w, n, columns);
+        matmul(wm, Accum::Add, q, cm.as_ref(), -1.0, Par::Seq);
+        for col in 0..columns {
+            for i in 0..k {
+                total[col * old + from + i] += c[col * k + i];
             }
         }
     }
@@ -307,9 +351,8 @@ fn orthonormalise_block(
 /// Block Lanczos on `op` (module docs): the converged Ritz pairs (θ descending, M-normalised
 /// vectors over the equations), at most `want` of them.
 fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, Vec<f64>)>, Error> {
-    let extra = std::env::var("VELARIUM_MODES_EXTRA").ok().and_then(|s| s.parse().ok()).unwrap_or(EXTRA);
-    let max_dim = (2 * want + extra).min(n).max(1);
-    let block = block_size().min(n);
+    let max_dim = (2 * want + EXTRA).min(n).max(1);
+    let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
     let mut w = memory::zeros(n * block, what)?;
     let mut mw = memory::zeros(n * block, what)?;
@@ -329,8 +372,8 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, V
     op.mass(&r, &mut w, block);
     op.solve(&mut w, block)?;
     let mut scale = 0.0f64;
-    orthonormalise_block(op, &mut basis, &mut w, &mut mw, block, &mut scale, None)?;
-    let mut start = 0;
+    orthonormalise_block(op, &mut basis, &mut w, &mut mw, block, &mut scale, None, 0)?;
+    let (mut previous, mut start) = (0, 0);
     loop {
         let end = basis.len();
         if start == end {
@@ -348,6 +391,7 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, V
             columns,
             &mut scale,
             Some(start),
+            previous,
         )?;
         h.extend(new);
         let t = std::time::Instant::now();
@@ -372,7 +416,7 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, V
         let done = order
             .iter()
             .take(wanted)
-            .all(|&k| residual(k) <= tolerance() * largest);
+            .all(|&k| residual(k) <= TOLERANCE * largest);
         let invariant = total == end;
         op.seconds.ritz += t.elapsed().as_secs_f64();
         if (end >= want && done) || invariant || total >= max_dim {
@@ -380,10 +424,11 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, V
                 .iter()
                 .take(wanted)
                 .copied()
-                .filter(|&k| invariant || residual(k) <= tolerance() * largest)
+                .filter(|&k| invariant || residual(k) <= TOLERANCE * largest)
                 .collect();
             return ritz_pairs(op, &basis, &h, end, want, Some(&keep));
         }
+        previous = start;
         start = end;
     }
 }
@@ -476,6 +521,7 @@ impl Solver {
         }
         let n = self.pattern.n;
         let started = std::time::Instant::now();
+        let cpu_started = crate::phases::thread_cpu();
         // The true tangent (as `factor_tangent`): states frozen, no artificial prestress.
         self.assemble_true_tangent(model, u, loads, wrinkle);
         self.remove_regularisation(model, u, wrinkle);
@@ -492,29 +538,22 @@ impl Solver {
         }
         let shift = -SHIFT * largest.max(f64::MIN_POSITIVE);
         mass.add_to(-shift, self.linear.values_mut());
+        let cpu_factor = crate::phases::thread_cpu();
         self.linear.factor()?;
+        let factor_cpu = crate::phases::thread_cpu() - cpu_factor;
         let factored = started.elapsed().as_secs_f64();
-        if std::env::var("VELARIUM_SOLVE_PROFILE").is_ok() {
-            for k in [1usize, 1, 2, 4, 8, 12, 16, 24, 32] {
-                let mut x = start_vector(n * k, 7);
-                let t = std::time::Instant::now();
-                self.linear.solve_columns(&mut x, k)?;
-                let dt = t.elapsed().as_secs_f64();
-                eprintln!("solve_columns {k}: {dt:.4} s, {:.4} s per column", dt / k as f64);
-            }
-        }
-        let mut op = Operator {
-            solver: self,
+        let mut op = Operator::new(
+            self,
             mass,
-            solves: 0,
-            seconds: Seconds {
+            Seconds {
                 factorization: factored,
+                factor_cpu,
                 ..Seconds::default()
             },
-        };
+        )?;
         let count = count.min(n);
         let found = block_lanczos(&mut op, n, count)?;
-        let (solves, seconds) = (op.solves, op.seconds);
+        let (solves, passes, seconds) = (op.solves, op.passes, op.seconds);
         let eq = &self.pattern.eq;
         let mut modes = Modes {
             eigenvalues: Vec::new(),
@@ -522,6 +561,7 @@ impl Solver {
             shapes: Vec::new(),
             shift,
             solves,
+            passes,
             seconds,
         };
         for (theta, y) in found {
@@ -537,6 +577,7 @@ impl Solver {
             }
             modes.shapes.push(shape);
         }
+        modes.seconds.total_cpu = crate::phases::thread_cpu() - cpu_started;
         Ok(modes)
     }
 
