@@ -264,8 +264,9 @@ impl Basis {
     }
 }
 
-/// Orthonormalise the `columns` columns of W (M W in `mw`) in the M inner product: against
-/// the last two blocks (from `local`: the three-term recurrence), then against every vector of
+/// Orthonormalise the `columns` columns of W (M W in `mw`) in the M inner product. For a
+/// Lanczos block (`recurrence` = (the start of the block W is the image of, the start of the
+/// block before it)): against the last two blocks (the three-term recurrence), then against every vector of
 /// `basis` (the full reorthogonalisation), each pass as two matrix products that read Q and
 /// M Q once for the whole block (classical Gram-Schmidt); then M W afresh, then one column
 /// after the other against the block's earlier accepted columns (twice). Accepted columns (M norm
@@ -279,9 +280,12 @@ fn orthonormalise_block(
     mw: &mut [f64],
     columns: usize,
     scale: &mut f64,
-    diagonal_of: Option<usize>,
-    local: usize,
+    recurrence: Option<(usize, usize)>,
 ) -> Result<Vec<Vec<f64>>, Error> {
+    let (diagonal_of, local) = match recurrence {
+        Some((start, previous)) => (Some(start), previous),
+        None => (None, 0),
+    };
     let n = basis.n;
     let old = basis.len();
     let t = std::time::Instant::now();
@@ -372,7 +376,7 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, V
     op.mass(&r, &mut w, block);
     op.solve(&mut w, block)?;
     let mut scale = 0.0f64;
-    orthonormalise_block(op, &mut basis, &mut w, &mut mw, block, &mut scale, None, 0)?;
+    orthonormalise_block(op, &mut basis, &mut w, &mut mw, block, &mut scale, None)?;
     let (mut previous, mut start) = (0, 0);
     loop {
         let end = basis.len();
@@ -390,8 +394,7 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, V
             &mut mw[..n * columns],
             columns,
             &mut scale,
-            Some(start),
-            previous,
+            Some((start, previous)),
         )?;
         h.extend(new);
         let t = std::time::Instant::now();
