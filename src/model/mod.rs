@@ -1119,9 +1119,13 @@ fn build_air(
         }
         for (name, range, _) in groups {
             if *name == entry.membrane {
-                for t in range.clone() {
-                    let area = triangles[t].reference.area;
-                    air[t] = [entry.added_mass * area, entry.damping * area];
+                let slots = air.get_mut(range.clone()).unwrap_or_default();
+                for (slot, t) in slots
+                    .iter_mut()
+                    .zip(triangles.get(range.clone()).unwrap_or_default())
+                {
+                    let area = t.reference.area;
+                    *slot = [entry.added_mass * area, entry.damping * area];
                 }
             }
         }
