@@ -348,6 +348,10 @@ pub struct Model {
     pub point_masses: Vec<(usize, f64)>,
     /// The mass matrix the dynamics uses (consistent without a `dynamics` section).
     pub mass_kind: crate::scene::MassKind,
+    /// The surrounding air (`dynamics.air`) per triangle of `triangles`: [added mass m_a A₀ in
+    /// kg, damping c A₀ in N s/m], both along the triangle's reference normal; empty when the
+    /// scene gives no air.
+    pub air: Vec<[f64; 2]>,
     /// The committed plastic strains the assembly reads (`state.rs`; empty without an
     /// elastoplastic group).
     pub plastic: etfe::PlasticStore,
@@ -453,6 +457,7 @@ impl Model {
         for pm in scene.dynamics.iter().flat_map(|d| &d.point_masses) {
             point_masses.extend(node_ids(&mesh, &pm.nodes).into_iter().map(|i| (i, pm.mass)));
         }
+        let air = build_air(scene, &groups, &triangles)?;
         Ok(Model {
             reference,
             triangles,
@@ -475,6 +480,7 @@ impl Model {
                 .as_ref()
                 .map_or_else(Default::default, |d| d.mass),
             plastic: Default::default(),
+            air,
         })
     }
 
@@ -1099,6 +1105,34 @@ fn neighbour_stiffness(ea: f64, segment: f64, node: usize, triangles: &[Triangle
 }
 
 /// (group name, range of `Model::triangles` indices, mesh triangle ids) per membrane group.
+/// Per triangle [m_a A₀, c A₀] of the scene's `dynamics.air` (empty without it).
+fn build_air(
+    scene: &Scene,
+    groups: &[(String, std::ops::Range<usize>, &[usize])],
+    triangles: &[Triangle],
+) -> Result<Vec<[f64; 2]>, crate::memory::OutOfMemory> {
+    let entries = scene.dynamics.iter().flat_map(|d| &d.air);
+    let mut air = Vec::new();
+    for entry in entries {
+        if air.is_empty() {
+            air = memory::filled(triangles.len(), [0.0; 2], "the air's added mass")?;
+        }
+        for (name, range, _) in groups {
+            if *name == entry.membrane {
+                let slots = air.get_mut(range.clone()).unwrap_or_default();
+                for (slot, t) in slots
+                    .iter_mut()
+                    .zip(triangles.get(range.clone()).unwrap_or_default())
+                {
+                    let area = t.reference.area;
+                    *slot = [entry.added_mass * area, entry.damping * area];
+                }
+            }
+        }
+    }
+    Ok(air)
+}
+
 fn group_ranges<'a>(
     scene: &'a Scene,
     mesh: &'a Mesh,

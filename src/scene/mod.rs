@@ -113,6 +113,11 @@ pub struct Dynamics {
     /// Point masses: `mass` kg at every node of `nodes` (masts' heads, fittings, ballast).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub point_masses: Vec<PointMass>,
+    /// The surrounding air per membrane group: an added mass and a linear damping per unit
+    /// area, both acting along the membrane's reference normal (docs/dynamics.md). Used by the
+    /// natural frequencies (the added mass) and the time integration (both).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub air: Vec<Air>,
     /// Time integration (docs/dynamics.md): present, a step of the FMU (and a row of
     /// `velarium solve`) advances physical time by its length with generalized-alpha; absent,
     /// the scene is quasi-static whatever else this section holds.
@@ -168,6 +173,23 @@ pub struct PointMass {
     pub nodes: NodeRef,
     /// Mass in kg at each node (> 0).
     pub mass: f64,
+}
+
+/// The air around one membrane group, per unit of its reference area, along the normal.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Air {
+    /// The membrane group's name (each group at most once).
+    pub membrane: String,
+    /// Added (entrained) air mass in kg/m² of reference area (>= 0, default 0), acting on the
+    /// motion along the reference normal only: for a panel of span L in air of density ρ_a it
+    /// is of the order of ρ_a L (docs/dynamics.md).
+    #[serde(default)]
+    pub added_mass: f64,
+    /// Linear aerodynamic damping in N s/m³ (Pa per m/s of normal velocity, >= 0, default 0):
+    /// a pressure −c v·n opposing the normal velocity.
+    #[serde(default)]
+    pub damping: f64,
 }
 
 /// Explicit mesh data plus generators. Generated nodes and triangles are appended after the

@@ -239,6 +239,8 @@ pub const RULES: &[FieldRule] = &[
     at("dynamics.rayleigh_alpha", NON_NEGATIVE),
     at("dynamics.rayleigh_beta", NON_NEGATIVE),
     at("dynamics.point_masses[].mass", POSITIVE),
+    at("dynamics.air[].added_mass", NON_NEGATIVE),
+    at("dynamics.air[].damping", NON_NEGATIVE),
     at("dynamics.time_integration.rho_inf", closed(0.0, 1.0)),
     at("dynamics.time_integration.max_time_step", POSITIVE),
     at("outputs[].probe{natural_frequency}.mode", count(1, 1000)),
@@ -519,7 +521,8 @@ mod tests {
                   {"name": "f1", "probe": {"kind": "natural_frequency", "mode": 1}}],
       "solver": {"arc_length": 0.01, "artificial_prestress": 10, "threads": 1},
       "dynamics": {"mass": "lumped", "rayleigh_alpha": 0.1, "rayleigh_beta": 0.001,
-                   "point_masses": [{"nodes": "s.corner_tr", "mass": 2}]}
+                   "point_masses": [{"nodes": "s.corner_tr", "mass": 2}],
+                   "air": [{"membrane": "m", "added_mass": 0.1, "damping": 1.0}]}
     }"#;
 
     const TETRA: &str = r#"{
@@ -739,6 +742,36 @@ mod tests {
             }
         }
         assert!(failed.is_empty(), "{}", failed.join("\n"));
+    }
+
+    /// `dynamics.air`: a group that does not exist, a group given twice and out-of-range
+    /// values are each reported at their own field.
+    #[test]
+    fn air_problems_name_their_field() {
+        let base: Value = serde_json::from_str(SHEET).unwrap();
+        let scene = with(
+            &base,
+            "/dynamics/air",
+            serde_json::json!([
+                {"membrane": "m", "added_mass": -0.5},
+                {"membrane": "m", "damping": 1},
+                {"membrane": "sail", "damping": -1}
+            ]),
+        );
+        let found = problems(&scene);
+        let at = |path: &str| found.iter().any(|p| p.path == path);
+        assert!(at("dynamics.air[0].added_mass"), "{found:?}");
+        assert!(at("dynamics.air[1].membrane"), "{found:?}");
+        assert!(at("dynamics.air[2].membrane"), "{found:?}");
+        assert!(at("dynamics.air[2].damping"), "{found:?}");
+        let scene = with(&base, "/dynamics/air/0/damping", Value::from(-2.0));
+        let found = problems(&scene);
+        assert!(
+            found
+                .iter()
+                .any(|p| p.path == "dynamics.air[0].damping" && p.message.contains("N s/m3")),
+            "{found:?}"
+        );
     }
 
     #[test]

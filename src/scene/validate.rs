@@ -1842,7 +1842,8 @@ impl Validator {
     }
 
     /// The `dynamics` section: damping factors non-negative and finite, point masses
-    /// positive on node sets that resolve.
+    /// positive on node sets that resolve, air on existing membrane groups (once each) with
+    /// non-negative added mass and damping.
     fn dynamics(&mut self, s: &Scene, mesh: &Mesh) {
         let Some(d) = &s.dynamics else {
             return;
@@ -1867,6 +1868,32 @@ impl Validator {
                 );
             }
             self.nodes(mesh, &pm.nodes, &format!("{p}.nodes"));
+        }
+        let mut seen = std::collections::BTreeSet::new();
+        for (k, air) in d.air.iter().enumerate() {
+            let p = format!("dynamics.air[{k}]");
+            if self.membrane_name(s, &air.membrane, &format!("{p}.membrane"))
+                && !seen.insert(air.membrane.as_str())
+            {
+                self.push(
+                    format!("{p}.membrane"),
+                    format!(
+                        "membrane group \"{}\" has air given twice (one entry per group)",
+                        air.membrane
+                    ),
+                );
+            }
+            for (field, value, what) in [
+                ("added_mass", air.added_mass, "an added mass in kg/m2"),
+                ("damping", air.damping, "a damping per unit area in N s/m3"),
+            ] {
+                if !(value.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&value)) {
+                    self.push(
+                        format!("{p}.{field}"),
+                        format!("{value} is not {what} (0 or more, at most 1e30)"),
+                    );
+                }
+            }
         }
         if let Some(t) = &d.time_integration {
             if !(t.rho_inf.is_finite() && (0.0..=1.0).contains(&t.rho_inf)) {

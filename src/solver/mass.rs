@@ -6,7 +6,11 @@
 //! cable segment      consistent  M_ab = μ ℓ (1 + δ_ab)/6 · I₃       lumped  μ ℓ/2 · I₃ at each node
 //! sleeve tie         massless
 //! point mass         m · I₃ on its node's diagonal
+//! air (added mass)   consistent  m_a A₀ (1 + δ_ab)/12 · n nᵀ       lumped  m_a A₀/3 · n nᵀ at each node
 //! ```
+//! The air's added mass (`dynamics.air`, per membrane group) acts along the triangle's
+//! reference unit normal n only; its linear damping c is distributed the same way
+//! ([`Solver::air_damping`], into the time integration's C).
 //! (`Element::consistent_mass` / `Element::lumped_mass` per kind, `model/mod.rs`; ρ the group's
 //! `density`, μ the cable's `mass_per_length`, A₀ and ℓ the reference area and drawn length,
 //! so M is constant: the mass of a material point does not change as it moves.) The values sit
@@ -83,6 +87,7 @@ pub fn assemble_mass(
             }
         }
     }
+    add_air(model, pattern, kind, 0, values);
     for &(node, m) in &model.point_masses {
         for c in 0..3 {
             let e = pattern.eq[3 * node + c];
@@ -93,7 +98,43 @@ pub fn assemble_mass(
     }
 }
 
-/// Total mass of the model in kg: every element's and every point mass.
+/// The air's matrix (`which` 0: the added mass, 1: the damping) added to `values` on
+/// `pattern`: per triangle with air [m_a A₀, c A₀] = x (`Model::air`) and reference unit
+/// normal n, the block of nodes a, b is x (1 + δ_ab)/12 · n nᵀ (consistent) or x/3 · n nᵀ at
+/// each node (lumped): ∫ N_a N_b over the triangle, along the normal only.
+fn add_air(model: &Model, pattern: &Pattern, kind: MassKind, which: usize, values: &mut [f64]) {
+    if model.air.is_empty() {
+        return;
+    }
+    let dofs = 9;
+    for (e, map) in pattern.element_maps(ElementKind::Membrane) {
+        let x = model.air[e][which];
+        if x == 0.0 {
+            continue;
+        }
+        let n = model.triangles[e].reference.normal;
+        for a in 0..3 {
+            for b in 0..3 {
+                let m = match kind {
+                    MassKind::Consistent => x * if a == b { 2.0 } else { 1.0 } / 12.0,
+                    MassKind::Lumped if a == b => x / 3.0,
+                    MassKind::Lumped => continue,
+                };
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let p = map[(3 * a + i) * dofs + 3 * b + j];
+                        if p != UNMAPPED {
+                            values[p as usize] += m * n[i] * n[j];
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Total mass of the model in kg: every element's and every point mass (the air's added mass,
+/// which moves with the normal motion only, is not counted).
 pub fn total_mass(model: &Model) -> f64 {
     let mut total = 0.0;
     for kind in ElementKind::ALL {
@@ -119,6 +160,17 @@ impl Solver {
             &mut values,
         );
         Ok(Mass { values, kind })
+    }
+
+    /// The air's damping matrix (`dynamics.air`'s `damping`, along the reference normals) on
+    /// this solver's pattern, distributed as the mass of `kind`; None without air damping.
+    pub fn air_damping(&self, model: &Model, kind: MassKind) -> Option<Vec<f64>> {
+        if !model.air.iter().any(|x| x[1] > 0.0) {
+            return None;
+        }
+        let mut values = vec![0.0; self.linear.values().len()];
+        add_air(model, &self.pattern, kind, 1, &mut values);
+        Some(values)
     }
 
     /// y = M x over the equations (`mass` from [`Solver::mass`]).

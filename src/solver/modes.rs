@@ -15,9 +15,11 @@
 //!          θ = 1/(ω² − σ) are the lowest frequencies
 //! Lanczos  block Lanczos, BLOCK vectors at a time: Q₁ = A R M-orthonormalised (R fixed
 //!          pseudo-random vectors, so runs repeat bit for bit), then W = A Q_j (one solve
-//!          with BLOCK right-hand sides: one pass over the factor), every column
+//!          with BLOCK right-hand sides: one pass over the factor), the block
 //!          M-orthogonalised against the last two blocks, then against all earlier vectors
-//!          (classical Gram-Schmidt, full reorthogonalisation), and within the new block, W = Q_{j+1} B_j. The coefficients
+//!          (classical Gram-Schmidt, full reorthogonalisation; each pass two dense products
+//!          with Q and M Q held as n × k matrices, so a pass reads the basis once per block,
+//!          not once per vector), then within itself, W = Q_{j+1} B_j. The coefficients
 //!          form H = Qᵀ M A Q (block tridiagonal up to round-off); a Ritz pair (θ, Q s) of H
 //!          has the residual |B_j s_j| (s_j: its last block of components) in the M norm and
 //!          is converged when that is at most TOLERANCE θ_max
@@ -25,6 +27,8 @@
 //!          to BLOCK (the square membrane's f_12 = f_21, a straight cable's frequencies in two
 //!          planes, a disc's pairs): a frequency repeated more often than BLOCK times may be
 //!          reported fewer times
+//! M x      over M's nonzero entries only (the tangent's pattern also holds M's zeros: a
+//!          membrane's M couples x with x only), one pass over M per block
 //! A Ritz vector φ is M-normalised (φᵀ M φ = 1); f = ω / 2π, reported negative (−√|ω²|/2π)
 //! for a negative ω² (an unstable equilibrium: the tangent is not positive definite).
 //!
@@ -40,6 +44,8 @@ use crate::error::Error;
 use crate::memory;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::Model;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, MatMut, MatRef, Par};
 
 /// The shift's magnitude relative to the largest K_ii/M_ii (a bound of the largest ω²).
 const SHIFT: f64 = 1e-8;
@@ -48,6 +54,8 @@ const SHIFT: f64 = 1e-8;
 const TOLERANCE: f64 = 1e-6;
 /// Vectors per Lanczos block (the largest multiplicity seen: module docs).
 const BLOCK: usize = 4;
+/// The most columns one pass of the blocked M product handles.
+const BLOCK_MAX: usize = 16;
 /// A run stops at this many vectors beyond twice the wanted count.
 const EXTRA: usize = 40;
 
@@ -64,37 +72,143 @@ pub struct Modes {
     pub shift: f64,
     /// Solves with the factored K − σM (right-hand sides, BLOCK per pass over the factor).
     pub solves: usize,
-    /// Seconds of the assembly and factorization of K − σM, of the solves, and of the rest of
-    /// the Lanczos iteration (orthogonalisation, M products, Ritz pairs).
-    pub seconds: [f64; 3],
+    /// Passes over the factor (solves with a block of right-hand sides).
+    pub passes: usize,
+    /// Where the time went ([`Seconds`]).
+    pub seconds: Seconds,
+}
+
+/// Wall seconds of the parts of one modal analysis.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Seconds {
+    /// Assembly of the true tangent, the shift and the numeric factorization of K − σM.
+    pub factorization: f64,
+    /// Solves with the factor (every pass of BLOCK right-hand sides).
+    pub solves: f64,
+    /// M products (one pass over M per block).
+    pub mass_products: f64,
+    /// M-orthogonalisation of each new block against the earlier vectors and within itself.
+    pub orthogonalisation: f64,
+    /// The projected eigenproblems, the convergence tests and the Ritz vectors (shapes).
+    pub ritz: f64,
+    /// CPU seconds of the calling thread (`phases::thread_cpu`, NaN off Linux): the numeric
+    /// factorization of K − σM alone, and the whole analysis. With one solver thread their
+    /// ratio is the analysis's cost in factorizations, whatever else the machine runs.
+    pub factor_cpu: f64,
+    pub total_cpu: f64,
+}
+
+impl Seconds {
+    /// The total.
+    pub fn total(&self) -> f64 {
+        self.factorization + self.solves + self.mass_products + self.orthogonalisation + self.ritz
+    }
 }
 
 /// The operator of the Lanczos iteration: the factored K − σM and M.
 struct Operator<'a> {
     solver: &'a mut Solver,
-    mass: &'a Mass,
+    passes: usize,
+    /// M's nonzero entries only (upper triangle, CSC over the equations): the tangent's
+    /// pattern holds M's zeros too (a consistent or lumped M couples x with x only, so two
+    /// thirds of a membrane's entries are zero), which a product need not read.
+    mass: (Vec<usize>, Vec<usize>, Vec<f64>),
     solves: usize,
-    solve_seconds: f64,
+    seconds: Seconds,
 }
 
-impl Operator<'_> {
-    fn mass(&self, x: &[f64], y: &mut [f64]) {
-        self.solver.mass_product(self.mass, x, y);
+impl<'a> Operator<'a> {
+    fn new(solver: &'a mut Solver, mass: &Mass, seconds: Seconds) -> Result<Operator<'a>, Error> {
+        let t = std::time::Instant::now();
+        let compressed = {
+            let a = solver.linear.matrix();
+            let s = a.symbolic();
+            let (col_ptr, row_idx) = (s.col_ptr(), s.row_idx());
+            let values = mass.values();
+            let nonzero = values.iter().filter(|v| **v != 0.0).count();
+            let what = "the mass matrix's nonzeros";
+            let mut ptr = memory::with_capacity(col_ptr.len(), what)?;
+            let mut rows = memory::with_capacity(nonzero, what)?;
+            let mut vals = memory::with_capacity(nonzero, what)?;
+            ptr.push(0);
+            for j in 0..col_ptr.len() - 1 {
+                for p in col_ptr[j]..col_ptr[j + 1] {
+                    if values[p] != 0.0 {
+                        rows.push(row_idx[p]);
+                        vals.push(values[p]);
+                    }
+                }
+                ptr.push(rows.len());
+            }
+            (ptr, rows, vals)
+        };
+        let mut op = Operator {
+            solver,
+            mass: compressed,
+            passes: 0,
+            solves: 0,
+            seconds,
+        };
+        op.seconds.mass_products += t.elapsed().as_secs_f64();
+        Ok(op)
     }
 
-    /// Y = (K − σM)⁻¹ Mx for the columns `mx` (M x already formed), in one pass.
-    fn solve_block(&mut self, mx: &[&[f64]]) -> Result<Vec<Vec<f64>>, Error> {
-        let n = mx.first().map_or(0, |c| c.len());
-        let mut buffer = memory::zeros(n * mx.len(), "the Lanczos vectors")?;
-        for (chunk, c) in buffer.chunks_mut(n.max(1)).zip(mx) {
-            chunk.copy_from_slice(c);
-        }
-        self.solves += mx.len();
+    /// Y = M X for the `columns` columns of X (column-major, n rows), in one pass over M.
+    fn mass(&mut self, x: &[f64], y: &mut [f64], columns: usize) {
         let t = std::time::Instant::now();
-        let result = self.solver.linear.solve_columns(&mut buffer, mx.len());
-        self.solve_seconds += t.elapsed().as_secs_f64();
-        result?;
-        Ok(buffer.chunks(n.max(1)).map(<[f64]>::to_vec).collect())
+        let (col_ptr, row_idx, values) = &self.mass;
+        symmetric_product_columns(col_ptr, row_idx, values, x, y, columns);
+        self.seconds.mass_products += t.elapsed().as_secs_f64();
+    }
+
+    /// X ← (K − σM)⁻¹ X for the `columns` columns of X (M x already formed), in one pass.
+    fn solve(&mut self, x: &mut [f64], columns: usize) -> Result<(), Error> {
+        self.solves += columns;
+        self.passes += 1;
+        let t = std::time::Instant::now();
+        let result = self.solver.linear.solve_columns(x, columns);
+        self.seconds.solves += t.elapsed().as_secs_f64();
+        result
+    }
+}
+
+/// Y = A X for a symmetric A stored as its upper triangle in CSC and the `columns` columns of
+/// X and Y (column-major, `col_ptr.len() − 1` rows): one pass over A for all of them.
+fn symmetric_product_columns(
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    values: &[f64],
+    x: &[f64],
+    y: &mut [f64],
+    columns: usize,
+) {
+    let n = col_ptr.len() - 1;
+    y[..n * columns].fill(0.0);
+    let mut sum = [0.0; BLOCK_MAX];
+    for c0 in (0..columns).step_by(BLOCK_MAX) {
+        let width = BLOCK_MAX.min(columns - c0);
+        for j in 0..n {
+            let sum = &mut sum[..width];
+            sum.fill(0.0);
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                let i = row_idx[p];
+                let a = values[p];
+                if i == j {
+                    for (c, s) in sum.iter_mut().enumerate() {
+                        *s += a * x[(c0 + c) * n + j];
+                    }
+                } else {
+                    for (c, s) in sum.iter_mut().enumerate() {
+                        let col = (c0 + c) * n;
+                        y[col + i] += a * x[col + j];
+                        *s += a * x[col + i];
+                    }
+                }
+            }
+            for (c, s) in sum.iter().enumerate() {
+                y[(c0 + c) * n + j] += s;
+            }
+        }
     }
 }
 
@@ -115,63 +229,183 @@ fn start_vector(n: usize, seed: u64) -> Vec<f64> {
         .collect()
 }
 
+/// The Lanczos basis: Q and M Q as column-major n × k matrices (one allocation each, grown
+/// by blocks), so that the orthogonalisation and the Ritz vectors are matrix products that
+/// read Q once per block rather than once per vector.
+struct Basis {
+    n: usize,
+    q: Vec<f64>,
+    mq: Vec<f64>,
+}
+
+impl Basis {
+    fn len(&self) -> usize {
+        self.q.len() / self.n.max(1)
+    }
+
+    fn q(&self, k: usize) -> &[f64] {
+        &self.q[k * self.n..(k + 1) * self.n]
+    }
+
+    fn mq(&self, k: usize) -> &[f64] {
+        &self.mq[k * self.n..(k + 1) * self.n]
+    }
+
+    fn push(&mut self, w: &[f64], mw: &[f64], size: f64) -> Result<(), Error> {
+        for v in [&mut self.q, &mut self.mq] {
+            v.try_reserve(self.n).map_err(|_| memory::OutOfMemory {
+                what: "the Lanczos vectors",
+                bytes: 8 * self.n as u64,
+            })?;
+        }
+        self.q.extend(w.iter().map(|x| x / size));
+        self.mq.extend(mw.iter().map(|x| x / size));
+        Ok(())
+    }
+}
+
+/// Orthonormalise the `columns` columns of W (M W in `mw`) in the M inner product. For a
+/// Lanczos block (`recurrence` = (the start of the block W is the image of, the start of the
+/// block before it)): against the last two blocks (the three-term recurrence), then against every vector of
+/// `basis` (the full reorthogonalisation), each pass as two matrix products that read Q and
+/// M Q once for the whole block (classical Gram-Schmidt); then M W afresh, then one column
+/// after the other against the block's earlier accepted columns (twice). Accepted columns (M norm
+/// above 1e-10 `scale`) join `basis`. Returns per column its coefficients on the basis (the
+/// column of H: the earlier vectors', the block's accepted ones', then its own M norm if
+/// accepted).
+fn orthonormalise_block(
+    op: &mut Operator,
+    basis: &mut Basis,
+    w: &mut [f64],
+    mw: &mut [f64],
+    columns: usize,
+    scale: &mut f64,
+    recurrence: Option<(usize, usize)>,
+) -> Result<Vec<Vec<f64>>, Error> {
+    let (diagonal_of, local) = match recurrence {
+        Some((start, previous)) => (Some(start), previous),
+        None => (None, 0),
+    };
+    let n = basis.n;
+    let old = basis.len();
+    let t = std::time::Instant::now();
+    let mut total = vec![0.0; old * columns];
+    let mut c = vec![0.0; old * columns];
+    // The three-term recurrence's part (the last two blocks, from `local`), then the full
+    // reorthogonalisation against every vector so far.
+    for from in [local.min(old), 0] {
+        let k = old - from;
+        if k == 0 {
+            continue;
+        }
+        let q = MatRef::from_column_major_slice(&basis.q[from * n..old * n], n, k);
+        let mq = MatRef::from_column_major_slice(&basis.mq[from * n..old * n], n, k);
+        let mut cm = MatMut::from_column_major_slice_mut(&mut c[..k * columns], k, columns);
+        let wm = MatRef::from_column_major_slice(w, n, columns);
+        matmul(&mut cm, Accum::Replace, mq.transpose(), wm, 1.0, Par::Seq);
+        let wm = MatMut::from_column_major_slice_mut(w, n, columns);
+        matmul(wm, Accum::Add, q, cm.as_ref(), -1.0, Par::Seq);
+        for col in 0..columns {
+            for i in 0..k {
+                total[col * old + from + i] += c[col * k + i];
+            }
+        }
+    }
+    op.seconds.orthogonalisation += t.elapsed().as_secs_f64();
+    op.mass(w, mw, columns);
+    let t = std::time::Instant::now();
+    let mut out = Vec::with_capacity(columns);
+    let mut accepted = 0;
+    for c in 0..columns {
+        let mut column = total[c * old..(c + 1) * old].to_vec();
+        let mut within = vec![0.0; accepted];
+        let (wc, mwc) = (&mut w[c * n..(c + 1) * n], &mut mw[c * n..(c + 1) * n]);
+        for _ in 0..2 {
+            for (slot, coefficient_sum) in within.iter_mut().enumerate() {
+                let (qk, mqk) = (basis.q(old + slot), basis.mq(old + slot));
+                let coefficient = dot(mqk, wc);
+                *coefficient_sum += coefficient;
+                for (x, y) in wc.iter_mut().zip(qk) {
+                    *x -= coefficient * y;
+                }
+                for (x, y) in mwc.iter_mut().zip(mqk) {
+                    *x -= coefficient * y;
+                }
+            }
+        }
+        column.extend_from_slice(&within);
+        if let Some(start) = diagonal_of {
+            *scale = scale.max(column.get(start + c).copied().unwrap_or(0.0).abs());
+        }
+        let size = dot(wc, mwc).max(0.0).sqrt();
+        if size > 1e-10 * *scale && size.is_finite() && basis.len() < n {
+            if diagonal_of.is_none() {
+                *scale = scale.max(size);
+            }
+            column.push(size);
+            basis.push(wc, mwc, size)?;
+            accepted += 1;
+        }
+        out.push(column);
+    }
+    op.seconds.orthogonalisation += t.elapsed().as_secs_f64();
+    Ok(out)
+}
+
 /// Block Lanczos on `op` (module docs): the converged Ritz pairs (θ descending, M-normalised
 /// vectors over the equations), at most `want` of them.
 fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, Vec<f64>)>, Error> {
     let max_dim = (2 * want + EXTRA).min(n).max(1);
     let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
-    let mut mw = memory::zeros(n, what)?;
-    // The Lanczos vectors, their M products and H's columns (h[k][i] = (M qᵢ)ᵀ A q_k).
-    let mut q: Vec<Vec<f64>> = Vec::new();
-    let mut mq: Vec<Vec<f64>> = Vec::new();
+    let mut w = memory::zeros(n * block, what)?;
+    let mut mw = memory::zeros(n * block, what)?;
+    let mut basis = Basis {
+        n,
+        q: memory::with_capacity(n * (max_dim + block), what)?,
+        mq: memory::with_capacity(n * (max_dim + block), what)?,
+    };
+    // H's columns (h[k][i] = (M qᵢ)ᵀ A q_k).
     let mut h: Vec<Vec<f64>> = Vec::new();
     // The first block: A R, M-orthonormalised (A R lies in the range of A: no component along
     // the massless directions' infinite frequencies).
-    let mut mr = Vec::with_capacity(block);
-    for seed in 0..block as u64 {
-        let r = start_vector(n, seed);
-        let mut m = memory::zeros(n, what)?;
-        op.mass(&r, &mut m);
-        mr.push(m);
+    let mut r = memory::zeros(n * block, what)?;
+    for seed in 0..block {
+        r[seed * n..(seed + 1) * n].copy_from_slice(&start_vector(n, seed as u64));
     }
-    let first = op.solve_block(&mr.iter().map(Vec::as_slice).collect::<Vec<_>>())?;
+    op.mass(&r, &mut w, block);
+    op.solve(&mut w, block)?;
     let mut scale = 0.0f64;
-    for mut w in first {
-        let size = m_orthogonalise(op, &q, &mq, 0, &mut w, &mut mw).0;
-        if size > 1e-10 * scale && size.is_finite() {
-            scale = scale.max(size);
-            q.push(w.iter().map(|x| x / size).collect());
-            mq.push(mw.iter().map(|x| x / size).collect());
-        }
-    }
+    orthonormalise_block(op, &mut basis, &mut w, &mut mw, block, &mut scale, None)?;
     let (mut previous, mut start) = (0, 0);
     loop {
-        let end = q.len();
+        let end = basis.len();
         if start == end {
             // No new direction: an invariant subspace, every Ritz pair exact.
-            return ritz_pairs(&q, &h, end, want, None);
+            return ritz_pairs(op, &basis, &h, end, want, None);
         }
-        let columns: Vec<&[f64]> = mq[start..end].iter().map(Vec::as_slice).collect();
-        let ws = op.solve_block(&columns)?;
-        for (k, mut w) in (start..end).zip(ws) {
-            let (size, c) = m_orthogonalise(op, &q, &mq, previous, &mut w, &mut mw);
-            let mut column = c;
-            scale = scale.max(column.get(k).copied().unwrap_or(0.0).abs());
-            if size > 1e-10 * scale && size.is_finite() && q.len() < n {
-                column.push(size);
-                q.push(w.iter().map(|x| x / size).collect());
-                mq.push(mw.iter().map(|x| x / size).collect());
-            }
-            h.push(column);
-        }
+        let columns = end - start;
+        w[..n * columns].copy_from_slice(&basis.mq[start * n..end * n]);
+        op.solve(&mut w, columns)?;
+        let new = orthonormalise_block(
+            op,
+            &mut basis,
+            &mut w[..n * columns],
+            &mut mw[..n * columns],
+            columns,
+            &mut scale,
+            Some((start, previous)),
+        )?;
+        h.extend(new);
+        let t = std::time::Instant::now();
         // Residual of a Ritz pair: the coefficients on the new block's vectors (B_j s_j).
         let (theta, s) = projected_eigen(&h, end);
         let mut order: Vec<usize> = (0..end).collect();
         order.sort_by(|&x, &y| theta[y].total_cmp(&theta[x]));
         let largest = theta.iter().fold(0.0f64, |m, t| m.max(t.abs()));
+        let total = basis.len();
         let residual = |k: usize| -> f64 {
-            (end..q.len())
+            (end..total)
                 .map(|i| {
                     (start..end)
                         .map(|c| h[c].get(i).copied().unwrap_or(0.0) * s[(c, k)])
@@ -186,45 +420,20 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize) -> Result<Vec<(f64, V
             .iter()
             .take(wanted)
             .all(|&k| residual(k) <= TOLERANCE * largest);
-        let invariant = q.len() == end;
-        if (end >= want && done) || invariant || q.len() >= max_dim {
+        let invariant = total == end;
+        op.seconds.ritz += t.elapsed().as_secs_f64();
+        if (end >= want && done) || invariant || total >= max_dim {
             let keep: Vec<usize> = order
                 .iter()
                 .take(wanted)
                 .copied()
                 .filter(|&k| invariant || residual(k) <= TOLERANCE * largest)
                 .collect();
-            return ritz_pairs(&q, &h, end, want, Some(&keep));
+            return ritz_pairs(op, &basis, &h, end, want, Some(&keep));
         }
         previous = start;
         start = end;
     }
-}
-
-/// w ← w − Σ ((M qᵢ)ᵀ w) qᵢ over the vectors from `local` on (the three-term recurrence's
-/// part: the last two blocks), then over every vector so far (the full reorthogonalisation);
-/// then M w into `mw`. Returns (|w|_M, the coefficients of both passes summed: A q's column of
-/// H).
-fn m_orthogonalise(
-    op: &Operator,
-    q: &[Vec<f64>],
-    mq: &[Vec<f64>],
-    local: usize,
-    w: &mut [f64],
-    mw: &mut [f64],
-) -> (f64, Vec<f64>) {
-    let mut total = vec![0.0; q.len()];
-    for from in [local.min(q.len()), 0] {
-        let c: Vec<f64> = mq[from..].iter().map(|m| dot(m, w)).collect();
-        for ((qi, c), t) in q[from..].iter().zip(&c).zip(&mut total[from..]) {
-            *t += c;
-            for (wi, qv) in w.iter_mut().zip(qi) {
-                *wi -= c * qv;
-            }
-        }
-    }
-    op.mass(w, mw);
-    (dot(w, mw).max(0.0).sqrt(), total)
 }
 
 /// Eigenpairs of the leading `m` × `m` block of H (columns `h`, symmetrised).
@@ -236,14 +445,16 @@ fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64
 }
 
 /// The Ritz pairs (θ, Q s) of the leading `m` vectors: those of `keep` (indices into the
-/// eigenpairs of H), or the largest `want`.
+/// eigenpairs of H), or the largest `want`; the vectors as one product Q S.
 fn ritz_pairs(
-    q: &[Vec<f64>],
+    op: &mut Operator,
+    basis: &Basis,
     h: &[Vec<f64>],
     m: usize,
     want: usize,
     keep: Option<&[usize]>,
 ) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+    let t = std::time::Instant::now();
     let m = m.min(h.len());
     if m == 0 {
         return Ok(Vec::new());
@@ -258,18 +469,31 @@ fn ritz_pairs(
             order
         }
     };
-    let n = q.first().map_or(0, Vec::len);
-    let mut out = Vec::with_capacity(chosen.len());
-    for k in chosen {
-        let mut y = memory::zeros(n, "the mode shapes")?;
-        for (i, qi) in q.iter().take(m).enumerate() {
-            let c = s[(i, k)];
-            for (yv, qv) in y.iter_mut().zip(qi) {
-                *yv += c * qv;
-            }
+    let n = basis.n;
+    let count = chosen.len();
+    let mut coefficients = vec![0.0; m * count];
+    for (j, &k) in chosen.iter().enumerate() {
+        for i in 0..m {
+            coefficients[j * m + i] = s[(i, k)];
         }
-        out.push((theta[k], y));
     }
+    let mut y = memory::zeros(n * count, "the mode shapes")?;
+    let q = MatRef::from_column_major_slice(&basis.q[..n * m], n, m);
+    let c = MatRef::from_column_major_slice(&coefficients, m, count);
+    matmul(
+        MatMut::from_column_major_slice_mut(&mut y, n, count),
+        Accum::Replace,
+        q,
+        c,
+        1.0,
+        Par::Seq,
+    );
+    let out = chosen
+        .iter()
+        .zip(y.chunks(n.max(1)))
+        .map(|(&k, v)| (theta[k], v.to_vec()))
+        .collect();
+    op.seconds.ritz += t.elapsed().as_secs_f64();
     Ok(out)
 }
 
@@ -300,6 +524,7 @@ impl Solver {
         }
         let n = self.pattern.n;
         let started = std::time::Instant::now();
+        let cpu_started = crate::phases::thread_cpu();
         // The true tangent (as `factor_tangent`): states frozen, no artificial prestress.
         self.assemble_true_tangent(model, u, loads, wrinkle);
         self.remove_regularisation(model, u, wrinkle);
@@ -316,23 +541,22 @@ impl Solver {
         }
         let shift = -SHIFT * largest.max(f64::MIN_POSITIVE);
         mass.add_to(-shift, self.linear.values_mut());
+        let cpu_factor = crate::phases::thread_cpu();
         self.linear.factor()?;
+        let factor_cpu = crate::phases::thread_cpu() - cpu_factor;
         let factored = started.elapsed().as_secs_f64();
-        let mut op = Operator {
-            solver: self,
+        let mut op = Operator::new(
+            self,
             mass,
-            solves: 0,
-            solve_seconds: 0.0,
-        };
+            Seconds {
+                factorization: factored,
+                factor_cpu,
+                ..Seconds::default()
+            },
+        )?;
         let count = count.min(n);
         let found = block_lanczos(&mut op, n, count)?;
-        let solves = op.solves;
-        let lanczos_seconds = started.elapsed().as_secs_f64() - factored;
-        let seconds = [
-            factored,
-            op.solve_seconds,
-            lanczos_seconds - op.solve_seconds,
-        ];
+        let (solves, passes, seconds) = (op.solves, op.passes, op.seconds);
         let eq = &self.pattern.eq;
         let mut modes = Modes {
             eigenvalues: Vec::new(),
@@ -340,6 +564,7 @@ impl Solver {
             shapes: Vec::new(),
             shift,
             solves,
+            passes,
             seconds,
         };
         for (theta, y) in found {
@@ -355,6 +580,7 @@ impl Solver {
             }
             modes.shapes.push(shape);
         }
+        modes.seconds.total_cpu = crate::phases::thread_cpu() - cpu_started;
         Ok(modes)
     }
 
