@@ -1394,7 +1394,8 @@ pub struct SolverSettings {
     /// solved again from its start through problems that tie each point to the last one by a
     /// spring of that stiffness, a pseudo-time step of an overdamped motion, the spring
     /// weakened after each, then the scene's own problem from the last point (docs/solver.md).
-    /// It changes the path, not the equilibrium. Not with sleeve points or in a time step.
+    /// It changes the path, not the equilibrium. Not with sleeve points, volume inputs,
+    /// elastoplastic groups or in a time step.
     /// 0 switches it off; range [0, 1].
     #[serde(skip_serializing_if = "is_default_proximal")]
     pub proximal_continuation: f64,

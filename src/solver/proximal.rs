@@ -29,6 +29,11 @@
 //!   from the last point with the full convergence test: the equilibrium is the scene's, only
 //!   the path differs. If that fails, pseudo-time goes on from τ = 1.6e-8, at most
 //!   `MAX_FINAL` times; at most `MAX_PROBLEMS` problems; the step's work budget bounds all.
+//!   Where no problem with a spring moved the point (each solved in 0 iterations: the start
+//!   is already within `ACCEPT` of equilibrium, so the trouble is in the last digits, which a
+//!   spring does not help with), the scene's own problem would be the failed one again from
+//!   the same point: the continuation ends there (measured: the sheared film WrinkledShear
+//!   stalling at its local tolerance spent 150 iterations on such repeats).
 //! - **Where.** Not with elastoplastic groups: their answer depends on the load path, and a
 //!   cut-back is the remedy that follows it more closely (measured: an ETFE strip yielding from
 //!   flat, which the cut-backs solve, spent its budget in the continuation). Not with sleeve
@@ -89,6 +94,10 @@ impl Solver {
         let nnz = row_idx.len();
         let mut tau = self.settings.proximal_start;
         let (mut total, mut problems, mut finals) = (0, 0, 0);
+        // Whether a problem with a spring moved the point since the start or the last failure
+        // of the scene's own problem: if none did, that problem would be the one that failed,
+        // from the same point.
+        let mut moved = false;
         let mut last = u.to_vec();
         let mut last_states = states.clone();
         let outcome = loop {
@@ -105,6 +114,12 @@ impl Solver {
                 ));
             }
             let spring = tau >= TAU_END;
+            if !spring && !moved {
+                break Err((
+                    total,
+                    format!("after {problems} proximal problems the point had not moved: the increment's start is within {ACCEPT:.0e} of the scale from equilibrium, which a spring does not bring closer"),
+                ));
+            }
             self.inertia = spring.then(|| {
                 let mut k = vec![0.0; nnz];
                 for (e, &p) in self.diagonal_positions.iter().enumerate().take(n) {
@@ -143,6 +158,7 @@ impl Solver {
                     if !spring {
                         break Ok(total);
                     }
+                    moved |= i > 0;
                     last.copy_from_slice(u);
                     last_states.clone_from(states);
                     tau /= match i {
@@ -166,6 +182,7 @@ impl Solver {
                             ));
                         }
                         tau = 16.0 * TAU_END;
+                        moved = false;
                     } else {
                         tau *= 4.0;
                         if tau > self.settings.damping_max {

@@ -92,8 +92,9 @@ pub struct Settings {
     /// First spring τ0 (relative to the taut, unstressed diagonal stiffness D) of the proximal
     /// continuation (`proximal.rs`): an increment Newton could not solve is solved again
     /// through problems R(u) + τ D (u − u_k) = 0 with τ falling from τ0, each from the last
-    /// one's solution, then the scene's own problem. Not with sleeve points or in a time
-    /// sub-step. 0 switches it off. Default 1e-3 (the damping's start).
+    /// one's solution, then the scene's own problem. Not with sleeve points, volume inputs,
+    /// elastoplastic groups or in a time sub-step. 0 switches it off. Default 1e-3 (the
+    /// damping's start).
     pub proximal_start: f64,
     /// Nodal relaxation takes the nodes whose residual is at least this share of the largest.
     /// Default 0.1.
