@@ -232,9 +232,7 @@ impl LoadPath {
         why: String,
     ) -> Result<(Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>), (usize, String)> {
         let lambda = self.lambda;
-        let loads = increment.loads;
-        let mut trial = self.converged.clone();
-        let from = solver.unstressed(model, &self.converged, loads);
+        let from = solver.unstressed(model, &self.converged, increment.loads);
         if self.continued || !(from || last_unstressed) {
             return Err((iters, why));
         }
@@ -249,26 +247,19 @@ impl LoadPath {
             &mut report.log,
             format!("increment λ {lambda:.6} -> {target:.6}: {why}; {whence}: prestress continuation from pre-strain {:.1e}", solver.settings.continuation_strain),
         );
-        let predicted = solver.predict(model, loads, &mut trial);
-        let mut trial_states = self.history.contact.clone();
-        let failed = &mut self.continuation_failed;
-        let outcome = solver
-            .continuation(
-                model,
-                increment,
-                &mut trial,
-                &mut trial_states,
-                &mut report.log,
-            )
-            .map(|i| i + predicted)
-            .map_err(|(i, later)| {
-                *failed = Some(format!("from load fraction {lambda:.6} it failed {later}"));
-                (
-                    i + predicted,
-                    format!("{why}; the prestress continuation failed too, {later}"),
-                )
+        let (outcome, trial, states) =
+            self.again(solver, model, increment, report, |s, u, c, log| {
+                s.continuation(model, increment, u, c, log)
             });
-        Ok((outcome, trial, trial_states))
+        let outcome = outcome.map_err(|(i, later)| {
+            self.continuation_failed =
+                Some(format!("from load fraction {lambda:.6} it failed {later}"));
+            (
+                i,
+                format!("{why}; the prestress continuation failed too, {later}"),
+            )
+        });
+        Ok((outcome, trial, states))
     }
 
     /// The proximal continuation (proximal.rs) of a failed increment where it applies (once
@@ -288,7 +279,6 @@ impl LoadPath {
             return Err((iters, why));
         }
         let lambda = self.lambda;
-        let loads = increment.loads;
         self.proximal_tried = true;
         report.iterations += iters;
         push_log(
@@ -298,25 +288,43 @@ impl LoadPath {
                 solver.settings.proximal_start
             ),
         );
-        let mut trial = self.converged.clone();
-        let predicted = solver.predict(model, loads, &mut trial);
-        let mut trial_states = self.history.contact.clone();
-        let outcome = solver
-            .proximal(
-                model,
-                increment,
-                &mut trial,
-                &mut trial_states,
-                &mut report.log,
-            )
-            .map(|i| i + predicted)
-            .map_err(|(i, later)| {
-                (
-                    i + predicted,
-                    format!("{why}; the proximal continuation failed too, {later}"),
-                )
+        let (outcome, trial, states) =
+            self.again(solver, model, increment, report, |s, u, c, log| {
+                s.proximal(model, increment, u, c, log)
             });
-        Ok((outcome, trial, trial_states))
+        let outcome = outcome.map_err(|(i, later)| {
+            (
+                i,
+                format!("{why}; the proximal continuation failed too, {later}"),
+            )
+        });
+        Ok((outcome, trial, states))
+    }
+
+    /// The increment solved again from its start (the last converged point, its prediction and
+    /// stick/slip states) by `solve`, a continuation: the outcome with the prediction's
+    /// factorizations counted, the point and its states.
+    #[allow(clippy::type_complexity)]
+    fn again(
+        &self,
+        solver: &mut Solver,
+        model: &Model,
+        increment: &Increment,
+        report: &mut StepReport,
+        solve: impl FnOnce(
+            &mut Solver,
+            &mut [f64],
+            &mut Vec<Contact>,
+            &mut Vec<String>,
+        ) -> Result<usize, (usize, String)>,
+    ) -> (Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>) {
+        let mut trial = self.converged.clone();
+        let predicted = solver.predict(model, increment.loads, &mut trial);
+        let mut states = self.history.contact.clone();
+        let outcome = solve(solver, &mut trial, &mut states, &mut report.log)
+            .map(|i| i + predicted)
+            .map_err(|(i, why)| (i + predicted, why));
+        (outcome, trial, states)
     }
 
     /// A converged increment: its point becomes the last converged one (the history advanced
