@@ -6,9 +6,10 @@
 //!   each increment: predictor (prescribed DOFs moved), then Newton from the last converged u;
 //!   on failure Δλ ← Δλ/4 (down to min_increment); on success Δλ ← 2 Δλ if N_iter <= N_target,
 //!   1.5 Δλ if N_iter <= 3/4 N_max, else Δλ
-//!   an increment that fails from an unstressed membrane is first solved again through the
-//!   prestress continuation (below, at most once per step), and cut back only if that fails
-//!   too
+//!   an increment that fails from or towards an unstressed membrane is first solved again
+//!   through the prestress continuation (below), then, where that fails or does not apply,
+//!   through the proximal continuation (proximal.rs), each at most once per step, and cut
+//!   back only if those fail too
 //! ```
 //!
 //! # The prestress continuation
@@ -57,7 +58,7 @@ pub enum Attempt {
 }
 
 /// Load control of one step in progress: the last converged point, the next increment, and
-/// the prestress continuation's once-per-step record.
+/// the continuations' once-per-step records.
 pub struct LoadPath {
     from: Vec<f64>,
     to: Vec<f64>,
@@ -115,9 +116,9 @@ impl LoadPath {
         loads_at(&self.from, &self.to, lambda)
     }
 
-    /// One increment attempt: Newton from the last converged point to λ + Δλ (after a failure
-    /// from an unstressed membrane, once per step, the prestress continuation), then accept or
-    /// reject. None once the whole step is applied.
+    /// One increment attempt: Newton from the last converged point to λ + Δλ (after a failure,
+    /// once per step each, the prestress and the proximal continuation where they apply), then
+    /// accept or reject. None once the whole step is applied.
     pub fn advance(
         &mut self,
         solver: &mut Solver,
@@ -154,7 +155,7 @@ impl LoadPath {
         })
     }
 
-    /// Newton (and, where it applies, the prestress continuation) for the increment to
+    /// Newton (and, where they apply, the prestress and proximal continuations) for the increment to
     /// `target`: the outcome with the trial point and its stick/slip states.
     #[allow(clippy::type_complexity)]
     fn attempt(
