@@ -131,3 +131,31 @@ fn the_reported_16x16_quarter_cushion_converges_right() {
         );
     }
 }
+
+/// The frictionless drawstrings (the SleeveDrawstring kind of scene, the cable ends held across
+/// the sleeve and pulled along it by the pretension's loads) loaded and unloaded back to the
+/// undeformed sheet. Unloaded, no load acts at a free DOF: every load goes straight into the
+/// ends' supports, and the convergence test's absolute floor (src/solver/system.rs, module docs)
+/// takes the scene's load scale from those applied loads. Before (the floor from the reactions,
+/// which vanish with the stress-free sheet) four of the five unloaded rows spent the step's work
+/// budget at |R| of 6e-12 to 4e-5 of the force scale. REQUIRED: every row right by the slice's
+/// independent checks (header).
+#[test]
+fn frictionless_drawstrings_unload_right() {
+    let members: Vec<corpus::Member> = corpus::members(27)
+        .into_iter()
+        .filter(|m| m.family == "drawstring" && m.label.contains(" mu=0.00 "))
+        .collect();
+    let runs: Vec<corpus::Run> = members.iter().flat_map(corpus::run_member).collect();
+    print!("{}", corpus::table(&runs));
+    assert_eq!(runs.len(), 10, "five members, loaded and unloaded");
+    for r in &runs {
+        assert!(
+            matches!(r.verdict, Verdict::Right),
+            "{} {}: {}",
+            r.row,
+            r.member,
+            corpus::short(&r.verdict)
+        );
+    }
+}
