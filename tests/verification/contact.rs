@@ -391,20 +391,32 @@ fn sheet_alpha(e: &velarium::Engine) -> [f64; 2] {
 /// MESH, BOUNDARY CONDITIONS, PARAMETERS: the shipped scene's (a 4 m x 4 m cushion, 6 rings,
 ///       the top sheet cut to a 0.2 m rise, the bottom flat; ETFE 0.2 mm, E 900 MPa, ν 0.43,
 ///       yield 16 MPa, 24 MPa at 10 %; rim held; blower pressure p on both sheets, snow q on
-///       the top sheet; rows p = 300, 600 Pa, q/p = 0.5, 0.9, 1.1, 1.5, 2, back to 0, then
-///       p = 300 Pa again).
+///       the top sheet; rows p = 300, 600 Pa, q/p = 0.5, 0.9, 1.1, 1.5, 1.75, 2, back to 0,
+///       then p = 300 and 150 Pa).
 /// REFERENCE: equilibrium (no closed form for the shape): Σ R_z = q a b (snow per plan area,
 ///       rim held, the pressure internal) and the contact force equals each sheet's vertical
 ///       balance ([`sheet_balances`]). Plastic strain read from the committed state.
 /// TOLERANCES: Σ R_z and both balances within 1e-9 of 2 p a b (the solve's force tolerance);
 ///       measured at most 3.1e-10 (the last row; printed per row). The foil yields under the snow peak
 ///       (largest α > 1e-4; measured below), the unloading rows leave each sheet's largest α
-///       as it was to 1e-9 (elastic below the largest stress carried), and the bottom sheet
-///       hangs lower at the last row than under the same loads before the snow (it cannot
-///       unless it kept plastic strain: the elastic answer would be the same state).
+///       as it was to 1e-9 (elastic below the largest stress carried), and where the sheets are
+///       apart after the peak the bottom sheet hangs more than 1 mm lower than under the same
+///       loads before the snow (it cannot unless it kept plastic strain: the elastic answer is
+///       the same state; measured 6.4 to 8.1 mm).
 #[test]
 fn shipped_etfe_cushion_yields_in_contact_and_keeps_plastic_strain() {
-    let scene = read_scene(&shipped("EtfeCushion"));
+    // The shipped scene with the rim reaction added as an output (the FMU leaves it out: its
+    // derivative by the pressure is 0, and the conformance suite's differences of it are
+    // round-off).
+    let path = shipped("EtfeCushion");
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    json["outputs"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!(
+        {"name": "R_z", "probe": {"kind": "reaction", "nodes": "cushion.rim", "component": "z"}}));
+    let scene = Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{path}: {p}"));
     let loads = scene
         .experiment
         .loads
@@ -431,14 +443,13 @@ fn shipped_etfe_cushion_yields_in_contact_and_keeps_plastic_strain() {
         .unwrap();
     assert_eq!(value("snow", peak), 2.0 * value("p", peak));
     assert_eq!(value("p", peak), p_max);
-    // The first row at the last row's loads, before the snow.
-    let last = rows - 1;
-    let before = (0..peak)
-        .find(|&k| value("p", k) == value("p", last) && value("snow", k) == value("snow", last))
-        .expect("the last row's loads before the snow");
+    // Each row after the peak paired with the row of the same loads before it, if any.
+    let twin = |k: usize| {
+        (0..peak).find(|&j| value("p", j) == value("p", k) && value("snow", j) == value("snow", k))
+    };
     let mut e = engine(scene);
     let scale = 2.0 * p_max * a * a;
-    let (mut alpha_peak, mut w_before) = ([0.0; 2], 0.0);
+    let (mut alpha_peak, mut w_bottom, mut pairs) = ([0.0; 2], vec![0.0; rows], 0);
     for k in 0..rows {
         let (p, q) = (value("p", k), value("snow", k));
         set(&mut e, "p", p);
@@ -465,9 +476,7 @@ fn shipped_etfe_cushion_yields_in_contact_and_keeps_plastic_strain() {
             (c - bottom).abs() < 1e-9 * scale,
             "row {k}: C {c} vs {bottom}"
         );
-        if k == before {
-            w_before = get(&e, "w_bottom");
-        }
+        w_bottom[k] = get(&e, "w_bottom");
         if k == peak {
             alpha_peak = alpha;
             assert!(
@@ -480,6 +489,16 @@ fn shipped_etfe_cushion_yields_in_contact_and_keeps_plastic_strain() {
             );
         }
         if k > peak {
+            // The bottom sheet, apart from the top one, hangs lower than under the same loads
+            // before the snow: it kept plastic strain.
+            if let Some(j) = twin(k).filter(|_| c == 0.0) {
+                println!(
+                    "  bottom centre {:.6} m, {:.6} m under the same loads before the snow (row {j})",
+                    w_bottom[k], w_bottom[j]
+                );
+                assert!(w_bottom[k] < w_bottom[j] - 1e-3, "row {k} against row {j}");
+                pairs += 1;
+            }
             for s in 0..2 {
                 assert!(
                     (alpha[s] - alpha_peak[s]).abs() <= 1e-9 * alpha_peak[s].max(1e-300),
@@ -488,13 +507,11 @@ fn shipped_etfe_cushion_yields_in_contact_and_keeps_plastic_strain() {
             }
         }
     }
-    let w_end = get(&e, "w_bottom");
-    println!(
-        "bottom centre at p {} Pa, no snow: {w_before:.6} m before the snow, {w_end:.6} m after",
-        value("p", last)
+    assert!(
+        pairs >= 2,
+        "{pairs} rows after the snow with a twin before it"
     );
     assert_eq!(get(&e, "contact_force"), 0.0);
-    assert!(w_end < w_before - 1e-3, "{w_end} vs {w_before}");
 }
 
 // ---------------------------------------------------------------------------------------------
