@@ -373,77 +373,145 @@ fn sheet_balances(e: &velarium::Engine, a: f64, p: f64, q: f64) -> (f64, f64) {
     )
 }
 
-/// The shipped EtfeCushion through its experiment: at the snow peak the sheets touch, the rim
-/// carries the snow (to 1e-9) and the contact force is what each sheet's balance under the
-/// snow and the gas pressure gives ([`sheet_balances`], to 1e-9 of the snow load; measured
-/// 6.7e-12); taking the snow off while the air is pumped back in converges back to the
-/// inflated state (the foil is elastic along this history, so to the same state: 1e-8).
+/// The largest equivalent plastic strain α of the committed state on each sheet of a cushion
+/// [top, bottom] (the generator's top triangles face up, the bottom's down).
+fn sheet_alpha(e: &velarium::Engine) -> [f64; 2] {
+    let mut most = [0.0f64; 2];
+    for tri in &e.model().triangles {
+        let slot = tri.material.plastic.as_ref().expect("etfe").slot;
+        let sheet = usize::from(tri.reference.normal.z < 0.0);
+        most[sheet] = most[sheet].max(e.state().plastic[4 * slot + 3]);
+    }
+    most
+}
+
+/// GOAL: the shipped EtfeCushion meets issue 29's target along its own experiment, one engine
+///       step per row as the FMU steps it: inflation, snow to twice the inflation pressure with
+///       the sheets in contact, unloading with plastic strain left; converged in every step.
+/// MESH, BOUNDARY CONDITIONS, PARAMETERS: the shipped scene's (a 4 m x 4 m cushion, 6 rings,
+///       the top sheet cut to a 0.2 m rise, the bottom flat; ETFE 0.2 mm, E 900 MPa, ν 0.43,
+///       yield 16 MPa, 24 MPa at 10 %; rim held; blower pressure p on both sheets, snow q on
+///       the top sheet; rows p = 300, 600 Pa, q/p = 0.5, 0.9, 1.1, 1.5, 1.75, 2, back to 0,
+///       then p = 300 and 150 Pa).
+/// REFERENCE: equilibrium (no closed form for the shape): Σ R_z = q a b (snow per plan area,
+///       rim held, the pressure internal) and the contact force equals each sheet's vertical
+///       balance ([`sheet_balances`]). Plastic strain read from the committed state.
+/// TOLERANCES: Σ R_z and both balances within 1e-9 of 2 p a b (the solve's force tolerance);
+///       measured at most 3.1e-10 (the last row; printed per row). The foil yields under the snow peak
+///       (largest α > 1e-4; measured below), the unloading rows leave each sheet's largest α
+///       as it was to 1e-9 (elastic below the largest stress carried), and where the sheets are
+///       apart after the peak the bottom sheet hangs more than 1 mm lower than under the same
+///       loads before the snow (it cannot unless it kept plastic strain: the elastic answer is
+///       the same state; measured 6.4 to 8.1 mm).
 #[test]
-fn shipped_etfe_cushion_touches_under_snow_and_unloads() {
-    let scene = read_scene(&shipped("EtfeCushion"));
+fn shipped_etfe_cushion_yields_in_contact_and_keeps_plastic_strain() {
+    // The shipped scene with the rim reaction added as an output (the FMU leaves it out: its
+    // derivative by the pressure is 0, and the conformance suite's differences of it are
+    // round-off).
+    let path = shipped("EtfeCushion");
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    json["outputs"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!(
+        {"name": "R_z", "probe": {"kind": "reaction", "nodes": "cushion.rim", "component": "z"}}));
+    let scene = Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{path}: {p}"));
     let loads = scene
         .experiment
         .loads
         .clone()
         .expect("an experiment load history");
-    let mut e = engine(scene);
-    let last = loads.time.len() - 1;
+    let a = match &scene.geometry.generators[0] {
+        velarium::scene::Generator::Cushion { outline, .. } => match outline {
+            velarium::scene::Outline::Rectangle { size } => {
+                assert_eq!(size[0], size[1]);
+                size[0]
+            }
+            other => panic!("a square outline, not {other:?}"),
+        },
+        other => panic!("a cushion generator, not {other:?}"),
+    };
     let value = |name: &str, k: usize| match &loads.inputs[name][k] {
         velarium::scene::LoadValue::All(v) => *v,
         velarium::scene::LoadValue::Each(v) => v[0],
     };
-    // The row where the snow peaks, and the inflated row before it.
-    let peak = (0..=last)
+    let rows = loads.time.len();
+    let p_max = (0..rows).map(|k| value("p", k)).fold(0.0, f64::max);
+    let peak = (0..rows)
         .max_by(|&i, &j| value("snow", i).total_cmp(&value("snow", j)))
         .unwrap();
-    let inflated = (0..peak)
-        .max_by(|&i, &j| value("gas", i).total_cmp(&value("gas", j)))
-        .unwrap();
-    assert!(
-        peak < last && value("snow", last) == 0.0 && value("gas", last) == value("gas", inflated)
-    );
-    let mut w_inflated = 0.0;
-    // Through the history's rows, each in ten steps (linear between the rows).
-    for k in 1..=last {
-        for s in 1..=10 {
-            let f = s as f64 / 10.0;
-            for name in ["gas", "snow"] {
-                let v = value(name, k - 1) + f * (value(name, k) - value(name, k - 1));
-                set(&mut e, name, v);
-            }
-            solve(&mut e);
-        }
-        if k == inflated {
-            w_inflated = get(&e, "w_top");
-        }
+    assert_eq!(value("snow", peak), 2.0 * value("p", peak));
+    assert_eq!(value("p", peak), p_max);
+    // Each row after the peak paired with the row of the same loads before it, if any.
+    let twin = |k: usize| {
+        (0..peak).find(|&j| value("p", j) == value("p", k) && value("snow", j) == value("snow", k))
+    };
+    let mut e = engine(scene);
+    let scale = 2.0 * p_max * a * a;
+    let (mut alpha_peak, mut w_bottom, mut pairs) = ([0.0; 2], vec![0.0; rows], 0);
+    for k in 0..rows {
+        let (p, q) = (value("p", k), value("snow", k));
+        set(&mut e, "p", p);
+        set(&mut e, "snow", q);
+        let report = solve(&mut e);
+        let (r, c) = (get(&e, "R_z"), get(&e, "contact_force"));
+        let (top, bottom) = sheet_balances(&e, a, p, q);
+        let alpha = sheet_alpha(&e);
+        println!(
+            "row {k}: p {p} q {q}: {} increments {} iterations; R_z error {:.1e}; C {c:.6e} N over {:.3} m2, balances off by {:.1e} / {:.1e}; V {:.4} m3, w_top {:.6} m, w_bottom {:.6} m; alpha max (top, bottom) {alpha:?}",
+            report.increments,
+            report.iterations,
+            (r - q * a * a).abs() / scale,
+            get(&e, "contact_area"),
+            (c - top).abs() / scale,
+            (c - bottom).abs() / scale,
+            get(&e, "V"),
+            get(&e, "w_top"),
+            get(&e, "w_bottom"),
+        );
+        assert!((r - q * a * a).abs() < 1e-9 * scale, "row {k}: R_z {r}");
+        assert!((c - top).abs() < 1e-9 * scale, "row {k}: C {c} vs {top}");
+        assert!(
+            (c - bottom).abs() < 1e-9 * scale,
+            "row {k}: C {c} vs {bottom}"
+        );
+        w_bottom[k] = get(&e, "w_bottom");
         if k == peak {
-            let snow = value("snow", peak) * 9.0;
-            let r = get(&e, "R_z");
-            println!(
-                "EtfeCushion at the snow peak: p {:.1} Pa, R_z {r:.6e} N against {snow:.6e} N, contact {:.3e} N over {:.4} m2",
-                get(&e, "p"),
-                get(&e, "contact_force"),
-                get(&e, "contact_area")
+            alpha_peak = alpha;
+            assert!(
+                c > 0.0 && get(&e, "contact_area") > 0.0,
+                "the sheets must touch at q = 2p"
             );
-            assert!(rel(r, snow) < 1e-9);
-            assert!(get(&e, "contact_area") > 0.0 && get(&e, "contact_force") > 0.0);
-            // The contact force against each sheet's balance under snow and gas pressure.
-            let (top, bottom) = sheet_balances(&e, 3.0, get(&e, "p"), value("snow", peak));
-            let c = get(&e, "contact_force");
-            println!("  contact {c:.6e} N, top sheet's balance {top:.6e}, bottom's {bottom:.6e}");
-            assert!((c - top).abs() < 1e-9 * snow && (c - bottom).abs() < 1e-9 * snow);
+            assert!(
+                alpha[0].max(alpha[1]) > 1e-4,
+                "the foil must yield: {alpha:?}"
+            );
+        }
+        if k > peak {
+            // The bottom sheet, apart from the top one, hangs lower than under the same loads
+            // before the snow: it kept plastic strain.
+            if let Some(j) = twin(k).filter(|_| c == 0.0) {
+                println!(
+                    "  bottom centre {:.6} m, {:.6} m under the same loads before the snow (row {j})",
+                    w_bottom[k], w_bottom[j]
+                );
+                assert!(w_bottom[k] < w_bottom[j] - 1e-3, "row {k} against row {j}");
+                pairs += 1;
+            }
+            for s in 0..2 {
+                assert!(
+                    (alpha[s] - alpha_peak[s]).abs() <= 1e-9 * alpha_peak[s].max(1e-300),
+                    "row {k}: the unloading must not flow: {alpha:?} after {alpha_peak:?}"
+                );
+            }
         }
     }
-    let w = get(&e, "w_top");
-    println!(
-        "EtfeCushion unloaded: p {:.1} Pa, w_top {w:.9} m (inflated {w_inflated:.9} m), R_z {:.3e} N",
-        get(&e, "p"),
-        get(&e, "R_z")
-    );
     assert!(
-        get(&e, "contact_force") == 0.0 && get(&e, "R_z").abs() < 1e-9 * value("snow", peak) * 9.0
+        pairs >= 2,
+        "{pairs} rows after the snow with a twin before it"
     );
-    assert!(rel(w, w_inflated) < 1e-8, "{w} vs {w_inflated}");
+    assert_eq!(get(&e, "contact_force"), 0.0);
 }
 
 // ---------------------------------------------------------------------------------------------
