@@ -228,6 +228,21 @@ impl Engine {
                 return report;
             }
         }
+        // The same under a given water volume: the tangent with the level eliminated
+        // (`stability::water_volume_stable`; docs/mechanics.md §3.2).
+        if crate::solver::stability::water_volume_stable(
+            &self.model,
+            &self.state.displacement,
+            &applied,
+        ) == Some(false)
+        {
+            self.state = previous;
+            self.model.plastic.set(&self.state.plastic);
+            report.outcome = Outcome::Failed;
+            report.reached = 0.0;
+            report.message = "the equilibrium found is unstable: under the given water volume the tangent with the water level eliminated is not positive definite (a ponding instability that moves the water within the volume; docs/mechanics.md §3.2)".into();
+            return report;
+        }
         self.state.applied = applied;
         self.state.last_iterations = report.iterations as u32;
         if let Err(e) = self.refresh_outputs() {

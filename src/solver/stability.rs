@@ -19,8 +19,8 @@
 //! A water volume held (`water_volume`) stiffens the sheet: the level rises with the mean
 //! sag, so only motions that keep the volume count, and the threshold of a flat rectangle
 //! becomes that of its first mode moving no water, N π² (4/a² + 1/b²) for a ≥ b.
-//! [`water_volume_stable`] tests that; the engine does not call it after a step yet (its
-//! answers were stable wherever measured: docs/mechanics.md §3.2).
+//! [`water_volume_stable`] tests that; the engine calls it after every converged step of a
+//! scene with a water volume (src/engine/stepping.rs) and refuses an unstable equilibrium.
 
 use super::assemble::{assemble, Pattern};
 use crate::model::pressure::SurfaceLaw;

@@ -539,8 +539,8 @@ fn water_volume_threshold_is_the_first_mode_that_moves_no_water() {
     assert_eq!(check(1.01 * coarse).0, Some(false));
     let level_held = discrete_threshold(16);
     assert_eq!(check(1.1 * level_held), (Some(true), Some(false)));
-    // What the engine does with a volume given (the series' volume at h = 1e-4 m): it does
-    // not check stability under a water volume; the check at the states it returns.
+    // What the engine does with a volume given (the series' volume at h = 1e-4 m): the states
+    // it returns (after its own stability check) and the check at them.
     let (_, volume) = linear_theory(6000.0, 1e-4);
     for gamma in [1.1 * level_held, 0.9 * coarse, 1.1 * coarse] {
         let mut e = engine(pond_volume(16, gamma));
