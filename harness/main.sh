@@ -15,7 +15,10 @@
 # (harness/dynamics_plots.py: build/plots/VibratingMembrane.png, GustSail.png). Last, speed against error (harness/speed_error.py):
 # the error against the closed form over wall time, Hencky disc and wrinkled Lamé annulus at
 # growing meshes, with the optional peer (Kratos in /tmp/kratos-venv) beside ours when it is
-# installed (build/plots/speed_error.png and .csv).
+# installed (build/plots/speed_error.png and .csv). Then the cushion-and-blower system with the
+# cushion's mass through every coupling method (harness/coupling_dynamic_study.py, about 2 min:
+# build/plots/coupling_dynamic.png, the loop gain against the macro step and the strong run
+# beside the monolithic answer).
 # Extra arguments go to harness/run_main.py.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,3 +32,4 @@ bash harness/setup.sh
 .venv/bin/python harness/run_main.py --model FourPointSail
 .venv/bin/python harness/dynamics_plots.py
 .venv/bin/python harness/speed_error.py
+.venv/bin/python harness/coupling_dynamic_study.py

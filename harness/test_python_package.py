@@ -378,3 +378,14 @@ def test_the_solve_engine_ends_a_run_where_the_fmu_discards(tmp_path):
     failed = [r for r in fmu_rows if r["run"] == 1]
     assert {r["status"] for r in failed} == {"discard"} and len(failed) < 7
     assert solve_rows == fmu_rows
+
+
+def test_a_sweep_without_dask_names_the_extra(cable_fmu, monkeypatch):
+    """A plain `pip install .` brings no Dask (the `sweep` extra does): a sweep then says which
+    extra to install rather than failing on a bare ModuleNotFoundError (found 2026-11-28 in a
+    fresh venv, where the docs' sweep example stopped at `import dask.bag`)."""
+    for name in [m for m in sys.modules if m == "dask" or m.startswith("dask.")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "dask", None)  # import dask -> ImportError
+    with pytest.raises(ImportError, match=r"velarium\[sweep\]"):
+        sweep(cable_fmu, {"P": [25.0, 50.0]}, steps=2, scheduler="synchronous", progress=False)

@@ -18,8 +18,8 @@ and the residual r = H(x) - x. The methods differ in the next x:
 - ``newton``: x <- x + (I - J_B J_A)⁻¹ r with J_A, J_B the FMUs' interface Jacobians from
               ``fmi2GetDirectionalDerivative`` / ``fmi3GetDirectionalDerivative`` (after the
               step, with respect to that step's inputs), or finite differences of steps from the
-              saved states when an FMU does not provide derivatives (``jacobian="fd"`` forces
-              them).
+              saved states when an FMU does not provide derivatives or refuses them with an
+              Error (then said on stderr and in ``Master.notes``; ``jacobian="fd"`` forces them).
 
 Both FMI versions are driven through the same calls: get/set FMU state (``fmi2GetFMUstate`` /
 ``fmi3GetFMUState``...), Real / Float64 values, ``doStep`` (FMI 3 with
@@ -256,6 +256,8 @@ class Master:
             if k not in fmus:
                 raise CouplingError(f"start.{k}: no FMU of that name (FMUs: {list(fmus)})")
         self.order = list(fmus)
+        #: what the master decided on its own (an FMU's refused derivatives replaced by differences)
+        self.notes: list[str] = []
         self.units: dict[str, Unit] = {}
         try:
             for n, p in fmus.items():
@@ -337,6 +339,22 @@ class Master:
             J[:, j] = (step(state, w, t, h) - base) / d
         return J
 
+    def _derivative(self, unit: Unit, outs: Sequence[str], ins: Sequence[str]) -> np.ndarray | None:
+        """The FMU's interface Jacobian from its directional derivatives, or None when it refuses
+        them (Velarium refuses them for scenes with dynamics.time_integration): then the FMU is
+        marked as not providing them, so that this and every later Jacobian of it is taken by
+        finite differences of steps from the saved states; said once on stderr and kept in
+        ``self.notes``."""
+        try:
+            return unit.jacobian(outs, ins)
+        except Exception as e:  # an Error status from GetDirectionalDerivative
+            unit.provides_derivatives = False
+            msg = (f"{unit.name}: directional derivatives refused ({e}); its interface Jacobian is taken "
+                   "by finite differences of steps from the saved states from now on")
+            self.notes.append(msg)
+            print(msg, file=sys.stderr)
+            return None
+
     def macro_step(self, t: float, h: float, x0: np.ndarray, method: str, tol: float, max_iterations: int,
                    jacobian: str, omega0: float, weak: bool, hist: list[float]
                    ) -> tuple[bool, int, float, np.ndarray, str]:
@@ -402,21 +420,16 @@ class Master:
                         c, *_ = np.linalg.lstsq(Vm, -r, rcond=None)
                         x = hx + Wm @ c
                 elif method == "newton":
-                    if jacobian == "fd" or not (A.provides_derivatives and B.provides_derivatives):
-                        ja = self._fd_jacobian(self._step_a, sa, x, t, h, y_a) if (
-                            jacobian == "fd" or not A.provides_derivatives) else None
-                        jb = self._fd_jacobian(self._step_b, sb, y_a, t, h, hx) if (
-                            jacobian == "fd" or not B.provides_derivatives) else None
-                        # the derivatives of the FMU that provides them need it stepped at x again
-                        if ja is None:
-                            self._step_a(sa, x, t, h)
-                            ja = A.jacobian(self.a_out, self.a_in)
-                        if jb is None:
-                            self._step_b(sb, y_a, t, h)
-                            jb = B.jacobian(self.b_out, self.b_in)
-                    else:
-                        jb = B.jacobian(self.b_out, self.b_in)
-                        ja = A.jacobian(self.a_out, self.a_in)
+                    # the derivatives first (each FMU is at its step at this iterate), then the
+                    # finite differences of steps from the saved states for an FMU without them
+                    jb = self._derivative(B, self.b_out, self.b_in) if (
+                        jacobian != "fd" and B.provides_derivatives) else None
+                    ja = self._derivative(A, self.a_out, self.a_in) if (
+                        jacobian != "fd" and A.provides_derivatives) else None
+                    if ja is None:
+                        ja = self._fd_jacobian(self._step_a, sa, x, t, h, y_a)
+                    if jb is None:
+                        jb = self._fd_jacobian(self._step_b, sb, y_a, t, h, hx)
                     M = np.eye(len(x)) - jb @ ja
                     x = x + np.linalg.solve(M, r)
                 else:

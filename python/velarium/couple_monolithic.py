@@ -71,21 +71,32 @@ def _secant(f: Callable[[float], float], x0: float, dx: float, what: str) -> flo
 
 
 def solve(gas_fmu: str | Path, blower: Mapping[str, float], p0: float, p_set: list, snow: list,
-          stop: float, step: float, gas_input: str = "dN", snow_input: str = "snow") -> dict[str, np.ndarray]:
+          stop: float, step: float, gas_input: str = "dN", snow_input: str = "snow",
+          initial: tuple[float, float] | None = None) -> dict[str, np.ndarray]:
     """The monolithic answer at t = 0, step, 2 step, ... stop: columns time, p, V, N, I.
 
     ``blower`` holds the blower's parameters (``blower_parameters``); the cushion starts at
     gauge pressure ``p0`` with the blower's integral at zero; ``p_set`` and ``snow`` are
-    [[t, value], ...] tables, taken at each step's end."""
+    [[t, value], ...] tables, taken at each step's end.
+
+    ``initial`` = (ΔN₀, V⁰) starts the scene in its initialization at that gas amount (its
+    static equilibrium at rest, as a dynamic scene initializes) instead of reaching p0 in a step
+    [-1, 0]: what a scene with ``dynamics.time_integration`` needs, whose step would not come to
+    rest. ``initial_gas`` computes it with the quasi-static scene."""
     eq = BlowerEquations(blower)
     patm = float(blower["p_atm"])
     fset = table_function(p_set, "p_set")
     fsnow = table_function(snow, "snow")
     g = Unit("cushion_gas", gas_fmu)
     try:
-        g.initialize(-1.0, {gas_input: 0.0, snow_input: fsnow(0.0)})
-        p, V = g.get(["p", "V"])
-        v_ref = (p + patm) * V / patm  # the gas law at ΔN = 0: the group's reference volume
+        if initial is not None:
+            dn0, v_ref = initial
+            g.initialize(0.0, {gas_input: dn0, snow_input: fsnow(0.0)})
+            p, V = g.get(["p", "V"])
+        else:
+            g.initialize(-1.0, {gas_input: 0.0, snow_input: fsnow(0.0)})
+            p, V = g.get(["p", "V"])
+            v_ref = (p + patm) * V / patm  # the gas law at ΔN = 0: the group's reference volume
 
         def at(state, t, h, dn, s):
             g.restore(state)
@@ -93,11 +104,12 @@ def solve(gas_fmu: str | Path, blower: Mapping[str, float], p0: float, p_set: li
             g.step(t, h)
             return g.get(["p", "V"])
 
-        # the start: the ΔN that holds p0, reached in the step [-1, 0]
-        s0 = g.save()
-        dn0 = _secant(lambda dn: at(s0, -1.0, 1.0, dn, fsnow(0.0))[0] - p0, 0.0, 1e-3, "the initial gas amount")
-        p, V = at(s0, -1.0, 1.0, dn0, fsnow(0.0))
-        g.free_state(s0)
+        if initial is None:
+            # the start: the ΔN that holds p0, reached in the step [-1, 0]
+            s0 = g.save()
+            dn0 = _secant(lambda dn: at(s0, -1.0, 1.0, dn, fsnow(0.0))[0] - p0, 0.0, 1e-3, "the initial gas amount")
+            p, V = at(s0, -1.0, 1.0, dn0, fsnow(0.0))
+            g.free_state(s0)
         N, I, t = dn0 + v_ref, 0.0, 0.0
         rows = [(0.0, p, V, N, I)]
         n = int(round(stop / step))
@@ -122,3 +134,20 @@ def solve(gas_fmu: str | Path, blower: Mapping[str, float], p0: float, p_set: li
         g.close()
     a = np.array(rows)
     return {"time": a[:, 0], "p": a[:, 1], "V": a[:, 2], "N": a[:, 3], "I": a[:, 4]}
+
+
+def initial_gas(static_gas_fmu: str | Path, blower: Mapping[str, float], p0: float, snow: list,
+                gas_input: str = "dN", snow_input: str = "snow") -> tuple[float, float]:
+    """(ΔN₀, V⁰) of the quasi-static gas scene at gauge pressure ``p0``: the gas amount that
+    holds p0 under the snow at t = 0, and the group's reference volume (``solve``'s
+    ``initial``)."""
+    r = solve(static_gas_fmu, blower, p0, [[0.0, p0]], snow, 1.0, 1.0, gas_input, snow_input)
+    patm = float(blower["p_atm"])
+    g = Unit("cushion_gas", static_gas_fmu)
+    try:
+        g.initialize(-1.0, {gas_input: 0.0, snow_input: table_function(snow, "snow")(0.0)})
+        p, V = g.get(["p", "V"])
+    finally:
+        g.close()
+    v_ref = (p + patm) * V / patm
+    return float(r["N"][0] - v_ref), float(v_ref)

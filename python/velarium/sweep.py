@@ -256,7 +256,11 @@ def run_partition_solve(runs: list[tuple[int, dict]], scene_text: str, spec: dic
 def compute(runs: list[dict], fmu: Path, spec: dict, scheduler: str, workers: int, partitions: int | None,
             show: bool = True, engine: str = "fmu") -> tuple[list[dict], float]:
     """All rows of all runs, in run order, and the wall time of the compute (seconds)."""
-    import dask.bag as db
+    try:
+        import dask.bag as db
+    except ImportError as e:  # the optional extra: a plain `pip install .` does not bring Dask
+        raise ImportError("velarium.sweep runs on Dask, which is not installed: pip install \"velarium[sweep]\" "
+                          "(or \".[sweep]\" in a checkout) brings dask and distributed") from e
 
     try:  # ship the worker function by value: workers need not have the package installed
         import cloudpickle
