@@ -461,9 +461,10 @@ def _run_fmpy_ssp(ssp, system, tmp_path):
 @pytest.mark.parametrize("tool", [
     "OMSimulator",
     pytest.param("fmucontainer", marks=pytest.mark.xfail(
-        strict=True, raises=FMICallException, reason="fmucontainer 2.0's SSP reader takes none of the parameter bindings: the "
-        "blower starts from its defaults (V0 1 m3, p0 0 Pa), so the cushion is given 62077 Pa, above its input's max "
-        "1500 Pa, and fmi2ExitInitializationMode fails (measured)")),
+        strict=True, raises=FMICallException, reason="fmucontainer 2.0 starts its connections at 0 and sets them into the FMUs "
+        "during initialization (its debug log): the cushion is given p = 0 and starts deflated, the blower then gives it "
+        "62077 Pa, above its input's max 1500 Pa, and fmi2ExitInitializationMode fails; the same with the bound values "
+        "written as the blower's own start values (measured)")),
     pytest.param("fmpy.ssp", marks=pytest.mark.xfail(
         strict=True, raises=FMICallException, reason="fmpy 0.3.32's simulate_ssp applies no component parameter bindings and "
         "starts every connector at 0: the blower rejects V = 0 at the first step (measured)")),
