@@ -25,7 +25,7 @@ use crate::model::membrane::Evaluation;
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{pressure, LoadModel, Model, ProbeModel};
-use crate::solver::assemble::Committed;
+use crate::solver::outputs::Committed;
 
 /// Every output of the model, in probe order. `u` displacement, `applied` input values it
 /// carries, `iterations` of the last step, `committed` the one assembly at `u` (every
