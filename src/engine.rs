@@ -742,18 +742,18 @@ impl Engine {
         let s = &self.state;
         // The assembly reads the committed plastic strains from the model (model/state.rs).
         self.model.plastic.set(&s.plastic);
-        let membranes = self
+        let committed = self
             .solver
-            .evaluate_membranes(&self.model, &s.displacement, &s.applied);
+            .evaluate_committed(&self.model, &s.displacement, &s.applied);
         self.outputs = results::evaluate(
             &self.model,
-            &mut self.solver,
             &s.displacement,
             &s.applied,
             s.last_iterations,
-            &membranes,
+            &committed,
             &s.slip_state,
         );
+        let membranes = committed.membranes;
         self.state.wrinkle = membranes.iter().map(|e| e.state).collect();
         self.state.tension_angle = membranes.iter().map(|e| e.angle).collect();
         self.membranes = membranes;

@@ -25,32 +25,21 @@ use crate::model::membrane::Evaluation;
 use crate::model::sleeve::Contact;
 use crate::model::wrinkling::WrinkleState;
 use crate::model::{pressure, LoadModel, Model, ProbeModel};
-use crate::solver::Solver;
+use crate::solver::outputs::Committed;
 
 /// Every output of the model, in probe order. `u` displacement, `applied` input values it
-/// carries, `iterations` of the last step, `membranes` the evaluation of every triangle at `u`.
+/// carries, `iterations` of the last step, `committed` the one assembly at `u` (every
+/// triangle's evaluation, the residual, the stored energy: `Solver::evaluate_committed`).
 pub fn evaluate(
     model: &Model,
-    solver: &mut Solver,
     u: &[f64],
     applied: &[f64],
     iterations: u32,
-    membranes: &[Evaluation],
+    committed: &Committed,
     slip_states: &[Contact],
 ) -> Vec<f64> {
-    let needs_reactions = model.probes.iter().any(|p| {
-        matches!(
-            p,
-            ProbeModel::Reaction { .. }
-                | ProbeModel::ReactionMoment { .. }
-                | ProbeModel::ReactionResultant { .. }
-        )
-    });
-    let r = if needs_reactions {
-        solver.residual(model, u, applied)
-    } else {
-        Vec::new()
-    };
+    let membranes: &[Evaluation] = &committed.membranes;
+    let r: &[f64] = &committed.residual;
     let fraction = |tris: &[usize], state: WrinkleState| -> f64 {
         let area = |e: &usize| model.triangles[*e].reference.area;
         let total: f64 = tris.iter().map(area).sum();
@@ -121,12 +110,12 @@ pub fn evaluate(
                 .iter()
                 .map(|&i| {
                     let arm = model.position(u, i) - point;
-                    arm.cross(&held_force(model, &r, i)).dot(axis)
+                    arm.cross(&held_force(model, r, i)).dot(axis)
                 })
                 .sum(),
             ProbeModel::ReactionResultant { nodes } => nodes
                 .iter()
-                .map(|&i| held_force(model, &r, i))
+                .map(|&i| held_force(model, r, i))
                 .sum::<nalgebra::Vector3<f64>>()
                 .norm(),
             ProbeModel::ZoneForce { zone, component } => {
@@ -139,7 +128,7 @@ pub fn evaluate(
             ProbeModel::Velocity { .. }
             | ProbeModel::Acceleration { .. }
             | ProbeModel::KineticEnergy => 0.0,
-            ProbeModel::StrainEnergy => solver.stored_energy(model, u, applied),
+            ProbeModel::StrainEnergy => committed.stored,
             ProbeModel::WrinkledFraction(tris) => fraction(tris, WrinkleState::Wrinkled),
             ProbeModel::SlackFraction(tris) => fraction(tris, WrinkleState::Slack),
             ProbeModel::MaxPrincipalStress(tris) => tris

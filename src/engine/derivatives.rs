@@ -425,14 +425,13 @@ impl Engine {
             None
         };
         let model = model.as_ref().unwrap_or(&self.model);
-        let membranes = self.solver.evaluate_membranes(model, &u, &v);
+        let committed = self.solver.evaluate_committed(model, &u, &v);
         Ok(results::evaluate(
             model,
-            &mut self.solver,
             &u,
             &v,
             s.last_iterations,
-            &membranes,
+            &committed,
             &s.slip_state,
         ))
     }

@@ -57,6 +57,7 @@ pub mod mechanism;
 pub mod modes;
 mod newton;
 mod order;
+pub mod outputs;
 mod path;
 mod proximal;
 pub mod relax;
