@@ -216,7 +216,7 @@ impl Solver {
     /// G of the convergence test (module docs) from the last assembly: the lower quartile of
     /// the nonzero nodal loads (the reactions where nothing else is loaded). In the solver's
     /// buffer (no allocation).
-    fn measure_load_scale(&mut self, model: &Model) {
+    pub(super) fn measure_load_scale(&mut self, model: &Model) {
         self.load_scale = self.quartile_of(model, false);
         if self.load_scale == 0.0 {
             self.load_scale = self.quartile_of(model, true);
