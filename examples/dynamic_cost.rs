@@ -93,7 +93,10 @@ fn main() {
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
         "load average {}",
-        load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
     );
     run(rings, steps, false);
     if phases {
@@ -103,7 +106,6 @@ fn main() {
 }
 
 fn run(rings: usize, steps: usize, phases: bool) {
-
     let mut e = Engine::try_new(scene(rings, false)).expect("engine");
     assert!(e.solve().converged());
     let vr = e
@@ -163,7 +165,11 @@ fn run(rings: usize, steps: usize, phases: bool) {
         .iter()
         .chain(&state.velocity)
         .fold(0u64, |h, x| h.rotate_left(5) ^ x.to_bits());
-    let w0 = d.outputs().iter().find(|o| o.0 == "w0").map_or(f64::NAN, |o| o.1);
+    let w0 = d
+        .outputs()
+        .iter()
+        .find(|o| o.0 == "w0")
+        .map_or(f64::NAN, |o| o.1);
     let dynamic_factorizations = d.factorizations() - dynamic_factorizations;
     println!(
         "Hencky disc, {rings} rings, {} free DOF, f1 = {f1:.3} Hz, dt = {dt:.4e} s",

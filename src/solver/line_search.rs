@@ -265,6 +265,9 @@ impl Solver {
                 ..Default::default()
             },
         );
+        if share && self.pre_strain == 0.0 {
+            self.carry_trial_residual(loads);
+        }
         let trial = std::mem::take(&mut self.trial);
         let inertia = self.add_inertia(&trial, false, share);
         self.trial = trial;
@@ -291,6 +294,26 @@ impl Solver {
                 .map(|r| r.r),
         );
         (info.potential, inverted)
+    }
+
+    /// The static residual just assembled at the trial point, kept for the next time step
+    /// (`inertia::Carry::residual`, `Solver::static_residual`), in the kept buffers.
+    fn carry_trial_residual(&mut self, loads: &[f64]) {
+        let Some(matrices) = self.dynamic_matrices.as_mut() else {
+            return;
+        };
+        let kept = matrices.carry.residual.get_or_insert_with(Default::default);
+        kept.u.clear();
+        kept.u.extend_from_slice(&self.trial);
+        kept.loads.clear();
+        kept.loads.extend_from_slice(loads);
+        kept.r.clear();
+        kept.r.resize(self.pattern.n, 0.0);
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                kept.r[e] = self.residual[d];
+            }
+        }
     }
 
     /// Δu·R: the displacement direction dotted with the residual on the free DOFs.

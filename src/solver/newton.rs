@@ -583,7 +583,9 @@ impl Solver {
         }
         let direction = match pending {
             Some(d) => Ok(d),
-            None => self.direction_sharing(model, u, &st.rows, bordered, st.damping, &mut st.shared),
+            None => {
+                self.direction_sharing(model, u, &st.rows, bordered, st.damping, &mut st.shared)
+            }
         };
         match direction {
             Ok(d) => Ok(d),
