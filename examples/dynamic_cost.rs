@@ -5,7 +5,7 @@
 //! The shipped Hencky disc (radius 0.5 m, 0.1 mm film, E 200 MPa, follower pressure) with a
 //! density of 1400 kg/m³, RINGS rings (default 32), one solver thread. Static: the equilibrium
 //! under 400 Pa, then steps of ±10 % (400 → 440 → 400 → 360 → 400, three times), each timed; their time per
-//! Newton iteration is the unit. Dynamic (generalized-α, ρ∞ = 0.9, 1 % Rayleigh mass damping):
+//! Newton iteration is the unit. Dynamic (generalized-α, ρ∞ = 0.9, no damping):
 //! from the static equilibrium under 400 Pa at rest, STEPS time steps (default 200) of
 //! Δt = 1/(20 f₁), f₁ the lowest natural frequency there, under a pressure
 //! 400 (1 + 0.1 sin(2π f₁ t / 3)) Pa. Printed: the CPU time per time step (the process's CPU

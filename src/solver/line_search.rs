@@ -204,7 +204,7 @@ impl Solver {
                     return (0.0, false);
                 }
                 if s0 < 0.0 && -s0 > 1e3 * noise {
-                    self.armijo_potential(model, u, dir, at, (value, reference), s0, shared)
+                    self.armijo_potential(model, u, dir, at, (value, reference, s0), shared)
                 } else {
                     self.slope_search(model, u, dir, at, s0, shared)
                 }
@@ -340,15 +340,15 @@ impl Solver {
         (free + slip.into_iter().map(|r| r * r).sum::<f64>()).sqrt()
     }
 
-    /// Armijo backtracking on the potential Π with quadratic interpolation.
+    /// Armijo backtracking on the potential Π with quadratic interpolation; (p0, reference, s0)
+    /// are Π(0), the largest recent Π and the slope Π′(0).
     fn armijo_potential(
         &mut self,
         model: &Model,
         u: &[f64],
         dir: &Direction,
         at: &Trial,
-        (p0, reference): (f64, f64),
-        s0: f64,
+        (p0, reference, s0): (f64, f64, f64),
         shared: &mut Shared,
     ) -> (f64, bool) {
         let noise = 1e-13 * p0.abs().max(f64::MIN_POSITIVE);
