@@ -35,7 +35,7 @@
 
 use super::assemble::{self, Membranes, NONE};
 use super::core::Solver;
-use super::inertia::{symmetric_product, Inertia, Matrices};
+use super::inertia::{symmetric_product, Carry, Inertia, Matrices};
 use super::loads::{load_change, loads_at, prescribe};
 use super::path::Attempt;
 use super::report::{push_log, StepReport};
@@ -92,11 +92,11 @@ impl Alpha {
 }
 
 impl Solver {
-    /// M and C of the time integration (built at the first dynamic step, then kept: both
-    /// depend on reference quantities only).
-    fn dynamic_matrices(&mut self, model: &Model, integration: &Integration) -> Matrices {
-        if let Some(m) = &self.dynamic_matrices {
-            return m.clone();
+    /// M and C of the time integration (built at the first dynamic step, then kept in
+    /// `self.dynamic_matrices`: both depend on reference quantities only).
+    fn dynamic_matrices(&mut self, model: &Model, integration: &Integration) {
+        if self.dynamic_matrices.is_some() {
+            return;
         }
         let m = self
             .mass(model, integration.mass)
@@ -130,9 +130,9 @@ impl Solver {
             c,
             col_ptr: symbolic.col_ptr().to_vec(),
             row_idx: symbolic.row_idx().to_vec(),
+            carry: Carry::default(),
         };
-        self.dynamic_matrices = Some(matrices.clone());
-        matrices
+        self.dynamic_matrices = Some(matrices);
     }
 
     /// K₀: the tangent at the reference configuration with no load (wrinkle states from the
@@ -153,8 +153,22 @@ impl Solver {
         self.linear.values().to_vec()
     }
 
-    /// The static residual R(u, loads) on the equations (law's wrinkle states).
+    /// The static residual R(u, loads) on the equations (law's wrinkle states). The last time
+    /// sub-step's trial point's (`Carry::residual`) where `u` and `loads` are that point's bit
+    /// for bit and nothing else enters R (no plastic history, no prestress continuation's
+    /// pre-strain; the trial had no frozen states and no sleeves): the same assembly, done
+    /// once.
     fn static_residual(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Vec<f64> {
+        let carried = self
+            .dynamic_matrices
+            .as_mut()
+            .and_then(|m| m.carry.residual.take());
+        if let Some(t) = carried {
+            let same = t.u[..] == u[..] && t.loads[..] == loads[..] && t.r.len() == self.pattern.n;
+            if same && self.pre_strain == 0.0 && model.plastic_len() == 0 {
+                return t.r;
+            }
+        }
         let held = self.probe_states.take();
         let r = self.residual(model, u, loads);
         self.probe_states = held;
@@ -233,17 +247,14 @@ pub struct DynamicPath {
     /// The sub-step an unhindered step takes: h / ceil(h / max_time_step).
     nominal: f64,
     alpha: Alpha,
-    matrices: Matrices,
     pub(super) converged: Vec<f64>,
     pub(super) history: History,
     pub(super) velocity: Vec<f64>,
     pub(super) acceleration: Vec<f64>,
     /// R(u_n, t_n) on the equations.
     residual_n: Vec<f64>,
-    /// The inertia force's buffers, kept from sub-step to sub-step (K_d rebuilt only when Δt
-    /// changes: `k_dt`), and R(u_{n+1}, t_{n+1}) of the last converged attempt.
-    buffers: Option<Inertia>,
-    k_dt: f64,
+    /// R(u_{n+1}, t_{n+1}) of the last converged attempt. (The inertia force's buffers are
+    /// kept in the solver from sub-step to sub-step and step to step: `Carry::inertia`.)
     residual_trial: Vec<f64>,
 }
 
@@ -276,7 +287,7 @@ impl DynamicPath {
             // summed times: 0.020000000000000004 for 0.02) takes that number.
             .map_or(1.0, |m| (duration / m * (1.0 - 1e-9)).ceil().max(1.0));
         let nominal = duration / pieces;
-        let matrices = solver.dynamic_matrices(model, integration);
+        solver.dynamic_matrices(model, integration);
         let residual_n = solver.static_residual(model, u, from);
         DynamicPath {
             from: from.to_vec(),
@@ -288,14 +299,11 @@ impl DynamicPath {
             dt: nominal,
             nominal,
             alpha: Alpha::new(integration.rho_inf),
-            matrices,
             converged: u.to_vec(),
             history,
             velocity: take(motion.0),
             acceleration: take(motion.1),
             residual_n,
-            buffers: None,
-            k_dt: 0.0,
             residual_trial: Vec::new(),
         }
     }
@@ -450,12 +458,24 @@ impl DynamicPath {
                 }
             }
         }
-        self.buffers = inertia;
+        if let (Some(m), Some(inertia)) = (solver.dynamic_matrices.as_mut(), inertia) {
+            m.carry.inertia = Some((dt, inertia));
+        }
         (result, trial, contact)
     }
 
-    /// K_d, u_n and b of a sub-step of length `dt` (module docs), in the kept buffers.
-    fn inertia(&mut self, solver: &Solver, dt: f64) -> Inertia {
+    /// K_d, u_n and b of a sub-step of length `dt` (module docs), in the buffers the solver
+    /// keeps (`Carry::inertia`).
+    fn inertia(&mut self, solver: &mut Solver, dt: f64) -> Inertia {
+        let kept = solver
+            .dynamic_matrices
+            .as_mut()
+            .and_then(|m| m.carry.inertia.take());
+        let solver = &*solver;
+        let matrices = solver
+            .dynamic_matrices
+            .as_ref()
+            .expect("the time integration's matrices (DynamicPath::begin builds them)");
         let Alpha {
             am,
             af,
@@ -464,17 +484,22 @@ impl DynamicPath {
         } = self.alpha;
         let n = solver.pattern.n;
         let eq = &solver.pattern.eq;
-        let (m, c) = (&self.matrices.m, &self.matrices.c);
-        let mut x = self.buffers.take().unwrap_or_else(|| Inertia {
-            u_n: vec![0.0; n],
-            b: vec![0.0; n],
-            delta: vec![0.0; n],
-            g: vec![0.0; n],
-            col_ptr: self.matrices.col_ptr.clone(),
-            row_idx: self.matrices.row_idx.clone(),
-            ..Default::default()
+        let (m, c) = (&matrices.m, &matrices.c);
+        let (k_dt, mut x) = kept.unwrap_or_else(|| {
+            (
+                0.0,
+                Inertia {
+                    u_n: vec![0.0; n],
+                    b: vec![0.0; n],
+                    delta: vec![0.0; n],
+                    g: vec![0.0; n],
+                    col_ptr: matrices.col_ptr.clone(),
+                    row_idx: matrices.row_idx.clone(),
+                    ..Default::default()
+                },
+            )
         });
-        if x.k.len() != m.len() || self.k_dt != dt {
+        if x.k.len() != m.len() || k_dt != dt || x.u_n.len() != n {
             let cm = (1.0 - am) / (beta * dt * dt) / (1.0 - af);
             let cc = gamma / (beta * dt);
             x.k.clear();
@@ -483,7 +508,6 @@ impl DynamicPath {
             } else {
                 x.k.extend(m.iter().zip(c).map(|(m, c)| cm * m + cc * c));
             }
-            self.k_dt = dt;
         }
         // At δ = 0: a_{n+1-αm} into delta and v_{n+1-αf} into g (scratch here).
         for (d, &e) in eq.iter().enumerate() {
@@ -561,6 +585,119 @@ mod tests {
         model
     }
 
+    /// A time sub-step's iterations take a trial point's assembly as their equations
+    /// (`line_search.rs`, "A time sub-step's trial point") and the next step its static
+    /// residual (`Carry::residual`): both must be exactly what the iteration's own assembly
+    /// (`assemble_at`) and the next step's (`Solver::residual`) give, or a run would depend on
+    /// whether they were shared, and a state restored through the FMI would not continue as
+    /// the uninterrupted run does. Reference: the same assemblies done afresh at the converged
+    /// point. Tolerance: none, bit for bit (R, the force magnitudes of the convergence test,
+    /// the triangles' evaluations).
+    #[test]
+    fn shared_trial_assemblies_are_the_iterations_own_bit_for_bit() {
+        let text = serde_json::json!({
+            "format": 1, "name": "Shared",
+            "geometry": {"generators": [{"kind": "rectangle", "name": "s",
+                "origin": [0, 0, 0], "size": [1.0, 0.7], "divisions": [8, 6]}]},
+            "membranes": [{"name": "m", "triangles": "s", "thickness": 0.001, "density": 1000.0,
+                           "material": {"kind": "svk", "E": 1e9, "nu": 0.3},
+                           "prestress": {"kind": "isotropic", "n": 1000.0}}],
+            "supports": [{"nodes": "s.boundary", "fix": ["x", "y", "z"]}],
+            "inputs": [{"name": "p", "load": {"kind": "pressure", "membrane": "m"}, "start": 0}],
+            "dynamics": {"time_integration": {"rho_inf": 0.9}}
+        });
+        let scene = crate::Scene::from_json(&text.to_string()).unwrap();
+        let model = Model::build(&scene);
+        let mut solver = Solver::try_new(&model, Settings::default()).unwrap();
+        let integration = Integration {
+            rho_inf: 0.9,
+            max_time_step: None,
+            mass: model.mass_kind,
+            rayleigh_alpha: 0.0,
+            rayleigh_beta: 0.0,
+        };
+        let mut u = vec![0.0; model.unknown_count()];
+        let (mut v, mut a) = (Vec::new(), Vec::new());
+        let mut from = vec![0.0];
+        // Three steps of 2 ms (f11 of this sheet is about 28 Hz) to 50, 80 and 20 Pa.
+        for p in [50.0, 80.0, 20.0] {
+            let to = vec![p];
+            let mut path = DynamicPath::begin(
+                &mut solver,
+                &model,
+                &integration,
+                0.002,
+                &from,
+                &to,
+                &u,
+                (&v, &a),
+                History::start(&model),
+            );
+            let mut report = StepReport::failed();
+            while let Some(attempt) = path.advance(&mut solver, &model, &mut report) {
+                assert!(
+                    matches!(attempt, Attempt::Accepted { .. }),
+                    "{:?}",
+                    report.log
+                );
+            }
+            u.clone_from(&path.converged);
+            (v, a) = (path.velocity.clone(), path.acceleration.clone());
+            from = to;
+            // The last iterate was a shared trial point: the residual carried for the next
+            // step is there, at that point.
+            let carried = solver
+                .dynamic_matrices
+                .as_ref()
+                .unwrap()
+                .carry
+                .residual
+                .clone();
+            let carried = carried.expect("a trial point's residual carried");
+            assert!(
+                carried.u == u && carried.loads == from,
+                "carried at the converged point"
+            );
+            // R + g, the magnitudes and the evaluations the Newton loop ended on, against the
+            // iteration's own assembly done afresh (with the sub-step's inertia force again).
+            let (r, magnitude, evaluations) = (
+                solver.residual.clone(),
+                solver.magnitude.clone(),
+                solver.evaluations.clone(),
+            );
+            let (dt, inertia) = solver
+                .dynamic_matrices
+                .as_mut()
+                .unwrap()
+                .carry
+                .inertia
+                .take()
+                .unwrap();
+            solver.inertia = Some(inertia);
+            solver.assemble_at(&model, &carried.loads, &u);
+            assert!(solver.residual == r, "R + g");
+            assert!(solver.magnitude == magnitude, "force magnitudes");
+            assert!(
+                solver
+                    .evaluations
+                    .iter()
+                    .zip(&evaluations)
+                    .all(|(x, y)| format!("{x:?}") == format!("{y:?}")),
+                "evaluations"
+            );
+            let inertia = solver.inertia.take().unwrap();
+            solver.dynamic_matrices.as_mut().unwrap().carry.inertia = Some((dt, inertia));
+            // The static residual carried to the next step, against Solver::residual.
+            let fresh = solver.residual(&model, &u, &from);
+            let eq = &solver.pattern.eq;
+            let fresh: Vec<f64> = (0..solver.pattern.n)
+                .map(|e| fresh[eq.iter().position(|&x| x == e).unwrap()])
+                .collect();
+            assert!(carried.r == fresh, "carried static residual");
+        }
+        assert!(u.iter().any(|x| *x != 0.0), "the sheet moved");
+    }
+
     /// The inertia force g(u) = b + K_d (u − u_n) of a sub-step, with the added mass in M and
     /// the air's damping in C: its tangent as the Newton loop assembles it (`Inertia::apply`
     /// into the tangent's values) against central differences of g itself, entry by entry,
@@ -602,7 +739,7 @@ mod tests {
                 History::start(&model),
             );
             let dt = 0.004;
-            let mut inertia = path.inertia(&solver, dt);
+            let mut inertia = path.inertia(&mut solver, dt);
             let eq = solver.pattern.eq.clone();
             let n = solver.pattern.n;
             let u: Vec<f64> = (0..u0.len()).map(|_| 1e-3 * random()).collect();

@@ -32,7 +32,8 @@ pub fn symmetric_product(
     }
 }
 
-/// M and C on the tangent's pattern (values over the equations), built once per solver.
+/// M and C on the tangent's pattern (values over the equations), built once per solver, and
+/// what the time integration carries from one step to the next in the solver ([`Carry`]).
 #[derive(Clone, Debug)]
 pub struct Matrices {
     pub m: Vec<f64>,
@@ -41,6 +42,30 @@ pub struct Matrices {
     /// The tangent's pattern over the equations (column pointers, row indices).
     pub col_ptr: Vec<usize>,
     pub row_idx: Vec<usize>,
+    pub(super) carry: Carry,
+}
+
+/// What a time step leaves for the next (`dynamic.rs`): work that a step would otherwise
+/// redo, never a value the next step could not compute itself bit for bit (a state restored
+/// through the FMI continues as the uninterrupted run does).
+#[derive(Clone, Debug, Default)]
+pub struct Carry {
+    /// The inertia force's buffers of the last sub-step and its Δt: K_d is rebuilt only when
+    /// Δt changes, and no buffer is allocated again.
+    pub(super) inertia: Option<(f64, Inertia)>,
+    /// The static residual R (on the equations, before the inertia force) of the last trial
+    /// point of a time sub-step's line search (`line_search.rs`), with that point and its
+    /// loads: the next step's R(u_n, t_n) where it starts from that very point under those
+    /// very loads (`Solver::static_residual`).
+    pub(super) residual: Option<TrialResidual>,
+}
+
+/// R at a trial point (see [`Carry::residual`]).
+#[derive(Clone, Debug, Default)]
+pub struct TrialResidual {
+    pub(super) u: Vec<f64>,
+    pub(super) loads: Vec<f64>,
+    pub(super) r: Vec<f64>,
 }
 
 /// The inertia and history force of one sub-step, g = b + K_d δ (module docs), on the

@@ -21,12 +21,28 @@
 //! at all. The search returns the step length and whether its condition was met (the
 //! globalisation reads that).
 //!
+//!
+//! # A time sub-step's trial point, shared with the next iteration
+//! In a time sub-step (dynamic.rs: no slip or volume rows, no arc length, no frozen wrinkle
+//! states) a trial point assembles what the next iteration's equations need besides the
+//! tangent: R (with the inertia force), the force magnitudes and the triangles' evaluations.
+//! When the step taken ends on the last trial point (bit for bit: the full step, nearly
+//! always), the next iteration takes them as its equations and assembles nothing
+//! ([`Solver::assemble_or_share`]); its tangent is assembled only if a factorization needs it
+//! ([`Solver::direction_sharing`]): a chord step (newton.rs, `chord_applies`) and a converged
+//! iterate do not. Each time step of the 32-ring Hencky disc thus assembles the tangent once
+//! instead of three times (examples/dynamic_cost.rs). The residual, the magnitudes, the
+//! evaluations and the tangent are those the iteration would have assembled itself; only the
+//! round-off floor of the convergence test (system.rs) reads the diagonal of the last tangent
+//! assembled, an earlier iterate's of the same sub-step, where the iterate's own is not
+//! assembled. Statics (and the proximal continuation's springs) are untouched.
+//!
 //! # References
 //! Crisfield 1991, vol. 1, §9.3 (line search on the slope); Nocedal & Wright 2006, §3.1 and
 //! §3.5 (Armijo, interpolation); Grippo, Lampariello & Lucidi 1986, SIAM J. Numer. Anal.
 //! 23:707–716 (non-monotone).
 
-use super::assemble::{assemble_with, Membranes, NONE};
+use super::assemble::{assemble_with, AssemblyInfo, Membranes, NONE};
 use super::core::Solver;
 use super::slip::{slip_rows_into, step_limit};
 use super::slope::{bracket_slope, SLOPE_RATIO};
@@ -67,8 +83,74 @@ pub(super) struct Trial<'a> {
     pub arc: Option<(&'a [f64], &'a [f64], f64, f64)>,
 }
 
+/// What a time sub-step's Newton loop shares between a trial point and the next iteration
+/// (module docs); newton.rs holds one per solve.
+#[derive(Debug, Default)]
+pub(super) struct Shared {
+    /// The last trial point's assembly (R, magnitudes and evaluations in the solver's
+    /// buffers, the point in `Solver::trial`), when it assembled all the equations but K.
+    kept: Option<AssemblyInfo>,
+    /// The iterate took a trial point's equations: its tangent is not assembled yet. The
+    /// loads and the artificial prestress's factor it is to be assembled with.
+    stale: Option<(Vec<f64>, f64)>,
+}
+
 impl Solver {
-    /// Step length along `dir` from `u`, and whether the merit's condition was met.
+    /// Whether trial points share their assembly with the next iteration (module docs): in a
+    /// time sub-step without slip or volume rows and without frozen wrinkle states.
+    fn shares_trials(&self, model: &Model) -> bool {
+        self.inertia.is_some()
+            && !self.proximal
+            && self.frozen.is_none()
+            && model.slips.is_empty()
+            && model.volumes == 0
+    }
+
+    /// The equations at `u` (newton.rs's assembly of an iterate): the last trial point's, when
+    /// `u` is that point and they were kept, with the tangent left for
+    /// [`Solver::direction_sharing`]; else R and K assembled (`assemble_at`).
+    pub(super) fn assemble_or_share(
+        &mut self,
+        model: &Model,
+        loads: &[f64],
+        u: &[f64],
+        shared: &mut Shared,
+    ) -> AssemblyInfo {
+        shared.stale = None;
+        if let Some(info) = shared.kept.take() {
+            if self.shares_trials(model) && self.trial[..] == u[..] {
+                shared.stale = Some((loads.to_vec(), self.prestress_factor));
+                self.measure_load_scale(model);
+                return info;
+            }
+        }
+        self.assemble_at(model, loads, u)
+    }
+
+    /// The Newton direction (`direction_of`), after assembling the iterate's tangent if it
+    /// took a trial point's equations: with the loads and prestress factor of then, no frozen
+    /// states (as the trial point had), so R, the magnitudes and the evaluations come out as
+    /// they were.
+    pub(super) fn direction_sharing(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        rows: &[super::rows::Row],
+        bordered: Option<&super::rows::Border>,
+        damping: f64,
+        shared: &mut Shared,
+    ) -> Result<(Vec<f64>, Vec<f64>), crate::error::Error> {
+        if let Some((loads, factor)) = shared.stale.take() {
+            let frozen = self.frozen.take();
+            let now = std::mem::replace(&mut self.prestress_factor, factor);
+            self.assemble_at(model, &loads, u);
+            (self.frozen, self.prestress_factor) = (frozen, now);
+        }
+        self.direction_of(model, u, rows, bordered, damping)
+    }
+
+    /// Step length along `dir` from `u`, and whether the merit's condition was met. In a time
+    /// sub-step the trial points' assemblies are kept in `shared` (module docs).
     pub(super) fn line_search(
         &mut self,
         model: &Model,
@@ -76,7 +158,9 @@ impl Solver {
         dir: &Direction,
         at: &Trial,
         merit: Merit,
+        shared: &mut Shared,
     ) -> (f64, bool) {
+        shared.kept = None;
         if !self.settings.line_search {
             return (
                 step_limit(model, u, dir.ds, self.settings.keep_length),
@@ -86,7 +170,7 @@ impl Solver {
         // Every trial after the first (an assembly without the tangent) counts half an
         // iteration in the step's work budget (core.rs, step_work).
         self.trials = 0;
-        let outcome = self.search(model, u, dir, at, merit);
+        let outcome = self.search(model, u, dir, at, merit, shared);
         self.step_work += self.trials.saturating_sub(1);
         outcome
     }
@@ -99,6 +183,7 @@ impl Solver {
         dir: &Direction,
         at: &Trial,
         merit: Merit,
+        shared: &mut Shared,
     ) -> (f64, bool) {
         // s0 = Δu·R(u); Newton makes it −Δuᵀ K Δu, negative for a positive definite K.
         let s0 = self.direction_dot_residual(dir.dx);
@@ -119,18 +204,21 @@ impl Solver {
                     return (0.0, false);
                 }
                 if s0 < 0.0 && -s0 > 1e3 * noise {
-                    self.armijo_potential(model, u, dir, at, (value, reference), s0)
+                    self.armijo_potential(model, u, dir, at, (value, reference, s0), shared)
                 } else {
-                    self.slope_search(model, u, dir, at, s0)
+                    self.slope_search(model, u, dir, at, s0, shared)
                 }
             }
-            Merit::Slope => self.slope_search(model, u, dir, at, s0),
-            Merit::Residual { reference } => self.armijo_residual(model, u, dir, at, reference),
+            Merit::Slope => self.slope_search(model, u, dir, at, s0, shared),
+            Merit::Residual { reference } => {
+                self.armijo_residual(model, u, dir, at, reference, shared)
+            }
         }
     }
 
     /// Residual at u + α dir into `self.residual` and the slip and volume rows' residuals into
-    /// `self.work.trial_slip`; returns (potential, inverted).
+    /// `self.work.trial_slip`; returns (potential, inverted). In a time sub-step also the force
+    /// magnitudes and evaluations, the assembly kept in `shared` (module docs).
     fn trial_point(
         &mut self,
         model: &Model,
@@ -138,6 +226,7 @@ impl Solver {
         dir: &Direction,
         at: &Trial,
         alpha: f64,
+        shared: &mut Shared,
     ) -> (f64, bool) {
         self.trials += 1;
         self.trial.copy_from_slice(u);
@@ -159,7 +248,8 @@ impl Solver {
             }
             None => at.loads,
         };
-        let info = assemble_with(
+        let share = at.arc.is_none() && self.shares_trials(model);
+        let mut info = assemble_with(
             model,
             &self.pattern,
             &self.trial,
@@ -170,12 +260,20 @@ impl Solver {
                 forced: self.frozen.as_deref(),
                 pre_strain: self.pre_strain,
                 scratch: Some(&mut self.work.scratch),
+                out: share.then_some(&mut self.evaluations),
+                magnitude: share.then_some(&mut self.magnitude[..]),
                 ..Default::default()
             },
         );
+        if share && self.pre_strain == 0.0 {
+            self.carry_trial_residual(loads);
+        }
         let trial = std::mem::take(&mut self.trial);
-        let inertia = self.add_inertia(&trial, false, false);
+        let inertia = self.add_inertia(&trial, false, share);
         self.trial = trial;
+        // As `assemble_only` (system.rs) adds it, for the kept copy.
+        info.potential += inertia;
+        shared.kept = share.then_some(info);
         let inverted = super::core::check_inversion(model, &info).is_err();
         let work = &mut self.work;
         work.trial_slip.clear();
@@ -195,7 +293,27 @@ impl Solver {
                 .iter()
                 .map(|r| r.r),
         );
-        (info.potential + inertia, inverted)
+        (info.potential, inverted)
+    }
+
+    /// The static residual just assembled at the trial point, kept for the next time step
+    /// (`inertia::Carry::residual`, `Solver::static_residual`), in the kept buffers.
+    fn carry_trial_residual(&mut self, loads: &[f64]) {
+        let Some(matrices) = self.dynamic_matrices.as_mut() else {
+            return;
+        };
+        let kept = matrices.carry.residual.get_or_insert_with(Default::default);
+        kept.u.clear();
+        kept.u.extend_from_slice(&self.trial);
+        kept.loads.clear();
+        kept.loads.extend_from_slice(loads);
+        kept.r.clear();
+        kept.r.resize(self.pattern.n, 0.0);
+        for (d, &e) in self.pattern.eq.iter().enumerate() {
+            if e != NONE {
+                kept.r[e] = self.residual[d];
+            }
+        }
     }
 
     /// Δu·R: the displacement direction dotted with the residual on the free DOFs.
@@ -222,20 +340,21 @@ impl Solver {
         (free + slip.into_iter().map(|r| r * r).sum::<f64>()).sqrt()
     }
 
-    /// Armijo backtracking on the potential Π with quadratic interpolation.
+    /// Armijo backtracking on the potential Π with quadratic interpolation; (p0, reference, s0)
+    /// are Π(0), the largest recent Π and the slope Π′(0).
     fn armijo_potential(
         &mut self,
         model: &Model,
         u: &[f64],
         dir: &Direction,
         at: &Trial,
-        (p0, reference): (f64, f64),
-        s0: f64,
+        (p0, reference, s0): (f64, f64, f64),
+        shared: &mut Shared,
     ) -> (f64, bool) {
         let noise = 1e-13 * p0.abs().max(f64::MIN_POSITIVE);
         let mut alpha = step_limit(model, u, dir.ds, self.settings.keep_length);
         for _ in 0..self.settings.line_search_tries {
-            let (p, inverted) = self.trial_point(model, u, dir, at, alpha);
+            let (p, inverted) = self.trial_point(model, u, dir, at, alpha, shared);
             if inverted || !p.is_finite() {
                 alpha *= 0.25;
                 continue;
@@ -261,10 +380,11 @@ impl Solver {
         dir: &Direction,
         at: &Trial,
         s0: f64,
+        shared: &mut Shared,
     ) -> (f64, bool) {
         let tries = self.settings.line_search_tries;
         bracket_slope(s0, tries, SLOPE_RATIO, |alpha| {
-            let (_, inverted) = self.trial_point(model, u, dir, at, alpha);
+            let (_, inverted) = self.trial_point(model, u, dir, at, alpha, shared);
             let s = self.direction_dot_residual(dir.dx);
             (!inverted && s.is_finite()).then_some(s)
         })
@@ -278,10 +398,11 @@ impl Solver {
         dir: &Direction,
         at: &Trial,
         reference: f64,
+        shared: &mut Shared,
     ) -> (f64, bool) {
         let mut alpha = step_limit(model, u, dir.ds, self.settings.keep_length);
         for _ in 0..self.settings.line_search_tries {
-            let (_, inverted) = self.trial_point(model, u, dir, at, alpha);
+            let (_, inverted) = self.trial_point(model, u, dir, at, alpha, shared);
             let norm = self.residual_norm(&self.work.trial_slip);
             let armijo = self.settings.armijo;
             if !inverted && norm.is_finite() && norm <= (1.0 - armijo * alpha) * reference {

@@ -124,6 +124,8 @@ struct Iteration {
     loads: Vec<f64>,
     /// The slip and volume rows of the iterate.
     rows: Vec<Row>,
+    /// A time sub-step's trial point shared with the next iteration (line_search.rs).
+    shared: super::line_search::Shared,
 }
 
 /// The equations of an iterate after assembly: the convergence test, and under arc length the
@@ -191,6 +193,7 @@ impl Solver {
             budget_from: 0,
             loads: Vec::with_capacity(step.loads.len()),
             rows: Vec::new(),
+            shared: Default::default(),
         };
         // Multiplier updates of the sleeve ties so far (slip.rs, `close_ties`).
         let mut rounds = 0;
@@ -292,7 +295,7 @@ impl Solver {
             moved: step.moved,
         };
         self.frozen.clone_from(&st.active.wrinkle_frozen);
-        let info = self.assemble_at(model, inc.loads, u);
+        let info = self.assemble_or_share(model, inc.loads, u, &mut st.shared);
         st.active
             .observe_wrinkles(it, self.evaluations.iter().map(|e| e.state), log);
         self.frozen.clone_from(&st.active.wrinkle_frozen);
@@ -424,8 +427,9 @@ impl Solver {
         let mut pending = None;
         let mut converged = check.strict && eqs.arc_met;
         if !converged && check.within_floor && eqs.arc_met && eqs.changed == 0 {
+            let bordered = eqs.bordered.as_ref();
             if let Ok((dx, ds)) =
-                self.direction_of(model, u, &st.rows, eqs.bordered.as_ref(), st.damping)
+                self.direction_sharing(model, u, &st.rows, bordered, st.damping, &mut st.shared)
             {
                 let limit = self.settings.tolerance * self.coordinate_size(model, u);
                 // The load factor's correction is not a coordinate (the arc row, met, holds
@@ -579,7 +583,9 @@ impl Solver {
         }
         let direction = match pending {
             Some(d) => Ok(d),
-            None => self.direction_of(model, u, &st.rows, bordered, st.damping),
+            None => {
+                self.direction_sharing(model, u, &st.rows, bordered, st.damping, &mut st.shared)
+            }
         };
         match direction {
             Ok(d) => Ok(d),
@@ -590,7 +596,7 @@ impl Solver {
                 } else {
                     self.settings.damping_start
                 };
-                self.direction_of(model, u, &st.rows, bordered, st.damping)
+                self.direction_sharing(model, u, &st.rows, bordered, st.damping, &mut st.shared)
                     .map_err(|why| (it + 1, why.to_string()))
             }
             Err(why) => Err((it + 1, why.to_string())),
@@ -721,6 +727,7 @@ impl Solver {
                     .map(|(a, dl)| (a.from, a.to, a.lambda, dl)),
             },
             merit,
+            &mut st.shared,
         );
         // A slip step that would shorten a sleeved segment by far more than its length is a
         // sliding mechanism's step, like a line search cut to nothing.

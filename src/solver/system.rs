@@ -233,7 +233,7 @@ impl Solver {
     /// drawstrings unloaded to their pretension back right in 45-123 iterations; with the
     /// reactions (which vanish with the stress-free sheet) they spent the step's work budget at
     /// |R| of 6e-12 to 4e-5 of the force scale. No other row of the corpus changed.
-    fn measure_load_scale(&mut self, model: &Model) {
+    pub(super) fn measure_load_scale(&mut self, model: &Model) {
         self.load_scale = self.quartile_of(model, Scale::FreeLoads);
         if self.load_scale == 0.0 {
             self.load_scale = self.quartile_of(model, Scale::HeldLoads);
