@@ -314,16 +314,7 @@ impl Solver {
         u: &[f64],
         loads: &[f64],
     ) -> Vec<Evaluation> {
-        let mut r = vec![0.0; model.dof_count()];
-        let mut out = Vec::with_capacity(model.triangles.len());
-        let membranes = assemble::Membranes {
-            out: Some(&mut out),
-            forced: self.probe_states.as_deref(),
-            scratch: Some(&mut self.work.scratch),
-            ..Default::default()
-        };
-        assemble::assemble_with(model, &self.pattern, u, loads, &mut r, None, membranes);
-        out
+        self.evaluate_committed(model, u, loads).membranes
     }
 }
 

@@ -55,6 +55,32 @@ fn run(select: impl Fn(&corpus::Member) -> bool) -> Vec<corpus::Run> {
     runs
 }
 
+/// Every member of the whole corpus (not only the CI slice) that `select` picks, run loaded
+/// and unloaded; the table printed.
+fn run_all(select: impl Fn(&corpus::Member) -> bool) -> Vec<corpus::Run> {
+    let members: Vec<corpus::Member> = corpus::members(27)
+        .into_iter()
+        .filter(|m| select(m))
+        .collect();
+    let runs: Vec<corpus::Run> = members.iter().flat_map(corpus::run_member).collect();
+    print!("{}", corpus::table(&runs));
+    runs
+}
+
+/// Every run right by the corpus's independent checks.
+fn assert_all_right(runs: &[corpus::Run]) {
+    for r in runs {
+        assert!(
+            matches!(r.verdict, Verdict::Right),
+            "{} {} [{}]: {}",
+            r.family,
+            r.row,
+            r.member,
+            corpus::short(&r.verdict)
+        );
+    }
+}
+
 fn assert_right_or_honest(runs: &[corpus::Run]) {
     let bad: Vec<String> = runs
         .iter()
@@ -90,27 +116,16 @@ fn quick_slice_is_right_or_fails_honestly() {
 /// unloaded at default settings. Measured: 100 rings in 101 and 17 iterations, 200 in 44 and 17.
 #[test]
 fn a_hundred_and_two_hundred_rings_converge_right() {
-    let members: Vec<corpus::Member> = corpus::members(27)
-        .into_iter()
-        .filter(|m| {
-            m.family == "rings"
-                && (m.label.starts_with("100 rings") || m.label.starts_with("200 rings"))
-        })
-        .collect();
-    assert_eq!(members.len(), 2, "the corpus's 100- and 200-ring members");
-    let runs: Vec<corpus::Run> = members.iter().flat_map(corpus::run_member).collect();
-    print!("{}", corpus::table(&runs));
-    assert_eq!(runs.len(), 4, "each member loaded and unloaded");
-    for r in &runs {
-        assert!(
-            matches!(r.verdict, Verdict::Right),
-            "{} {} [{}]: {}",
-            r.family,
-            r.row,
-            r.member,
-            corpus::short(&r.verdict)
-        );
-    }
+    let runs = run_all(|m| {
+        m.family == "rings"
+            && (m.label.starts_with("100 rings") || m.label.starts_with("200 rings"))
+    });
+    assert_eq!(
+        runs.len(),
+        4,
+        "the 100- and 200-ring members, each loaded and unloaded"
+    );
+    assert_all_right(&runs);
 }
 
 /// The 16x16 quarter cushion reported from outside (issue 27: "converges on an 8x8 mesh and
@@ -121,15 +136,7 @@ fn a_hundred_and_two_hundred_rings_converge_right() {
 fn the_reported_16x16_quarter_cushion_converges_right() {
     let runs = run(|m| m.family == "cushion-quarter" && m.label.starts_with("square n=16 a=1.52"));
     assert_eq!(runs.len(), 2, "loaded and unloaded");
-    for r in &runs {
-        assert!(
-            matches!(r.verdict, Verdict::Right),
-            "{} {}: {}",
-            r.row,
-            r.member,
-            corpus::short(&r.verdict)
-        );
-    }
+    assert_all_right(&runs);
 }
 
 /// The frictionless drawstrings (the SleeveDrawstring kind of scene, the cable ends held across
@@ -142,20 +149,7 @@ fn the_reported_16x16_quarter_cushion_converges_right() {
 /// independent checks (header).
 #[test]
 fn frictionless_drawstrings_unload_right() {
-    let members: Vec<corpus::Member> = corpus::members(27)
-        .into_iter()
-        .filter(|m| m.family == "drawstring" && m.label.contains(" mu=0.00 "))
-        .collect();
-    let runs: Vec<corpus::Run> = members.iter().flat_map(corpus::run_member).collect();
-    print!("{}", corpus::table(&runs));
+    let runs = run_all(|m| m.family == "drawstring" && m.label.contains(" mu=0.00 "));
     assert_eq!(runs.len(), 10, "five members, loaded and unloaded");
-    for r in &runs {
-        assert!(
-            matches!(r.verdict, Verdict::Right),
-            "{} {}: {}",
-            r.row,
-            r.member,
-            corpus::short(&r.verdict)
-        );
-    }
+    assert_all_right(&runs);
 }
