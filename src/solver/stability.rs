@@ -44,15 +44,30 @@ pub fn has_ponding(model: &Model) -> bool {
 /// Whether the free-free tangent at `u` under `loads` is positive definite (None: the tangent
 /// could not be built, out of memory; the caller then keeps its answer).
 pub fn positive_definite(model: &Model, u: &[f64], loads: &[f64]) -> Option<bool> {
+    match free_tangent(model, u, loads)? {
+        FreeTangent::Decided(answer) => Some(answer),
+        FreeTangent::Matrix(_, matrix) => Some(matrix.sp_cholesky(Side::Upper).is_ok()),
+    }
+}
+
+/// The free-free tangent at `u` under `loads`, or the answer without it.
+enum FreeTangent {
+    /// No free DOF (trivially positive definite: true) or a non-finite entry (false).
+    Decided(bool),
+    Matrix(Box<Pattern>, SparseColMat<usize, f64>),
+}
+
+/// [`FreeTangent`] at `u` under `loads` (None: out of memory).
+fn free_tangent(model: &Model, u: &[f64], loads: &[f64]) -> Option<FreeTangent> {
     let pattern = Pattern::try_new(model).ok()?;
     if pattern.n == 0 {
-        return Some(true);
+        return Some(FreeTangent::Decided(true));
     }
     let mut r = vec![0.0; model.dof_count()];
     let mut k = vec![0.0; pattern.row_idx.len()];
     assemble(model, &pattern, u, loads, &mut r, Some(&mut k));
     if !k.iter().all(|v| v.is_finite()) {
-        return Some(false);
+        return Some(FreeTangent::Decided(false));
     }
     let sym = SymbolicSparseColMat::new_checked(
         pattern.n,
@@ -61,8 +76,7 @@ pub fn positive_definite(model: &Model, u: &[f64], loads: &[f64]) -> Option<bool
         None,
         pattern.row_idx.clone(),
     );
-    let matrix = SparseColMat::new(sym, k);
-    Some(matrix.sp_cholesky(Side::Upper).is_ok())
+    Some(FreeTangent::Matrix(Box::new(pattern), SparseColMat::new(sym, k)))
 }
 
 /// The load channel of the first ponding input when the tangent at `u` under `loads` is not
@@ -117,17 +131,11 @@ pub fn water_volume_stable(model: &Model, u: &[f64], loads: &[f64]) -> Option<bo
     if water.is_empty() {
         return None;
     }
-    let pattern = Pattern::try_new(model).ok()?;
+    let (pattern, matrix) = match free_tangent(model, u, loads)? {
+        FreeTangent::Decided(answer) => return Some(answer),
+        FreeTangent::Matrix(pattern, matrix) => (pattern, matrix),
+    };
     let n = pattern.n;
-    if n == 0 {
-        return Some(true);
-    }
-    let mut r = vec![0.0; model.dof_count()];
-    let mut k = vec![0.0; pattern.row_idx.len()];
-    assemble(model, &pattern, u, loads, &mut r, Some(&mut k));
-    if !k.iter().all(|v| v.is_finite()) {
-        return Some(false);
-    }
     // The symmetric border b and d of each water input.
     let rows = super::volume::rows(model, &pattern.eq, u, loads);
     let columns = super::volume::columns(model, &pattern.eq, u);
@@ -147,14 +155,6 @@ pub fn water_volume_stable(model: &Model, u: &[f64], loads: &[f64]) -> Option<bo
         }
         borders.push((b, d));
     }
-    let sym = SymbolicSparseColMat::new_checked(
-        n,
-        n,
-        pattern.col_ptr.clone(),
-        None,
-        pattern.row_idx.clone(),
-    );
-    let matrix = SparseColMat::new(sym, k);
     if matrix.sp_cholesky(Side::Upper).is_ok() {
         return Some(true);
     }
