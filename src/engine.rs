@@ -812,6 +812,7 @@ fn settings(scene: &Scene) -> Settings {
         target_iterations: s.target_iterations,
         continuation_strain: s.prestress_continuation,
         proximal_start: s.proximal_continuation,
+        overshoot_ratio: s.overshoot_continuation,
         line_search: s.line_search,
         arc_length_path: s.path == crate::scene::PathMethod::ArcLength,
         arc_length: s.arc_length.unwrap_or(0.0),

@@ -1399,6 +1399,16 @@ pub struct SolverSettings {
     /// 0 switches it off; range [0, 1].
     #[serde(skip_serializing_if = "is_default_proximal")]
     pub proximal_continuation: f64,
+    /// Load-to-stiffness ratio of the first problem of the overshoot continuation: an
+    /// increment that fails from an unstressed membrane is solved again with its force loads
+    /// (point forces, pressures, snow) first raised until Σ|f| / (√A · E t) reaches this ratio
+    /// (A the membranes' area, E t their stiffness: strains of a few per cent), then brought
+    /// back to the scene's in steps, each from the last equilibrium; the last problem is the
+    /// scene's own (docs/solver.md). It changes the path, not the equilibrium. Not with sleeve
+    /// points, volume or water inputs, elastoplastic groups or in a time step.
+    /// 0 switches it off; range [0, 1].
+    #[serde(skip_serializing_if = "is_default_overshoot")]
+    pub overshoot_continuation: f64,
     /// Energy (slope) line search on every Newton correction.
     pub line_search: bool,
     /// How a step follows its path: `load_control` (load increments, the default) or
@@ -1459,6 +1469,10 @@ fn is_default_proximal(t: &f64) -> bool {
     *t == SolverSettings::default().proximal_continuation
 }
 
+fn is_default_overshoot(t: &f64) -> bool {
+    *t == SolverSettings::default().overshoot_continuation
+}
+
 impl Default for SolverSettings {
     fn default() -> Self {
         SolverSettings {
@@ -1471,6 +1485,7 @@ impl Default for SolverSettings {
             artificial_prestress: None,
             prestress_continuation: 1e-3,
             proximal_continuation: 1e-3,
+            overshoot_continuation: 3e-2,
             line_search: true,
             path: PathMethod::LoadControl,
             arc_length: None,

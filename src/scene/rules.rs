@@ -210,6 +210,7 @@ pub const RULES: &[FieldRule] = &[
         closed(0.0, MAX_PRESTRESS_CONTINUATION),
     ),
     at("solver.proximal_continuation", closed(0.0, 1.0)),
+    at("solver.overshoot_continuation", closed(0.0, 1.0)),
     at("solver.artificial_prestress", NON_NEGATIVE),
     at("solver.limits.max_nodes", count(1, MAX_COUNT_LIMIT)),
     at("solver.limits.max_triangles", count(1, MAX_COUNT_LIMIT)),

@@ -2142,6 +2142,13 @@ impl Validator {
                 format!("{t} must be a relative stiffness from 0 (off) to 1"),
             );
         }
+        let o = st.overshoot_continuation;
+        if !(o.is_finite() && (0.0..=1.0).contains(&o)) {
+            self.push(
+                "solver.overshoot_continuation",
+                format!("{o} must be a load-to-stiffness ratio from 0 (off) to 1"),
+            );
+        }
         if let Some(p) = st.artificial_prestress {
             if !(p.is_finite() && (0.0..=MAX_MAGNITUDE).contains(&p)) {
                 self.push(

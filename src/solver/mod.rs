@@ -7,7 +7,8 @@
 //!                 finish over a load-control or an arc-length path
 //! path.rs         load control: λ: 0 → 1 in increments Δλ; a tangent predictor for moved
 //!                 prescribed displacements; on failure Δλ ← Δλ/4 (down to min_increment), on
-//!                 success Δλ grows; the prestress continuation of a flat start
+//!                 success Δλ grows; the prestress continuation of a flat start, then the
+//!                 overshoot (overshoot.rs) and proximal (proximal.rs) continuations
 //! arc.rs          arc-length path following: the load factor an unknown (normal plane);
 //!                 path logic only, the corrector is newton.rs with the arc row bordered
 //! newton.rs       the one Newton loop, in phases: equations → verdict → budget → direction
@@ -58,6 +59,7 @@ pub mod modes;
 mod newton;
 mod order;
 pub mod outputs;
+mod overshoot;
 mod path;
 mod proximal;
 pub mod relax;

@@ -368,9 +368,11 @@ impl Solver {
             )
         };
         // Not in a time sub-step: relaxation moves nodes to their static equilibrium, which
-        // the inertia force does not hold (dynamic.rs).
+        // the inertia force does not hold (dynamic.rs). Also within the round-off floor when
+        // not within the tolerance: such a point is converged only once the Newton correction
+        // is small, and a stalled one needs the relaxation to get there (docs/solver.md).
         if self.inertia.is_none()
-            && !check.within_floor
+            && !check.strict
             && stalled(it, check.free, st.last_free, st.last_alpha)
         {
             let (moved, patch_iterations) = self.relax(model, &st.loads, u, check.free, tolerance);

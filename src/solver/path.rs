@@ -8,8 +8,9 @@
 //!   1.5 Δλ if N_iter <= 3/4 N_max, else Δλ
 //!   an increment that fails from or towards an unstressed membrane is first solved again
 //!   through the prestress continuation (below), then, where that fails or does not apply,
-//!   through the proximal continuation (proximal.rs), each at most once per step, and cut
-//!   back only if those fail too
+//!   through the overshoot continuation (overshoot.rs: from an unstressed membrane, the force
+//!   loads raised and brought back) and the proximal continuation (proximal.rs), each at most
+//!   once per step, and cut back only if those fail too
 //! ```
 //!
 //! # The prestress continuation
@@ -75,6 +76,8 @@ pub struct LoadPath {
     continued: bool,
     /// The proximal continuation (proximal.rs) likewise runs at most once per step.
     proximal_tried: bool,
+    /// And so does the overshoot continuation (overshoot.rs).
+    overshoot_tried: bool,
     /// Why the continuation failed, for the step's message if the step fails.
     continuation_failed: Option<String>,
 }
@@ -102,6 +105,7 @@ impl LoadPath {
             history,
             continued: false,
             proximal_tried: false,
+            overshoot_tried: false,
             continuation_failed: None,
         }
     }
@@ -187,10 +191,10 @@ impl LoadPath {
             .map_err(|(i, why)| (i + predicted, why));
         if result.is_err() {
             // The prestress continuation where it applies (from or towards an unstressed
-            // membrane), then the proximal one (proximal.rs; measured orders:
-            // docs/robustness.md).
+            // membrane), then the overshoot one (overshoot.rs), then the proximal one
+            // (proximal.rs; measured orders: docs/solver.md, docs/robustness.md).
             let last_unstressed = solver.unstressed(model, &trial, loads);
-            for stage in [0, 1] {
+            for stage in [0, 1, 2] {
                 let Err((iters, why)) = result else { break };
                 let again = if stage == 0 {
                     self.prestress_stage(
@@ -202,6 +206,8 @@ impl LoadPath {
                         iters,
                         why,
                     )
+                } else if stage == 1 {
+                    self.overshoot_stage(solver, model, &increment, target, report, iters, why)
                 } else {
                     self.proximal_stage(solver, model, &increment, target, report, iters, why)
                 };
@@ -258,6 +264,48 @@ impl LoadPath {
             (
                 i,
                 format!("{why}; the prestress continuation failed too, {later}"),
+            )
+        });
+        Ok((outcome, trial, states))
+    }
+
+    /// The overshoot continuation (overshoot.rs) of a failed increment where it applies (once
+    /// per step, from an unstressed membrane): as [`LoadPath::prestress_stage`].
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn overshoot_stage(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        increment: &Increment,
+        target: f64,
+        report: &mut StepReport,
+        iters: usize,
+        why: String,
+    ) -> Result<(Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>), (usize, String)> {
+        if self.overshoot_tried || !solver.overshoot_applies(model) || solver.work_spent() {
+            return Err((iters, why));
+        }
+        let Some(f0) = solver.overshoot_factor(model, increment.loads) else {
+            return Err((iters, why));
+        };
+        if !solver.unstressed(model, &self.converged, increment.loads) {
+            return Err((iters, why));
+        }
+        let lambda = self.lambda;
+        self.overshoot_tried = true;
+        report.iterations += iters;
+        push_log(
+            &mut report.log,
+            format!("increment λ {lambda:.6} -> {target:.6}: {why}; from an unstressed membrane: overshoot continuation from {f0:.3} times the load"),
+        );
+        let (outcome, trial, states) =
+            self.again(solver, model, increment, report, |s, u, c, log| {
+                s.overshoot(model, increment, f0, u, c, log)
+            });
+        let outcome = outcome.map_err(|(i, later)| {
+            (
+                i,
+                format!("{why}; the overshoot continuation failed too, {later}"),
             )
         });
         Ok((outcome, trial, states))

@@ -47,9 +47,10 @@ pub struct Settings {
     /// Increments (converged or cut back) one step may use before it fails: a step that creeps
     /// forward by tiny increments is reported, not left to run for minutes. Default 400.
     pub max_increments: usize,
-    /// c of the round-off floor c·ε·(Σ|f|_d + K_dd X) of the convergence test. Default 16: an
-    /// element force is a sum of a few dozen rounded products, and measured residuals of
-    /// converged iterates sit at 1-8 ε of those terms.
+    /// c of the round-off floor c·ε·(Σ|f|_d + K_dd X) of the convergence test. Default 64: an
+    /// element force is a sum of a few dozen rounded products; measured residuals of converged
+    /// iterates sit at 1-8 ε of those terms, and those of a free-rim cushion unloaded to its
+    /// slack state at up to 48 ε (strains of 1e-15 in barely taut triangles; docs/solver.md).
     pub roundoff_factor: f64,
     /// Damping τ of the globalisation when it switches on (relative to the taut-structure
     /// diagonal). Default 1e-3: a mechanism then moves by 1000 elastic displacements per step.
@@ -96,6 +97,12 @@ pub struct Settings {
     /// elastoplastic groups or in a time sub-step. 0 switches it off. Default 1e-3 (the
     /// damping's start).
     pub proximal_start: f64,
+    /// Load-to-stiffness ratio Σ|f| / (√A · E t) of the first problem of the overshoot
+    /// continuation (`overshoot.rs`): an increment that fails from an unstressed membrane is
+    /// solved again with its force loads raised to that ratio, then brought back in steps to
+    /// the scene's. Not with sleeve points, volume or water inputs, elastoplastic groups or in
+    /// a time sub-step. 0 switches it off. Default 3e-2.
+    pub overshoot_ratio: f64,
     /// Nodal relaxation takes the nodes whose residual is at least this share of the largest.
     /// Default 0.1.
     pub relax_share: f64,
@@ -196,7 +203,7 @@ impl Default for Settings {
             max_unfreeze: 3,
             line_search_tries: 8,
             max_increments: 400,
-            roundoff_factor: 16.0,
+            roundoff_factor: 64.0,
             damping_start: 1e-3,
             damping_min: 1e-12,
             damping_max: 1e6,
@@ -207,6 +214,7 @@ impl Default for Settings {
             prestress_fade: 1e-2,
             continuation_strain: 1e-3,
             proximal_start: 1e-3,
+            overshoot_ratio: 3e-2,
             relax_share: 0.1,
             relax_max_share: 0.1,
             relax_rounds: 20,

@@ -28,9 +28,11 @@ fn scene_of(value: serde_json::Value) -> Scene {
 }
 
 /// The solver section that makes a step fail after one increment and one cut-back (the
-/// proximal continuation off: it solves these structures even with 3 iterations per problem).
+/// proximal and overshoot continuations off: they solve these structures even with 3
+/// iterations per problem).
 fn short() -> serde_json::Value {
-    json!({"max_iterations": 3, "min_increment": 0.5, "proximal_continuation": 0.0})
+    json!({"max_iterations": 3, "min_increment": 0.5, "proximal_continuation": 0.0,
+           "overshoot_continuation": 0.0})
 }
 
 /// Solve with input `name` at `value` from the scene's start: the step's report must be a
@@ -323,13 +325,14 @@ fn a_flat_unprestressed_membrane_under_pressure_is_not_called_a_mechanism() {
 /// The quarter cushion of the report (8 x 8 cells, a = 0.70 m, E t = 1.505e8 N/m, p = 4167 Pa,
 /// the corpus member that failed at 8 x 8 before the proximal continuation): every rigid motion
 /// is stopped (x by the plane x = 0, y by y = 0, z and the tilts by the rim, the turn about z
-/// by both planes), so no failure of it may claim a mechanism. With the proximal continuation
-/// off (`solver.proximal_continuation` 0) the step fails as it did. REQUIRED: the message
-/// claims no mechanism.
+/// by both planes), so no failure of it may claim a mechanism. With the proximal and overshoot
+/// continuations off (`solver.proximal_continuation` and `solver.overshoot_continuation` 0)
+/// the step fails as it did. REQUIRED: the message claims no mechanism.
 #[test]
 fn the_quarter_cushion_is_not_called_a_mechanism() {
     let mut scene = quarter_cushion(8, 0.70, 1.505e8);
     scene.solver.proximal_continuation = 0.0;
+    scene.solver.overshoot_continuation = 0.0;
     let message = failure(scene, "p", 4167.0);
     no_mechanism_claim(&message);
 }
