@@ -410,8 +410,9 @@ pub fn initial_strain(mat: &Material, s0: &Vector3<f64>) -> Option<Vector3<f64>>
 }
 
 /// Current area over reference area, negative when the triangle has turned over: its current
-/// normal points against its reference normal (an in-plane inversion, or a fold). Tension
-/// structures do not turn single elements over; an iterate that does is rejected.
+/// normal points against its reference normal (an in-plane inversion, or a fold). A converged
+/// answer has no triangle turned over or collapsed; while iterating, a wrinkled or slack one
+/// may fold (the solver's inversion guard, `solver::assemble::FOLD_LIMIT`).
 pub fn signed_area_ratio(r: &TriangleRef, x: &[Vector3<f64>; 3]) -> f64 {
     (x[1] - x[0]).cross(&(x[2] - x[0])).dot(&r.normal) / (2.0 * r.area)
 }

@@ -94,6 +94,11 @@ pub struct AssemblyInfo {
     /// Smallest signed current/reference area ratio of a membrane triangle (inversion check:
     /// negative for a triangle turned over against its reference normal).
     pub min_area_ratio: f64,
+    /// The same over the triangles that are taut, and over the others only where they have
+    /// turned over past `FOLD_LIMIT`: the inversion guard of an iterate (a wrinkled or slack
+    /// triangle has no stiffness across its tension and may fold while Newton moves the
+    /// sheet; a converged point has no fold, system.rs).
+    pub min_guard_ratio: f64,
     /// Largest nodal force component any single element carries (N): the internal-force part
     /// of the heuristics' force scale.
     pub carried: f64,
@@ -1185,6 +1190,7 @@ pub fn assemble_with(
     }
     let mut info = AssemblyInfo {
         min_area_ratio: f64::INFINITY,
+        min_guard_ratio: f64::INFINITY,
         ..Default::default()
     };
     if let Some(out) = extra.out.as_deref_mut() {
@@ -1360,6 +1366,7 @@ fn triangles_one(
         info.potential += eval.energy;
         info.stored += eval.energy;
         info.min_area_ratio = info.min_area_ratio.min(ratio);
+        info.min_guard_ratio = info.min_guard_ratio.min(guard_ratio(ratio, eval.state));
     }
     if internal {
         to_user_order(pattern, ri, r);
@@ -1568,6 +1575,7 @@ struct Sums {
     potential: f64,
     carried: f64,
     min_ratio: f64,
+    min_guard: f64,
 }
 
 impl Default for Sums {
@@ -1576,6 +1584,7 @@ impl Default for Sums {
             potential: 0.0,
             carried: 0.0,
             min_ratio: f64::INFINITY,
+            min_guard: f64::INFINITY,
         }
     }
 }
@@ -1613,8 +1622,22 @@ fn triangles_into(
         out(slot, &eval);
         sums.potential += eval.energy;
         sums.min_ratio = sums.min_ratio.min(ratio);
+        sums.min_guard = sums.min_guard.min(guard_ratio(ratio, eval.state));
     }
     sums
+}
+
+/// Where a wrinkled or slack triangle may fold while the iteration moves the sheet: its area
+/// ratio counts in the inversion guard only once it has turned over past this.
+pub const FOLD_LIMIT: f64 = -0.5;
+
+/// A triangle's area ratio as the inversion guard of an iterate sees it (`min_guard_ratio`).
+fn guard_ratio(ratio: f64, state: WrinkleState) -> f64 {
+    if state == WrinkleState::Taut || ratio < FOLD_LIMIT {
+        ratio
+    } else {
+        f64::INFINITY
+    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -1878,6 +1901,7 @@ fn assemble_two(
     scratch.fext.resize(r.len(), 0.0);
     let mut info = AssemblyInfo {
         min_area_ratio: f64::INFINITY,
+        min_guard_ratio: f64::INFINITY,
         ..Default::default()
     };
     let mut no_held: Option<(&[f64], &mut [f64])> = None;
@@ -1998,6 +2022,9 @@ fn triangles_two(
     info.min_area_ratio = info
         .min_area_ratio
         .min(sums.min_ratio.min(h.sums.min_ratio));
+    info.min_guard_ratio = info
+        .min_guard_ratio
+        .min(sums.min_guard.min(h.sums.min_guard));
     info.carried = info.carried.max(sums.carried.max(h.sums.carried));
     drop(h);
     to_user_order(pattern, ri, r);

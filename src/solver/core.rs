@@ -14,11 +14,11 @@ use crate::model::Model;
 
 /// Err([`Error::Inverted`]) when an assembly found an inverted or collapsed membrane triangle.
 pub(super) fn check_inversion(model: &Model, info: &assemble::AssemblyInfo) -> Result<(), Error> {
-    if model.triangles.is_empty() || info.min_area_ratio > MIN_AREA_RATIO {
+    if model.triangles.is_empty() || info.min_guard_ratio > MIN_AREA_RATIO {
         Ok(())
     } else {
         Err(Error::Inverted {
-            area_ratio: info.min_area_ratio,
+            area_ratio: info.min_guard_ratio,
         })
     }
 }

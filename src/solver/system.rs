@@ -170,7 +170,11 @@ impl Solver {
         let c = self.settings.roundoff_factor * f64::EPSILON;
         let values = self.linear.values();
         let finite = free.is_finite() && slip.is_finite();
-        let (mut strict, mut within_floor) = (finite, finite);
+        // A wrinkled or slack triangle may fold while the iteration moves the sheet (the
+        // guard, assemble.rs `min_guard_ratio`), but a converged point has none folded.
+        let unfolded =
+            model.triangles.is_empty() || info.min_area_ratio > super::settings::MIN_AREA_RATIO;
+        let (mut strict, mut within_floor) = (finite && unfolded, finite && unfolded);
         let mut worst = 0.0f64;
         for (d, &e) in self.pattern.eq.iter().enumerate() {
             if e == NONE {
