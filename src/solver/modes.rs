@@ -166,7 +166,7 @@ impl<'a> Operator<'a> {
         self.solves += columns;
         self.passes += 1;
         let t = std::time::Instant::now();
-        let result = self.solver.linear.solve_columns(x, columns);
+        let result = self.solver.linear.solve_block(x, columns);
         self.seconds.solves += t.elapsed().as_secs_f64();
         result
     }
