@@ -889,7 +889,7 @@ mod tests {
     /// The block substitution against faer's own solve (`solve_columns`) on a 2-D grid's
     /// matrix, 1 to 19 pseudo-random right-hand sides (every block width, and more than
     /// [`BLOCK_ROWS`]), with and without the per-group scaling: the same solution to 1e-12 of
-    /// its largest entry (both do the same operations in another order: measured ≤ 4e-16).
+    /// its largest entry (both do the same operations in another order: measured 6.2e-16).
     #[test]
     fn block_substitution_matches_faers_solve() {
         let (n, cp, ri, v) = grid(37, 23);
@@ -912,6 +912,7 @@ mod tests {
             ldlt.factor().unwrap();
             assert!(ldlt.scale.is_empty() != groups);
             let mut seed = 0x2545_F491_4F6C_DD1Du64;
+            let mut worst = 0.0f64;
             for columns in 1..20 {
                 let rhs: Vec<f64> = (0..n * columns)
                     .map(|_| {
@@ -933,7 +934,9 @@ mod tests {
                     largest > 0.0 && err <= 1e-12 * largest,
                     "{columns}: {err:e} of {largest:e}"
                 );
+                worst = worst.max(err / largest);
             }
+            eprintln!("scaled {groups}: {worst:e} of the largest entry");
         }
     }
 
