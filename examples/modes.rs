@@ -56,8 +56,9 @@ fn main() {
     let (seconds, cpu, modes) = runs.swap_remove(0);
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
-        "free DOF {}, one factorization {factor:.3} s, one solve {solve:.4} s (best of 3); load average {}",
+        "free DOF {}, factor entries {}, one factorization {factor:.3} s, one solve {solve:.4} s (best of 3); load average {}",
         engine.free_dofs(),
+        engine.factor_nonzeros(),
         load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
     );
     println!(

@@ -457,8 +457,15 @@ impl Ldlt {
         };
         let _phase = crate::phases::start("solve: block substitution (Ldlt::solve_block)");
         let width = columns.min(BLOCK_ROWS);
-        if self.rows.len() < n * width {
-            self.rows = memory::zeros(n * width, "the block solve's workspace")?;
+        // Room for the rows and, after them, one supernode's pattern rows (the backward
+        // sweep's gathered values).
+        let longest = (0..supernodal.n_supernodes())
+            .map(|s| supernodal.supernode(s).pattern().len())
+            .max()
+            .unwrap_or(0);
+        let room = (n + longest) * width;
+        if self.rows.len() < room {
+            self.rows = memory::zeros(room, "the block solve's workspace")?;
         }
         let symbolic = self
             .symbolic
@@ -476,7 +483,7 @@ impl Ldlt {
         while c0 < columns {
             let w = (columns - c0).min(BLOCK_ROWS);
             let block = &mut rhs[c0 * n..(c0 + w) * n];
-            let rows = &mut self.rows[..n * w];
+            let rows = &mut self.rows[..(n + longest) * w];
             match w {
                 1 => block_solve::<1>(&parts, block, rows),
                 2 => block_solve::<2>(&parts, block, rows),
@@ -652,11 +659,12 @@ struct Parts<'a> {
 
 /// K⁻¹ applied to the B columns of `block` (column-major, n rows) with the held factor of
 /// P S K S Pᵀ = L D Lᵀ: gathered into `rows` (n × B row by row, row i holding equation
-/// P⁻¹(i)'s B values times S), [`block_substitution`], scattered back times S.
+/// P⁻¹(i)'s B values times S; its rows beyond n are [`block_substitution`]'s work space),
+/// [`block_substitution`], scattered back times S.
 fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64]) {
     let n = parts.factor.nrows();
     let (rows, _) = rows.as_chunks_mut::<B>();
-    let rows = &mut rows[..n];
+    let (rows, work) = rows.split_at_mut(n);
     for (i, row) in rows.iter_mut().enumerate() {
         let e = parts.perm.map_or(i, |(fwd, _)| fwd[i]);
         let s = parts.scale.map_or(1.0, |s| s[e]);
@@ -665,14 +673,15 @@ fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64
         }
     }
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the processor has AVX2 (checked just above), all the function requires.
-        unsafe { block_substitution_avx2::<B>(parts.factor, parts.values, rows) };
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the processor has AVX2 and FMA (checked just above), all the function
+        // requires.
+        unsafe { block_substitution_avx2::<B>(parts.factor, parts.values, rows, work) };
     } else {
-        block_substitution::<B>(parts.factor, parts.values, rows);
+        block_substitution::<B, false>(parts.factor, parts.values, rows, work);
     }
     #[cfg(not(target_arch = "x86_64"))]
-    block_substitution::<B>(parts.factor, parts.values, rows);
+    block_substitution::<B, false>(parts.factor, parts.values, rows, work);
     for e in 0..n {
         let row = rows[parts.perm.map_or(e, |(_, inv)| inv[e])];
         let s = parts.scale.map_or(1.0, |s| s[e]);
@@ -691,26 +700,39 @@ fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64
 /// registers); D; backward, each column's sum over the pattern rows, then the diagonal block
 /// upwards. Each sweep reads the factor once for all B columns, and every update is one
 /// B-wide operation on adjacent values.
-/// [`block_substitution`] compiled for AVX2 (4 values per instruction, the width of a
-/// 4-column block), chosen at run time when the processor has it.
+/// [`block_substitution`] compiled for AVX2 and FMA (4 values per instruction, the width of
+/// a 4-column block; fused multiply-adds), chosen at run time when the processor has them.
 ///
 /// # Safety
-/// Only on a processor with AVX2.
+/// Only on a processor with AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn block_substitution_avx2<const B: usize>(
     factor: &SymbolicSupernodalCholesky<usize>,
     values: &[f64],
     x: &mut [[f64; B]],
+    work: &mut [[f64; B]],
 ) {
-    block_substitution::<B>(factor, values, x)
+    block_substitution::<B, true>(factor, values, x, work)
+}
+
+/// a b + c, fused (one rounding) when FMA, else two roundings; FMA only where the processor
+/// has the instruction (elsewhere `mul_add` is a slow library call).
+#[inline(always)]
+fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
+    if FMA {
+        a.mul_add(b, c)
+    } else {
+        a * b + c
+    }
 }
 
 #[inline(always)]
-fn block_substitution<const B: usize>(
+fn block_substitution<const B: usize, const FMA: bool>(
     factor: &SymbolicSupernodalCholesky<usize>,
     values: &[f64],
     x: &mut [[f64; B]],
+    work: &mut [[f64; B]],
 ) {
     const TILE: usize = 8;
     let supernodes = factor.n_supernodes();
@@ -733,7 +755,7 @@ fn block_substitution<const B: usize>(
             for r in j + 1..size {
                 let a = column[r];
                 for c in 0..B {
-                    top[r][c] -= a * xj[c];
+                    top[r][c] = madd::<FMA>(-a, xj[c], top[r][c]);
                 }
             }
         }
@@ -744,7 +766,7 @@ fn block_substitution<const B: usize>(
                 let a = &l[j * m + size + p0..j * m + size + p0 + TILE];
                 for r in 0..TILE {
                     for c in 0..B {
-                        acc[r][c] += a[r] * xj[c];
+                        acc[r][c] = madd::<FMA>(a[r], xj[c], acc[r][c]);
                     }
                 }
             }
@@ -761,7 +783,7 @@ fn block_substitution<const B: usize>(
             for (j, xj) in top.iter().enumerate() {
                 let a = l[j * m + size + p];
                 for c in 0..B {
-                    acc[c] += a * xj[c];
+                    acc[c] = madd::<FMA>(a, xj[c], acc[c]);
                 }
             }
             let t = &mut tail[row - stop];
@@ -789,22 +811,26 @@ fn block_substitution<const B: usize>(
         let l = &values[val_ptr[s]..val_ptr[s + 1]];
         let (head, tail) = x.split_at_mut(stop);
         let top = &mut head[start..];
+        // The pattern rows' values gathered once, read contiguously by every column.
+        let gathered = &mut work[..pattern.len()];
+        for (g, &row) in gathered.iter_mut().zip(pattern) {
+            *g = tail[row - stop];
+        }
+        let gathered = &*gathered;
         for (j, xj) in top.iter_mut().enumerate() {
             let column = &l[j * m + size..(j + 1) * m];
             let (mut even, mut odd) = ([0.0; B], [0.0; B]);
-            let mut pairs = pattern.chunks_exact(2).zip(column.chunks_exact(2));
-            for (rows, a) in &mut pairs {
-                let (t0, t1) = (&tail[rows[0] - stop], &tail[rows[1] - stop]);
+            let (pairs, last) = gathered.as_chunks::<2>();
+            for (t, a) in pairs.iter().zip(column.chunks_exact(2)) {
                 for c in 0..B {
-                    even[c] += a[0] * t0[c];
-                    odd[c] += a[1] * t1[c];
+                    even[c] = madd::<FMA>(a[0], t[0][c], even[c]);
+                    odd[c] = madd::<FMA>(a[1], t[1][c], odd[c]);
                 }
             }
-            if pattern.len() % 2 == 1 {
-                let t = &tail[pattern[pattern.len() - 1] - stop];
+            if let Some(t) = last.first() {
                 let a = column[pattern.len() - 1];
                 for c in 0..B {
-                    even[c] += a * t[c];
+                    even[c] = madd::<FMA>(a, t[c], even[c]);
                 }
             }
             for c in 0..B {
@@ -817,7 +843,7 @@ fn block_substitution<const B: usize>(
             for r in j + 1..size {
                 let a = column[r];
                 for c in 0..B {
-                    acc[c] += a * top[r][c];
+                    acc[c] = madd::<FMA>(a, top[r][c], acc[c]);
                 }
             }
             for c in 0..B {
