@@ -15,7 +15,8 @@
 //!          θ = 1/(ω² − σ) are the lowest frequencies
 //! Lanczos  block Lanczos, BLOCK vectors at a time: Q₁ = A R M-orthonormalised (R fixed
 //!          pseudo-random vectors, so runs repeat bit for bit), then W = A Q_j (one solve
-//!          with BLOCK right-hand sides: one pass over the factor), the block
+//!          with BLOCK right-hand sides, `Ldlt::solve_block`: held row by row, one pass over
+//!          the factor per sweep for all of them), the block
 //!          M-orthogonalised against the last two blocks, then against all earlier vectors
 //!          (classical Gram-Schmidt, full reorthogonalisation; each pass two dense products
 //!          with Q and M Q held as n × k matrices, so a pass reads the basis once per block,
@@ -28,7 +29,8 @@
 //!          planes, a disc's pairs): a frequency repeated more often than BLOCK times may be
 //!          reported fewer times
 //! M x      over M's nonzero entries only (the tangent's pattern also holds M's zeros: a
-//!          membrane's M couples x with x only), one pass over M per block
+//!          membrane's M couples x with x only), one pass over M per block, the block held
+//!          row by row meanwhile (a block of BLOCK columns)
 //! A Ritz vector φ is M-normalised (φᵀ M φ = 1); f = ω / 2π, reported negative (−√|ω²|/2π)
 //! for a negative ω² (an unstable equilibrium: the tangent is not positive definite).
 //!
