@@ -672,16 +672,14 @@ fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64
             *v = block[c * n + e] * s;
         }
     }
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the processor has AVX2 and FMA (checked just above), all the function
-        // requires.
-        unsafe { block_substitution_avx2::<B>(parts.factor, parts.values, rows, work) };
-    } else {
-        block_substitution::<B, false>(parts.factor, parts.values, rows, work);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    block_substitution::<B, false>(parts.factor, parts.values, rows, work);
+    // Compiled for the widest instruction set the processor has (pulp: AVX2 where present),
+    // chosen at run time; the same arithmetic in the same order either way.
+    pulp::Arch::new().dispatch(Substitution::<B> {
+        factor: parts.factor,
+        values: parts.values,
+        x: rows,
+        work,
+    });
     for e in 0..n {
         let row = rows[parts.perm.map_or(e, |(_, inv)| inv[e])];
         let s = parts.scale.map_or(1.0, |s| s[e]);
@@ -700,35 +698,26 @@ fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64
 /// registers); D; backward, each column's sum over the pattern rows, then the diagonal block
 /// upwards. Each sweep reads the factor once for all B columns, and every update is one
 /// B-wide operation on adjacent values.
-/// [`block_substitution`] compiled for AVX2 and FMA (4 values per instruction, the width of
-/// a 4-column block; fused multiply-adds), chosen at run time when the processor has them.
-///
-/// # Safety
-/// Only on a processor with AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn block_substitution_avx2<const B: usize>(
-    factor: &SymbolicSupernodalCholesky<usize>,
-    values: &[f64],
-    x: &mut [[f64; B]],
-    work: &mut [[f64; B]],
-) {
-    block_substitution::<B, true>(factor, values, x, work)
+/// [`block_substitution`] as a pulp operation: compiled for each instruction set pulp
+/// dispatches to.
+struct Substitution<'a, const B: usize> {
+    factor: &'a SymbolicSupernodalCholesky<usize>,
+    values: &'a [f64],
+    x: &'a mut [[f64; B]],
+    work: &'a mut [[f64; B]],
 }
 
-/// a b + c, fused (one rounding) when FMA, else two roundings; FMA only where the processor
-/// has the instruction (elsewhere `mul_add` is a slow library call).
-#[inline(always)]
-fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
-    if FMA {
-        a.mul_add(b, c)
-    } else {
-        a * b + c
+impl<const B: usize> pulp::WithSimd for Substitution<'_, B> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        block_substitution::<B>(self.factor, self.values, self.x, self.work)
     }
 }
 
 #[inline(always)]
-fn block_substitution<const B: usize, const FMA: bool>(
+fn block_substitution<const B: usize>(
     factor: &SymbolicSupernodalCholesky<usize>,
     values: &[f64],
     x: &mut [[f64; B]],
@@ -755,7 +744,7 @@ fn block_substitution<const B: usize, const FMA: bool>(
             for r in j + 1..size {
                 let a = column[r];
                 for c in 0..B {
-                    top[r][c] = madd::<FMA>(-a, xj[c], top[r][c]);
+                    top[r][c] += -a * xj[c];
                 }
             }
         }
@@ -766,7 +755,7 @@ fn block_substitution<const B: usize, const FMA: bool>(
                 let a = &l[j * m + size + p0..j * m + size + p0 + TILE];
                 for r in 0..TILE {
                     for c in 0..B {
-                        acc[r][c] = madd::<FMA>(a[r], xj[c], acc[r][c]);
+                        acc[r][c] += a[r] * xj[c];
                     }
                 }
             }
@@ -783,7 +772,7 @@ fn block_substitution<const B: usize, const FMA: bool>(
             for (j, xj) in top.iter().enumerate() {
                 let a = l[j * m + size + p];
                 for c in 0..B {
-                    acc[c] = madd::<FMA>(a, xj[c], acc[c]);
+                    acc[c] += a * xj[c];
                 }
             }
             let t = &mut tail[row - stop];
@@ -823,14 +812,14 @@ fn block_substitution<const B: usize, const FMA: bool>(
             let (pairs, last) = gathered.as_chunks::<2>();
             for (t, a) in pairs.iter().zip(column.chunks_exact(2)) {
                 for c in 0..B {
-                    even[c] = madd::<FMA>(a[0], t[0][c], even[c]);
-                    odd[c] = madd::<FMA>(a[1], t[1][c], odd[c]);
+                    even[c] += a[0] * t[0][c];
+                    odd[c] += a[1] * t[1][c];
                 }
             }
             if let Some(t) = last.first() {
                 let a = column[pattern.len() - 1];
                 for c in 0..B {
-                    even[c] = madd::<FMA>(a, t[c], even[c]);
+                    even[c] += a * t[c];
                 }
             }
             for c in 0..B {
@@ -843,7 +832,7 @@ fn block_substitution<const B: usize, const FMA: bool>(
             for r in j + 1..size {
                 let a = column[r];
                 for c in 0..B {
-                    acc[c] = madd::<FMA>(a, top[r][c], acc[c]);
+                    acc[c] += a * top[r][c];
                 }
             }
             for c in 0..B {

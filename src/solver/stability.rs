@@ -76,7 +76,10 @@ fn free_tangent(model: &Model, u: &[f64], loads: &[f64]) -> Option<FreeTangent> 
         None,
         pattern.row_idx.clone(),
     );
-    Some(FreeTangent::Matrix(Box::new(pattern), SparseColMat::new(sym, k)))
+    Some(FreeTangent::Matrix(
+        Box::new(pattern),
+        SparseColMat::new(sym, k),
+    ))
 }
 
 /// The load channel of the first ponding input when the tangent at `u` under `loads` is not
