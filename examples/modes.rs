@@ -5,7 +5,7 @@
 //! A flat rectangular membrane 1 m x 0.7 m, 1 mm, SVK E 1 GPa, nu 0.3, isotropic prestress
 //! 1 kN/m, density 1000 kg/m3, clamped on its boundary (tests/verification/
 //! natural_frequencies.rs's case), DIVISIONS x round(0.7 DIVISIONS) cells (default 230: about
-//! 100k free DOF), one solver thread. Printed: free DOF, the time of one numeric factorization
+//! 100k free DOF), one solver thread. Printed: free DOF, the factor's entries, the time of one numeric factorization
 //! and one solve of the tangent at the equilibrium (best of 3, `Engine::time_floor_parts`), the
 //! wall time of `Engine::modes` (its assembly, mass, one factorization of K - sigma M, the
 //! block Lanczos's solves and reorthogonalisation), its solves, the ratio
@@ -56,8 +56,9 @@ fn main() {
     let (seconds, cpu, modes) = runs.swap_remove(0);
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
-        "free DOF {}, one factorization {factor:.3} s, one solve {solve:.4} s (best of 3); load average {}",
+        "free DOF {}, factor entries {}, one factorization {factor:.3} s, one solve {solve:.4} s (best of 3); load average {}",
         engine.free_dofs(),
+        engine.factor_nonzeros(),
         load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
     );
     println!(

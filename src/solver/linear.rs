@@ -21,7 +21,10 @@ use super::threads::Pool;
 use crate::error::{Breakdown, Error};
 use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::sparse::linalg::cholesky::{LdltRef, SymbolicCholesky, SymmetricOrdering};
+use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
+use faer::sparse::linalg::cholesky::{
+    LdltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par};
 use std::sync::Arc;
@@ -60,6 +63,9 @@ pub struct Ldlt {
     scale: Vec<f64>,
     /// Largest diagonal of every group (work buffer of the scaling).
     largest: Vec<f64>,
+    /// [`Ldlt::solve_block`]'s right-hand sides row by row in the factor's order (work
+    /// buffer, grown on first use).
+    rows: Vec<f64>,
 }
 
 /// Work counters of one [`Ldlt`].
@@ -201,6 +207,7 @@ impl Ldlt {
             groups: Vec::new(),
             scale: Vec::new(),
             largest: Vec::new(),
+            rows: Vec::new(),
         })
     }
 
@@ -427,6 +434,75 @@ impl Ldlt {
         }
     }
 
+    /// [`Ldlt::solve_columns`] (the same arguments and results, to round-off) by a block
+    /// substitution of our own: the `columns` right-hand sides are gathered row by row in the
+    /// factor's order (an unknown's values side by side), and each supernode of the factor is
+    /// read once per sweep for all of them, up to [`BLOCK_ROWS`] at a time (module docs of
+    /// [`block_substitution`]). With the two-domain split, or a factor that is not
+    /// supernodal, it is [`Ldlt::solve_columns`].
+    pub fn solve_block(&mut self, rhs: &mut [f64], columns: usize) -> Result<(), Error> {
+        if columns == 0 || rhs.is_empty() {
+            return Ok(());
+        }
+        let n = rhs.len() / columns;
+        let supernodal = match (&self.split, &self.symbolic) {
+            (None, Some(symbolic)) => match symbolic.raw() {
+                SymbolicCholeskyRaw::Supernodal(s) => Some(s),
+                SymbolicCholeskyRaw::Simplicial(_) => None,
+            },
+            _ => None,
+        };
+        let Some(supernodal) = supernodal else {
+            return self.solve_columns(rhs, columns);
+        };
+        let _phase = crate::phases::start("solve: block substitution (Ldlt::solve_block)");
+        let width = columns.min(BLOCK_ROWS);
+        // Room for the rows and, after them, one supernode's pattern rows (the backward
+        // sweep's gathered values).
+        let longest = (0..supernodal.n_supernodes())
+            .map(|s| supernodal.supernode(s).pattern().len())
+            .max()
+            .unwrap_or(0);
+        let room = (n + longest) * width;
+        if self.rows.len() < room {
+            self.rows = memory::zeros(room, "the block solve's workspace")?;
+        }
+        let symbolic = self
+            .symbolic
+            .as_ref()
+            .expect("the whole tangent's symbolic factorization");
+        let perm = symbolic.perm().map(|p| p.arrays());
+        let scale = (self.scale.len() == n).then_some(&self.scale[..]);
+        let parts = Parts {
+            factor: supernodal,
+            values: &self.l_values,
+            perm,
+            scale,
+        };
+        let mut c0 = 0;
+        while c0 < columns {
+            let w = (columns - c0).min(BLOCK_ROWS);
+            let block = &mut rhs[c0 * n..(c0 + w) * n];
+            let rows = &mut self.rows[..(n + longest) * w];
+            match w {
+                1 => block_solve::<1>(&parts, block, rows),
+                2 => block_solve::<2>(&parts, block, rows),
+                3 => block_solve::<3>(&parts, block, rows),
+                4 => block_solve::<4>(&parts, block, rows),
+                5 => block_solve::<5>(&parts, block, rows),
+                6 => block_solve::<6>(&parts, block, rows),
+                7 => block_solve::<7>(&parts, block, rows),
+                _ => block_solve::<8>(&parts, block, rows),
+            }
+            c0 += w;
+        }
+        if rhs.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(Breakdown::NonFinite(NON_FINITE).into())
+        }
+    }
+
     /// Solve with the factor as held (of S K S when scaled).
     fn solve_scaled(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
         let n = rhs.len();
@@ -568,6 +644,204 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// Right-hand sides one block substitution handles at once ([`Ldlt::solve_block`]); more are
+/// taken in blocks of this many.
+pub const BLOCK_ROWS: usize = 8;
+
+/// What [`block_solve`] reads: faer's supernodal factor (symbolic structure and values), its
+/// fill-reducing permutation (forward, inverse) and the symmetric scaling S, if any.
+struct Parts<'a> {
+    factor: &'a SymbolicSupernodalCholesky<usize>,
+    values: &'a [f64],
+    perm: Option<(&'a [usize], &'a [usize])>,
+    scale: Option<&'a [f64]>,
+}
+
+/// K⁻¹ applied to the B columns of `block` (column-major, n rows) with the held factor of
+/// P S K S Pᵀ = L D Lᵀ: gathered into `rows` (n × B row by row, row i holding equation
+/// P⁻¹(i)'s B values times S; its rows beyond n are [`block_substitution`]'s work space),
+/// [`block_substitution`], scattered back times S.
+fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64]) {
+    let n = parts.factor.nrows();
+    let (rows, _) = rows.as_chunks_mut::<B>();
+    let (rows, work) = rows.split_at_mut(n);
+    for (i, row) in rows.iter_mut().enumerate() {
+        let e = parts.perm.map_or(i, |(fwd, _)| fwd[i]);
+        let s = parts.scale.map_or(1.0, |s| s[e]);
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = block[c * n + e] * s;
+        }
+    }
+    // Compiled for the widest instruction set the processor has (pulp: AVX2 where present),
+    // chosen at run time; the same arithmetic in the same order either way.
+    pulp::Arch::new().dispatch(Substitution::<B> {
+        factor: parts.factor,
+        values: parts.values,
+        x: rows,
+        work,
+    });
+    for e in 0..n {
+        let row = rows[parts.perm.map_or(e, |(_, inv)| inv[e])];
+        let s = parts.scale.map_or(1.0, |s| s[e]);
+        for (c, v) in row.iter().enumerate() {
+            block[c * n + e] = v * s;
+        }
+    }
+}
+
+/// x ← L⁻ᵀ D⁻¹ L⁻¹ x for B right-hand sides held row by row (`x[i]`: unknown i's B values),
+/// with faer's supernodal LDLT storage: supernode s covers the columns `begin..end`, its
+/// values a column-major (size + |pattern|) × size block, the unit lower triangle of the
+/// diagonal block (its diagonal holding D) above the rows of its pattern (all beyond `end`).
+/// Forward, a supernode's columns first update the diagonal block's rows, then its pattern
+/// rows eight at a time (the block's values read column by column, the rows' sums kept in
+/// registers); D; backward, each column's sum over the pattern rows, then the diagonal block
+/// upwards. Each sweep reads the factor once for all B columns, and every update is one
+/// B-wide operation on adjacent values.
+/// [`block_substitution`] as a pulp operation: compiled for each instruction set pulp
+/// dispatches to.
+struct Substitution<'a, const B: usize> {
+    factor: &'a SymbolicSupernodalCholesky<usize>,
+    values: &'a [f64],
+    x: &'a mut [[f64; B]],
+    work: &'a mut [[f64; B]],
+}
+
+impl<const B: usize> pulp::WithSimd for Substitution<'_, B> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        block_substitution::<B>(self.factor, self.values, self.x, self.work)
+    }
+}
+
+#[inline(always)]
+fn block_substitution<const B: usize>(
+    factor: &SymbolicSupernodalCholesky<usize>,
+    values: &[f64],
+    x: &mut [[f64; B]],
+    work: &mut [[f64; B]],
+) {
+    const TILE: usize = 8;
+    let supernodes = factor.n_supernodes();
+    let (begin, end, val_ptr) = (
+        factor.supernode_begin(),
+        factor.supernode_end(),
+        factor.col_ptr_for_val(),
+    );
+    for s in 0..supernodes {
+        let (start, stop) = (begin[s], end[s]);
+        let size = stop - start;
+        let pattern = factor.supernode(s).pattern();
+        let m = size + pattern.len();
+        let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        let (head, tail) = x.split_at_mut(stop);
+        let top = &mut head[start..];
+        for j in 0..size {
+            let xj = top[j];
+            let column = &l[j * m..j * m + size];
+            for r in j + 1..size {
+                let a = column[r];
+                for c in 0..B {
+                    top[r][c] += -a * xj[c];
+                }
+            }
+        }
+        let mut p0 = 0;
+        while p0 + TILE <= pattern.len() {
+            let mut acc = [[0.0; B]; TILE];
+            for (j, xj) in top.iter().enumerate() {
+                let a = &l[j * m + size + p0..j * m + size + p0 + TILE];
+                for r in 0..TILE {
+                    for c in 0..B {
+                        acc[r][c] += a[r] * xj[c];
+                    }
+                }
+            }
+            for r in 0..TILE {
+                let t = &mut tail[pattern[p0 + r] - stop];
+                for c in 0..B {
+                    t[c] -= acc[r][c];
+                }
+            }
+            p0 += TILE;
+        }
+        for (p, &row) in pattern.iter().enumerate().skip(p0) {
+            let mut acc = [0.0; B];
+            for (j, xj) in top.iter().enumerate() {
+                let a = l[j * m + size + p];
+                for c in 0..B {
+                    acc[c] += a * xj[c];
+                }
+            }
+            let t = &mut tail[row - stop];
+            for c in 0..B {
+                t[c] -= acc[c];
+            }
+        }
+    }
+    for s in 0..supernodes {
+        let (start, stop) = (begin[s], end[s]);
+        let m = stop - start + factor.supernode(s).pattern().len();
+        let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        for (j, xj) in x[start..stop].iter_mut().enumerate() {
+            let d = l[j * m + j].recip();
+            for v in xj.iter_mut() {
+                *v *= d;
+            }
+        }
+    }
+    for s in (0..supernodes).rev() {
+        let (start, stop) = (begin[s], end[s]);
+        let size = stop - start;
+        let pattern = factor.supernode(s).pattern();
+        let m = size + pattern.len();
+        let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        let (head, tail) = x.split_at_mut(stop);
+        let top = &mut head[start..];
+        // The pattern rows' values gathered once, read contiguously by every column.
+        let gathered = &mut work[..pattern.len()];
+        for (g, &row) in gathered.iter_mut().zip(pattern) {
+            *g = tail[row - stop];
+        }
+        let gathered = &*gathered;
+        for (j, xj) in top.iter_mut().enumerate() {
+            let column = &l[j * m + size..(j + 1) * m];
+            let (mut even, mut odd) = ([0.0; B], [0.0; B]);
+            let (pairs, last) = gathered.as_chunks::<2>();
+            for (t, a) in pairs.iter().zip(column.chunks_exact(2)) {
+                for c in 0..B {
+                    even[c] += a[0] * t[0][c];
+                    odd[c] += a[1] * t[1][c];
+                }
+            }
+            if let Some(t) = last.first() {
+                let a = column[pattern.len() - 1];
+                for c in 0..B {
+                    even[c] += a * t[c];
+                }
+            }
+            for c in 0..B {
+                xj[c] -= even[c] + odd[c];
+            }
+        }
+        for j in (0..size).rev() {
+            let column = &l[j * m..j * m + size];
+            let mut acc = [0.0; B];
+            for r in j + 1..size {
+                let a = column[r];
+                for c in 0..B {
+                    acc[c] += a * top[r][c];
+                }
+            }
+            for c in 0..B {
+                top[j][c] -= acc[c];
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -625,6 +899,60 @@ mod tests {
         // ‖x − x*‖ ≤ cond(K) · 1e-10 ‖x*‖; the shifted Laplacian's condition number is below
         // 8.4 / 0.1 = 84.
         assert!(err <= 84.0 * 1e-10 * scale, "{err:e} of {scale:e}");
+    }
+
+    /// The block substitution against faer's own solve (`solve_columns`) on a 2-D grid's
+    /// matrix, 1 to 19 pseudo-random right-hand sides (every block width, and more than
+    /// [`BLOCK_ROWS`]), with and without the per-group scaling: the same solution to 1e-12 of
+    /// its largest entry (both do the same operations in another order: measured 6.2e-16).
+    #[test]
+    fn block_substitution_matches_faers_solve() {
+        let (n, cp, ri, v) = grid(37, 23);
+        for groups in [false, true] {
+            let mut ldlt = Ldlt::try_new(n, cp.clone(), ri.clone()).unwrap();
+            ldlt.values_mut().copy_from_slice(&v);
+            if groups {
+                // Three equations per group, the matrix scaled symmetrically by groups so
+                // that its diagonal spans 1e-6 .. 1e6 (the scaling then undoes that).
+                ldlt.set_groups((0..n as u32).map(|e| e / 3).collect())
+                    .unwrap();
+                let f = |e: usize| 10f64.powi(((e / 3) % 7) as i32 - 3);
+                let values = ldlt.values_mut();
+                for j in 0..n {
+                    for k in cp[j]..cp[j + 1] {
+                        values[k] *= f(ri[k]) * f(j);
+                    }
+                }
+            }
+            ldlt.factor().unwrap();
+            assert!(ldlt.scale.is_empty() != groups);
+            let mut seed = 0x2545_F491_4F6C_DD1Du64;
+            let mut worst = 0.0f64;
+            for columns in 1..20 {
+                let rhs: Vec<f64> = (0..n * columns)
+                    .map(|_| {
+                        seed ^= seed << 13;
+                        seed ^= seed >> 7;
+                        seed ^= seed << 17;
+                        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                    })
+                    .collect();
+                let (mut ours, mut faers) = (rhs.clone(), rhs);
+                ldlt.solve_block(&mut ours, columns).unwrap();
+                ldlt.solve_columns(&mut faers, columns).unwrap();
+                let largest = faers.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                let err = ours
+                    .iter()
+                    .zip(&faers)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                assert!(
+                    largest > 0.0 && err <= 1e-12 * largest,
+                    "{columns}: {err:e} of {largest:e}"
+                );
+                worst = worst.max(err / largest);
+            }
+            eprintln!("scaled {groups}: {worst:e} of the largest entry");
+        }
     }
 
     /// A tangent that is no longer positive definite stops CG (None), never a wrong x.
