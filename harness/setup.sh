@@ -47,6 +47,6 @@ fi
 # native library when its toolchain cannot be installed (docs/fmu.md, "Portable FMUs").
 bash harness/portable.sh
 
-# The Blower FMU of the coupling example (blower/, docs/coupling.md): needs only a C compiler,
-# takes under a second, and is rebuilt only when blower/ changed.
-python3 blower/pack.py build/fmus >/dev/null
+# The Blower FMU of the coupling example (harness/blower/, docs/coupling.md): needs only a C compiler,
+# takes under a second, and is rebuilt only when harness/blower/ changed.
+python3 harness/blower/pack.py build/fmus >/dev/null

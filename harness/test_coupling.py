@@ -1,4 +1,4 @@
-"""The cushion-and-blower system (docs/coupling.md): the Blower FMU (blower/) and the coupling
+"""The cushion-and-blower system (docs/coupling.md): the Blower FMU (harness/blower/) and the coupling
 master (python/velarium/couple.py) against the monolithic answer.
 
 References and tolerances:
@@ -6,7 +6,7 @@ References and tolerances:
 - The blower alone at a fixed volume reaches the closed-form steady state of its PI controller:
   p = p_set (integral action) and the valve opening that passes the fan's flow there,
   u* = Q_fan(p_set) sqrt(p_set + p_lam) / (K_valve p_set), Q_fan from the fan curve's quadratic
-  (blower/blower.c, header). Backward Euler's fixed point is the exact steady state, so after
+  (harness/blower/blower.c, header). Backward Euler's fixed point is the exact steady state, so after
   60 s in 0.5 s steps the error is the transient's remainder: measured 0 (p equal to 300 Pa
   in every bit); tolerance 1e-9 relative.
 - The FMI 3.0 archive (the same library) simulates to the FMI 2 archive's numbers bit for bit;
@@ -57,7 +57,7 @@ couple = pytest.importorskip("velarium.couple")
 
 
 def _blower_pack():
-    spec = importlib.util.spec_from_file_location("blower_pack", ROOT / "blower" / "pack.py")
+    spec = importlib.util.spec_from_file_location("blower_pack", ROOT / "harness" / "blower" / "pack.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -65,14 +65,14 @@ def _blower_pack():
 
 @pytest.fixture(scope="session")
 def blower_fmu(tmp_path_factory) -> Path:
-    """Blower.fmu built from blower/blower.c (a C compiler and nothing else; well under 1 s)."""
+    """Blower.fmu built from harness/blower/blower.c (a C compiler and nothing else; well under 1 s)."""
     out = vr.FMU_DIR / "Blower.fmu"
     try:
         return _blower_pack().pack(vr.FMU_DIR)
     except (OSError, subprocess.CalledProcessError) as e:
         if out.exists():
             return out
-        pytest.skip(f"cannot build blower/blower.c: {e}")
+        pytest.skip(f"cannot build harness/blower/blower.c: {e}")
 
 
 @pytest.fixture(scope="session")

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from test_coupling import blower_fmu  # noqa: F401  (the session fixture that packs blower/)
+from test_coupling import blower_fmu  # noqa: F401  (the session fixture that packs harness/blower/)
 
 couple = pytest.importorskip("velarium.couple")
 couple_dynamic = pytest.importorskip("velarium.couple_dynamic")

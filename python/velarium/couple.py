@@ -529,7 +529,7 @@ class Master:
 
 def _fmu_path(name: str, spec: Mapping[str, Any], base: Path, build: Path, fmi: int | None = None) -> Path:
     """The archive of ``fmus.<name>``: its ``fmu`` (with ``fmi=3``, the FMI 3 archive beside it,
-    ``<stem>_fmi3.fmu`` as `velarium pack` and blower/pack.py name them), or its ``scene``
+    ``<stem>_fmi3.fmu`` as `velarium pack` and harness/blower/pack.py name them), or its ``scene``
     packed into ``build`` as FMI ``spec["fmi"]`` (2 by default; ``fmi`` overrides)."""
     if not isinstance(spec, Mapping) or ("fmu" in spec) == ("scene" in spec):
         raise CouplingError(f"fmus.{name}: give exactly one of \"fmu\" (an archive) or \"scene\" (a Velarium scene)")
@@ -542,7 +542,7 @@ def _fmu_path(name: str, spec: Mapping[str, Any], base: Path, build: Path, fmi: 
             fmi3 = path.with_name(f"{path.stem}_fmi3.fmu")
             if not fmi3.exists():
                 raise CouplingError(f"fmus.{name}.fmu: FMI 3 was asked for, but there is no {fmi3.name} beside {path} "
-                                    "(the FMI 3 archive's name as velarium pack and blower/pack.py write it)")
+                                    "(the FMI 3 archive's name as velarium pack and harness/blower/pack.py write it)")
             path = fmi3
         return path
     from .engine import pack

@@ -11,7 +11,7 @@ Here the gas law lives inside the structure: a Velarium scene with a ``gas`` inp
 bordered system: displacements and pressure one Newton solve) is driven by the gas amount
 ΔN = N₁ - V⁰, and the blower's balance is the one remaining scalar equation, in N₁, solved
 around it by a safeguarded secant to round-off. There is no pressure/volume interface and no
-FMU of the blower: its equations are written again below, independently of blower/blower.c.
+FMU of the blower: its equations are written again below, independently of harness/blower/blower.c.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ BLOWER_DEFAULTS = ("p_atm", "dp0", "Q_max", "fan_shape", "K_valve", "p_lam", "Kp
 
 
 class BlowerEquations:
-    """The blower's right-hand side (the model of blower/blower.c, written again)."""
+    """The blower's right-hand side (the model of harness/blower/blower.c, written again)."""
 
     def __init__(self, par: Mapping[str, float]):
         self.p = dict(par)

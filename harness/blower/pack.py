@@ -1,7 +1,7 @@
 """Build the Blower FMUs (blower.c) into DIR/Blower.fmu (FMI 2.0 Co-Simulation) and
 DIR/Blower_fmi3.fmu (FMI 3.0 Co-Simulation, the same library).
 
-    python3 blower/pack.py [DIR]        # default build/fmus
+    python3 harness/blower/pack.py [DIR]        # default build/fmus
 
 Needs a C compiler (`cc`) and nothing else: the library links libc and libm only. Takes well
 under a second; the archive is rebuilt only when blower.c or this file is newer than it.
@@ -48,8 +48,8 @@ def model_description() -> str:
         '<?xml version="1.0" encoding="UTF-8"?>',
         '<fmiModelDescription fmiVersion="2.0" modelName="Blower" guid="%s"' % GUID,
         '  description="A cushion\'s air supply: a fan with a fan curve and a relief valve under a PI pressure'
-        ' controller, isothermal ideal gas; input the cushion\'s volume, output its pressure (Velarium repository, blower/)"',
-        '  generationTool="velarium blower/pack.py" variableNamingConvention="flat" numberOfEventIndicators="0">',
+        ' controller, isothermal ideal gas; input the cushion\'s volume, output its pressure (Velarium repository, harness/blower/)"',
+        '  generationTool="velarium harness/blower/pack.py" variableNamingConvention="flat" numberOfEventIndicators="0">',
         '  <CoSimulation modelIdentifier="Blower" canHandleVariableCommunicationStepSize="true"'
         ' canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="true"'
         ' canNotUseMemoryManagementFunctions="true"/>',
@@ -85,8 +85,8 @@ def model_description_3() -> str:
         '<?xml version="1.0" encoding="UTF-8"?>',
         '<fmiModelDescription fmiVersion="3.0" modelName="Blower" instantiationToken="%s"' % GUID,
         '  description="A cushion\'s air supply: a fan with a fan curve and a relief valve under a PI pressure'
-        ' controller, isothermal ideal gas; input the cushion\'s volume, output its pressure (Velarium repository, blower/)"',
-        '  generationTool="velarium blower/pack.py" variableNamingConvention="flat">',
+        ' controller, isothermal ideal gas; input the cushion\'s volume, output its pressure (Velarium repository, harness/blower/)"',
+        '  generationTool="velarium harness/blower/pack.py" variableNamingConvention="flat">',
         '  <CoSimulation modelIdentifier="Blower" canHandleVariableCommunicationStepSize="true"'
         ' canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="true"'
         ' providesAdjointDerivatives="true" hasEventMode="false"/>',
