@@ -57,6 +57,23 @@ const DIRECTION: &str = "the Newton direction";
 /// also let in a direction that took 12 preconditioner solves to save one factorization
 /// (docs/performance.md).
 const INEXACT_CONTRACTION: f64 = 0.1;
+/// From this many equations the gate is [`INEXACT_CONTRACTION_LARGE`]: a factorization there
+/// costs about as much as 12-15 preconditioned steps (docs/performance.md), against about 9 at
+/// 300k, so a direction of a few more solves still pays.
+const INEXACT_LARGE_EQUATIONS: usize = 600_000;
+/// The contraction gate from [`INEXACT_LARGE_EQUATIONS`] on: on the 1M-DOF disc it lets in
+/// the fifth iteration's direction (|R|∞ fell to 0.115 of the fourth's), saving one of its
+/// five factorizations (docs/performance.md, "Fewer factorizations at 1M").
+const INEXACT_CONTRACTION_LARGE: f64 = 0.2;
+
+/// The contraction gate of inexact Newton for a tangent of `n` equations.
+fn inexact_contraction(n: usize) -> f64 {
+    if n >= INEXACT_LARGE_EQUATIONS {
+        INEXACT_CONTRACTION_LARGE
+    } else {
+        INEXACT_CONTRACTION
+    }
+}
 /// Bounds of the residual reduction the conjugate gradients must reach, ‖K Δx + R‖₂ ≤ η ‖R‖₂
 /// with η = (|R|∞ / |R|∞ at the last direction)² (Eisenstat and Walker's second choice, γ = 1)
 /// clamped to [`INEXACT_FORCING_MIN`, `INEXACT_FORCING_MAX`]: η shrinks with the residual, so
@@ -71,7 +88,7 @@ impl Solver {
     /// Inexact Newton (`Settings::inexact_newton`): the direction Δx of K Δx = −R for a plain
     /// system (no slip, volume or arc rows, no damping) by conjugate gradients on the current
     /// tangent preconditioned by the last factorization, tried when |R|∞ fell to
-    /// `INEXACT_CONTRACTION` of its value at the last direction. None: not tried, or it did
+    /// `inexact_contraction(n)` of its value at the last direction. None: not tried, or it did
     /// not converge (the caller factors). `residual` holds R on the equations and is left
     /// unchanged.
     fn inexact_direction(
@@ -85,7 +102,11 @@ impl Solver {
         }
         let norm = residual.iter().fold(0.0f64, |a, r| a.max(r.abs()));
         let gate = std::mem::replace(&mut self.last_direction_residual, norm);
-        if !(m == 0 && damping == 0.0 && gate.is_finite() && norm <= INEXACT_CONTRACTION * gate) {
+        if !(m == 0
+            && damping == 0.0
+            && gate.is_finite()
+            && norm <= inexact_contraction(residual.len()) * gate)
+        {
             return None;
         }
         let forcing = ((norm / gate).powi(2)).clamp(INEXACT_FORCING_MIN, INEXACT_FORCING_MAX);
@@ -651,4 +672,22 @@ pub fn slip_blocks(
         }
     }
     (rows.iter().map(|r| r.r).collect(), b, c, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The looser gate holds from `INEXACT_LARGE_EQUATIONS` on only: below it the gate
+    /// measured at 36k-300k (0.1) stays, so those sizes keep their paths.
+    #[test]
+    fn inexact_gate_by_size() {
+        assert_eq!(
+            inexact_contraction(crate::solver::settings::INEXACT_MIN_EQUATIONS),
+            0.1
+        );
+        assert_eq!(inexact_contraction(INEXACT_LARGE_EQUATIONS - 1), 0.1);
+        assert_eq!(inexact_contraction(INEXACT_LARGE_EQUATIONS), 0.2);
+        assert_eq!(inexact_contraction(1_001_001), 0.2);
+    }
 }
