@@ -436,18 +436,22 @@ pub fn reference_loads(engine: &Engine) -> Result<Option<ReferenceLoads>, Error>
 }
 
 /// The communication points of the default experiment as fmpy's `simulate_fmu` steps them:
-/// `start + k h`, the last one the stop time.
+/// `start + k h`, and the last one `start + n h` itself where that is close to the stop time
+/// (Python's `math.isclose`, relative 1e-9, as fmpy tests it), else the stop time. (With 17
+/// steps of 0.1 fmpy ends at 1.7000000000000002, not at 1.7.)
 fn communication_points(scene: &Scene) -> Vec<f64> {
     let e = &scene.experiment;
     let steps = ((e.stop_time - e.start_time) / e.step_size)
         .round()
         .max(0.0) as usize;
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
     (0..=steps)
         .map(|k| {
-            if k == steps {
+            let t = e.start_time + k as f64 * e.step_size;
+            if k == steps && !close(t, e.stop_time) {
                 e.stop_time
             } else {
-                e.start_time + k as f64 * e.step_size
+                t
             }
         })
         .collect()
