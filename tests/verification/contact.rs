@@ -385,6 +385,21 @@ fn sheet_alpha(e: &velarium::Engine) -> [f64; 2] {
     most
 }
 
+/// A shipped cushion scene with the rim's z reaction added as the output `R_z` (the FMU leaves
+/// it out: its derivative by the pressure is 0, and the conformance suite's differences of it
+/// are round-off).
+fn shipped_with_rim_reaction(name: &str) -> Scene {
+    let path = shipped(name);
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    json["outputs"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!(
+        {"name": "R_z", "probe": {"kind": "reaction", "nodes": "cushion.rim", "component": "z"}}));
+    Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{path}: {p}"))
+}
+
 /// GOAL: the shipped EtfeCushion meets issue 29's target along its own experiment, one engine
 ///       step per row as the FMU steps it: inflation, snow to twice the inflation pressure with
 ///       the sheets in contact, unloading with plastic strain left; converged in every step.
@@ -405,18 +420,7 @@ fn sheet_alpha(e: &velarium::Engine) -> [f64; 2] {
 ///       the same state; measured 6.4 to 8.1 mm).
 #[test]
 fn shipped_etfe_cushion_yields_in_contact_and_keeps_plastic_strain() {
-    // The shipped scene with the rim reaction added as an output (the FMU leaves it out: its
-    // derivative by the pressure is 0, and the conformance suite's differences of it are
-    // round-off).
-    let path = shipped("EtfeCushion");
-    let mut json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    json["outputs"]
-        .as_array_mut()
-        .unwrap()
-        .push(serde_json::json!(
-        {"name": "R_z", "probe": {"kind": "reaction", "nodes": "cushion.rim", "component": "z"}}));
-    let scene = Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{path}: {p}"));
+    let scene = shipped_with_rim_reaction("EtfeCushion");
     let loads = scene
         .experiment
         .loads
@@ -686,15 +690,7 @@ fn blower_cushion_under_snow_yields_and_keeps_plastic_strain() {
 ///       0.0082 m³ and 266 Pa); the elastic answer would be row 2 again.
 #[test]
 fn shipped_etfe_gas_cushion_reaches_contact_and_keeps_plastic_strain() {
-    let path = shipped("EtfeGasCushion");
-    let mut json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    json["outputs"]
-        .as_array_mut()
-        .unwrap()
-        .push(serde_json::json!(
-        {"name": "R_z", "probe": {"kind": "reaction", "nodes": "cushion.rim", "component": "z"}}));
-    let scene = Scene::from_json(&json.to_string()).unwrap_or_else(|p| panic!("{path}: {p}"));
+    let scene = shipped_with_rim_reaction("EtfeGasCushion");
     let loads = scene
         .experiment
         .loads
