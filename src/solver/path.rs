@@ -238,35 +238,29 @@ impl LoadPath {
         iters: usize,
         why: String,
     ) -> Result<(Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>), (usize, String)> {
-        let lambda = self.lambda;
         let from = solver.unstressed(model, &self.converged, increment.loads);
         if self.continued || !(from || last_unstressed) {
             return Err((iters, why));
         }
         self.continued = true;
-        report.iterations += iters;
         let whence = if from {
             "from an unstressed membrane"
         } else {
             "towards an unstressed membrane"
         };
-        push_log(
-            &mut report.log,
-            format!("increment λ {lambda:.6} -> {target:.6}: {why}; {whence}: prestress continuation from pre-strain {:.1e}", solver.settings.continuation_strain),
+        let start = format!(
+            "{whence}: prestress continuation from pre-strain {:.1e}",
+            solver.settings.continuation_strain
         );
-        let (outcome, trial, states) =
-            self.again(solver, model, increment, report, |s, u, c, log| {
-                s.continuation(model, increment, u, c, log)
-            });
-        let outcome = outcome.map_err(|(i, later)| {
-            self.continuation_failed =
-                Some(format!("from load fraction {lambda:.6} it failed {later}"));
-            (
-                i,
-                format!("{why}; the prestress continuation failed too, {later}"),
-            )
-        });
-        Ok((outcome, trial, states))
+        Ok(self.stage(
+            solver,
+            model,
+            increment,
+            (target, report),
+            (iters, why),
+            ("prestress", start, true),
+            |s, u, c, log| s.continuation(model, increment, u, c, log),
+        ))
     }
 
     /// The overshoot continuation (overshoot.rs) of a failed increment where it applies (once
@@ -291,24 +285,19 @@ impl LoadPath {
         if !solver.unstressed(model, &self.converged, increment.loads) {
             return Err((iters, why));
         }
-        let lambda = self.lambda;
         self.overshoot_tried = true;
-        report.iterations += iters;
-        push_log(
-            &mut report.log,
-            format!("increment λ {lambda:.6} -> {target:.6}: {why}; from an unstressed membrane: overshoot continuation from {f0:.3} times the load"),
+        let start = format!(
+            "from an unstressed membrane: overshoot continuation from {f0:.3} times the load"
         );
-        let (outcome, trial, states) =
-            self.again(solver, model, increment, report, |s, u, c, log| {
-                s.overshoot(model, increment, f0, u, c, log)
-            });
-        let outcome = outcome.map_err(|(i, later)| {
-            (
-                i,
-                format!("{why}; the overshoot continuation failed too, {later}"),
-            )
-        });
-        Ok((outcome, trial, states))
+        Ok(self.stage(
+            solver,
+            model,
+            increment,
+            (target, report),
+            (iters, why),
+            ("overshoot", start, false),
+            |s, u, c, log| s.overshoot(model, increment, f0, u, c, log),
+        ))
     }
 
     /// The proximal continuation (proximal.rs) of a failed increment where it applies (once
@@ -327,27 +316,63 @@ impl LoadPath {
         if self.proximal_tried || !solver.proximal_applies(model) || solver.work_spent() {
             return Err((iters, why));
         }
-        let lambda = self.lambda;
         self.proximal_tried = true;
+        let start = format!(
+            "proximal continuation from τ {:.1e}",
+            solver.settings.proximal_start
+        );
+        Ok(self.stage(
+            solver,
+            model,
+            increment,
+            (target, report),
+            (iters, why),
+            ("proximal", start, false),
+            |s, u, c, log| s.proximal(model, increment, u, c, log),
+        ))
+    }
+
+    /// One continuation stage of a failed increment (`name`, started as `start` says): the
+    /// failed attempt's iterations counted, the start logged, the increment solved again from
+    /// its start by `solve`, and a failure's message saying that this continuation failed too
+    /// (kept for the step's message where `noted`: the prestress continuation's).
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn stage(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        increment: &Increment,
+        (target, report): (f64, &mut StepReport),
+        (iters, why): (usize, String),
+        (name, start, noted): (&str, String, bool),
+        solve: impl FnOnce(
+            &mut Solver,
+            &mut [f64],
+            &mut Vec<Contact>,
+            &mut Vec<String>,
+        ) -> Result<usize, (usize, String)>,
+    ) -> (Result<usize, (usize, String)>, Vec<f64>, Vec<Contact>) {
         report.iterations += iters;
         push_log(
             &mut report.log,
             format!(
-                "increment λ {lambda:.6} -> {target:.6}: {why}; proximal continuation from τ {:.1e}",
-                solver.settings.proximal_start
+                "increment λ {:.6} -> {target:.6}: {why}; {start}",
+                self.lambda
             ),
         );
-        let (outcome, trial, states) =
-            self.again(solver, model, increment, report, |s, u, c, log| {
-                s.proximal(model, increment, u, c, log)
-            });
+        let (outcome, trial, states) = self.again(solver, model, increment, report, solve);
+        let lambda = self.lambda;
         let outcome = outcome.map_err(|(i, later)| {
+            if noted {
+                self.continuation_failed =
+                    Some(format!("from load fraction {lambda:.6} it failed {later}"));
+            }
             (
                 i,
-                format!("{why}; the proximal continuation failed too, {later}"),
+                format!("{why}; the {name} continuation failed too, {later}"),
             )
         });
-        Ok((outcome, trial, states))
+        (outcome, trial, states)
     }
 
     /// The increment solved again from its start (the last converged point, its prediction and
