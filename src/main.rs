@@ -799,44 +799,27 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Cost model of one Newton iteration on the reference machine (one core of the 2-core CI
-/// kind; docs/solver.md, cost), fitted to `examples/bench.rs`-style floors measured at the
-/// committed state: a 150-ring disc (201,153 unknowns, 11.2 GFlop, 32.5 M factor entries:
-/// factorization and solve 0.75 s, assembly of 135,000 elements 0.058 s) and a [1, 100000]
-/// strip (599,994 unknowns, 0.60 GFlop, 32.4 M entries: 0.22 s, 200,000 elements 0.117 s).
-const FACTOR_FLOPS_PER_SECOND: f64 = 20e9;
-const FACTOR_SECONDS_PER_ENTRY: f64 = 6e-9;
-const ELEMENT_SECONDS: f64 = 0.6e-6;
-/// Element evaluations per Newton iteration: the assembly of residual and tangent and the line
-/// search's first trial point.
-const ASSEMBLIES_PER_ITERATION: f64 = 2.0;
-
 /// What one Newton iteration costs at least (one factorization, one assembly and one trial
 /// point), what a converging step takes (one increment of up to max_iterations), and what a
 /// step that does not converge spends before it gives up: its work budget of
-/// max_step_iterations iterations (10x the converging step by default), in which every further
-/// line-search trial, re-check assembly and relaxation round counts as an iteration of its own,
-/// so that none of them costs more than the iteration it stands for.
+/// max_step_iterations iterations, in which every further line-search trial, re-check assembly
+/// and relaxation round counts as an iteration of its own or half of one, so that none of them
+/// costs more than the iteration it stands for (the model: `velarium::scene::limits::cost`).
 fn cost_line(
     scene: &velarium::Scene,
     size: &velarium::scene::limits::Size,
     triangles: usize,
 ) -> String {
     let s = &scene.solver;
-    let factor = size.factor_flops / FACTOR_FLOPS_PER_SECOND
-        + size.factor_entries as f64 * FACTOR_SECONDS_PER_ENTRY;
-    let assembly = triangles as f64 * ELEMENT_SECONDS;
-    let iteration = factor + ASSEMBLIES_PER_ITERATION * assembly;
-    let converging = iteration * s.max_iterations as f64;
-    let failing = iteration * s.max_step_iterations as f64;
+    let c = velarium::scene::limits::cost(s, size, triangles as u64);
     format!(
         "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial or re-check counts as half of one, a relaxation round as one): about {:.0} s",
         size.factor_flops / 1e9,
-        iteration,
+        c.iteration,
         s.max_iterations,
-        converging,
+        c.converging,
         s.max_step_iterations,
-        failing
+        c.failing
     )
 }
 

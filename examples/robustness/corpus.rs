@@ -175,6 +175,15 @@ pub struct Run {
     pub known: Option<&'static str>,
     /// Measured values worth printing (asymmetry, closed-form errors).
     pub notes: Vec<String>,
+    /// What `velarium check` announces a step that does not converge costs at most on the
+    /// reference machine (`velarium::scene::limits::cost`) [s]; 0 if the scene was not built.
+    pub announced: f64,
+    /// The cost model's Newton iteration for the scene [s] (0 if not built).
+    pub iteration_model: f64,
+    /// The scene's size as `check` counts it (triangles, unknowns; 0 if not built).
+    pub size: (u64, u64),
+    /// The work the step spent, in Newton iterations' worth (`StepReport::work`).
+    pub work: f64,
 }
 
 /// Families: name and what they are.
@@ -324,6 +333,10 @@ pub fn run_member(m: &Member) -> Vec<Run> {
             seconds: 0.0,
             known: m.known,
             notes: Vec::new(),
+            announced: 0.0,
+            iteration_model: 0.0,
+            size: (0, 0),
+            work: 0.0,
         })
         .collect();
     let t = Instant::now();
@@ -345,6 +358,12 @@ pub fn run_member(m: &Member) -> Vec<Run> {
         }
         Ok(Ok(e)) => e,
     };
+    let (cost, size) = announced_cost(&engine);
+    for run in &mut runs {
+        run.announced = cost.failing;
+        run.iteration_model = cost.iteration;
+        run.size = (size.triangles, size.unknowns);
+    }
     let start = catch_unwind(AssertUnwindSafe(|| engine.solve()));
     match start {
         Err(p) => {
@@ -389,6 +408,7 @@ pub fn run_member(m: &Member) -> Vec<Run> {
             Ok(r) => r,
         };
         runs[k].iterations = report.iterations;
+        runs[k].work = report.work;
         if std::env::var_os("CORPUS_LOG").is_some() {
             eprintln!(
                 "--- {} {} {}: {}",
@@ -413,6 +433,17 @@ pub fn run_member(m: &Member) -> Vec<Run> {
         runs[k].notes = notes;
     }
     runs
+}
+
+/// What `velarium check` announces for a failing step of the engine's scene: its work budget
+/// times the cost model's iteration (the same validation and model as `check`).
+fn announced_cost(
+    engine: &Engine,
+) -> (velarium::scene::limits::Cost, velarium::scene::limits::Size) {
+    let scene = engine.scene();
+    let (_, size) = velarium::scene::validate::validate_sized(scene);
+    let cost = velarium::scene::limits::cost(&scene.solver, &size, size.triangles);
+    (cost, size)
 }
 
 /// |R|/scale of the last iterate, read from a failure message that states them ("|R| = x, ...
@@ -1886,6 +1917,74 @@ pub fn table(runs: &[Run]) -> String {
         }
     }
     out += &line("total", runs.iter().collect());
+    // How long the failing steps took against what `check` announces for them (its cost model
+    // on the reference machine; this run's machine and load are not that).
+    let mut ratios: Vec<(f64, &Run)> = runs
+        .iter()
+        .filter(|r| matches!(r.verdict, Verdict::Honest(_)) && r.announced > 0.0)
+        .map(|r| (r.seconds / r.announced, r))
+        .collect();
+    if !ratios.is_empty() {
+        ratios.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (worst, at) = ratios[ratios.len() - 1];
+        out += &format!(
+            "\nfailing steps against check's announced cost of a failing step: {} steps, time / announced median {:.2}, largest {:.2} ({:.3} s of {:.3} s: {} {} {})\n",
+            ratios.len(),
+            ratios[ratios.len() / 2].0,
+            worst,
+            at.seconds,
+            at.announced,
+            at.family,
+            at.row,
+            at.member
+        );
+    }
+    // The work of the converging steps (what a failing one's budget is measured against).
+    let mut works: Vec<f64> = runs
+        .iter()
+        .filter(|r| r.verdict == Verdict::Right)
+        .map(|r| r.work)
+        .collect();
+    if !works.is_empty() {
+        works.sort_by(|a, b| a.total_cmp(b));
+        let at = |q: f64| works[((works.len() - 1) as f64 * q).round() as usize];
+        out += &format!(
+            "work of the converging steps (Newton iterations' worth, solver.max_step_iterations' unit): median {:.1}, 90 % {:.1}, 99 % {:.1}, largest {:.1}\n",
+            at(0.5),
+            at(0.9),
+            at(0.99),
+            works[works.len() - 1]
+        );
+    }
+    if std::env::var_os("CORPUS_COST").is_some() {
+        out += "\ntime per Newton iteration against the cost model's (runs of at least 5 iterations):\n";
+        for (name, _) in FAMILIES {
+            let mut q: Vec<f64> = runs
+                .iter()
+                .filter(|r| r.family == *name && r.iterations >= 5 && r.iteration_model > 0.0)
+                .map(|r| r.seconds / (r.iterations as f64 * r.iteration_model))
+                .collect();
+            if q.is_empty() {
+                continue;
+            }
+            q.sort_by(|a, b| a.total_cmp(b));
+            for r in runs
+                .iter()
+                .filter(|r| r.family == *name && r.iterations >= 5)
+            {
+                eprintln!(
+                    "COST {name} {} {} {} {:.6} {:.9}",
+                    r.size.0, r.size.1, r.iterations, r.seconds, r.iteration_model
+                );
+            }
+            out += &format!(
+                "  {name:<16} {:>3} runs: median {:.2}, largest {:.2}\n",
+                q.len(),
+                q[q.len() / 2],
+                q[q.len() - 1]
+            );
+        }
+    }
     // Failures grouped by message.
     // (count, smallest and largest |R|/scale of the last iterate where the message says).
     let mut kinds: BTreeMap<(&str, String), (usize, f64, f64)> = BTreeMap::new();

@@ -733,3 +733,41 @@ mod tests {
         }
     }
 }
+
+/// Cost model of one Newton iteration on the reference machine (one core of the 2-core CI
+/// kind; docs/solver.md, cost), fitted to `examples/bench.rs`-style floors: a 150-ring disc
+/// (201,153 unknowns, 11.2 GFlop, 32.5 M factor entries: factorization and solve 0.75 s,
+/// assembly of 135,000 elements 0.058 s) and a [1, 100000] strip (599,994 unknowns, 0.60 GFlop,
+/// 32.4 M entries: 0.22 s, 200,000 elements 0.117 s).
+const FACTOR_FLOPS_PER_SECOND: f64 = 20e9;
+const FACTOR_SECONDS_PER_ENTRY: f64 = 6e-9;
+const ELEMENT_SECONDS: f64 = 0.6e-6;
+/// Element evaluations per Newton iteration: the assembly of residual and tangent and the line
+/// search's first trial point.
+const ASSEMBLIES_PER_ITERATION: f64 = 2.0;
+
+/// What `velarium check` announces a step costs on the reference machine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cost {
+    /// One Newton iteration at least: one factorization, its solve, two assemblies [s].
+    pub iteration: f64,
+    /// A step that converges in one increment of up to `solver.max_iterations` [s].
+    pub converging: f64,
+    /// A step that does not converge: its work budget of `solver.max_step_iterations`
+    /// iterations' worth of work, in which every further line-search trial and re-check counts
+    /// as half an iteration and a round of nodal relaxation as one [s].
+    pub failing: f64,
+}
+
+/// The cost model applied to a scene's size (`factor_flops`, `factor_entries` from the
+/// symbolic analysis) and its solver settings.
+pub fn cost(solver: &super::SolverSettings, size: &Size, triangles: u64) -> Cost {
+    let factor = size.factor_flops / FACTOR_FLOPS_PER_SECOND
+        + size.factor_entries as f64 * FACTOR_SECONDS_PER_ENTRY;
+    let iteration = factor + ASSEMBLIES_PER_ITERATION * triangles as f64 * ELEMENT_SECONDS;
+    Cost {
+        iteration,
+        converging: iteration * solver.max_iterations as f64,
+        failing: iteration * solver.max_step_iterations as f64,
+    }
+}

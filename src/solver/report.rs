@@ -15,6 +15,10 @@ pub struct StepReport {
     pub outcome: Outcome,
     /// Newton iterations (factorizations), failed increments included.
     pub iterations: usize,
+    /// The work the step spent, in Newton iterations' worth (`solver.max_step_iterations`
+    /// bounds it: an iteration one, a further line-search trial or re-check one half, a round
+    /// of nodal relaxation one).
+    pub work: f64,
     /// Converged increments.
     pub increments: usize,
     /// Increments that were cut back.
@@ -39,6 +43,7 @@ impl StepReport {
         StepReport {
             outcome: Outcome::Failed,
             iterations: 0,
+            work: 0.0,
             increments: 0,
             cutbacks: 0,
             reached: 0.0,

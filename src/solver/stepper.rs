@@ -16,7 +16,7 @@
 //! same equilibrium in the same iterations.
 
 use super::arc::ArcPath;
-use super::core::Solver;
+use super::core::{Solver, WORK_ITERATION};
 use super::dynamic::{DynamicPath, Integration};
 use super::path::{Attempt, LoadPath};
 use super::report::{Outcome, StepReport};
@@ -136,6 +136,7 @@ impl Stepper {
             return None;
         }
         if solver.work_spent() && self.lambda() < 1.0 {
+            self.report.work = solver.step_work as f64 / WORK_ITERATION as f64;
             self.give_up(solver, model);
             let lambda = self.lambda();
             return Some(Attempt::Rejected {
@@ -164,6 +165,7 @@ impl Stepper {
         if let Some(Attempt::Rejected { failed: true, .. }) = attempt {
             self.failed = true;
         }
+        self.report.work = solver.step_work as f64 / WORK_ITERATION as f64;
         attempt
     }
 
