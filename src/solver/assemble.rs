@@ -712,23 +712,16 @@ impl Blocks {
         debug_assert_eq!(col_ptr.len(), n + 1);
         Ok((col_ptr, row_idx))
     }
-
-    /// The row of equation i in column j (i <= j, joined by an element) from the column's
-    /// start.
-    /// The row of the first equation of i's node in column j (i <= j, joined by an
-    /// element) from the column's start (the same in every column of j's node).
-    fn block_offset(&self, i: usize, j: usize) -> usize {
-        let (ri, rj) = (self.node_of_eq[i], self.node_of_eq[j] as usize);
-        let list = &self.node[self.ptr[rj]..self.ptr[rj + 1]];
-        let k = list
-            .iter()
-            .position(|&s| s == ri)
-            .expect("pattern holds every element pair");
-        self.offset[self.ptr[rj] + k] as usize
-    }
 }
 
 /// Per element kind, the position maps of its elements in visit order `visits`.
+///
+/// Node pair by node pair: equations are numbered node by node (`number_equations`), so the
+/// rows of node na's equations in every column of node nb (na before nb, or na = nb) start at
+/// one offset, found once per pair in nb's short list of joined nodes; each entry's position
+/// is then `col_ptr[j] + offset + (i - first equation of na)`. Pairs with na after nb lie in
+/// the lower triangle. An element's map is built in a stack array and appended whole (no
+/// per-entry push).
 fn position_maps(
     model: &Model,
     eq: &[usize],
@@ -737,36 +730,58 @@ fn position_maps(
     visits: &PerKind<Vec<usize>>,
 ) -> Result<PerKind<Vec<u32>>, OutOfMemory> {
     // Every position is below the stored entries <= MAX_ENTRIES (`upper_pattern`), so below
-    // UNMAPPED.
-    // The block of a pair of the element's nodes is looked up once (in the column node's
-    // list of a few nodes), not once for each of its 9 entries: `block[na][nb]` holds the
-    // row offset of node na's block in the columns of node nb (the same in each of them)
-    // less na's first equation, so that equation i's position in column j is
-    // col_ptr[j] + block + i (mod 2^64: the block term alone may be negative).
+    // UNMAPPED. The block term alone may be negative: sums are taken mod 2^64.
+    const MAX_DOFS: usize = 3 * ElementKind::MAX_NODES;
     PerKind::try_from_fn(|kind| {
         let len = visits[kind].len().saturating_mul(kind.block_len());
         let mut maps = memory::with_capacity(len, "the element position maps")?;
-        let mut d = [NONE; 3 * ElementKind::MAX_NODES];
-        let mut block = [[None; ElementKind::MAX_NODES]; ElementKind::MAX_NODES];
+        let mut d = [NONE; MAX_DOFS];
+        let mut out = [UNMAPPED; MAX_DOFS * MAX_DOFS];
+        // Per element node: its internal node (u32::MAX: every DOF held).
+        let mut node = [u32::MAX; ElementKind::MAX_NODES];
         for &e in &visits[kind] {
             let m = element_equations(eq, model.element_nodes(kind, e), &mut d);
-            for row in block.iter_mut().take(m / 3) {
-                row[..m / 3].fill(None);
+            let k = m / 3;
+            for (a, r) in node.iter_mut().enumerate().take(k) {
+                *r = d[3 * a..3 * a + 3]
+                    .iter()
+                    .find(|&&i| i != NONE)
+                    .map_or(u32::MAX, |&i| blocks.node_of_eq[i]);
             }
-            for a in 0..m {
-                for b in 0..m {
-                    let (i, j) = (d[a], d[b]);
-                    if i == NONE || j == NONE || i > j {
-                        maps.push(UNMAPPED);
+            out[..m * m].fill(UNMAPPED);
+            for b in 0..k {
+                let rb = node[b];
+                if rb == u32::MAX {
+                    continue;
+                }
+                let list = blocks.ptr[rb as usize]..blocks.ptr[rb as usize + 1];
+                for a in 0..k {
+                    let ra = node[a];
+                    if ra == u32::MAX || ra > rb {
                         continue;
                     }
-                    let cached = *block[a / 3][b / 3].get_or_insert_with(|| {
-                        let first = blocks.first[blocks.node_of_eq[i] as usize];
-                        blocks.block_offset(i, j).wrapping_sub(first)
-                    });
-                    maps.push(col_ptr[j].wrapping_add(cached).wrapping_add(i) as u32);
+                    let at = blocks.node[list.clone()]
+                        .iter()
+                        .position(|&s| s == ra)
+                        .expect("pattern holds every element pair");
+                    let base = (blocks.offset[list.start + at] as usize)
+                        .wrapping_sub(blocks.first[ra as usize]);
+                    for cb in 0..3 {
+                        let j = d[3 * b + cb];
+                        if j == NONE {
+                            continue;
+                        }
+                        let column = col_ptr[j].wrapping_add(base);
+                        for ca in 0..3 {
+                            let i = d[3 * a + ca];
+                            if i != NONE && i <= j {
+                                out[(3 * a + ca) * m + 3 * b + cb] = column.wrapping_add(i) as u32;
+                            }
+                        }
+                    }
                 }
             }
+            maps.extend_from_slice(&out[..m * m]);
         }
         Ok(maps)
     })
@@ -1832,10 +1847,12 @@ impl Parallel {
             plastic: Vec::new(),
             forced: memory::with_capacity(count - first, what)?,
             pressures: memory::with_capacity(pattern.pressed_order.len(), what)?,
-            k: memory::zeros(nnz - k_lo, what)?,
-            r: memory::zeros(helper_nodes, what)?,
-            m: memory::zeros(helper_nodes, what)?,
-            fp: memory::zeros(helper_nodes, what)?,
+            // Zeroed by each assembly before it writes them: fresh pages, first touched by the
+            // helper's first assembly rather than here.
+            k: memory::lazy_zeros(nnz - k_lo, what)?,
+            r: memory::lazy_zeros(helper_nodes, what)?,
+            m: memory::lazy_zeros(helper_nodes, what)?,
+            fp: memory::lazy_zeros(helper_nodes, what)?,
             evals: memory::with_capacity(count - first, what)?,
             sums: Sums::default(),
         };

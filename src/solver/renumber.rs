@@ -98,32 +98,52 @@ pub(super) fn node_rank_on(
 /// loops, no duplicates).
 pub(super) fn node_graph(model: &Model) -> Result<(Vec<usize>, Vec<usize>), OutOfMemory> {
     let n = model.reference.len();
-    let edges = || {
-        model
-            .elements()
-            .flat_map(|(kind, e)| {
-                let nodes = model.element_nodes(kind, e);
-                (0..nodes.len())
-                    .flat_map(move |a| (a + 1..nodes.len()).map(move |b| (nodes[a], nodes[b])))
-            })
-            .filter(|(a, b)| a != b)
+    // The triangles' node triples read straight from the model (most of the elements; no
+    // per-element dispatch), the other kinds through `element_nodes`.
+    let pairs = |nodes: &[usize], f: &mut dyn FnMut(usize, usize)| {
+        for a in 0..nodes.len() {
+            for b in a + 1..nodes.len() {
+                if nodes[a] != nodes[b] {
+                    f(nodes[a], nodes[b]);
+                }
+            }
+        }
+    };
+    let edges = |f: &mut dyn FnMut(usize, usize)| {
+        for kind in ElementKind::ALL {
+            match kind {
+                ElementKind::Membrane => {
+                    for t in &model.triangles {
+                        pairs(&t.nodes, f);
+                    }
+                }
+                ElementKind::Cable
+                | ElementKind::Tie
+                | ElementKind::ContactPair
+                | ElementKind::ContactPoint => {
+                    for e in 0..model.element_count(kind) {
+                        pairs(model.element_nodes(kind, e), f);
+                    }
+                }
+            }
+        }
     };
     let mut start = memory::zeros::<usize>(n + 1, WHAT)?;
-    for (a, b) in edges() {
+    edges(&mut |a, b| {
         start[a + 1] += 1;
         start[b + 1] += 1;
-    }
+    });
     for i in 0..n {
         start[i + 1] += start[i];
     }
-    let mut adj = memory::zeros::<usize>(start[n], WHAT)?;
+    let mut adj = memory::lazy_zeros::<usize>(start[n], WHAT)?;
     let mut next = memory::copy(&start[..n], WHAT)?;
-    for (a, b) in edges() {
+    edges(&mut |a, b| {
         adj[next[a]] = b;
         next[a] += 1;
         adj[next[b]] = a;
         next[b] += 1;
-    }
+    });
     drop(next);
     // Sort and dedup each node's list in place, compacting.
     let mut ptr = memory::with_capacity(n + 1, WHAT)?;

@@ -46,7 +46,7 @@ use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::{Accum, Conj, Mat, MatMut, MatRef, Par};
+use faer::{Accum, Conj, MatMut, MatRef, Par};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// K's upper CSC pattern (column pointers, row indices), shared with the helper thread while
@@ -80,9 +80,9 @@ struct Half {
     l_values: Vec<f64>,
     mem: MemBuffer,
     /// L_SS (unit lower, dense) of the factor's separator block, then S_h (lower).
-    lss: Mat<f64>,
-    w: Mat<f64>,
-    s_block: Mat<f64>,
+    lss: Dense,
+    w: Dense,
+    s_block: Dense,
     d: Vec<f64>,
     /// Local right-hand side / solution.
     x: Vec<f64>,
@@ -168,9 +168,9 @@ impl Half {
         let _phase = crate::phases::start("solve: a half's S block (L_SS D_S L_SS^T)");
         // L_SS and D_S of the separator block, then S_h = L_SS D_S L_SS^T.
         let (nd, ns) = (self.nd, self.eq.len() - self.nd);
-        let mut lss = std::mem::replace(&mut self.lss, Mat::new());
+        let mut lss = std::mem::take(&mut self.lss);
         let mut d = std::mem::take(&mut self.d);
-        lss.fill(0.0);
+        lss.values.fill(0.0);
         for s in 0..self.supernodal().n_supernodes() {
             let (start, ls, pattern) = self.supernode(s);
             let ncols = ls.ncols();
@@ -308,7 +308,7 @@ pub struct Split {
     /// K_SS's entries: (row, column) in the separator (row >= column) and position in K.
     kss: Vec<(usize, usize, usize)>,
     /// LDLT of S (unit L below the diagonal, D on it).
-    schur: Mat<f64>,
+    schur: Dense,
     schur_mem: MemBuffer,
     xs: Vec<f64>,
     /// Factorization flops of the two halves at the level that balances their equations
@@ -757,10 +757,47 @@ fn store(h: &Half, rhs: &mut [f64]) {
     }
 }
 
-fn dense(n: usize, what: &'static str) -> Result<Mat<f64>, OutOfMemory> {
-    // Mat::zeros aborts on a failed allocation: probe the bytes fallibly first.
-    memory::probe((n as u64).saturating_mul(n as u64).saturating_mul(8), what)?;
-    Ok(Mat::zeros(n, n))
+/// A dense n x n block, column major, in lazily zeroed memory (`memory::lazy_zeros`): its
+/// pages are first touched by the factorization that writes them, on the thread that
+/// writes them, and pages it never writes (the upper triangles of the blocks only ever
+/// written below the diagonal) are never touched. faer's `Mat::zeros` wrote every page
+/// during the set-up instead.
+#[derive(Default)]
+struct Dense {
+    values: Vec<f64>,
+    n: usize,
+}
+
+impl Dense {
+    fn as_ref(&self) -> MatRef<'_, f64> {
+        MatRef::from_column_major_slice(&self.values, self.n, self.n)
+    }
+
+    fn as_mut(&mut self) -> MatMut<'_, f64> {
+        MatMut::from_column_major_slice_mut(&mut self.values, self.n, self.n)
+    }
+}
+
+impl std::ops::Index<(usize, usize)> for Dense {
+    type Output = f64;
+    fn index(&self, (i, j): (usize, usize)) -> &f64 {
+        debug_assert!(i < self.n && j < self.n);
+        &self.values[j * self.n + i]
+    }
+}
+
+impl std::ops::IndexMut<(usize, usize)> for Dense {
+    fn index_mut(&mut self, (i, j): (usize, usize)) -> &mut f64 {
+        debug_assert!(i < self.n && j < self.n);
+        &mut self.values[j * self.n + i]
+    }
+}
+
+fn dense(n: usize, what: &'static str) -> Result<Dense, OutOfMemory> {
+    Ok(Dense {
+        values: memory::lazy_zeros(n.saturating_mul(n), what)?,
+        n,
+    })
 }
 
 impl Half {
@@ -871,8 +908,9 @@ impl Half {
         }
         let nnz = count[m];
         let mut next = memory::copy(&count[..m], what)?;
-        let mut rows = memory::zeros::<usize>(nnz, what)?;
-        let mut map = memory::zeros::<u32>(nnz, what)?;
+        // Every entry is written below: fresh pages, no zeroing pass first.
+        let mut rows = memory::lazy_zeros::<usize>(nnz, what)?;
+        let mut map = memory::lazy_zeros::<u32>(nnz, what)?;
         for (lj, &j) in eq.iter().enumerate() {
             for p in col_ptr[j]..col_ptr[j + 1] {
                 let li = local[row_idx[p]];
@@ -919,9 +957,9 @@ impl Half {
             symbolic,
             l_values: Vec::new(),
             mem: MemBuffer::new(StackReq::EMPTY),
-            lss: Mat::new(),
-            w: Mat::new(),
-            s_block: Mat::new(),
+            lss: Dense::default(),
+            w: Dense::default(),
+            s_block: Dense::default(),
             d: Vec::new(),
             x: Vec::new(),
             tmp: Vec::new(),
@@ -1125,6 +1163,22 @@ pub(super) mod tests {
             }
         }
         y
+    }
+
+    /// The lazily zeroed dense block reads zero until written, and its (i, j) is faer's
+    /// column-major (i, j) of the same values (what the factorization and the solve read
+    /// through `as_ref`/`as_mut`).
+    #[test]
+    fn a_dense_block_is_zero_and_column_major() {
+        let mut d = dense(5, "test").unwrap();
+        assert!(d.values.iter().all(|&v| v == 0.0));
+        d[(3, 1)] = 2.5;
+        d.as_mut()[(1, 3)] = -1.0;
+        assert_eq!(d.as_ref()[(3, 1)], 2.5);
+        assert_eq!(d[(1, 3)], -1.0);
+        assert_eq!(d.values[5 + 3], 2.5);
+        assert_eq!(d.values[3 * 5 + 1], -1.0);
+        assert_eq!(d.values.iter().filter(|&&v| v != 0.0).count(), 2);
     }
 
     #[test]
