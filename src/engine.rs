@@ -108,6 +108,8 @@ pub struct Engine {
     /// The length (s) of the next step of a scene with time integration
     /// ([`Engine::set_step_duration`]); 0: the next solve is a static equilibrium.
     duration: f64,
+    /// What the committed state is the end of, for its derivatives (`engine/derivatives.rs`).
+    last_step: derivatives::LastStep,
 }
 
 impl Engine {
@@ -203,6 +205,7 @@ impl Engine {
             converged: false,
             memory_estimate: size.memory_bytes,
             duration: 0.0,
+            last_step: derivatives::LastStep::Static,
         };
         engine.refresh_outputs()?;
         Ok(engine)
@@ -385,6 +388,13 @@ impl Engine {
             return None;
         }
         self.state.last_iterations = 0;
+        // At rest in equilibrium under unchanged inputs, the step's sub-steps would have ended
+        // where they started: its derivative is theirs.
+        let last_step = derivatives::LastStep::kept(&self.scene, self.duration);
+        if last_step != self.last_step {
+            self.tangent = None;
+            self.last_step = last_step;
+        }
         for (probe, out) in self.model.probes.iter().zip(self.outputs.iter_mut()) {
             if matches!(probe, crate::model::ProbeModel::NewtonIterations) {
                 *out = 0.0;
@@ -610,8 +620,9 @@ impl Engine {
             )));
         }
         // A restored state is not known to be an equilibrium of this engine: the next step
-        // solves.
+        // solves. Nor is the step it ended known (its derivative needs that step).
         self.converged = false;
+        self.last_step = derivatives::LastStep::restored(&self.scene);
         Ok(())
     }
 
@@ -632,6 +643,7 @@ impl Engine {
             return Err(e);
         }
         self.converged = false;
+        self.last_step = derivatives::LastStep::Static;
         Ok(())
     }
 
@@ -841,7 +853,7 @@ fn is_dynamic(scene: &Scene) -> bool {
 }
 
 /// The time integration's settings of a scene (None: quasi-static).
-fn integration(scene: &Scene) -> Option<crate::solver::Integration> {
+pub(crate) fn integration(scene: &Scene) -> Option<crate::solver::Integration> {
     let d = scene.dynamics.as_ref()?;
     let t = d.time_integration.as_ref()?;
     Some(crate::solver::Integration {

@@ -23,6 +23,23 @@
 //! The tangent is factored once per committed state, at the first derivative asked for, and
 //! kept until the state changes (Newton's last factorization is of the iterate before the
 //! converged one, with the iteration's damping and prestress, so it is not reused).
+//!
+//! ```text
+//! time step     a scene with dynamics.time_integration: the committed state is the end of
+//!               the last step (doStep) from its start state (u_n, v_n, a_n, the history and
+//!               the start inputs, all held); the knowns are the inputs set before that step
+//!               (the loads at its end, as the one-step lag of a static step). With one
+//!               sub-step of length Δt = h the step's equation at its end state is
+//!                   R(u_{n+1}; v) + b + K_d (u_{n+1} − u_n) = 0      (solver/dynamic.rs)
+//!               b and u_n held, so dz = (J + K_d)⁻¹ g with the same g as in statics:
+//!               `factor_tangent` adds K_d. Velocities and accelerations follow Newmark:
+//!                   dv_{n+1} = γ/(βΔt) du_{n+1},   da_{n+1} = du_{n+1}/(βΔt²)
+//!               Refused (Unsupported, naming why): a step of several sub-steps (the chain
+//!               through them is not implemented), a step that returned early, a state set
+//!               from outside (the step that ended at it is not known), parameter seeds (a
+//!               parameter may enter M and C), energy outputs. Before the first step (the
+//!               initial equilibrium is static, at rest) the derivatives are the static ones.
+//! ```
 
 use super::Engine;
 use crate::error::Error;
@@ -38,6 +55,53 @@ use crate::variables;
 pub enum Known {
     Input(usize),
     Parameter(usize),
+}
+
+/// What the committed state is the end of, for its derivatives (module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LastStep {
+    /// A static equilibrium: a quasi-static scene's, the initial one of a scene with time
+    /// integration, or the start state after a reset.
+    Static,
+    /// A step of time integration: its number of sub-steps, the length Δt (s) of the last,
+    /// and whether it reached its end (not after an FMI 3 early return).
+    Dynamic {
+        substeps: usize,
+        dt: f64,
+        whole: bool,
+    },
+    /// A state of a scene with time integration set from outside: the step that ended at it
+    /// is not known.
+    Restored,
+}
+
+impl LastStep {
+    /// The last step of a settled engine's cheap step (`Engine::keep`) of length `duration`:
+    /// at rest in equilibrium under unchanged inputs, each sub-step would have ended where it
+    /// started, in the sub-steps a step of that length takes (`DynamicPath::begin`).
+    pub(crate) fn kept(scene: &crate::scene::Scene, duration: f64) -> LastStep {
+        match super::integration(scene) {
+            Some(i) if duration > 0.0 => {
+                let pieces = i
+                    .max_time_step
+                    .map_or(1.0, |m| (duration / m * (1.0 - 1e-9)).ceil().max(1.0));
+                LastStep::Dynamic {
+                    substeps: pieces as usize,
+                    dt: duration / pieces,
+                    whole: true,
+                }
+            }
+            _ => LastStep::Static,
+        }
+    }
+
+    /// After a state is set from outside.
+    pub(crate) fn restored(scene: &crate::scene::Scene) -> LastStep {
+        match super::integration(scene) {
+            Some(_) => LastStep::Restored,
+            None => LastStep::Static,
+        }
+    }
 }
 
 /// What one seed changes: dz (per unknown, held DOFs included), dv (per input slot), dp (per
@@ -61,7 +125,6 @@ impl Engine {
         seed: &[f64],
         unknowns: &[usize],
     ) -> Result<Vec<f64>, Error> {
-        self.static_scene()?;
         let (dz, dv, dp) = self.forward(knowns, seed)?;
         self.output_derivative(unknowns, &dz, &dv, &dp)
     }
@@ -73,7 +136,6 @@ impl Engine {
         seed: &[f64],
         knowns: &[Known],
     ) -> Result<Vec<f64>, Error> {
-        self.static_scene()?;
         let linear = unknowns
             .iter()
             .zip(seed)
@@ -128,6 +190,11 @@ impl Engine {
                 Known::Input(slot) => dv[slot] += s,
                 Known::Parameter(i) => dp[i] += s,
             }
+        }
+        if dp.iter().any(|x| *x != 0.0) && self.is_dynamic() {
+            return Err(Error::Unsupported(
+                "derivatives with respect to a parameter of a scene with dynamics.time_integration (not implemented: a parameter may enter the mass and the damping of the step)".into(),
+            ));
         }
         self.ensure_tangent()?;
         let tangent = self.tangent.take().expect("ensured");
@@ -187,6 +254,7 @@ impl Engine {
                 "a parameter changed since the last equilibrium: step first, then ask for derivatives".into(),
             ));
         }
+        let inertia = self.step_inertia()?;
         let states: Vec<_> = self.membranes.iter().map(|e| e.state).collect();
         let s = &self.state;
         let tangent = self.solver.factor_tangent(
@@ -195,6 +263,7 @@ impl Engine {
             &s.applied,
             &states,
             &s.slip_state,
+            &inertia,
         )?;
         self.tangent = Some(tangent);
         Ok(())
@@ -256,15 +325,49 @@ impl Engine {
         Ok((build(p + h)?, build(p - h)?, h))
     }
 
-    /// Derivatives are those of a quasi-static equilibrium: a scene with time integration has
-    /// none (the change of a step's end state with its inputs is not implemented).
-    fn static_scene(&self) -> Result<(), Error> {
-        if self.is_dynamic() {
-            return Err(Error::Unsupported(
-                "derivatives of a scene with dynamics.time_integration (not implemented: the outputs after a time step depend on its whole history)".into(),
-            ));
-        }
-        Ok(())
+    /// What the tangent of the committed state gains from the step that ended at it (module
+    /// docs): nothing after a static equilibrium, K_d after a step of time integration of one
+    /// sub-step; the cases that are not implemented are refused, naming why.
+    fn step_inertia(&mut self) -> Result<Vec<f64>, Error> {
+        let dt = match &self.last_step {
+            LastStep::Static => return Ok(Vec::new()),
+            LastStep::Restored => {
+                return Err(Error::Unsupported(
+                    "derivatives of a scene with dynamics.time_integration at a state set from outside (fmi2SetFMUstate, fmi3SetFMUState, a deserialized state) with no step since: they are those of the last step from its start state, which the state does not hold; take the step from it, then ask".into(),
+                ))
+            }
+            LastStep::Dynamic { whole: false, .. } => {
+                return Err(Error::Unsupported(
+                    "derivatives of a scene with dynamics.time_integration after a step that returned early (FMI 3 early return): they are given at the end of a whole step".into(),
+                ))
+            }
+            LastStep::Dynamic { substeps, .. } if *substeps != 1 => {
+                return Err(Error::Unsupported(format!(
+                    "derivatives of a step of dynamics.time_integration taken in {substeps} sub-steps (dynamics.time_integration.max_time_step shorter than the step, or a sub-step cut back): the chain through the sub-steps is not implemented; they are given for a step of one sub-step"
+                )))
+            }
+            LastStep::Dynamic { dt, .. } => *dt,
+        };
+        let Some(integration) = super::integration(&self.scene) else {
+            return Ok(Vec::new());
+        };
+        Ok(self.solver.step_stiffness(&self.model, &integration, dt))
+    }
+
+    /// dv/du and da/du of the end state of the last step (generalized-α's Newmark update,
+    /// module docs) when it was a step of time integration of one sub-step; else None.
+    fn step_rates(&self) -> Option<(f64, f64)> {
+        let LastStep::Dynamic {
+            substeps: 1,
+            dt,
+            whole: true,
+        } = self.last_step
+        else {
+            return None;
+        };
+        let integration = super::integration(&self.scene)?;
+        let a = crate::solver::dynamic::Alpha::new(integration.rho_inf);
+        Some((a.gamma / (a.beta * dt), 1.0 / (a.beta * dt * dt)))
     }
 
     /// dy of the output slots for the change (dz, dv, dp).
@@ -278,16 +381,23 @@ impl Engine {
         if unknowns.iter().any(|&o| {
             matches!(
                 self.model.probes.get(o),
-                Some(
-                    ProbeModel::Velocity { .. }
-                        | ProbeModel::Acceleration { .. }
-                        | ProbeModel::KineticEnergy
-                        | ProbeModel::StrainEnergy
-                )
+                Some(ProbeModel::KineticEnergy | ProbeModel::StrainEnergy)
             )
         }) {
             return Err(Error::Unsupported(
-                "derivatives of a velocity, acceleration or energy output (not implemented)".into(),
+                "derivatives of an energy output (not implemented)".into(),
+            ));
+        }
+        if self.step_rates().is_none()
+            && unknowns.iter().any(|&o| {
+                matches!(
+                    self.model.probes.get(o),
+                    Some(ProbeModel::Velocity { .. } | ProbeModel::Acceleration { .. })
+                )
+            })
+        {
+            return Err(Error::Unsupported(
+                "derivatives of a velocity or acceleration output outside a step of time integration (not implemented: a static equilibrium is at rest)".into(),
             ));
         }
         if unknowns.iter().any(|&o| {
@@ -448,6 +558,9 @@ impl Engine {
             ProbeModel::Displacement { dof } | ProbeModel::Position { dof, .. } => {
                 vec![(*dof, 1.0)]
             }
+            // The end of a time step: Newmark's update (module docs).
+            ProbeModel::Velocity { dof } => vec![(*dof, self.step_rates()?.0)],
+            ProbeModel::Acceleration { dof } => vec![(*dof, self.step_rates()?.1)],
             ProbeModel::CableSlip { slip } => vec![(n3 + slip, -1.0)],
             // A closed segment (sleeve points merged into one contact group, length 0) has no
             // direction: its probes go by differences.

@@ -169,6 +169,15 @@ impl Engine {
             .motion()
             .filter(|_| !step.stepper.has_failed())
             .map(|(v, a)| (v.to_vec(), a.to_vec()));
+        // What the state will be the end of (committed below only with the state).
+        let last_step = match step.stepper.substeps() {
+            Some((substeps, dt)) => super::derivatives::LastStep::Dynamic {
+                substeps,
+                dt,
+                whole: step.stepper.lambda() >= 1.0,
+            },
+            None => super::derivatives::LastStep::Static,
+        };
         let s = &mut self.state;
         let mut history = History {
             contact: std::mem::take(&mut s.slip_state),
@@ -273,6 +282,7 @@ impl Engine {
         // Short of the end (early return) the inputs are not yet the applied ones, so the
         // engine is settled only after a whole step.
         self.converged = true;
+        self.last_step = last_step;
         report
     }
 }
