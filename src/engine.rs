@@ -390,7 +390,12 @@ impl Engine {
         self.state.last_iterations = 0;
         // At rest in equilibrium under unchanged inputs, the step's sub-steps would have ended
         // where they started: its derivative is theirs.
-        let last_step = derivatives::LastStep::kept(&self.scene, self.duration);
+        let last_step = derivatives::LastStep::kept(
+            &self.scene,
+            self.duration,
+            &self.state.displacement,
+            &self.state.applied,
+        );
         if last_step != self.last_step {
             self.tangent = None;
             self.last_step = last_step;

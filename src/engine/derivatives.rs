@@ -69,6 +69,7 @@ pub enum LastStep {
         substeps: usize,
         dt: f64,
         whole: bool,
+        points: Option<Vec<crate::solver::dynamic::SubStepPoint>>,
     },
     /// A state of a scene with time integration set from outside: the step that ended at it
     /// is not known.
@@ -79,16 +80,35 @@ impl LastStep {
     /// The last step of a settled engine's cheap step (`Engine::keep`) of length `duration`:
     /// at rest in equilibrium under unchanged inputs, each sub-step would have ended where it
     /// started, in the sub-steps a step of that length takes (`DynamicPath::begin`).
-    pub(crate) fn kept(scene: &crate::scene::Scene, duration: f64) -> LastStep {
+    /// `u` and `loads`: the state kept, each sub-step's end point.
+    pub(crate) fn kept(
+        scene: &crate::scene::Scene,
+        duration: f64,
+        u: &[f64],
+        loads: &[f64],
+    ) -> LastStep {
         match super::integration(scene) {
             Some(i) if duration > 0.0 => {
                 let pieces = i
                     .max_time_step
                     .map_or(1.0, |m| (duration / m * (1.0 - 1e-9)).ceil().max(1.0));
+                let substeps = pieces as usize;
+                let dt = duration / pieces;
+                let points = (substeps <= crate::solver::dynamic::MAX_CHAIN).then(|| {
+                    (1..=substeps)
+                        .map(|k| crate::solver::dynamic::SubStepPoint {
+                            u: u.to_vec(),
+                            loads: loads.to_vec(),
+                            lambda: k as f64 / pieces,
+                            dt,
+                        })
+                        .collect()
+                });
                 LastStep::Dynamic {
-                    substeps: pieces as usize,
-                    dt: duration / pieces,
+                    substeps,
+                    dt,
                     whole: true,
+                    points,
                 }
             }
             _ => LastStep::Static,
@@ -125,8 +145,11 @@ impl Engine {
         seed: &[f64],
         unknowns: &[usize],
     ) -> Result<Vec<f64>, Error> {
+        if self.chained() {
+            return self.chain_derivative(knowns, seed, unknowns);
+        }
         let (dz, dv, dp) = self.forward(knowns, seed)?;
-        self.output_derivative(unknowns, &dz, &dv, &dp)
+        self.output_derivative(unknowns, &dz, &dv, &dp, None)
     }
 
     /// w̄ = J_{unknowns, knowns}ᵀ · seed (seed per unknown, result per known).
@@ -142,7 +165,8 @@ impl Engine {
             .filter(|(_, w)| **w != 0.0)
             .all(|(o, _)| self.probe_gradient(*o).is_some());
         let params = knowns.iter().any(|k| matches!(k, Known::Parameter(_)));
-        if !linear || params {
+        // Through several sub-steps: one forward chain per known.
+        if !linear || params || self.chained() {
             // One forward solve per known.
             let mut out = Vec::with_capacity(knowns.len());
             for k in knowns {
@@ -341,17 +365,88 @@ impl Engine {
                     "derivatives of a scene with dynamics.time_integration after a step that returned early (FMI 3 early return): they are given at the end of a whole step".into(),
                 ))
             }
-            LastStep::Dynamic { substeps, .. } if *substeps != 1 => {
+            LastStep::Dynamic {
+                substeps,
+                points: None,
+                ..
+            } if *substeps != 1 => {
                 return Err(Error::Unsupported(format!(
-                    "derivatives of a step of dynamics.time_integration taken in {substeps} sub-steps (dynamics.time_integration.max_time_step shorter than the step, or a sub-step cut back): the chain through the sub-steps is not implemented; they are given for a step of one sub-step"
+                    "derivatives of a step of dynamics.time_integration taken in {substeps} sub-steps (dynamics.time_integration.max_time_step shorter than the step, or sub-steps cut back): the end points of at most {} sub-steps are kept for the chain through them",
+                    crate::solver::dynamic::MAX_CHAIN
                 )))
             }
+            // The tangent at the step's end: its last sub-step's (the chain itself runs in
+            // `chain_derivative`; this one serves the reactions).
             LastStep::Dynamic { dt, .. } => *dt,
         };
         let Some(integration) = super::integration(&self.scene) else {
             return Ok(Vec::new());
         };
         Ok(self.solver.step_stiffness(&self.model, &integration, dt))
+    }
+
+    /// Whether the last step was one of time integration in several sub-steps whose end points
+    /// are kept (the derivatives then go through them: `solver/step_sensitivity.rs`).
+    fn chained(&self) -> bool {
+        matches!(
+            &self.last_step,
+            LastStep::Dynamic {
+                substeps,
+                whole: true,
+                points: Some(_),
+                ..
+            } if *substeps > 1
+        )
+    }
+
+    /// The directional derivative through the sub-steps of the last step (module docs).
+    fn chain_derivative(
+        &mut self,
+        knowns: &[Known],
+        seed: &[f64],
+        unknowns: &[usize],
+    ) -> Result<Vec<f64>, Error> {
+        let mut dv = vec![0.0; self.state.inputs.len()];
+        for (k, s) in knowns.iter().zip(seed) {
+            match *k {
+                Known::Input(slot) => dv[slot] += s,
+                Known::Parameter(_) if *s != 0.0 => {
+                    return Err(Error::Unsupported(
+                        "derivatives with respect to a parameter of a scene with dynamics.time_integration (not implemented: a parameter may enter the mass and the damping of the step)".into(),
+                    ))
+                }
+                Known::Parameter(_) => {}
+            }
+        }
+        let (
+            Some(integration),
+            LastStep::Dynamic {
+                points: Some(points),
+                ..
+            },
+        ) = (super::integration(&self.scene), &self.last_step)
+        else {
+            return Err(Error::Unsupported(
+                "internal: no sub-steps kept for the chain".into(),
+            ));
+        };
+        // The chain factors each sub-step's tangent in the solver's one factorization: a
+        // tangent factored before (or by) it is stale.
+        self.tangent = None;
+        let points = points.clone();
+        let change = self
+            .solver
+            .step_chain(&self.model, &integration, &points, &dv);
+        self.tangent = None;
+        let change = change?;
+        let dp = vec![0.0; self.state.parameters.len()];
+        self.output_derivative(
+            unknowns,
+            &change.dz,
+            &dv,
+            &dp,
+            Some((&change.velocity, &change.acceleration)),
+        )
     }
 
     /// dv/du and da/du of the end state of the last step (generalized-α's Newmark update,
@@ -361,6 +456,7 @@ impl Engine {
             substeps: 1,
             dt,
             whole: true,
+            ..
         } = self.last_step
         else {
             return None;
@@ -371,12 +467,15 @@ impl Engine {
     }
 
     /// dy of the output slots for the change (dz, dv, dp).
+    /// `motion`: the change of the velocities and accelerations (per DOF) where it is not
+    /// Newmark's update of dz alone (a step of several sub-steps).
     fn output_derivative(
         &mut self,
         unknowns: &[usize],
         dz: &[f64],
         dv: &[f64],
         dp: &[f64],
+        motion: Option<(&[f64], &[f64])>,
     ) -> Result<Vec<f64>, Error> {
         if unknowns.iter().any(|&o| {
             matches!(
@@ -389,6 +488,7 @@ impl Engine {
             ));
         }
         if self.step_rates().is_none()
+            && motion.is_none()
             && unknowns.iter().any(|&o| {
                 matches!(
                     self.model.probes.get(o),
@@ -418,6 +518,19 @@ impl Engine {
         // The reactions' exact change, formed at the first reaction output asked for.
         let mut reactions: Option<ReactionChange> = None;
         for (k, &o) in unknowns.iter().enumerate() {
+            if let Some((velocity, acceleration)) = motion {
+                match self.model.probes[o] {
+                    ProbeModel::Velocity { dof } => {
+                        out[k] = velocity[dof];
+                        continue;
+                    }
+                    ProbeModel::Acceleration { dof } => {
+                        out[k] = acceleration[dof];
+                        continue;
+                    }
+                    _ => {}
+                }
+            }
             let gradient = self
                 .probe_gradient(o)
                 .filter(|_| !parameters || kinematic(&self.model.probes[o]));

@@ -170,11 +170,13 @@ impl Engine {
             .filter(|_| !step.stepper.has_failed())
             .map(|(v, a)| (v.to_vec(), a.to_vec()));
         // What the state will be the end of (committed below only with the state).
+        let mut step = step;
         let last_step = match step.stepper.substeps() {
             Some((substeps, dt)) => super::derivatives::LastStep::Dynamic {
                 substeps,
                 dt,
                 whole: step.stepper.lambda() >= 1.0,
+                points: step.stepper.take_points(),
             },
             None => super::derivatives::LastStep::Static,
         };

@@ -290,6 +290,23 @@ pub struct DynamicPath {
     /// The sub-steps converged so far and the length Δt (s) of the last one (the derivatives
     /// of a step need them: `Solver::step_stiffness`).
     pub(super) substeps: (usize, f64),
+    /// Every converged sub-step's end point, for the derivatives through the sub-steps
+    /// (`step_sensitivity.rs`); None once there are more than [`MAX_CHAIN`] (the copies are
+    /// not kept for longer steps).
+    pub(super) points: Option<Vec<SubStepPoint>>,
+}
+
+/// The most sub-steps of one step whose end points are kept for its derivatives.
+pub const MAX_CHAIN: usize = 64;
+
+/// The end of one converged time sub-step: its unknowns, its loads, the fraction λ of the
+/// step's load change reached there, and its length Δt (s).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SubStepPoint {
+    pub u: Vec<f64>,
+    pub loads: Vec<f64>,
+    pub lambda: f64,
+    pub dt: f64,
 }
 
 impl DynamicPath {
@@ -340,6 +357,7 @@ impl DynamicPath {
             residual_n,
             residual_trial: Vec::new(),
             substeps: (0, 0.0),
+            points: Some(Vec::new()),
         }
     }
 
@@ -401,6 +419,18 @@ impl DynamicPath {
                         self.time + dt
                     ),
                 );
+                if let Some(points) = self.points.as_mut() {
+                    if points.len() < MAX_CHAIN {
+                        points.push(SubStepPoint {
+                            u: trial.clone(),
+                            loads: loads.clone(),
+                            lambda: end.min(1.0),
+                            dt,
+                        });
+                    } else {
+                        self.points = None;
+                    }
+                }
                 self.commit(model, dt, trial, contact);
                 self.time = if end >= 1.0 {
                     self.duration

@@ -133,6 +133,15 @@ impl Stepper {
         }
     }
 
+    /// The end points of the converged sub-steps of a dynamic step (None under load control or
+    /// arc length, or when there were more than `dynamic::MAX_CHAIN`), taken out.
+    pub fn take_points(&mut self) -> Option<Vec<super::dynamic::SubStepPoint>> {
+        match &mut self.path {
+            Path::Dynamic(p) => p.points.take(),
+            _ => None,
+        }
+    }
+
     /// A step that cannot start (why in the report): `advance` does nothing.
     pub fn fail(&mut self, message: String) {
         self.failed = true;

@@ -12,12 +12,14 @@
 //!       tangent; a snow load), the shipped GustSail in its gust (form-found, edge cables,
 //!       follower wind) and the WrinkledShear film with mass sheared by its prescribed
 //!       displacement inputs (939 of 988 triangles wrinkled or slack, held DOFs driven by the
-//!       seeds); (2) the adjoint equals the transposed directional derivative to round-off
-//!       (seeded on the outputs with exact gradients, so that it is one transposed solve);
-//!       (3) what is not implemented is refused with an Error that names why (a step of
-//!       several sub-steps, a state set from outside with no step since, a parameter seed, an
-//!       energy output), and a cheap step from rest has the step's derivative, not the
-//!       static one.
+//!       seeds); each in steps of one sub-step and of four (the chain through the sub-steps,
+//!       solver/step_sensitivity.rs); (2) the adjoint equals the transposed directional
+//!       derivative to round-off (one sub-step: seeded on the outputs with exact gradients, so
+//!       that it is one transposed solve; several: one forward chain per known, equal by
+//!       construction); (3) what is not implemented is refused with an Error that names why
+//!       (more sub-steps than are kept, sleeves through several sub-steps, a state set from
+//!       outside with no step since, a parameter seed, an energy output), and a cheap step
+//!       from rest has the step's derivative (one sub-step and four), not the static one.
 //! MESH: VibratingMembrane and GustSail as shipped; the cushion of
 //!       examples/coupling/cushion_pressure.json (two skins, 144 triangles); WrinkledShear as
 //!       shipped (988 triangles).
@@ -26,20 +28,29 @@
 //!       test (1 ms) to 3 Pa. The cushion: density 1750 kg/m³, Rayleigh α = 20/s, ρ∞ = 0.9
 //!       (as `velarium.couple_dynamic`), from its static equilibrium at 200 Pa two steps of
 //!       10 ms to (210 Pa, no snow) and (220 Pa, 50 Pa), then to (230 Pa, 100 Pa). GustSail:
-//!       six steps of 25 ms to 150 Pa, then to 160 Pa. WrinkledShear: density 1420 kg/m³,
-//!       Rayleigh α 100/s, ρ∞ 0.9, eight steps of 0.2 ms shearing to 2 mm, then to 2.1 mm.
+//!       six steps of 25 ms to 150 Pa, then to 160 Pa (four sub-steps: three steps of 0.1 s to
+//!       150 Pa, then to 170 Pa). WrinkledShear: density 1420 kg/m³, Rayleigh α 100/s, ρ∞ 0.9,
+//!       eight steps of 0.2 ms shearing to 2 mm, then to 2.1 mm. Four sub-steps:
+//!       max_time_step a quarter of the step.
 //! REFERENCE: central differences of the step itself, the equilibria solved to a residual
 //!       tolerance of 1e-13; δ = 0.01 Pa for pressures and snow, 1e-7 m for the prescribed
 //!       displacements (chosen from δ = 0.1, 0.01, 0.001 Pa and 1e-6, 1e-7, 1e-8 m: the
 //!       smallest error, truncation against round-off). The error of an entry is relative to
 //!       the largest difference of the same output over the inputs.
-//! TOLERANCE: (measured 2026-11-28) VibratingMembrane 1.9e-10, asserted 1e-9; cushion 1.1e-9,
-//!       asserted 5e-9; GustSail 1.4e-7 (the largest cable tension: 1.4e-7 at δ = 0.01 and
-//!       the same order at other δ, the tension's difference over the step; 6.6e-10 on the
-//!       displacements), asserted 1e-6; WrinkledShear 1.7e-9, asserted 1e-8. The adjoint:
-//!       worst 4.4e-13 (GustSail), asserted 5e-12. A derivative that left out the step's
-//!       K_d would be the static compliance: dV/dp 2.6e-4 m³/Pa against 4.8e-6 over a 1 ms
-//!       step from rest (test 3), far outside every tolerance.
+//! TOLERANCE: (measured 2026-11-28) one sub-step: VibratingMembrane 1.9e-10, asserted 1e-9;
+//!       cushion 1.1e-9, asserted 5e-9; GustSail 1.4e-7 (the largest cable tension; 6.6e-10 on
+//!       the displacements), asserted 1e-6; WrinkledShear 1.7e-9, asserted 1e-8. Four
+//!       sub-steps: cushion 9.6e-9 (the acceleration; the difference's own floor: 4.1e-8,
+//!       4.5e-9, 9.6e-9, 5.3e-8 at δ = 0.1, 0.03, 0.01, 0.003 Pa, ≤ 1.1e-9 on the other
+//!       outputs), asserted 2e-8; GustSail 2.5e-8, asserted 1e-7; VibratingMembrane 1.5e-9
+//!       (the acceleration), asserted 5e-9; WrinkledShear 3.7e-8 (the acceleration, 4.9e-8
+//!       and 2.0e-8 at δ = 3e-7 m; ≤ 3.3e-9 on the other outputs), asserted 1e-7: an
+//!       acceleration over a sub-step Δt is the displacement's change over βΔt², so the
+//!       differences' noise grows as the sub-steps shrink. The adjoint: worst 4.4e-13
+//!       (GustSail), asserted 5e-12. A derivative that left out the step's K_d would be the
+//!       static compliance: dV/dp 2.6e-4 m³/Pa against 4.8e-6 over a 1 ms step from rest
+//!       (test 3), far outside every tolerance; the chain from rest in four sub-steps 3.3e-6,
+//!       within 3.4e-10 of the difference of the step (asserted 1e-9).
 
 use crate::common;
 use common::*;
@@ -172,6 +183,11 @@ fn with_tolerance(mut scene: serde_json::Value) -> velarium::Scene {
 }
 
 fn vibrating_membrane() -> Engine {
+    vibrating_membrane_with(None)
+}
+
+/// VibratingMembrane, its sub-steps at most `max_time_step` long (None: one per step).
+fn vibrating_membrane_with(max_time_step: Option<f64>) -> Engine {
     let text = std::fs::read_to_string(shipped("VibratingMembrane")).unwrap();
     let mut scene: serde_json::Value = serde_json::from_str(&text).unwrap();
     let outputs = scene["outputs"].as_array_mut().unwrap();
@@ -185,10 +201,18 @@ fn vibrating_membrane() -> Engine {
     });
     outputs.push(serde_json::json!({"name": "a_center", "probe": {"kind": "acceleration", "node": "s.center", "component": "z"}}));
     outputs.push(serde_json::json!({"name": "reaction_z", "probe": {"kind": "reaction", "nodes": "s.boundary", "component": "z"}}));
+    if let Some(m) = max_time_step {
+        scene["dynamics"]["time_integration"]["max_time_step"] = serde_json::json!(m);
+    }
     engine(with_tolerance(scene))
 }
 
 fn dynamic_cushion() -> Engine {
+    dynamic_cushion_with(None)
+}
+
+/// The dynamic cushion, its sub-steps at most `max_time_step` long (None: one per step).
+fn dynamic_cushion_with(max_time_step: Option<f64>) -> Engine {
     let path = format!(
         "{}/examples/coupling/cushion_pressure.json",
         env!("CARGO_MANIFEST_DIR")
@@ -198,6 +222,9 @@ fn dynamic_cushion() -> Engine {
     scene["membranes"][0]["density"] = serde_json::json!(1750.0);
     scene["dynamics"] = serde_json::json!({"mass": "consistent", "rayleigh_alpha": 20.0,
         "time_integration": {"rho_inf": 0.9}});
+    if let Some(m) = max_time_step {
+        scene["dynamics"]["time_integration"]["max_time_step"] = serde_json::json!(m);
+    }
     // The top skin's centre (node 24 of its 7 x 7 grid).
     scene["geometry"]["node_sets"]["top_centre"] = serde_json::json!([24]);
     let outputs = scene["outputs"].as_array_mut().unwrap();
@@ -236,6 +263,14 @@ fn gust_sail() -> Engine {
 /// Outputs, the first ones those with an exact gradient (the adjoint's seeds).
 const MEMBRANE_OUTPUTS: [&str; 4] = ["w_center", "v_center", "a_center", "reaction_z"];
 const CUSHION_OUTPUTS: [&str; 6] = ["V", "w", "v", "a", "rim_reaction_z", "max_stress"];
+const SHEAR_OUTPUTS: [&str; 6] = [
+    "ax",
+    "vx",
+    "ux",
+    "shear_force",
+    "separation_force",
+    "max_principal_stress",
+];
 const SAIL_OUTPUTS: [&str; 8] = [
     "center_uz",
     "center_vz",
@@ -332,22 +367,43 @@ fn what_is_not_implemented_is_refused_with_the_reason() {
         kept[0] > 0.0 && kept[0] < 0.1 * initial[0],
         "inertia limits the step's compliance"
     );
+    // The same in four sub-steps (max_time_step 0.25 ms): the chain from rest against a
+    // central difference of the step, δ = 0.1 Pa (at 0.01 Pa the difference's own noise, 3.8e-9;
+    // measured 3.4e-10 at 0.1 Pa).
+    let mut rest = dynamic_cushion_with(Some(2.5e-4));
+    solve(&mut rest);
+    rest.set_step_duration(1e-3);
+    assert!(rest.keep().is_some(), "at rest, unchanged inputs: kept");
+    let chained = rest.directional_derivative(&known, &[1.0], &out).unwrap();
+    let at_rest = rest.state().clone();
+    let v = |e: &mut Engine, p: f64| step_from(e, &at_rest, 1e-3, &[("p", p)], &["V"])[0];
+    let fd = (v(&mut rest, 200.1) - v(&mut rest, 199.9)) / 0.2;
+    let err = (chained[0] - fd).abs() / fd.abs();
+    eprintln!(
+        "kept, 4 sub-steps: {:e} against {fd:e}, rel {err:.1e}",
+        chained[0]
+    );
+    assert!(err < 1e-9, "{err}");
     let why = |r: Result<Vec<f64>, velarium::Error>| r.expect_err("refused").to_string();
-    // Two sub-steps.
-    let mut two = gust_sail();
-    solve(&mut two);
-    two.set_step_duration(0.05);
-    set(&mut two, "wind", 10.0);
-    solve(&mut two);
-    let k2 = [Known::Input(slot(&two, "wind"))];
-    let o2 = [slot(&two, "center_uz")];
-    let m = why(two.directional_derivative(&k2, &[1.0], &o2));
+    // More sub-steps than the chain keeps (66 of 0.1 ms).
+    let mut many = dynamic_cushion_with(Some(1e-4));
+    solve(&mut many);
+    step(&mut many, 0.0066, &[("p", 201.0)]);
+    let m = why(many.directional_derivative(&known, &[1.0], &out));
     assert!(
-        m.contains("2 sub-steps") && m.contains("max_time_step"),
+        m.contains("66 sub-steps") && m.contains("at most 64"),
         "{m}"
     );
-    let m = why(two.adjoint_derivative(&o2, &[1.0], &k2));
-    assert!(m.contains("2 sub-steps"), "{m}");
+    let m = why(many.adjoint_derivative(&out, &[1.0], &known));
+    assert!(m.contains("66 sub-steps"), "{m}");
+    // Sleeves through several sub-steps (their history carries from sub-step to sub-step).
+    let mut sleeve = dynamic_sleeve();
+    solve(&mut sleeve);
+    step(&mut sleeve, 2e-3, &[("force_2P", 0.5)]);
+    let ks = [Known::Input(slot(&sleeve, "force_2P"))];
+    let os = [slot(&sleeve, "A_dy")];
+    let m = why(sleeve.directional_derivative(&ks, &[1.0], &os));
+    assert!(m.contains("sleeves"), "{m}");
     // A state set from outside, no step since.
     let state = e.state().clone();
     e.set_state(state).unwrap();
@@ -376,11 +432,19 @@ fn what_is_not_implemented_is_refused_with_the_reason() {
 /// prescribed displacement inputs) with Kapton's density 1420 kg/m³, Rayleigh α 100/s and
 /// ρ∞ 0.9: held DOFs driven by the inputs, wrinkled triangles.
 fn dynamic_shear() -> Engine {
+    dynamic_shear_with(None)
+}
+
+/// The dynamic WrinkledShear, its sub-steps at most `max_time_step` long (None: one per step).
+fn dynamic_shear_with(max_time_step: Option<f64>) -> Engine {
     let text = std::fs::read_to_string(shipped("WrinkledShear")).unwrap();
     let mut scene: serde_json::Value = serde_json::from_str(&text).unwrap();
     scene["membranes"][0]["density"] = serde_json::json!(1420.0);
     scene["dynamics"] = serde_json::json!({"mass": "consistent", "rayleigh_alpha": 100.0,
         "time_integration": {"rho_inf": 0.9}});
+    if let Some(m) = max_time_step {
+        scene["dynamics"]["time_integration"]["max_time_step"] = serde_json::json!(m);
+    }
     let outputs = scene["outputs"].as_array_mut().unwrap();
     outputs.retain(|o| {
         matches!(
@@ -419,14 +483,7 @@ fn dynamic_wrinkled_shear_step_matches_differences_of_the_step() {
         e.membranes().len()
     );
     assert!(wrinkled > e.membranes().len() / 2, "wrinkled");
-    let outputs = [
-        "ax",
-        "vx",
-        "ux",
-        "shear_force",
-        "separation_force",
-        "max_principal_stress",
-    ];
+    let outputs = SHEAR_OUTPUTS;
     let to = [("separation", 0.001), ("shear", 2.1e-3)];
     let (worst, adjoint) = check(
         "WrinkledShear",
@@ -439,4 +496,98 @@ fn dynamic_wrinkled_shear_step_matches_differences_of_the_step() {
     );
     assert!(worst < 1e-8, "{worst}");
     assert!(adjoint < 5e-12, "{adjoint}");
+}
+
+/// The shipped SleeveCable with mass (membrane 1000 kg/m³, cables 1 kg/m), in sub-steps of at
+/// most 1 ms.
+fn dynamic_sleeve() -> Engine {
+    let text = std::fs::read_to_string(shipped("SleeveCable")).unwrap();
+    let mut scene: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for m in scene["membranes"].as_array_mut().unwrap() {
+        m["density"] = serde_json::json!(1000.0);
+    }
+    for c in scene["cables"].as_array_mut().unwrap() {
+        c["mass_per_length"] = serde_json::json!(1.0);
+    }
+    scene["dynamics"] =
+        serde_json::json!({"time_integration": {"rho_inf": 0.9, "max_time_step": 1e-3}});
+    engine(with_tolerance(scene))
+}
+
+/// Steps of several sub-steps: the chain through them (solver/step_sensitivity.rs) against
+/// central differences of the whole step.
+#[test]
+fn steps_of_several_sub_steps_match_differences_of_the_step() {
+    // The cushion in sub-steps of 2.5 ms, steps of 10 ms: four sub-steps each.
+    let mut e = dynamic_cushion_with(Some(2.5e-3));
+    solve(&mut e);
+    step(&mut e, 0.01, &[("p", 210.0), ("snow", 0.0)]);
+    step(&mut e, 0.01, &[("p", 220.0), ("snow", 50.0)]);
+    let to = [("p", 230.0), ("snow", 100.0)];
+    let (worst, adjoint) = check(
+        "cushion, 4 sub-steps",
+        &mut e,
+        0.01,
+        &to,
+        &CUSHION_OUTPUTS,
+        4,
+        DELTA,
+    );
+    assert!(worst < 2e-8, "{worst}");
+    assert!(adjoint < 5e-12, "{adjoint}");
+    // GustSail in steps of 0.1 s (four sub-steps of 25 ms).
+    let mut e = gust_sail();
+    solve(&mut e);
+    for k in 1..=3 {
+        step(&mut e, 0.1, &[("wind", 50.0 * k as f64)]);
+    }
+    let (worst, adjoint) = check(
+        "GustSail, 4 sub-steps",
+        &mut e,
+        0.1,
+        &[("wind", 170.0)],
+        &SAIL_OUTPUTS,
+        5,
+        DELTA,
+    );
+    assert!(worst < 1e-7, "{worst}");
+    assert!(adjoint < 5e-12, "{adjoint}");
+    // VibratingMembrane in steps of 1 ms of four sub-steps of 0.25 ms.
+    let mut e = vibrating_membrane_with(Some(2.5e-4));
+    solve(&mut e);
+    for _ in 0..3 {
+        step(&mut e, 1e-3, &[("p", 0.0)]);
+    }
+    let (worst, _) = check(
+        "VibratingMembrane, 4 sub-steps",
+        &mut e,
+        1e-3,
+        &[("p", 3.0)],
+        &MEMBRANE_OUTPUTS,
+        3,
+        DELTA,
+    );
+    assert!(worst < 5e-9, "{worst}");
+    // WrinkledShear in steps of 0.2 ms of four sub-steps of 50 µs: the prescribed motion
+    // λ_k of the way at each sub-step's end.
+    let mut e = dynamic_shear_with(Some(5e-5));
+    solve(&mut e);
+    for k in 1..=8 {
+        step(
+            &mut e,
+            2e-4,
+            &[("separation", 0.001), ("shear", 2.5e-4 * k as f64)],
+        );
+    }
+    let to = [("separation", 0.001), ("shear", 2.1e-3)];
+    let (worst, _) = check(
+        "WrinkledShear, 4 sub-steps",
+        &mut e,
+        2e-4,
+        &to,
+        &SHEAR_OUTPUTS,
+        3,
+        DELTA_DISPLACEMENT,
+    );
+    assert!(worst < 1e-7, "{worst}");
 }
