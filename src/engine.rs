@@ -109,7 +109,7 @@ pub struct Engine {
     /// ([`Engine::set_step_duration`]); 0: the next solve is a static equilibrium.
     duration: f64,
     /// What the committed state is the end of, for its derivatives (`engine/derivatives.rs`).
-    last_step: derivatives::LastStep,
+    last_step: LastStep,
 }
 
 impl Engine {
@@ -205,7 +205,7 @@ impl Engine {
             converged: false,
             memory_estimate: size.memory_bytes,
             duration: 0.0,
-            last_step: derivatives::LastStep::Static,
+            last_step: LastStep::Static,
         };
         engine.refresh_outputs()?;
         Ok(engine)
@@ -390,7 +390,7 @@ impl Engine {
         self.state.last_iterations = 0;
         // At rest in equilibrium under unchanged inputs, the step's sub-steps would have ended
         // where they started: its derivative is theirs.
-        let last_step = derivatives::LastStep::kept(
+        let last_step = LastStep::kept(
             &self.scene,
             self.duration,
             &self.state.displacement,
@@ -627,7 +627,7 @@ impl Engine {
         // A restored state is not known to be an equilibrium of this engine: the next step
         // solves. Nor is the step it ended known (its derivative needs that step).
         self.converged = false;
-        self.last_step = derivatives::LastStep::restored(&self.scene);
+        self.last_step = LastStep::restored(&self.scene);
         Ok(())
     }
 
@@ -648,7 +648,7 @@ impl Engine {
             return Err(e);
         }
         self.converged = false;
-        self.last_step = derivatives::LastStep::Static;
+        self.last_step = LastStep::Static;
         Ok(())
     }
 
@@ -814,6 +814,73 @@ impl Engine {
         self.solver = solver;
         self.model_stale = false;
         Ok(())
+    }
+}
+
+/// What the committed state is the end of, for its derivatives (`engine/derivatives.rs`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LastStep {
+    /// A static equilibrium: a quasi-static scene's, the initial one of a scene with time
+    /// integration, or the start state after a reset.
+    Static,
+    /// A step of time integration: its number of sub-steps, the length Δt (s) of the last,
+    /// and whether it reached its end (not after an FMI 3 early return).
+    Dynamic {
+        substeps: usize,
+        dt: f64,
+        whole: bool,
+        points: Option<Vec<crate::solver::dynamic::SubStepPoint>>,
+    },
+    /// A state of a scene with time integration set from outside: the step that ended at it
+    /// is not known.
+    Restored,
+}
+
+impl LastStep {
+    /// The last step of a settled engine's cheap step (`Engine::keep`) of length `duration`:
+    /// at rest in equilibrium under unchanged inputs, each sub-step would have ended where it
+    /// started, in the sub-steps a step of that length takes (`DynamicPath::begin`).
+    /// `u` and `loads`: the state kept, each sub-step's end point.
+    pub(crate) fn kept(
+        scene: &crate::scene::Scene,
+        duration: f64,
+        u: &[f64],
+        loads: &[f64],
+    ) -> LastStep {
+        match integration(scene) {
+            Some(i) if duration > 0.0 => {
+                let pieces = i
+                    .max_time_step
+                    .map_or(1.0, |m| (duration / m * (1.0 - 1e-9)).ceil().max(1.0));
+                let substeps = pieces as usize;
+                let dt = duration / pieces;
+                let points = (substeps <= crate::solver::dynamic::MAX_CHAIN).then(|| {
+                    (1..=substeps)
+                        .map(|k| crate::solver::dynamic::SubStepPoint {
+                            u: u.to_vec(),
+                            loads: loads.to_vec(),
+                            lambda: k as f64 / pieces,
+                            dt,
+                        })
+                        .collect()
+                });
+                LastStep::Dynamic {
+                    substeps,
+                    dt,
+                    whole: true,
+                    points,
+                }
+            }
+            _ => LastStep::Static,
+        }
+    }
+
+    /// After a state is set from outside.
+    pub(crate) fn restored(scene: &crate::scene::Scene) -> LastStep {
+        match integration(scene) {
+            Some(_) => LastStep::Restored,
+            None => LastStep::Static,
+        }
     }
 }
 

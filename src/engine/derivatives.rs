@@ -34,14 +34,17 @@
 //!               b and u_n held, so dz = (J + K_d)⁻¹ g with the same g as in statics:
 //!               `factor_tangent` adds K_d. Velocities and accelerations follow Newmark:
 //!                   dv_{n+1} = γ/(βΔt) du_{n+1},   da_{n+1} = du_{n+1}/(βΔt²)
-//!               Refused (Unsupported, naming why): a step of several sub-steps (the chain
-//!               through them is not implemented), a step that returned early, a state set
-//!               from outside (the step that ended at it is not known), parameter seeds (a
-//!               parameter may enter M and C), energy outputs. Before the first step (the
-//!               initial equilibrium is static, at rest) the derivatives are the static ones.
+//!               Several sub-steps: the chain through them (solver/step_sensitivity.rs), from
+//!               the end points the step kept; the adjoint then one chain per known.
+//!               Refused (Unsupported, naming why): more than `dynamic::MAX_CHAIN` sub-steps,
+//!               sleeves, ties or plastic strains through several sub-steps, a step that
+//!               returned early, a state set from outside (the step that ended at it is not
+//!               known), parameter seeds (a parameter may enter M and C), energy outputs.
+//!               Before the first step (the initial equilibrium is static, at rest) the
+//!               derivatives are the static ones.
 //! ```
 
-use super::Engine;
+use super::{Engine, LastStep};
 use crate::error::Error;
 use crate::model::{pressure, LoadModel, Model, ProbeModel};
 use crate::results;
@@ -55,73 +58,6 @@ use crate::variables;
 pub enum Known {
     Input(usize),
     Parameter(usize),
-}
-
-/// What the committed state is the end of, for its derivatives (module docs).
-#[derive(Clone, Debug, PartialEq)]
-pub enum LastStep {
-    /// A static equilibrium: a quasi-static scene's, the initial one of a scene with time
-    /// integration, or the start state after a reset.
-    Static,
-    /// A step of time integration: its number of sub-steps, the length Δt (s) of the last,
-    /// and whether it reached its end (not after an FMI 3 early return).
-    Dynamic {
-        substeps: usize,
-        dt: f64,
-        whole: bool,
-        points: Option<Vec<crate::solver::dynamic::SubStepPoint>>,
-    },
-    /// A state of a scene with time integration set from outside: the step that ended at it
-    /// is not known.
-    Restored,
-}
-
-impl LastStep {
-    /// The last step of a settled engine's cheap step (`Engine::keep`) of length `duration`:
-    /// at rest in equilibrium under unchanged inputs, each sub-step would have ended where it
-    /// started, in the sub-steps a step of that length takes (`DynamicPath::begin`).
-    /// `u` and `loads`: the state kept, each sub-step's end point.
-    pub(crate) fn kept(
-        scene: &crate::scene::Scene,
-        duration: f64,
-        u: &[f64],
-        loads: &[f64],
-    ) -> LastStep {
-        match super::integration(scene) {
-            Some(i) if duration > 0.0 => {
-                let pieces = i
-                    .max_time_step
-                    .map_or(1.0, |m| (duration / m * (1.0 - 1e-9)).ceil().max(1.0));
-                let substeps = pieces as usize;
-                let dt = duration / pieces;
-                let points = (substeps <= crate::solver::dynamic::MAX_CHAIN).then(|| {
-                    (1..=substeps)
-                        .map(|k| crate::solver::dynamic::SubStepPoint {
-                            u: u.to_vec(),
-                            loads: loads.to_vec(),
-                            lambda: k as f64 / pieces,
-                            dt,
-                        })
-                        .collect()
-                });
-                LastStep::Dynamic {
-                    substeps,
-                    dt,
-                    whole: true,
-                    points,
-                }
-            }
-            _ => LastStep::Static,
-        }
-    }
-
-    /// After a state is set from outside.
-    pub(crate) fn restored(scene: &crate::scene::Scene) -> LastStep {
-        match super::integration(scene) {
-            Some(_) => LastStep::Restored,
-            None => LastStep::Static,
-        }
-    }
 }
 
 /// What one seed changes: dz (per unknown, held DOFs included), dv (per input slot), dp (per
