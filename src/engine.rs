@@ -390,12 +390,7 @@ impl Engine {
         self.state.last_iterations = 0;
         // At rest in equilibrium under unchanged inputs, the step's sub-steps would have ended
         // where they started: its derivative is theirs.
-        let last_step = LastStep::kept(
-            &self.scene,
-            self.duration,
-            &self.state.displacement,
-            &self.state.applied,
-        );
+        let last_step = LastStep::kept(&self.scene, self.duration);
         if last_step != self.last_step {
             self.tangent = None;
             self.last_step = last_step;
@@ -824,12 +819,15 @@ pub enum LastStep {
     /// integration, or the start state after a reset.
     Static,
     /// A step of time integration: its number of sub-steps, the length Δt (s) of the last,
-    /// and whether it reached its end (not after an FMI 3 early return).
+    /// whether it reached its end (not after an FMI 3 early return), the end points of its
+    /// sub-steps when there were several (None: one, or more than `dynamic::MAX_CHAIN`), and
+    /// whether it was a cheap step at rest (every sub-step's end point the committed state).
     Dynamic {
         substeps: usize,
         dt: f64,
         whole: bool,
         points: Option<Vec<crate::solver::dynamic::SubStepPoint>>,
+        rest: bool,
     },
     /// A state of a scene with time integration set from outside: the step that ended at it
     /// is not known.
@@ -840,35 +838,20 @@ impl LastStep {
     /// The last step of a settled engine's cheap step (`Engine::keep`) of length `duration`:
     /// at rest in equilibrium under unchanged inputs, each sub-step would have ended where it
     /// started, in the sub-steps a step of that length takes (`DynamicPath::begin`).
-    /// `u` and `loads`: the state kept, each sub-step's end point.
-    pub(crate) fn kept(
-        scene: &crate::scene::Scene,
-        duration: f64,
-        u: &[f64],
-        loads: &[f64],
-    ) -> LastStep {
+    /// Nothing is copied (the cheap step allocates nothing): the derivative takes the end
+    /// points from the committed state.
+    pub(crate) fn kept(scene: &crate::scene::Scene, duration: f64) -> LastStep {
         match integration(scene) {
             Some(i) if duration > 0.0 => {
                 let pieces = i
                     .max_time_step
                     .map_or(1.0, |m| (duration / m * (1.0 - 1e-9)).ceil().max(1.0));
-                let substeps = pieces as usize;
-                let dt = duration / pieces;
-                let points = (substeps <= crate::solver::dynamic::MAX_CHAIN).then(|| {
-                    (1..=substeps)
-                        .map(|k| crate::solver::dynamic::SubStepPoint {
-                            u: u.to_vec(),
-                            loads: loads.to_vec(),
-                            lambda: k as f64 / pieces,
-                            dt,
-                        })
-                        .collect()
-                });
                 LastStep::Dynamic {
-                    substeps,
-                    dt,
+                    substeps: pieces as usize,
+                    dt: duration / pieces,
                     whole: true,
-                    points,
+                    points: None,
+                    rest: true,
                 }
             }
             _ => LastStep::Static,

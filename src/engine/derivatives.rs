@@ -304,6 +304,7 @@ impl Engine {
             LastStep::Dynamic {
                 substeps,
                 points: None,
+                rest: false,
                 ..
             } if *substeps != 1 => {
                 return Err(Error::Unsupported(format!(
@@ -324,15 +325,16 @@ impl Engine {
     /// Whether the last step was one of time integration in several sub-steps whose end points
     /// are kept (the derivatives then go through them: `solver/step_sensitivity.rs`).
     fn chained(&self) -> bool {
-        matches!(
-            &self.last_step,
+        match &self.last_step {
             LastStep::Dynamic {
                 substeps,
                 whole: true,
-                points: Some(_),
+                points,
+                rest,
                 ..
-            } if *substeps > 1
-        )
+            } => *substeps > 1 && (points.is_some() || *rest),
+            _ => false,
+        }
     }
 
     /// The directional derivative through the sub-steps of the last step (module docs).
@@ -354,22 +356,47 @@ impl Engine {
                 Known::Parameter(_) => {}
             }
         }
-        let (
-            Some(integration),
-            LastStep::Dynamic {
-                points: Some(points),
-                ..
-            },
-        ) = (super::integration(&self.scene), &self.last_step)
-        else {
+        let integration = super::integration(&self.scene);
+        let points = match (&integration, &self.last_step) {
+            (
+                Some(_),
+                LastStep::Dynamic {
+                    points: Some(points),
+                    ..
+                },
+            ) => points.clone(),
+            // A cheap step at rest: every sub-step ended at the committed state.
+            (
+                Some(_),
+                LastStep::Dynamic {
+                    substeps,
+                    dt,
+                    rest: true,
+                    ..
+                },
+            ) if *substeps <= crate::solver::dynamic::MAX_CHAIN => (1..=*substeps)
+                .map(|k| crate::solver::dynamic::SubStepPoint {
+                    u: self.state.displacement.clone(),
+                    loads: self.state.applied.clone(),
+                    lambda: k as f64 / *substeps as f64,
+                    dt: *dt,
+                })
+                .collect(),
+            _ => {
+                return Err(Error::Unsupported(format!(
+                    "derivatives of a step of dynamics.time_integration in more sub-steps than the {} whose end points are kept",
+                    crate::solver::dynamic::MAX_CHAIN
+                )))
+            }
+        };
+        let Some(integration) = integration else {
             return Err(Error::Unsupported(
-                "internal: no sub-steps kept for the chain".into(),
+                "internal: a step of time integration in a quasi-static scene".into(),
             ));
         };
         // The chain factors each sub-step's tangent in the solver's one factorization: a
         // tangent factored before (or by) it is stale.
         self.tangent = None;
-        let points = points.clone();
         let change = self
             .solver
             .step_chain(&self.model, &integration, &points, &dv);

@@ -187,6 +187,7 @@ impl Engine {
                 whole: step.stepper.lambda() >= 1.0,
                 // One sub-step's end is the committed state: nothing to keep.
                 points: step.stepper.take_points().filter(|_| substeps > 1),
+                rest: false,
             },
             None => super::LastStep::Static,
         };
