@@ -70,7 +70,9 @@ def tight(model, scene, velarium, tmp_path) -> tuple[Path, Path]:
     FMI 3 archives): differences of equilibria over a small step then measure the derivative,
     not the solver's tolerance."""
     if vr.is_dynamic(model):
-        pytest.skip("a scene with time integration has no derivatives: GetDirectionalDerivative returns Error (tests/fmi/derivatives.rs checks the refusal)")
+        pytest.skip("a scene with time integration: its derivatives are those of a step, not of an equilibrium; "
+                    "tests/fmi/dynamic_derivatives.rs and harness/test_coupling_dynamic.py check them against "
+                    "differences of the step")
     text = json.loads(scene.read_text())
     text.get("experiment", {}).pop("loads", None)  # no reference run under the load history
     text.setdefault("solver", {})["tolerance"] = 1e-12

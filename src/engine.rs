@@ -108,6 +108,8 @@ pub struct Engine {
     /// The length (s) of the next step of a scene with time integration
     /// ([`Engine::set_step_duration`]); 0: the next solve is a static equilibrium.
     duration: f64,
+    /// What the committed state is the end of, for its derivatives (`engine/derivatives.rs`).
+    last_step: LastStep,
 }
 
 impl Engine {
@@ -203,6 +205,7 @@ impl Engine {
             converged: false,
             memory_estimate: size.memory_bytes,
             duration: 0.0,
+            last_step: LastStep::Static,
         };
         engine.refresh_outputs()?;
         Ok(engine)
@@ -385,6 +388,13 @@ impl Engine {
             return None;
         }
         self.state.last_iterations = 0;
+        // At rest in equilibrium under unchanged inputs, the step's sub-steps would have ended
+        // where they started: its derivative is theirs.
+        let last_step = LastStep::kept(&self.scene, self.duration);
+        if last_step != self.last_step {
+            self.tangent = None;
+            self.last_step = last_step;
+        }
         for (probe, out) in self.model.probes.iter().zip(self.outputs.iter_mut()) {
             if matches!(probe, crate::model::ProbeModel::NewtonIterations) {
                 *out = 0.0;
@@ -610,8 +620,9 @@ impl Engine {
             )));
         }
         // A restored state is not known to be an equilibrium of this engine: the next step
-        // solves.
+        // solves. Nor is the step it ended known (its derivative needs that step).
         self.converged = false;
+        self.last_step = LastStep::restored(&self.scene);
         Ok(())
     }
 
@@ -632,6 +643,7 @@ impl Engine {
             return Err(e);
         }
         self.converged = false;
+        self.last_step = LastStep::Static;
         Ok(())
     }
 
@@ -800,6 +812,61 @@ impl Engine {
     }
 }
 
+/// What the committed state is the end of, for its derivatives (`engine/derivatives.rs`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LastStep {
+    /// A static equilibrium: a quasi-static scene's, the initial one of a scene with time
+    /// integration, or the start state after a reset.
+    Static,
+    /// A step of time integration: its number of sub-steps, the length Δt (s) of the last,
+    /// whether it reached its end (not after an FMI 3 early return), the end points of its
+    /// sub-steps when there were several (None: one, or more than `dynamic::MAX_CHAIN`), and
+    /// whether it was a cheap step at rest (every sub-step's end point the committed state).
+    Dynamic {
+        substeps: usize,
+        dt: f64,
+        whole: bool,
+        points: Option<Vec<crate::solver::dynamic::SubStepPoint>>,
+        rest: bool,
+    },
+    /// A state of a scene with time integration set from outside: the step that ended at it
+    /// is not known.
+    Restored,
+}
+
+impl LastStep {
+    /// The last step of a settled engine's cheap step (`Engine::keep`) of length `duration`:
+    /// at rest in equilibrium under unchanged inputs, each sub-step would have ended where it
+    /// started, in the sub-steps a step of that length takes (`DynamicPath::begin`).
+    /// Nothing is copied (the cheap step allocates nothing): the derivative takes the end
+    /// points from the committed state.
+    pub(crate) fn kept(scene: &crate::scene::Scene, duration: f64) -> LastStep {
+        match integration(scene) {
+            Some(i) if duration > 0.0 => {
+                let pieces = i
+                    .max_time_step
+                    .map_or(1.0, |m| (duration / m * (1.0 - 1e-9)).ceil().max(1.0));
+                LastStep::Dynamic {
+                    substeps: pieces as usize,
+                    dt: duration / pieces,
+                    whole: true,
+                    points: None,
+                    rest: true,
+                }
+            }
+            _ => LastStep::Static,
+        }
+    }
+
+    /// After a state is set from outside.
+    pub(crate) fn restored(scene: &crate::scene::Scene) -> LastStep {
+        match integration(scene) {
+            Some(_) => LastStep::Restored,
+            None => LastStep::Static,
+        }
+    }
+}
+
 /// The solver's settings from the scene's solver section.
 fn settings(scene: &Scene) -> Settings {
     let s = &scene.solver;
@@ -841,7 +908,7 @@ fn is_dynamic(scene: &Scene) -> bool {
 }
 
 /// The time integration's settings of a scene (None: quasi-static).
-fn integration(scene: &Scene) -> Option<crate::solver::Integration> {
+pub(crate) fn integration(scene: &Scene) -> Option<crate::solver::Integration> {
     let d = scene.dynamics.as_ref()?;
     let t = d.time_integration.as_ref()?;
     Some(crate::solver::Integration {

@@ -23,8 +23,28 @@
 //! The tangent is factored once per committed state, at the first derivative asked for, and
 //! kept until the state changes (Newton's last factorization is of the iterate before the
 //! converged one, with the iteration's damping and prestress, so it is not reused).
+//!
+//! ```text
+//! time step     a scene with dynamics.time_integration: the committed state is the end of
+//!               the last step (doStep) from its start state (u_n, v_n, a_n, the history and
+//!               the start inputs, all held); the knowns are the inputs set before that step
+//!               (the loads at its end, as the one-step lag of a static step). With one
+//!               sub-step of length Δt = h the step's equation at its end state is
+//!                   R(u_{n+1}; v) + b + K_d (u_{n+1} − u_n) = 0      (solver/dynamic.rs)
+//!               b and u_n held, so dz = (J + K_d)⁻¹ g with the same g as in statics:
+//!               `factor_tangent` adds K_d. Velocities and accelerations follow Newmark:
+//!                   dv_{n+1} = γ/(βΔt) du_{n+1},   da_{n+1} = du_{n+1}/(βΔt²)
+//!               Several sub-steps: the chain through them (solver/step_sensitivity.rs), from
+//!               the end points the step kept; the adjoint then one chain per known.
+//!               Refused (Unsupported, naming why): more than `dynamic::MAX_CHAIN` sub-steps,
+//!               sleeves, ties or plastic strains through several sub-steps, a step that
+//!               returned early, a state set from outside (the step that ended at it is not
+//!               known), parameter seeds (a parameter may enter M and C), energy outputs.
+//!               Before the first step (the initial equilibrium is static, at rest) the
+//!               derivatives are the static ones.
+//! ```
 
-use super::Engine;
+use super::{Engine, LastStep};
 use crate::error::Error;
 use crate::model::{pressure, LoadModel, Model, ProbeModel};
 use crate::results;
@@ -61,9 +81,11 @@ impl Engine {
         seed: &[f64],
         unknowns: &[usize],
     ) -> Result<Vec<f64>, Error> {
-        self.static_scene()?;
+        if self.chained() {
+            return self.chain_derivative(knowns, seed, unknowns);
+        }
         let (dz, dv, dp) = self.forward(knowns, seed)?;
-        self.output_derivative(unknowns, &dz, &dv, &dp)
+        self.output_derivative(unknowns, &dz, &dv, &dp, None)
     }
 
     /// w̄ = J_{unknowns, knowns}ᵀ · seed (seed per unknown, result per known).
@@ -73,14 +95,14 @@ impl Engine {
         seed: &[f64],
         knowns: &[Known],
     ) -> Result<Vec<f64>, Error> {
-        self.static_scene()?;
         let linear = unknowns
             .iter()
             .zip(seed)
             .filter(|(_, w)| **w != 0.0)
             .all(|(o, _)| self.probe_gradient(*o).is_some());
         let params = knowns.iter().any(|k| matches!(k, Known::Parameter(_)));
-        if !linear || params {
+        // Through several sub-steps: one forward chain per known.
+        if !linear || params || self.chained() {
             // One forward solve per known.
             let mut out = Vec::with_capacity(knowns.len());
             for k in knowns {
@@ -128,6 +150,11 @@ impl Engine {
                 Known::Input(slot) => dv[slot] += s,
                 Known::Parameter(i) => dp[i] += s,
             }
+        }
+        if dp.iter().any(|x| *x != 0.0) && self.is_dynamic() {
+            return Err(Error::Unsupported(
+                "derivatives with respect to a parameter of a scene with dynamics.time_integration (not implemented: a parameter may enter the mass and the damping of the step)".into(),
+            ));
         }
         self.ensure_tangent()?;
         let tangent = self.tangent.take().expect("ensured");
@@ -187,6 +214,7 @@ impl Engine {
                 "a parameter changed since the last equilibrium: step first, then ask for derivatives".into(),
             ));
         }
+        let inertia = self.step_inertia()?;
         let states: Vec<_> = self.membranes.iter().map(|e| e.state).collect();
         let s = &self.state;
         let tangent = self.solver.factor_tangent(
@@ -195,6 +223,7 @@ impl Engine {
             &s.applied,
             &states,
             &s.slip_state,
+            &inertia,
         )?;
         self.tangent = Some(tangent);
         Ok(())
@@ -256,38 +285,182 @@ impl Engine {
         Ok((build(p + h)?, build(p - h)?, h))
     }
 
-    /// Derivatives are those of a quasi-static equilibrium: a scene with time integration has
-    /// none (the change of a step's end state with its inputs is not implemented).
-    fn static_scene(&self) -> Result<(), Error> {
-        if self.is_dynamic() {
-            return Err(Error::Unsupported(
-                "derivatives of a scene with dynamics.time_integration (not implemented: the outputs after a time step depend on its whole history)".into(),
-            ));
+    /// What the tangent of the committed state gains from the step that ended at it (module
+    /// docs): nothing after a static equilibrium, K_d after a step of time integration of one
+    /// sub-step; the cases that are not implemented are refused, naming why.
+    fn step_inertia(&mut self) -> Result<Vec<f64>, Error> {
+        let dt = match &self.last_step {
+            LastStep::Static => return Ok(Vec::new()),
+            LastStep::Restored => {
+                return Err(Error::Unsupported(
+                    "derivatives of a scene with dynamics.time_integration at a state set from outside (fmi2SetFMUstate, fmi3SetFMUState, a deserialized state) with no step since: they are those of the last step from its start state, which the state does not hold; take the step from it, then ask".into(),
+                ))
+            }
+            LastStep::Dynamic { whole: false, .. } => {
+                return Err(Error::Unsupported(
+                    "derivatives of a scene with dynamics.time_integration after a step that returned early (FMI 3 early return): they are given at the end of a whole step".into(),
+                ))
+            }
+            LastStep::Dynamic {
+                substeps,
+                points: None,
+                rest: false,
+                ..
+            } if *substeps != 1 => {
+                return Err(Error::Unsupported(format!(
+                    "derivatives of a step of dynamics.time_integration taken in {substeps} sub-steps (dynamics.time_integration.max_time_step shorter than the step, or sub-steps cut back): the end points of at most {} sub-steps are kept for the chain through them",
+                    crate::solver::dynamic::MAX_CHAIN
+                )))
+            }
+            // The tangent at the step's end: its last sub-step's (the chain itself runs in
+            // `chain_derivative`; this one serves the reactions).
+            LastStep::Dynamic { dt, .. } => *dt,
+        };
+        let Some(integration) = super::integration(&self.scene) else {
+            return Ok(Vec::new());
+        };
+        Ok(self.solver.step_stiffness(&self.model, &integration, dt))
+    }
+
+    /// Whether the last step was one of time integration in several sub-steps whose end points
+    /// are kept (the derivatives then go through them: `solver/step_sensitivity.rs`).
+    fn chained(&self) -> bool {
+        match &self.last_step {
+            LastStep::Dynamic {
+                substeps,
+                whole: true,
+                points,
+                rest,
+                ..
+            } => *substeps > 1 && (points.is_some() || *rest),
+            _ => false,
         }
-        Ok(())
+    }
+
+    /// The directional derivative through the sub-steps of the last step (module docs).
+    fn chain_derivative(
+        &mut self,
+        knowns: &[Known],
+        seed: &[f64],
+        unknowns: &[usize],
+    ) -> Result<Vec<f64>, Error> {
+        let mut dv = vec![0.0; self.state.inputs.len()];
+        for (k, s) in knowns.iter().zip(seed) {
+            match *k {
+                Known::Input(slot) => dv[slot] += s,
+                Known::Parameter(_) if *s != 0.0 => {
+                    return Err(Error::Unsupported(
+                        "derivatives with respect to a parameter of a scene with dynamics.time_integration (not implemented: a parameter may enter the mass and the damping of the step)".into(),
+                    ))
+                }
+                Known::Parameter(_) => {}
+            }
+        }
+        let integration = super::integration(&self.scene);
+        let points = match (&integration, &self.last_step) {
+            (
+                Some(_),
+                LastStep::Dynamic {
+                    points: Some(points),
+                    ..
+                },
+            ) => points.clone(),
+            // A cheap step at rest: every sub-step ended at the committed state.
+            (
+                Some(_),
+                LastStep::Dynamic {
+                    substeps,
+                    dt,
+                    rest: true,
+                    ..
+                },
+            ) if *substeps <= crate::solver::dynamic::MAX_CHAIN => (1..=*substeps)
+                .map(|k| crate::solver::dynamic::SubStepPoint {
+                    u: self.state.displacement.clone(),
+                    loads: self.state.applied.clone(),
+                    lambda: k as f64 / *substeps as f64,
+                    dt: *dt,
+                })
+                .collect(),
+            _ => {
+                return Err(Error::Unsupported(format!(
+                    "derivatives of a step of dynamics.time_integration in more sub-steps than the {} whose end points are kept",
+                    crate::solver::dynamic::MAX_CHAIN
+                )))
+            }
+        };
+        let Some(integration) = integration else {
+            return Err(Error::Unsupported(
+                "internal: a step of time integration in a quasi-static scene".into(),
+            ));
+        };
+        // The chain factors each sub-step's tangent in the solver's one factorization: a
+        // tangent factored before (or by) it is stale.
+        self.tangent = None;
+        let change = self
+            .solver
+            .step_chain(&self.model, &integration, &points, &dv);
+        self.tangent = None;
+        let change = change?;
+        let dp = vec![0.0; self.state.parameters.len()];
+        self.output_derivative(
+            unknowns,
+            &change.dz,
+            &dv,
+            &dp,
+            Some((&change.velocity, &change.acceleration)),
+        )
+    }
+
+    /// dv/du and da/du of the end state of the last step (generalized-α's Newmark update,
+    /// module docs) when it was a step of time integration of one sub-step; else None.
+    fn step_rates(&self) -> Option<(f64, f64)> {
+        let LastStep::Dynamic {
+            substeps: 1,
+            dt,
+            whole: true,
+            ..
+        } = self.last_step
+        else {
+            return None;
+        };
+        let integration = super::integration(&self.scene)?;
+        let a = crate::solver::dynamic::Alpha::new(integration.rho_inf);
+        Some((a.gamma / (a.beta * dt), 1.0 / (a.beta * dt * dt)))
     }
 
     /// dy of the output slots for the change (dz, dv, dp).
+    /// `motion`: the change of the velocities and accelerations (per DOF) where it is not
+    /// Newmark's update of dz alone (a step of several sub-steps).
     fn output_derivative(
         &mut self,
         unknowns: &[usize],
         dz: &[f64],
         dv: &[f64],
         dp: &[f64],
+        motion: Option<(&[f64], &[f64])>,
     ) -> Result<Vec<f64>, Error> {
         if unknowns.iter().any(|&o| {
             matches!(
                 self.model.probes.get(o),
-                Some(
-                    ProbeModel::Velocity { .. }
-                        | ProbeModel::Acceleration { .. }
-                        | ProbeModel::KineticEnergy
-                        | ProbeModel::StrainEnergy
-                )
+                Some(ProbeModel::KineticEnergy | ProbeModel::StrainEnergy)
             )
         }) {
             return Err(Error::Unsupported(
-                "derivatives of a velocity, acceleration or energy output (not implemented)".into(),
+                "derivatives of an energy output (not implemented)".into(),
+            ));
+        }
+        if self.step_rates().is_none()
+            && motion.is_none()
+            && unknowns.iter().any(|&o| {
+                matches!(
+                    self.model.probes.get(o),
+                    Some(ProbeModel::Velocity { .. } | ProbeModel::Acceleration { .. })
+                )
+            })
+        {
+            return Err(Error::Unsupported(
+                "derivatives of a velocity or acceleration output outside a step of time integration (not implemented: a static equilibrium is at rest)".into(),
             ));
         }
         if unknowns.iter().any(|&o| {
@@ -308,6 +481,19 @@ impl Engine {
         // The reactions' exact change, formed at the first reaction output asked for.
         let mut reactions: Option<ReactionChange> = None;
         for (k, &o) in unknowns.iter().enumerate() {
+            if let Some((velocity, acceleration)) = motion {
+                match self.model.probes[o] {
+                    ProbeModel::Velocity { dof } => {
+                        out[k] = velocity[dof];
+                        continue;
+                    }
+                    ProbeModel::Acceleration { dof } => {
+                        out[k] = acceleration[dof];
+                        continue;
+                    }
+                    _ => {}
+                }
+            }
             let gradient = self
                 .probe_gradient(o)
                 .filter(|_| !parameters || kinematic(&self.model.probes[o]));
@@ -448,6 +634,9 @@ impl Engine {
             ProbeModel::Displacement { dof } | ProbeModel::Position { dof, .. } => {
                 vec![(*dof, 1.0)]
             }
+            // The end of a time step: Newmark's update (module docs).
+            ProbeModel::Velocity { dof } => vec![(*dof, self.step_rates()?.0)],
+            ProbeModel::Acceleration { dof } => vec![(*dof, self.step_rates()?.1)],
             ProbeModel::CableSlip { slip } => vec![(n3 + slip, -1.0)],
             // A closed segment (sleeve points merged into one contact group, length 0) has no
             // direction: its probes go by differences.

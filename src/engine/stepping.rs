@@ -124,10 +124,19 @@ impl Engine {
                 + self.state.slip_state.len()
                 + self.state.plastic.len()) as u64
             + 9 * self.state.wrinkle.len() as u64;
+        // A step of time integration keeps the end points of up to MAX_CHAIN sub-steps for
+        // its derivatives (unknowns and loads each).
+        let chain_bytes = if super::integration(&self.scene).is_some() && self.duration > 0.0 {
+            8 * (crate::solver::dynamic::MAX_CHAIN
+                * (self.state.displacement.len() + self.state.applied.len())) as u64
+        } else {
+            0
+        };
         let step_bytes = self
             .solver
             .step_bytes(&self.model)
-            .saturating_add(2 * state_bytes);
+            .saturating_add(2 * state_bytes)
+            .saturating_add(chain_bytes);
         Ok(memory::probe(step_bytes, "the step's working memory")?)
     }
 
@@ -169,6 +178,19 @@ impl Engine {
             .motion()
             .filter(|_| !step.stepper.has_failed())
             .map(|(v, a)| (v.to_vec(), a.to_vec()));
+        // What the state will be the end of (committed below only with the state).
+        let mut step = step;
+        let last_step = match step.stepper.substeps() {
+            Some((substeps, dt)) => super::LastStep::Dynamic {
+                substeps,
+                dt,
+                whole: step.stepper.lambda() >= 1.0,
+                // One sub-step's end is the committed state: nothing to keep.
+                points: step.stepper.take_points().filter(|_| substeps > 1),
+                rest: false,
+            },
+            None => super::LastStep::Static,
+        };
         let s = &mut self.state;
         let mut history = History {
             contact: std::mem::take(&mut s.slip_state),
@@ -273,6 +295,7 @@ impl Engine {
         // Short of the end (early return) the inputs are not yet the applied ones, so the
         // engine is settled only after a whole step.
         self.converged = true;
+        self.last_step = last_step;
         report
     }
 }

@@ -231,6 +231,37 @@ impl Solver {
         };
         inertia.apply(&self.pattern.eq, u, &mut self.residual, values, m)
     }
+
+    /// K_d = [(1−αm)/(β Δt²) M + (1−αf) γ/(β Δt) C]/(1−αf) of a sub-step of length `dt`
+    /// (module docs) on the tangent's pattern (the values over the equations, as
+    /// `linear.values()` holds them): the sub-step's equation R + g = 0 changes with its end
+    /// state u_{n+1} by J + K_d, J the static tangent. The derivatives of a time step add it to
+    /// the true tangent (`engine/derivatives.rs`). Builds M and C if no step has yet.
+    pub fn step_stiffness(
+        &mut self,
+        model: &Model,
+        integration: &Integration,
+        dt: f64,
+    ) -> Vec<f64> {
+        self.dynamic_matrices(model, integration);
+        let Alpha {
+            am,
+            af,
+            beta,
+            gamma,
+        } = Alpha::new(integration.rho_inf);
+        let cm = (1.0 - am) / (beta * dt * dt) / (1.0 - af);
+        let cc = gamma / (beta * dt);
+        let Some(matrices) = self.dynamic_matrices.as_ref() else {
+            return Vec::new();
+        };
+        let (m, c) = (&matrices.m, &matrices.c);
+        if c.is_empty() {
+            m.iter().map(|m| cm * m).collect()
+        } else {
+            m.iter().zip(c).map(|(m, c)| cm * m + cc * c).collect()
+        }
+    }
 }
 
 /// One step of time integration in progress (module docs): the last converged sub-step's
@@ -256,6 +287,26 @@ pub struct DynamicPath {
     /// R(u_{n+1}, t_{n+1}) of the last converged attempt. (The inertia force's buffers are
     /// kept in the solver from sub-step to sub-step and step to step: `Carry::inertia`.)
     residual_trial: Vec<f64>,
+    /// The sub-steps converged so far and the length Δt (s) of the last one (the derivatives
+    /// of a step need them: `Solver::step_stiffness`).
+    pub(super) substeps: (usize, f64),
+    /// Every converged sub-step's end point, for the derivatives through the sub-steps
+    /// (`step_sensitivity.rs`); None once there are more than [`MAX_CHAIN`] (the copies are
+    /// not kept for longer steps).
+    pub(super) points: Option<Vec<SubStepPoint>>,
+}
+
+/// The most sub-steps of one step whose end points are kept for its derivatives.
+pub const MAX_CHAIN: usize = 64;
+
+/// The end of one converged time sub-step: its unknowns, its loads, the fraction λ of the
+/// step's load change reached there, and its length Δt (s).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SubStepPoint {
+    pub u: Vec<f64>,
+    pub loads: Vec<f64>,
+    pub lambda: f64,
+    pub dt: f64,
 }
 
 impl DynamicPath {
@@ -305,6 +356,8 @@ impl DynamicPath {
             acceleration: take(motion.1),
             residual_n,
             residual_trial: Vec::new(),
+            substeps: (0, 0.0),
+            points: Some(Vec::new()),
         }
     }
 
@@ -366,6 +419,18 @@ impl DynamicPath {
                         self.time + dt
                     ),
                 );
+                if let Some(points) = self.points.as_mut() {
+                    if points.len() < MAX_CHAIN {
+                        points.push(SubStepPoint {
+                            u: trial.clone(),
+                            loads: loads.clone(),
+                            lambda: end.min(1.0),
+                            dt,
+                        });
+                    } else {
+                        self.points = None;
+                    }
+                }
                 self.commit(model, dt, trial, contact);
                 self.time = if end >= 1.0 {
                     self.duration
@@ -550,6 +615,7 @@ impl DynamicPath {
         self.history = self.history.advanced(model, &trial, contact);
         std::mem::swap(&mut self.residual_n, &mut self.residual_trial);
         self.converged = trial;
+        self.substeps = (self.substeps.0 + 1, dt);
     }
 }
 

@@ -73,6 +73,7 @@ pub mod slip;
 mod slope;
 mod split;
 pub mod stability;
+pub mod step_sensitivity;
 mod stepper;
 mod system;
 pub mod threads;

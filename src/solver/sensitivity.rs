@@ -15,6 +15,10 @@
 //!                                                  volume or the gas law (volume.rs)
 //! states        wrinkle states and stick/slip states frozen as converged; no damping, no
 //!               artificial prestress (both are tangent-only devices of the iteration)
+//! time step     the end state of a step of time integration (one sub-step, dynamic.rs):
+//!               A gains the step's K_d = [(1−αm)/(βΔt²) M + (1−αf)γ/(βΔt) C]/(1−αf) on the
+//!               free DOFs (symmetric; the start state held), so every solve below is that
+//!               of R + g = 0 at the step's end with respect to its end inputs
 //! forward       J dz = g          g = −∂R/∂v · dv  (load sensitivity, [`Solver::load_rhs`])
 //! adjoint       Jᵀ λ = w
 //! sleeve ties   closed at the equilibrium by their multipliers μ (model/sleeve.rs): the
@@ -219,7 +223,9 @@ impl Solver {
     }
 
     /// Assemble the consistent tangent at the converged state `u` (wrinkle states `wrinkle`,
-    /// stick/slip states `slip_states`, both frozen) and factor it once.
+    /// stick/slip states `slip_states`, both frozen) and factor it once. `inertia`: values on
+    /// the tangent's pattern added to it (a time step's K_d, `Solver::step_stiffness`: the
+    /// tangent of the step's end state, module docs), or empty (a static equilibrium).
     pub fn factor_tangent(
         &mut self,
         model: &Model,
@@ -227,8 +233,20 @@ impl Solver {
         loads: &[f64],
         wrinkle: &[WrinkleState],
         slip_states: &[Contact],
+        inertia: &[f64],
     ) -> Result<Tangent, Error> {
         self.assemble_true_tangent(model, u, loads, wrinkle);
+        if !inertia.is_empty() {
+            let values = self.linear.values_mut();
+            if values.len() != inertia.len() {
+                return Err(Error::Unsupported(format!(
+                    "internal: the step's inertia has {} values on a tangent pattern of {}",
+                    inertia.len(),
+                    values.len()
+                )));
+            }
+            values.iter_mut().zip(inertia).for_each(|(a, k)| *a += k);
+        }
         let upper = {
             let a = self.linear.matrix();
             let what = "the sensitivity's copy of the tangent";

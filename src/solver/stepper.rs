@@ -124,6 +124,24 @@ impl Stepper {
         }
     }
 
+    /// How many time sub-steps a dynamic step has converged so far and the length (s) of the
+    /// last one (None under load control or arc length).
+    pub fn substeps(&self) -> Option<(usize, f64)> {
+        match &self.path {
+            Path::Dynamic(p) => Some(p.substeps),
+            _ => None,
+        }
+    }
+
+    /// The end points of the converged sub-steps of a dynamic step (None under load control or
+    /// arc length, or when there were more than `dynamic::MAX_CHAIN`), taken out.
+    pub fn take_points(&mut self) -> Option<Vec<super::dynamic::SubStepPoint>> {
+        match &mut self.path {
+            Path::Dynamic(p) => p.points.take(),
+            _ => None,
+        }
+    }
+
     /// A step that cannot start (why in the report): `advance` does nothing.
     pub fn fail(&mut self, message: String) {
         self.failed = true;

@@ -11,6 +11,7 @@ mod arrays;
 mod cheap_step;
 mod derivative_states;
 mod derivatives;
+mod dynamic_derivatives;
 mod fmi3_abi;
 mod fmi_abi;
 mod importer;
