@@ -813,7 +813,7 @@ fn cost_line(
     let s = &scene.solver;
     let c = velarium::scene::limits::cost(s, size, triangles as u64);
     format!(
-        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial or re-check counts as half of one, a relaxation round as one): about {:.0} s",
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial or re-check counts as half of one, a round of nodal relaxation as one, though it can cost several): about {:.0} s, more where nodal relaxation runs long",
         size.factor_flops / 1e9,
         c.iteration,
         s.max_iterations,

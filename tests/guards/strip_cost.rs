@@ -12,7 +12,7 @@
 //!   quadratic fill would give 16);
 //! - the failing step's iterations stay within what `check` announces: the step's work budget,
 //!   `solver.max_step_iterations` (1000 iterations' worth, every further line-search trial or
-//!   re-check counted as half of one, a relaxation round as one; before the budget, 7 cut-back increments of
+//!   re-check counted as half of one, a round of nodal relaxation as one, though it can cost several; before the budget, 7 cut-back increments of
 //!   40 to 200 on the SleeveCable strip: 280 to 1400 iterations, measured 296, each with 14-17
 //!   assemblies), and `check` announces it.
 
