@@ -145,6 +145,7 @@ fn local(
     loads: &[f64],
     node: usize,
     forced: Frozen,
+    want_k: bool,
 ) -> Local {
     let mut out = Local {
         r: Vector3::zeros(),
@@ -156,7 +157,7 @@ fn local(
         let at = &adj.elements[kind][node];
         match kind {
             ElementKind::Membrane => {
-                local_triangles(model, adj, u, loads, node, forced, at, &mut out)
+                local_triangles(model, adj, u, loads, node, forced, at, want_k, &mut out)
             }
             ElementKind::Cable => {
                 let lines = at
@@ -201,6 +202,7 @@ fn local_triangles(
     node: usize,
     forced: Frozen,
     at: &[(usize, usize)],
+    want_k: bool,
     out: &mut Local,
 ) {
     let mut ke = Mat9::zeros();
@@ -212,19 +214,23 @@ fn local_triangles(
             u,
             forced.aid(),
             state,
-            Some(&mut ke),
+            want_k.then_some(&mut ke),
             REGULARIZATION,
         );
         out.r += f.fixed_rows::<3>(3 * a);
-        out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
+        if want_k {
+            out.k += ke.fixed_view::<3, 3>(3 * a, 3 * a);
+        }
         out.potential = out.potential.map(|p| p + eval.energy);
         out.inverted |= !(ratio > MIN_AREA_RATIO);
         for &(l, follower) in &adj.pressures[e] {
             let value = model.load_value(l, u, loads);
-            let (f, kp) = pressure_contribution(model, e, u, value, follower, true);
+            let (f, kp) = pressure_contribution(model, e, u, value, follower, want_k);
             out.r -= f;
             if let Some(kp) = kp {
                 out.k += kp.fixed_view::<3, 3>(3 * a, 3 * a);
+                out.potential = None;
+            } else if follower {
                 out.potential = None;
             } else {
                 out.potential = out.potential.map(|p| p - f.dot(&displacement(u, node)));
@@ -290,7 +296,7 @@ pub fn relax_nodes(
         }
         let mut changed = false;
         for _ in 0..LOCAL_ITERATIONS {
-            let here = local(model, adj, u, loads, node, forced);
+            let here = local(model, adj, u, loads, node, forced, true);
             let norm = free.iter().fold(0.0f64, |m, &c| m.max(here.r[c].abs()));
             if norm <= target {
                 break;
@@ -359,7 +365,8 @@ fn line_search(
         for c in 0..3 {
             u[3 * node + c] = start[c] + alpha * step[c];
         }
-        let trial = local(model, adj, u, loads, node, forced);
+        // Only the residual along the step: no tangent.
+        let trial = local(model, adj, u, loads, node, forced, false);
         let s = trial.r.dot(step);
         (!trial.inverted && s.is_finite()).then_some(s)
     });
