@@ -6,9 +6,9 @@
 //!
 //! A phase is timed from [`start`] to the drop of the guard it returns; phases nest (the
 //! depth on the thread is recorded, so a report can indent them). The CPU time is the whole
-//! process's (every thread, the helper's included) and the phase's own thread's, from the
-//! scheduler's run times in /proc (no `unsafe` outside src/fmi), so two engines built at
-//! once would see each other's; the scaling benchmark builds one at a time
+//! process's (every thread, the helper's included, in 10 ms ticks) and the phase's own
+//! thread's (the scheduler's run time, nanoseconds), both from /proc (no `unsafe` outside
+//! src/fmi), so two engines built at once would see each other's; the scaling benchmark builds one at a time
 //! (`examples/scale.rs --timings`, docs/performance.md "Setup phases").
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -61,19 +61,27 @@ pub fn take() -> Vec<Phase> {
     out
 }
 
-/// CPU seconds (user + system) of the process's live threads so far: the sum of their
-/// scheduler run times (/proc/self/task/*/schedstat, nanoseconds; a thread that has ended is
-/// not counted, the solver's helper lives as long as the solver). NaN where that is missing
-/// (not Linux).
+/// CPU seconds (user + system) of the whole process so far, every thread's, those that have
+/// ended included (/proc/self/stat, utime + stime, in clock ticks of 10 ms: Linux's USER_HZ of
+/// 100 on every architecture we build for). NaN where that is missing (not Linux). Summing the
+/// live threads' scheduler run times instead (nanoseconds) fell when a thread ended during a
+/// phase, giving negative CPU times.
 pub fn process_cpu() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return f64::NAN;
-    };
-    let mut sum = 0.0;
-    for task in tasks.flatten() {
-        sum += run_time(&task.path().join("schedstat")).unwrap_or(0.0);
-    }
-    sum
+    process_ticks().map_or(f64::NAN, |t| t as f64 / USER_HZ)
+}
+
+/// Clock ticks per second of /proc's CPU times (USER_HZ).
+const USER_HZ: f64 = 100.0;
+
+/// utime + stime of /proc/self/stat (fields 14 and 15; the command name, field 2, is in
+/// parentheses and may hold spaces, so the fields are counted after its closing one).
+fn process_ticks() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let mut after = text[text.rfind(')')? + 1..].split_whitespace();
+    // After the name: field 3 (state) is the first; utime is field 14.
+    let utime: u64 = after.nth(11)?.parse().ok()?;
+    let stime: u64 = after.next()?.parse().ok()?;
+    Some(utime + stime)
 }
 
 /// CPU seconds (user + system) of the calling thread so far (/proc/thread-self/schedstat;
@@ -185,5 +193,25 @@ mod tests {
             .iter()
             .all(|p| p.wall >= 0.0 && p.cpu >= 0.0 && p.thread_cpu >= 0.0));
         assert!(start("off").is_none());
+    }
+
+    /// A thread that burns CPU and ends still counts: the process's CPU time never falls.
+    #[test]
+    fn process_cpu_keeps_the_time_of_ended_threads() {
+        let before = process_cpu();
+        assert!(before.is_finite() && before >= 0.0, "{before}");
+        std::thread::spawn(|| {
+            let t = thread_cpu();
+            let mut x = 0u64;
+            while thread_cpu() - t < 0.05 {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
+            }
+            std::hint::black_box(x);
+        })
+        .join()
+        .unwrap();
+        let after = process_cpu();
+        // 0.05 s burnt on the ended thread; ticks of 10 ms.
+        assert!(after - before >= 0.03, "{before} -> {after}");
     }
 }
