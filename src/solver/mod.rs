@@ -49,6 +49,7 @@ mod dense;
 pub mod dissect;
 pub mod dynamic;
 mod factor;
+pub mod flat_start;
 mod inertia;
 mod line_search;
 pub mod linear;
