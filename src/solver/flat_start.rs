@@ -95,9 +95,10 @@ pub fn blocks(pattern: &Pattern, k: &[f64], r: &[f64], axis: usize) -> Blocks {
     let normal = |e: usize| component[e] as usize == axis;
     let mut b = Blocks::default();
     for col in 0..pattern.n {
-        for at in pattern.col_ptr[col]..pattern.col_ptr[col + 1] {
-            let v = k[at].abs();
-            let slot = match (normal(pattern.row_idx[at]), normal(col)) {
+        let range = pattern.col_ptr[col]..pattern.col_ptr[col + 1];
+        for (&row, &value) in pattern.row_idx[range.clone()].iter().zip(&k[range]) {
+            let v = value.abs();
+            let slot = match (normal(row), normal(col)) {
                 (true, true) => &mut b.normal,
                 (false, false) => &mut b.in_plane,
                 _ => &mut b.coupling,
@@ -146,10 +147,10 @@ mod tests {
         let n = pattern.n;
         let mut dense = DMatrix::zeros(n, n);
         for col in 0..n {
-            for at in pattern.col_ptr[col]..pattern.col_ptr[col + 1] {
-                let row = pattern.row_idx[at];
-                dense[(row, col)] = k[at];
-                dense[(col, row)] = k[at];
+            let range = pattern.col_ptr[col]..pattern.col_ptr[col + 1];
+            for (&row, &value) in pattern.row_idx[range.clone()].iter().zip(&k[range]) {
+                dense[(row, col)] = value;
+                dense[(col, row)] = value;
             }
         }
         let mut free = vec![0.0; n];
