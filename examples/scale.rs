@@ -981,6 +981,10 @@ fn e2e(sizes: &[(usize, usize)], threads: Option<usize>, runs: usize) {
                     .expect("a number")
             };
             let (su, so) = (field("setup "), field("solve "));
+            // What the process spends besides the engine's setup and solve: reading the
+            // scene, writing the CSV, and starting and ending the process (the rest of wall).
+            let (read, write) = (field("read "), field("write "));
+            let rest = w - read - su - so - write;
             let csv = std::fs::read_to_string(&out).expect("result CSV");
             let row = csv.lines().nth(1).expect("one row");
             let w0: f64 = row
@@ -991,7 +995,7 @@ fn e2e(sizes: &[(usize, usize)], threads: Option<usize>, runs: usize) {
             let check = (w0 / 0.5 - W_FOLLOWER).abs() / W_FOLLOWER;
             let used = line.rsplit(", ").next().unwrap_or("").to_string();
             println!(
-                "disc {rings} rings, run {}: wall {w:.2} s, setup {su:.2} s, solve {so:.2} s, cpu {c:.2} s, peak {p:.0} MiB, {used}, w0 error {check:.2e}, load average before {load}",
+                "disc {rings} rings, run {}: wall {w:.2} s, setup {su:.2} s, solve {so:.2} s, read {read:.3} s, write {write:.3} s, process start and exit {rest:.3} s, cpu {c:.2} s, peak {p:.0} MiB, {used}, w0 error {check:.2e}, load average before {load}",
                 run + 1
             );
             wall.push(w);

@@ -29,6 +29,8 @@
 //!                 on the System's equations)
 //! modes.rs        natural frequencies and modes: shift-invert Lanczos on K and M
 //! stability.rs    whether an equilibrium under ponding water is stable (K positive definite)
+//! flat_start.rs   a flat start's in-plane and out-of-plane tangent blocks: the strict test
+//!                 that they decouple, and their measurement (not used by the Newton loop)
 //! core.rs         the Solver's workspace; settings.rs, report.rs, loads.rs, rows.rs: plain
 //!                 data and functions every phase shares
 //! ```
@@ -49,6 +51,7 @@ mod dense;
 pub mod dissect;
 pub mod dynamic;
 mod factor;
+pub mod flat_start;
 mod inertia;
 mod line_search;
 pub mod linear;
