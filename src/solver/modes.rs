@@ -827,7 +827,8 @@ impl Solver {
     /// `loads`, wrinkle states `wrinkle` (module docs). Errors: a model without mass, a scene
     /// with sleeves or volume inputs (their unknowns are not in this eigenproblem), a failed
     /// factorization of K − σM. Leaves K − σM in the solver's factorization: the next Newton
-    /// iteration assembles and factors its own.
+    /// iteration assembles and factors its own. Keeps its large buffers (the Lanczos basis,
+    /// [`Work`]) in the solver for the next analysis.
     pub fn modes(
         &mut self,
         model: &Model,
