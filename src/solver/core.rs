@@ -85,6 +85,8 @@ pub struct Solver {
     pub(super) dynamic_matrices: Option<super::inertia::Matrices>,
     /// M for the kinetic energy output, built at its first use.
     pub(super) kinetic_mass: Option<Vec<f64>>,
+    /// The modal analysis's work space (the Lanczos basis), kept between analyses (`modes.rs`).
+    pub(super) modes_work: super::modes::Work,
 }
 
 /// One Newton iteration in the step's work budget (`Solver::step_work` counts halves).
@@ -239,6 +241,7 @@ impl Solver {
             inertia: None,
             dynamic_matrices: None,
             kinetic_mass: None,
+            modes_work: Default::default(),
             pattern,
         })
     }
