@@ -9,7 +9,7 @@
 #
 # The toolchain comes from PyPI (ziglang, cargo-zigbuild, pinned below) into .venv. When it
 # cannot be installed (no PyPI, an unsupported platform), this prints a notice and exits 0: the
-# FMUs are then packed with the native library (glibc 2.34 here), and `velarium pack` says so.
+# FMUs are then packed with the native library (glibc 2.35 here), and `velarium pack` says so.
 # A build that fails with the toolchain present is an error (exit 1).
 # Usage: bash harness/portable.sh (after harness/setup.sh's .venv; setup.sh runs it).
 set -euo pipefail
@@ -17,7 +17,7 @@ cd "$(dirname "$0")/.."
 
 TARGET=x86_64-unknown-linux-gnu
 notice() {
-  echo "portable.sh: NOTICE: $1; the FMUs will hold the native library, which needs glibc 2.34 or newer (Debian 12, Ubuntu 22.04, RHEL 9), not glibc 2.17 (docs/fmu.md, \"Portable FMUs\")" >&2
+  echo "portable.sh: NOTICE: $1; the FMUs will hold the native library, which needs glibc 2.35 or newer (Debian 12, Ubuntu 22.04), not glibc 2.17 (docs/fmu.md, \"Portable FMUs\")" >&2
   exit 0
 }
 

@@ -44,13 +44,14 @@ C_RUNTIME = re.compile(
 def glibc_baseline() -> tuple[tuple[int, ...], str]:
     """The oldest glibc the packed library must load on (docs/fmu.md, "Portable FMUs"), and why:
     2.17 when the portable library is built and current (then `velarium pack` ships it by
-    default), else 2.34 (the native build on Debian 12); VELARIUM_GLIBC_BASELINE overrides."""
+    default), else 2.35 (the native build on Debian 12: `hypot@GLIBC_2.35`, objdump -T, 2026-11-29; 2.34 for
+    its pthread and dlsym symbols); VELARIUM_GLIBC_BASELINE overrides."""
     given = os.environ.get("VELARIUM_GLIBC_BASELINE")
     if given:
         return tuple(int(x) for x in given.split(".")), "VELARIUM_GLIBC_BASELINE"
     if vr.portable_library_is_current():
         return (2, 17), f"the portable library {vr.PORTABLE_LIBRARY} is built"
-    return (2, 34), f"no current portable library at {vr.PORTABLE_LIBRARY} (harness/portable.sh printed why): native build"
+    return (2, 35), f"no current portable library at {vr.PORTABLE_LIBRARY} (harness/portable.sh printed why): native build"
 
 
 def highest_glibc(so) -> tuple[int, ...]:

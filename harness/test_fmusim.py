@@ -2,7 +2,9 @@
 
 fmusim is not in the package registries CI reaches; docs/fmu.md ("Reference results inside the
 FMU", **fmusim.**) says how to build it from the Reference-FMUs sources against the
-distribution's zlib, libxml2, minizip and SUNDIALS packages. Without FMUSIM every test here skips with that reason.
+distribution's zlib, libxml2, minizip and SUNDIALS packages; `bash harness/build_fmusim.sh
+REFERENCE_FMUS_CHECKOUT` builds it (CVode stubbed: Model Exchange only). Without FMUSIM every
+test here skips with that reason.
 
 What is compared (measured with fmusim 0.0.39, docs/fmu.md):
 

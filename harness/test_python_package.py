@@ -137,7 +137,7 @@ def test_the_wheel_is_tagged_by_the_glibc_its_binaries_need(fresh):
     """The installed wheel's platform tag against objdump's reading of the bundled binaries:
     manylinux_2_17 + manylinux2014 when they need glibc 2.17 at most (the portable build, which
     `bash .ci/run` makes and which must then be what is bundled), the plain linux tag when a
-    binary needs more (the native build: glibc 2.34 and libgcc_s here)."""
+    binary needs more (the native build: glibc 2.35 and libgcc_s here)."""
     if shutil.which("objdump") is None:
         pytest.skip("objdump (binutils) is not installed: it reads the binaries' GLIBC versions here")
     site = site_packages(fresh)
@@ -155,7 +155,7 @@ def test_the_wheel_is_tagged_by_the_glibc_its_binaries_need(fresh):
 
 def test_the_hooks_elf_reader_agrees_with_objdump():
     """setup.py's own ELF reader (what the tag is decided on) against binutils: the same GLIBC
-    versions needed, on the native and the portable binaries; the native ones (glibc 2.34,
+    versions needed, on the native and the portable binaries; the native ones (glibc 2.35,
     libgcc_s) get the plain tag, the portable ones manylinux2014."""
     import importlib.util
 

@@ -219,8 +219,8 @@ pub fn portable_library(native: &Path) -> Option<PathBuf> {
 fn default_library(native: &Path) -> LibraryChoice {
     let how = "build it with `bash harness/portable.sh` (docs/fmu.md, \"Portable FMUs\")";
     let shipping = format!(
-        "shipping {}, the native build: the FMUs need the glibc it was linked against (2.34 on \
-         Debian 12) or newer",
+        "shipping {}, the native build: the FMUs need the glibc it was linked against (2.35 on \
+         Debian 12, for `hypot`) or newer",
         native.display()
     );
     let Some(portable) = portable_library(native).filter(|p| p.is_file()) else {

@@ -38,7 +38,10 @@
 //!       the acceptance 1e-2; the edge cable's tension within 1e-2 of its 10 kN, measured
 //!       3.8e-3). Triangles: aspect ratio (longest edge over 2√3 times the inradius; 1 for an
 //!       equilateral triangle) at most 1.5 (measured 1.13), smallest angle at least 40°
-//!       (44.6°); shipped 2.0 (1.28) and 35° (37.3°). Time: under 2 s (measured 0.09-0.15 s).
+//!       (44.6°); shipped 2.0 (1.28) and 35° (37.3°). Time: issue 29's target is under 2 s
+//!       (measured 0.06-0.15 s, printed); asserted is the work, which does not depend on the
+//!       machine's load: at most 24 form-finding iterations at 32 x 20 (measured 12) and 34
+//!       for the shipped tent (measured 17), twice what is reached.
 //!       Statics of the loaded tent: 2e-8 of the load: the solver's force tolerance (1e-9 of
 //!       the force scale per DOF) summed over the free edge's nodes (measured 3.9e-11 snow,
 //!       5.4e-9 suction, 1.2e-10 pressure, 2.0e-13 weight; with the base held all round it was
@@ -190,10 +193,11 @@ fn the_conical_tent_is_the_axisymmetric_membrane_and_carries_its_loads() {
         );
         shape_errors.push(shape);
         if sectors == 32 {
+            // The work, not the time (no timed assertions): the issue's "under 2 s" is printed.
             assert!(
-                report.seconds < 2.0,
-                "form finding took {} s",
-                report.seconds
+                report.iterations <= 24,
+                "form finding took {} iterations",
+                report.iterations
             );
             assert!(report.deviation < 1e-3, "stress {:e} off", report.deviation);
             assert!(aspect <= 1.5, "aspect ratio {aspect}");
@@ -234,9 +238,9 @@ fn the_conical_tent_is_the_axisymmetric_membrane_and_carries_its_loads() {
         report.iterations, report.seconds, report.deviation
     );
     assert!(
-        report.seconds < 2.0,
-        "form finding took {} s",
-        report.seconds
+        report.iterations <= 34,
+        "form finding took {} iterations",
+        report.iterations
     );
     assert!(report.deviation < 1e-2, "stress {:e} off", report.deviation);
     assert!(aspect <= 2.0, "aspect ratio {aspect}");
