@@ -86,7 +86,7 @@ pub struct Solver {
     /// M for the kinetic energy output, built at its first use.
     pub(super) kinetic_mass: Option<Vec<f64>>,
     /// The modal analysis's work space (the Lanczos basis), kept between analyses (`modes.rs`).
-    pub(super) modes_work: super::modes::Work,
+    pub(super) modes_work: super::work::ModesWork,
 }
 
 /// One Newton iteration in the step's work budget (`Solver::step_work` counts halves).

@@ -44,6 +44,7 @@
 use super::assemble::NONE;
 use super::core::Solver;
 use super::mass::Mass;
+use super::work::ModesWork as Work;
 use crate::error::Error;
 use crate::memory;
 use crate::model::wrinkling::WrinkleState;
@@ -111,26 +112,6 @@ impl Seconds {
     pub fn total(&self) -> f64 {
         self.factorization + self.solves + self.mass_products + self.orthogonalisation + self.ritz
     }
-}
-
-/// A modal analysis's large buffers, kept in the solver (`Solver::modes_work`) from one
-/// analysis to the next: the Lanczos basis Q and M Q (about 2 n (2 count + 44) values: 112 MB
-/// for ten modes of 110k unknowns), the block's vectors, M's nonzero entries and the work
-/// spaces. A repeated analysis (the `natural_frequency` output at every committed state) then
-/// writes into memory it already has instead of fresh pages (about 27 000 page faults per
-/// analysis of the modes benchmark). Their contents do not carry over: every analysis starts
-/// from its own start vectors, so its result is the same whether the buffers are new or kept.
-#[derive(Default)]
-pub(super) struct Work {
-    q: Vec<f64>,
-    mq: Vec<f64>,
-    /// W, M W and the start block R (n × BLOCK each).
-    block: Vec<f64>,
-    /// [`cholesky_qr_block`]'s work space.
-    qr: Vec<f64>,
-    /// [`symmetric_product_rows`]'s work buffer.
-    rows: Vec<f64>,
-    mass: (Vec<usize>, Vec<usize>, Vec<f64>),
 }
 
 /// `v` emptied and with room for `n` values (fallibly; kept memory is reused as it is).
