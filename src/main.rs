@@ -800,7 +800,8 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
 }
 
 /// What one Newton iteration costs at least (one factorization, one assembly and one trial
-/// point), what a converging step takes (one increment of up to max_iterations), and what a
+/// point), what a step whose increment converges at once takes (up to max_iterations; a step
+/// that cuts back or continues takes more, within the budget), and what a
 /// step that does not converge spends before it gives up: its work budget of
 /// max_step_iterations iterations, in which every further line-search trial, re-check assembly
 /// and relaxation round counts as an iteration of its own or half of one, so that none of them
@@ -813,7 +814,7 @@ fn cost_line(
     let s = &scene.solver;
     let c = velarium::scene::limits::cost(s, size, triangles as u64);
     format!(
-        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a converging step takes up to about {} iterations (solver.max_iterations, about {:.0} s), one that does not converge gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial or re-check counts as half of one, a round of nodal relaxation as one, though it can cost several): about {:.0} s, more where nodal relaxation runs long",
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a step whose load increment converges at once takes up to about {} iterations (solver.max_iterations, about {:.0} s); cut-backs and continuations can take a converging step further, up to the budget of one that does not converge, which gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial or re-check counts as half of one, a round of nodal relaxation as one, though it can cost several): about {:.0} s, more where nodal relaxation runs long",
         size.factor_flops / 1e9,
         c.iteration,
         s.max_iterations,
