@@ -28,6 +28,16 @@ macro step h of n sub-steps:
 The state of a coupled scheme is (u, v, a, p): the pressure at the step's start is an input of
 the next step. With one sub-step the three schemes are the same discrete equations.
 
+The remedy (docs/coupling.md, "The remedy: the gas law inside the sub-steps"): ``spring``, the
+coupled scheme with a gas spring in the sub-steps, p(t) = p_lin(t) + k (u(t) − u_lin(t)), u_lin
+going to the interface's end volume (or held at the start: ``anchor``), k the gas's stiffness,
+the blower's dp/dV over the macro step or any other. Its blower may relieve the gas (``RELIEF``:
+the real blower's fan and valve, which make its dp/dV over a step softer than the gas's); the
+state is then (u, v, a, p, w) with w the gas amount, and ``monolithic_relief`` is the
+monolithic scheme with it (the gas law in every sub-step, w linear over them, as the monolithic
+reference drives its `gas` scene). With k the gas's stiffness, ``spring`` is that monolithic
+scheme: the same maps.
+
     .venv/bin/python harness/coupling_substep_model.py
 """
 
