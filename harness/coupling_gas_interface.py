@@ -38,7 +38,6 @@ from typing import Any
 import numpy as np
 
 from velarium import couple, couple_dynamic
-from velarium import couple_monolithic as cm
 
 import coupling_dynamic_study as study
 
@@ -62,23 +61,10 @@ def pressure_system(build: Path, blower: Path, max_time_step: float, stop: float
 
 
 def gas_system(sysd: dict[str, Any]) -> dict[str, Any]:
-    """The same system (``pressure_system``) coupled through the gas amount: the cushion is the
-    dynamic `gas` scene of its monolithic entry, started at the gas amount that holds p0 at rest
-    (couple_monolithic.initial_gas, as the monolithic reference starts), the blower's N_ref its
-    reference volume V⁰ and its start the cushion's initial (V, p)."""
-    mono = sysd["monolithic"]
-    blower = sysd["fmu_paths"][mono["blower"]]
-    par = cm.blower_parameters(blower)
-    dn0, v_ref = cm.initial_gas(mono["static_fmu_path"], par, float(mono["p0"]), sysd["inputs"][mono["snow"]])
-    return {
-        "fmu_paths": {"cushion": mono["fmu_path"], "blower": blower},
-        "connections": [["cushion.V", "blower.V"], ["blower.dN", "cushion.dN"]],
-        "inputs": dict(sysd["inputs"]),
-        "fmus": {"cushion": {"start": {"dN": dn0}},
-                 "blower": {"start": {"V0": "cushion.V", "p0": "cushion.p", "N_ref": v_ref}}},
-        "stop": sysd["stop"],
-        "step": sysd["step"],
-    }
+    """The same system (``pressure_system``) coupled through the gas amount
+    (``couple_dynamic.gas_amount_system``: the cushion is the dynamic `gas` scene of its
+    monolithic entry, the blower gives it ``dN``)."""
+    return couple_dynamic.gas_amount_system(sysd)
 
 
 def run(sysd: dict[str, Any], step: float, method: str = "newton", **options) -> couple.Result:
