@@ -3,7 +3,8 @@
  * A blower with a fan curve pushes air from the atmosphere into the cushion; a relief valve
  * to the atmosphere, opened by a PI controller on the pressure error, holds the pressure at a
  * set point. Isothermal ideal gas. The gas in the cushion is counted as its volume N at the
- * atmosphere's pressure (m³, so that (p + p_atm) V = p_atm N: Velarium's `gas` input is N - V⁰).
+ * atmosphere's pressure (m³, so that (p + p_atm) V = p_atm N: Velarium's `gas` input is N - V⁰,
+ * the output dN = N - N_ref with the parameter N_ref = V⁰, docs/coupling.md).
  *
  *   fan:        dp0 (1 - a q - (1 - a) q²) = p,   q = Q_fan / Q_max   (a = fan_shape)
  *   valve:      Q_valve = u K_valve p / sqrt(|p| + p_lam)
@@ -51,10 +52,10 @@ typedef struct {
 /* Value references (modelDescription.xml). */
 enum {
     VR_V = 0, VR_PSET = 1,                                   /* inputs */
-    VR_P = 2, VR_N = 3, VR_U = 4, VR_QFAN = 5, VR_QVALVE = 6, /* outputs */
+    VR_P = 2, VR_N = 3, VR_U = 4, VR_QFAN = 5, VR_QVALVE = 6, VR_DN = 7, /* outputs */
     VR_PATM = 10, VR_DP0 = 11, VR_QMAX = 12, VR_SHAPE = 13, VR_KV = 14, VR_PLAM = 15,
-    VR_KP = 16, VR_KI = 17, VR_U0 = 18, VR_V0 = 19, VR_P0 = 20, /* parameters */
-    NPAR_FIRST = 10, NPAR_LAST = 20
+    VR_KP = 16, VR_KI = 17, VR_U0 = 18, VR_V0 = 19, VR_P0 = 20, VR_NREF = 21, /* parameters */
+    NPAR_FIRST = 10, NPAR_LAST = 21
 };
 
 #define MAGIC 0x42c0u
@@ -215,6 +216,7 @@ static void defaults(State *s) {
     s->par[VR_U0] = 0.5;
     s->par[VR_V0] = 1.0;
     s->par[VR_P0] = 0.0;
+    s->par[VR_NREF] = 0.0;
     s->V = 1.0;
 }
 
@@ -278,6 +280,7 @@ EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     else if (!(s->par[VR_PLAM] > 0)) bad = "p_lam";
     else if (!(s->par[VR_V0] > 0)) bad = "V0";
     else if (!(s->par[VR_P0] > -s->par[VR_PATM])) bad = "p0";
+    else if (!isfinite(s->par[VR_NREF])) bad = "N_ref";
     if (bad) {
         say(b, fmi2Error, "fmi2ExitInitializationMode: parameter %s is out of its range", bad);
         return fmi2Error;
@@ -305,6 +308,7 @@ static double output(const State *s, fmi2ValueReference vr, int *ok) {
     case VR_PSET: return s->p_set;
     case VR_P: return p;
     case VR_N: return s->N;
+    case VR_DN: return s->N - s->par[VR_NREF];
     case VR_U:
         inflow(s, p, s->stepped ? s->I_prev : s->I, s->stepped ? s->h : 0.0, &dG, NULL, &u);
         return u;
@@ -451,11 +455,12 @@ EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueR
         double acc = 0.0;
         for (size_t j = 0; j < nk; j++) {
             double d;
-            if (known[j] == VR_V) d = unknown[i] == VR_P ? dV : unknown[i] == VR_N ? dNdV : NAN;
-            else if (known[j] == VR_PSET) d = unknown[i] == VR_P ? dPset : unknown[i] == VR_N ? dNdset : NAN;
+            int gas = unknown[i] == VR_N || unknown[i] == VR_DN; /* dN = N - N_ref: N's derivative */
+            if (known[j] == VR_V) d = unknown[i] == VR_P ? dV : gas ? dNdV : NAN;
+            else if (known[j] == VR_PSET) d = unknown[i] == VR_P ? dPset : gas ? dNdset : NAN;
             else d = NAN;
             if (isnan(d)) {
-                say(b, fmi2Error, "fmi2GetDirectionalDerivative: derivative of value reference %u with respect to %u is not provided (unknowns: p 2, N 3; knowns: V 0, p_set 1)", unknown[i], known[j]);
+                say(b, fmi2Error, "fmi2GetDirectionalDerivative: derivative of value reference %u with respect to %u is not provided (unknowns: p 2, N 3, dN 7; knowns: V 0, p_set 1)", unknown[i], known[j]);
                 return fmi2Error;
             }
             acc += d * dk[j];
@@ -849,7 +854,7 @@ EXPORT fmi3Status fmi3GetDirectionalDerivative(fmi3Instance i, const fmi3ValueRe
     return (fmi3Status)fmi2GetDirectionalDerivative(&((Blower3 *)i)->b, unk, nu, kn, nk, seed, sens);
 }
 
-/* vᵀ J: one directional derivative per known (J is at most 5 x 2). */
+/* vᵀ J: one directional derivative per known (J is at most 6 x 2). */
 EXPORT fmi3Status fmi3GetAdjointDerivative(fmi3Instance i, const fmi3ValueReference unk[], size_t nu,
                                            const fmi3ValueReference kn[], size_t nk, const fmi3Float64 seed[], size_t ns,
                                            fmi3Float64 sens[], size_t nsens) {

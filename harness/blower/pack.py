@@ -28,6 +28,7 @@ VARIABLES = [
     ("u", 4, "output", "continuous", None, "1", "valve opening, 0 closed to 1 open"),
     ("Q_fan", 5, "output", "continuous", None, "m3/s", "fan's volume flow (at the atmosphere's pressure)"),
     ("Q_valve", 6, "output", "continuous", None, "m3/s", "valve's volume flow (at the atmosphere's pressure)"),
+    ("dN", 7, "output", "continuous", None, "m3", "N - N_ref: with N_ref the cushion's reference volume, Velarium's gas input"),
     ("p_atm", 10, "parameter", "fixed", 101325.0, "Pa", "absolute pressure of the atmosphere"),
     ("dp0", 11, "parameter", "fixed", 1500.0, "Pa", "fan's shut-off pressure rise"),
     ("Q_max", 12, "parameter", "fixed", 0.2, "m3/s", "fan's free-delivery flow"),
@@ -39,6 +40,7 @@ VARIABLES = [
     ("u0", 18, "parameter", "fixed", 0.5, "1", "valve opening at zero error and zero integral"),
     ("V0", 19, "parameter", "fixed", 1.0, "m3", "cushion's volume at the start"),
     ("p0", 20, "parameter", "fixed", 0.0, "Pa", "cushion's pressure at the start (gauge)"),
+    ("N_ref", 21, "parameter", "fixed", 0.0, "m3", "reference of the output dN = N - N_ref"),
 ]
 
 
@@ -66,10 +68,10 @@ def model_description() -> str:
         lines.append('    <ScalarVariable %s description="%s">%s</ScalarVariable>' % (attrs, desc, real))
     index = {v[0]: k + 1 for k, v in enumerate(VARIABLES)}
     lines += ["  </ModelVariables>", "  <ModelStructure>", "    <Outputs>"]
-    for name in ("p", "N", "u", "Q_fan", "Q_valve"):
+    for name in ("p", "N", "u", "Q_fan", "Q_valve", "dN"):
         lines.append('      <Unknown index="%d" dependencies="%d %d"/>' % (index[name], index["V"], index["p_set"]))
     lines += ["    </Outputs>", "    <InitialUnknowns>"]
-    for name in ("p", "N", "u", "Q_fan", "Q_valve"):
+    for name in ("p", "N", "u", "Q_fan", "Q_valve", "dN"):
         lines.append('      <Unknown index="%d"/>' % index[name])
     lines += ["    </InitialUnknowns>", "  </ModelStructure>", "</fmiModelDescription>", ""]
     return "\n".join(lines)
@@ -105,10 +107,10 @@ def model_description_3() -> str:
             attrs += ' start="%r"' % start
         lines.append('    <Float64 %s description="%s"/>' % (attrs, desc))
     lines += ["  </ModelVariables>", "  <ModelStructure>"]
-    for name in ("p", "N", "u", "Q_fan", "Q_valve"):
+    for name in ("p", "N", "u", "Q_fan", "Q_valve", "dN"):
         vr = next(v[1] for v in VARIABLES if v[0] == name)
         lines.append('    <Output valueReference="%d" dependencies="0 1"/>' % vr)
-    for name in ("p", "N", "u", "Q_fan", "Q_valve"):
+    for name in ("p", "N", "u", "Q_fan", "Q_valve", "dN"):
         vr = next(v[1] for v in VARIABLES if v[0] == name)
         lines.append('    <InitialUnknown valueReference="%d"/>' % vr)
     lines += ["  </ModelStructure>", "</fmiModelDescription>", ""]

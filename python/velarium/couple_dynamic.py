@@ -11,6 +11,11 @@ kept, so the master and the monolithic reference (``couple_monolithic.solve``, w
 
     from velarium import couple, couple_dynamic
     sysd = couple_dynamic.load_dynamic_system("examples/coupling/cushion_blower.json", "build/coupling")
+
+``gas_amount_system`` rewires such a system through the gas amount instead of the pressure (the
+cushion's `gas` scene takes the blower's ``dN``): the gas law then holds in every one of the
+cushion's sub-steps, which keeps the coupling stable with sub-steps inside the macro step
+(docs/coupling.md, "The remedy: the gas law inside the sub-steps").
 """
 
 from __future__ import annotations
@@ -94,3 +99,32 @@ def monolithic(sysd: Mapping[str, Any], step: float | None = None) -> dict[str, 
     initial = cm.initial_gas(mono["static_fmu_path"], par, float(mono["p0"]), inputs[mono["snow"]])
     return cm.solve(mono["fmu_path"], par, float(mono["p0"]), inputs[mono["p_set"]], inputs[mono["snow"]],
                     float(sysd["stop"]), float(step or sysd["step"]), initial=initial)
+
+
+def gas_amount_system(sysd: Mapping[str, Any]) -> dict[str, Any]:
+    """The system ``sysd`` (``load_dynamic_system`` of the cushion-and-blower example, or any
+    system with the same ``monolithic`` entry) coupled through the gas amount: the cushion is
+    the `gas` scene of its monolithic entry, wired ``cushion.V -> blower.V`` and
+    ``blower.dN -> cushion.<gas input>``, started at the gas amount that holds p0 at rest
+    (``couple_monolithic.initial_gas``, as the monolithic reference starts), the blower's
+    ``N_ref`` the scene's reference volume V⁰ (so that its ``dN`` = N − V⁰ is the scene's ΔN)
+    and its start the cushion's initial V and p. Inputs, stop and step as in ``sysd``; the
+    result runs in ``couple.Master`` like any system (``couple.run_system``)."""
+    from . import couple_monolithic as cm
+
+    mono = sysd["monolithic"]
+    blower = mono["blower"]
+    cushion = next(n for n in sysd["fmus"] if n != blower)
+    path = sysd["fmu_paths"][blower]
+    par = cm.blower_parameters(path)
+    dn0, v_ref = cm.initial_gas(mono["static_fmu_path"], par, float(mono["p0"]), sysd["inputs"][mono["snow"]])
+    return {
+        "fmus": {cushion: {"start": {"dN": dn0}},
+                 blower: {"start": {"V0": f"{cushion}.V", "p0": f"{cushion}.p", "N_ref": v_ref}}},
+        "fmu_paths": {cushion: mono["fmu_path"], blower: path},
+        "connections": [[f"{cushion}.V", f"{blower}.V"], [f"{blower}.dN", f"{cushion}.dN"]],
+        "inputs": dict(sysd.get("inputs", {})),
+        "stop": sysd["stop"],
+        "step": sysd["step"],
+        "monolithic": {**mono, "compare": {f"{cushion}.p": "p", f"{cushion}.V": "V"}},
+    }
