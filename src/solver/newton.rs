@@ -221,7 +221,7 @@ impl Solver {
                             // The residual took the multipliers' change and the tangent is
                             // the assembled one: the step from here at once.
                             eqs.info.potential += change;
-                            self.budget(model, &mut state, &eqs.check, it, hard_max)?;
+                            self.budget(model, u, &mut state, &eqs.check, it, hard_max)?;
                             let d =
                                 self.newton_direction(model, &mut state, u, &eqs, None, it, log)?;
                             self.newton_step(
@@ -240,7 +240,7 @@ impl Solver {
                 },
                 Verdict::Again => continue,
                 Verdict::Step(pending) => {
-                    self.budget(model, &mut state, &eqs.check, it, hard_max)?;
+                    self.budget(model, u, &mut state, &eqs.check, it, hard_max)?;
                     let (dx, ds) =
                         self.newton_direction(model, &mut state, u, &eqs, pending, it, log)?;
                     self.newton_step(
@@ -537,6 +537,7 @@ impl Solver {
     fn budget(
         &self,
         model: &Model,
+        u: &[f64],
         st: &mut Iteration,
         check: &Check,
         it: usize,
@@ -551,12 +552,17 @@ impl Solver {
             return Err((
                 it,
                 format!(
-                    "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e}; the largest residual is {:.1e} times its local tolerance and floor){}",
+                    "no convergence in {it} iterations (|R| = {:.3e}, |r_slip| = {:.3e}, scale {:.3e}; the largest residual is {:.1e} times its local tolerance and floor{}){}",
                     check.free,
                     check.slip,
                     check.scale,
                     check.worst,
-                    self.where_stuck(model)
+                    why_not_within(check),
+                    if check.worst <= 1.0 && check.min_area_ratio <= super::settings::MIN_AREA_RATIO {
+                        self.where_folded(model, u)
+                    } else {
+                        self.where_stuck(model)
+                    }
                 ),
             ));
         }
@@ -809,4 +815,59 @@ fn remember(recent: &mut std::collections::VecDeque<f64>, memory: usize, value: 
         recent.pop_front();
     }
     recent.iter().fold(f64::NEG_INFINITY, |m, &p| m.max(p))
+}
+
+/// Why the last iterate of a failed increment is not an answer although every residual is
+/// within its tolerance and floor (`check.worst` <= 1): a membrane triangle turned over, or
+/// (within the round-off floor only) a Newton correction from there larger than the tolerance
+/// of the coordinates or a stick/slip state still changing. Empty where a residual is above its tolerance: the message's numbers
+/// already say why.
+fn why_not_within(check: &Check) -> String {
+    if !(check.worst <= 1.0) {
+        String::new()
+    } else if check.min_area_ratio <= super::settings::MIN_AREA_RATIO {
+        format!(
+            ", but a membrane triangle is turned over or collapsed (area ratio {:.1e}), which an answer may not have",
+            check.min_area_ratio
+        )
+    } else if !check.strict {
+        String::from(", within the round-off floor only, where an iterate is accepted once its Newton correction is within the tolerance of the coordinates and no stick/slip state changes; neither happened (a direction with almost no stiffness, or a state still switching)")
+    } else {
+        String::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{why_not_within, Check};
+
+    fn check(worst: f64, strict: bool, min_area_ratio: f64) -> Check {
+        Check {
+            strict,
+            within_floor: worst <= 1.0,
+            free: 1e-8,
+            slip: 0.0,
+            scale: 1e4,
+            worst,
+            min_area_ratio,
+        }
+    }
+
+    /// A failed increment whose residuals all met their tolerance says why it is not an
+    /// answer: the 16x16 quarter circle of the robustness corpus failed its overshoot
+    /// problems with "the largest residual is 4.0e-3 times its local tolerance" and no reason
+    /// (a rim triangle turned over by 3.5e-2 of its area).
+    #[test]
+    fn a_failure_within_tolerance_names_what_stopped_it() {
+        let folded = why_not_within(&check(4e-3, true, -3.5e-2));
+        assert!(
+            folded.contains("turned over or collapsed (area ratio -3.5e-2)"),
+            "{folded}"
+        );
+        let soft = why_not_within(&check(0.5, false, 0.9));
+        assert!(soft.contains("Newton correction"), "{soft}");
+        // Above the tolerance the numbers say it: nothing added.
+        assert_eq!(why_not_within(&check(2.0, false, -0.5)), "");
+        assert_eq!(why_not_within(&check(f64::NAN, false, 0.9)), "");
+    }
 }

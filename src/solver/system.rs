@@ -82,6 +82,10 @@ pub(super) struct Check {
     /// Largest ratio of a residual to its local tolerance plus its round-off floor (≤ 1 where
     /// the test is met).
     pub worst: f64,
+    /// The smallest signed area ratio of a membrane triangle (infinite without triangles): a
+    /// point with a triangle at or below `MIN_AREA_RATIO` is not an answer, whatever its
+    /// residual.
+    pub min_area_ratio: f64,
 }
 
 impl Solver {
@@ -211,6 +215,7 @@ impl Solver {
             slip,
             scale,
             worst,
+            min_area_ratio: info.min_area_ratio,
         }
     }
 
@@ -373,6 +378,37 @@ impl Solver {
         } else {
             format!("; the residual farthest above its tolerance is at node {node} in {axis}")
         }
+    }
+
+    /// Where the last assembly's most turned-over membrane triangle is (the failure message of
+    /// an increment whose residuals all met their tolerance but whose iterate has a folded
+    /// triangle, newton.rs).
+    pub(super) fn where_folded(&self, model: &Model, u: &[f64]) -> String {
+        let Some((t, e, ratio)) = model
+            .triangles
+            .iter()
+            .zip(&self.evaluations)
+            .map(|(t, e)| {
+                let x = t.nodes.map(|n| model.position(u, n));
+                (
+                    t,
+                    e,
+                    crate::model::membrane::signed_area_ratio(&t.reference, &x),
+                )
+            })
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+        else {
+            return String::new();
+        };
+        let state = match e.state {
+            WrinkleState::Taut => "taut",
+            WrinkleState::Wrinkled => "wrinkled",
+            WrinkleState::Slack => "slack",
+        };
+        format!(
+            "; the most turned-over triangle is triangle {} (nodes {}, {}, {}; {state}, area ratio {:.1e})",
+            t.id, t.nodes[0], t.nodes[1], t.nodes[2], ratio
+        )
     }
 
     /// tol·S_n + ε_F of DOF `d` at the last assembly (module docs; never 0).
