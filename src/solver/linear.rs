@@ -699,13 +699,16 @@ fn substitute<const B: usize>(parts: &Parts, rows: &mut [f64], n: usize) {
             let whole = rows.len() / 4 * 4;
             let rows: &mut [pulp::f64x4] = pulp::bytemuck::cast_slice_mut(&mut rows[..whole]);
             let (x, work) = rows.split_at_mut(n);
-            pulp::Simd::vectorize(simd, SubstitutionX4 {
+            pulp::Simd::vectorize(
                 simd,
-                factor: parts.factor,
-                values: parts.values,
-                x,
-                work,
-            });
+                SubstitutionX4 {
+                    simd,
+                    factor: parts.factor,
+                    values: parts.values,
+                    x,
+                    work,
+                },
+            );
             return;
         }
     }
