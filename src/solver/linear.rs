@@ -459,8 +459,12 @@ impl Ldlt {
         let width = columns.min(BLOCK_ROWS);
         // Room for the rows and, after them, one supernode's pattern rows (the backward
         // sweep's gathered values).
+        // (The 4-column kernel holds a whole supernode's rows there: its columns and pattern.)
         let longest = (0..supernodal.n_supernodes())
-            .map(|s| supernodal.supernode(s).pattern().len())
+            .map(|s| {
+                let size = supernodal.supernode_end()[s] - supernodal.supernode_begin()[s];
+                size + supernodal.supernode(s).pattern().len()
+            })
             .max()
             .unwrap_or(0);
         let room = (n + longest) * width;
@@ -663,29 +667,232 @@ struct Parts<'a> {
 /// [`block_substitution`], scattered back times S.
 fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64]) {
     let n = parts.factor.nrows();
-    let (rows, _) = rows.as_chunks_mut::<B>();
-    let (rows, work) = rows.split_at_mut(n);
-    for (i, row) in rows.iter_mut().enumerate() {
-        let e = parts.perm.map_or(i, |(fwd, _)| fwd[i]);
-        let s = parts.scale.map_or(1.0, |s| s[e]);
-        for (c, v) in row.iter_mut().enumerate() {
-            *v = block[c * n + e] * s;
+    {
+        let (rows, _) = rows.as_chunks_mut::<B>();
+        for (i, row) in rows[..n].iter_mut().enumerate() {
+            let e = parts.perm.map_or(i, |(fwd, _)| fwd[i]);
+            let s = parts.scale.map_or(1.0, |s| s[e]);
+            for (c, v) in row.iter_mut().enumerate() {
+                *v = block[c * n + e] * s;
+            }
         }
     }
-    // Compiled for the widest instruction set the processor has (pulp: AVX2 where present),
-    // chosen at run time; the same arithmetic in the same order either way.
-    pulp::Arch::new().dispatch(Substitution::<B> {
-        factor: parts.factor,
-        values: parts.values,
-        x: rows,
-        work,
-    });
+    substitute::<B>(parts, rows, n);
+    let (rows, _) = rows.as_chunks_mut::<B>();
     for e in 0..n {
         let row = rows[parts.perm.map_or(e, |(_, inv)| inv[e])];
         let s = parts.scale.map_or(1.0, |s| s[e]);
         for (c, v) in row.iter().enumerate() {
             block[c * n + e] = v * s;
         }
+    }
+}
+
+/// [`block_substitution`] on `rows` (n rows of B values, then its work space). Four
+/// right-hand sides (the Lanczos block of `modes.rs`) on a processor with AVX2 and FMA go
+/// through [`substitution_x4`]; otherwise compiled for the widest instruction set the
+/// processor has (pulp: AVX2 where present), chosen at run time.
+fn substitute<const B: usize>(parts: &Parts, rows: &mut [f64], n: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if B == 4 {
+        if let Some(simd) = pulp::x86::V3::try_new() {
+            let whole = rows.len() / 4 * 4;
+            let rows: &mut [pulp::f64x4] = pulp::bytemuck::cast_slice_mut(&mut rows[..whole]);
+            let (x, work) = rows.split_at_mut(n);
+            pulp::Simd::vectorize(
+                simd,
+                SubstitutionX4 {
+                    simd,
+                    factor: parts.factor,
+                    values: parts.values,
+                    x,
+                    work,
+                },
+            );
+            return;
+        }
+    }
+    let (rows, _) = rows.as_chunks_mut::<B>();
+    let (rows, work) = rows.split_at_mut(n);
+    pulp::Arch::new().dispatch(Substitution::<B> {
+        factor: parts.factor,
+        values: parts.values,
+        x: rows,
+        work,
+    });
+}
+
+/// [`substitution_x4`] as a pulp operation (compiled with AVX2 and FMA).
+#[cfg(target_arch = "x86_64")]
+struct SubstitutionX4<'a> {
+    simd: pulp::x86::V3,
+    factor: &'a SymbolicSupernodalCholesky<usize>,
+    values: &'a [f64],
+    x: &'a mut [pulp::f64x4],
+    work: &'a mut [pulp::f64x4],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl pulp::WithSimd for SubstitutionX4<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        substitution_x4(self.simd, self.factor, self.values, self.x, self.work)
+    }
+}
+
+/// [`block_substitution`] for 4 right-hand sides, each row of x one AVX register, with the
+/// factor read column by column in the order it is stored and at most four columns at a
+/// time (so that the processor's prefetching streams it; a walk along a supernode's rows
+/// touches a new cache line per value). Per supernode, its rows (its own columns', then its
+/// pattern's) are held contiguously in `work` as v; its columns are taken in groups of up
+/// to four. Forward: a group's own triangle, then every row below the group gets the
+/// group's four updates at once (one load and one store of the row per four of L's values);
+/// then D⁻¹ on the supernode's rows, and the pattern rows' sums added to x. Backward (groups
+/// from the last): the four columns' sums over the rows below the group (two partial sums
+/// each, independent additions; one load of a row per four of L's values), then the group's
+/// own triangle upwards. Multiply-adds are fused, so the result differs from
+/// [`block_substitution`]'s in the last bits.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn substitution_x4(
+    simd: pulp::x86::V3,
+    factor: &SymbolicSupernodalCholesky<usize>,
+    values: &[f64],
+    x: &mut [pulp::f64x4],
+    work: &mut [pulp::f64x4],
+) {
+    let zero = simd.splat_f64x4(0.0);
+    let supernodes = factor.n_supernodes();
+    let (begin, end, val_ptr) = (
+        factor.supernode_begin(),
+        factor.supernode_end(),
+        factor.col_ptr_for_val(),
+    );
+    for s in 0..supernodes {
+        let (start, stop) = (begin[s], end[s]);
+        let size = stop - start;
+        let pattern = factor.supernode(s).pattern();
+        let m = size + pattern.len();
+        let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        let v = &mut work[..m];
+        v[..size].copy_from_slice(&x[start..stop]);
+        v[size..].fill(zero);
+        let mut j0 = 0;
+        while j0 < size {
+            let g = (size - j0).min(4);
+            match g {
+                4 => forward_group::<4>(simd, l, m, j0, v),
+                3 => forward_group::<3>(simd, l, m, j0, v),
+                2 => forward_group::<2>(simd, l, m, j0, v),
+                _ => forward_group::<1>(simd, l, m, j0, v),
+            }
+            j0 += g;
+        }
+        for (j, (t, y)) in x[start..stop].iter_mut().zip(&v[..size]).enumerate() {
+            *t = simd.mul_f64x4(*y, simd.splat_f64x4(l[j * m + j].recip()));
+        }
+        for (y, &row) in v[size..].iter().zip(pattern) {
+            x[row] = simd.add_f64x4(x[row], *y);
+        }
+    }
+    for s in (0..supernodes).rev() {
+        let (start, stop) = (begin[s], end[s]);
+        let size = stop - start;
+        let pattern = factor.supernode(s).pattern();
+        let m = size + pattern.len();
+        let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        let v = &mut work[..m];
+        v[..size].copy_from_slice(&x[start..stop]);
+        for (y, &row) in v[size..].iter_mut().zip(pattern) {
+            *y = x[row];
+        }
+        let mut j1 = size;
+        while j1 > 0 {
+            let g = j1.min(4);
+            match g {
+                4 => backward_group::<4>(simd, l, m, j1 - 4, v),
+                3 => backward_group::<3>(simd, l, m, j1 - 3, v),
+                2 => backward_group::<2>(simd, l, m, j1 - 2, v),
+                _ => backward_group::<1>(simd, l, m, j1 - 1, v),
+            }
+            j1 -= g;
+        }
+        x[start..stop].copy_from_slice(&v[..size]);
+    }
+}
+
+/// [`substitution_x4`]'s forward step for the G columns `j0..j0 + G` of a supernode (column
+/// j's values at `l[j m..(j + 1) m]`, rows as in `v`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn forward_group<const G: usize>(
+    simd: pulp::x86::V3,
+    l: &[f64],
+    m: usize,
+    j0: usize,
+    v: &mut [pulp::f64x4],
+) {
+    let j1 = j0 + G;
+    for a in 0..G {
+        let column = &l[(j0 + a) * m..(j0 + a + 1) * m];
+        let xa = v[j0 + a];
+        for r in j0 + a + 1..j1 {
+            v[r] = simd.negate_mul_add_f64x4(simd.splat_f64x4(column[r]), xa, v[r]);
+        }
+    }
+    let (head, below) = v[..m].split_at_mut(j1);
+    let n = below.len();
+    let xs: [pulp::f64x4; G] = std::array::from_fn(|a| head[j0 + a]);
+    let columns: [&[f64]; G] = std::array::from_fn(|a| &l[(j0 + a) * m + j1..][..n]);
+    for (r, t) in below.iter_mut().enumerate() {
+        let mut acc = *t;
+        for a in 0..G {
+            acc = simd.negate_mul_add_f64x4(simd.splat_f64x4(columns[a][r]), xs[a], acc);
+        }
+        *t = acc;
+    }
+}
+
+/// [`substitution_x4`]'s backward step for the G columns `j0..j0 + G` of a supernode (the
+/// rows below them already final in `v`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn backward_group<const G: usize>(
+    simd: pulp::x86::V3,
+    l: &[f64],
+    m: usize,
+    j0: usize,
+    v: &mut [pulp::f64x4],
+) {
+    let j1 = j0 + G;
+    let zero = simd.splat_f64x4(0.0);
+    let (head, below) = v[..m].split_at_mut(j1);
+    let n = below.len();
+    let columns: [&[f64]; G] = std::array::from_fn(|a| &l[(j0 + a) * m + j1..][..n]);
+    let (mut even, mut odd) = ([zero; G], [zero; G]);
+    let pairs = n / 2;
+    for p in 0..pairs {
+        let (t0, t1) = (below[2 * p], below[2 * p + 1]);
+        for a in 0..G {
+            even[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][2 * p]), t0, even[a]);
+            odd[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][2 * p + 1]), t1, odd[a]);
+        }
+    }
+    if n % 2 == 1 {
+        let t = below[n - 1];
+        for a in 0..G {
+            even[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][n - 1]), t, even[a]);
+        }
+    }
+    for a in (0..G).rev() {
+        let column = &l[(j0 + a) * m..(j0 + a + 1) * m];
+        let mut sum = simd.add_f64x4(even[a], odd[a]);
+        for r in j0 + a + 1..j1 {
+            sum = simd.mul_add_f64x4(simd.splat_f64x4(column[r]), head[r], sum);
+        }
+        head[j0 + a] = simd.sub_f64x4(head[j0 + a], sum);
     }
 }
 
