@@ -558,7 +558,7 @@ impl Solver {
                     check.scale,
                     check.worst,
                     why_not_within(check),
-                    if check.worst <= 1.0 && check.min_area_ratio <= super::settings::MIN_AREA_RATIO {
+                    if folded_within(check) {
                         self.where_folded(model, u)
                     } else {
                         self.where_stuck(model)
@@ -817,15 +817,21 @@ fn remember(recent: &mut std::collections::VecDeque<f64>, memory: usize, value: 
     recent.iter().fold(f64::NEG_INFINITY, |m, &p| m.max(p))
 }
 
+/// Every residual within its tolerance and floor, and a membrane triangle turned over or
+/// collapsed: the iterate is refused for the fold alone.
+fn folded_within(check: &Check) -> bool {
+    check.worst <= 1.0 && check.min_area_ratio <= super::settings::MIN_AREA_RATIO
+}
+
 /// Why the last iterate of a failed increment is not an answer although every residual is
 /// within its tolerance and floor (`check.worst` <= 1): a membrane triangle turned over, or
-/// (within the round-off floor only) a Newton correction from there larger than the tolerance
-/// of the coordinates or a stick/slip state still changing. Empty where a residual is above its tolerance: the message's numbers
-/// already say why.
+/// (within the round-off floor only) a Newton correction from there larger than the
+/// tolerance of the coordinates or a stick/slip state still changing. Empty where a residual
+/// is above its tolerance: the message's numbers already say why.
 fn why_not_within(check: &Check) -> String {
     if !(check.worst <= 1.0) {
         String::new()
-    } else if check.min_area_ratio <= super::settings::MIN_AREA_RATIO {
+    } else if folded_within(check) {
         format!(
             ", but a membrane triangle is turned over or collapsed (area ratio {:.1e}), which an answer may not have",
             check.min_area_ratio
