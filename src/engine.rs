@@ -25,6 +25,7 @@ use crate::solver::{Settings, Solver, StepReport};
 use crate::variables::{self, Binding, Causality, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 
+mod coarse;
 pub mod derivatives;
 pub mod modes;
 pub mod stepping;

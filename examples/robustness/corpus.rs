@@ -307,15 +307,29 @@ pub fn solved_scene(m: &Member) -> Result<Scene, Error> {
 }
 
 fn build(m: &Member) -> Result<Engine, Error> {
-    let engine = Engine::try_new(m.scene.clone())?;
+    let engine = Engine::try_new(with_coarse_start(m.scene.clone()))?;
     match &m.then {
         None => Ok(engine),
         Some(then) => {
             let found = engine.scene().clone();
             drop(engine);
-            Engine::try_new(then(found))
+            Engine::try_new(with_coarse_start(then(found)))
         }
     }
+}
+
+/// The scene with `solver.coarse_start` as the environment variable `CORPUS_COARSE_START`
+/// says (`on`, `off`, `auto`; unset: the scene's own, the default): for measuring the coarse
+/// start on the corpus (docs/robustness.md).
+fn with_coarse_start(mut scene: Scene) -> Scene {
+    use velarium::scene::CoarseStart;
+    match std::env::var("CORPUS_COARSE_START").as_deref() {
+        Ok("on") => scene.solver.coarse_start = CoarseStart::On,
+        Ok("off") => scene.solver.coarse_start = CoarseStart::Off,
+        Ok("auto") => scene.solver.coarse_start = CoarseStart::Auto,
+        _ => {}
+    }
+    scene
 }
 
 /// Solve every row of a member in order (after a start solve at the scene's start values) and

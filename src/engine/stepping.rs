@@ -24,6 +24,8 @@ pub struct Step {
     /// Why arc length does not apply to this step, for the log (None: it does, or the scene
     /// asks for load control).
     fallback: Option<&'static str>,
+    /// What the coarse start did (`coarse.rs`), for the log.
+    coarse: Vec<String>,
 }
 
 /// What one increment attempt did.
@@ -76,6 +78,7 @@ impl Engine {
             plastic: s.plastic.clone(),
         };
         let dynamic = super::integration(&self.scene).filter(|_| self.duration > 0.0);
+        let is_dynamic = dynamic.is_some();
         let mut stepper = match dynamic {
             // A step of time integration (docs/dynamics.md).
             Some(integration) => Stepper::begin_dynamic(
@@ -98,6 +101,21 @@ impl Engine {
                 &history,
             ),
         };
+        // The coarse start (coarse.rs): Newton on the whole step first from the coarser
+        // mesh's answer.
+        let mut coarse = Vec::new();
+        if ready.is_ok() {
+            match self.coarse_guess(is_dynamic) {
+                Some(Ok(guess)) => {
+                    stepper = stepper.with_guess(guess.start);
+                    coarse = guess.log;
+                }
+                Some(Err(why)) => coarse.push(format!(
+                    "coarse start not used ({why}): the step starts from the undeformed state"
+                )),
+                None => {}
+            }
+        }
         // Under arc length a step the arc-length corrector cannot take is load-controlled as a
         // whole: the log says so (docs/solver.md, arc length).
         let fallback = if self.scene.solver.path == crate::scene::PathMethod::ArcLength
@@ -110,7 +128,11 @@ impl Engine {
         if let Err(e) = ready {
             stepper.fail(e.to_string());
         }
-        Step { stepper, fallback }
+        Step {
+            stepper,
+            fallback,
+            coarse,
+        }
     }
 
     /// The step's working memory and the copies kept to undo it, probed before it starts: an
@@ -207,6 +229,9 @@ impl Engine {
                     s.acceleration.fill(0.0);
                 }
             }
+        }
+        for (k, line) in std::mem::take(&mut step.coarse).into_iter().enumerate() {
+            report.log.insert(k, line);
         }
         if let Some(why) = step.fallback {
             report.log.insert(

@@ -355,6 +355,8 @@ pub struct Model {
     /// The committed plastic strains the assembly reads (`state.rs`; empty without an
     /// elastoplastic group).
     pub plastic: etfe::PlasticStore,
+    /// The triangles of each membrane group (scene order) as a range of `triangles`.
+    pub membrane_groups: Vec<std::ops::Range<usize>>,
 }
 
 impl Model {
@@ -458,6 +460,7 @@ impl Model {
             point_masses.extend(node_ids(&mesh, &pm.nodes).into_iter().map(|i| (i, pm.mass)));
         }
         let air = build_air(scene, &groups, &triangles)?;
+        let membrane_groups = groups.iter().map(|g| g.1.clone()).collect();
         Ok(Model {
             reference,
             triangles,
@@ -481,6 +484,7 @@ impl Model {
                 .map_or_else(Default::default, |d| d.mass),
             plastic: Default::default(),
             air,
+            membrane_groups,
         })
     }
 

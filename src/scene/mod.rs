@@ -1209,6 +1209,26 @@ impl InexactNewton {
     }
 }
 
+/// Whether the first step from the undeformed state starts from the answer on a coarser mesh
+/// (`solver.coarse_start`, docs/solver.md "The coarse start").
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum CoarseStart {
+    /// On for models of at least 10 000 free DOF (`engine::coarse::AUTO_DOF`), off below.
+    #[default]
+    Auto,
+    /// On at every size where the scene qualifies.
+    On,
+    /// Off: every step starts from the committed state.
+    Off,
+}
+
+impl CoarseStart {
+    fn is_default(&self) -> bool {
+        *self == CoarseStart::Auto
+    }
+}
+
 /// Form finding settings (docs/mechanics.md §10). Every membrane group needs a `prestress`
 /// and every cable a `pretension`: these are the prescribed stress state whose equilibrium
 /// shape is sought. Supported components stay where `place` (or the geometry) puts them.
@@ -1447,6 +1467,16 @@ pub struct SolverSettings {
     /// agree with `off` within the tolerance (docs/performance.md).
     #[serde(default, skip_serializing_if = "InexactNewton::is_default")]
     pub inexact_newton: InexactNewton,
+    /// Coarse start (`auto`, the default, `on` or `off`): the first step from the undeformed
+    /// state of a scene whose membranes are generated (rectangle, disc, annulus, cushion)
+    /// first solves the same scene on the mesh with half the divisions (itself started the
+    /// same way), and Newton on this mesh starts from that answer interpolated; where it does
+    /// not converge from there the step goes on from the undeformed state as without it. It
+    /// changes the path, not the equilibrium or the convergence test. `auto`: on for models of
+    /// at least 10 000 free DOF. Not with sleeves, contacts, volume inputs, prescribed
+    /// displacements, elastoplastic groups, arc length or time integration (docs/solver.md).
+    #[serde(default, skip_serializing_if = "CoarseStart::is_default")]
+    pub coarse_start: CoarseStart,
 }
 
 fn is_one(n: &usize) -> bool {
@@ -1493,6 +1523,7 @@ impl Default for SolverSettings {
             limits: Limits::default(),
             threads: 1,
             inexact_newton: InexactNewton::Auto,
+            coarse_start: CoarseStart::Auto,
         }
     }
 }

@@ -80,6 +80,9 @@ pub struct LoadPath {
     overshoot_tried: bool,
     /// Why the continuation failed, for the step's message if the step fails.
     continuation_failed: Option<String>,
+    /// A start for Newton on the whole step, tried once before the first increment (the
+    /// coarse start, `engine/coarse.rs`).
+    pub(super) guess: Option<Vec<f64>>,
 }
 
 impl LoadPath {
@@ -107,6 +110,7 @@ impl LoadPath {
             proximal_tried: false,
             overshoot_tried: false,
             continuation_failed: None,
+            guess: None,
         }
     }
 
@@ -145,6 +149,9 @@ impl LoadPath {
                 failed: true,
             });
         }
+        if let Some(guess) = self.guess.take() {
+            return Some(self.guessed(solver, model, report, guess));
+        }
         self.dl = self.dl.min(1.0 - self.lambda);
         let target = if 1.0 - (self.lambda + self.dl) < 1e-12 {
             1.0
@@ -157,6 +164,54 @@ impl LoadPath {
             Ok(iters) => self.accept(model, &s, report, target, iters, trial, trial_states),
             Err((iters, why)) => self.reject(solver, model, &s, report, target, iters, why),
         })
+    }
+
+    /// Newton on the whole step from `guess` instead of the last converged point (the coarse
+    /// start): accepted as the step's one increment when it converges; otherwise nothing
+    /// changes (no cut-back, Δλ as it was) and the step goes on from its start.
+    fn guessed(
+        &mut self,
+        solver: &mut Solver,
+        model: &Model,
+        report: &mut StepReport,
+        guess: Vec<f64>,
+    ) -> Attempt {
+        let loads = self.loads(1.0);
+        let increment = Increment {
+            loads: &loads,
+            change: self.change,
+            moved: self.moved,
+        };
+        let mut trial = guess;
+        let mut states = self.history.contact.clone();
+        let outcome = solver.newton(
+            model,
+            &increment,
+            &mut trial,
+            &mut states,
+            None,
+            &mut report.log,
+        );
+        match outcome {
+            Ok(iters) => {
+                let s = solver.settings.clone();
+                self.accept(model, &s, report, 1.0, iters, trial, states)
+            }
+            Err((iters, why)) => {
+                report.iterations += iters;
+                push_log(
+                    &mut report.log,
+                    format!(
+                        "from the coarse mesh's answer: {why}; the step goes on from its start"
+                    ),
+                );
+                Attempt::Rejected {
+                    lambda: self.lambda,
+                    iterations: iters,
+                    failed: false,
+                }
+            }
+        }
     }
 
     /// Newton (and, where they apply, the prestress and proximal continuations) for the increment to

@@ -78,6 +78,16 @@ impl Stepper {
         }
     }
 
+    /// Newton on the whole step first tries `guess` (displacements, as `u`) as its start,
+    /// once, before the first increment (the coarse start, `engine/coarse.rs`); a load-controlled
+    /// step only (an arc-length or dynamic step is returned as it is).
+    pub fn with_guess(mut self, guess: Vec<f64>) -> Stepper {
+        if let Path::Load(p) = &mut self.path {
+            p.guess = Some(guess);
+        }
+        self
+    }
+
     /// A step of time integration (dynamic.rs) of length `duration` (s) from `from` to `to`,
     /// starting from `u`, the velocities and accelerations `motion` (per DOF; empty: at rest)
     /// and the history `states`.

@@ -70,6 +70,8 @@ fn disc() -> Scene {
     };
     *rings = 50;
     scene.solver.threads = 2;
+    // The iterations of this mesh only: no coarser meshes solved first.
+    scene.solver.coarse_start = velarium::scene::CoarseStart::Off;
     scene
 }
 

@@ -5,6 +5,8 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod coarse_start;
+
 mod diagnostics;
 mod hard_cases;
 mod inexact_newton;

@@ -1,0 +1,482 @@
+//! The coarse start (`solver.coarse_start`): the first step from the undeformed state of a
+//! scene with generated membranes starts Newton from the answer on a coarser mesh (nested
+//! iteration, or grid sequencing).
+//!
+//! ```text
+//! applies     the step starts from the undeformed state (every displacement 0) under load
+//!             control, with only membranes, cables, supports, forces and pressures (no
+//!             sleeves, contacts, volume inputs, prescribed displacements, elastoplastic
+//!             groups, time integration); auto: at least AUTO_DOF free DOF
+//! coarse      the same scene with every generator's divisions halved (rounded up; a
+//!             generator already at its smallest stays), solved from the undeformed state
+//!             under the same loads and parameters: its own first step starts the same way,
+//!             so the meshes nest down to one below AUTO_DOF (auto) or to the smallest (on)
+//! transfer    each node of this mesh takes the displacement of the nearest point of the
+//!             coarse mesh's triangles of its own membrane group (linear in the triangle);
+//!             a node on no triangle takes that of the coarse node at the same place
+//! Newton      on the whole step from that start (path.rs, `guessed`): the same equations,
+//!             convergence test and work budget as any increment; if it does not converge,
+//!             the step goes on from the undeformed state as without a coarse start
+//! ```
+//! Why it pays: Newton's iteration count from a fixed start grows with the mesh where
+//! wrinkled regions form (their state boundaries move element by element), while from the
+//! interpolated answer of the next coarser mesh the start is already within the
+//! discretisation error of the equilibrium, where Newton converges in a number of
+//! iterations independent of the mesh (the mesh-independence principle: Allgower, Böhmer,
+//! Potra & Rheinboldt 1986, SIAM J. Numer. Anal. 23(1); nested iteration, Deuflhard 2004,
+//! *Newton Methods for Nonlinear Problems*, §8.3, and Kelley 1995, *Iterative Methods for
+//! Linear and Nonlinear Equations*, §8.5). Measured in docs/solver.md.
+
+use super::Engine;
+use crate::model::{LoadModel, Model};
+use crate::scene::{CoarseStart, Generator, Scene};
+use std::collections::HashMap;
+
+/// Free DOF from which `coarse_start: auto` applies (docs/solver.md, "The coarse start").
+pub const AUTO_DOF: usize = 10_000;
+
+/// A generator's divisions are halved only where the halved ones keep at least this many.
+const MIN_DIVISIONS: usize = 4;
+
+/// What the coarse meshes gave: the start for this mesh's Newton and the log lines.
+pub(super) struct Guess {
+    pub start: Vec<f64>,
+    pub log: Vec<String>,
+}
+
+impl Engine {
+    /// The coarse start of this step (module docs): None where it does not apply; Err(why)
+    /// where it was tried and gave nothing (the step then runs as without it).
+    pub(super) fn coarse_guess(&self, dynamic: bool) -> Option<Result<Guess, String>> {
+        if !self.coarse_applies(dynamic) {
+            return None;
+        }
+        let scene = coarser(&self.scene)?;
+        Some(self.solve_coarse(scene))
+    }
+
+    fn coarse_applies(&self, dynamic: bool) -> bool {
+        let s = &self.state;
+        let m = &self.model;
+        let wanted = match self.scene.solver.coarse_start {
+            CoarseStart::Off => false,
+            CoarseStart::On => true,
+            CoarseStart::Auto => self.free_dofs() >= AUTO_DOF,
+        };
+        wanted
+            && !dynamic
+            && self.scene.solver.path == crate::scene::PathMethod::LoadControl
+            && s.inputs != s.applied
+            && s.displacement.iter().all(|&x| x == 0.0)
+            && s.plastic.is_empty()
+            && m.slips.is_empty()
+            && m.ties.is_empty()
+            && m.contact_pairs.is_empty()
+            && m.contact_points.is_empty()
+            && m.volumes == 0
+            && m.unknown_count() == 3 * m.reference.len()
+            && !m.triangles.is_empty()
+            && m.loads.iter().all(|l| {
+                matches!(
+                    l,
+                    LoadModel::PointForce(_)
+                        | LoadModel::Pressure { .. }
+                        | LoadModel::Surface { .. }
+                )
+            })
+    }
+
+    /// Solve `scene` (this one's coarser mesh) under this state's loads and parameters and
+    /// carry its answer over to this mesh.
+    fn solve_coarse(&self, scene: Scene) -> Result<Guess, String> {
+        let started = std::time::Instant::now();
+        let mut coarse = Engine::try_new(scene).map_err(|e| format!("its scene: {e}"))?;
+        let mut state = coarse.state.clone();
+        if state.inputs.len() != self.state.inputs.len()
+            || state.parameters.len() != self.state.parameters.len()
+        {
+            return Err("its inputs or parameters differ from this mesh's".into());
+        }
+        state.inputs.clone_from(&self.state.inputs);
+        state.applied.clone_from(&self.state.applied);
+        state.parameters.clone_from(&self.state.parameters);
+        coarse
+            .set_state(state)
+            .map_err(|e| format!("its start: {e}"))?;
+        let report = coarse.solve();
+        let dofs = coarse.free_dofs();
+        if !report.converged() {
+            return Err(format!(
+                "the mesh with half the divisions ({dofs} free DOF) did not converge: {}",
+                report.message
+            ));
+        }
+        let start = transfer(&coarse.model, &coarse.state.displacement, &self.model)
+            .ok_or("a node of this mesh lies off the coarse mesh")?;
+        let mut log: Vec<String> = report
+            .log
+            .iter()
+            .filter(|l| l.starts_with("coarse start"))
+            .cloned()
+            .collect();
+        log.push(format!(
+            "coarse start: the mesh with half the divisions ({dofs} free DOF) converged in {} iterations ({:.2} s, its coarser meshes included); Newton here starts from its answer",
+            report.iterations,
+            started.elapsed().as_secs_f64()
+        ));
+        Ok(Guess { start, log })
+    }
+}
+
+/// The scene with every generator's divisions halved (rounded up) where they stay at least
+/// `MIN_DIVISIONS`; None where no generator changes.
+fn coarser(scene: &Scene) -> Option<Scene> {
+    let half = |d: usize| (d.div_ceil(2) >= MIN_DIVISIONS).then(|| d.div_ceil(2));
+    let mut out = scene.clone();
+    let mut changed = false;
+    for g in &mut out.geometry.generators {
+        match g {
+            Generator::Rectangle { divisions, .. } => {
+                if let (Some(a), Some(b)) = (half(divisions[0]), half(divisions[1])) {
+                    *divisions = [a, b];
+                    changed = true;
+                }
+            }
+            Generator::Disc { rings, .. } | Generator::Cushion { rings, .. } => {
+                if let Some(r) = half(*rings) {
+                    *rings = r;
+                    changed = true;
+                }
+            }
+            Generator::Annulus {
+                rings,
+                sectors,
+                grading,
+                ..
+            } => {
+                if let (Some(r), Some(s)) = (half(*rings), half(*sectors)) {
+                    // The same radii every other ring: the ratio of one coarse ring to the
+                    // next is two fine ones'.
+                    *grading = *grading * *grading;
+                    (*rings, *sectors) = (r, s);
+                    changed = true;
+                }
+            }
+        }
+    }
+    changed.then_some(out)
+}
+
+/// `u` (the coarse model's displacements) carried over to the nodes of `fine` (module docs);
+/// None where a node of `fine` has no counterpart on the coarse mesh.
+fn transfer(coarse: &Model, u: &[f64], fine: &Model) -> Option<Vec<f64>> {
+    let groups = coarse.membrane_groups.len();
+    if groups != fine.membrane_groups.len() {
+        return None;
+    }
+    // The membrane group of every fine node (its first triangle's) and its normal (the sum
+    // of its triangles' area vectors in that group: two sheets that start on top of each
+    // other, a cushion's, face opposite ways).
+    let mut group_of = vec![usize::MAX; fine.reference.len()];
+    let mut normal = vec![[0.0; 3]; fine.reference.len()];
+    for (g, range) in fine.membrane_groups.iter().enumerate() {
+        for t in &fine.triangles[range.clone()] {
+            let a = area_vector(fine, t.nodes);
+            for &n in &t.nodes {
+                if group_of[n] == usize::MAX {
+                    group_of[n] = g;
+                }
+                if group_of[n] == g {
+                    for k in 0..3 {
+                        normal[n][k] += a[k];
+                    }
+                }
+            }
+        }
+    }
+    let grids: Vec<Grid> = coarse
+        .membrane_groups
+        .iter()
+        .map(|r| Grid::new(coarse, r.clone()))
+        .collect();
+    let at_place: HashMap<[u64; 3], usize> = coarse
+        .reference
+        .iter()
+        .enumerate()
+        .map(|(i, x)| ([x[0].to_bits(), x[1].to_bits(), x[2].to_bits()], i))
+        .collect();
+    let mut out = vec![0.0; fine.unknown_count()];
+    for (i, x) in fine.reference.iter().enumerate() {
+        let value = if group_of[i] == usize::MAX {
+            let j = *at_place.get(&[x[0].to_bits(), x[1].to_bits(), x[2].to_bits()])?;
+            [u[3 * j], u[3 * j + 1], u[3 * j + 2]]
+        } else {
+            let (t, w) = grids[group_of[i]].nearest(coarse, [x[0], x[1], x[2]], normal[i])?;
+            let nodes = coarse.triangles[t].nodes;
+            let mut v = [0.0; 3];
+            for (a, &n) in nodes.iter().enumerate() {
+                for k in 0..3 {
+                    v[k] += w[a] * u[3 * n + k];
+                }
+            }
+            v
+        };
+        out[3 * i..3 * i + 3].copy_from_slice(&value);
+    }
+    Some(out)
+}
+
+/// A uniform grid of cells over one membrane group's coarse triangles, each triangle listed
+/// in every cell its bounding box touches.
+struct Grid {
+    origin: [f64; 3],
+    cell: f64,
+    cells: HashMap<[i64; 3], Vec<usize>>,
+}
+
+impl Grid {
+    fn new(model: &Model, range: std::ops::Range<usize>) -> Grid {
+        let triangles = &model.triangles[range.clone()];
+        let x = |n: usize| model.reference[n];
+        let mut lo = [f64::INFINITY; 3];
+        let mut edge = 0.0;
+        for t in triangles {
+            for a in 0..3 {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(x(t.nodes[a])[k]);
+                }
+                edge += (x(t.nodes[a]) - x(t.nodes[(a + 1) % 3])).norm();
+            }
+        }
+        let cell = (edge / (3.0 * triangles.len().max(1) as f64)).max(f64::MIN_POSITIVE);
+        let mut grid = Grid {
+            origin: lo,
+            cell,
+            cells: HashMap::new(),
+        };
+        for (k, t) in triangles.iter().enumerate() {
+            let mut a = [i64::MAX; 3];
+            let mut b = [i64::MIN; 3];
+            for &n in &t.nodes {
+                let c = grid.key([x(n)[0], x(n)[1], x(n)[2]]);
+                for d in 0..3 {
+                    a[d] = a[d].min(c[d]);
+                    b[d] = b[d].max(c[d]);
+                }
+            }
+            for i in a[0]..=b[0] {
+                for j in a[1]..=b[1] {
+                    for l in a[2]..=b[2] {
+                        grid.cells.entry([i, j, l]).or_default().push(range.start + k);
+                    }
+                }
+            }
+        }
+        grid
+    }
+
+    fn key(&self, p: [f64; 3]) -> [i64; 3] {
+        std::array::from_fn(|k| ((p[k] - self.origin[k]) / self.cell).floor() as i64)
+    }
+
+    /// The triangle nearest to `p` among those in the cells around it (up to three cells
+    /// away) that face the side `normal` faces (all where the normal is zero, as at the
+    /// shared rim of two sheets), and the weights of its nodes at the nearest point.
+    fn nearest(&self, model: &Model, p: [f64; 3], normal: [f64; 3]) -> Option<(usize, [f64; 3])> {
+        let size = normal.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let sided = size > 1e-9 * self.cell * self.cell;
+        let c = self.key(p);
+        for reach in 1..=3i64 {
+            let mut best: Option<(f64, usize, [f64; 3])> = None;
+            for i in -reach..=reach {
+                for j in -reach..=reach {
+                    for l in -reach..=reach {
+                        let Some(list) = self.cells.get(&[c[0] + i, c[1] + j, c[2] + l]) else {
+                            continue;
+                        };
+                        for &t in list {
+                            let n = model.triangles[t].nodes;
+                            if sided {
+                                let a = area_vector(model, n);
+                                if a[0] * normal[0] + a[1] * normal[1] + a[2] * normal[2] <= 0.0 {
+                                    continue;
+                                }
+                            }
+                            let v = |a: usize| {
+                                let x = model.reference[n[a]];
+                                [x[0], x[1], x[2]]
+                            };
+                            let (d, w) = closest_point(p, v(0), v(1), v(2));
+                            if best.is_none_or(|b| d < b.0) {
+                                best = Some((d, t, w));
+                            }
+                        }
+                    }
+                }
+            }
+            if let Some((d, t, w)) = best {
+                // Only a point within the cells searched is surely the nearest.
+                if d.sqrt() <= reach as f64 * self.cell {
+                    return Some((t, w));
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Twice the area vector of the triangle on `nodes` in the reference configuration.
+fn area_vector(model: &Model, nodes: [usize; 3]) -> [f64; 3] {
+    let x = |a: usize| model.reference[nodes[a]];
+    let n = (x(1) - x(0)).cross(&(x(2) - x(0)));
+    [n[0], n[1], n[2]]
+}
+
+/// The squared distance from `p` to the triangle (a, b, c) and the weights of a, b, c at the
+/// triangle's point nearest to `p` (Ericson 2005, *Real-Time Collision Detection*, §5.1.5).
+fn closest_point(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> (f64, [f64; 3]) {
+    let sub = |x: [f64; 3], y: [f64; 3]| [x[0] - y[0], x[1] - y[1], x[2] - y[2]];
+    let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    let w = if d1 <= 0.0 && d2 <= 0.0 {
+        [1.0, 0.0, 0.0]
+    } else {
+        let bp = sub(p, b);
+        let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+        let cp = sub(p, c);
+        let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+        let (va, vb, vc) = (d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2);
+        if d3 >= 0.0 && d4 <= d3 {
+            [0.0, 1.0, 0.0]
+        } else if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            let v = d1 / (d1 - d3);
+            [1.0 - v, v, 0.0]
+        } else if d6 >= 0.0 && d5 <= d6 {
+            [0.0, 0.0, 1.0]
+        } else if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            let w = d2 / (d2 - d6);
+            [1.0 - w, 0.0, w]
+        } else if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+            let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+            [0.0, 1.0 - w, w]
+        } else {
+            let denom = 1.0 / (va + vb + vc);
+            let (v, w) = (vb * denom, vc * denom);
+            [1.0 - v - w, v, w]
+        }
+    };
+    let q: [f64; 3] = std::array::from_fn(|k| w[0] * a[k] + w[1] * b[k] + w[2] * c[k]);
+    let d = sub(p, q);
+    (dot(d, d), w)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{closest_point, coarser, transfer};
+    use crate::model::Model;
+    use crate::scene::generate::resolve;
+    use crate::Scene;
+
+    fn scene(generator: &str, membranes: &str) -> Scene {
+        let text = format!(
+            r#"{{"format": 1, "name": "T", "geometry": {{"generators": [{generator}]}},
+               "membranes": {membranes}, "supports": [{{"nodes": "g.boundary", "fix": ["x", "y", "z"]}}]}}"#
+        );
+        Scene::from_json(&text).expect("valid scene")
+    }
+
+    /// A displacement field linear in the reference coordinates, different per sheet (`side`).
+    fn field(x: nalgebra::Vector3<f64>, side: f64) -> [f64; 3] {
+        [
+            0.1 + 0.2 * x[0] - 0.3 * x[1],
+            -0.2 + 0.05 * x[0] + 0.4 * x[1],
+            side * (0.3 + 0.1 * x[0] + 0.2 * x[1]),
+        ]
+    }
+
+    /// A field linear in the reference coordinates is carried over exactly (the transfer is
+    /// linear in each coarse triangle, and every fine node of a halved rectangle lies on
+    /// the coarse mesh). TOLERANCE: round-off, 1e-14 (fields of order 1).
+    #[test]
+    fn a_linear_field_is_carried_over_exactly() {
+        let fine = scene(
+            r#"{"kind": "rectangle", "name": "g", "origin": [0, 0, 0], "size": [4, 3], "divisions": [9, 8]}"#,
+            r#"[{"name": "m", "triangles": "g", "thickness": 1e-3, "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}]"#,
+        );
+        let coarse = coarser(&fine).expect("halved");
+        let (cm, fm) = (Model::build(&coarse), Model::build(&fine));
+        assert_eq!((cm.reference.len(), fm.reference.len()), (30, 90));
+        let u: Vec<f64> = cm.reference.iter().flat_map(|x| field(*x, 1.0)).collect();
+        let out = transfer(&cm, &u, &fm).expect("every node on the coarse mesh");
+        for (i, x) in fm.reference.iter().enumerate() {
+            let want = field(*x, 1.0);
+            for k in 0..3 {
+                assert!((out[3 * i + k] - want[k]).abs() < 1e-14, "node {i}");
+            }
+        }
+    }
+
+    /// The two sheets of a flat cushion start on top of each other: each fine node takes the
+    /// field of its own sheet (the coarse triangles facing its way), the shared rim either
+    /// (both fields agree there by construction below). TOLERANCE: round-off, 1e-14.
+    #[test]
+    fn each_sheet_of_a_flat_cushion_takes_its_own_field() {
+        let fine = scene(
+            r#"{"kind": "cushion", "name": "g", "center": [0, 0, 0], "outline": {"shape": "rectangle", "size": [2, 1]}, "rings": 8}"#,
+            r#"[{"name": "m", "triangles": "g", "thickness": 1e-3, "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}]"#,
+        );
+        let coarse = coarser(&fine).expect("halved");
+        let (cm, fm) = (Model::build(&coarse), Model::build(&fine));
+        let (cmesh, fmesh) = (resolve(&coarse.geometry), resolve(&fine.geometry));
+        let side = |mesh: &crate::scene::generate::Mesh, n: usize| {
+            if mesh.node_sets["g.bottom"].contains(&n) {
+                -1.0
+            } else if mesh.node_sets["g.top"].contains(&n) {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        let u: Vec<f64> = cm
+            .reference
+            .iter()
+            .enumerate()
+            .flat_map(|(i, x)| field(*x, side(&cmesh, i)))
+            .collect();
+        let out = transfer(&cm, &u, &fm).expect("every node on the coarse mesh");
+        let mut sheets = [0, 0];
+        for (i, x) in fm.reference.iter().enumerate() {
+            let s = side(&fmesh, i);
+            if s == 0.0 {
+                continue;
+            }
+            sheets[(s > 0.0) as usize] += 1;
+            // Near the rim a coarse triangle touches the rim (where the field is 0 in z): the
+            // comparison holds for nodes whose coarse triangle lies inside the sheet, so
+            // only the in-plane components, linear everywhere, are compared for every node,
+            // and z's sign for all.
+            let want = field(*x, s);
+            for k in 0..2 {
+                assert!((out[3 * i + k] - want[k]).abs() < 1e-14, "node {i}");
+            }
+            assert!(out[3 * i + 2] * s > 0.0, "node {i} took the other sheet's z");
+        }
+        assert!(sheets[0] > 50 && sheets[1] > 50, "{sheets:?}");
+    }
+
+    /// The nearest point of a triangle from inside, beside an edge and beyond a corner, by hand.
+    #[test]
+    fn closest_point_on_a_triangle() {
+        let (a, b, c) = ([0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
+        let (d, w) = closest_point([0.5, 0.5, 1.0], a, b, c);
+        assert!((d - 1.0).abs() < 1e-15);
+        assert!((w[0] - 0.5).abs() < 1e-15 && (w[1] - 0.25).abs() < 1e-15);
+        let (d, w) = closest_point([1.0, -1.0, 0.0], a, b, c);
+        assert!((d - 1.0).abs() < 1e-15 && (w[0] - 0.5).abs() < 1e-15 && (w[1] - 0.5).abs() < 1e-15);
+        let (d, w) = closest_point([3.0, -1.0, 0.0], a, b, c);
+        assert!((d - 2.0).abs() < 1e-15 && w == [0.0, 1.0, 0.0]);
+        let (d, w) = closest_point([2.0, 2.0, 0.0], a, b, c);
+        assert!((d - 2.0).abs() < 1e-15 && (w[1] - 0.5).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15);
+    }
+}
