@@ -27,6 +27,7 @@ use serde::{Deserialize, Serialize};
 
 mod coarse;
 pub mod derivatives;
+pub use coarse::{coarser_scene, AUTO_DOF as COARSE_START_DOF};
 pub mod modes;
 pub mod stepping;
 

@@ -44,46 +44,58 @@ pub(super) struct Guess {
     pub log: Vec<String>,
 }
 
+/// The coarser scene the first step of `scene` (built as `model`, with `free` free DOF) starts
+/// from (module docs): None where the coarse start does not apply to the scene, whatever its
+/// state (`velarium check` says so from this).
+pub fn coarser_scene(scene: &Scene, model: &Model, free: usize) -> Option<Scene> {
+    let wanted = match scene.solver.coarse_start {
+        CoarseStart::Off => false,
+        CoarseStart::On => true,
+        CoarseStart::Auto => free >= AUTO_DOF,
+    };
+    let applies = wanted
+        && scene.dynamics.as_ref().is_none_or(|d| d.time_integration.is_none())
+        && scene.solver.path == crate::scene::PathMethod::LoadControl
+        && model.slips.is_empty()
+        && model.ties.is_empty()
+        && model.contact_pairs.is_empty()
+        && model.contact_points.is_empty()
+        && model.volumes == 0
+        && model.plastic_len() == 0
+        && model.unknown_count() == 3 * model.reference.len()
+        && !model.triangles.is_empty()
+        && model.loads.iter().all(|l| {
+            matches!(
+                l,
+                LoadModel::PointForce(_) | LoadModel::Pressure { .. } | LoadModel::Surface { .. }
+            )
+        });
+    if applies {
+        coarser(scene)
+    } else {
+        None
+    }
+}
+
 impl Engine {
     /// The coarse start of this step (module docs): None where it does not apply; Err(why)
     /// where it was tried and gave nothing (the step then runs as without it).
     pub(super) fn coarse_guess(&self, dynamic: bool) -> Option<Result<Guess, String>> {
-        if !self.coarse_applies(dynamic) {
+        let s = &self.state;
+        if dynamic || s.inputs == s.applied || s.displacement.iter().any(|&x| x != 0.0) {
             return None;
         }
-        let scene = coarser(&self.scene)?;
+        let mut scene = coarser_scene(&self.scene, &self.model, self.free_dofs())?;
+        // The coarse meshes' memory comes on top of this one's, within the same limit.
+        let left = self.scene.solver.limits.max_memory_gb - self.memory_estimate as f64 / 1e9;
+        if left < 1e-3 {
+            return Some(Err(format!(
+                "this mesh's estimated {:.3} GB leave nothing of solver.limits.max_memory_gb for a coarser one",
+                self.memory_estimate as f64 / 1e9
+            )));
+        }
+        scene.solver.limits.max_memory_gb = left;
         Some(self.solve_coarse(scene))
-    }
-
-    fn coarse_applies(&self, dynamic: bool) -> bool {
-        let s = &self.state;
-        let m = &self.model;
-        let wanted = match self.scene.solver.coarse_start {
-            CoarseStart::Off => false,
-            CoarseStart::On => true,
-            CoarseStart::Auto => self.free_dofs() >= AUTO_DOF,
-        };
-        wanted
-            && !dynamic
-            && self.scene.solver.path == crate::scene::PathMethod::LoadControl
-            && s.inputs != s.applied
-            && s.displacement.iter().all(|&x| x == 0.0)
-            && s.plastic.is_empty()
-            && m.slips.is_empty()
-            && m.ties.is_empty()
-            && m.contact_pairs.is_empty()
-            && m.contact_points.is_empty()
-            && m.volumes == 0
-            && m.unknown_count() == 3 * m.reference.len()
-            && !m.triangles.is_empty()
-            && m.loads.iter().all(|l| {
-                matches!(
-                    l,
-                    LoadModel::PointForce(_)
-                        | LoadModel::Pressure { .. }
-                        | LoadModel::Surface { .. }
-                )
-            })
     }
 
     /// Solve `scene` (this one's coarser mesh) under this state's loads and parameters and

@@ -324,3 +324,59 @@ impl Engine {
         report
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::Engine;
+
+    /// A start that Newton cannot take (the coarse start's, here made far off by hand: every
+    /// node 0.2 m out of the plane, up and down in turn) costs its attempt and nothing else:
+    /// the step goes on from the undeformed state, says so, and reaches the equilibrium the
+    /// step without it reaches. TOLERANCE: 1e-12 relative (the same path after the attempt; the
+    /// solver's kept factorizations may differ, so round-off, not bits).
+    #[test]
+    fn a_start_newton_cannot_take_leaves_the_step_as_without_it() {
+        let text = include_str!("../../modelDescription/HenckyDisc/scene.json");
+        let mut scene = crate::Scene::from_json(text).expect("the shipped scene");
+        scene.solver.coarse_start = crate::scene::CoarseStart::Off;
+        scene.solver.max_iterations = 12;
+        let pressure = |e: &Engine| {
+            e.variables()
+                .iter()
+                .find(|v| v.name == "pressure")
+                .expect("input")
+                .value_reference
+        };
+        let mut plain = Engine::try_new(scene.clone()).expect("valid");
+        plain.set_real(pressure(&plain), 40.0).expect("set");
+        let want = plain.solve();
+        assert!(want.converged(), "{}", want.message);
+
+        let mut e = Engine::try_new(scene).expect("valid");
+        e.set_real(pressure(&e), 40.0).expect("set");
+        let mut step = e.begin_step();
+        let bad: Vec<f64> = (0..e.state.displacement.len())
+            .map(|i| if i % 3 == 2 { 0.2 * (1.0 - 2.0 * ((i / 3) % 2) as f64) } else { 0.0 })
+            .collect();
+        step.stepper = step.stepper.with_guess(bad);
+        while e.advance(&mut step).is_some() {}
+        let got = e.end_step(step);
+        assert!(got.converged(), "{}", got.message);
+        for l in got.log.iter().filter(|l| l.starts_with("from the coarse")) {
+            println!("{l}; then {} iterations in all, {} without the start", got.iterations, want.iterations);
+        }
+        assert!(
+            got.log
+                .iter()
+                .any(|l| l.starts_with("from the coarse mesh's answer:")
+                    && l.ends_with("the step goes on from its start")),
+            "{:?}",
+            got.log
+        );
+        assert!(got.iterations > want.iterations, "the attempt's iterations are counted");
+        let (a, b) = (&plain.state.displacement, &e.state.displacement);
+        let largest = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let apart = a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        assert!(apart <= 1e-12 * largest, "{apart:e} of {largest:e}");
+    }
+}
