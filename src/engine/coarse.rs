@@ -251,16 +251,22 @@ impl Grid {
         let triangles = &model.triangles[range.clone()];
         let x = |n: usize| model.reference[n];
         let mut lo = [f64::INFINITY; 3];
-        let mut edge = 0.0;
+        let (mut edge, mut longest) = (0.0, 0.0f64);
         for t in triangles {
             for a in 0..3 {
                 for k in 0..3 {
                     lo[k] = lo[k].min(x(t.nodes[a])[k]);
                 }
-                edge += (x(t.nodes[a]) - x(t.nodes[(a + 1) % 3])).norm();
+                let l = (x(t.nodes[a]) - x(t.nodes[(a + 1) % 3])).norm();
+                edge += l;
+                longest = longest.max(l);
             }
         }
-        let cell = (edge / (3.0 * triangles.len().max(1) as f64)).max(f64::MIN_POSITIVE);
+        // The mean edge, but at least a quarter of the longest: no triangle of a strongly
+        // graded mesh is listed in more than 5 x 5 x 5 cells.
+        let cell = (edge / (3.0 * triangles.len().max(1) as f64))
+            .max(longest / 4.0)
+            .max(f64::MIN_POSITIVE);
         let mut grid = Grid {
             origin: lo,
             cell,

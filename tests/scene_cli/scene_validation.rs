@@ -472,3 +472,29 @@ fn warp_axis_problems_are_located() {
         "{p:#?}"
     );
 }
+
+/// `solver.coarse_start` (docs/scenes.md): `auto`, `on` or `off`; anything else is named with
+/// its path and the values it may take.
+#[test]
+fn a_bad_coarse_start_is_named() {
+    let scene = |value: &str| {
+        format!(
+            r#"{{"format": 1, "name": "A",
+              "geometry": {{"nodes": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}},
+              "membranes": [{{"name": "m", "triangles": [0], "thickness": 1e-4,
+                             "material": {{"kind": "svk", "E": 1e6, "nu": 0.3}}}}],
+              "supports": [{{"nodes": [0, 1, 2], "fix": ["x", "y", "z"]}}],
+              "solver": {{"coarse_start": {value}}}}}"#
+        )
+    };
+    for bad in ["\"maybe\"", "1", "true"] {
+        let p = problems(&scene(bad));
+        assert!(
+            p.iter().any(|m| m.contains("solver.coarse_start")),
+            "{bad}: {p:?}"
+        );
+    }
+    for good in ["\"auto\"", "\"on\"", "\"off\""] {
+        assert!(problems(&scene(good)).is_empty(), "{good}");
+    }
+}
