@@ -10,7 +10,8 @@
 //! 96 (square). Printed per run: free DOF, the setting, Newton iterations and numeric
 //! factorizations on this mesh, the coarse meshes' free DOF and iterations (from the log), the
 //! wall time of the solve (coarse meshes included), the centre deflection and, for `on`, its
-//! difference from `off`'s.
+//! difference from `off`'s, and the process's peak resident set from the engine's build on
+//! (Linux; the scene's own text before it is not counted).
 
 use std::time::Instant;
 use velarium::scene::{CoarseStart, Generator};
@@ -71,8 +72,8 @@ fn main() {
         std::fs::read_to_string("/proc/loadavg").unwrap_or_default().trim()
     );
     println!(
-        "{:>7} {:>5} {:>9} {:>5} {:>5} {:>5}  {:<34} {:>8} {:>14} {:>10}",
-        "problem", "size", "DOF", "start", "iters", "facts", "coarse meshes (DOF: iterations)", "wall s", "centre mm", "difference"
+        "{:>7} {:>5} {:>9} {:>5} {:>5} {:>5}  {:<34} {:>8} {:>14} {:>10} {:>8}",
+        "problem", "size", "DOF", "start", "iters", "facts", "coarse meshes (DOF: iterations)", "wall s", "centre mm", "difference", "peak MiB"
     );
     for problem in &problems {
         let defaults = if problem == "disc" {
@@ -88,6 +89,8 @@ fn main() {
                     scene.solver.coarse_start = setting;
                     scene.solver.threads = threads;
                     scene.solver.limits.max_memory_gb = 64.0;
+                    // The peak resident set from here (VmHWM reset, Linux >= 4.0).
+                    let _ = std::fs::write("/proc/self/clear_refs", "5");
                     let mut engine = Engine::try_new(scene).expect("valid scene");
                     let vr = |name: &str| {
                         engine
@@ -127,8 +130,10 @@ fn main() {
                     } else {
                         format!("{:.2e}", (answer - off_answer).abs() / off_answer.abs())
                     };
+                    let peak = velarium::memory::peak_resident()
+                        .map_or(f64::NAN, |b| b as f64 / (1024.0 * 1024.0));
                     println!(
-                        "{:>7} {:>5} {:>9} {:>5} {:>5} {:>5}  {:<34} {:>8.3} {:>14.9} {:>10}",
+                        "{:>7} {:>5} {:>9} {:>5} {:>5} {:>5}  {:<34} {:>8.3} {:>14.9} {:>10} {:>8.0}",
                         problem,
                         n,
                         engine.free_dofs(),
@@ -138,7 +143,8 @@ fn main() {
                         coarse.join(", "),
                         wall,
                         answer,
-                        difference
+                        difference,
+                        peak
                     );
                 }
             }
