@@ -69,11 +69,23 @@ fn main() {
         .collect();
     println!(
         "coarse start: flat to full load, {threads} thread(s), load average {}",
-        std::fs::read_to_string("/proc/loadavg").unwrap_or_default().trim()
+        std::fs::read_to_string("/proc/loadavg")
+            .unwrap_or_default()
+            .trim()
     );
     println!(
         "{:>7} {:>5} {:>9} {:>5} {:>5} {:>5}  {:<34} {:>8} {:>14} {:>10} {:>8}",
-        "problem", "size", "DOF", "start", "iters", "facts", "coarse meshes (DOF: iterations)", "wall s", "centre mm", "difference", "peak MiB"
+        "problem",
+        "size",
+        "DOF",
+        "start",
+        "iters",
+        "facts",
+        "coarse meshes (DOF: iterations)",
+        "wall s",
+        "centre mm",
+        "difference",
+        "peak MiB"
     );
     for problem in &problems {
         let defaults = if problem == "disc" {
@@ -85,7 +97,11 @@ fn main() {
             for _ in 0..runs {
                 let mut off_answer = f64::NAN;
                 for setting in [CoarseStart::Off, CoarseStart::On] {
-                    let mut scene = if problem == "disc" { disc(n) } else { square(n) };
+                    let mut scene = if problem == "disc" {
+                        disc(n)
+                    } else {
+                        square(n)
+                    };
                     scene.solver.coarse_start = setting;
                     scene.solver.threads = threads;
                     scene.solver.limits.max_memory_gb = 64.0;
@@ -100,7 +116,11 @@ fn main() {
                             .expect("variable")
                             .value_reference
                     };
-                    let input = if problem == "disc" { "pressure" } else { "load" };
+                    let input = if problem == "disc" {
+                        "pressure"
+                    } else {
+                        "load"
+                    };
                     let (load, out) = (vr(input), vr("center_uz"));
                     let q = if problem == "disc" { 40.0 } else { 300.0 };
                     engine.set_real(load, q).expect("load");
@@ -113,7 +133,9 @@ fn main() {
                     let coarse: Vec<String> = report
                         .log
                         .iter()
-                        .filter_map(|l| l.strip_prefix("coarse start: the mesh with half the divisions ("))
+                        .filter_map(|l| {
+                            l.strip_prefix("coarse start: the mesh with half the divisions (")
+                        })
                         .map(|l| {
                             let dof = l.split(' ').next().unwrap_or("?");
                             let its = l

@@ -54,7 +54,10 @@ pub fn coarser_scene(scene: &Scene, model: &Model, free: usize) -> Option<Scene>
         CoarseStart::Auto => free >= AUTO_DOF,
     };
     let applies = wanted
-        && scene.dynamics.as_ref().is_none_or(|d| d.time_integration.is_none())
+        && scene
+            .dynamics
+            .as_ref()
+            .is_none_or(|d| d.time_integration.is_none())
         && scene.solver.path == crate::scene::PathMethod::LoadControl
         && model.slips.is_empty()
         && model.ties.is_empty()
@@ -95,6 +98,18 @@ impl Engine {
             )));
         }
         scene.solver.limits.max_memory_gb = left;
+        // All the coarse start's memory at once, on top of what this step has probed for
+        // itself: the coarser meshes' models and solvers (each a quarter of the next finer
+        // one's: a third of this one's in all, probed as a half), their transfers, and this
+        // step's working memory, which must still be there when they are done.
+        if !self.scene.debug.skip_memory_probes {
+            let bytes = self.memory_estimate / 2
+                + 200 * (self.model.reference.len() + self.model.triangles.len()) as u64
+                + self.solver.step_bytes(&self.model);
+            if let Err(e) = crate::memory::probe(bytes, "the coarse start") {
+                return Some(Err(e.to_string()));
+            }
+        }
         Some(self.solve_coarse(scene))
     }
 
@@ -103,6 +118,21 @@ impl Engine {
     fn solve_coarse(&self, scene: Scene) -> Result<Guess, String> {
         let started = std::time::Instant::now();
         let mut coarse = Engine::try_new(scene).map_err(|e| format!("its scene: {e}"))?;
+        // Every allocation of the coarse start besides the coarse engine's own (probed by
+        // it): its state's copy, and the transfer's lists (about 80 bytes per node of this
+        // mesh, 60 per node and up to 200 per triangle of the coarse one), probed here and
+        // again before the transfer, when the coarse solve's memory is in use.
+        let transfer_bytes = 80 * self.model.reference.len() as u64
+            + 60 * coarse.model.reference.len() as u64
+            + 200 * coarse.model.triangles.len() as u64;
+        let state_bytes = 8
+            * (coarse.state.displacement.len() + 4 * coarse.state.inputs.len()) as u64
+            + 16 * coarse.state.wrinkle.len() as u64;
+        let probes = !self.scene.debug.skip_memory_probes;
+        if probes {
+            crate::memory::probe(state_bytes + transfer_bytes, "the coarse start")
+                .map_err(|e| e.to_string())?;
+        }
         let mut state = coarse.state.clone();
         if state.inputs.len() != self.state.inputs.len()
             || state.parameters.len() != self.state.parameters.len()
@@ -122,6 +152,10 @@ impl Engine {
                 "the mesh with half the divisions ({dofs} free DOF) did not converge: {}",
                 report.message
             ));
+        }
+        if probes {
+            crate::memory::probe(transfer_bytes, "the coarse start's transfer")
+                .map_err(|e| e.to_string())?;
         }
         let start = transfer(&coarse.model, &coarse.state.displacement, &self.model)
             .ok_or("a node of this mesh lies off the coarse mesh")?;
@@ -254,8 +288,8 @@ impl Grid {
         let (mut edge, mut longest) = (0.0, 0.0f64);
         for t in triangles {
             for a in 0..3 {
-                for k in 0..3 {
-                    lo[k] = lo[k].min(x(t.nodes[a])[k]);
+                for (k, low) in lo.iter_mut().enumerate() {
+                    *low = low.min(x(t.nodes[a])[k]);
                 }
                 let l = (x(t.nodes[a]) - x(t.nodes[(a + 1) % 3])).norm();
                 edge += l;
@@ -285,7 +319,10 @@ impl Grid {
             for i in a[0]..=b[0] {
                 for j in a[1]..=b[1] {
                     for l in a[2]..=b[2] {
-                        grid.cells.entry([i, j, l]).or_default().push(range.start + k);
+                        grid.cells
+                            .entry([i, j, l])
+                            .or_default()
+                            .push(range.start + k);
                     }
                 }
             }
@@ -478,7 +515,10 @@ mod tests {
             for k in 0..2 {
                 assert!((out[3 * i + k] - want[k]).abs() < 1e-14, "node {i}");
             }
-            assert!(out[3 * i + 2] * s > 0.0, "node {i} took the other sheet's z");
+            assert!(
+                out[3 * i + 2] * s > 0.0,
+                "node {i} took the other sheet's z"
+            );
         }
         assert!(sheets[0] > 50 && sheets[1] > 50, "{sheets:?}");
     }
@@ -491,10 +531,14 @@ mod tests {
         assert!((d - 1.0).abs() < 1e-15);
         assert!((w[0] - 0.5).abs() < 1e-15 && (w[1] - 0.25).abs() < 1e-15);
         let (d, w) = closest_point([1.0, -1.0, 0.0], a, b, c);
-        assert!((d - 1.0).abs() < 1e-15 && (w[0] - 0.5).abs() < 1e-15 && (w[1] - 0.5).abs() < 1e-15);
+        assert!(
+            (d - 1.0).abs() < 1e-15 && (w[0] - 0.5).abs() < 1e-15 && (w[1] - 0.5).abs() < 1e-15
+        );
         let (d, w) = closest_point([3.0, -1.0, 0.0], a, b, c);
         assert!((d - 2.0).abs() < 1e-15 && w == [0.0, 1.0, 0.0]);
         let (d, w) = closest_point([2.0, 2.0, 0.0], a, b, c);
-        assert!((d - 2.0).abs() < 1e-15 && (w[1] - 0.5).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15);
+        assert!(
+            (d - 2.0).abs() < 1e-15 && (w[1] - 0.5).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15
+        );
     }
 }

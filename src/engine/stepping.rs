@@ -356,14 +356,23 @@ mod tests {
         e.set_real(pressure(&e), 40.0).expect("set");
         let mut step = e.begin_step();
         let bad: Vec<f64> = (0..e.state.displacement.len())
-            .map(|i| if i % 3 == 2 { 0.2 * (1.0 - 2.0 * ((i / 3) % 2) as f64) } else { 0.0 })
+            .map(|i| {
+                if i % 3 == 2 {
+                    0.2 * (1.0 - 2.0 * ((i / 3) % 2) as f64)
+                } else {
+                    0.0
+                }
+            })
             .collect();
         step.stepper = step.stepper.with_guess(bad);
         while e.advance(&mut step).is_some() {}
         let got = e.end_step(step);
         assert!(got.converged(), "{}", got.message);
         for l in got.log.iter().filter(|l| l.starts_with("from the coarse")) {
-            println!("{l}; then {} iterations in all, {} without the start", got.iterations, want.iterations);
+            println!(
+                "{l}; then {} iterations in all, {} without the start",
+                got.iterations, want.iterations
+            );
         }
         assert!(
             got.log
@@ -373,10 +382,16 @@ mod tests {
             "{:?}",
             got.log
         );
-        assert!(got.iterations > want.iterations, "the attempt's iterations are counted");
+        assert!(
+            got.iterations > want.iterations,
+            "the attempt's iterations are counted"
+        );
         let (a, b) = (&plain.state.displacement, &e.state.displacement);
         let largest = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let apart = a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        let apart = a
+            .iter()
+            .zip(b)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
         assert!(apart <= 1e-12 * largest, "{apart:e} of {largest:e}");
     }
 }

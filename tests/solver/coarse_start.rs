@@ -54,13 +54,20 @@ fn the_square_with_edge_cables_starts_from_its_coarser_meshes_answer() {
         rf.iterations, rc.iterations
     );
     assert!(rf.log.iter().all(|l| !l.starts_with("coarse start")));
-    assert_eq!(lines.len(), 3, "from 6 x 6, 12 x 12, then 24 x 24: {lines:?}");
+    assert_eq!(
+        lines.len(),
+        3,
+        "from 6 x 6, 12 x 12, then 24 x 24: {lines:?}"
+    );
     assert!(lines[2].contains("(1863 free DOF)"), "{lines:?}");
     assert!(rf.iterations >= 20, "the flat start: {}", rf.iterations);
     assert!(rc.iterations <= 10, "the coarse start: {}", rc.iterations);
     assert_eq!((rc.increments, rc.cutbacks), (1, 0));
     let balance = corner_balance(&coarse, n);
-    println!("corner balance: flat {:.2e}, coarse {balance:.2e}", corner_balance(&flat, n));
+    println!(
+        "corner balance: flat {:.2e}, coarse {balance:.2e}",
+        corner_balance(&flat, n)
+    );
     assert!(balance < 1e-7, "corner reactions vs -p A: {balance:.2e}");
     let apart = node_distance(&flat, &coarse);
     println!(
@@ -68,7 +75,10 @@ fn the_square_with_edge_cables_starts_from_its_coarser_meshes_answer() {
         get(&coarse, "center_uz"),
         get(&flat, "center_uz")
     );
-    assert!(apart < 1e-8, "{apart:e} m from the flat start's equilibrium");
+    assert!(
+        apart < 1e-8,
+        "{apart:e} m from the flat start's equilibrium"
+    );
 }
 
 /// `auto` applies from 10 000 free DOF: the Hencky disc at 64 rings (36 291 free DOF) under
@@ -82,7 +92,8 @@ fn auto_starts_a_large_generated_disc_from_its_coarser_meshes_answer() {
     let disc = |rings: usize, setting: &str| {
         let path = crate::common::shipped("HenckyDisc");
         let mut scene = crate::common::read_scene(&path);
-        if let velarium::scene::Generator::Disc { rings: r, .. } = &mut scene.geometry.generators[0] {
+        if let velarium::scene::Generator::Disc { rings: r, .. } = &mut scene.geometry.generators[0]
+        {
             *r = rings;
         }
         scene.solver.coarse_start = match setting {
