@@ -15,7 +15,7 @@
 //! of the whole tangent (the unscaled rule).
 
 use super::dissect::Fill;
-use super::factor::{numeric_ldlt, symbolic_ldlt};
+use super::factor::{numeric_ldlt, numeric_ldlt_single, symbolic_ldlt};
 use super::split::Split;
 use super::threads::Pool;
 use crate::error::{Breakdown, Error};
@@ -35,6 +35,34 @@ const PIVOT_EPSILON: f64 = 1e-13;
 const PIVOT_DELTA: f64 = 1e-9;
 /// What [`Breakdown::NonFinite`] names when a solve's result holds NaN or infinity.
 const NON_FINITE: &str = "the linear solve's solution";
+
+/// Smallest tangent (equations) factored in single precision under [`Precision::Auto`]
+/// (module docs, "Mixed precision"; docs/performance.md, "Mixed-precision factor").
+pub const SINGLE_MIN_EQUATIONS: usize = 100_000;
+
+/// Refinement steps a solve with the single-precision factor may take before it falls back
+/// to a double-precision factorization.
+pub const MAX_REFINEMENT_STEPS: usize = 10;
+
+/// Largest ratio of a refinement step's correction to the last one's (to the solution's, at
+/// the first step) for which the single-precision factor is kept: above it the refinement
+/// does not contract fast enough and the tangent is factored in double precision.
+pub const MAX_CONTRACTION: f64 = 0.5;
+
+/// The componentwise backward error (Oettli-Prager: max_i |b - K x|_i / (|K| |x| + |b|)_i)
+/// at which a refined solve stops: 2^-46 = 1.4e-14, 64 units of round-off (what the
+/// double-precision factor's own solve reaches on the Hencky disc's tangents: docs).
+pub const BACKWARD_ERROR: f64 = 1.4210854715202004e-14;
+
+/// Which precision the tangent is factored in (module docs, "Mixed precision").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// Single from [`SINGLE_MIN_EQUATIONS`] equations, double below.
+    #[default]
+    Auto,
+    Double,
+    Single,
+}
 
 /// Smallest tangent (equations) factored in two halves when the solver has 2 threads or more:
 /// below it the dense separator block and the hand-over cost more than half a factorization
@@ -66,6 +94,22 @@ pub struct Ldlt {
     /// [`Ldlt::solve_block`]'s right-hand sides row by row in the factor's order (work
     /// buffer, grown on first use).
     rows: Vec<f64>,
+    /// The factor is single precision (module docs, "Mixed precision"): the whole tangent's
+    /// in `l32` (of the scaled values `v32`), or the split's halves'.
+    single: bool,
+    v32: Vec<f32>,
+    l32: Vec<f32>,
+    /// A substitution's vector in f32 (the whole tangent's single-precision solve).
+    x32: Vec<f32>,
+    /// The refinement's vectors: b, the residual, |K| |x| (allocated at the first refined
+    /// solve).
+    refine: Vec<f64>,
+    /// Log lines of the falls back to double precision, for the solver's log
+    /// ([`Ldlt::take_notes`]).
+    notes: Vec<String>,
+    /// The values were handed out for writing ([`Ldlt::values_mut`]) since the last
+    /// factorization: K may no longer be the factored matrix.
+    stale: bool,
 }
 
 /// Work counters of one [`Ldlt`].
@@ -80,6 +124,13 @@ pub struct Counts {
     pub pcg_solves: usize,
     /// Attempts that did not converge (a factorization followed).
     pub pcg_failed: usize,
+    /// Substitutions (forward and back through the factor), any precision.
+    pub substitutions: usize,
+    /// Refinement steps of solves with the single-precision factor (one substitution each).
+    pub refinements: usize,
+    /// Single-precision factors given up for double precision (the refinement did not
+    /// contract, or the single-precision factorization failed).
+    pub fallbacks: usize,
 }
 
 impl Ldlt {
@@ -181,21 +232,24 @@ impl Ldlt {
         };
         let factor_mem = buffer(
             match (&split, &symbolic) {
-                (None, Some(symbolic)) => {
-                    symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default())
-                }
+                (None, Some(symbolic)) => symbolic
+                    .factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default())
+                    .or(symbolic
+                        .factorize_numeric_ldlt_scratch::<f32>(Par::Seq, Default::default())),
                 _ => StackReq::EMPTY,
             },
             "the factorization workspace",
         )?;
         let solve_mem = buffer(
             match (&split, &symbolic) {
-                (None, Some(symbolic)) => symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+                (None, Some(symbolic)) => symbolic
+                    .solve_in_place_scratch::<f64>(1, Par::Seq)
+                    .or(symbolic.solve_in_place_scratch::<f32>(1, Par::Seq)),
                 _ => StackReq::EMPTY,
             },
             "the solve workspace",
         )?;
-        Ok(Ldlt {
+        let mut ldlt = Ldlt {
             matrix,
             symbolic,
             l_values,
@@ -208,7 +262,58 @@ impl Ldlt {
             scale: Vec::new(),
             largest: Vec::new(),
             rows: Vec::new(),
-        })
+            single: false,
+            v32: Vec::new(),
+            l32: Vec::new(),
+            x32: Vec::new(),
+            refine: Vec::new(),
+            notes: Vec::new(),
+            stale: false,
+        };
+        ldlt.set_precision(Precision::Auto)?;
+        Ok(ldlt)
+    }
+
+    /// Factor in the precision `precision` asks for from the next [`Ldlt::factor`] on (the
+    /// single-precision buffers allocated fallibly, or freed). A factor held is dropped.
+    pub fn set_precision(&mut self, precision: Precision) -> Result<(), OutOfMemory> {
+        let n = self.matrix.ncols();
+        let single = match precision {
+            Precision::Auto => n >= SINGLE_MIN_EQUATIONS,
+            Precision::Double => false,
+            Precision::Single => n > 0,
+        };
+        self.factored = false;
+        let what = "the single-precision factor";
+        if let Some(split) = self.split.as_mut() {
+            split.set_single(single)?;
+        } else if single {
+            let symbolic = self
+                .symbolic
+                .as_ref()
+                .expect("the whole tangent's symbolic factorization");
+            if self.l32.is_empty() {
+                self.l32 = memory::lazy_zeros(symbolic.len_val(), what)?;
+                self.v32 = memory::lazy_zeros(self.matrix.val().len(), what)?;
+                self.x32 = memory::zeros(n, what)?;
+            }
+        } else {
+            self.l32 = Vec::new();
+            self.v32 = Vec::new();
+            self.x32 = Vec::new();
+        }
+        self.single = single;
+        Ok(())
+    }
+
+    /// Whether the tangent is factored in single precision (module docs, "Mixed precision").
+    pub fn is_single(&self) -> bool {
+        self.single
+    }
+
+    /// The log lines of the falls back to double precision since the last call.
+    pub fn take_notes(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notes)
     }
 
     /// (A, B, separator) equations of the two-domain factorization, if it is used.
@@ -259,6 +364,7 @@ impl Ldlt {
 
     /// The matrix values (upper triangle, CSC order) to fill before [`Ldlt::factor_solve`].
     pub fn values_mut(&mut self) -> &mut [f64] {
+        self.stale = true;
         self.matrix.val_mut()
     }
 
@@ -289,6 +395,22 @@ impl Ldlt {
         let reg = (PIVOT_DELTA * unit, PIVOT_EPSILON * unit);
         let result = match self.split.as_mut() {
             Some(split) => split.factor(self.matrix.val(), reg),
+            None if self.single => {
+                for (s, &v) in self.v32.iter_mut().zip(self.matrix.val()) {
+                    *s = v as f32;
+                }
+                numeric_ldlt_single(
+                    self.symbolic
+                        .as_ref()
+                        .expect("the whole tangent's symbolic factorization"),
+                    &mut self.l32,
+                    self.matrix.symbolic(),
+                    &self.v32,
+                    reg,
+                    &mut self.factor_mem,
+                    "the tangent",
+                )
+            }
             None => numeric_ldlt(
                 self.symbolic
                     .as_ref()
@@ -303,9 +425,28 @@ impl Ldlt {
         if scaled {
             self.unscale_values();
         }
+        if let (Err(e), true) = (&result, self.single) {
+            // Single precision's factorization failed: double's is the answer either way.
+            return self.fall_back(format!(
+                "the single-precision factorization failed ({e}); factoring in double precision"
+            ));
+        }
         result?;
         self.factored = true;
+        self.stale = false;
         Ok(())
+    }
+
+    /// Give up the single-precision factor: the note logged, the tangent factored in double
+    /// precision from here on.
+    fn fall_back(&mut self, why: String) -> Result<(), Error> {
+        self.counts.fallbacks += 1;
+        self.notes.push(format!(
+            "linear solve: {why}; the tangent ({} equations) is factored in double precision from here on",
+            self.matrix.ncols()
+        ));
+        self.set_precision(Precision::Double)?;
+        self.factor()
     }
 
     /// The group of every equation (the solver: each node's equations one group), for the
@@ -366,12 +507,136 @@ impl Ldlt {
         }
     }
 
-    /// Solve with the last factorization, in place (one more forward/back substitution).
+    /// Solve K x = rhs in place with the last factorization: one forward/back substitution
+    /// with a double-precision factor; with a single-precision one, as many more as the
+    /// refinement takes to the double-precision answer (module docs, "Mixed precision"), or
+    /// a double-precision factorization when it does not contract. After the values were
+    /// changed ([`Ldlt::values_mut`]) without a factorization, one substitution with the
+    /// factor held, whatever its precision.
     pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
+        if rhs.is_empty() {
+            return Ok(());
+        }
+        if !self.single || self.stale {
+            // A solve with a factor of values since changed (the chord step of `newton.rs`)
+            // has no matrix to refine against: one substitution, as the preconditioner.
+            return self.substitute(rhs);
+        }
+        self.refined(rhs)
+    }
+
+    /// [`Ldlt::solve`] with the single-precision factor M: x = M⁻¹ b, then while the
+    /// componentwise backward error of x is above [`BACKWARD_ERROR`], r = b − K x (in f64)
+    /// and x += M⁻¹ r; each correction must be at most [`MAX_CONTRACTION`] of the one before
+    /// (of x at the first), within [`MAX_REFINEMENT_STEPS`] steps, else the tangent is
+    /// factored in double precision ([`Ldlt::fall_back`]) and solved with that.
+    fn refined(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
+        let n = rhs.len();
+        if self.refine.len() != 3 * n {
+            self.refine = memory::zeros(3 * n, "the refinement's vectors")?;
+        }
+        let mut work = std::mem::take(&mut self.refine);
+        let (b, rest) = work.split_at_mut(n);
+        let (r, abs) = rest.split_at_mut(n);
+        b.copy_from_slice(rhs);
+        let mut result = self.substitute(rhs);
+        let mut last = inf_norm(rhs);
+        let mut failure = None;
+        for step in 0..=MAX_REFINEMENT_STEPS {
+            if result.is_err() {
+                break;
+            }
+            let omega = {
+                let _phase = crate::phases::start("solve: refinement residual (Ldlt::solve)");
+                self.residual(b, rhs, r, abs)
+            };
+            if omega <= BACKWARD_ERROR {
+                failure = None;
+                break;
+            }
+            if step == MAX_REFINEMENT_STEPS {
+                failure = Some(format!(
+                    "the refinement of the single-precision factor's solve left a backward error of {omega:.2e} after {step} steps"
+                ));
+                break;
+            }
+            result = self.substitute(r);
+            self.counts.refinements += 1;
+            let size = inf_norm(r);
+            rhs.iter_mut().zip(r.iter()).for_each(|(x, d)| *x += d);
+            let ratio = size / last;
+            if !(ratio <= MAX_CONTRACTION) {
+                failure = Some(format!(
+                    "the refinement of the single-precision factor's solve contracted by {ratio:.2e} > {MAX_CONTRACTION} at step {}",
+                    step + 1
+                ));
+                break;
+            }
+            last = size;
+        }
+        if let (Err(e), None) = (&result, &failure) {
+            failure = Some(format!("the single-precision factor's solve failed ({e})"));
+        }
+        let outcome = match failure {
+            None => Ok(()),
+            Some(why) => {
+                rhs.copy_from_slice(b);
+                self.fall_back(why)
+                    .and_then(|()| self.substitute(rhs))
+            }
+        };
+        self.refine = work;
+        outcome
+    }
+
+    /// r = b − K x and |K| |x| + |b| (in `abs`); returns the componentwise backward error
+    /// max_i |r_i| / (|K| |x| + |b|)_i (rows where the denominator is 0 count when r_i ≠ 0).
+    fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64], abs: &mut [f64]) -> f64 {
+        let sym = self.matrix.symbolic();
+        let (cp, ri) = (sym.col_ptr(), sym.row_idx());
+        let v = self.matrix.val();
+        r.fill(0.0);
+        abs.fill(0.0);
+        for j in 0..sym.ncols() {
+            let (mut acc, mut acc_abs, xj) = (0.0, 0.0, x[j]);
+            for k in cp[j]..cp[j + 1] {
+                let i = ri[k];
+                acc += v[k] * x[i];
+                acc_abs += (v[k] * x[i]).abs();
+                if i != j {
+                    r[i] += v[k] * xj;
+                    abs[i] += (v[k] * xj).abs();
+                }
+            }
+            r[j] += acc;
+            abs[j] += acc_abs;
+        }
+        let mut omega = 0.0f64;
+        for i in 0..r.len() {
+            r[i] = b[i] - r[i];
+            let d = abs[i] + b[i].abs();
+            let e = if d > 0.0 {
+                r[i].abs() / d
+            } else if r[i] == 0.0 {
+                0.0
+            } else {
+                f64::INFINITY
+            };
+            // NaN (a non-finite x) counts as the largest error.
+            omega = if e.is_nan() { f64::INFINITY } else { omega.max(e) };
+        }
+        omega
+    }
+
+    /// One forward/back substitution with the last factorization, in place, in the factor's
+    /// precision (the preconditioner of [`Ldlt::pcg`]; [`Ldlt::solve`] with a
+    /// double-precision factor).
+    fn substitute(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
         let n = rhs.len();
         if n == 0 {
             return Ok(());
         }
+        self.counts.substitutions += 1;
         let _phase = crate::phases::start("solve: substitution (Ldlt::solve)");
         let scaled = self.scale.len() == n;
         if scaled {
@@ -392,7 +657,7 @@ impl Ldlt {
             return Ok(());
         }
         let n = rhs.len() / columns;
-        if self.split.is_some() || columns == 1 {
+        if self.split.is_some() || columns == 1 || self.single {
             for column in rhs.chunks_mut(n) {
                 self.solve(column)?;
             }
@@ -435,7 +700,8 @@ impl Ldlt {
     }
 
     /// [`Ldlt::solve_columns`] (the same arguments and results, to round-off) by a block
-    /// substitution of our own: the `columns` right-hand sides are gathered row by row in the
+    /// substitution of our own (with a single-precision factor: [`Ldlt::solve`] column by
+    /// column): the `columns` right-hand sides are gathered row by row in the
     /// factor's order (an unknown's values side by side), and each supernode of the factor is
     /// read once per sweep for all of them, up to [`BLOCK_ROWS`] at a time (module docs of
     /// [`block_substitution`]). With the two-domain split, or a factor that is not
@@ -446,7 +712,7 @@ impl Ldlt {
         }
         let n = rhs.len() / columns;
         let supernodal = match (&self.split, &self.symbolic) {
-            (None, Some(symbolic)) => match symbolic.raw() {
+            (None, Some(symbolic)) if !self.single => match symbolic.raw() {
                 SymbolicCholeskyRaw::Supernodal(s) => Some(s),
                 SymbolicCholeskyRaw::Simplicial(_) => None,
             },
@@ -522,6 +788,26 @@ impl Ldlt {
             .symbolic
             .as_ref()
             .expect("the whole tangent's symbolic factorization");
+        if self.single {
+            for (s, &v) in self.x32.iter_mut().zip(rhs.iter()) {
+                *s = v as f32;
+            }
+            let ldlt = LdltRef::new(symbolic, &self.l32);
+            ldlt.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut self.x32, n, 1),
+                Par::Seq,
+                MemStack::new(&mut self.solve_mem),
+            );
+            for (v, &s) in rhs.iter_mut().zip(&self.x32) {
+                *v = s as f64;
+            }
+            return if rhs.iter().all(|x| x.is_finite()) {
+                Ok(())
+            } else {
+                Err(Breakdown::NonFinite(NON_FINITE).into())
+            };
+        }
         let ldlt = LdltRef::new(symbolic, &self.l_values);
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
         ldlt.solve_in_place_with_conj(
@@ -572,7 +858,7 @@ impl Ldlt {
         let target = reduction * dot(r, r).sqrt();
         z.copy_from_slice(r);
         self.counts.pcg_solves += 1;
-        self.solve(z).ok()?;
+        self.substitute(z).ok()?;
         p.copy_from_slice(z);
         let mut rz = dot(r, z);
         let mut solves = 1;
@@ -598,7 +884,7 @@ impl Ldlt {
             }
             self.counts.pcg_solves += 1;
             z.copy_from_slice(r);
-            self.solve(z).ok()?;
+            self.substitute(z).ok()?;
             solves += 1;
             let rz_next = dot(r, z);
             let beta = rz_next / rz;
@@ -642,6 +928,10 @@ impl Ldlt {
         }
         m
     }
+}
+
+fn inf_norm(a: &[f64]) -> f64 {
+    a.iter().fold(0.0f64, |m, x| m.max(x.abs()))
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
