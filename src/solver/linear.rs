@@ -13,6 +13,22 @@
 //! replaces the pivots of a flat membrane's nodes by springs of 1e5 N/m. Powers of two make the
 //! scaling and its undoing exact; a group with no positive diagonal keeps the largest diagonal
 //! of the whole tangent (the unscaled rule).
+//!
+//! Mixed precision ([`Precision`]; docs/performance.md, "Mixed-precision factor"): from
+//! [`SINGLE_MIN_EQUATIONS`] equations the (scaled) tangent is factored in single precision,
+//! f32 (faer's numeric LDLT is generic over the scalar; on AVX2 an f32 kernel does twice the
+//! flops per instruction, and a substitution reads half the bytes). [`Ldlt::solve`] keeps its
+//! contract by iterative refinement against the f64 matrix held here (Carson and Higham 2018,
+//! "Accelerating the solution of linear systems by iterative refinement in three precisions",
+//! SIAM J. Sci. Comput. 40(2); Higham, "Accuracy and Stability of Numerical Algorithms", ch.
+//! 12): x = M⁻¹ b, then r = b − K x in f64 and x += M⁻¹ r until the componentwise backward
+//! error is at most [`BACKWARD_ERROR`] (what the f64 factor's solve reaches) or the correction
+//! is round-off. When a correction is more than [`MAX_CONTRACTION`] of the last (the tangent
+//! too ill-conditioned for f32: κ u₃₂ near 1), or [`MAX_REFINEMENT_STEPS`] do not get there, or
+//! the f32 factorization fails, the tangent is factored in f64 from then on and a log line
+//! says so ([`Ldlt::take_notes`]). [`Ldlt::pcg`] uses the f32 factor as it is, as its
+//! preconditioner (one substitution per application, no refinement). The two-domain split's
+//! halves are f32 too; their separator's Schur complement and its dense LDLT stay f64.
 
 use super::dissect::Fill;
 use super::factor::{numeric_ldlt, numeric_ldlt_single, symbolic_ldlt};
@@ -38,7 +54,7 @@ const NON_FINITE: &str = "the linear solve's solution";
 
 /// Smallest tangent (equations) factored in single precision under [`Precision::Auto`]
 /// (module docs, "Mixed precision"; docs/performance.md, "Mixed-precision factor").
-pub const SINGLE_MIN_EQUATIONS: usize = 100_000;
+pub const SINGLE_MIN_EQUATIONS: usize = 200_000;
 
 /// Refinement steps a solve with the single-precision factor may take before it falls back
 /// to a double-precision factorization.
@@ -50,9 +66,14 @@ pub const MAX_REFINEMENT_STEPS: usize = 10;
 pub const MAX_CONTRACTION: f64 = 0.5;
 
 /// The componentwise backward error (Oettli-Prager: max_i |b - K x|_i / (|K| |x| + |b|)_i)
-/// at which a refined solve stops: 2^-46 = 1.4e-14, 64 units of round-off (what the
-/// double-precision factor's own solve reaches on the Hencky disc's tangents: docs).
-pub const BACKWARD_ERROR: f64 = 1.4210854715202004e-14;
+/// at which a refined solve stops: 2^-49 = 1.8e-15, 8 ulps of 1 (f64::EPSILON); the
+/// double-precision factor's own solve reaches 7e-16 to 1e-15 on the Hencky disc's tangents
+/// (docs/performance.md, "Mixed-precision factor").
+pub const BACKWARD_ERROR: f64 = 8.0 * f64::EPSILON;
+
+/// A correction at most this many ulps of the solution's largest entry is round-off: the
+/// refinement has converged, even where it no longer contracts.
+const ROUND_OFF: f64 = 8.0 * f64::EPSILON;
 
 /// Which precision the tangent is factored in (module docs, "Mixed precision").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -565,6 +586,9 @@ impl Ldlt {
             let size = inf_norm(r);
             rhs.iter_mut().zip(r.iter()).for_each(|(x, d)| *x += d);
             let ratio = size / last;
+            if size <= ROUND_OFF * inf_norm(rhs) {
+                break;
+            }
             if !(ratio <= MAX_CONTRACTION) {
                 failure = Some(format!(
                     "the refinement of the single-precision factor's solve contracted by {ratio:.2e} > {MAX_CONTRACTION} at step {}",
@@ -581,8 +605,7 @@ impl Ldlt {
             None => Ok(()),
             Some(why) => {
                 rhs.copy_from_slice(b);
-                self.fall_back(why)
-                    .and_then(|()| self.substitute(rhs))
+                self.fall_back(why).and_then(|()| self.substitute(rhs))
             }
         };
         self.refine = work;
@@ -623,7 +646,11 @@ impl Ldlt {
                 f64::INFINITY
             };
             // NaN (a non-finite x) counts as the largest error.
-            omega = if e.is_nan() { f64::INFINITY } else { omega.max(e) };
+            omega = if e.is_nan() {
+                f64::INFINITY
+            } else {
+                omega.max(e)
+            };
         }
         omega
     }
@@ -1342,6 +1369,7 @@ fn block_substitution<const B: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solver::threads::Pool;
 
     use crate::solver::split::tests::grid;
 
@@ -1464,5 +1492,228 @@ mod tests {
         let rhs = vec![1.0; n];
         let mut x = vec![0.0; n];
         assert_eq!(ldlt.pcg(&rhs, &mut x, 1e-8, 8, &mut Vec::new()), None);
+    }
+
+    /// The Hencky disc's tangent (`modelDescription/HenckyDisc`, `rings` rings, follower
+    /// pressure 40 Pa) at the paraboloid w = w0 (1 − r²/a²), w0 = 0.065404 a (the closed
+    /// form's centre deflection, docs/mechanics.md §4a): the film stretched everywhere, as on
+    /// the way to the answer. (n, upper CSC, values, each node's equations one group.)
+    fn disc_tangent(rings: usize) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>, Vec<u32>) {
+        use crate::solver::assemble::{assemble, Pattern, NONE};
+        let path = format!(
+            "{}/modelDescription/HenckyDisc/scene.json",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let mut value: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        value["geometry"]["generators"][0]["rings"] = rings.into();
+        let scene = crate::scene::Scene::from_json(&value.to_string()).unwrap();
+        let model = crate::model::Model::try_build(&scene).unwrap();
+        let pattern = Pattern::try_new(&model).unwrap();
+        let a = 0.5;
+        let mut u = vec![0.0; model.dof_count()];
+        for (i, x) in model.reference.iter().enumerate() {
+            let r2 = (x[0] * x[0] + x[1] * x[1]) / (a * a);
+            u[3 * i + 2] = 0.065404 * a * (1.0 - r2).max(0.0);
+        }
+        let mut r = vec![0.0; model.dof_count()];
+        let mut k = vec![0.0; pattern.row_idx.len()];
+        assemble(&model, &pattern, &u, &[40.0], &mut r, Some(&mut k));
+        let mut groups = vec![0u32; pattern.n];
+        for (d, &e) in pattern.eq.iter().enumerate() {
+            if e != NONE {
+                groups[e] = (d / 3) as u32;
+            }
+        }
+        (
+            pattern.n,
+            pattern.col_ptr.clone(),
+            pattern.row_idx.clone(),
+            k,
+            groups,
+        )
+    }
+
+    /// The solution of K x = b in `precision`, whole (no pool) or split in two halves (a pool
+    /// of 2), with the Ldlt's counts after it.
+    fn solved(
+        tangent: &(usize, Vec<usize>, Vec<usize>, Vec<f64>, Vec<u32>),
+        b: &[f64],
+        precision: Precision,
+        split: bool,
+    ) -> (Vec<f64>, Counts, Ldlt) {
+        let (n, cp, ri, v, groups) = tangent;
+        let pool = split.then(|| Arc::new(Pool::try_new(2).unwrap()));
+        let mut ldlt = Ldlt::try_with_pool(*n, cp.clone(), ri.clone(), pool).unwrap();
+        assert_eq!(ldlt.split_sizes().is_some(), split);
+        ldlt.set_groups(groups.clone()).unwrap();
+        ldlt.set_precision(precision).unwrap();
+        ldlt.values_mut().copy_from_slice(v);
+        let mut x = b.to_vec();
+        ldlt.factor_solve(&mut x).unwrap();
+        (x, ldlt.counts, ldlt)
+    }
+
+    /// The mixed-precision solve on a real tangent (the Hencky disc, 48 rings: 20 737
+    /// equations, enough for the two-domain split), whole and split: the f32 factor with
+    /// refinement gives the f64 factor's answer. Reference for "the same": two f64 solves in
+    /// different elimination orders (whole, split) differ by their round-off, δ (measured
+    /// 7.8e-15 of the largest entry); each refined solve is within 4 δ of the whole f64 solve
+    /// (measured 0.40 δ whole, 0.35 δ split), and its componentwise backward error, computed
+    /// here, is within [`BACKWARD_ERROR`] (8 ulps: measured 2.4e-16 and 2.5e-16; the f64
+    /// solves' 5.2e-16 and 5.6e-16). The f32 factor without refinement (one substitution) is
+    /// 1e5 δ or more away (measured 3.6e-6 and 1.7e-6 of the largest entry, 2e8 δ), so the
+    /// refinement is what the test checks. The refinement takes 2 or 3 steps (measured 2 and
+    /// 2; the 300k and 1M discs' solves take 3, docs/performance.md).
+    #[test]
+    fn single_precision_with_refinement_gives_the_double_precision_solve() {
+        let tangent = disc_tangent(48);
+        let n = tangent.0;
+        let b: Vec<f64> = (0..n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let omega = |x: &[f64]| {
+            let (_, cp, ri, v, _) = &tangent;
+            let (mut kx, mut abs) = (vec![0.0; n], vec![0.0; n]);
+            for j in 0..n {
+                for k in cp[j]..cp[j + 1] {
+                    let i = ri[k];
+                    kx[i] += v[k] * x[j];
+                    abs[i] += (v[k] * x[j]).abs();
+                    if i != j {
+                        kx[j] += v[k] * x[i];
+                        abs[j] += (v[k] * x[i]).abs();
+                    }
+                }
+            }
+            (0..n)
+                .map(|i| (b[i] - kx[i]).abs() / (abs[i] + b[i].abs()))
+                .fold(0.0f64, f64::max)
+        };
+        let diff = |x: &[f64], y: &[f64]| {
+            x.iter()
+                .zip(y)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f64, f64::max)
+        };
+        let (whole, counts, _) = solved(&tangent, &b, Precision::Double, false);
+        assert_eq!((counts.substitutions, counts.refinements), (1, 0));
+        let (split, _, _) = solved(&tangent, &b, Precision::Double, true);
+        let largest = whole.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let delta = diff(&whole, &split);
+        assert!(delta > 0.0 && delta <= 1e-10 * largest, "{delta:e}");
+        eprintln!(
+            "f64: whole against split {:.2e} of the largest entry, backward errors {:.1e} {:.1e}",
+            delta / largest,
+            omega(&whole),
+            omega(&split)
+        );
+        for with_split in [false, true] {
+            let (x, counts, mut ldlt) = solved(&tangent, &b, Precision::Single, with_split);
+            assert!(ldlt.is_single());
+            assert_eq!(counts.fallbacks, 0);
+            assert!(
+                (2..=3).contains(&counts.refinements),
+                "{} steps",
+                counts.refinements
+            );
+            assert_eq!(counts.substitutions, 1 + counts.refinements);
+            let (d, w) = (diff(&x, &whole), omega(&x));
+            eprintln!(
+                "f32, split {with_split}: {} steps, {:.2} δ from the f64 solve, backward error {w:.1e}",
+                counts.refinements,
+                d / delta
+            );
+            assert!(d <= 4.0 * delta, "{:e} δ", d / delta);
+            assert!(w <= BACKWARD_ERROR, "{w:e}");
+            // One substitution with the f32 factor alone: far from it.
+            let mut raw = b.clone();
+            ldlt.substitute(&mut raw).unwrap();
+            let d = diff(&raw, &whole);
+            eprintln!(
+                "f32 without refinement: {:.1e} of the largest entry",
+                d / largest
+            );
+            assert!(d >= 1e5 * delta, "{:e} δ", d / delta);
+            assert!(ldlt.take_notes().is_empty());
+        }
+    }
+
+    /// A tangent built to be too ill-conditioned for a single-precision factor: the Laplacian
+    /// of a 150 × 150 grid with free edges (singular: constants) shifted by 1e-9, so that its
+    /// condition number is 8 / 1e-9 = 8e9, beyond f32's 1/u = 1.7e7 (refinement contracts only
+    /// when κ u < 1: Higham, "Accuracy and Stability of Numerical Algorithms", 2nd ed., §12.1).
+    /// The refinement does not contract, the solve falls back to a double-precision
+    /// factorization with a log line saying so, the answer is the f64 factor's (to 1e-12 of
+    /// its largest entry: the same factorization), and the Ldlt stays in double precision.
+    #[test]
+    fn an_ill_conditioned_tangent_falls_back_to_double_precision() {
+        let (nx, ny) = (150, 150);
+        let n = nx * ny;
+        let (mut cp, mut ri, mut v) = (vec![0], vec![], vec![]);
+        for j in 0..n {
+            let (x, y) = (j % nx, j / nx);
+            let neighbours = [x > 0, x + 1 < nx, y > 0, y + 1 < ny]
+                .iter()
+                .filter(|&&b| b)
+                .count();
+            if y > 0 {
+                ri.push(j - nx);
+                v.push(-1.0);
+            }
+            if x > 0 {
+                ri.push(j - 1);
+                v.push(-1.0);
+            }
+            ri.push(j);
+            v.push(neighbours as f64 + 1e-9);
+            cp.push(ri.len());
+        }
+        let b: Vec<f64> = (0..n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let solve = |precision: Precision, split: bool| {
+            let pool = split.then(|| Arc::new(Pool::try_new(2).unwrap()));
+            let mut ldlt = Ldlt::try_with_pool(n, cp.clone(), ri.clone(), pool).unwrap();
+            assert_eq!(ldlt.split_sizes().is_some(), split);
+            ldlt.set_precision(precision).unwrap();
+            ldlt.values_mut().copy_from_slice(&v);
+            let mut x = b.clone();
+            ldlt.factor_solve(&mut x).unwrap();
+            (x, ldlt)
+        };
+        for split in [false, true] {
+            let (double, _) = solve(Precision::Double, split);
+            let (x, mut ldlt) = solve(Precision::Single, split);
+            assert_eq!(ldlt.counts.fallbacks, 1);
+            assert_eq!(ldlt.counts.factorizations, 2);
+            assert!(!ldlt.is_single());
+            let notes = ldlt.take_notes();
+            eprintln!("split {split}: {notes:?}");
+            assert_eq!(notes.len(), 1);
+            assert!(
+                notes[0].starts_with(
+                    "linear solve: the refinement of the single-precision factor's solve"
+                ) && notes[0].ends_with(
+                    "the tangent (22500 equations) is factored in double precision from here on"
+                ),
+                "{}",
+                notes[0]
+            );
+            let largest = double.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let d = x
+                .iter()
+                .zip(&double)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(d <= 1e-12 * largest, "{d:e} of {largest:e}");
+            // The next factorization is double precision: no second fallback.
+            let mut y = b.clone();
+            ldlt.factor_solve(&mut y).unwrap();
+            assert_eq!(
+                (ldlt.counts.fallbacks, ldlt.counts.refinements),
+                (1, ldlt.counts.refinements)
+            );
+            assert!(ldlt.take_notes().is_empty());
+        }
     }
 }

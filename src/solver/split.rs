@@ -1150,8 +1150,7 @@ impl Half {
         // The f64 factorization's workspace serves the f32 one too (at least as large).
         let req = symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default());
         let req32 = symbolic.factorize_numeric_ldlt_scratch::<f32>(Par::Seq, Default::default());
-        self.mem = MemBuffer::try_new(req.or(req32))
-        .map_err(|_| OutOfMemory {
+        self.mem = MemBuffer::try_new(req.or(req32)).map_err(|_| OutOfMemory {
             what,
             bytes: (self.map.len() as u64).saturating_mul(8),
         })?;
