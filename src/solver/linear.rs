@@ -448,9 +448,7 @@ impl Ldlt {
         }
         if let (Err(e), true) = (&result, self.single) {
             // Single precision's factorization failed: double's is the answer either way.
-            return self.fall_back(format!(
-                "the single-precision factorization failed ({e}); factoring in double precision"
-            ));
+            return self.fall_back(format!("the single-precision factorization failed ({e})"));
         }
         result?;
         self.factored = true;
