@@ -432,6 +432,15 @@ fn run(problem: &Problem, label: &str, scene: Scene) {
         after.pcg_solves - counts.pcg_solves
     );
     let peak = peak_rss_mib();
+    // The linear solver's work (docs/performance.md, "Mixed-precision factor"): substitutions
+    // through the factor, refinement steps of single-precision solves, falls back to double.
+    println!(
+        "{:>7} {label}: substitutions {}, refinement steps {}, falls back to double {}",
+        problem.name,
+        after.substitutions - counts.substitutions,
+        after.refinements - counts.refinements,
+        after.fallbacks - counts.fallbacks
+    );
     if !report.converged() {
         println!(
             "{:>7} {label}: did not converge: {}",

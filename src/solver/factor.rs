@@ -74,3 +74,37 @@ pub fn symbolic_ldlt(
 pub fn flops(symbolic: &SymbolicCholesky<usize>) -> f64 {
     crate::scene::limits::factor_flops(symbolic)
 }
+
+/// [`numeric_ldlt`] in single precision: the values of `matrix`'s pattern given as f32
+/// (`values`, in the pattern's order), the factor into `l_values` (f32). The mixed-precision
+/// factor of `linear.rs` (module docs there); the regularization as in [`numeric_ldlt`].
+pub fn numeric_ldlt_single(
+    symbolic: &SymbolicCholesky<usize>,
+    l_values: &mut [f32],
+    pattern: faer::sparse::SymbolicSparseColMatRef<'_, usize>,
+    values: &[f32],
+    (delta, epsilon): (f64, f64),
+    mem: &mut MemBuffer,
+    of: &'static str,
+) -> Result<(), Error> {
+    let reg = LdltRegularization {
+        dynamic_regularization_signs: None,
+        dynamic_regularization_delta: delta as f32,
+        dynamic_regularization_epsilon: epsilon as f32,
+    };
+    symbolic
+        .factorize_numeric_ldlt(
+            l_values,
+            faer::sparse::SparseColMatRef::new(pattern, values),
+            Side::Upper,
+            reg,
+            Par::Seq,
+            MemStack::new(mem),
+            Default::default(),
+        )
+        .map_err(|e| Breakdown::Factorization {
+            of,
+            detail: format!("{e:?}"),
+        })?;
+    Ok(())
+}

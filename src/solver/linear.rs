@@ -13,9 +13,25 @@
 //! replaces the pivots of a flat membrane's nodes by springs of 1e5 N/m. Powers of two make the
 //! scaling and its undoing exact; a group with no positive diagonal keeps the largest diagonal
 //! of the whole tangent (the unscaled rule).
+//!
+//! Mixed precision ([`Precision`]; docs/performance.md, "Mixed-precision factor"): from
+//! [`SINGLE_MIN_EQUATIONS`] equations the (scaled) tangent is factored in single precision,
+//! f32 (faer's numeric LDLT is generic over the scalar; on AVX2 an f32 kernel does twice the
+//! flops per instruction, and a substitution reads half the bytes). [`Ldlt::solve`] keeps its
+//! contract by iterative refinement against the f64 matrix held here (Carson and Higham 2018,
+//! "Accelerating the solution of linear systems by iterative refinement in three precisions",
+//! SIAM J. Sci. Comput. 40(2); Higham, "Accuracy and Stability of Numerical Algorithms", ch.
+//! 12): x = M⁻¹ b, then r = b − K x in f64 and x += M⁻¹ r until the componentwise backward
+//! error is at most [`BACKWARD_ERROR`] (what the f64 factor's solve reaches) or the correction
+//! is round-off. When a correction is more than [`MAX_CONTRACTION`] of the last (the tangent
+//! too ill-conditioned for f32: κ u₃₂ near 1), or [`MAX_REFINEMENT_STEPS`] do not get there, or
+//! the f32 factorization fails, the tangent is factored in f64 from then on and a log line
+//! says so ([`Ldlt::take_notes`]). [`Ldlt::pcg`] uses the f32 factor as it is, as its
+//! preconditioner (one substitution per application, no refinement). The two-domain split's
+//! halves are f32 too; their separator's Schur complement and its dense LDLT stay f64.
 
 use super::dissect::Fill;
-use super::factor::{numeric_ldlt, symbolic_ldlt};
+use super::factor::{numeric_ldlt, numeric_ldlt_single, symbolic_ldlt};
 use super::split::Split;
 use super::threads::Pool;
 use crate::error::{Breakdown, Error};
@@ -35,6 +51,39 @@ const PIVOT_EPSILON: f64 = 1e-13;
 const PIVOT_DELTA: f64 = 1e-9;
 /// What [`Breakdown::NonFinite`] names when a solve's result holds NaN or infinity.
 const NON_FINITE: &str = "the linear solve's solution";
+
+/// Smallest tangent (equations) factored in single precision under [`Precision::Auto`]
+/// (module docs, "Mixed precision"; docs/performance.md, "Mixed-precision factor").
+pub const SINGLE_MIN_EQUATIONS: usize = 200_000;
+
+/// Refinement steps a solve with the single-precision factor may take before it falls back
+/// to a double-precision factorization.
+pub const MAX_REFINEMENT_STEPS: usize = 10;
+
+/// Largest ratio of a refinement step's correction to the last one's (to the solution's, at
+/// the first step) for which the single-precision factor is kept: above it the refinement
+/// does not contract fast enough and the tangent is factored in double precision.
+pub const MAX_CONTRACTION: f64 = 0.5;
+
+/// The componentwise backward error (Oettli-Prager: max_i |b - K x|_i / (|K| |x| + |b|)_i)
+/// at which a refined solve stops: 2^-49 = 1.8e-15, 8 ulps of 1 (f64::EPSILON); the
+/// double-precision factor's own solve reaches 7e-16 to 1e-15 on the Hencky disc's tangents
+/// (docs/performance.md, "Mixed-precision factor").
+pub const BACKWARD_ERROR: f64 = 8.0 * f64::EPSILON;
+
+/// A correction at most this many ulps of the solution's largest entry is round-off: the
+/// refinement has converged, even where it no longer contracts.
+const ROUND_OFF: f64 = 8.0 * f64::EPSILON;
+
+/// Which precision the tangent is factored in (module docs, "Mixed precision").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// Single from [`SINGLE_MIN_EQUATIONS`] equations, double below.
+    #[default]
+    Auto,
+    Double,
+    Single,
+}
 
 /// Smallest tangent (equations) factored in two halves when the solver has 2 threads or more:
 /// below it the dense separator block and the hand-over cost more than half a factorization
@@ -66,6 +115,22 @@ pub struct Ldlt {
     /// [`Ldlt::solve_block`]'s right-hand sides row by row in the factor's order (work
     /// buffer, grown on first use).
     rows: Vec<f64>,
+    /// The factor is single precision (module docs, "Mixed precision"): the whole tangent's
+    /// in `l32` (of the scaled values `v32`), or the split's halves'.
+    single: bool,
+    v32: Vec<f32>,
+    l32: Vec<f32>,
+    /// A substitution's vector in f32 (the whole tangent's single-precision solve).
+    x32: Vec<f32>,
+    /// The refinement's vectors: b, the residual, |K| |x| (allocated at the first refined
+    /// solve).
+    refine: Vec<f64>,
+    /// Log lines of the falls back to double precision, for the solver's log
+    /// ([`Ldlt::take_notes`]).
+    notes: Vec<String>,
+    /// The values were handed out for writing ([`Ldlt::values_mut`]) since the last
+    /// factorization: K may no longer be the factored matrix.
+    stale: bool,
 }
 
 /// Work counters of one [`Ldlt`].
@@ -80,6 +145,13 @@ pub struct Counts {
     pub pcg_solves: usize,
     /// Attempts that did not converge (a factorization followed).
     pub pcg_failed: usize,
+    /// Substitutions (forward and back through the factor), any precision.
+    pub substitutions: usize,
+    /// Refinement steps of solves with the single-precision factor (one substitution each).
+    pub refinements: usize,
+    /// Single-precision factors given up for double precision (the refinement did not
+    /// contract, or the single-precision factorization failed).
+    pub fallbacks: usize,
 }
 
 impl Ldlt {
@@ -181,21 +253,24 @@ impl Ldlt {
         };
         let factor_mem = buffer(
             match (&split, &symbolic) {
-                (None, Some(symbolic)) => {
-                    symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default())
-                }
+                (None, Some(symbolic)) => symbolic
+                    .factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default())
+                    .or(symbolic
+                        .factorize_numeric_ldlt_scratch::<f32>(Par::Seq, Default::default())),
                 _ => StackReq::EMPTY,
             },
             "the factorization workspace",
         )?;
         let solve_mem = buffer(
             match (&split, &symbolic) {
-                (None, Some(symbolic)) => symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+                (None, Some(symbolic)) => symbolic
+                    .solve_in_place_scratch::<f64>(1, Par::Seq)
+                    .or(symbolic.solve_in_place_scratch::<f32>(1, Par::Seq)),
                 _ => StackReq::EMPTY,
             },
             "the solve workspace",
         )?;
-        Ok(Ldlt {
+        let mut ldlt = Ldlt {
             matrix,
             symbolic,
             l_values,
@@ -208,7 +283,58 @@ impl Ldlt {
             scale: Vec::new(),
             largest: Vec::new(),
             rows: Vec::new(),
-        })
+            single: false,
+            v32: Vec::new(),
+            l32: Vec::new(),
+            x32: Vec::new(),
+            refine: Vec::new(),
+            notes: Vec::new(),
+            stale: false,
+        };
+        ldlt.set_precision(Precision::Auto)?;
+        Ok(ldlt)
+    }
+
+    /// Factor in the precision `precision` asks for from the next [`Ldlt::factor`] on (the
+    /// single-precision buffers allocated fallibly, or freed). A factor held is dropped.
+    pub fn set_precision(&mut self, precision: Precision) -> Result<(), OutOfMemory> {
+        let n = self.matrix.ncols();
+        let single = match precision {
+            Precision::Auto => n >= SINGLE_MIN_EQUATIONS,
+            Precision::Double => false,
+            Precision::Single => n > 0,
+        };
+        self.factored = false;
+        let what = "the single-precision factor";
+        if let Some(split) = self.split.as_mut() {
+            split.set_single(single)?;
+        } else if single {
+            let symbolic = self
+                .symbolic
+                .as_ref()
+                .expect("the whole tangent's symbolic factorization");
+            if self.l32.is_empty() {
+                self.l32 = memory::lazy_zeros(symbolic.len_val(), what)?;
+                self.v32 = memory::lazy_zeros(self.matrix.val().len(), what)?;
+                self.x32 = memory::zeros(n, what)?;
+            }
+        } else {
+            self.l32 = Vec::new();
+            self.v32 = Vec::new();
+            self.x32 = Vec::new();
+        }
+        self.single = single;
+        Ok(())
+    }
+
+    /// Whether the tangent is factored in single precision (module docs, "Mixed precision").
+    pub fn is_single(&self) -> bool {
+        self.single
+    }
+
+    /// The log lines of the falls back to double precision since the last call.
+    pub fn take_notes(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notes)
     }
 
     /// (A, B, separator) equations of the two-domain factorization, if it is used.
@@ -259,6 +385,7 @@ impl Ldlt {
 
     /// The matrix values (upper triangle, CSC order) to fill before [`Ldlt::factor_solve`].
     pub fn values_mut(&mut self) -> &mut [f64] {
+        self.stale = true;
         self.matrix.val_mut()
     }
 
@@ -289,6 +416,22 @@ impl Ldlt {
         let reg = (PIVOT_DELTA * unit, PIVOT_EPSILON * unit);
         let result = match self.split.as_mut() {
             Some(split) => split.factor(self.matrix.val(), reg),
+            None if self.single => {
+                for (s, &v) in self.v32.iter_mut().zip(self.matrix.val()) {
+                    *s = v as f32;
+                }
+                numeric_ldlt_single(
+                    self.symbolic
+                        .as_ref()
+                        .expect("the whole tangent's symbolic factorization"),
+                    &mut self.l32,
+                    self.matrix.symbolic(),
+                    &self.v32,
+                    reg,
+                    &mut self.factor_mem,
+                    "the tangent",
+                )
+            }
             None => numeric_ldlt(
                 self.symbolic
                     .as_ref()
@@ -303,9 +446,26 @@ impl Ldlt {
         if scaled {
             self.unscale_values();
         }
+        if let (Err(e), true) = (&result, self.single) {
+            // Single precision's factorization failed: double's is the answer either way.
+            return self.fall_back(format!("the single-precision factorization failed ({e})"));
+        }
         result?;
         self.factored = true;
+        self.stale = false;
         Ok(())
+    }
+
+    /// Give up the single-precision factor: the note logged, the tangent factored in double
+    /// precision from here on.
+    fn fall_back(&mut self, why: String) -> Result<(), Error> {
+        self.counts.fallbacks += 1;
+        self.notes.push(format!(
+            "linear solve: {why}; the tangent ({} equations) is factored in double precision from here on",
+            self.matrix.ncols()
+        ));
+        self.set_precision(Precision::Double)?;
+        self.factor()
     }
 
     /// The group of every equation (the solver: each node's equations one group), for the
@@ -366,12 +526,142 @@ impl Ldlt {
         }
     }
 
-    /// Solve with the last factorization, in place (one more forward/back substitution).
+    /// Solve K x = rhs in place with the last factorization: one forward/back substitution
+    /// with a double-precision factor; with a single-precision one, as many more as the
+    /// refinement takes to the double-precision answer (module docs, "Mixed precision"), or
+    /// a double-precision factorization when it does not contract. After the values were
+    /// changed ([`Ldlt::values_mut`]) without a factorization, one substitution with the
+    /// factor held, whatever its precision.
     pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
+        if rhs.is_empty() {
+            return Ok(());
+        }
+        if !self.single || self.stale {
+            // A solve with a factor of values since changed (the chord step of `newton.rs`)
+            // has no matrix to refine against: one substitution, as the preconditioner.
+            return self.substitute(rhs);
+        }
+        self.refined(rhs)
+    }
+
+    /// [`Ldlt::solve`] with the single-precision factor M: x = M⁻¹ b, then while the
+    /// componentwise backward error of x is above [`BACKWARD_ERROR`], r = b − K x (in f64)
+    /// and x += M⁻¹ r; each correction must be at most [`MAX_CONTRACTION`] of the one before
+    /// (of x at the first), within [`MAX_REFINEMENT_STEPS`] steps, else the tangent is
+    /// factored in double precision ([`Ldlt::fall_back`]) and solved with that.
+    fn refined(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
+        let n = rhs.len();
+        if self.refine.len() != 3 * n {
+            self.refine = memory::zeros(3 * n, "the refinement's vectors")?;
+        }
+        let mut work = std::mem::take(&mut self.refine);
+        let (b, rest) = work.split_at_mut(n);
+        let (r, abs) = rest.split_at_mut(n);
+        b.copy_from_slice(rhs);
+        let mut result = self.substitute(rhs);
+        let mut last = inf_norm(rhs);
+        let mut failure = None;
+        for step in 0..=MAX_REFINEMENT_STEPS {
+            if result.is_err() {
+                break;
+            }
+            let omega = {
+                let _phase = crate::phases::start("solve: refinement residual (Ldlt::solve)");
+                self.residual(b, rhs, r, abs)
+            };
+            if omega <= BACKWARD_ERROR {
+                failure = None;
+                break;
+            }
+            if step == MAX_REFINEMENT_STEPS {
+                failure = Some(format!(
+                    "the refinement of the single-precision factor's solve left a backward error of {omega:.2e} after {step} steps"
+                ));
+                break;
+            }
+            result = self.substitute(r);
+            self.counts.refinements += 1;
+            let size = inf_norm(r);
+            rhs.iter_mut().zip(r.iter()).for_each(|(x, d)| *x += d);
+            let ratio = size / last;
+            if size <= ROUND_OFF * inf_norm(rhs) {
+                break;
+            }
+            if !(ratio <= MAX_CONTRACTION) {
+                failure = Some(format!(
+                    "the refinement of the single-precision factor's solve contracted by {ratio:.2e} > {MAX_CONTRACTION} at step {}",
+                    step + 1
+                ));
+                break;
+            }
+            last = size;
+        }
+        if let (Err(e), None) = (&result, &failure) {
+            failure = Some(format!("the single-precision factor's solve failed ({e})"));
+        }
+        let outcome = match failure {
+            None => Ok(()),
+            Some(why) => {
+                rhs.copy_from_slice(b);
+                self.fall_back(why).and_then(|()| self.substitute(rhs))
+            }
+        };
+        self.refine = work;
+        outcome
+    }
+
+    /// r = b − K x and |K| |x| + |b| (in `abs`); returns the componentwise backward error
+    /// max_i |r_i| / (|K| |x| + |b|)_i (rows where the denominator is 0 count when r_i ≠ 0).
+    fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64], abs: &mut [f64]) -> f64 {
+        let sym = self.matrix.symbolic();
+        let (cp, ri) = (sym.col_ptr(), sym.row_idx());
+        let v = self.matrix.val();
+        r.fill(0.0);
+        abs.fill(0.0);
+        for j in 0..sym.ncols() {
+            let (mut acc, mut acc_abs, xj) = (0.0, 0.0, x[j]);
+            for k in cp[j]..cp[j + 1] {
+                let i = ri[k];
+                acc += v[k] * x[i];
+                acc_abs += (v[k] * x[i]).abs();
+                if i != j {
+                    r[i] += v[k] * xj;
+                    abs[i] += (v[k] * xj).abs();
+                }
+            }
+            r[j] += acc;
+            abs[j] += acc_abs;
+        }
+        let mut omega = 0.0f64;
+        for i in 0..r.len() {
+            r[i] = b[i] - r[i];
+            let d = abs[i] + b[i].abs();
+            let e = if d > 0.0 {
+                r[i].abs() / d
+            } else if r[i] == 0.0 {
+                0.0
+            } else {
+                f64::INFINITY
+            };
+            // NaN (a non-finite x) counts as the largest error.
+            omega = if e.is_nan() {
+                f64::INFINITY
+            } else {
+                omega.max(e)
+            };
+        }
+        omega
+    }
+
+    /// One forward/back substitution with the last factorization, in place, in the factor's
+    /// precision (the preconditioner of [`Ldlt::pcg`]; [`Ldlt::solve`] with a
+    /// double-precision factor).
+    fn substitute(&mut self, rhs: &mut [f64]) -> Result<(), Error> {
         let n = rhs.len();
         if n == 0 {
             return Ok(());
         }
+        self.counts.substitutions += 1;
         let _phase = crate::phases::start("solve: substitution (Ldlt::solve)");
         let scaled = self.scale.len() == n;
         if scaled {
@@ -392,7 +682,7 @@ impl Ldlt {
             return Ok(());
         }
         let n = rhs.len() / columns;
-        if self.split.is_some() || columns == 1 {
+        if self.split.is_some() || columns == 1 || self.single {
             for column in rhs.chunks_mut(n) {
                 self.solve(column)?;
             }
@@ -435,7 +725,8 @@ impl Ldlt {
     }
 
     /// [`Ldlt::solve_columns`] (the same arguments and results, to round-off) by a block
-    /// substitution of our own: the `columns` right-hand sides are gathered row by row in the
+    /// substitution of our own (with a single-precision factor: [`Ldlt::solve`] column by
+    /// column): the `columns` right-hand sides are gathered row by row in the
     /// factor's order (an unknown's values side by side), and each supernode of the factor is
     /// read once per sweep for all of them, up to [`BLOCK_ROWS`] at a time (module docs of
     /// [`block_substitution`]). With the two-domain split, or a factor that is not
@@ -446,7 +737,7 @@ impl Ldlt {
         }
         let n = rhs.len() / columns;
         let supernodal = match (&self.split, &self.symbolic) {
-            (None, Some(symbolic)) => match symbolic.raw() {
+            (None, Some(symbolic)) if !self.single => match symbolic.raw() {
                 SymbolicCholeskyRaw::Supernodal(s) => Some(s),
                 SymbolicCholeskyRaw::Simplicial(_) => None,
             },
@@ -522,6 +813,26 @@ impl Ldlt {
             .symbolic
             .as_ref()
             .expect("the whole tangent's symbolic factorization");
+        if self.single {
+            for (s, &v) in self.x32.iter_mut().zip(rhs.iter()) {
+                *s = v as f32;
+            }
+            let ldlt = LdltRef::new(symbolic, &self.l32);
+            ldlt.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut self.x32, n, 1),
+                Par::Seq,
+                MemStack::new(&mut self.solve_mem),
+            );
+            for (v, &s) in rhs.iter_mut().zip(&self.x32) {
+                *v = s as f64;
+            }
+            return if rhs.iter().all(|x| x.is_finite()) {
+                Ok(())
+            } else {
+                Err(Breakdown::NonFinite(NON_FINITE).into())
+            };
+        }
         let ldlt = LdltRef::new(symbolic, &self.l_values);
         let rhs_mat = MatMut::from_column_major_slice_mut(rhs, n, 1);
         ldlt.solve_in_place_with_conj(
@@ -572,7 +883,7 @@ impl Ldlt {
         let target = reduction * dot(r, r).sqrt();
         z.copy_from_slice(r);
         self.counts.pcg_solves += 1;
-        self.solve(z).ok()?;
+        self.substitute(z).ok()?;
         p.copy_from_slice(z);
         let mut rz = dot(r, z);
         let mut solves = 1;
@@ -598,7 +909,7 @@ impl Ldlt {
             }
             self.counts.pcg_solves += 1;
             z.copy_from_slice(r);
-            self.solve(z).ok()?;
+            self.substitute(z).ok()?;
             solves += 1;
             let rz_next = dot(r, z);
             let beta = rz_next / rz;
@@ -642,6 +953,10 @@ impl Ldlt {
         }
         m
     }
+}
+
+fn inf_norm(a: &[f64]) -> f64 {
+    a.iter().fold(0.0f64, |m, x| m.max(x.abs()))
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -1052,6 +1367,7 @@ fn block_substitution<const B: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solver::threads::Pool;
 
     use crate::solver::split::tests::grid;
 
@@ -1174,5 +1490,228 @@ mod tests {
         let rhs = vec![1.0; n];
         let mut x = vec![0.0; n];
         assert_eq!(ldlt.pcg(&rhs, &mut x, 1e-8, 8, &mut Vec::new()), None);
+    }
+
+    /// The Hencky disc's tangent (`modelDescription/HenckyDisc`, `rings` rings, follower
+    /// pressure 40 Pa) at the paraboloid w = w0 (1 − r²/a²), w0 = 0.065404 a (the closed
+    /// form's centre deflection, docs/mechanics.md §4a): the film stretched everywhere, as on
+    /// the way to the answer. (n, upper CSC, values, each node's equations one group.)
+    fn disc_tangent(rings: usize) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>, Vec<u32>) {
+        use crate::solver::assemble::{assemble, Pattern, NONE};
+        let path = format!(
+            "{}/modelDescription/HenckyDisc/scene.json",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let mut value: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        value["geometry"]["generators"][0]["rings"] = rings.into();
+        let scene = crate::scene::Scene::from_json(&value.to_string()).unwrap();
+        let model = crate::model::Model::try_build(&scene).unwrap();
+        let pattern = Pattern::try_new(&model).unwrap();
+        let a = 0.5;
+        let mut u = vec![0.0; model.dof_count()];
+        for (i, x) in model.reference.iter().enumerate() {
+            let r2 = (x[0] * x[0] + x[1] * x[1]) / (a * a);
+            u[3 * i + 2] = 0.065404 * a * (1.0 - r2).max(0.0);
+        }
+        let mut r = vec![0.0; model.dof_count()];
+        let mut k = vec![0.0; pattern.row_idx.len()];
+        assemble(&model, &pattern, &u, &[40.0], &mut r, Some(&mut k));
+        let mut groups = vec![0u32; pattern.n];
+        for (d, &e) in pattern.eq.iter().enumerate() {
+            if e != NONE {
+                groups[e] = (d / 3) as u32;
+            }
+        }
+        (
+            pattern.n,
+            pattern.col_ptr.clone(),
+            pattern.row_idx.clone(),
+            k,
+            groups,
+        )
+    }
+
+    /// The solution of K x = b in `precision`, whole (no pool) or split in two halves (a pool
+    /// of 2), with the Ldlt's counts after it.
+    fn solved(
+        tangent: &(usize, Vec<usize>, Vec<usize>, Vec<f64>, Vec<u32>),
+        b: &[f64],
+        precision: Precision,
+        split: bool,
+    ) -> (Vec<f64>, Counts, Ldlt) {
+        let (n, cp, ri, v, groups) = tangent;
+        let pool = split.then(|| Arc::new(Pool::try_new(2).unwrap()));
+        let mut ldlt = Ldlt::try_with_pool(*n, cp.clone(), ri.clone(), pool).unwrap();
+        assert_eq!(ldlt.split_sizes().is_some(), split);
+        ldlt.set_groups(groups.clone()).unwrap();
+        ldlt.set_precision(precision).unwrap();
+        ldlt.values_mut().copy_from_slice(v);
+        let mut x = b.to_vec();
+        ldlt.factor_solve(&mut x).unwrap();
+        (x, ldlt.counts, ldlt)
+    }
+
+    /// The mixed-precision solve on a real tangent (the Hencky disc, 48 rings: 20 737
+    /// equations, enough for the two-domain split), whole and split: the f32 factor with
+    /// refinement gives the f64 factor's answer. Reference for "the same": two f64 solves in
+    /// different elimination orders (whole, split) differ by their round-off, δ (measured
+    /// 7.8e-15 of the largest entry); each refined solve is within 4 δ of the whole f64 solve
+    /// (measured 0.40 δ whole, 0.35 δ split), and its componentwise backward error, computed
+    /// here, is within [`BACKWARD_ERROR`] (8 ulps: measured 2.4e-16 and 2.5e-16; the f64
+    /// solves' 5.2e-16 and 5.6e-16). The f32 factor without refinement (one substitution) is
+    /// 1e5 δ or more away (measured 3.6e-6 and 1.7e-6 of the largest entry, 2e8 δ), so the
+    /// refinement is what the test checks. The refinement takes 2 or 3 steps (measured 2 and
+    /// 2; the 300k and 1M discs' solves take 3, docs/performance.md).
+    #[test]
+    fn single_precision_with_refinement_gives_the_double_precision_solve() {
+        let tangent = disc_tangent(48);
+        let n = tangent.0;
+        let b: Vec<f64> = (0..n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let omega = |x: &[f64]| {
+            let (_, cp, ri, v, _) = &tangent;
+            let (mut kx, mut abs) = (vec![0.0; n], vec![0.0; n]);
+            for j in 0..n {
+                for k in cp[j]..cp[j + 1] {
+                    let i = ri[k];
+                    kx[i] += v[k] * x[j];
+                    abs[i] += (v[k] * x[j]).abs();
+                    if i != j {
+                        kx[j] += v[k] * x[i];
+                        abs[j] += (v[k] * x[i]).abs();
+                    }
+                }
+            }
+            (0..n)
+                .map(|i| (b[i] - kx[i]).abs() / (abs[i] + b[i].abs()))
+                .fold(0.0f64, f64::max)
+        };
+        let diff = |x: &[f64], y: &[f64]| {
+            x.iter()
+                .zip(y)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f64, f64::max)
+        };
+        let (whole, counts, _) = solved(&tangent, &b, Precision::Double, false);
+        assert_eq!((counts.substitutions, counts.refinements), (1, 0));
+        let (split, _, _) = solved(&tangent, &b, Precision::Double, true);
+        let largest = whole.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let delta = diff(&whole, &split);
+        assert!(delta > 0.0 && delta <= 1e-10 * largest, "{delta:e}");
+        eprintln!(
+            "f64: whole against split {:.2e} of the largest entry, backward errors {:.1e} {:.1e}",
+            delta / largest,
+            omega(&whole),
+            omega(&split)
+        );
+        for with_split in [false, true] {
+            let (x, counts, mut ldlt) = solved(&tangent, &b, Precision::Single, with_split);
+            assert!(ldlt.is_single());
+            assert_eq!(counts.fallbacks, 0);
+            assert!(
+                (2..=3).contains(&counts.refinements),
+                "{} steps",
+                counts.refinements
+            );
+            assert_eq!(counts.substitutions, 1 + counts.refinements);
+            let (d, w) = (diff(&x, &whole), omega(&x));
+            eprintln!(
+                "f32, split {with_split}: {} steps, {:.2} δ from the f64 solve, backward error {w:.1e}",
+                counts.refinements,
+                d / delta
+            );
+            assert!(d <= 4.0 * delta, "{:e} δ", d / delta);
+            assert!(w <= BACKWARD_ERROR, "{w:e}");
+            // One substitution with the f32 factor alone: far from it.
+            let mut raw = b.clone();
+            ldlt.substitute(&mut raw).unwrap();
+            let d = diff(&raw, &whole);
+            eprintln!(
+                "f32 without refinement: {:.1e} of the largest entry",
+                d / largest
+            );
+            assert!(d >= 1e5 * delta, "{:e} δ", d / delta);
+            assert!(ldlt.take_notes().is_empty());
+        }
+    }
+
+    /// A tangent built to be too ill-conditioned for a single-precision factor: the Laplacian
+    /// of a 150 × 150 grid with free edges (singular: constants) shifted by 1e-9, so that its
+    /// condition number is 8 / 1e-9 = 8e9, beyond f32's 1/u = 1.7e7 (refinement contracts only
+    /// when κ u < 1: Higham, "Accuracy and Stability of Numerical Algorithms", 2nd ed., §12.1).
+    /// The refinement does not contract, the solve falls back to a double-precision
+    /// factorization with a log line saying so, the answer is the f64 factor's (to 1e-12 of
+    /// its largest entry: the same factorization), and the Ldlt stays in double precision.
+    #[test]
+    fn an_ill_conditioned_tangent_falls_back_to_double_precision() {
+        let (nx, ny) = (150, 150);
+        let n = nx * ny;
+        let (mut cp, mut ri, mut v) = (vec![0], vec![], vec![]);
+        for j in 0..n {
+            let (x, y) = (j % nx, j / nx);
+            let neighbours = [x > 0, x + 1 < nx, y > 0, y + 1 < ny]
+                .iter()
+                .filter(|&&b| b)
+                .count();
+            if y > 0 {
+                ri.push(j - nx);
+                v.push(-1.0);
+            }
+            if x > 0 {
+                ri.push(j - 1);
+                v.push(-1.0);
+            }
+            ri.push(j);
+            v.push(neighbours as f64 + 1e-9);
+            cp.push(ri.len());
+        }
+        let b: Vec<f64> = (0..n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let solve = |precision: Precision, split: bool| {
+            let pool = split.then(|| Arc::new(Pool::try_new(2).unwrap()));
+            let mut ldlt = Ldlt::try_with_pool(n, cp.clone(), ri.clone(), pool).unwrap();
+            assert_eq!(ldlt.split_sizes().is_some(), split);
+            ldlt.set_precision(precision).unwrap();
+            ldlt.values_mut().copy_from_slice(&v);
+            let mut x = b.clone();
+            ldlt.factor_solve(&mut x).unwrap();
+            (x, ldlt)
+        };
+        for split in [false, true] {
+            let (double, _) = solve(Precision::Double, split);
+            let (x, mut ldlt) = solve(Precision::Single, split);
+            assert_eq!(ldlt.counts.fallbacks, 1);
+            assert_eq!(ldlt.counts.factorizations, 2);
+            assert!(!ldlt.is_single());
+            let notes = ldlt.take_notes();
+            eprintln!("split {split}: {notes:?}");
+            assert_eq!(notes.len(), 1);
+            assert!(
+                notes[0].starts_with(
+                    "linear solve: the refinement of the single-precision factor's solve"
+                ) && notes[0].ends_with(
+                    "the tangent (22500 equations) is factored in double precision from here on"
+                ),
+                "{}",
+                notes[0]
+            );
+            let largest = double.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let d = x
+                .iter()
+                .zip(&double)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(d <= 1e-12 * largest, "{d:e} of {largest:e}");
+            // The next factorization is double precision: no second fallback.
+            let mut y = b.clone();
+            ldlt.factor_solve(&mut y).unwrap();
+            assert_eq!(
+                (ldlt.counts.fallbacks, ldlt.counts.refinements),
+                (1, ldlt.counts.refinements)
+            );
+            assert!(ldlt.take_notes().is_empty());
+        }
     }
 }

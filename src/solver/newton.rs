@@ -595,6 +595,10 @@ impl Solver {
                 self.direction_sharing(model, u, &st.rows, bordered, st.damping, &mut st.shared)
             }
         };
+        // A single-precision factor given up for double (linear.rs, "Mixed precision").
+        for line in self.linear.take_notes() {
+            push_log(log, format!("  {line}"));
+        }
         match direction {
             Ok(d) => Ok(d),
             Err(why) if st.damping == 0.0 && self.settings.damping_start > 0.0 => {

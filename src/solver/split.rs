@@ -88,6 +88,15 @@ struct Half {
     x: Vec<f64>,
     /// A supernode's rows below its domain columns in a solve (as long as the longest).
     tmp: Vec<f64>,
+    /// Factored in single precision (`linear.rs`, "Mixed precision"): the values gathered
+    /// into `v32`, the factor in `l32`, a solve's vectors `x32` and `tmp32`; the f64
+    /// buffers above are then never written (their pages never touched), and the other way
+    /// round.
+    single: bool,
+    v32: Vec<f32>,
+    l32: Vec<f32>,
+    x32: Vec<f32>,
+    tmp32: Vec<f32>,
     reg: (f64, f64),
     phase: Phase,
     status: Result<(), Error>,
@@ -138,54 +147,67 @@ impl Half {
         }
     }
 
-    /// The values of supernode `s`: (first column, its dense block, the rows below it).
-    fn supernode(&self, s: usize) -> (usize, MatRef<'_, f64>, &[usize]) {
-        let sym = self.supernodal();
-        let start = sym.supernode_begin()[s];
-        let end = sym.supernode_end()[s];
-        let pattern =
-            &sym.row_idx()[sym.col_ptr_for_row_idx()[s]..sym.col_ptr_for_row_idx()[s + 1]];
-        let vals = &self.l_values[sym.col_ptr_for_val()[s]..sym.col_ptr_for_val()[s + 1]];
-        let ncols = end - start;
-        (
-            start,
-            MatRef::from_column_major_slice(vals, ncols + pattern.len(), ncols),
-            pattern,
-        )
-    }
-
     fn factor(&mut self) -> Result<(), Error> {
         let phase = crate::phases::start("solve: a half's numeric LDLT");
-        super::factor::numeric_ldlt(
-            &self.symbolic,
-            &mut self.l_values,
-            &self.matrix,
-            self.reg,
-            &mut self.mem,
-            "a half of the tangent",
-        )?;
+        if self.single {
+            super::factor::numeric_ldlt_single(
+                &self.symbolic,
+                &mut self.l32,
+                self.matrix.symbolic(),
+                &self.v32,
+                self.reg,
+                &mut self.mem,
+                "a half of the tangent",
+            )?;
+        } else {
+            super::factor::numeric_ldlt(
+                &self.symbolic,
+                &mut self.l_values,
+                &self.matrix,
+                self.reg,
+                &mut self.mem,
+                "a half of the tangent",
+            )?;
+        }
         drop(phase);
+        // The factor taken out while `self` is borrowed for the separator's blocks.
+        if self.single {
+            let l = std::mem::take(&mut self.l32);
+            self.separator_block(&l);
+            self.l32 = l;
+        } else {
+            let l = std::mem::take(&mut self.l_values);
+            self.separator_block(&l);
+            self.l_values = l;
+        }
+        Ok(())
+    }
+
+    /// The separator's block of the factor `values` (this half's, f64 or f32): L_SS and D_S,
+    /// then S_h = L_SS D_S L_SS^T in f64.
+    fn separator_block<T: Copy + Into<f64> + Default>(&mut self, values: &[T]) {
         let _phase = crate::phases::start("solve: a half's S block (L_SS D_S L_SS^T)");
         // L_SS and D_S of the separator block, then S_h = L_SS D_S L_SS^T.
         let (nd, ns) = (self.nd, self.eq.len() - self.nd);
         let mut lss = std::mem::take(&mut self.lss);
         let mut d = std::mem::take(&mut self.d);
         lss.values.fill(0.0);
-        for s in 0..self.supernodal().n_supernodes() {
-            let (start, ls, pattern) = self.supernode(s);
+        let sym = self.supernodal();
+        for s in 0..sym.n_supernodes() {
+            let (start, ls, pattern) = supernode(sym, values, s);
             let ncols = ls.ncols();
             if start + ncols <= nd {
                 continue;
             }
             for c in nd.saturating_sub(start)..ncols {
                 let jl = start + c - nd;
-                d[jl] = ls[(c, c)];
+                d[jl] = ls[(c, c)].into();
                 lss[(jl, jl)] = 1.0;
                 for r in c + 1..ncols {
-                    lss[(start + r - nd, jl)] = ls[(r, c)];
+                    lss[(start + r - nd, jl)] = ls[(r, c)].into();
                 }
                 for (i, &p) in pattern.iter().enumerate() {
-                    lss[(p - nd, jl)] = ls[(ncols + i, c)];
+                    lss[(p - nd, jl)] = ls[(ncols + i, c)].into();
                 }
             }
         }
@@ -207,94 +229,165 @@ impl Half {
         );
         self.lss = lss;
         self.d = d;
-        Ok(())
     }
 
-    /// x := D_hh^-1 L_hh^-1 x over the domain's columns; the separator rows receive
-    /// -L_Sh L_hh^-1 x_h (= -K_Sh K_hh^-1 b_h when they start at 0). Supernode by supernode as
-    /// faer's own solve: a dense triangular solve of its top block, one dense product of the
-    /// rows below (into `tmp`), then those rows updated.
+    /// x := D_hh^-1 L_hh^-1 x over the domain's columns ([`forward`]), in the factor's
+    /// precision.
     fn forward(&mut self) {
-        let nd = self.nd;
-        let mut x = std::mem::take(&mut self.x);
-        let mut tmp = std::mem::take(&mut self.tmp);
-        for s in 0..self.supernodal().n_supernodes() {
-            let (start, ls, pattern) = self.supernode(s);
-            if start >= nd {
-                break;
-            }
-            let ncols = ls.ncols();
-            let k = ncols.min(nd - start);
-            let (top, rest) = x[start..].split_at_mut(k);
-            let mut top = MatMut::from_column_major_slice_mut(top, k, 1);
-            faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place(
-                ls.submatrix(0, 0, k, k),
-                top.rb_mut(),
-                Par::Seq,
-            );
-            // Rows below the domain's columns: the supernode's own separator columns
-            // (k..ncols), then its pattern.
-            let below = ls.nrows() - k;
-            let t = MatMut::from_column_major_slice_mut(&mut tmp[..below], below, 1);
-            faer::linalg::matmul::matmul(
-                t,
-                Accum::Replace,
-                ls.submatrix(k, 0, below, k),
-                top.rb(),
-                1.0,
-                Par::Seq,
-            );
-            let inner = ncols - k;
-            for (xi, t) in rest[..inner].iter_mut().zip(&tmp[..inner]) {
-                *xi -= t;
-            }
-            for (&p, t) in pattern.iter().zip(&tmp[inner..below]) {
-                x[p] -= t;
-            }
-            for c in 0..k {
-                x[start + c] /= ls[(c, c)];
-            }
+        let sym = match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => s,
+            SymbolicCholeskyRaw::Simplicial(_) => unreachable!("a supernodal half"),
+        };
+        if self.single {
+            forward(sym, &self.l32, self.nd, &mut self.x32, &mut self.tmp32);
+        } else {
+            forward(sym, &self.l_values, self.nd, &mut self.x, &mut self.tmp);
         }
-        self.x = x;
-        self.tmp = tmp;
     }
 
-    /// With the separator's solution in x[nd..]: x_h := L_hh^-T (x_h - L_Sh^T x_S) over the
-    /// domain's columns, last to first (dense blocks per supernode, as [`Half::forward`]).
+    /// x_h := L_hh^-T (x_h - L_Sh^T x_S) ([`backward`]), in the factor's precision.
     fn backward(&mut self) {
-        let nd = self.nd;
-        let mut x = std::mem::take(&mut self.x);
-        let mut tmp = std::mem::take(&mut self.tmp);
-        for s in (0..self.supernodal().n_supernodes()).rev() {
-            let (start, ls, pattern) = self.supernode(s);
-            if start >= nd {
-                continue;
-            }
-            let ncols = ls.ncols();
-            let k = ncols.min(nd - start);
-            let below = ls.nrows() - k;
-            let inner = ncols - k;
-            tmp[..inner].copy_from_slice(&x[start + k..start + ncols]);
-            for (t, &p) in tmp[inner..below].iter_mut().zip(pattern) {
-                *t = x[p];
-            }
-            let mut top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
-            faer::linalg::matmul::matmul(
-                top.rb_mut(),
-                Accum::Add,
-                ls.submatrix(k, 0, below, k).transpose(),
-                MatRef::from_column_major_slice(&tmp[..below], below, 1),
-                -1.0,
-                Par::Seq,
-            );
-            faer::linalg::triangular_solve::solve_unit_upper_triangular_in_place(
-                ls.submatrix(0, 0, k, k).transpose(),
-                top,
-                Par::Seq,
-            );
+        let sym = match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => s,
+            SymbolicCholeskyRaw::Simplicial(_) => unreachable!("a supernodal half"),
+        };
+        if self.single {
+            backward(sym, &self.l32, self.nd, &mut self.x32, &mut self.tmp32);
+        } else {
+            backward(sym, &self.l_values, self.nd, &mut self.x, &mut self.tmp);
         }
-        self.x = x;
-        self.tmp = tmp;
+    }
+
+    /// The half's forward result in separator row k (f64 whatever the factor's precision).
+    fn separator_value(&self, k: usize) -> f64 {
+        if self.single {
+            self.x32[self.nd + k] as f64
+        } else {
+            self.x[self.nd + k]
+        }
+    }
+
+    /// The separator's solution into the half's vector before [`Half::backward`].
+    fn set_separator(&mut self, xs: &[f64]) {
+        let nd = self.nd;
+        if self.single {
+            for (t, &v) in self.x32[nd..].iter_mut().zip(xs) {
+                *t = v as f32;
+            }
+        } else {
+            self.x[nd..].copy_from_slice(xs);
+        }
+    }
+}
+
+/// The values of supernode `s` of `sym` in the factor `values`: (first column, its dense
+/// block, the rows below it).
+fn supernode<'a, T>(
+    sym: &'a faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>,
+    values: &'a [T],
+    s: usize,
+) -> (usize, MatRef<'a, T>, &'a [usize]) {
+    let start = sym.supernode_begin()[s];
+    let end = sym.supernode_end()[s];
+    let pattern = &sym.row_idx()[sym.col_ptr_for_row_idx()[s]..sym.col_ptr_for_row_idx()[s + 1]];
+    let vals = &values[sym.col_ptr_for_val()[s]..sym.col_ptr_for_val()[s + 1]];
+    let ncols = end - start;
+    (
+        start,
+        MatRef::from_column_major_slice(vals, ncols + pattern.len(), ncols),
+        pattern,
+    )
+}
+
+/// x := D_hh^-1 L_hh^-1 x over a half's `nd` domain columns of the factor `l`; the separator
+/// rows receive -L_Sh L_hh^-1 x_h (= -K_Sh K_hh^-1 b_h when they start at 0). Supernode by
+/// supernode as faer's own solve: a dense triangular solve of its top block, one dense
+/// product of the rows below (into `tmp`), then those rows updated.
+fn forward<T: faer::traits::RealField + Copy>(
+    sym: &faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>,
+    l: &[T],
+    nd: usize,
+    x: &mut [T],
+    tmp: &mut [T],
+) {
+    let one = faer::traits::math_utils::from_f64::<T>(1.0);
+    for s in 0..sym.n_supernodes() {
+        let (start, ls, pattern) = supernode(sym, l, s);
+        if start >= nd {
+            break;
+        }
+        let ncols = ls.ncols();
+        let k = ncols.min(nd - start);
+        let (top, rest) = x[start..].split_at_mut(k);
+        let mut top = MatMut::from_column_major_slice_mut(top, k, 1);
+        faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place(
+            ls.submatrix(0, 0, k, k),
+            top.rb_mut(),
+            Par::Seq,
+        );
+        // Rows below the domain's columns: the supernode's own separator columns
+        // (k..ncols), then its pattern.
+        let below = ls.nrows() - k;
+        let t = MatMut::from_column_major_slice_mut(&mut tmp[..below], below, 1);
+        faer::linalg::matmul::matmul(
+            t,
+            Accum::Replace,
+            ls.submatrix(k, 0, below, k),
+            top.rb(),
+            one,
+            Par::Seq,
+        );
+        let inner = ncols - k;
+        for (xi, &t) in rest[..inner].iter_mut().zip(&tmp[..inner]) {
+            *xi -= t;
+        }
+        for (&p, &t) in pattern.iter().zip(&tmp[inner..below]) {
+            x[p] -= t;
+        }
+        for c in 0..k {
+            x[start + c] /= ls[(c, c)];
+        }
+    }
+}
+
+/// With the separator's solution in x[nd..]: x_h := L_hh^-T (x_h - L_Sh^T x_S) over the
+/// domain's columns of the factor `l`, last to first (dense blocks per supernode, as
+/// [`forward`]).
+fn backward<T: faer::traits::RealField + Copy>(
+    sym: &faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>,
+    l: &[T],
+    nd: usize,
+    x: &mut [T],
+    tmp: &mut [T],
+) {
+    let minus_one = faer::traits::math_utils::from_f64::<T>(-1.0);
+    for s in (0..sym.n_supernodes()).rev() {
+        let (start, ls, pattern) = supernode(sym, l, s);
+        if start >= nd {
+            continue;
+        }
+        let ncols = ls.ncols();
+        let k = ncols.min(nd - start);
+        let below = ls.nrows() - k;
+        let inner = ncols - k;
+        tmp[..inner].copy_from_slice(&x[start + k..start + ncols]);
+        for (t, &p) in tmp[inner..below].iter_mut().zip(pattern) {
+            *t = x[p];
+        }
+        let mut top = MatMut::from_column_major_slice_mut(&mut x[start..start + k], k, 1);
+        faer::linalg::matmul::matmul(
+            top.rb_mut(),
+            Accum::Add,
+            ls.submatrix(k, 0, below, k).transpose(),
+            MatRef::from_column_major_slice(&tmp[..below], below, 1),
+            minus_one,
+            Par::Seq,
+        );
+        faer::linalg::triangular_solve::solve_unit_upper_triangular_in_place(
+            ls.submatrix(0, 0, k, k).transpose(),
+            top,
+            Par::Seq,
+        );
     }
 }
 
@@ -614,6 +707,13 @@ impl Split {
             + ns * (ns - 1.0) * (2.0 * ns - 1.0) / 6.0
     }
 
+    /// Factor both halves in single precision, or in double ([`Half::set_single`]); the
+    /// separator's Schur complement stays f64 either way. A factor held is then stale.
+    pub fn set_single(&mut self, single: bool) -> Result<(), OutOfMemory> {
+        lock(&self.a).set_single(single)?;
+        lock(&self.b).set_single(single)
+    }
+
     /// Stored entries of both halves' factors.
     pub fn factor_nonzeros(&self) -> usize {
         lock(&self.a).symbolic.len_val() + lock(&self.b).symbolic.len_val()
@@ -692,7 +792,7 @@ impl Split {
             let a = lock(&self.a);
             let b = lock(&self.b);
             for (k, &g) in self.s_eq.iter().enumerate() {
-                self.xs[k] = rhs[g] + a.x[a.nd + k] + b.x[b.nd + k];
+                self.xs[k] = rhs[g] + a.separator_value(k) + b.separator_value(k);
             }
         }
         faer::linalg::cholesky::ldlt::solve::solve_in_place_with_conj(
@@ -705,15 +805,13 @@ impl Split {
         );
         {
             let mut b = lock(&self.b);
-            let nd = b.nd;
-            b.x[nd..].copy_from_slice(&self.xs);
+            b.set_separator(&self.xs);
             b.phase = Phase::Backward;
         }
         self.pool.start(0);
         {
             let mut a = lock(&self.a);
-            let nd = a.nd;
-            a.x[nd..].copy_from_slice(&self.xs);
+            a.set_separator(&self.xs);
             a.backward();
             store(&a, rhs);
         }
@@ -734,26 +832,55 @@ fn select(n: usize, keep: impl Fn(usize) -> bool) -> Result<Vec<usize>, OutOfMem
     Ok(v)
 }
 
+/// The half's values from K's (upper CSC) `k`, rounded to f32 when it is factored in single
+/// precision.
 fn gather(h: &mut Half, k: &[f64]) {
-    let Half { matrix, map, .. } = h;
-    for (v, &p) in matrix.val_mut().iter_mut().zip(map.iter()) {
-        *v = k[p as usize];
+    let Half {
+        matrix,
+        map,
+        single,
+        v32,
+        ..
+    } = h;
+    if *single {
+        for (v, &p) in v32.iter_mut().zip(map.iter()) {
+            *v = k[p as usize] as f32;
+        }
+    } else {
+        for (v, &p) in matrix.val_mut().iter_mut().zip(map.iter()) {
+            *v = k[p as usize];
+        }
     }
 }
 
 /// The half's right-hand side: its domain's entries, 0 in the separator.
 fn load(h: &mut Half, rhs: &[f64]) {
     let nd = h.nd;
-    let Half { x, eq, .. } = h;
-    for (xi, &g) in x[..nd].iter_mut().zip(eq.iter()) {
-        *xi = rhs[g];
+    let Half {
+        x, x32, eq, single, ..
+    } = h;
+    if *single {
+        for (xi, &g) in x32[..nd].iter_mut().zip(eq.iter()) {
+            *xi = rhs[g] as f32;
+        }
+        x32[nd..].fill(0.0);
+    } else {
+        for (xi, &g) in x[..nd].iter_mut().zip(eq.iter()) {
+            *xi = rhs[g];
+        }
+        x[nd..].fill(0.0);
     }
-    x[nd..].fill(0.0);
 }
 
 fn store(h: &Half, rhs: &mut [f64]) {
-    for (xi, &g) in h.x[..h.nd].iter().zip(h.eq.iter()) {
-        rhs[g] = *xi;
+    if h.single {
+        for (xi, &g) in h.x32[..h.nd].iter().zip(h.eq.iter()) {
+            rhs[g] = *xi as f64;
+        }
+    } else {
+        for (xi, &g) in h.x[..h.nd].iter().zip(h.eq.iter()) {
+            rhs[g] = *xi;
+        }
     }
 }
 
@@ -963,6 +1090,11 @@ impl Half {
             d: Vec::new(),
             x: Vec::new(),
             tmp: Vec::new(),
+            single: false,
+            v32: Vec::new(),
+            l32: Vec::new(),
+            x32: Vec::new(),
+            tmp32: Vec::new(),
             reg: (0.0, 0.0),
             phase: Phase::Factor,
             status: Ok(()),
@@ -980,6 +1112,27 @@ impl Half {
         self.x.len() == self.eq.len()
     }
 
+    /// Factor in single precision (`single`: the f32 buffers allocated, fallibly; their pages
+    /// are touched by the factorization) or in double (the f32 buffers freed: the f64
+    /// factor's pages are then touched by its first factorization instead).
+    fn set_single(&mut self, single: bool) -> Result<(), OutOfMemory> {
+        let what = "the two-domain factorization's single-precision factor";
+        if single && !self.single {
+            let (m, nnz) = (self.eq.len(), self.map.len());
+            self.v32 = memory::lazy_zeros(nnz, what)?;
+            self.l32 = memory::lazy_zeros(self.symbolic.len_val(), what)?;
+            self.x32 = memory::zeros(m, what)?;
+            self.tmp32 = memory::zeros(self.tmp.len(), what)?;
+        } else if !single {
+            self.v32 = Vec::new();
+            self.l32 = Vec::new();
+            self.x32 = Vec::new();
+            self.tmp32 = Vec::new();
+        }
+        self.single = single;
+        Ok(())
+    }
+
     /// The numeric buffers (factor values, workspaces, the separator's dense blocks), once
     /// the split is chosen.
     fn allocate(&mut self) -> Result<(), OutOfMemory> {
@@ -994,10 +1147,10 @@ impl Half {
                 .unwrap_or(0),
             SymbolicCholeskyRaw::Simplicial(_) => 0,
         };
-        self.mem = MemBuffer::try_new(
-            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
-        )
-        .map_err(|_| OutOfMemory {
+        // The f64 factorization's workspace serves the f32 one too (at least as large).
+        let req = symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default());
+        let req32 = symbolic.factorize_numeric_ldlt_scratch::<f32>(Par::Seq, Default::default());
+        self.mem = MemBuffer::try_new(req.or(req32)).map_err(|_| OutOfMemory {
             what,
             bytes: (self.map.len() as u64).saturating_mul(8),
         })?;
