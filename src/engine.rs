@@ -25,9 +25,8 @@ use crate::solver::{Settings, Solver, StepReport};
 use crate::variables::{self, Binding, Causality, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 
-mod coarse;
+pub mod coarse;
 pub mod derivatives;
-pub use coarse::{coarser_scene, AUTO_DOF as COARSE_START_DOF};
 pub mod modes;
 pub mod stepping;
 

@@ -792,7 +792,7 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
         scene.solver.limits.max_memory_gb
     );
     outln!("{}", cost_line(&scene, &size, model.triangles.len()));
-    if velarium::engine::coarser_scene(&scene, &model, free).is_some() {
+    if velarium::engine::coarse::coarser_scene(&scene, &model, free).is_some() {
         outln!(
             "coarse start: the first step from the undeformed state first solves this scene on the mesh with half the divisions (solver.coarse_start), within its own budget, and Newton here starts from its answer; each coarser mesh has a quarter of the next finer one's unknowns (the coarse meshes together about a third of this one's, or less: a factorization's cost grows faster than the unknowns), and where Newton does not converge from that answer the step goes on from the undeformed state within the budget above"
         );
