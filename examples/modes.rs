@@ -83,11 +83,12 @@ fn main() {
         load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
     );
     println!(
-        "{} modes in {seconds:.3} s (best of 3; CPU {cpu:.3} s) = {:.2} factorizations ({} right-hand sides solved, {} passes)",
+        "{} modes in {seconds:.3} s (best of 3; CPU {cpu:.3} s) = {:.2} factorizations ({} right-hand sides solved, {} passes, {} blocks reorthogonalised against the whole basis)",
         modes.frequencies.len(),
         seconds / factor,
         modes.solves,
-        modes.passes
+        modes.passes,
+        modes.reorthogonalisations
     );
     let s = modes.seconds;
     println!(
