@@ -17,13 +17,16 @@
 //!          pseudo-random vectors, so runs repeat bit for bit), then W = A Q_j (one solve
 //!          with BLOCK right-hand sides, `Ldlt::solve_block`: held row by row, one pass over
 //!          the factor per sweep for all of them), the block
-//!          M-orthogonalised against the last two blocks, then against all earlier vectors
-//!          (classical Gram-Schmidt, full reorthogonalisation; each pass two dense products
-//!          with Q and M Q held as n × k matrices, so a pass reads the basis once per block,
-//!          not once per vector), then within itself, W = Q_{j+1} B_j (Cholesky QR twice:
-//!          the Gram matrix (M W)ᵀ W and W B⁻¹ as matrix products; column by column when the
-//!          block is nearly dependent). The coefficients
-//!          form H = Qᵀ M A Q (block tridiagonal up to round-off); a Ritz pair (θ, Q s) of H
+//!          M-orthogonalised twice against the last two blocks (classical Gram-Schmidt, each
+//!          pass two dense products, so a pass reads those blocks once, not once per
+//!          vector), against all earlier vectors only when an estimate of the loss of
+//!          orthogonality passes √ε (partial reorthogonalisation, `Partial`: Simon 1984,
+//!          Grimes, Lewis & Simon 1994; the basis stays semi-orthogonal, which keeps the
+//!          Ritz values to round-off and admits no spurious copies), then within itself,
+//!          W = Q_{j+1} B_j (Cholesky QR twice: the Gram matrix (M W)ᵀ W and W B⁻¹ as matrix
+//!          products; column by column when the block is nearly dependent). Q is held as an
+//!          n × k matrix, M Q for the last three blocks only. The recurrence's coefficients
+//!          form H = Qᵀ M A Q (block tridiagonal); a Ritz pair (θ, Q s) of H
 //!          has the residual |B_j s_j| (s_j: its last block of components) in the M norm and
 //!          is converged when that is at most TOLERANCE θ_max
 //! multiple a single start vector sees one vector of each eigenspace; a block of BLOCK sees up
@@ -38,8 +41,11 @@
 //!
 //! # References
 //! Ericsson & Ruhe 1980 (the spectral transformation Lanczos method); Parlett 1998, *The
-//! Symmetric Eigenvalue Problem*, ch. 13 (Lanczos, full reorthogonalisation); Golub & Van Loan
-//! 2013, §10.1.
+//! Symmetric Eigenvalue Problem*, ch. 13 (Lanczos, reorthogonalisation); Golub & Van Loan
+//! 2013, §10.1; Simon 1984, "The Lanczos algorithm with partial reorthogonalization", Math.
+//! Comp. 42, 115-142; Grimes, Lewis & Simon 1994, "A shifted block Lanczos algorithm for
+//! solving sparse symmetric generalized eigenproblems", SIAM J. Matrix Anal. Appl. 15(1),
+//! 228-272.
 
 use super::assemble::NONE;
 use super::core::Solver;
@@ -413,18 +419,46 @@ fn start_vector(n: usize, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-/// The Lanczos basis: Q and M Q as column-major n × k matrices (one allocation each, grown
-/// by blocks), so that the orthogonalisation and the Ritz vectors are matrix products that
-/// read Q once per block rather than once per vector.
+/// Blocks of M Q held: the open block and the two before it (the three-term recurrence's).
+const RING: usize = 3;
+
+/// The Lanczos basis: Q as a column-major n × k matrix (one allocation, grown by blocks), so
+/// that the orthogonalisation and the Ritz vectors are matrix products that read Q once per
+/// block rather than once per vector; M Q of the last [`RING`] blocks only (block b in slot
+/// b mod RING, `width` vectors each): the reorthogonalisation against the whole basis takes
+/// its coefficients as Qᵀ (M W).
 struct Basis {
     n: usize,
     q: Vec<f64>,
     mq: Vec<f64>,
+    /// Vectors per block at most (a slot of `mq`).
+    width: usize,
+    /// The first vector of every block; the last block is the open one.
+    starts: Vec<usize>,
     /// [`cholesky_qr_block`]'s work space (2 n p values, allocated on first use).
     work: Vec<f64>,
 }
 
 impl Basis {
+    /// An empty basis of blocks of at most `width` vectors of `n` values (`q`, `mq`, `work`:
+    /// memory to reuse).
+    fn new(
+        n: usize,
+        width: usize,
+        q: Vec<f64>,
+        mq: Vec<f64>,
+        work: Vec<f64>,
+    ) -> Result<Basis, Error> {
+        Ok(Basis {
+            n,
+            q,
+            mq: zeroed(mq, RING * width * n, "the Lanczos vectors")?,
+            width,
+            starts: Vec::new(),
+            work,
+        })
+    }
+
     fn len(&self) -> usize {
         self.q.len() / self.n.max(1)
     }
@@ -433,19 +467,42 @@ impl Basis {
         &self.q[k * self.n..(k + 1) * self.n]
     }
 
+    /// Where vector `k`'s M q starts in `mq` (its block among the last [`RING`]).
+    fn mq_at(&self, k: usize) -> usize {
+        let b = self.starts.partition_point(|&s| s <= k) - 1;
+        debug_assert!(b + RING >= self.starts.len() && k - self.starts[b] < self.width);
+        ((b % RING) * self.width + k - self.starts[b]) * self.n
+    }
+
     fn mq(&self, k: usize) -> &[f64] {
-        &self.mq[k * self.n..(k + 1) * self.n]
+        let at = self.mq_at(k);
+        &self.mq[at..at + self.n]
+    }
+
+    /// M Q of the vectors `from..to` of one block.
+    fn mq_block(&self, from: usize, to: usize) -> &[f64] {
+        let at = self.mq_at(from);
+        &self.mq[at..at + (to - from) * self.n]
+    }
+
+    /// Open a new block (the vectors pushed next).
+    fn begin_block(&mut self) {
+        self.starts.push(self.len());
     }
 
     fn push(&mut self, w: &[f64], mw: &[f64], size: f64) -> Result<(), Error> {
-        for v in [&mut self.q, &mut self.mq] {
-            v.try_reserve(self.n).map_err(|_| memory::OutOfMemory {
+        self.q
+            .try_reserve(self.n)
+            .map_err(|_| memory::OutOfMemory {
                 what: "the Lanczos vectors",
                 bytes: 8 * self.n as u64,
             })?;
-        }
+        let k = self.len();
         self.q.extend(w.iter().map(|x| x / size));
-        self.mq.extend(mw.iter().map(|x| x / size));
+        let at = self.mq_at(k);
+        for (y, x) in self.mq[at..at + self.n].iter_mut().zip(mw) {
+            *y = x / size;
+        }
         Ok(())
     }
 }
@@ -454,9 +511,10 @@ impl Basis {
 /// Lanczos block (`recurrence` = (the start of the block W is the image of, the start of the
 /// block before it)): against the last two blocks (the three-term recurrence) twice
 /// (classical Gram-Schmidt, each pass two matrix products that read those blocks' Q and M Q
-/// once for the whole block); then, when `partial` says the block would lose orthogonality
-/// to the earlier vectors beyond √ε (or always, without an estimate), against every vector
-/// of `basis` (the reorthogonalisation); then M W afresh, then within the block: as matrix
+/// once for the whole block); then M W; then, when `partial` says the block would lose
+/// orthogonality to the earlier vectors beyond √ε (or always, without an estimate), against
+/// every vector of `basis` (the reorthogonalisation, its coefficients Qᵀ (M W)) and M W
+/// afresh; then then within the block: as matrix
 /// products ([`cholesky_qr_block`]) when the block is well conditioned, otherwise one column
 /// after the other against the block's earlier accepted columns (twice). Accepted columns (M
 /// norm above 1e-10 `scale`) join `basis`. Returns per column its coefficients on the basis
@@ -482,12 +540,13 @@ fn orthonormalise_block(
     let n = basis.n;
     let old = basis.len();
     let local = local.min(old);
+    basis.begin_block();
     let (t, cpu) = (std::time::Instant::now(), crate::phases::thread_cpu());
     let mut total = vec![0.0; old * columns];
     let mut c = vec![0.0; old * columns];
     // The three-term recurrence's part (the last two blocks, from `local`), twice.
     for _ in 0..2 {
-        gram_schmidt_pass(basis, w, columns, local, &mut c, &mut total);
+        gram_schmidt_pass(basis, w, None, columns, local, &mut c, &mut total);
     }
     op.seconds.orthogonalisation += t.elapsed().as_secs_f64();
     op.seconds.orthogonalisation_cpu += crate::phases::thread_cpu() - cpu;
@@ -509,7 +568,7 @@ fn orthonormalise_block(
         // The reorthogonalisation against every earlier vector (the last two blocks' part
         // of it joins their coefficients), then M W afresh.
         let mut extra = vec![0.0; old * columns];
-        gram_schmidt_pass(basis, w, columns, 0, &mut c, &mut extra);
+        gram_schmidt_pass(basis, w, Some(mw), columns, 0, &mut c, &mut extra);
         for col in 0..columns {
             for i in local..old {
                 total[col * old + i] += extra[col * old + i];
@@ -586,11 +645,13 @@ fn orthonormalise_block(
 }
 
 /// One classical Gram-Schmidt pass of the `columns` columns of W against the basis vectors
-/// `from..`: C = (M Q)ᵀ W, W ← W − Q C (two matrix products), C added to `total` (old ×
+/// `from..`: C = (M Q)ᵀ W, or Qᵀ (M W) when M W is given (`mw`: the vectors' M Q may no
+/// longer be held), then W ← W − Q C (two matrix products), C added to `total` (old ×
 /// columns, column-major; `c` a work space as large).
 fn gram_schmidt_pass(
     basis: &Basis,
     w: &mut [f64],
+    mw: Option<&[f64]>,
     columns: usize,
     from: usize,
     c: &mut [f64],
@@ -602,12 +663,37 @@ fn gram_schmidt_pass(
         return;
     }
     let q = MatRef::from_column_major_slice(&basis.q[from * n..old * n], n, k);
-    let mq = MatRef::from_column_major_slice(&basis.mq[from * n..old * n], n, k);
-    let mut cm = MatMut::from_column_major_slice_mut(&mut c[..k * columns], k, columns);
     let wm = MatRef::from_column_major_slice(w, n, columns);
-    matmul(&mut cm, Accum::Replace, mq.transpose(), wm, 1.0, Par::Seq);
+    match mw {
+        Some(mw) => {
+            let mwm = MatRef::from_column_major_slice(mw, n, columns);
+            let cm = MatMut::from_column_major_slice_mut(&mut c[..k * columns], k, columns);
+            matmul(cm, Accum::Replace, q.transpose(), mwm, 1.0, Par::Seq);
+        }
+        None => {
+            // Block by block (M Q is held per block).
+            let mut part = vec![0.0; basis.width * columns];
+            let mut s = from;
+            while s < old {
+                let b = basis.starts.partition_point(|&x| x <= s) - 1;
+                let e = basis.starts.get(b + 1).copied().unwrap_or(old).min(old);
+                let rows = e - s;
+                let mq = MatRef::from_column_major_slice(basis.mq_block(s, e), n, rows);
+                let pm =
+                    MatMut::from_column_major_slice_mut(&mut part[..rows * columns], rows, columns);
+                matmul(pm, Accum::Replace, mq.transpose(), wm, 1.0, Par::Seq);
+                for col in 0..columns {
+                    for i in 0..rows {
+                        c[col * k + s - from + i] = part[col * rows + i];
+                    }
+                }
+                s = e;
+            }
+        }
+    }
+    let cm = MatRef::from_column_major_slice(&c[..k * columns], k, columns);
     let wm = MatMut::from_column_major_slice_mut(w, n, columns);
-    matmul(wm, Accum::Add, q, cm.as_ref(), -1.0, Par::Seq);
+    matmul(wm, Accum::Add, q, cm, -1.0, Par::Seq);
     for col in 0..columns {
         for i in 0..k {
             total[col * old + from + i] += c[col * k + i];
@@ -853,7 +939,7 @@ fn cholesky_qr_block(
 ) -> Result<Option<Vec<Vec<f64>>>, Error> {
     let n = basis.n;
     let p = columns;
-    if p == 0 || p > BLOCK_MAX || basis.len() + p > n {
+    if p == 0 || p > BLOCK_MAX || p > basis.width || basis.len() + p > n {
         return Ok(None);
     }
     // The scale the column-by-column code would reach over this block (an upper bound of it).
@@ -932,17 +1018,17 @@ fn cholesky_qr_rounds(
     };
     let inverse = upper_inverse(&r2, p);
     let old = basis.len();
-    for v in [&mut basis.q, &mut basis.mq] {
-        v.try_reserve(n * p).map_err(|_| memory::OutOfMemory {
+    basis
+        .q
+        .try_reserve(n * p)
+        .map_err(|_| memory::OutOfMemory {
             what: "the Lanczos vectors",
             bytes: 8 * (n * p) as u64,
         })?;
-    }
-    for v in [&mut basis.q, &mut basis.mq] {
-        v.resize((old + p) * n, 0.0);
-    }
+    basis.q.resize((old + p) * n, 0.0);
     times_inverse(&mut basis.q[old * n..], tw, &inverse, n, p);
-    times_inverse(&mut basis.mq[old * n..], tmw, &inverse, n, p);
+    let at = basis.mq_at(old);
+    times_inverse(&mut basis.mq[at..], tmw, &inverse, n, p);
     // R₂ R₁.
     let mut r = vec![0.0; p * p];
     for j in 0..p {
@@ -1020,12 +1106,13 @@ fn block_lanczos(
     let max_dim = (2 * want + EXTRA).min(n).max(1);
     let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
-    let mut basis = Basis {
+    let mut basis = Basis::new(
         n,
-        q: reserved(std::mem::take(&mut work.q), n * (max_dim + block), what)?,
-        mq: reserved(std::mem::take(&mut work.mq), n * (max_dim + block), what)?,
-        work: std::mem::take(&mut work.qr),
-    };
+        block,
+        reserved(std::mem::take(&mut work.q), n * (max_dim + block), what)?,
+        std::mem::take(&mut work.mq),
+        std::mem::take(&mut work.qr),
+    )?;
     let mut vectors = zeroed(std::mem::take(&mut work.block), 3 * n * block, what)?;
     let result = lanczos_iterate(op, n, want, max_dim, &mut basis, &mut vectors);
     work.q = basis.q;
@@ -1068,7 +1155,7 @@ fn lanczos_iterate(
             return ritz_pairs(op, basis, &h, end, want, None);
         }
         let columns = end - start;
-        w[..n * columns].copy_from_slice(&basis.mq[start * n..end * n]);
+        w[..n * columns].copy_from_slice(basis.mq_block(start, end));
         op.solve(&mut w[..n * columns], columns)?;
         let new = orthonormalise_block(
             op,
@@ -1342,12 +1429,8 @@ mod tests {
             symmetric_product_columns(&cp, &ri, &v, x, &mut y, columns);
             y
         };
-        let mut basis = Basis {
-            n,
-            q: Vec::new(),
-            mq: Vec::new(),
-            work: Vec::new(),
-        };
+        let mut basis = Basis::new(n, 4, Vec::new(), Vec::new(), Vec::new()).unwrap();
+        basis.begin_block();
         for seed in 10..14u64 {
             let mut x = start_vector(n, seed);
             for k in 0..basis.len() {
@@ -1406,6 +1489,7 @@ mod tests {
         let old = basis.len();
         let total = vec![0.0; old * p];
         let mut scale = 1.0;
+        basis.begin_block();
         let out = cholesky_qr_block(
             &mut basis,
             &w,
@@ -1459,6 +1543,7 @@ mod tests {
         let mtwice = m(&twice, 3);
         let before = basis.len();
         let total = vec![0.0; before * 3];
+        basis.begin_block();
         let refused = cholesky_qr_block(
             &mut basis,
             &twice,
