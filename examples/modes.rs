@@ -77,17 +77,19 @@ fn main() {
     let (seconds, cpu, modes) = runs.swap_remove(0);
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
-        "free DOF {}, factor entries {}, one factorization {factor:.3} s, one solve {solve:.4} s (best of 3); load average {}",
+        "free DOF {}, factor entries {} ({:.3} GFlop), one factorization {factor:.3} s, one solve {solve:.4} s (best of 3); load average {}",
         engine.free_dofs(),
         engine.factor_nonzeros(),
+        engine.factor_flops() * 1e-9,
         load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
     );
     println!(
-        "{} modes in {seconds:.3} s (best of 3; CPU {cpu:.3} s) = {:.2} factorizations ({} right-hand sides solved, {} passes)",
+        "{} modes in {seconds:.3} s (best of 3; CPU {cpu:.3} s) = {:.2} factorizations ({} right-hand sides solved, {} passes, {} blocks reorthogonalised against the whole basis)",
         modes.frequencies.len(),
         seconds / factor,
         modes.solves,
-        modes.passes
+        modes.passes,
+        modes.reorthogonalisations
     );
     let s = modes.seconds;
     println!(
