@@ -202,6 +202,9 @@ fn hencky() {
         if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
             *rings = n;
         }
+        // From the flat start on this mesh (its Newton iterations against the floor): no
+        // coarse start (docs/solver.md), which `examples/coarse_start.rs` measures.
+        scene.solver.coarse_start = velarium::scene::CoarseStart::Off;
         let mut engine = Engine::try_new(scene).expect("valid scene");
         let vr = engine
             .variables()
@@ -263,6 +266,9 @@ fn hencky_derivatives() {
         if let Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
             *rings = n;
         }
+        // From the flat start on this mesh (its Newton iterations against the floor): no
+        // coarse start (docs/solver.md), which `examples/coarse_start.rs` measures.
+        scene.solver.coarse_start = velarium::scene::CoarseStart::Off;
         let mut engine = Engine::try_new(scene).expect("valid scene");
         let slot = |e: &Engine, name: &str| match e
             .variables()

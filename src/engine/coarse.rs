@@ -73,11 +73,51 @@ pub fn coarser_scene(scene: &Scene, model: &Model, free: usize) -> Option<Scene>
                 LoadModel::PointForce(_) | LoadModel::Pressure { .. } | LoadModel::Surface { .. }
             )
         });
-    if applies {
+    if applies && !ids_into_generated(scene) {
         coarser(scene)
     } else {
         None
     }
+}
+
+/// Whether the scene names a generated node or triangle by its id (a support on node 1234 of
+/// a disc): the coarser mesh numbers its nodes otherwise, so its scene would not be the same
+/// problem. Conservative: every integer under a key that can hold node or triangle ids
+/// (`nodes`, `node`, `top`, `bottom`, `from`, `to`, `triangles`, and the geometry's named
+/// sets) at or above the explicit nodes' (triangles') count counts.
+fn ids_into_generated(scene: &Scene) -> bool {
+    let explicit = (scene.geometry.nodes.len(), scene.geometry.triangles.len());
+    let sets = |m: &std::collections::BTreeMap<String, Vec<usize>>, n: usize| {
+        m.values().flatten().any(|&i| i >= n)
+    };
+    if sets(&scene.geometry.node_sets, explicit.0)
+        || sets(&scene.geometry.triangle_sets, explicit.1)
+    {
+        return true;
+    }
+    let Ok(mut value) = serde_json::to_value(scene) else {
+        return true;
+    };
+    if let Some(g) = value.get_mut("geometry").and_then(|g| g.as_object_mut()) {
+        g.clear();
+    }
+    fn walk(v: &serde_json::Value, limit: Option<usize>, explicit: (usize, usize)) -> bool {
+        use serde_json::Value;
+        match v {
+            Value::Number(n) => limit.is_some_and(|l| n.as_u64().is_none_or(|i| i >= l as u64)),
+            Value::Array(a) => a.iter().any(|x| walk(x, limit, explicit)),
+            Value::Object(o) => o.iter().any(|(k, x)| {
+                let limit = match k.as_str() {
+                    "nodes" | "node" | "top" | "bottom" | "from" | "to" => Some(explicit.0),
+                    "triangles" => Some(explicit.1),
+                    _ => None,
+                };
+                walk(x, limit, explicit)
+            }),
+            _ => false,
+        }
+    }
+    walk(&value, None, explicit)
 }
 
 impl Engine {
@@ -448,6 +488,28 @@ mod tests {
             -0.2 + 0.05 * x[0] + 0.4 * x[1],
             side * (0.3 + 0.1 * x[0] + 0.2 * x[1]),
         ]
+    }
+
+    /// A scene that names a generated node by its id gets no coarse start (the coarser mesh
+    /// numbers its nodes otherwise); the same scene naming its nodes by a generator's set
+    /// does, and so does one naming an explicit node by id.
+    #[test]
+    fn no_coarse_start_where_a_generated_node_is_named_by_id() {
+        let with = |fix: &str, extra: &str| {
+            let text = format!(
+                r#"{{"format": 1, "name": "T", "geometry": {{"nodes": [[0, 0, 1]], "generators": [{{"kind": "disc", "name": "g", "center": [0, 0, 0], "radius": 1, "rings": 8}}]{extra}}},
+                   "membranes": [{{"name": "m", "triangles": "g", "thickness": 1e-3, "material": {{"kind": "svk", "E": 1e9, "nu": 0.3}}}}],
+                   "supports": [{{"nodes": "g.rim", "fix": ["x", "y", "z"]}}, {{"nodes": {fix}, "fix": ["x"]}}],
+                   "solver": {{"coarse_start": "on"}}}}"#
+            );
+            let scene = Scene::from_json(&text).expect("valid scene");
+            let model = Model::build(&scene);
+            super::coarser_scene(&scene, &model, 1).is_some()
+        };
+        assert!(with(r#""g.center""#, ""));
+        assert!(with("[0]", ""), "the explicit node 0");
+        assert!(!with("[7]", ""), "generated node 7 by id");
+        assert!(!with(r#""east""#, r#", "node_sets": {"east": [9]}"#));
     }
 
     /// A field linear in the reference coordinates is carried over exactly (the transfer is

@@ -1474,7 +1474,8 @@ pub struct SolverSettings {
     /// not converge from there the step goes on from the undeformed state as without it. It
     /// changes the path, not the equilibrium or the convergence test. `auto`: on for models of
     /// at least 10 000 free DOF. Not with sleeves, contacts, volume inputs, prescribed
-    /// displacements, elastoplastic groups, arc length or time integration (docs/solver.md).
+    /// displacements, elastoplastic groups, arc length or time integration, nor where a
+    /// generated node or triangle is named by its id (docs/solver.md).
     #[serde(default, skip_serializing_if = "CoarseStart::is_default")]
     pub coarse_start: CoarseStart,
 }
