@@ -13,27 +13,28 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::SparseColMat;
 use faer::{Par, Side};
 
-/// faer's numeric LDLT of the upper triangle of `matrix` on the calling thread, tiny pivots
+/// faer's numeric LDLT of the upper triangle of `matrix` on the calling thread, in the
+/// matrix's precision (f64; f32 for the mixed-precision factor of `linear.rs`), tiny pivots
 /// replaced as (delta, epsilon) say (`PIVOT_DELTA`, `PIVOT_EPSILON` times the largest diagonal
 /// entry); the whole tangent here, one half in `split.rs`. A failure is a
 /// [`Breakdown::Factorization`] of `of` (the matrix, as the message names it).
-pub fn numeric_ldlt(
+pub fn numeric_ldlt<T: faer::traits::RealField>(
     symbolic: &SymbolicCholesky<usize>,
-    l_values: &mut [f64],
-    matrix: &SparseColMat<usize, f64>,
+    l_values: &mut [T],
+    matrix: faer::sparse::SparseColMatRef<'_, usize, T>,
     (delta, epsilon): (f64, f64),
     mem: &mut MemBuffer,
     of: &'static str,
 ) -> Result<(), Error> {
     let reg = LdltRegularization {
         dynamic_regularization_signs: None,
-        dynamic_regularization_delta: delta,
-        dynamic_regularization_epsilon: epsilon,
+        dynamic_regularization_delta: faer::traits::math_utils::from_f64::<T>(delta),
+        dynamic_regularization_epsilon: faer::traits::math_utils::from_f64::<T>(epsilon),
     };
     symbolic
         .factorize_numeric_ldlt(
             l_values,
-            matrix.as_ref(),
+            matrix,
             Side::Upper,
             reg,
             Par::Seq,
@@ -73,38 +74,4 @@ pub fn symbolic_ldlt(
 /// (`scene::limits`), one function for both.
 pub fn flops(symbolic: &SymbolicCholesky<usize>) -> f64 {
     crate::scene::limits::factor_flops(symbolic)
-}
-
-/// [`numeric_ldlt`] in single precision: the values of `matrix`'s pattern given as f32
-/// (`values`, in the pattern's order), the factor into `l_values` (f32). The mixed-precision
-/// factor of `linear.rs` (module docs there); the regularization as in [`numeric_ldlt`].
-pub fn numeric_ldlt_single(
-    symbolic: &SymbolicCholesky<usize>,
-    l_values: &mut [f32],
-    pattern: faer::sparse::SymbolicSparseColMatRef<'_, usize>,
-    values: &[f32],
-    (delta, epsilon): (f64, f64),
-    mem: &mut MemBuffer,
-    of: &'static str,
-) -> Result<(), Error> {
-    let reg = LdltRegularization {
-        dynamic_regularization_signs: None,
-        dynamic_regularization_delta: delta as f32,
-        dynamic_regularization_epsilon: epsilon as f32,
-    };
-    symbolic
-        .factorize_numeric_ldlt(
-            l_values,
-            faer::sparse::SparseColMatRef::new(pattern, values),
-            Side::Upper,
-            reg,
-            Par::Seq,
-            MemStack::new(mem),
-            Default::default(),
-        )
-        .map_err(|e| Breakdown::Factorization {
-            of,
-            detail: format!("{e:?}"),
-        })?;
-    Ok(())
 }

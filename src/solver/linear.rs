@@ -31,7 +31,7 @@
 //! halves are f32 too; their separator's Schur complement and its dense LDLT stay f64.
 
 use super::dissect::Fill;
-use super::factor::{numeric_ldlt, numeric_ldlt_single, symbolic_ldlt};
+use super::factor::{numeric_ldlt, symbolic_ldlt};
 use super::split::Split;
 use super::threads::Pool;
 use crate::error::{Breakdown, Error};
@@ -420,13 +420,12 @@ impl Ldlt {
                 for (s, &v) in self.v32.iter_mut().zip(self.matrix.val()) {
                     *s = v as f32;
                 }
-                numeric_ldlt_single(
+                numeric_ldlt(
                     self.symbolic
                         .as_ref()
                         .expect("the whole tangent's symbolic factorization"),
                     &mut self.l32,
-                    self.matrix.symbolic(),
-                    &self.v32,
+                    faer::sparse::SparseColMatRef::new(self.matrix.symbolic(), &self.v32),
                     reg,
                     &mut self.factor_mem,
                     "the tangent",
@@ -437,7 +436,7 @@ impl Ldlt {
                     .as_ref()
                     .expect("the whole tangent's symbolic factorization"),
                 &mut self.l_values,
-                &self.matrix,
+                self.matrix.as_ref(),
                 reg,
                 &mut self.factor_mem,
                 "the tangent",

@@ -150,11 +150,10 @@ impl Half {
     fn factor(&mut self) -> Result<(), Error> {
         let phase = crate::phases::start("solve: a half's numeric LDLT");
         if self.single {
-            super::factor::numeric_ldlt_single(
+            super::factor::numeric_ldlt(
                 &self.symbolic,
                 &mut self.l32,
-                self.matrix.symbolic(),
-                &self.v32,
+                faer::sparse::SparseColMatRef::new(self.matrix.symbolic(), &self.v32),
                 self.reg,
                 &mut self.mem,
                 "a half of the tangent",
@@ -163,7 +162,7 @@ impl Half {
             super::factor::numeric_ldlt(
                 &self.symbolic,
                 &mut self.l_values,
-                &self.matrix,
+                self.matrix.as_ref(),
                 self.reg,
                 &mut self.mem,
                 "a half of the tangent",
