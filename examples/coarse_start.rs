@@ -1,6 +1,6 @@
 //! The coarse start measured (`solver.coarse_start`, docs/solver.md "The coarse start"):
 //! `cargo run --release --example coarse_start -- [SIZE]... [--problem=disc,square]
-//! [--runs=N] [--threads=N]`.
+//! [--runs=N] [--threads=N] [--explicit]`.
 //!
 //! Each problem at each size is solved from flat to full load with `coarse_start: off` and
 //! `on`, in turn (`--runs` times each, default 1), on `--threads` threads (default 1). SIZE is
@@ -11,7 +11,9 @@
 //! factorizations on this mesh, the coarse meshes' free DOF and iterations (from the log), the
 //! wall time of the solve (coarse meshes included), the centre deflection and, for `on`, its
 //! difference from `off`'s, and the process's peak resident set from the engine's build on
-//! (Linux; the scene's own text before it is not counted).
+//! (Linux; the scene's own text before it is not counted). `--explicit` writes each generated
+//! mesh out as explicit nodes, triangles and sets first (what a user's own mesher gives), so
+//! that its coarser meshes come from edge collapses instead of halved divisions.
 
 use std::time::Instant;
 use velarium::scene::{CoarseStart, Generator};
@@ -49,6 +51,24 @@ fn disc(rings: usize) -> Scene {
     scene
 }
 
+/// The scene with its generated mesh written out as explicit nodes, triangles and sets (a
+/// user's own mesher's): its coarse meshes are then made by edge collapses.
+fn written_out(mut scene: Scene) -> Scene {
+    let mesh = velarium::scene::generate::resolve(&scene.geometry);
+    scene.geometry = velarium::scene::Geometry {
+        nodes: mesh.nodes,
+        triangles: mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(velarium::scene::OneNode::Id))
+            .collect(),
+        node_sets: mesh.node_sets,
+        triangle_sets: mesh.triangle_sets,
+        generators: Vec::new(),
+    };
+    scene
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let value = |flag: &str| {
@@ -62,13 +82,15 @@ fn main() {
         });
     let runs: usize = value("--runs=").map_or(1, |v| v.parse().expect("--runs=N"));
     let threads: usize = value("--threads=").map_or(1, |v| v.parse().expect("--threads=N"));
+    let explicit = args.iter().any(|a| a == "--explicit");
     let sizes: Vec<usize> = args
         .iter()
         .filter(|a| !a.starts_with("--"))
         .map(|a| a.parse().expect("SIZE: divisions"))
         .collect();
     println!(
-        "coarse start: flat to full load, {threads} thread(s), load average {}",
+        "coarse start: flat to full load, {threads} thread(s), {} meshes, load average {}",
+        if explicit { "explicit" } else { "generated" },
         std::fs::read_to_string("/proc/loadavg")
             .unwrap_or_default()
             .trim()
@@ -102,6 +124,9 @@ fn main() {
                     } else {
                         square(n)
                     };
+                    if explicit {
+                        scene = written_out(scene);
+                    }
                     scene.solver.coarse_start = setting;
                     scene.solver.threads = threads;
                     scene.solver.limits.max_memory_gb = 64.0;
@@ -135,6 +160,9 @@ fn main() {
                         .iter()
                         .filter_map(|l| {
                             l.strip_prefix("coarse start: the mesh with half the divisions (")
+                                .or_else(|| {
+                                    l.strip_prefix("coarse start: the mesh with edges collapsed (")
+                                })
                         })
                         .map(|l| {
                             let dof = l.split(' ').next().unwrap_or("?");

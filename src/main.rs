@@ -794,7 +794,7 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
     outln!("{}", cost_line(&scene, &size, model.triangles.len()));
     if velarium::engine::coarse::coarser_scene(&scene, &model, free).is_some() {
         outln!(
-            "coarse start: the first step from the undeformed state first solves this scene on the mesh with half the divisions (solver.coarse_start), within its own budget, and Newton here starts from its answer; each coarser mesh has a quarter of the next finer one's unknowns (the coarse meshes together about a third of this one's, or less: a factorization's cost grows faster than the unknowns), and where Newton does not converge from that answer the step goes on from the undeformed state within the budget above"
+            "coarse start: the first step from the undeformed state first solves this scene on a coarser mesh (solver.coarse_start: a generated mesh with half the divisions, an explicit one with edges collapsed), within its own budget, and Newton here starts from its answer; each coarser mesh has about a quarter of the next finer one's unknowns (the coarse meshes together about a third of this one's, or less: a factorization's cost grows faster than the unknowns), and where Newton does not converge from that answer the step goes on from the undeformed state within the budget above"
         );
     }
     // Plausibility warnings: the scene is valid, so they do not change the exit code.

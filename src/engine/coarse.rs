@@ -1,16 +1,19 @@
 //! The coarse start (`solver.coarse_start`): the first step from the undeformed state of a
-//! scene with generated membranes starts Newton from the answer on a coarser mesh (nested
-//! iteration, or grid sequencing).
+//! scene with membranes starts Newton from the answer on a coarser mesh (nested iteration, or
+//! grid sequencing).
 //!
 //! ```text
 //! applies     the step starts from the undeformed state (every displacement 0) under load
 //!             control, with only membranes, cables, supports, forces and pressures (no
 //!             sleeves, contacts, volume inputs, prescribed displacements, elastoplastic
 //!             groups, time integration); auto: at least AUTO_DOF free DOF
-//! coarse      the same scene with every generator's divisions halved (rounded up; a
-//!             generator already at its smallest stays), solved from the undeformed state
-//!             under the same loads and parameters: its own first step starts the same way,
-//!             so the meshes nest down to one below AUTO_DOF (auto) or to the smallest (on)
+//! coarse      generated meshes: the same scene with every generator's divisions halved
+//!             (rounded up; a generator already at its smallest stays); an explicit mesh (no
+//!             generators): the same scene with about a quarter of its sheets' nodes left by
+//!             edge collapses (`scene::coarsen`: the outline, the supports and every node
+//!             anything else names kept). Solved from the undeformed state under the same
+//!             loads and parameters: its own first step starts the same way, so the meshes
+//!             nest down to one below AUTO_DOF (auto) or to the smallest (on)
 //! transfer    each node of this mesh takes the displacement of the nearest point of the
 //!             coarse mesh's triangles of its own membrane group (linear in the triangle);
 //!             a node on no triangle takes that of the coarse node at the same place
@@ -150,12 +153,17 @@ impl Engine {
                 return Some(Err(e.to_string()));
             }
         }
-        Some(self.solve_coarse(scene))
+        let what = if self.scene.geometry.generators.is_empty() {
+            "the mesh with edges collapsed"
+        } else {
+            "the mesh with half the divisions"
+        };
+        Some(self.solve_coarse(scene, what))
     }
 
     /// Solve `scene` (this one's coarser mesh) under this state's loads and parameters and
     /// carry its answer over to this mesh.
-    fn solve_coarse(&self, scene: Scene) -> Result<Guess, String> {
+    fn solve_coarse(&self, scene: Scene, what: &str) -> Result<Guess, String> {
         let started = std::time::Instant::now();
         let mut coarse = Engine::try_new(scene).map_err(|e| format!("its scene: {e}"))?;
         // Every allocation of the coarse start besides the coarse engine's own (probed by
@@ -189,7 +197,7 @@ impl Engine {
         let dofs = coarse.free_dofs();
         if !report.converged() {
             return Err(format!(
-                "the mesh with half the divisions ({dofs} free DOF) did not converge: {}",
+                "{what} ({dofs} free DOF) did not converge: {}",
                 report.message
             ));
         }
@@ -206,7 +214,7 @@ impl Engine {
             .cloned()
             .collect();
         log.push(format!(
-            "coarse start: the mesh with half the divisions ({dofs} free DOF) converged in {} iterations ({:.2} s, its coarser meshes included); Newton here starts from its answer",
+            "coarse start: {what} ({dofs} free DOF) converged in {} iterations ({:.2} s, its coarser meshes included); Newton here starts from its answer",
             report.iterations,
             started.elapsed().as_secs_f64()
         ));
@@ -215,8 +223,12 @@ impl Engine {
 }
 
 /// The scene with every generator's divisions halved (rounded up) where they stay at least
-/// `MIN_DIVISIONS`; None where no generator changes.
+/// `MIN_DIVISIONS`, or an explicit mesh's coarser copy (`scene::coarsen`); None where no
+/// generator changes or an explicit mesh has no coarser copy.
 fn coarser(scene: &Scene) -> Option<Scene> {
+    if scene.geometry.generators.is_empty() {
+        return crate::scene::coarsen::coarser_explicit(scene);
+    }
     let half = |d: usize| (d.div_ceil(2) >= MIN_DIVISIONS).then(|| d.div_ceil(2));
     let mut out = scene.clone();
     let mut changed = false;

@@ -21,6 +21,7 @@
 //! solver      tolerances, increments, artificial prestress
 //! ```
 
+pub mod coarsen;
 pub mod cushion;
 pub mod generate;
 pub mod limits;
@@ -1468,14 +1469,16 @@ pub struct SolverSettings {
     #[serde(default, skip_serializing_if = "InexactNewton::is_default")]
     pub inexact_newton: InexactNewton,
     /// Coarse start (`auto`, the default, `on` or `off`): the first step from the undeformed
-    /// state of a scene whose membranes are generated (rectangle, disc, annulus, cushion)
-    /// first solves the same scene on the mesh with half the divisions (itself started the
-    /// same way), and Newton on this mesh starts from that answer interpolated; where it does
+    /// state first solves the same scene on a coarser mesh (generated membranes: half the
+    /// divisions; an explicit mesh: edges collapsed to about a quarter of its nodes, outline
+    /// and supports kept; itself started the same way), and Newton on this mesh starts from
+    /// that answer interpolated; where it does
     /// not converge from there the step goes on from the undeformed state as without it. It
     /// changes the path, not the equilibrium or the convergence test. `auto`: on for models of
     /// at least 10 000 free DOF. Not with sleeves, contacts, volume inputs, prescribed
-    /// displacements, elastoplastic groups, arc length or time integration, nor where a
-    /// generated node or triangle is named by its id (docs/solver.md).
+    /// displacements, elastoplastic groups, arc length, time integration or form finding of
+    /// an explicit mesh, nor where a generated node or triangle is named by its id
+    /// (docs/solver.md).
     #[serde(default, skip_serializing_if = "CoarseStart::is_default")]
     pub coarse_start: CoarseStart,
 }
