@@ -265,8 +265,8 @@ fn coarser(scene: &Scene) -> Option<Scene> {
     changed.then_some(out)
 }
 
-/// `u` (the coarse model's displacements) carried over to the nodes of `fine` (module docs);
-/// None where a node of `fine` has no counterpart on the coarse mesh.
+/// `u` (the coarse model's displacements) carried over to the nodes of `fine` (module docs),
+/// 0 at every held DOF; None where a node of `fine` has no counterpart on the coarse mesh.
 fn transfer(coarse: &Model, u: &[f64], fine: &Model) -> Option<Vec<f64>> {
     let groups = coarse.membrane_groups.len();
     if groups != fine.membrane_groups.len() {
@@ -320,6 +320,14 @@ fn transfer(coarse: &Model, u: &[f64], fine: &Model) -> Option<Vec<f64>> {
             v
         };
         out[3 * i..3 * i + 3].copy_from_slice(&value);
+    }
+    // A held DOF stays where its support holds it (0: no prescribed displacement here), even
+    // where the node lies off the coarse mesh's rim (a curved rim's chord cuts the sheet, so
+    // the nearest coarse point of a rim node can be inside a triangle that moves).
+    for (x, &held) in out.iter_mut().zip(&fine.held) {
+        if held {
+            *x = 0.0;
+        }
     }
     Some(out)
 }
@@ -526,7 +534,8 @@ mod tests {
 
     /// A field linear in the reference coordinates is carried over exactly (the transfer is
     /// linear in each coarse triangle, and every fine node of a halved rectangle lies on
-    /// the coarse mesh). TOLERANCE: round-off, 1e-14 (fields of order 1).
+    /// the coarse mesh), except at the held boundary, which stays at 0. TOLERANCE: round-off,
+    /// 1e-14 (fields of order 1).
     #[test]
     fn a_linear_field_is_carried_over_exactly() {
         let fine = scene(
@@ -538,12 +547,23 @@ mod tests {
         assert_eq!((cm.reference.len(), fm.reference.len()), (30, 90));
         let u: Vec<f64> = cm.reference.iter().flat_map(|x| field(*x, 1.0)).collect();
         let out = transfer(&cm, &u, &fm).expect("every node on the coarse mesh");
+        let mut held = 0;
         for (i, x) in fm.reference.iter().enumerate() {
             let want = field(*x, 1.0);
             for k in 0..3 {
-                assert!((out[3 * i + k] - want[k]).abs() < 1e-14, "node {i}");
+                if fm.held[3 * i + k] {
+                    assert_eq!(out[3 * i + k], 0.0, "node {i} is held");
+                    held += 1;
+                } else {
+                    assert!((out[3 * i + k] - want[k]).abs() < 1e-14, "node {i}");
+                }
             }
         }
+        assert_eq!(
+            held,
+            3 * 2 * (9 + 8),
+            "the rectangle's boundary, held in x, y, z"
+        );
     }
 
     /// The two sheets of a flat cushion start on top of each other: each fine node takes the
