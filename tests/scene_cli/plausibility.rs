@@ -229,3 +229,48 @@ fn check_prints_warnings_after_the_summary_and_exits_0() {
     let t = rejected(&["check", &file], &["membranes[0].thickness"]);
     assert!(!t.contains("warning:"), "{t}");
 }
+
+/// `velarium check` says when the coarse start applies (docs/solver.md "The coarse start"):
+/// the shipped Hencky disc (2163 free DOF, below `auto`'s 10 000) gets no such line; the same
+/// disc at 64 rings written out as an explicit mesh (36 291 free DOF) gets one naming the two
+/// ways a coarser mesh is made; with `coarse_start: off` it does not.
+#[test]
+fn check_names_the_coarse_start_of_a_large_explicit_mesh() {
+    let mut scene: Scene = Scene::from_json(&scene_text(&common::shipped("HenckyDisc"))).unwrap();
+    let lines = |scene: &Scene, name: &str| {
+        let file = write(name, serde_json::to_string(scene).unwrap().as_bytes());
+        let out = Command::new(VELARIUM)
+            .args(["check", &file])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(0));
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter(|l| l.starts_with("coarse start:"))
+            .map(String::from)
+            .collect::<Vec<_>>()
+    };
+    assert!(lines(&scene, "hencky_16.json").is_empty());
+    if let velarium::scene::Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
+        *rings = 64;
+    }
+    let mesh = velarium::scene::generate::resolve(&scene.geometry);
+    scene.geometry = velarium::scene::Geometry {
+        nodes: mesh.nodes,
+        triangles: mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(velarium::scene::OneNode::Id))
+            .collect(),
+        node_sets: mesh.node_sets,
+        triangle_sets: mesh.triangle_sets,
+        generators: Vec::new(),
+    };
+    let found = lines(&scene, "hencky_64_explicit.json");
+    assert!(
+        found.len() == 1 && found[0].contains("an explicit one with edges collapsed"),
+        "{found:?}"
+    );
+    scene.solver.coarse_start = velarium::scene::CoarseStart::Off;
+    assert!(lines(&scene, "hencky_64_explicit_off.json").is_empty());
+}
