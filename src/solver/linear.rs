@@ -411,6 +411,10 @@ impl Ldlt {
         }
         self.counts.factorizations += 1;
         self.factored = false;
+        if self.split.is_some() {
+            let result = self.factor_split(max_diag);
+            return self.factored_or_fall_back(result);
+        }
         let scaled = self.scale_values(max_diag);
         let unit = if scaled { 1.0 } else { max_diag };
         let reg = (PIVOT_DELTA * unit, PIVOT_EPSILON * unit);
@@ -445,6 +449,12 @@ impl Ldlt {
         if scaled {
             self.unscale_values();
         }
+        self.factored_or_fall_back(result)
+    }
+
+    /// The end of [`Ldlt::factor`]: the factor is held, or (single precision's failed) the
+    /// tangent is factored in double precision.
+    fn factored_or_fall_back(&mut self, result: Result<(), Error>) -> Result<(), Error> {
         if let (Err(e), true) = (&result, self.single) {
             // Single precision's factorization failed: double's is the answer either way.
             return self.fall_back(format!("the single-precision factorization failed ({e})"));
@@ -453,6 +463,36 @@ impl Ldlt {
         self.factored = true;
         self.stale = false;
         Ok(())
+    }
+
+    /// [`Ldlt::factor`] with the split (`split.rs`): S computed here, and each half gathers
+    /// and scales its values on its own thread ([`Split::factor_shared`]) instead of K being
+    /// scaled in place and unscaled on this thread; the same factor bit for bit. K's values
+    /// and S are moved into shared buffers for the factorization and back (not copied).
+    fn factor_split(&mut self, max_diag: f64) -> Result<(), Error> {
+        let scaled = self.compute_scale(max_diag);
+        let unit = if scaled { 1.0 } else { max_diag };
+        let reg = (PIVOT_DELTA * unit, PIVOT_EPSILON * unit);
+        let empty = SparseColMat::new(
+            SymbolicSparseColMat::new_checked(0, 0, vec![0], None, Vec::new()),
+            Vec::new(),
+        );
+        let (sym, values) = std::mem::replace(&mut self.matrix, empty).into_parts();
+        let values = Arc::new(values);
+        let scale = Arc::new(match scaled {
+            true => std::mem::take(&mut self.scale),
+            false => Vec::new(),
+        });
+        let result = match self.split.as_mut() {
+            Some(split) => split.factor_shared(&values, &scale, reg),
+            None => Ok(()),
+        };
+        // `factor_shared` returns with the helper's references dropped: no copy is made.
+        self.matrix = SparseColMat::new(sym, Arc::unwrap_or_clone(values));
+        if scaled {
+            self.scale = Arc::unwrap_or_clone(scale);
+        }
+        result
     }
 
     /// Give up the single-precision factor: the note logged, the tangent factored in double
@@ -484,6 +524,16 @@ impl Ldlt {
     /// S from the groups' largest diagonals, and the values scaled to S K S. False (nothing
     /// done) without groups.
     fn scale_values(&mut self, max_diag: f64) -> bool {
+        if !self.compute_scale(max_diag) {
+            return false;
+        }
+        self.apply_scale(|v, s| v * s);
+        true
+    }
+
+    /// S from the groups' largest diagonals (module docs) into `scale`; false (nothing done)
+    /// without groups.
+    fn compute_scale(&mut self, max_diag: f64) -> bool {
         let n = self.matrix.ncols();
         if self.groups.len() != n || self.scale.len() != n {
             return false;
@@ -505,7 +555,6 @@ impl Ldlt {
             // 2^-round(log2 √d): exact to apply and to undo.
             *s = (-(0.5 * d.log2()).round()).exp2();
         }
-        self.apply_scale(|v, s| v * s);
         true
     }
 

@@ -98,6 +98,10 @@ struct Half {
     x32: Vec<f32>,
     tmp32: Vec<f32>,
     reg: (f64, f64),
+    /// K's values and the scaling S (empty: none) to gather from, scaled, at the start of the
+    /// next factorization on the half's own thread ([`Split::factor_shared`]); taken (and
+    /// dropped) by the gather.
+    source: Option<(Arc<Vec<f64>>, Arc<Vec<f64>>)>,
     phase: Phase,
     status: Result<(), Error>,
 }
@@ -109,7 +113,12 @@ fn lock(h: &Mutex<Half>) -> MutexGuard<'_, Half> {
 impl Half {
     fn run(&mut self) {
         self.status = match self.phase {
-            Phase::Factor => self.factor(),
+            Phase::Factor => {
+                if let Some((k, scale)) = self.source.take() {
+                    gather_scaled(self, &k, &scale);
+                }
+                self.factor()
+            }
             Phase::Forward => {
                 self.forward();
                 Ok(())
@@ -718,27 +727,49 @@ impl Split {
         lock(&self.a).symbolic.len_val() + lock(&self.b).symbolic.len_val()
     }
 
-    /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon).
+    /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon): unscaled
+    /// [`Split::factor_shared`] of a copy of `k`.
     pub fn factor(&mut self, k: &[f64], reg: (f64, f64)) -> Result<(), Error> {
+        let k = Arc::new(memory::copy(k, "a copy of the tangent's values")?);
+        self.factor_shared(&k, &Arc::new(Vec::new()), reg)
+    }
+
+    /// [`Split::factor`] of S K S (S diagonal, `scale`, one entry per equation; empty: K
+    /// itself), where each half gathers its values from `k` and scales them on its own
+    /// thread: K is not scaled in place (and unscaled after) and the helper's half is not
+    /// gathered on the solving thread, three passes over K's values that ran on one thread.
+    /// The same factor as [`Split::factor`] of the values scaled in place, bit for bit (S K S
+    /// takes the same products). The helper has dropped its references to `k` and `scale`
+    /// when this returns.
+    pub fn factor_shared(
+        &mut self,
+        k: &Arc<Vec<f64>>,
+        scale: &Arc<Vec<f64>>,
+        reg: (f64, f64),
+    ) -> Result<(), Error> {
         {
             let mut b = lock(&self.b);
-            gather(&mut b, k);
+            b.source = Some((Arc::clone(k), Arc::clone(scale)));
             b.reg = reg;
             b.phase = Phase::Factor;
         }
         self.pool.start(0);
         let mine = {
             let mut a = lock(&self.a);
-            gather(&mut a, k);
+            gather_scaled(&mut a, k, scale);
             a.reg = reg;
             a.phase = Phase::Factor;
             a.run();
             std::mem::replace(&mut a.status, Ok(()))
         };
-        {
+        let waited = {
             let _phase = crate::phases::start("solve: factor, wait for the helper's half");
-            self.pool.wait(0)?;
-        }
+            self.pool.wait(0)
+        };
+        // Where the helper did not get to its gather (it panicked before), its references go
+        // here.
+        lock(&self.b).source = None;
+        waited?;
         mine?;
         let _phase = crate::phases::start("solve: factor, the separator's Schur LDLT");
         let a = lock(&self.a);
@@ -751,7 +782,10 @@ impl Split {
             }
         }
         for &(i, j, p) in &self.kss {
-            self.schur[(i, j)] -= k[p];
+            self.schur[(i, j)] -= match scale.is_empty() {
+                true => k[p],
+                false => k[p] * (scale[self.s_eq[i]] * scale[self.s_eq[j]]),
+            };
         }
         faer::linalg::cholesky::ldlt::factor::cholesky_in_place(
             self.schur.as_mut(),
@@ -848,6 +882,38 @@ fn gather(h: &mut Half, k: &[f64]) {
     } else {
         for (v, &p) in matrix.val_mut().iter_mut().zip(map.iter()) {
             *v = k[p as usize];
+        }
+    }
+}
+
+/// [`gather`] of S K S (`scale`: S, one entry per equation of K; empty: K itself): each
+/// value times S_ii S_jj of its row and column in K, the product `Ldlt`'s in-place scaling
+/// takes (exact: S holds powers of two).
+fn gather_scaled(h: &mut Half, k: &[f64], scale: &[f64]) {
+    let _phase = crate::phases::start("solve: a half's gather of S K S");
+    if scale.is_empty() {
+        gather(h, k);
+        return;
+    }
+    let Half {
+        matrix,
+        map,
+        single,
+        v32,
+        eq,
+        ..
+    } = h;
+    let (sym, values) = matrix.parts_mut();
+    let (cp, ri) = (sym.col_ptr(), sym.row_idx());
+    for j in 0..sym.ncols() {
+        let sj = scale[eq[j]];
+        for q in cp[j]..cp[j + 1] {
+            let v = k[map[q] as usize] * (scale[eq[ri[q]]] * sj);
+            if *single {
+                v32[q] = v as f32;
+            } else {
+                values[q] = v;
+            }
         }
     }
 }
@@ -1095,6 +1161,7 @@ impl Half {
             x32: Vec::new(),
             tmp32: Vec::new(),
             reg: (0.0, 0.0),
+            source: None,
             phase: Phase::Factor,
             status: Ok(()),
         }))
