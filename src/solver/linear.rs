@@ -131,6 +131,9 @@ pub struct Ldlt {
     /// The values were handed out for writing ([`Ldlt::values_mut`]) since the last
     /// factorization: K may no longer be the factored matrix.
     stale: bool,
+    /// An empty matrix, in `matrix`'s place while the split's halves borrow its values
+    /// ([`Ldlt::factor_split`]).
+    spare: Option<SparseColMat<usize, f64>>,
 }
 
 /// Work counters of one [`Ldlt`].
@@ -290,6 +293,7 @@ impl Ldlt {
             refine: Vec::new(),
             notes: Vec::new(),
             stale: false,
+            spare: None,
         };
         ldlt.set_precision(Precision::Auto)?;
         Ok(ldlt)
@@ -468,30 +472,34 @@ impl Ldlt {
     /// [`Ldlt::factor`] with the split (`split.rs`): S computed here, and each half gathers
     /// and scales its values on its own thread ([`Split::factor_shared`]) instead of K being
     /// scaled in place and unscaled on this thread; the same factor bit for bit. K's values
-    /// and S are moved into shared buffers for the factorization and back (not copied).
+    /// and S are lent to the split for the factorization (moved, not copied).
     fn factor_split(&mut self, max_diag: f64) -> Result<(), Error> {
         let scaled = self.compute_scale(max_diag);
         let unit = if scaled { 1.0 } else { max_diag };
         let reg = (PIVOT_DELTA * unit, PIVOT_EPSILON * unit);
-        let empty = SparseColMat::new(
-            SymbolicSparseColMat::new_checked(0, 0, vec![0], None, Vec::new()),
-            Vec::new(),
-        );
-        let (sym, values) = std::mem::replace(&mut self.matrix, empty).into_parts();
-        let values = Arc::new(values);
-        let scale = Arc::new(match scaled {
-            true => std::mem::take(&mut self.scale),
-            false => Vec::new(),
-        });
+        // K's values taken out of the matrix (an empty matrix in their place, built once: a
+        // factorization allocates nothing) and lent to the halves.
+        let empty = match self.spare.take() {
+            Some(empty) => empty,
+            None => SparseColMat::new(
+                SymbolicSparseColMat::new_checked(0, 0, vec![0], None, Vec::new()),
+                Vec::new(),
+            ),
+        };
+        let (sym, mut values) = std::mem::replace(&mut self.matrix, empty).into_parts();
+        let mut unscaled = Vec::new();
+        let scale = match scaled {
+            true => &mut self.scale,
+            false => &mut unscaled,
+        };
         let result = match self.split.as_mut() {
-            Some(split) => split.factor_shared(&values, &scale, reg),
+            Some(split) => split.factor_shared(&mut values, scale, reg),
             None => Ok(()),
         };
-        // `factor_shared` returns with the helper's references dropped: no copy is made.
-        self.matrix = SparseColMat::new(sym, Arc::unwrap_or_clone(values));
-        if scaled {
-            self.scale = Arc::unwrap_or_clone(scale);
-        }
+        self.spare = Some(std::mem::replace(
+            &mut self.matrix,
+            SparseColMat::new(sym, values),
+        ));
         result
     }
 

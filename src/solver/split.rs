@@ -47,7 +47,7 @@ use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Accum, Conj, MatMut, MatRef, Par};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard, RwLock};
 
 /// K's upper CSC pattern (column pointers, row indices), shared with the helper thread while
 /// the halves of [`Split::try_at`] are built.
@@ -65,6 +65,14 @@ enum Phase {
     Factor,
     Forward,
     Backward,
+}
+
+/// K's values (upper CSC) and the scaling S (one entry per equation; empty: none), lent to
+/// the halves for a factorization's gathers ([`Split::factor_shared`]).
+#[derive(Default)]
+struct Source {
+    k: Vec<f64>,
+    scale: Vec<f64>,
 }
 
 /// One half: its own equations (domain in AMD order, then the separator) and its factor.
@@ -98,10 +106,11 @@ struct Half {
     x32: Vec<f32>,
     tmp32: Vec<f32>,
     reg: (f64, f64),
-    /// K's values and the scaling S (empty: none) to gather from, scaled, at the start of the
-    /// next factorization on the half's own thread ([`Split::factor_shared`]); taken (and
-    /// dropped) by the gather.
-    source: Option<(Arc<Vec<f64>>, Arc<Vec<f64>>)>,
+    /// Where the helper's half gathers K's values from, scaled, at the start of a
+    /// factorization on its own thread ([`Split::factor_shared`]; None: gathered before).
+    source: Option<Arc<RwLock<Source>>>,
+    /// Whether the next factorization gathers from `source` first.
+    gathers: bool,
     phase: Phase,
     status: Result<(), Error>,
 }
@@ -114,8 +123,9 @@ impl Half {
     fn run(&mut self) {
         self.status = match self.phase {
             Phase::Factor => {
-                if let Some((k, scale)) = self.source.take() {
-                    gather_scaled(self, &k, &scale);
+                if let (true, Some(source)) = (self.gathers, self.source.clone()) {
+                    let source = source.read().unwrap_or_else(|e| e.into_inner());
+                    gather_scaled(self, &source.k, &source.scale);
                 }
                 self.factor()
             }
@@ -412,6 +422,9 @@ pub struct Split {
     schur: Dense,
     schur_mem: MemBuffer,
     xs: Vec<f64>,
+    /// K's values and S during a factorization ([`Split::factor_shared`]), read by both
+    /// halves' gathers; empty between factorizations.
+    source: Arc<RwLock<Source>>,
     /// Factorization flops of the two halves at the level that balances their equations
     /// (read by the unit tests).
     #[cfg(test)]
@@ -676,9 +689,12 @@ impl Split {
         })?;
         #[cfg(test)]
         let flops = [lock(&a).flops(), lock(&b).flops()];
+        let source = Arc::new(RwLock::new(Source::default()));
+        lock(&b).source = Some(Arc::clone(&source));
         let job = Arc::clone(&b);
         pool.set_job(0, Box::new(move || lock(&job).run()));
         Ok(Some(Split {
+            source,
             pool,
             a,
             b,
@@ -730,8 +746,8 @@ impl Split {
     /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon): unscaled
     /// [`Split::factor_shared`] of a copy of `k`.
     pub fn factor(&mut self, k: &[f64], reg: (f64, f64)) -> Result<(), Error> {
-        let k = Arc::new(memory::copy(k, "a copy of the tangent's values")?);
-        self.factor_shared(&k, &Arc::new(Vec::new()), reg)
+        let mut k = memory::copy(k, "a copy of the tangent's values")?;
+        self.factor_shared(&mut k, &mut Vec::new(), reg)
     }
 
     /// [`Split::factor`] of S K S (S diagonal, `scale`, one entry per equation; empty: K
@@ -739,24 +755,41 @@ impl Split {
     /// thread: K is not scaled in place (and unscaled after) and the helper's half is not
     /// gathered on the solving thread, three passes over K's values that ran on one thread.
     /// The same factor as [`Split::factor`] of the values scaled in place, bit for bit (S K S
-    /// takes the same products). The helper has dropped its references to `k` and `scale`
-    /// when this returns.
+    /// takes the same products). `k` and `scale` are lent to the halves (moved, not copied:
+    /// nothing is allocated) and are back when this returns.
     pub fn factor_shared(
         &mut self,
-        k: &Arc<Vec<f64>>,
-        scale: &Arc<Vec<f64>>,
+        k: &mut Vec<f64>,
+        scale: &mut Vec<f64>,
         reg: (f64, f64),
     ) -> Result<(), Error> {
         {
+            let mut source = self.source.write().unwrap_or_else(|e| e.into_inner());
+            std::mem::swap(&mut source.k, k);
+            std::mem::swap(&mut source.scale, scale);
+        }
+        let result = self.factor_lent(reg);
+        let mut source = self.source.write().unwrap_or_else(|e| e.into_inner());
+        std::mem::swap(&mut source.k, k);
+        std::mem::swap(&mut source.scale, scale);
+        result
+    }
+
+    /// [`Split::factor_shared`] with K and S in `self.source`.
+    fn factor_lent(&mut self, reg: (f64, f64)) -> Result<(), Error> {
+        {
             let mut b = lock(&self.b);
-            b.source = Some((Arc::clone(k), Arc::clone(scale)));
+            b.gathers = true;
             b.reg = reg;
             b.phase = Phase::Factor;
         }
         self.pool.start(0);
         let mine = {
             let mut a = lock(&self.a);
-            gather_scaled(&mut a, k, scale);
+            {
+                let source = self.source.read().unwrap_or_else(|e| e.into_inner());
+                gather_scaled(&mut a, &source.k, &source.scale);
+            }
             a.reg = reg;
             a.phase = Phase::Factor;
             a.run();
@@ -766,9 +799,7 @@ impl Split {
             let _phase = crate::phases::start("solve: factor, wait for the helper's half");
             self.pool.wait(0)
         };
-        // Where the helper did not get to its gather (it panicked before), its references go
-        // here.
-        lock(&self.b).source = None;
+        lock(&self.b).gathers = false;
         waited?;
         mine?;
         let _phase = crate::phases::start("solve: factor, the separator's Schur LDLT");
@@ -781,6 +812,8 @@ impl Split {
                 self.schur[(i, j)] = a.s_block[(i, j)] + b.s_block[(i, j)];
             }
         }
+        let source = self.source.read().unwrap_or_else(|e| e.into_inner());
+        let (k, scale) = (&source.k, &source.scale);
         for &(i, j, p) in &self.kss {
             self.schur[(i, j)] -= match scale.is_empty() {
                 true => k[p],
@@ -1162,6 +1195,7 @@ impl Half {
             tmp32: Vec::new(),
             reg: (0.0, 0.0),
             source: None,
+            gathers: false,
             phase: Phase::Factor,
             status: Ok(()),
         }))
