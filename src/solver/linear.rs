@@ -1608,6 +1608,62 @@ mod tests {
         (x, ldlt.counts, ldlt)
     }
 
+    /// The split's halves gather and scale their own values (`Ldlt::factor_split`,
+    /// `Split::factor_shared`): the solve equals, bit for bit, S (S K S)⁻¹ S b with S K S
+    /// scaled here by hand (S_ee = 2^-round(log2 √d), d the largest diagonal of e's node,
+    /// module docs) and factored by the same split unscaled. S holds powers of two, so the
+    /// scaled values are exact either way and only a value scaled by the wrong equation's
+    /// S (or not at all) changes the answer. The Hencky disc at 48 rings (20 737 equations),
+    /// its nodes' stiffness varied by powers of two.
+    #[test]
+    fn the_halves_own_scaling_is_the_scaled_tangents_factor() {
+        let mut tangent = disc_tangent(48);
+        // The disc's nodes are about equally stiff (S nearly the same everywhere): D K D with
+        // D a power of two from 1/4 to 4 by node makes neighbours' S differ.
+        {
+            let (n, cp, ri, v, groups) = &mut tangent;
+            let d = |e: usize| (((groups[e] as usize * 7) % 5) as f64 - 2.0).exp2();
+            for j in 0..*n {
+                for p in cp[j]..cp[j + 1] {
+                    v[p] *= d(ri[p]) * d(j);
+                }
+            }
+        }
+        let (n, cp, ri, v, groups) = &tangent;
+        let b: Vec<f64> = (0..*n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let (x, _, ldlt) = solved(&tangent, &b, Precision::Double, true);
+        assert!(ldlt.split_sizes().is_some());
+        // S by hand.
+        let count = groups.iter().map(|&g| g as usize + 1).max().unwrap();
+        let mut largest = vec![0.0f64; count];
+        for (j, &g) in groups.iter().enumerate() {
+            largest[g as usize] = largest[g as usize].max(v[cp[j + 1] - 1].abs());
+        }
+        let s: Vec<f64> = groups
+            .iter()
+            .map(|&g| (-(0.5 * largest[g as usize].log2()).round()).exp2())
+            .collect();
+        assert!(largest.iter().all(|&d| d > 0.0));
+        let mut sks = v.clone();
+        for j in 0..*n {
+            for p in cp[j]..cp[j + 1] {
+                sks[p] *= s[ri[p]] * s[j];
+            }
+        }
+        let pool = Arc::new(Pool::try_new(2).unwrap());
+        let mut plain = Ldlt::try_with_pool(*n, cp.clone(), ri.clone(), Some(pool)).unwrap();
+        plain.set_precision(Precision::Double).unwrap();
+        plain.values_mut().copy_from_slice(&sks);
+        let mut y: Vec<f64> = b.iter().zip(&s).map(|(b, s)| b * s).collect();
+        plain.factor_solve(&mut y).unwrap();
+        let want: Vec<f64> = y.iter().zip(&s).map(|(y, s)| y * s).collect();
+        assert_eq!(x, want);
+        // The values are K again, not S K S, after the factorization.
+        assert_eq!(ldlt.values(), &v[..]);
+    }
+
     /// The mixed-precision solve on a real tangent (the Hencky disc, 48 rings: 20 737
     /// equations, enough for the two-domain split), whole and split: the f32 factor with
     /// refinement gives the f64 factor's answer. Reference for "the same": two f64 solves in
