@@ -159,10 +159,14 @@ impl Pattern {
         let (eq, n, by_rank) = number_equations(model, &rank)?;
         drop(phase);
         // Large tangents: nested dissection, where it fills no more than faer's AMD and its
-        // top separator is the two-thread split (`dissect.rs`, docs/performance.md). It needs
+        // top separator is the two-thread split (`dissect.rs`, docs/performance.md); with a
+        // helper (two threads, from `linear::SPLIT_MIN_EQUATIONS`) at any size, since its top
+        // separator gives the split without the whole tangent's symbolic analysis and the
+        // breadth-first search for one, both serial (`dissect::MIN_EQUATIONS`). It needs
         // only the node graph, positions and equation counts in internal order: on a helper,
         // it runs while this thread builds the rest.
-        let dissection = match n >= super::dissect::MIN_EQUATIONS {
+        let helper = pool.is_some_and(|p| p.helpers() > 0);
+        let dissection = match n >= super::dissect::MIN_EQUATIONS || helper {
             true => Some(Dissection::start(
                 dissection_input(model, &eq, n, &by_rank, &rank, &graph)?,
                 pool.filter(|p| p.helpers() > 0),

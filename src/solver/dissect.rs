@@ -37,6 +37,10 @@ const WHAT: &str = "the nested-dissection ordering";
 /// equations the dissection's factor needs 3.5 % more flops than AMD's, at 300k 4 % fewer,
 /// at 1M the same (0.2 % fewer), and on two threads at 1M its top separator gives a split
 /// with 8 % fewer flops than the breadth-first one and no whole-tangent symbolic analysis.
+/// With a helper thread (two threads, from `linear::SPLIT_MIN_EQUATIONS`) at any size
+/// (`assemble.rs`, `Pattern::try_ordered_on`): it runs on the helper, and its top separator
+/// spares the serial whole-tangent analysis and breadth-first split search (docs/performance.md,
+/// "Twelfth session").
 pub const MIN_EQUATIONS: usize = 200_000;
 
 /// Largest part ordered by AMD instead of being cut again.

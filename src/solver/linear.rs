@@ -131,6 +131,9 @@ pub struct Ldlt {
     /// The values were handed out for writing ([`Ldlt::values_mut`]) since the last
     /// factorization: K may no longer be the factored matrix.
     stale: bool,
+    /// An empty matrix, in `matrix`'s place while the split's halves borrow its values
+    /// ([`Ldlt::factor_split`]).
+    spare: Option<SparseColMat<usize, f64>>,
 }
 
 /// Work counters of one [`Ldlt`].
@@ -290,6 +293,7 @@ impl Ldlt {
             refine: Vec::new(),
             notes: Vec::new(),
             stale: false,
+            spare: None,
         };
         ldlt.set_precision(Precision::Auto)?;
         Ok(ldlt)
@@ -411,6 +415,10 @@ impl Ldlt {
         }
         self.counts.factorizations += 1;
         self.factored = false;
+        if self.split.is_some() {
+            let result = self.factor_split(max_diag);
+            return self.factored_or_fall_back(result);
+        }
         let scaled = self.scale_values(max_diag);
         let unit = if scaled { 1.0 } else { max_diag };
         let reg = (PIVOT_DELTA * unit, PIVOT_EPSILON * unit);
@@ -445,6 +453,12 @@ impl Ldlt {
         if scaled {
             self.unscale_values();
         }
+        self.factored_or_fall_back(result)
+    }
+
+    /// The end of [`Ldlt::factor`]: the factor is held, or (single precision's failed) the
+    /// tangent is factored in double precision.
+    fn factored_or_fall_back(&mut self, result: Result<(), Error>) -> Result<(), Error> {
         if let (Err(e), true) = (&result, self.single) {
             // Single precision's factorization failed: double's is the answer either way.
             return self.fall_back(format!("the single-precision factorization failed ({e})"));
@@ -453,6 +467,40 @@ impl Ldlt {
         self.factored = true;
         self.stale = false;
         Ok(())
+    }
+
+    /// [`Ldlt::factor`] with the split (`split.rs`): S computed here, and each half gathers
+    /// and scales its values on its own thread ([`Split::factor_shared`]) instead of K being
+    /// scaled in place and unscaled on this thread; the same factor bit for bit. K's values
+    /// and S are lent to the split for the factorization (moved, not copied).
+    fn factor_split(&mut self, max_diag: f64) -> Result<(), Error> {
+        let scaled = self.compute_scale(max_diag);
+        let unit = if scaled { 1.0 } else { max_diag };
+        let reg = (PIVOT_DELTA * unit, PIVOT_EPSILON * unit);
+        // K's values taken out of the matrix (an empty matrix in their place, built once: a
+        // factorization allocates nothing) and lent to the halves.
+        let empty = match self.spare.take() {
+            Some(empty) => empty,
+            None => SparseColMat::new(
+                SymbolicSparseColMat::new_checked(0, 0, vec![0], None, Vec::new()),
+                Vec::new(),
+            ),
+        };
+        let (sym, mut values) = std::mem::replace(&mut self.matrix, empty).into_parts();
+        let mut unscaled = Vec::new();
+        let scale = match scaled {
+            true => &mut self.scale,
+            false => &mut unscaled,
+        };
+        let result = match self.split.as_mut() {
+            Some(split) => split.factor_shared(&mut values, scale, reg),
+            None => Ok(()),
+        };
+        self.spare = Some(std::mem::replace(
+            &mut self.matrix,
+            SparseColMat::new(sym, values),
+        ));
+        result
     }
 
     /// Give up the single-precision factor: the note logged, the tangent factored in double
@@ -484,6 +532,16 @@ impl Ldlt {
     /// S from the groups' largest diagonals, and the values scaled to S K S. False (nothing
     /// done) without groups.
     fn scale_values(&mut self, max_diag: f64) -> bool {
+        if !self.compute_scale(max_diag) {
+            return false;
+        }
+        self.apply_scale(|v, s| v * s);
+        true
+    }
+
+    /// S from the groups' largest diagonals (module docs) into `scale`; false (nothing done)
+    /// without groups.
+    fn compute_scale(&mut self, max_diag: f64) -> bool {
         let n = self.matrix.ncols();
         if self.groups.len() != n || self.scale.len() != n {
             return false;
@@ -505,7 +563,6 @@ impl Ldlt {
             // 2^-round(log2 √d): exact to apply and to undo.
             *s = (-(0.5 * d.log2()).round()).exp2();
         }
-        self.apply_scale(|v, s| v * s);
         true
     }
 
@@ -1549,6 +1606,62 @@ mod tests {
         let mut x = b.to_vec();
         ldlt.factor_solve(&mut x).unwrap();
         (x, ldlt.counts, ldlt)
+    }
+
+    /// The split's halves gather and scale their own values (`Ldlt::factor_split`,
+    /// `Split::factor_shared`): the solve equals, bit for bit, S (S K S)⁻¹ S b with S K S
+    /// scaled here by hand (S_ee = 2^-round(log2 √d), d the largest diagonal of e's node,
+    /// module docs) and factored by the same split unscaled. S holds powers of two, so the
+    /// scaled values are exact either way and only a value scaled by the wrong equation's
+    /// S (or not at all) changes the answer. The Hencky disc at 48 rings (20 737 equations),
+    /// its nodes' stiffness varied by powers of two.
+    #[test]
+    fn the_halves_own_scaling_is_the_scaled_tangents_factor() {
+        let mut tangent = disc_tangent(48);
+        // The disc's nodes are about equally stiff (S nearly the same everywhere): D K D with
+        // D a power of two from 1/4 to 4 by node makes neighbours' S differ.
+        {
+            let (n, cp, ri, v, groups) = &mut tangent;
+            let d = |e: usize| (((groups[e] as usize * 7) % 5) as f64 - 2.0).exp2();
+            for j in 0..*n {
+                for p in cp[j]..cp[j + 1] {
+                    v[p] *= d(ri[p]) * d(j);
+                }
+            }
+        }
+        let (n, cp, ri, v, groups) = &tangent;
+        let b: Vec<f64> = (0..*n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let (x, _, ldlt) = solved(&tangent, &b, Precision::Double, true);
+        assert!(ldlt.split_sizes().is_some());
+        // S by hand.
+        let count = groups.iter().map(|&g| g as usize + 1).max().unwrap();
+        let mut largest = vec![0.0f64; count];
+        for (j, &g) in groups.iter().enumerate() {
+            largest[g as usize] = largest[g as usize].max(v[cp[j + 1] - 1].abs());
+        }
+        let s: Vec<f64> = groups
+            .iter()
+            .map(|&g| (-(0.5 * largest[g as usize].log2()).round()).exp2())
+            .collect();
+        assert!(largest.iter().all(|&d| d > 0.0));
+        let mut sks = v.clone();
+        for j in 0..*n {
+            for p in cp[j]..cp[j + 1] {
+                sks[p] *= s[ri[p]] * s[j];
+            }
+        }
+        let pool = Arc::new(Pool::try_new(2).unwrap());
+        let mut plain = Ldlt::try_with_pool(*n, cp.clone(), ri.clone(), Some(pool)).unwrap();
+        plain.set_precision(Precision::Double).unwrap();
+        plain.values_mut().copy_from_slice(&sks);
+        let mut y: Vec<f64> = b.iter().zip(&s).map(|(b, s)| b * s).collect();
+        plain.factor_solve(&mut y).unwrap();
+        let want: Vec<f64> = y.iter().zip(&s).map(|(y, s)| y * s).collect();
+        assert_eq!(x, want);
+        // The values are K again, not S K S, after the factorization.
+        assert_eq!(ldlt.values(), &v[..]);
     }
 
     /// The mixed-precision solve on a real tangent (the Hencky disc, 48 rings: 20 737

@@ -47,7 +47,7 @@ use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Accum, Conj, MatMut, MatRef, Par};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard, RwLock};
 
 /// K's upper CSC pattern (column pointers, row indices), shared with the helper thread while
 /// the halves of [`Split::try_at`] are built.
@@ -65,6 +65,14 @@ enum Phase {
     Factor,
     Forward,
     Backward,
+}
+
+/// K's values (upper CSC) and the scaling S (one entry per equation; empty: none), lent to
+/// the halves for a factorization's gathers ([`Split::factor_shared`]).
+#[derive(Default)]
+struct Source {
+    k: Vec<f64>,
+    scale: Vec<f64>,
 }
 
 /// One half: its own equations (domain in AMD order, then the separator) and its factor.
@@ -98,6 +106,11 @@ struct Half {
     x32: Vec<f32>,
     tmp32: Vec<f32>,
     reg: (f64, f64),
+    /// Where the helper's half gathers K's values from, scaled, at the start of a
+    /// factorization on its own thread ([`Split::factor_shared`]; None: gathered before).
+    source: Option<Arc<RwLock<Source>>>,
+    /// Whether the next factorization gathers from `source` first.
+    gathers: bool,
     phase: Phase,
     status: Result<(), Error>,
 }
@@ -109,7 +122,13 @@ fn lock(h: &Mutex<Half>) -> MutexGuard<'_, Half> {
 impl Half {
     fn run(&mut self) {
         self.status = match self.phase {
-            Phase::Factor => self.factor(),
+            Phase::Factor => {
+                if let (true, Some(source)) = (self.gathers, self.source.clone()) {
+                    let source = source.read().unwrap_or_else(|e| e.into_inner());
+                    gather_scaled(self, &source.k, &source.scale);
+                }
+                self.factor()
+            }
             Phase::Forward => {
                 self.forward();
                 Ok(())
@@ -403,6 +422,9 @@ pub struct Split {
     schur: Dense,
     schur_mem: MemBuffer,
     xs: Vec<f64>,
+    /// K's values and S during a factorization ([`Split::factor_shared`]), read by both
+    /// halves' gathers; empty between factorizations.
+    source: Arc<RwLock<Source>>,
     /// Factorization flops of the two halves at the level that balances their equations
     /// (read by the unit tests).
     #[cfg(test)]
@@ -667,9 +689,12 @@ impl Split {
         })?;
         #[cfg(test)]
         let flops = [lock(&a).flops(), lock(&b).flops()];
+        let source = Arc::new(RwLock::new(Source::default()));
+        lock(&b).source = Some(Arc::clone(&source));
         let job = Arc::clone(&b);
         pool.set_job(0, Box::new(move || lock(&job).run()));
         Ok(Some(Split {
+            source,
             pool,
             a,
             b,
@@ -718,27 +743,64 @@ impl Split {
         lock(&self.a).symbolic.len_val() + lock(&self.b).symbolic.len_val()
     }
 
-    /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon).
+    /// Factor K (its upper CSC values), regularizing pivots with (delta, epsilon): unscaled
+    /// [`Split::factor_shared`] of a copy of `k`.
     pub fn factor(&mut self, k: &[f64], reg: (f64, f64)) -> Result<(), Error> {
+        let mut k = memory::copy(k, "a copy of the tangent's values")?;
+        self.factor_shared(&mut k, &mut Vec::new(), reg)
+    }
+
+    /// [`Split::factor`] of S K S (S diagonal, `scale`, one entry per equation; empty: K
+    /// itself), where each half gathers its values from `k` and scales them on its own
+    /// thread: K is not scaled in place (and unscaled after) and the helper's half is not
+    /// gathered on the solving thread, three passes over K's values that ran on one thread.
+    /// The same factor as [`Split::factor`] of the values scaled in place, bit for bit (S K S
+    /// takes the same products). `k` and `scale` are lent to the halves (moved, not copied:
+    /// nothing is allocated) and are back when this returns.
+    pub fn factor_shared(
+        &mut self,
+        k: &mut Vec<f64>,
+        scale: &mut Vec<f64>,
+        reg: (f64, f64),
+    ) -> Result<(), Error> {
+        {
+            let mut source = self.source.write().unwrap_or_else(|e| e.into_inner());
+            std::mem::swap(&mut source.k, k);
+            std::mem::swap(&mut source.scale, scale);
+        }
+        let result = self.factor_lent(reg);
+        let mut source = self.source.write().unwrap_or_else(|e| e.into_inner());
+        std::mem::swap(&mut source.k, k);
+        std::mem::swap(&mut source.scale, scale);
+        result
+    }
+
+    /// [`Split::factor_shared`] with K and S in `self.source`.
+    fn factor_lent(&mut self, reg: (f64, f64)) -> Result<(), Error> {
         {
             let mut b = lock(&self.b);
-            gather(&mut b, k);
+            b.gathers = true;
             b.reg = reg;
             b.phase = Phase::Factor;
         }
         self.pool.start(0);
         let mine = {
             let mut a = lock(&self.a);
-            gather(&mut a, k);
+            {
+                let source = self.source.read().unwrap_or_else(|e| e.into_inner());
+                gather_scaled(&mut a, &source.k, &source.scale);
+            }
             a.reg = reg;
             a.phase = Phase::Factor;
             a.run();
             std::mem::replace(&mut a.status, Ok(()))
         };
-        {
+        let waited = {
             let _phase = crate::phases::start("solve: factor, wait for the helper's half");
-            self.pool.wait(0)?;
-        }
+            self.pool.wait(0)
+        };
+        lock(&self.b).gathers = false;
+        waited?;
         mine?;
         let _phase = crate::phases::start("solve: factor, the separator's Schur LDLT");
         let a = lock(&self.a);
@@ -750,8 +812,13 @@ impl Split {
                 self.schur[(i, j)] = a.s_block[(i, j)] + b.s_block[(i, j)];
             }
         }
+        let source = self.source.read().unwrap_or_else(|e| e.into_inner());
+        let (k, scale) = (&source.k, &source.scale);
         for &(i, j, p) in &self.kss {
-            self.schur[(i, j)] -= k[p];
+            self.schur[(i, j)] -= match scale.is_empty() {
+                true => k[p],
+                false => k[p] * (scale[self.s_eq[i]] * scale[self.s_eq[j]]),
+            };
         }
         faer::linalg::cholesky::ldlt::factor::cholesky_in_place(
             self.schur.as_mut(),
@@ -848,6 +915,38 @@ fn gather(h: &mut Half, k: &[f64]) {
     } else {
         for (v, &p) in matrix.val_mut().iter_mut().zip(map.iter()) {
             *v = k[p as usize];
+        }
+    }
+}
+
+/// [`gather`] of S K S (`scale`: S, one entry per equation of K; empty: K itself): each
+/// value times S_ii S_jj of its row and column in K, the product `Ldlt`'s in-place scaling
+/// takes (exact: S holds powers of two).
+fn gather_scaled(h: &mut Half, k: &[f64], scale: &[f64]) {
+    let _phase = crate::phases::start("solve: a half's gather of S K S");
+    if scale.is_empty() {
+        gather(h, k);
+        return;
+    }
+    let Half {
+        matrix,
+        map,
+        single,
+        v32,
+        eq,
+        ..
+    } = h;
+    let (sym, values) = matrix.parts_mut();
+    let (cp, ri) = (sym.col_ptr(), sym.row_idx());
+    for j in 0..sym.ncols() {
+        let sj = scale[eq[j]];
+        for q in cp[j]..cp[j + 1] {
+            let v = k[map[q] as usize] * (scale[eq[ri[q]]] * sj);
+            if *single {
+                v32[q] = v as f32;
+            } else {
+                values[q] = v;
+            }
         }
     }
 }
@@ -1095,6 +1194,8 @@ impl Half {
             x32: Vec::new(),
             tmp32: Vec::new(),
             reg: (0.0, 0.0),
+            source: None,
+            gathers: false,
             phase: Phase::Factor,
             status: Ok(()),
         }))
