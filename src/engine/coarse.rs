@@ -34,6 +34,7 @@ use super::Engine;
 use crate::model::{LoadModel, Model};
 use crate::scene::{CoarseStart, Generator, Scene};
 use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
 
 /// Free DOF from which `coarse_start: auto` applies (docs/solver.md, "The coarse start").
 pub const AUTO_DOF: usize = 10_000;
@@ -205,8 +206,10 @@ impl Engine {
             crate::memory::probe(transfer_bytes, "the coarse start's transfer")
                 .map_err(|e| e.to_string())?;
         }
+        let phase = crate::phases::start("coarse start: transfer");
         let start = transfer(&coarse.model, &coarse.state.displacement, &self.model)
             .ok_or("a node of this mesh lies off the coarse mesh")?;
+        drop(phase);
         let mut log: Vec<String> = report
             .log
             .iter()
@@ -297,12 +300,16 @@ fn transfer(coarse: &Model, u: &[f64], fine: &Model) -> Option<Vec<f64>> {
         .iter()
         .map(|r| Grid::new(coarse, r.clone()))
         .collect();
-    let at_place: HashMap<[u64; 3], usize> = coarse
-        .reference
-        .iter()
-        .enumerate()
-        .map(|(i, x)| ([x[0].to_bits(), x[1].to_bits(), x[2].to_bits()], i))
-        .collect();
+    // Only where some node of this mesh is on no triangle.
+    let at_place: HashMap<[u64; 3], usize> = match group_of.contains(&usize::MAX) {
+        true => coarse
+            .reference
+            .iter()
+            .enumerate()
+            .map(|(i, x)| ([x[0].to_bits(), x[1].to_bits(), x[2].to_bits()], i))
+            .collect(),
+        false => HashMap::new(),
+    };
     let mut out = vec![0.0; fine.unknown_count()];
     for (i, x) in fine.reference.iter().enumerate() {
         let value = if group_of[i] == usize::MAX {
@@ -337,7 +344,52 @@ fn transfer(coarse: &Model, u: &[f64], fine: &Model) -> Option<Vec<f64>> {
 struct Grid {
     origin: [f64; 3],
     cell: f64,
-    cells: HashMap<[i64; 3], Vec<usize>>,
+    /// Every cell's range in `listed` (a cell in no triangle's box is absent).
+    cells: HashMap<[i64; 3], (usize, usize), BuildHasherDefault<CellHasher>>,
+    /// The triangles (places in the group) of every cell, each cell's in ascending order.
+    listed: Vec<usize>,
+    /// The smallest and the largest cell key on each axis over all triangles' boxes.
+    keys: ([i64; 3], [i64; 3]),
+    /// Each triangle's box in cell keys (lowest and highest corner), by place in the group.
+    boxes: Vec<([i64; 3], [i64; 3])>,
+    /// Twice each triangle's reference area vector, by place in the group.
+    areas: Vec<[f64; 3]>,
+    /// The group's first triangle in the model.
+    first: usize,
+}
+
+/// The grid's hash of a cell key: the multiply-rotate mix of rustc's FxHasher, several times
+/// cheaper than the default SipHash on three integers (the keys come from the mesh, not
+/// from an adversary).
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    fn write_usize(&mut self, i: usize) {
+        self.write_u64(i as u64);
+    }
+}
+
+/// The cells of the box from `a` to `b` (cell keys, both included), in lexicographic order.
+fn cells_of(a: [i64; 3], b: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
+    (a[0]..=b[0])
+        .flat_map(move |i| (a[1]..=b[1]).flat_map(move |j| (a[2]..=b[2]).map(move |l| [i, j, l])))
 }
 
 impl Grid {
@@ -364,9 +416,18 @@ impl Grid {
         let mut grid = Grid {
             origin: lo,
             cell,
-            cells: HashMap::new(),
+            cells: HashMap::default(),
+            listed: Vec::new(),
+            keys: ([i64::MAX; 3], [i64::MIN; 3]),
+            boxes: Vec::with_capacity(triangles.len()),
+            areas: triangles
+                .iter()
+                .map(|t| area_vector(model, t.nodes))
+                .collect(),
+            first: range.start,
         };
-        for (k, t) in triangles.iter().enumerate() {
+        // Every cell's count, then its range in `listed`, then its triangles in ascending order.
+        for t in triangles {
             let mut a = [i64::MAX; 3];
             let mut b = [i64::MIN; 3];
             for &n in &t.nodes {
@@ -376,14 +437,27 @@ impl Grid {
                     b[d] = b[d].max(c[d]);
                 }
             }
-            for i in a[0]..=b[0] {
-                for j in a[1]..=b[1] {
-                    for l in a[2]..=b[2] {
-                        grid.cells
-                            .entry([i, j, l])
-                            .or_default()
-                            .push(range.start + k);
-                    }
+            for d in 0..3 {
+                grid.keys.0[d] = grid.keys.0[d].min(a[d]);
+                grid.keys.1[d] = grid.keys.1[d].max(b[d]);
+            }
+            grid.boxes.push((a, b));
+            for key in cells_of(a, b) {
+                grid.cells.entry(key).or_insert((0, 0)).1 += 1;
+            }
+        }
+        let mut next = 0;
+        for range in grid.cells.values_mut() {
+            let count = range.1;
+            *range = (next, next);
+            next += count;
+        }
+        grid.listed = vec![0; next];
+        for (k, &(a, b)) in grid.boxes.iter().enumerate() {
+            for key in cells_of(a, b) {
+                if let Some(range) = grid.cells.get_mut(&key) {
+                    grid.listed[range.1] = k;
+                    range.1 += 1;
                 }
             }
         }
@@ -394,36 +468,72 @@ impl Grid {
         std::array::from_fn(|k| ((p[k] - self.origin[k]) / self.cell).floor() as i64)
     }
 
+    /// The triangles listed in cell `key` (places in the group).
+    fn listed(&self, key: [i64; 3]) -> &[usize] {
+        self.cells
+            .get(&key)
+            .map_or(&[][..], |&(s, e)| &self.listed[s..e])
+    }
+
+    /// The squared distance from `p` to the group's `k`-th triangle and the weights of its
+    /// nodes at the nearest point; None where the triangle faces away from `normal` (when
+    /// `sided`).
+    fn distance(
+        &self,
+        model: &Model,
+        k: usize,
+        p: [f64; 3],
+        normal: [f64; 3],
+        sided: bool,
+    ) -> Option<(f64, [f64; 3])> {
+        if sided {
+            let a = self.areas[k];
+            if a[0] * normal[0] + a[1] * normal[1] + a[2] * normal[2] <= 0.0 {
+                return None;
+            }
+        }
+        let n = model.triangles[self.first + k].nodes;
+        let v = |a: usize| {
+            let x = model.reference[n[a]];
+            [x[0], x[1], x[2]]
+        };
+        Some(closest_point(p, v(0), v(1), v(2)))
+    }
+
     /// The triangle nearest to `p` among those in the cells around it (up to three cells
     /// away) that face the side `normal` faces (all where the normal is zero, as at the
-    /// shared rim of two sheets), and the weights of its nodes at the nearest point.
+    /// shared rim of two sheets), and the weights of its nodes at the nearest point: the first
+    /// found at the least distance, searching the cells in lexicographic order and each
+    /// cell's triangles in ascending order.
     fn nearest(&self, model: &Model, p: [f64; 3], normal: [f64; 3]) -> Option<(usize, [f64; 3])> {
         let size = normal.iter().map(|v| v * v).sum::<f64>().sqrt();
         let sided = size > 1e-9 * self.cell * self.cell;
         let c = self.key(p);
+        self.nearest_in_own_cell(model, p, normal, sided, c)
+            .or_else(|| self.search(model, p, normal, sided, c))
+    }
+
+    /// [`Grid::nearest`] by searching the cells around `p`'s cell `c`, one cell farther at a
+    /// time.
+    fn search(
+        &self,
+        model: &Model,
+        p: [f64; 3],
+        normal: [f64; 3],
+        sided: bool,
+        c: [i64; 3],
+    ) -> Option<(usize, [f64; 3])> {
         for reach in 1..=3i64 {
             let mut best: Option<(f64, usize, [f64; 3])> = None;
             for i in -reach..=reach {
                 for j in -reach..=reach {
                     for l in -reach..=reach {
-                        let Some(list) = self.cells.get(&[c[0] + i, c[1] + j, c[2] + l]) else {
-                            continue;
-                        };
-                        for &t in list {
-                            let n = model.triangles[t].nodes;
-                            if sided {
-                                let a = area_vector(model, n);
-                                if a[0] * normal[0] + a[1] * normal[1] + a[2] * normal[2] <= 0.0 {
-                                    continue;
-                                }
-                            }
-                            let v = |a: usize| {
-                                let x = model.reference[n[a]];
-                                [x[0], x[1], x[2]]
+                        for &k in self.listed([c[0] + i, c[1] + j, c[2] + l]) {
+                            let Some((d, w)) = self.distance(model, k, p, normal, sided) else {
+                                continue;
                             };
-                            let (d, w) = closest_point(p, v(0), v(1), v(2));
                             if best.is_none_or(|b| d < b.0) {
-                                best = Some((d, t, w));
+                                best = Some((d, self.first + k, w));
                             }
                         }
                     }
@@ -437,6 +547,60 @@ impl Grid {
             }
         }
         None
+    }
+
+    /// [`Grid::nearest`]'s answer from `p`'s own cell `c` alone where that decides it, None
+    /// where the search around it has to run. A triangle not listed in `c` lies beyond one
+    /// of the cell's faces that some triangle's box crosses (on an axis where every box
+    /// holds `c`'s key, a face has nothing beyond it), so its distance is at least `p`'s
+    /// distance to the nearest such face: a triangle of `c` nearer than that (and within
+    /// one cell, where the search around `c` would stop) is the nearest. Of those at the
+    /// same distance the search takes the first it meets: the one whose box's first cell in
+    /// the search's order (its lowest corner, clipped to the 3 x 3 x 3 block around `c`)
+    /// comes first, then the lowest place (the order of a cell's list), which is what the
+    /// ranking below takes too.
+    fn nearest_in_own_cell(
+        &self,
+        model: &Model,
+        p: [f64; 3],
+        normal: [f64; 3],
+        sided: bool,
+        c: [i64; 3],
+    ) -> Option<(usize, [f64; 3])> {
+        let mut margin = f64::INFINITY;
+        for k in 0..3 {
+            let low = self.origin[k] + c[k] as f64 * self.cell;
+            if c[k] > self.keys.0[k] {
+                margin = margin.min(p[k] - low);
+            }
+            if c[k] < self.keys.1[k] {
+                margin = margin.min(low + self.cell - p[k]);
+            }
+        }
+        // Round-off of the keys and the faces: far below a millionth of a cell.
+        let margin = margin.min(self.cell) - 1e-6 * self.cell;
+        let mut best: Option<(f64, [i64; 3], usize, [f64; 3])> = None;
+        for &k in self.listed(c) {
+            let Some((d, w)) = self.distance(model, k, p, normal, sided) else {
+                continue;
+            };
+            if d.is_nan() {
+                return None;
+            }
+            let a = self.boxes[k].0;
+            let first = [
+                (a[0] - c[0]).max(-1),
+                (a[1] - c[1]).max(-1),
+                (a[2] - c[2]).max(-1),
+            ];
+            let better =
+                best.is_none_or(|(bd, bf, bk, _)| d < bd || (d == bd && (first, k) < (bf, bk)));
+            if better {
+                best = Some((d, first, k, w));
+            }
+        }
+        let (d, _, k, w) = best?;
+        (d.sqrt() < margin).then_some((self.first + k, w))
     }
 }
 
@@ -488,7 +652,7 @@ fn closest_point(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> (f64, [f
 
 #[cfg(test)]
 mod tests {
-    use super::{closest_point, coarser, transfer};
+    use super::{closest_point, coarser, transfer, Grid};
     use crate::model::Model;
     use crate::scene::generate::resolve;
     use crate::Scene;
@@ -615,6 +779,56 @@ mod tests {
             );
         }
         assert!(sheets[0] > 50 && sheets[1] > 50, "{sheets:?}");
+    }
+
+    /// The own cell's answer (`Grid::nearest_in_own_cell`) is the search's wherever it gives
+    /// one, the same triangle and the same weights, on a disc (fine nodes on the coarse
+    /// mesh, many on its edges and corners: ties) and on a flat cushion's two sheets (sided),
+    /// and it decides most nodes.
+    #[test]
+    fn the_own_cell_gives_the_searchs_answer() {
+        for (generator, rings) in [
+            (
+                r#"{"kind": "disc", "name": "g", "center": [0, 0, 0], "radius": 1, "rings": 24}"#,
+                0,
+            ),
+            (
+                r#"{"kind": "cushion", "name": "g", "center": [0, 0, 0], "outline": {"shape": "rectangle", "size": [2, 1]}, "rings": 12}"#,
+                1,
+            ),
+        ] {
+            let fine = scene(
+                generator,
+                r#"[{"name": "m", "triangles": "g", "thickness": 1e-3, "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}]"#,
+            );
+            let coarse = coarser(&fine).expect("halved");
+            let (cm, fm) = (Model::build(&coarse), Model::build(&fine));
+            let grid = Grid::new(&cm, cm.membrane_groups[0].clone());
+            let (mut decided, mut found) = (0, 0);
+            for (i, x) in fm.reference.iter().enumerate() {
+                let p = [x[0], x[1], x[2]];
+                // Both sides of the cushion, and no side.
+                for normal in [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0; 3]] {
+                    let size = normal.iter().map(|v: &f64| v * v).sum::<f64>().sqrt();
+                    let sided = size > 1e-9 * grid.cell * grid.cell;
+                    let c = grid.key(p);
+                    let searched = grid.search(&cm, p, normal, sided, c);
+                    found += searched.is_some() as usize;
+                    if let Some(own) = grid.nearest_in_own_cell(&cm, p, normal, sided, c) {
+                        decided += 1;
+                        assert_eq!(
+                            Some(own),
+                            searched,
+                            "node {i}, normal {normal:?}, case {rings}"
+                        );
+                    }
+                }
+            }
+            assert!(
+                10 * decided > 9 * found,
+                "{decided} of {found}, case {rings}"
+            );
+        }
     }
 
     /// The nearest point of a triangle from inside, beside an edge and beyond a corner, by hand.
