@@ -115,6 +115,10 @@ pub struct Ldlt {
     /// [`Ldlt::solve_block`]'s right-hand sides row by row in the factor's order (work
     /// buffer, grown on first use).
     rows: Vec<f64>,
+    /// S in the factor's order ([`Ldlt::solve_block_ordered`]; `ordered_scale[i]` is S of
+    /// the equation at position i), for the factorization numbered `ordered_for`.
+    ordered_scale: Vec<f64>,
+    ordered_for: usize,
     /// The factor is single precision (module docs, "Mixed precision"): the whole tangent's
     /// in `l32` (of the scaled values `v32`), or the split's halves'.
     single: bool,
@@ -283,6 +287,8 @@ impl Ldlt {
             scale: Vec::new(),
             largest: Vec::new(),
             rows: Vec::new(),
+            ordered_scale: Vec::new(),
+            ordered_for: 0,
             single: false,
             v32: Vec::new(),
             l32: Vec::new(),
@@ -723,6 +729,63 @@ impl Ldlt {
         }
     }
 
+    /// faer's supernodal factor when [`Ldlt::solve_block`] substitutes with it (a whole
+    /// double-precision factor); None: it calls [`Ldlt::solve_columns`].
+    fn block_factor(&self) -> Option<&SymbolicSupernodalCholesky<usize>> {
+        supernodal_factor(&self.split, &self.symbolic, self.single)
+    }
+
+    /// The order in which [`Ldlt::solve_block_ordered`] takes and returns its vectors: `(fwd,
+    /// inv)`, position i holding equation `fwd[i]` and equation e at position `inv[e]` (the
+    /// factor's fill-reducing order); None: the equations' own order. As held now: it changes
+    /// only with the precision or the split.
+    pub fn block_order(&self) -> Option<(&[usize], &[usize])> {
+        self.block_factor()?;
+        self.symbolic.as_ref()?.perm().map(|p| p.arrays())
+    }
+
+    /// [`Ldlt::solve_block`] on vectors held in the order of [`Ldlt::block_order`] (a
+    /// Lanczos basis kept in that order: no gather or scatter through the permutation, which
+    /// reads the block at random): x ← K⁻¹ b for the `columns` columns of `from` (column-major,
+    /// in that order), or of x itself when `from` is None. The result equals
+    /// [`Ldlt::solve_block`]'s on the permuted vectors, bit for bit.
+    pub fn solve_block_ordered(
+        &mut self,
+        x: &mut [f64],
+        from: Option<&[f64]>,
+        columns: usize,
+    ) -> Result<(), Error> {
+        if columns == 0 || x.is_empty() {
+            return Ok(());
+        }
+        let n = x.len() / columns;
+        if self.block_factor().is_none() {
+            if let Some(b) = from {
+                x.copy_from_slice(&b[..x.len()]);
+            }
+            return self.solve_block(x, columns);
+        }
+        // S in the factor's order, gathered once per factorization.
+        let scaled = self.scale.len() == n;
+        if scaled
+            && (self.ordered_for != self.counts.factorizations || self.ordered_scale.len() != n)
+        {
+            let mut ordered = memory::zeros(n, "the block solve's scaling")?;
+            match self.symbolic.as_ref().and_then(|s| s.perm()) {
+                Some(perm) => {
+                    let (fwd, _) = perm.arrays();
+                    for (s, &e) in ordered.iter_mut().zip(fwd) {
+                        *s = self.scale[e];
+                    }
+                }
+                None => ordered.copy_from_slice(&self.scale),
+            }
+            self.ordered_scale = ordered;
+            self.ordered_for = self.counts.factorizations;
+        }
+        self.substitute_block(x, from, columns, true)
+    }
+
     /// [`Ldlt::solve_columns`] (the same arguments and results, to round-off) by a block
     /// substitution of our own (with a single-precision factor: [`Ldlt::solve`] column by
     /// column): the `columns` right-hand sides are gathered row by row in the
@@ -734,17 +797,26 @@ impl Ldlt {
         if columns == 0 || rhs.is_empty() {
             return Ok(());
         }
-        let n = rhs.len() / columns;
-        let supernodal = match (&self.split, &self.symbolic) {
-            (None, Some(symbolic)) if !self.single => match symbolic.raw() {
-                SymbolicCholeskyRaw::Supernodal(s) => Some(s),
-                SymbolicCholeskyRaw::Simplicial(_) => None,
-            },
-            _ => None,
-        };
-        let Some(supernodal) = supernodal else {
+        if self.block_factor().is_none() {
+            return self.solve_columns(rhs, columns);
+        }
+        self.substitute_block(rhs, None, columns, false)
+    }
+
+    /// [`Ldlt::solve_block`]'s substitution (a supernodal factor held): x ← K⁻¹ b, b the
+    /// columns of `from` or of x; `ordered`: the vectors are in the factor's order and
+    /// `ordered_scale` is S in it ([`Ldlt::solve_block_ordered`]).
+    fn substitute_block(
+        &mut self,
+        rhs: &mut [f64],
+        from: Option<&[f64]>,
+        columns: usize,
+        ordered: bool,
+    ) -> Result<(), Error> {
+        let Some(supernodal) = self.block_factor() else {
             return self.solve_columns(rhs, columns);
         };
+        let n = rhs.len() / columns;
         let _phase = crate::phases::start("solve: block substitution (Ldlt::solve_block)");
         let width = columns.min(BLOCK_ROWS);
         // Room for the rows and, after them, one supernode's pattern rows (the backward
@@ -761,12 +833,23 @@ impl Ldlt {
         if self.rows.len() < room {
             self.rows = memory::zeros(room, "the block solve's workspace")?;
         }
+        let supernodal = supernodal_factor(&self.split, &self.symbolic, self.single)
+            .expect("the whole tangent's supernodal factorization");
         let symbolic = self
             .symbolic
             .as_ref()
             .expect("the whole tangent's symbolic factorization");
-        let perm = symbolic.perm().map(|p| p.arrays());
-        let scale = (self.scale.len() == n).then_some(&self.scale[..]);
+        let (perm, scale) = if ordered {
+            (
+                None,
+                (self.scale.len() == n).then_some(&self.ordered_scale[..]),
+            )
+        } else {
+            (
+                symbolic.perm().map(|p| p.arrays()),
+                (self.scale.len() == n).then_some(&self.scale[..]),
+            )
+        };
         let parts = Parts {
             factor: supernodal,
             values: &self.l_values,
@@ -777,16 +860,17 @@ impl Ldlt {
         while c0 < columns {
             let w = (columns - c0).min(BLOCK_ROWS);
             let block = &mut rhs[c0 * n..(c0 + w) * n];
+            let from = from.map(|b| &b[c0 * n..(c0 + w) * n]);
             let rows = &mut self.rows[..(n + longest) * w];
             match w {
-                1 => block_solve::<1>(&parts, block, rows),
-                2 => block_solve::<2>(&parts, block, rows),
-                3 => block_solve::<3>(&parts, block, rows),
-                4 => block_solve::<4>(&parts, block, rows),
-                5 => block_solve::<5>(&parts, block, rows),
-                6 => block_solve::<6>(&parts, block, rows),
-                7 => block_solve::<7>(&parts, block, rows),
-                _ => block_solve::<8>(&parts, block, rows),
+                1 => block_solve::<1>(&parts, from, block, rows),
+                2 => block_solve::<2>(&parts, from, block, rows),
+                3 => block_solve::<3>(&parts, from, block, rows),
+                4 => block_solve::<4>(&parts, from, block, rows),
+                5 => block_solve::<5>(&parts, from, block, rows),
+                6 => block_solve::<6>(&parts, from, block, rows),
+                7 => block_solve::<7>(&parts, from, block, rows),
+                _ => block_solve::<8>(&parts, from, block, rows),
             }
             c0 += w;
         }
@@ -962,6 +1046,21 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// [`Ldlt::block_factor`] of these fields (borrowing them only).
+fn supernodal_factor<'a>(
+    split: &Option<Split>,
+    symbolic: &'a Option<SymbolicCholesky<usize>>,
+    single: bool,
+) -> Option<&'a SymbolicSupernodalCholesky<usize>> {
+    match (split, symbolic) {
+        (None, Some(symbolic)) if !single => match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => Some(s),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        },
+        _ => None,
+    }
+}
+
 /// Right-hand sides one block substitution handles at once ([`Ldlt::solve_block`]); more are
 /// taken in blocks of this many.
 pub const BLOCK_ROWS: usize = 8;
@@ -975,19 +1074,25 @@ struct Parts<'a> {
     scale: Option<&'a [f64]>,
 }
 
-/// K⁻¹ applied to the B columns of `block` (column-major, n rows) with the held factor of
-/// P S K S Pᵀ = L D Lᵀ: gathered into `rows` (n × B row by row, row i holding equation
-/// P⁻¹(i)'s B values times S; its rows beyond n are [`block_substitution`]'s work space),
-/// [`block_substitution`], scattered back times S.
-fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64]) {
+/// K⁻¹ applied to the B columns of `from` (or of `block` itself; column-major, n rows), the
+/// result in `block`, with the held factor of P S K S Pᵀ = L D Lᵀ: gathered into `rows` (n × B
+/// row by row, row i holding equation P⁻¹(i)'s B values times S; its rows beyond n are
+/// [`block_substitution`]'s work space), [`block_substitution`], scattered back times S.
+fn block_solve<const B: usize>(
+    parts: &Parts,
+    from: Option<&[f64]>,
+    block: &mut [f64],
+    rows: &mut [f64],
+) {
     let n = parts.factor.nrows();
     {
+        let source: &[f64] = from.unwrap_or(block);
         let (rows, _) = rows.as_chunks_mut::<B>();
         for (i, row) in rows[..n].iter_mut().enumerate() {
             let e = parts.perm.map_or(i, |(fwd, _)| fwd[i]);
             let s = parts.scale.map_or(1.0, |s| s[e]);
             for (c, v) in row.iter_mut().enumerate() {
-                *v = block[c * n + e] * s;
+                *v = source[c * n + e] * s;
             }
         }
     }
@@ -1474,6 +1579,64 @@ mod tests {
                 worst = worst.max(err / largest);
             }
             eprintln!("scaled {groups}: {worst:e} of the largest entry");
+        }
+    }
+
+    /// The block solve on vectors in the factor's order (`solve_block_ordered`, the modal
+    /// analysis's Lanczos vectors) is the block solve of the permuted vectors, bit for bit,
+    /// with and without the scaling, from another buffer and in place.
+    #[test]
+    fn ordered_block_solve_is_the_permuted_block_solve() {
+        let (n, cp, ri, v) = grid(31, 19);
+        for groups in [false, true] {
+            let mut ldlt = Ldlt::try_new(n, cp.clone(), ri.clone()).unwrap();
+            ldlt.values_mut().copy_from_slice(&v);
+            if groups {
+                ldlt.set_groups((0..n as u32).map(|e| e / 3).collect())
+                    .unwrap();
+                let f = |e: usize| 10f64.powi(((e / 3) % 7) as i32 - 3);
+                let values = ldlt.values_mut();
+                for j in 0..n {
+                    for k in cp[j]..cp[j + 1] {
+                        values[k] *= f(ri[k]) * f(j);
+                    }
+                }
+            }
+            ldlt.factor().unwrap();
+            let (fwd, inv) = {
+                let (fwd, inv) = ldlt.block_order().expect("a fill-reducing order");
+                (fwd.to_vec(), inv.to_vec())
+            };
+            assert!(fwd.iter().enumerate().any(|(i, &e)| i != e));
+            let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+            for columns in [1, 3, 4, 5, 8, 11] {
+                let rhs: Vec<f64> = (0..n * columns)
+                    .map(|_| {
+                        seed ^= seed << 13;
+                        seed ^= seed >> 7;
+                        seed ^= seed << 17;
+                        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                    })
+                    .collect();
+                let mut expected = rhs.clone();
+                ldlt.solve_block(&mut expected, columns).unwrap();
+                let ordered: Vec<f64> = (0..n * columns)
+                    .map(|k| rhs[k / n * n + fwd[k % n]])
+                    .collect();
+                let mut from = vec![f64::NAN; n * columns];
+                ldlt.solve_block_ordered(&mut from, Some(&ordered), columns)
+                    .unwrap();
+                let mut in_place = ordered.clone();
+                ldlt.solve_block_ordered(&mut in_place, None, columns)
+                    .unwrap();
+                for c in 0..columns {
+                    for e in 0..n {
+                        let want = expected[c * n + e].to_bits();
+                        assert_eq!(from[c * n + inv[e]].to_bits(), want, "{columns} {e}");
+                        assert_eq!(in_place[c * n + inv[e]].to_bits(), want, "{columns} {e}");
+                    }
+                }
+            }
         }
     }
 

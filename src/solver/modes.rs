@@ -134,9 +134,29 @@ fn reserved<T>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Er
 }
 
 /// `v` as `n` zeros (its kept memory reused).
+fn zeroed_index(v: Vec<usize>, n: usize, what: &'static str) -> Result<Vec<usize>, Error> {
+    let mut v = reserved(v, n, what)?;
+    v.resize(n, 0);
+    Ok(v)
+}
+
+/// `v` as `n` zeros (its kept memory reused).
 fn zeroed(v: Vec<f64>, n: usize, what: &'static str) -> Result<Vec<f64>, Error> {
     let mut v = reserved(v, n, what)?;
     v.resize(n, 0.0);
+    Ok(v)
+}
+
+/// `v` as `n` values, its kept contents left as they are (only a new tail is zeroed): for
+/// buffers that are written before they are read.
+fn sized<T: Copy + Default>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Error> {
+    v.truncate(n);
+    v.try_reserve_exact(n - v.len())
+        .map_err(|_| memory::OutOfMemory {
+            what,
+            bytes: (n * std::mem::size_of::<T>()) as u64,
+        })?;
+    v.resize(n, T::default());
     Ok(v)
 }
 
@@ -145,9 +165,9 @@ struct Operator<'a> {
     solver: &'a mut Solver,
     passes: usize,
     reorthogonalisations: usize,
-    /// M's nonzero entries only (upper triangle, CSC over the equations): the tangent's
-    /// pattern holds M's zeros too (a consistent or lumped M couples x with x only, so two
-    /// thirds of a membrane's entries are zero), which a product need not read.
+    /// M's nonzero entries only (upper triangle, CSC, in the operator's order): the
+    /// tangent's pattern holds M's zeros too (a consistent or lumped M couples x with x only,
+    /// so two thirds of a membrane's entries are zero), which a product need not read.
     mass: (Vec<usize>, Vec<usize>, Vec<f64>),
     solves: usize,
     seconds: Seconds,
@@ -170,23 +190,66 @@ impl<'a> Operator<'a> {
             let s = a.symbolic();
             let (col_ptr, row_idx) = (s.col_ptr(), s.row_idx());
             let values = mass.values();
-            let nonzero = values.iter().filter(|v| **v != 0.0).count();
             let what = "the mass matrix's nonzeros";
             let (ptr, rows, vals) = std::mem::take(&mut work.mass);
-            let mut ptr = reserved(ptr, col_ptr.len(), what)?;
-            let mut rows = reserved(rows, nonzero, what)?;
-            let mut vals = reserved(vals, nonzero, what)?;
-            ptr.push(0);
-            for j in 0..col_ptr.len() - 1 {
-                for p in col_ptr[j]..col_ptr[j + 1] {
-                    if values[p] != 0.0 {
-                        rows.push(row_idx[p]);
-                        vals.push(values[p]);
+            match solver.linear.block_order() {
+                None => {
+                    let nonzero = values.iter().filter(|v| **v != 0.0).count();
+                    let mut ptr = reserved(ptr, col_ptr.len(), what)?;
+                    let mut rows = reserved(rows, nonzero, what)?;
+                    let mut vals = reserved(vals, nonzero, what)?;
+                    ptr.push(0);
+                    for j in 0..col_ptr.len() - 1 {
+                        for p in col_ptr[j]..col_ptr[j + 1] {
+                            if values[p] != 0.0 {
+                                rows.push(row_idx[p]);
+                                vals.push(values[p]);
+                            }
+                        }
+                        ptr.push(rows.len());
                     }
+                    (ptr, rows, vals)
                 }
-                ptr.push(rows.len());
+                // The upper triangle of P M Pᵀ (entry (i, j) of M at (inv i, inv j), taken
+                // to the upper triangle): counted per column, then placed.
+                Some((_, inv)) => {
+                    let mut ptr = zeroed_index(ptr, n + 1, what)?;
+                    let mut nonzero = 0;
+                    for j in 0..n {
+                        let b = inv[j];
+                        for p in col_ptr[j]..col_ptr[j + 1] {
+                            if values[p] != 0.0 {
+                                ptr[b.max(inv[row_idx[p]]) + 1] += 1;
+                                nonzero += 1;
+                            }
+                        }
+                    }
+                    for c in 0..n {
+                        ptr[c + 1] += ptr[c];
+                    }
+                    let mut rows = sized(rows, nonzero, what)?;
+                    let mut vals = sized(vals, nonzero, what)?;
+                    // ptr[c] runs from the start of column c to its end.
+                    for j in 0..n {
+                        let b = inv[j];
+                        for p in col_ptr[j]..col_ptr[j + 1] {
+                            if values[p] != 0.0 {
+                                let a = inv[row_idx[p]];
+                                let c = a.max(b);
+                                let at = ptr[c];
+                                rows[at] = a.min(b);
+                                vals[at] = values[p];
+                                ptr[c] += 1;
+                            }
+                        }
+                    }
+                    for c in (1..=n).rev() {
+                        ptr[c] = ptr[c - 1];
+                    }
+                    ptr[0] = 0;
+                    (ptr, rows, vals)
+                }
             }
-            (ptr, rows, vals)
         };
         let mut op = Operator {
             solver,
@@ -195,7 +258,7 @@ impl<'a> Operator<'a> {
             reorthogonalisations: 0,
             solves: 0,
             seconds,
-            rows: zeroed(
+            rows: sized(
                 std::mem::take(&mut work.rows),
                 2 * BLOCK * n,
                 "the mass products' work buffer",
@@ -223,12 +286,13 @@ impl<'a> Operator<'a> {
         self.seconds.mass_products += t.elapsed().as_secs_f64();
     }
 
-    /// X ← (K − σM)⁻¹ X for the `columns` columns of X (M x already formed), in one pass.
-    fn solve(&mut self, x: &mut [f64], columns: usize) -> Result<(), Error> {
+    /// X ← (K − σM)⁻¹ B for the `columns` columns of B (`from`, or X itself; M x already
+    /// formed), in one pass, the vectors in the operator's order.
+    fn solve(&mut self, x: &mut [f64], from: Option<&[f64]>, columns: usize) -> Result<(), Error> {
         self.solves += columns;
         self.passes += 1;
         let (t, cpu) = (std::time::Instant::now(), crate::phases::thread_cpu());
-        let result = self.solver.linear.solve_block(x, columns);
+        let result = self.solver.linear.solve_block_ordered(x, from, columns);
         self.seconds.solves += t.elapsed().as_secs_f64();
         self.seconds.solves_cpu += crate::phases::thread_cpu() - cpu;
         result
@@ -1108,15 +1172,16 @@ fn times_inverse(y: &mut [f64], x: &[f64], inverse: &[f64], n: usize, p: usize) 
     );
 }
 
-/// Block Lanczos on `op` (module docs): the converged Ritz pairs (θ descending, M-normalised
-/// vectors over the equations), at most `want` of them.
+/// Block Lanczos on `op` (module docs): the converged Ritz pairs, at most `want` of them: θ
+/// descending and the M-normalised vectors (n values each, one after the other, in the
+/// operator's order).
 /// The basis and the block's vectors live in `work` (kept between analyses).
 fn block_lanczos(
     op: &mut Operator,
     n: usize,
     want: usize,
     work: &mut Work,
-) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+) -> Result<(Vec<f64>, Vec<f64>), Error> {
     let max_dim = (2 * want + EXTRA).min(n).max(1);
     let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
@@ -1127,7 +1192,7 @@ fn block_lanczos(
         std::mem::take(&mut work.mq),
         std::mem::take(&mut work.qr),
     )?;
-    let mut vectors = zeroed(std::mem::take(&mut work.block), 3 * n * block, what)?;
+    let mut vectors = sized(std::mem::take(&mut work.block), 2 * n * block, what)?;
     let result = lanczos_iterate(op, n, want, max_dim, &mut basis, &mut vectors);
     work.q = basis.q;
     work.mq = basis.mq;
@@ -1136,8 +1201,8 @@ fn block_lanczos(
     result
 }
 
-/// [`block_lanczos`]'s iteration, with the basis (empty) and the block's vectors (W, M W
-/// and R, n × BLOCK each) given.
+/// [`block_lanczos`]'s iteration, with the basis (empty) and the block's vectors (W and M W,
+/// n × BLOCK each; M W first holds the start block R) given.
 fn lanczos_iterate(
     op: &mut Operator,
     n: usize,
@@ -1145,19 +1210,25 @@ fn lanczos_iterate(
     max_dim: usize,
     basis: &mut Basis,
     vectors: &mut [f64],
-) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+) -> Result<(Vec<f64>, Vec<f64>), Error> {
     let block = BLOCK.min(n);
-    let (w, rest) = vectors.split_at_mut(n * block);
-    let (mw, r) = rest.split_at_mut(n * block);
+    let (w, mw) = vectors.split_at_mut(n * block);
     // H's columns (h[k][i] = (M qᵢ)ᵀ A q_k).
     let mut h: Vec<Vec<f64>> = Vec::new();
     // The first block: A R, M-orthonormalised (A R lies in the range of A: no component along
-    // the massless directions' infinite frequencies).
+    // the massless directions' infinite frequencies). R is held in M W's place until M W is
+    // formed, in the operator's order.
+    let order = op.solver.linear.block_order().map(|(fwd, _)| fwd);
     for seed in 0..block {
-        r[seed * n..(seed + 1) * n].copy_from_slice(&start_vector(n, seed as u64));
+        let v = start_vector(n, seed as u64);
+        let r = &mut mw[seed * n..(seed + 1) * n];
+        match order {
+            Some(fwd) => r.iter_mut().zip(fwd).for_each(|(x, &e)| *x = v[e]),
+            None => r.copy_from_slice(&v),
+        }
     }
-    op.mass(r, w, block);
-    op.solve(w, block)?;
+    op.mass(mw, w, block);
+    op.solve(w, None, block)?;
     let mut scale = 0.0f64;
     let mut partial = Partial::new(block);
     orthonormalise_block(op, basis, w, mw, block, &mut scale, None, &h, &mut partial)?;
@@ -1169,8 +1240,11 @@ fn lanczos_iterate(
             return ritz_pairs(op, basis, &h, end, want, None);
         }
         let columns = end - start;
-        w[..n * columns].copy_from_slice(basis.mq_block(start, end));
-        op.solve(&mut w[..n * columns], columns)?;
+        op.solve(
+            &mut w[..n * columns],
+            Some(basis.mq_block(start, end)),
+            columns,
+        )?;
         let new = orthonormalise_block(
             op,
             basis,
@@ -1231,7 +1305,8 @@ fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64
 }
 
 /// The Ritz pairs (θ, Q s) of the leading `m` vectors: those of `keep` (indices into the
-/// eigenpairs of H), or the largest `want`; the vectors as one product Q S.
+/// eigenpairs of H), or the largest `want`; the vectors as one product Q S (n values each,
+/// one after the other).
 fn ritz_pairs(
     op: &mut Operator,
     basis: &Basis,
@@ -1239,11 +1314,11 @@ fn ritz_pairs(
     m: usize,
     want: usize,
     keep: Option<&[usize]>,
-) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+) -> Result<(Vec<f64>, Vec<f64>), Error> {
     let t = std::time::Instant::now();
     let m = m.min(h.len());
     if m == 0 {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), Vec::new()));
     }
     let (theta, s) = projected_eigen(h, m);
     let chosen: Vec<usize> = match keep {
@@ -1274,13 +1349,9 @@ fn ritz_pairs(
         1.0,
         Par::Seq,
     );
-    let out = chosen
-        .iter()
-        .zip(y.chunks(n.max(1)))
-        .map(|(&k, v)| (theta[k], v.to_vec()))
-        .collect();
+    let thetas = chosen.iter().map(|&k| theta[k]).collect();
     op.seconds.ritz += t.elapsed().as_secs_f64();
-    Ok(out)
+    Ok((thetas, y))
 }
 
 impl Solver {
@@ -1360,7 +1431,10 @@ impl Solver {
             reorthogonalisations,
             seconds,
         };
-        for (theta, y) in found {
+        // The vectors are in the operator's order: equation e at position inv[e].
+        let (thetas, vectors) = found;
+        let inv = self.linear.block_order().map(|(_, inv)| inv);
+        for (&theta, y) in thetas.iter().zip(vectors.chunks(n.max(1))) {
             let lambda = shift + 1.0 / theta;
             modes.eigenvalues.push(lambda);
             let f = lambda.abs().sqrt() / (2.0 * std::f64::consts::PI);
@@ -1368,7 +1442,7 @@ impl Solver {
             let mut shape = vec![0.0; model.dof_count()];
             for (d, &e) in eq.iter().enumerate() {
                 if e != NONE {
-                    shape[d] = y[e];
+                    shape[d] = y[inv.map_or(e, |inv| inv[e])];
                 }
             }
             modes.shapes.push(shape);
