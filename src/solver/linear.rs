@@ -1195,6 +1195,25 @@ fn substitution_x4(
         let pattern = factor.supernode(s).pattern();
         let m = size + pattern.len();
         let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        match size {
+            1 => {
+                forward_narrow::<1>(simd, l, start, pattern, x);
+                continue;
+            }
+            2 => {
+                forward_narrow::<2>(simd, l, start, pattern, x);
+                continue;
+            }
+            3 => {
+                forward_narrow::<3>(simd, l, start, pattern, x);
+                continue;
+            }
+            4 => {
+                forward_narrow::<4>(simd, l, start, pattern, x);
+                continue;
+            }
+            _ => {}
+        }
         let v = &mut work[..m];
         v[..size].copy_from_slice(&x[start..stop]);
         v[size..].fill(zero);
@@ -1222,6 +1241,25 @@ fn substitution_x4(
         let pattern = factor.supernode(s).pattern();
         let m = size + pattern.len();
         let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        match size {
+            1 => {
+                backward_narrow::<1>(simd, l, start, pattern, x);
+                continue;
+            }
+            2 => {
+                backward_narrow::<2>(simd, l, start, pattern, x);
+                continue;
+            }
+            3 => {
+                backward_narrow::<3>(simd, l, start, pattern, x);
+                continue;
+            }
+            4 => {
+                backward_narrow::<4>(simd, l, start, pattern, x);
+                continue;
+            }
+            _ => {}
+        }
         let v = &mut work[..m];
         v[..size].copy_from_slice(&x[start..stop]);
         for (y, &row) in v[size..].iter_mut().zip(pattern) {
@@ -1240,6 +1278,86 @@ fn substitution_x4(
         }
         x[start..stop].copy_from_slice(&v[..size]);
     }
+}
+
+/// [`substitution_x4`]'s forward step for a supernode of G ≤ 4 columns (`start..start + G`,
+/// its values `l`, column-major (G + |pattern|) × G), on x itself: the supernode's own rows
+/// are held in registers, each pattern row gets the G updates summed from zero and then
+/// added (the operations of [`forward_group`] on the work space, in the same order, so the
+/// same bits), then D⁻¹. No copies to and from the work space: most supernodes are this
+/// narrow, and the copies were calls of their own.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn forward_narrow<const G: usize>(
+    simd: pulp::x86::V3,
+    l: &[f64],
+    start: usize,
+    pattern: &[usize],
+    x: &mut [pulp::f64x4],
+) {
+    let m = G + pattern.len();
+    let mut xs: [pulp::f64x4; G] = std::array::from_fn(|a| x[start + a]);
+    for a in 0..G {
+        let column = &l[a * m..(a + 1) * m];
+        for r in a + 1..G {
+            xs[r] = simd.negate_mul_add_f64x4(simd.splat_f64x4(column[r]), xs[a], xs[r]);
+        }
+    }
+    let columns: [&[f64]; G] = std::array::from_fn(|a| &l[a * m + G..(a + 1) * m]);
+    let zero = simd.splat_f64x4(0.0);
+    for (p, &row) in pattern.iter().enumerate() {
+        let mut acc = zero;
+        for a in 0..G {
+            acc = simd.negate_mul_add_f64x4(simd.splat_f64x4(columns[a][p]), xs[a], acc);
+        }
+        x[row] = simd.add_f64x4(x[row], acc);
+    }
+    for a in 0..G {
+        x[start + a] = simd.mul_f64x4(xs[a], simd.splat_f64x4(l[a * m + a].recip()));
+    }
+}
+
+/// [`substitution_x4`]'s backward step for a supernode of G ≤ 4 columns, on x itself: the
+/// G column sums over the pattern rows (two partial sums each, as [`backward_group`], the
+/// same operations in the same order), then the own triangle upwards.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn backward_narrow<const G: usize>(
+    simd: pulp::x86::V3,
+    l: &[f64],
+    start: usize,
+    pattern: &[usize],
+    x: &mut [pulp::f64x4],
+) {
+    let m = G + pattern.len();
+    let n = pattern.len();
+    let zero = simd.splat_f64x4(0.0);
+    let columns: [&[f64]; G] = std::array::from_fn(|a| &l[a * m + G..(a + 1) * m]);
+    let (mut even, mut odd) = ([zero; G], [zero; G]);
+    let pairs = n / 2;
+    for p in 0..pairs {
+        let (t0, t1) = (x[pattern[2 * p]], x[pattern[2 * p + 1]]);
+        for a in 0..G {
+            even[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][2 * p]), t0, even[a]);
+            odd[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][2 * p + 1]), t1, odd[a]);
+        }
+    }
+    if n % 2 == 1 {
+        let t = x[pattern[n - 1]];
+        for a in 0..G {
+            even[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][n - 1]), t, even[a]);
+        }
+    }
+    let mut xs: [pulp::f64x4; G] = std::array::from_fn(|a| x[start + a]);
+    for a in (0..G).rev() {
+        let column = &l[a * m..(a + 1) * m];
+        let mut sum = simd.add_f64x4(even[a], odd[a]);
+        for r in a + 1..G {
+            sum = simd.mul_add_f64x4(simd.splat_f64x4(column[r]), xs[r], sum);
+        }
+        xs[a] = simd.sub_f64x4(xs[a], sum);
+    }
+    x[start..start + G].copy_from_slice(&xs);
 }
 
 /// [`substitution_x4`]'s forward step for the G columns `j0..j0 + G` of a supernode (column
