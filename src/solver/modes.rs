@@ -493,6 +493,9 @@ const RING: usize = 3;
 /// its coefficients as Qᵀ (M W).
 struct Basis {
     n: usize,
+    /// Vectors held (the first `count` columns of `q`; memory beyond them is kept from
+    /// earlier analyses and written before it is read).
+    count: usize,
     q: Vec<f64>,
     mq: Vec<f64>,
     /// Vectors per block at most (a slot of `mq`).
@@ -522,6 +525,7 @@ impl Basis {
         };
         Ok(Basis {
             n,
+            count: 0,
             q,
             mq,
             width,
@@ -531,7 +535,23 @@ impl Basis {
     }
 
     fn len(&self) -> usize {
-        self.q.len() / self.n.max(1)
+        self.count
+    }
+
+    /// Room in `q` for `vectors` vectors (grown with zeros; never shrunk, so that a later
+    /// analysis writes into the memory an earlier one touched, without clearing it first).
+    fn room(&mut self, vectors: usize) -> Result<(), Error> {
+        let size = vectors * self.n;
+        if self.q.len() < size {
+            self.q
+                .try_reserve(size - self.q.len())
+                .map_err(|_| memory::OutOfMemory {
+                    what: "the Lanczos vectors",
+                    bytes: 8 * size as u64,
+                })?;
+            self.q.resize(size, 0.0);
+        }
+        Ok(())
     }
 
     fn q(&self, k: usize) -> &[f64] {
@@ -562,14 +582,12 @@ impl Basis {
     }
 
     fn push(&mut self, w: &[f64], mw: &[f64], size: f64) -> Result<(), Error> {
-        self.q
-            .try_reserve(self.n)
-            .map_err(|_| memory::OutOfMemory {
-                what: "the Lanczos vectors",
-                bytes: 8 * self.n as u64,
-            })?;
         let k = self.len();
-        self.q.extend(w.iter().map(|x| x / size));
+        self.room(k + 1)?;
+        for (y, x) in self.q[k * self.n..(k + 1) * self.n].iter_mut().zip(w) {
+            *y = x / size;
+        }
+        self.count = k + 1;
         let at = self.mq_at(k);
         for (y, x) in self.mq[at..at + self.n].iter_mut().zip(mw) {
             *y = x / size;
@@ -1096,15 +1114,9 @@ fn cholesky_qr_rounds(
     };
     let inverse = upper_inverse(&r2, p);
     let old = basis.len();
-    basis
-        .q
-        .try_reserve(n * p)
-        .map_err(|_| memory::OutOfMemory {
-            what: "the Lanczos vectors",
-            bytes: 8 * (n * p) as u64,
-        })?;
-    basis.q.resize((old + p) * n, 0.0);
+    basis.room(old + p)?;
     times_inverse(&mut basis.q[old * n..], tw, &inverse, n, p);
+    basis.count = old + p;
     let at = basis.mq_at(old);
     times_inverse(&mut basis.mq[at..], tmw, &inverse, n, p);
     // R₂ R₁.
@@ -1176,19 +1188,21 @@ fn times_inverse(y: &mut [f64], x: &[f64], inverse: &[f64], n: usize, p: usize) 
 /// descending and the M-normalised vectors (n values each, one after the other, in the
 /// operator's order).
 /// The basis and the block's vectors live in `work` (kept between analyses).
-fn block_lanczos(
-    op: &mut Operator,
-    n: usize,
-    want: usize,
-    work: &mut Work,
-) -> Result<(Vec<f64>, Vec<f64>), Error> {
+fn block_lanczos(op: &mut Operator, n: usize, want: usize, work: &mut Work) -> Result<Ritz, Error> {
     let max_dim = (2 * want + EXTRA).min(n).max(1);
     let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
+    // The kept basis memory as it is (written before it is read), with room reserved.
+    let mut q = std::mem::take(&mut work.q);
+    q.try_reserve_exact((n * (max_dim + block)).saturating_sub(q.len()))
+        .map_err(|_| memory::OutOfMemory {
+            what,
+            bytes: (8 * n * (max_dim + block)) as u64,
+        })?;
     let mut basis = Basis::new(
         n,
         block,
-        reserved(std::mem::take(&mut work.q), n * (max_dim + block), what)?,
+        q,
         std::mem::take(&mut work.mq),
         std::mem::take(&mut work.qr),
     )?;
@@ -1210,7 +1224,7 @@ fn lanczos_iterate(
     max_dim: usize,
     basis: &mut Basis,
     vectors: &mut [f64],
-) -> Result<(Vec<f64>, Vec<f64>), Error> {
+) -> Result<Ritz, Error> {
     let block = BLOCK.min(n);
     let (w, mw) = vectors.split_at_mut(n * block);
     // H's columns (h[k][i] = (M qᵢ)ᵀ A q_k).
@@ -1296,6 +1310,11 @@ fn lanczos_iterate(
     }
 }
 
+/// Converged Ritz pairs: θ descending, and the M-normalised vectors (n values each, one after
+/// the other, in the operator's order) in `vectors`, or None: in the kept M Q memory
+/// (`Work::mq`), where they are formed when they fit (no fresh memory per analysis).
+type Ritz = (Vec<f64>, Option<Vec<f64>>);
+
 /// Eigenpairs of the leading `m` × `m` block of H (columns `h`, symmetrised).
 fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64>) {
     let at = |i: usize, k: usize| h[k].get(i).copied().unwrap_or(0.0);
@@ -1309,16 +1328,16 @@ fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64
 /// one after the other).
 fn ritz_pairs(
     op: &mut Operator,
-    basis: &Basis,
+    basis: &mut Basis,
     h: &[Vec<f64>],
     m: usize,
     want: usize,
     keep: Option<&[usize]>,
-) -> Result<(Vec<f64>, Vec<f64>), Error> {
+) -> Result<Ritz, Error> {
     let t = std::time::Instant::now();
     let m = m.min(h.len());
     if m == 0 {
-        return Ok((Vec::new(), Vec::new()));
+        return Ok((Vec::new(), Some(Vec::new())));
     }
     let (theta, s) = projected_eigen(h, m);
     let chosen: Vec<usize> = match keep {
@@ -1338,17 +1357,29 @@ fn ritz_pairs(
             coefficients[j * m + i] = s[(i, k)];
         }
     }
-    let mut y = memory::zeros(n * count, "the mode shapes")?;
+    // M Q of the last blocks is no longer needed: the vectors go there when they fit.
+    let fits = basis.mq.len() >= n * count;
+    let mut fresh = if fits {
+        Vec::new()
+    } else {
+        memory::zeros(n * count, "the mode shapes")?
+    };
+    let y = if fits {
+        &mut basis.mq[..n * count]
+    } else {
+        &mut fresh[..]
+    };
     let q = MatRef::from_column_major_slice(&basis.q[..n * m], n, m);
     let c = MatRef::from_column_major_slice(&coefficients, m, count);
     matmul(
-        MatMut::from_column_major_slice_mut(&mut y, n, count),
+        MatMut::from_column_major_slice_mut(y, n, count),
         Accum::Replace,
         q,
         c,
         1.0,
         Par::Seq,
     );
+    let y = (!fits).then_some(fresh);
     let thetas = chosen.iter().map(|&k| theta[k]).collect();
     op.seconds.ritz += t.elapsed().as_secs_f64();
     Ok((thetas, y))
@@ -1433,6 +1464,10 @@ impl Solver {
         };
         // The vectors are in the operator's order: equation e at position inv[e].
         let (thetas, vectors) = found;
+        let vectors: &[f64] = match &vectors {
+            Some(v) => v,
+            None => &self.modes_work.mq,
+        };
         let inv = self.linear.block_order().map(|(_, inv)| inv);
         for (&theta, y) in thetas.iter().zip(vectors.chunks(n.max(1))) {
             let lambda = shift + 1.0 / theta;
