@@ -770,15 +770,16 @@ impl Ldlt {
         if scaled
             && (self.ordered_for != self.counts.factorizations || self.ordered_scale.len() != n)
         {
-            let mut ordered = memory::zeros(n, "the block solve's scaling")?;
+            // Its memory reused from factorization to factorization.
+            let mut ordered = std::mem::take(&mut self.ordered_scale);
+            ordered.clear();
+            ordered.try_reserve_exact(n).map_err(|_| OutOfMemory {
+                what: "the block solve's scaling",
+                bytes: 8 * n as u64,
+            })?;
             match self.symbolic.as_ref().and_then(|s| s.perm()) {
-                Some(perm) => {
-                    let (fwd, _) = perm.arrays();
-                    for (s, &e) in ordered.iter_mut().zip(fwd) {
-                        *s = self.scale[e];
-                    }
-                }
-                None => ordered.copy_from_slice(&self.scale),
+                Some(perm) => ordered.extend(perm.arrays().0.iter().map(|&e| self.scale[e])),
+                None => ordered.extend_from_slice(&self.scale),
             }
             self.ordered_scale = ordered;
             self.ordered_for = self.counts.factorizations;
