@@ -354,19 +354,16 @@ fn symmetric_product_rows<const B: usize>(
 ) {
     let n = col_ptr.len() - 1;
     let (xr, yr) = rows[..2 * B * n].split_at_mut(B * n);
-    let (xr, _) = xr.as_chunks_mut::<B>();
-    let (yr, _) = yr.as_chunks_mut::<B>();
-    for (j, row) in xr.iter_mut().enumerate() {
-        for (c, v) in row.iter_mut().enumerate() {
-            *v = x[c * n + j];
-        }
-    }
-    yr.fill([0.0; B]);
     #[cfg(target_arch = "x86_64")]
     if B == 4 {
         if let Some(simd) = pulp::x86::V3::try_new() {
-            let xr: &[pulp::f64x4] = pulp::bytemuck::cast_slice(xr.as_flattened());
-            let yr: &mut [pulp::f64x4] = pulp::bytemuck::cast_slice_mut(yr.as_flattened_mut());
+            // X into rows and Y back in 4 × 4 tiles (`linear.rs`; the same values). (Both
+            // find AVX2, as `simd` did.)
+            let tiled = super::linear::rows_from_columns_x4(x, xr, n, None);
+            debug_assert!(tiled);
+            yr.fill(0.0);
+            let xr: &[pulp::f64x4] = pulp::bytemuck::cast_slice(&xr[..4 * n]);
+            let yr: &mut [pulp::f64x4] = pulp::bytemuck::cast_slice_mut(&mut yr[..4 * n]);
             pulp::Simd::vectorize(
                 simd,
                 ProductX4 {
@@ -378,15 +375,19 @@ fn symmetric_product_rows<const B: usize>(
                     y: yr,
                 },
             );
-            let yr: &[[f64; B]] = rows_of(&rows[B * n..2 * B * n]);
-            for (j, row) in yr.iter().enumerate() {
-                for (c, v) in row.iter().enumerate() {
-                    y[c * n + j] = *v;
-                }
-            }
+            let tiled = super::linear::columns_from_rows_x4(&rows[4 * n..8 * n], y, n, None);
+            debug_assert!(tiled);
             return;
         }
     }
+    let (xr, _) = xr.as_chunks_mut::<B>();
+    let (yr, _) = yr.as_chunks_mut::<B>();
+    for (j, row) in xr.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = x[c * n + j];
+        }
+    }
+    yr.fill([0.0; B]);
     for j in 0..n {
         let xj = xr[j];
         let mut sum = [0.0; B];
@@ -414,12 +415,6 @@ fn symmetric_product_rows<const B: usize>(
             y[c * n + j] = *v;
         }
     }
-}
-
-/// `values` as rows of B.
-#[cfg(target_arch = "x86_64")]
-fn rows_of<const B: usize>(values: &[f64]) -> &[[f64; B]] {
-    values.as_chunks::<B>().0
 }
 
 /// [`symmetric_product_rows`]'s sums for 4 columns, each row one register (compiled with
