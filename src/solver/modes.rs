@@ -29,6 +29,12 @@
 //!          form H = Qᵀ M A Q (block tridiagonal); a Ritz pair (θ, Q s) of H
 //!          has the residual |B_j s_j| (s_j: its last block of components) in the M norm and
 //!          is converged when that is at most TOLERANCE θ_max
+//! order    every Lanczos vector is held in the factor's fill-reducing order
+//!          (`Ldlt::block_order`): the solves take and return them without a permutation
+//!          (`Ldlt::solve_block_ordered`: no gather and scatter at random through it), M is
+//!          compressed as P M Pᵀ, the start vectors are permuted once and the Ritz vectors
+//!          back once (the same Krylov space, its sums in another order: the same
+//!          frequencies to round-off)
 //! multiple a single start vector sees one vector of each eigenspace; a block of BLOCK sees up
 //!          to BLOCK (the square membrane's f_12 = f_21, a straight cable's frequencies in two
 //!          planes, a disc's pairs): a frequency repeated more often than BLOCK times may be
