@@ -503,7 +503,8 @@ struct Basis {
     width: usize,
     /// The first vector of every block; the last block is the open one.
     starts: Vec<usize>,
-    /// [`cholesky_qr_block`]'s work space (2 n p values, allocated on first use).
+    /// [`cholesky_qr_block`]'s work space (2 n p values, allocated on first use; in an
+    /// analysis, the M product's row buffer lent to it).
     work: Vec<f64>,
 }
 
@@ -671,6 +672,9 @@ fn orthonormalise_block(
         first = None;
     }
     let (t, cpu) = (std::time::Instant::now(), crate::phases::thread_cpu());
+    // The M product's row buffer (2 n BLOCK values) is free meanwhile: it is the Cholesky
+    // QR's work space (2 n p values), so the solver keeps no buffer of its own for that.
+    std::mem::swap(&mut basis.work, &mut op.rows);
     let blocked = cholesky_qr_block(
         basis,
         w,
@@ -681,7 +685,9 @@ fn orthonormalise_block(
         scale,
         diagonal_of,
         first,
-    )?;
+    );
+    std::mem::swap(&mut basis.work, &mut op.rows);
+    let blocked = blocked?;
     if let Some(out) = blocked {
         if diagonal_of.is_some() {
             partial.accepted(columns, full);
