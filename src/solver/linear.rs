@@ -115,6 +115,10 @@ pub struct Ldlt {
     /// [`Ldlt::solve_block`]'s right-hand sides row by row in the factor's order (work
     /// buffer, grown on first use).
     rows: Vec<f64>,
+    /// S in the factor's order ([`Ldlt::solve_block_ordered`]; `ordered_scale[i]` is S of
+    /// the equation at position i), for the factorization numbered `ordered_for`.
+    ordered_scale: Vec<f64>,
+    ordered_for: usize,
     /// The factor is single precision (module docs, "Mixed precision"): the whole tangent's
     /// in `l32` (of the scaled values `v32`), or the split's halves'.
     single: bool,
@@ -286,6 +290,8 @@ impl Ldlt {
             scale: Vec::new(),
             largest: Vec::new(),
             rows: Vec::new(),
+            ordered_scale: Vec::new(),
+            ordered_for: 0,
             single: false,
             v32: Vec::new(),
             l32: Vec::new(),
@@ -780,6 +786,64 @@ impl Ldlt {
         }
     }
 
+    /// faer's supernodal factor when [`Ldlt::solve_block`] substitutes with it (a whole
+    /// double-precision factor); None: it calls [`Ldlt::solve_columns`].
+    fn block_factor(&self) -> Option<&SymbolicSupernodalCholesky<usize>> {
+        supernodal_factor(&self.split, &self.symbolic, self.single)
+    }
+
+    /// The order in which [`Ldlt::solve_block_ordered`] takes and returns its vectors: `(fwd,
+    /// inv)`, position i holding equation `fwd[i]` and equation e at position `inv[e]` (the
+    /// factor's fill-reducing order); None: the equations' own order. As held now: it changes
+    /// only with the precision or the split.
+    pub fn block_order(&self) -> Option<(&[usize], &[usize])> {
+        self.block_factor()?;
+        self.symbolic.as_ref()?.perm().map(|p| p.arrays())
+    }
+
+    /// [`Ldlt::solve_block`] on vectors held in the order of [`Ldlt::block_order`] (a
+    /// Lanczos basis kept in that order: no gather or scatter through the permutation, which
+    /// reads the block at random): x ← K⁻¹ b for the `columns` columns of `from` (column-major,
+    /// in that order), or of x itself when `from` is None. The result equals
+    /// [`Ldlt::solve_block`]'s on the permuted vectors, bit for bit.
+    pub fn solve_block_ordered(
+        &mut self,
+        x: &mut [f64],
+        from: Option<&[f64]>,
+        columns: usize,
+    ) -> Result<(), Error> {
+        if columns == 0 || x.is_empty() {
+            return Ok(());
+        }
+        let n = x.len() / columns;
+        if self.block_factor().is_none() {
+            if let Some(b) = from {
+                x.copy_from_slice(&b[..x.len()]);
+            }
+            return self.solve_block(x, columns);
+        }
+        // S in the factor's order, gathered once per factorization.
+        let scaled = self.scale.len() == n;
+        if scaled
+            && (self.ordered_for != self.counts.factorizations || self.ordered_scale.len() != n)
+        {
+            // Its memory reused from factorization to factorization.
+            let mut ordered = std::mem::take(&mut self.ordered_scale);
+            ordered.clear();
+            ordered.try_reserve_exact(n).map_err(|_| OutOfMemory {
+                what: "the block solve's scaling",
+                bytes: 8 * n as u64,
+            })?;
+            match self.symbolic.as_ref().and_then(|s| s.perm()) {
+                Some(perm) => ordered.extend(perm.arrays().0.iter().map(|&e| self.scale[e])),
+                None => ordered.extend_from_slice(&self.scale),
+            }
+            self.ordered_scale = ordered;
+            self.ordered_for = self.counts.factorizations;
+        }
+        self.substitute_block(x, from, columns, true)
+    }
+
     /// [`Ldlt::solve_columns`] (the same arguments and results, to round-off) by a block
     /// substitution of our own (with a single-precision factor: [`Ldlt::solve`] column by
     /// column): the `columns` right-hand sides are gathered row by row in the
@@ -791,17 +855,26 @@ impl Ldlt {
         if columns == 0 || rhs.is_empty() {
             return Ok(());
         }
-        let n = rhs.len() / columns;
-        let supernodal = match (&self.split, &self.symbolic) {
-            (None, Some(symbolic)) if !self.single => match symbolic.raw() {
-                SymbolicCholeskyRaw::Supernodal(s) => Some(s),
-                SymbolicCholeskyRaw::Simplicial(_) => None,
-            },
-            _ => None,
-        };
-        let Some(supernodal) = supernodal else {
+        if self.block_factor().is_none() {
+            return self.solve_columns(rhs, columns);
+        }
+        self.substitute_block(rhs, None, columns, false)
+    }
+
+    /// [`Ldlt::solve_block`]'s substitution (a supernodal factor held): x ← K⁻¹ b, b the
+    /// columns of `from` or of x; `ordered`: the vectors are in the factor's order and
+    /// `ordered_scale` is S in it ([`Ldlt::solve_block_ordered`]).
+    fn substitute_block(
+        &mut self,
+        rhs: &mut [f64],
+        from: Option<&[f64]>,
+        columns: usize,
+        ordered: bool,
+    ) -> Result<(), Error> {
+        let Some(supernodal) = self.block_factor() else {
             return self.solve_columns(rhs, columns);
         };
+        let n = rhs.len() / columns;
         let _phase = crate::phases::start("solve: block substitution (Ldlt::solve_block)");
         let width = columns.min(BLOCK_ROWS);
         // Room for the rows and, after them, one supernode's pattern rows (the backward
@@ -818,12 +891,23 @@ impl Ldlt {
         if self.rows.len() < room {
             self.rows = memory::zeros(room, "the block solve's workspace")?;
         }
+        let supernodal = supernodal_factor(&self.split, &self.symbolic, self.single)
+            .expect("the whole tangent's supernodal factorization");
         let symbolic = self
             .symbolic
             .as_ref()
             .expect("the whole tangent's symbolic factorization");
-        let perm = symbolic.perm().map(|p| p.arrays());
-        let scale = (self.scale.len() == n).then_some(&self.scale[..]);
+        let (perm, scale) = if ordered {
+            (
+                None,
+                (self.scale.len() == n).then_some(&self.ordered_scale[..]),
+            )
+        } else {
+            (
+                symbolic.perm().map(|p| p.arrays()),
+                (self.scale.len() == n).then_some(&self.scale[..]),
+            )
+        };
         let parts = Parts {
             factor: supernodal,
             values: &self.l_values,
@@ -834,16 +918,17 @@ impl Ldlt {
         while c0 < columns {
             let w = (columns - c0).min(BLOCK_ROWS);
             let block = &mut rhs[c0 * n..(c0 + w) * n];
+            let from = from.map(|b| &b[c0 * n..(c0 + w) * n]);
             let rows = &mut self.rows[..(n + longest) * w];
             match w {
-                1 => block_solve::<1>(&parts, block, rows),
-                2 => block_solve::<2>(&parts, block, rows),
-                3 => block_solve::<3>(&parts, block, rows),
-                4 => block_solve::<4>(&parts, block, rows),
-                5 => block_solve::<5>(&parts, block, rows),
-                6 => block_solve::<6>(&parts, block, rows),
-                7 => block_solve::<7>(&parts, block, rows),
-                _ => block_solve::<8>(&parts, block, rows),
+                1 => block_solve::<1>(&parts, from, block, rows),
+                2 => block_solve::<2>(&parts, from, block, rows),
+                3 => block_solve::<3>(&parts, from, block, rows),
+                4 => block_solve::<4>(&parts, from, block, rows),
+                5 => block_solve::<5>(&parts, from, block, rows),
+                6 => block_solve::<6>(&parts, from, block, rows),
+                7 => block_solve::<7>(&parts, from, block, rows),
+                _ => block_solve::<8>(&parts, from, block, rows),
             }
             c0 += w;
         }
@@ -1019,6 +1104,21 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// [`Ldlt::block_factor`] of these fields (borrowing them only).
+fn supernodal_factor<'a>(
+    split: &Option<Split>,
+    symbolic: &'a Option<SymbolicCholesky<usize>>,
+    single: bool,
+) -> Option<&'a SymbolicSupernodalCholesky<usize>> {
+    match (split, symbolic) {
+        (None, Some(symbolic)) if !single => match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => Some(s),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        },
+        _ => None,
+    }
+}
+
 /// Right-hand sides one block substitution handles at once ([`Ldlt::solve_block`]); more are
 /// taken in blocks of this many.
 pub const BLOCK_ROWS: usize = 8;
@@ -1032,29 +1132,196 @@ struct Parts<'a> {
     scale: Option<&'a [f64]>,
 }
 
-/// K⁻¹ applied to the B columns of `block` (column-major, n rows) with the held factor of
-/// P S K S Pᵀ = L D Lᵀ: gathered into `rows` (n × B row by row, row i holding equation
-/// P⁻¹(i)'s B values times S; its rows beyond n are [`block_substitution`]'s work space),
-/// [`block_substitution`], scattered back times S.
-fn block_solve<const B: usize>(parts: &Parts, block: &mut [f64], rows: &mut [f64]) {
+/// K⁻¹ applied to the B columns of `from` (or of `block` itself; column-major, n rows), the
+/// result in `block`, with the held factor of P S K S Pᵀ = L D Lᵀ: gathered into `rows` (n × B
+/// row by row, row i holding equation P⁻¹(i)'s B values times S; its rows beyond n are
+/// [`block_substitution`]'s work space), [`block_substitution`], scattered back times S.
+fn block_solve<const B: usize>(
+    parts: &Parts,
+    from: Option<&[f64]>,
+    block: &mut [f64],
+    rows: &mut [f64],
+) {
     let n = parts.factor.nrows();
-    {
+    // In the factor's order, 4 columns: transposed in 4 × 4 tiles (the same products).
+    let tiles = B == 4 && parts.perm.is_none();
+    if !(tiles && rows_from_columns_x4(from.unwrap_or(block), rows, n, parts.scale)) {
+        let source: &[f64] = from.unwrap_or(block);
         let (rows, _) = rows.as_chunks_mut::<B>();
         for (i, row) in rows[..n].iter_mut().enumerate() {
             let e = parts.perm.map_or(i, |(fwd, _)| fwd[i]);
             let s = parts.scale.map_or(1.0, |s| s[e]);
             for (c, v) in row.iter_mut().enumerate() {
-                *v = block[c * n + e] * s;
+                *v = source[c * n + e] * s;
             }
         }
     }
     substitute::<B>(parts, rows, n);
+    if tiles && columns_from_rows_x4(rows, block, n, parts.scale) {
+        return;
+    }
     let (rows, _) = rows.as_chunks_mut::<B>();
     for e in 0..n {
         let row = rows[parts.perm.map_or(e, |(_, inv)| inv[e])];
         let s = parts.scale.map_or(1.0, |s| s[e]);
         for (c, v) in row.iter().enumerate() {
             block[c * n + e] = v * s;
+        }
+    }
+}
+
+/// `rows[4 i + c] = columns[c n + i] · scale[i]` (scale 1 when None) for i < n, c < 4: four
+/// columns into rows of four, on a processor with AVX2 in 4 × 4 tiles transposed in
+/// registers (the same products, so the same bits as the loop it replaces). False, nothing
+/// done, without AVX2.
+pub(crate) fn rows_from_columns_x4(
+    columns: &[f64],
+    rows: &mut [f64],
+    n: usize,
+    scale: Option<&[f64]>,
+) -> bool {
+    transpose_x4(columns, rows, n, scale, true)
+}
+
+/// The inverse of [`rows_from_columns_x4`]: `columns[c n + i] = rows[4 i + c] · scale[i]`.
+pub(crate) fn columns_from_rows_x4(
+    rows: &[f64],
+    columns: &mut [f64],
+    n: usize,
+    scale: Option<&[f64]>,
+) -> bool {
+    transpose_x4(rows, columns, n, scale, false)
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn transpose_x4(_: &[f64], _: &mut [f64], _: usize, _: Option<&[f64]>, _: bool) -> bool {
+    false
+}
+
+#[cfg(target_arch = "x86_64")]
+fn transpose_x4(
+    from: &[f64],
+    to: &mut [f64],
+    n: usize,
+    scale: Option<&[f64]>,
+    into_rows: bool,
+) -> bool {
+    let Some(simd) = pulp::x86::V3::try_new() else {
+        return false;
+    };
+    pulp::Simd::vectorize(
+        simd,
+        TransposeX4 {
+            simd,
+            from: &from[..4 * n],
+            to: &mut to[..4 * n],
+            n,
+            scale,
+            into_rows,
+        },
+    );
+    true
+}
+
+/// [`transpose_x4`] as a pulp operation (compiled with AVX2).
+#[cfg(target_arch = "x86_64")]
+struct TransposeX4<'a> {
+    simd: pulp::x86::V3,
+    from: &'a [f64],
+    to: &'a mut [f64],
+    n: usize,
+    scale: Option<&'a [f64]>,
+    into_rows: bool,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl pulp::WithSimd for TransposeX4<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        use core::arch::x86_64::__m256d;
+        #[inline(always)]
+        fn load(v: &[f64], at: usize) -> __m256d {
+            let a: [f64; 4] = v[at..at + 4].try_into().expect("four values");
+            pulp::cast(a)
+        }
+        #[inline(always)]
+        fn store(v: &mut [f64], at: usize, x: __m256d) {
+            let a: [f64; 4] = pulp::cast(x);
+            v[at..at + 4].copy_from_slice(&a);
+        }
+        let Self {
+            simd,
+            from,
+            to,
+            n,
+            scale,
+            into_rows,
+        } = self;
+        let avx = simd.avx;
+        let tiles = n / 4 * 4;
+        for i in (0..tiles).step_by(4) {
+            // Four vectors of four values: columns (into rows) or rows (into columns).
+            let (mut a, mut b, mut c, mut d) = if into_rows {
+                (
+                    load(from, i),
+                    load(from, n + i),
+                    load(from, 2 * n + i),
+                    load(from, 3 * n + i),
+                )
+            } else {
+                (
+                    load(from, 4 * i),
+                    load(from, 4 * i + 4),
+                    load(from, 4 * i + 8),
+                    load(from, 4 * i + 12),
+                )
+            };
+            if into_rows {
+                if let Some(s) = scale {
+                    let s = load(s, i);
+                    a = avx._mm256_mul_pd(a, s);
+                    b = avx._mm256_mul_pd(b, s);
+                    c = avx._mm256_mul_pd(c, s);
+                    d = avx._mm256_mul_pd(d, s);
+                }
+            }
+            // The 4 × 4 transpose.
+            let (t0, t1) = (avx._mm256_unpacklo_pd(a, b), avx._mm256_unpackhi_pd(a, b));
+            let (t2, t3) = (avx._mm256_unpacklo_pd(c, d), avx._mm256_unpackhi_pd(c, d));
+            a = avx._mm256_permute2f128_pd::<0x20>(t0, t2);
+            b = avx._mm256_permute2f128_pd::<0x20>(t1, t3);
+            c = avx._mm256_permute2f128_pd::<0x31>(t0, t2);
+            d = avx._mm256_permute2f128_pd::<0x31>(t1, t3);
+            if into_rows {
+                store(to, 4 * i, a);
+                store(to, 4 * i + 4, b);
+                store(to, 4 * i + 8, c);
+                store(to, 4 * i + 12, d);
+            } else {
+                if let Some(s) = scale {
+                    let s = load(s, i);
+                    a = avx._mm256_mul_pd(a, s);
+                    b = avx._mm256_mul_pd(b, s);
+                    c = avx._mm256_mul_pd(c, s);
+                    d = avx._mm256_mul_pd(d, s);
+                }
+                store(to, i, a);
+                store(to, n + i, b);
+                store(to, 2 * n + i, c);
+                store(to, 3 * n + i, d);
+            }
+        }
+        for i in tiles..n {
+            let s = scale.map_or(1.0, |s| s[i]);
+            for c in 0..4 {
+                if into_rows {
+                    to[4 * i + c] = from[c * n + i] * s;
+                } else {
+                    to[c * n + i] = from[4 * i + c] * s;
+                }
+            }
         }
     }
 }
@@ -1147,6 +1414,25 @@ fn substitution_x4(
         let pattern = factor.supernode(s).pattern();
         let m = size + pattern.len();
         let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        match size {
+            1 => {
+                forward_narrow::<1>(simd, l, start, pattern, x);
+                continue;
+            }
+            2 => {
+                forward_narrow::<2>(simd, l, start, pattern, x);
+                continue;
+            }
+            3 => {
+                forward_narrow::<3>(simd, l, start, pattern, x);
+                continue;
+            }
+            4 => {
+                forward_narrow::<4>(simd, l, start, pattern, x);
+                continue;
+            }
+            _ => {}
+        }
         let v = &mut work[..m];
         v[..size].copy_from_slice(&x[start..stop]);
         v[size..].fill(zero);
@@ -1174,6 +1460,25 @@ fn substitution_x4(
         let pattern = factor.supernode(s).pattern();
         let m = size + pattern.len();
         let l = &values[val_ptr[s]..val_ptr[s + 1]];
+        match size {
+            1 => {
+                backward_narrow::<1>(simd, l, start, pattern, x);
+                continue;
+            }
+            2 => {
+                backward_narrow::<2>(simd, l, start, pattern, x);
+                continue;
+            }
+            3 => {
+                backward_narrow::<3>(simd, l, start, pattern, x);
+                continue;
+            }
+            4 => {
+                backward_narrow::<4>(simd, l, start, pattern, x);
+                continue;
+            }
+            _ => {}
+        }
         let v = &mut work[..m];
         v[..size].copy_from_slice(&x[start..stop]);
         for (y, &row) in v[size..].iter_mut().zip(pattern) {
@@ -1192,6 +1497,86 @@ fn substitution_x4(
         }
         x[start..stop].copy_from_slice(&v[..size]);
     }
+}
+
+/// [`substitution_x4`]'s forward step for a supernode of G ≤ 4 columns (`start..start + G`,
+/// its values `l`, column-major (G + |pattern|) × G), on x itself: the supernode's own rows
+/// are held in registers, each pattern row gets the G updates summed from zero and then
+/// added (the operations of [`forward_group`] on the work space, in the same order, so the
+/// same bits), then D⁻¹. No copies to and from the work space: most supernodes are this
+/// narrow, and the copies were calls of their own.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn forward_narrow<const G: usize>(
+    simd: pulp::x86::V3,
+    l: &[f64],
+    start: usize,
+    pattern: &[usize],
+    x: &mut [pulp::f64x4],
+) {
+    let m = G + pattern.len();
+    let mut xs: [pulp::f64x4; G] = std::array::from_fn(|a| x[start + a]);
+    for a in 0..G {
+        let column = &l[a * m..(a + 1) * m];
+        for r in a + 1..G {
+            xs[r] = simd.negate_mul_add_f64x4(simd.splat_f64x4(column[r]), xs[a], xs[r]);
+        }
+    }
+    let columns: [&[f64]; G] = std::array::from_fn(|a| &l[a * m + G..(a + 1) * m]);
+    let zero = simd.splat_f64x4(0.0);
+    for (p, &row) in pattern.iter().enumerate() {
+        let mut acc = zero;
+        for a in 0..G {
+            acc = simd.negate_mul_add_f64x4(simd.splat_f64x4(columns[a][p]), xs[a], acc);
+        }
+        x[row] = simd.add_f64x4(x[row], acc);
+    }
+    for a in 0..G {
+        x[start + a] = simd.mul_f64x4(xs[a], simd.splat_f64x4(l[a * m + a].recip()));
+    }
+}
+
+/// [`substitution_x4`]'s backward step for a supernode of G ≤ 4 columns, on x itself: the
+/// G column sums over the pattern rows (two partial sums each, as [`backward_group`], the
+/// same operations in the same order), then the own triangle upwards.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn backward_narrow<const G: usize>(
+    simd: pulp::x86::V3,
+    l: &[f64],
+    start: usize,
+    pattern: &[usize],
+    x: &mut [pulp::f64x4],
+) {
+    let m = G + pattern.len();
+    let n = pattern.len();
+    let zero = simd.splat_f64x4(0.0);
+    let columns: [&[f64]; G] = std::array::from_fn(|a| &l[a * m + G..(a + 1) * m]);
+    let (mut even, mut odd) = ([zero; G], [zero; G]);
+    let pairs = n / 2;
+    for p in 0..pairs {
+        let (t0, t1) = (x[pattern[2 * p]], x[pattern[2 * p + 1]]);
+        for a in 0..G {
+            even[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][2 * p]), t0, even[a]);
+            odd[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][2 * p + 1]), t1, odd[a]);
+        }
+    }
+    if n % 2 == 1 {
+        let t = x[pattern[n - 1]];
+        for a in 0..G {
+            even[a] = simd.mul_add_f64x4(simd.splat_f64x4(columns[a][n - 1]), t, even[a]);
+        }
+    }
+    let mut xs: [pulp::f64x4; G] = std::array::from_fn(|a| x[start + a]);
+    for a in (0..G).rev() {
+        let column = &l[a * m..(a + 1) * m];
+        let mut sum = simd.add_f64x4(even[a], odd[a]);
+        for r in a + 1..G {
+            sum = simd.mul_add_f64x4(simd.splat_f64x4(column[r]), xs[r], sum);
+        }
+        xs[a] = simd.sub_f64x4(xs[a], sum);
+    }
+    x[start..start + G].copy_from_slice(&xs);
 }
 
 /// [`substitution_x4`]'s forward step for the G columns `j0..j0 + G` of a supernode (column
@@ -1531,6 +1916,64 @@ mod tests {
                 worst = worst.max(err / largest);
             }
             eprintln!("scaled {groups}: {worst:e} of the largest entry");
+        }
+    }
+
+    /// The block solve on vectors in the factor's order (`solve_block_ordered`, the modal
+    /// analysis's Lanczos vectors) is the block solve of the permuted vectors, bit for bit,
+    /// with and without the scaling, from another buffer and in place.
+    #[test]
+    fn ordered_block_solve_is_the_permuted_block_solve() {
+        let (n, cp, ri, v) = grid(31, 19);
+        for groups in [false, true] {
+            let mut ldlt = Ldlt::try_new(n, cp.clone(), ri.clone()).unwrap();
+            ldlt.values_mut().copy_from_slice(&v);
+            if groups {
+                ldlt.set_groups((0..n as u32).map(|e| e / 3).collect())
+                    .unwrap();
+                let f = |e: usize| 10f64.powi(((e / 3) % 7) as i32 - 3);
+                let values = ldlt.values_mut();
+                for j in 0..n {
+                    for k in cp[j]..cp[j + 1] {
+                        values[k] *= f(ri[k]) * f(j);
+                    }
+                }
+            }
+            ldlt.factor().unwrap();
+            let (fwd, inv) = {
+                let (fwd, inv) = ldlt.block_order().expect("a fill-reducing order");
+                (fwd.to_vec(), inv.to_vec())
+            };
+            assert!(fwd.iter().enumerate().any(|(i, &e)| i != e));
+            let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+            for columns in [1, 3, 4, 5, 8, 11] {
+                let rhs: Vec<f64> = (0..n * columns)
+                    .map(|_| {
+                        seed ^= seed << 13;
+                        seed ^= seed >> 7;
+                        seed ^= seed << 17;
+                        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                    })
+                    .collect();
+                let mut expected = rhs.clone();
+                ldlt.solve_block(&mut expected, columns).unwrap();
+                let ordered: Vec<f64> = (0..n * columns)
+                    .map(|k| rhs[k / n * n + fwd[k % n]])
+                    .collect();
+                let mut from = vec![f64::NAN; n * columns];
+                ldlt.solve_block_ordered(&mut from, Some(&ordered), columns)
+                    .unwrap();
+                let mut in_place = ordered.clone();
+                ldlt.solve_block_ordered(&mut in_place, None, columns)
+                    .unwrap();
+                for c in 0..columns {
+                    for e in 0..n {
+                        let want = expected[c * n + e].to_bits();
+                        assert_eq!(from[c * n + inv[e]].to_bits(), want, "{columns} {e}");
+                        assert_eq!(in_place[c * n + inv[e]].to_bits(), want, "{columns} {e}");
+                    }
+                }
+            }
         }
     }
 

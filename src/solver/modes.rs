@@ -29,6 +29,12 @@
 //!          form H = Qᵀ M A Q (block tridiagonal); a Ritz pair (θ, Q s) of H
 //!          has the residual |B_j s_j| (s_j: its last block of components) in the M norm and
 //!          is converged when that is at most TOLERANCE θ_max
+//! order    every Lanczos vector is held in the factor's fill-reducing order
+//!          (`Ldlt::block_order`): the solves take and return them without a permutation
+//!          (`Ldlt::solve_block_ordered`: no gather and scatter at random through it), M is
+//!          compressed as P M Pᵀ, the start vectors are permuted once and the Ritz vectors
+//!          back once (the same Krylov space, its sums in another order: the same
+//!          frequencies to round-off)
 //! multiple a single start vector sees one vector of each eigenspace; a block of BLOCK sees up
 //!          to BLOCK (the square membrane's f_12 = f_21, a straight cable's frequencies in two
 //!          planes, a disc's pairs): a frequency repeated more often than BLOCK times may be
@@ -134,9 +140,29 @@ fn reserved<T>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Er
 }
 
 /// `v` as `n` zeros (its kept memory reused).
+fn zeroed_index(v: Vec<usize>, n: usize, what: &'static str) -> Result<Vec<usize>, Error> {
+    let mut v = reserved(v, n, what)?;
+    v.resize(n, 0);
+    Ok(v)
+}
+
+/// `v` as `n` zeros (its kept memory reused).
 fn zeroed(v: Vec<f64>, n: usize, what: &'static str) -> Result<Vec<f64>, Error> {
     let mut v = reserved(v, n, what)?;
     v.resize(n, 0.0);
+    Ok(v)
+}
+
+/// `v` as `n` values, its kept contents left as they are (only a new tail is zeroed): for
+/// buffers that are written before they are read.
+fn sized<T: Copy + Default>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Error> {
+    v.truncate(n);
+    v.try_reserve_exact(n - v.len())
+        .map_err(|_| memory::OutOfMemory {
+            what,
+            bytes: (n * std::mem::size_of::<T>()) as u64,
+        })?;
+    v.resize(n, T::default());
     Ok(v)
 }
 
@@ -145,9 +171,9 @@ struct Operator<'a> {
     solver: &'a mut Solver,
     passes: usize,
     reorthogonalisations: usize,
-    /// M's nonzero entries only (upper triangle, CSC over the equations): the tangent's
-    /// pattern holds M's zeros too (a consistent or lumped M couples x with x only, so two
-    /// thirds of a membrane's entries are zero), which a product need not read.
+    /// M's nonzero entries only (upper triangle, CSC, in the operator's order): the
+    /// tangent's pattern holds M's zeros too (a consistent or lumped M couples x with x only,
+    /// so two thirds of a membrane's entries are zero), which a product need not read.
     mass: (Vec<usize>, Vec<usize>, Vec<f64>),
     solves: usize,
     seconds: Seconds,
@@ -170,23 +196,66 @@ impl<'a> Operator<'a> {
             let s = a.symbolic();
             let (col_ptr, row_idx) = (s.col_ptr(), s.row_idx());
             let values = mass.values();
-            let nonzero = values.iter().filter(|v| **v != 0.0).count();
             let what = "the mass matrix's nonzeros";
             let (ptr, rows, vals) = std::mem::take(&mut work.mass);
-            let mut ptr = reserved(ptr, col_ptr.len(), what)?;
-            let mut rows = reserved(rows, nonzero, what)?;
-            let mut vals = reserved(vals, nonzero, what)?;
-            ptr.push(0);
-            for j in 0..col_ptr.len() - 1 {
-                for p in col_ptr[j]..col_ptr[j + 1] {
-                    if values[p] != 0.0 {
-                        rows.push(row_idx[p]);
-                        vals.push(values[p]);
+            match solver.linear.block_order() {
+                None => {
+                    let nonzero = values.iter().filter(|v| **v != 0.0).count();
+                    let mut ptr = reserved(ptr, col_ptr.len(), what)?;
+                    let mut rows = reserved(rows, nonzero, what)?;
+                    let mut vals = reserved(vals, nonzero, what)?;
+                    ptr.push(0);
+                    for j in 0..col_ptr.len() - 1 {
+                        for p in col_ptr[j]..col_ptr[j + 1] {
+                            if values[p] != 0.0 {
+                                rows.push(row_idx[p]);
+                                vals.push(values[p]);
+                            }
+                        }
+                        ptr.push(rows.len());
                     }
+                    (ptr, rows, vals)
                 }
-                ptr.push(rows.len());
+                // The upper triangle of P M Pᵀ (entry (i, j) of M at (inv i, inv j), taken
+                // to the upper triangle): counted per column, then placed.
+                Some((_, inv)) => {
+                    let mut ptr = zeroed_index(ptr, n + 1, what)?;
+                    let mut nonzero = 0;
+                    for j in 0..n {
+                        let b = inv[j];
+                        for p in col_ptr[j]..col_ptr[j + 1] {
+                            if values[p] != 0.0 {
+                                ptr[b.max(inv[row_idx[p]]) + 1] += 1;
+                                nonzero += 1;
+                            }
+                        }
+                    }
+                    for c in 0..n {
+                        ptr[c + 1] += ptr[c];
+                    }
+                    let mut rows = sized(rows, nonzero, what)?;
+                    let mut vals = sized(vals, nonzero, what)?;
+                    // ptr[c] runs from the start of column c to its end.
+                    for j in 0..n {
+                        let b = inv[j];
+                        for p in col_ptr[j]..col_ptr[j + 1] {
+                            if values[p] != 0.0 {
+                                let a = inv[row_idx[p]];
+                                let c = a.max(b);
+                                let at = ptr[c];
+                                rows[at] = a.min(b);
+                                vals[at] = values[p];
+                                ptr[c] += 1;
+                            }
+                        }
+                    }
+                    for c in (1..=n).rev() {
+                        ptr[c] = ptr[c - 1];
+                    }
+                    ptr[0] = 0;
+                    (ptr, rows, vals)
+                }
             }
-            (ptr, rows, vals)
         };
         let mut op = Operator {
             solver,
@@ -195,7 +264,7 @@ impl<'a> Operator<'a> {
             reorthogonalisations: 0,
             solves: 0,
             seconds,
-            rows: zeroed(
+            rows: sized(
                 std::mem::take(&mut work.rows),
                 2 * BLOCK * n,
                 "the mass products' work buffer",
@@ -223,12 +292,13 @@ impl<'a> Operator<'a> {
         self.seconds.mass_products += t.elapsed().as_secs_f64();
     }
 
-    /// X ← (K − σM)⁻¹ X for the `columns` columns of X (M x already formed), in one pass.
-    fn solve(&mut self, x: &mut [f64], columns: usize) -> Result<(), Error> {
+    /// X ← (K − σM)⁻¹ B for the `columns` columns of B (`from`, or X itself; M x already
+    /// formed), in one pass, the vectors in the operator's order.
+    fn solve(&mut self, x: &mut [f64], from: Option<&[f64]>, columns: usize) -> Result<(), Error> {
         self.solves += columns;
         self.passes += 1;
         let (t, cpu) = (std::time::Instant::now(), crate::phases::thread_cpu());
-        let result = self.solver.linear.solve_block(x, columns);
+        let result = self.solver.linear.solve_block_ordered(x, from, columns);
         self.seconds.solves += t.elapsed().as_secs_f64();
         self.seconds.solves_cpu += crate::phases::thread_cpu() - cpu;
         result
@@ -290,19 +360,16 @@ fn symmetric_product_rows<const B: usize>(
 ) {
     let n = col_ptr.len() - 1;
     let (xr, yr) = rows[..2 * B * n].split_at_mut(B * n);
-    let (xr, _) = xr.as_chunks_mut::<B>();
-    let (yr, _) = yr.as_chunks_mut::<B>();
-    for (j, row) in xr.iter_mut().enumerate() {
-        for (c, v) in row.iter_mut().enumerate() {
-            *v = x[c * n + j];
-        }
-    }
-    yr.fill([0.0; B]);
     #[cfg(target_arch = "x86_64")]
     if B == 4 {
         if let Some(simd) = pulp::x86::V3::try_new() {
-            let xr: &[pulp::f64x4] = pulp::bytemuck::cast_slice(xr.as_flattened());
-            let yr: &mut [pulp::f64x4] = pulp::bytemuck::cast_slice_mut(yr.as_flattened_mut());
+            // X into rows and Y back in 4 × 4 tiles (`linear.rs`; the same values). (Both
+            // find AVX2, as `simd` did.)
+            let tiled = super::linear::rows_from_columns_x4(x, xr, n, None);
+            debug_assert!(tiled);
+            yr.fill(0.0);
+            let xr: &[pulp::f64x4] = pulp::bytemuck::cast_slice(&xr[..4 * n]);
+            let yr: &mut [pulp::f64x4] = pulp::bytemuck::cast_slice_mut(&mut yr[..4 * n]);
             pulp::Simd::vectorize(
                 simd,
                 ProductX4 {
@@ -314,15 +381,19 @@ fn symmetric_product_rows<const B: usize>(
                     y: yr,
                 },
             );
-            let yr: &[[f64; B]] = rows_of(&rows[B * n..2 * B * n]);
-            for (j, row) in yr.iter().enumerate() {
-                for (c, v) in row.iter().enumerate() {
-                    y[c * n + j] = *v;
-                }
-            }
+            let tiled = super::linear::columns_from_rows_x4(&rows[4 * n..8 * n], y, n, None);
+            debug_assert!(tiled);
             return;
         }
     }
+    let (xr, _) = xr.as_chunks_mut::<B>();
+    let (yr, _) = yr.as_chunks_mut::<B>();
+    for (j, row) in xr.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = x[c * n + j];
+        }
+    }
+    yr.fill([0.0; B]);
     for j in 0..n {
         let xj = xr[j];
         let mut sum = [0.0; B];
@@ -350,12 +421,6 @@ fn symmetric_product_rows<const B: usize>(
             y[c * n + j] = *v;
         }
     }
-}
-
-/// `values` as rows of B.
-#[cfg(target_arch = "x86_64")]
-fn rows_of<const B: usize>(values: &[f64]) -> &[[f64; B]] {
-    values.as_chunks::<B>().0
 }
 
 /// [`symmetric_product_rows`]'s sums for 4 columns, each row one register (compiled with
@@ -429,13 +494,17 @@ const RING: usize = 3;
 /// its coefficients as Qᵀ (M W).
 struct Basis {
     n: usize,
+    /// Vectors held (the first `count` columns of `q`; memory beyond them is kept from
+    /// earlier analyses and written before it is read).
+    count: usize,
     q: Vec<f64>,
     mq: Vec<f64>,
     /// Vectors per block at most (a slot of `mq`).
     width: usize,
     /// The first vector of every block; the last block is the open one.
     starts: Vec<usize>,
-    /// [`cholesky_qr_block`]'s work space (2 n p values, allocated on first use).
+    /// [`cholesky_qr_block`]'s work space (2 n p values, allocated on first use; in an
+    /// analysis, the M product's row buffer lent to it).
     work: Vec<f64>,
 }
 
@@ -458,6 +527,7 @@ impl Basis {
         };
         Ok(Basis {
             n,
+            count: 0,
             q,
             mq,
             width,
@@ -467,7 +537,23 @@ impl Basis {
     }
 
     fn len(&self) -> usize {
-        self.q.len() / self.n.max(1)
+        self.count
+    }
+
+    /// Room in `q` for `vectors` vectors (grown with zeros; never shrunk, so that a later
+    /// analysis writes into the memory an earlier one touched, without clearing it first).
+    fn room(&mut self, vectors: usize) -> Result<(), Error> {
+        let size = vectors * self.n;
+        if self.q.len() < size {
+            self.q
+                .try_reserve(size - self.q.len())
+                .map_err(|_| memory::OutOfMemory {
+                    what: "the Lanczos vectors",
+                    bytes: 8 * size as u64,
+                })?;
+            self.q.resize(size, 0.0);
+        }
+        Ok(())
     }
 
     fn q(&self, k: usize) -> &[f64] {
@@ -498,14 +584,12 @@ impl Basis {
     }
 
     fn push(&mut self, w: &[f64], mw: &[f64], size: f64) -> Result<(), Error> {
-        self.q
-            .try_reserve(self.n)
-            .map_err(|_| memory::OutOfMemory {
-                what: "the Lanczos vectors",
-                bytes: 8 * self.n as u64,
-            })?;
         let k = self.len();
-        self.q.extend(w.iter().map(|x| x / size));
+        self.room(k + 1)?;
+        for (y, x) in self.q[k * self.n..(k + 1) * self.n].iter_mut().zip(w) {
+            *y = x / size;
+        }
+        self.count = k + 1;
         let at = self.mq_at(k);
         for (y, x) in self.mq[at..at + self.n].iter_mut().zip(mw) {
             *y = x / size;
@@ -588,6 +672,9 @@ fn orthonormalise_block(
         first = None;
     }
     let (t, cpu) = (std::time::Instant::now(), crate::phases::thread_cpu());
+    // The M product's row buffer (2 n BLOCK values) is free meanwhile: it is the Cholesky
+    // QR's work space (2 n p values), so the solver keeps no buffer of its own for that.
+    std::mem::swap(&mut basis.work, &mut op.rows);
     let blocked = cholesky_qr_block(
         basis,
         w,
@@ -598,7 +685,9 @@ fn orthonormalise_block(
         scale,
         diagonal_of,
         first,
-    )?;
+    );
+    std::mem::swap(&mut basis.work, &mut op.rows);
+    let blocked = blocked?;
     if let Some(out) = blocked {
         if diagonal_of.is_some() {
             partial.accepted(columns, full);
@@ -1032,15 +1121,9 @@ fn cholesky_qr_rounds(
     };
     let inverse = upper_inverse(&r2, p);
     let old = basis.len();
-    basis
-        .q
-        .try_reserve(n * p)
-        .map_err(|_| memory::OutOfMemory {
-            what: "the Lanczos vectors",
-            bytes: 8 * (n * p) as u64,
-        })?;
-    basis.q.resize((old + p) * n, 0.0);
+    basis.room(old + p)?;
     times_inverse(&mut basis.q[old * n..], tw, &inverse, n, p);
+    basis.count = old + p;
     let at = basis.mq_at(old);
     times_inverse(&mut basis.mq[at..], tmw, &inverse, n, p);
     // R₂ R₁.
@@ -1108,26 +1191,29 @@ fn times_inverse(y: &mut [f64], x: &[f64], inverse: &[f64], n: usize, p: usize) 
     );
 }
 
-/// Block Lanczos on `op` (module docs): the converged Ritz pairs (θ descending, M-normalised
-/// vectors over the equations), at most `want` of them.
+/// Block Lanczos on `op` (module docs): the converged Ritz pairs, at most `want` of them: θ
+/// descending and the M-normalised vectors (n values each, one after the other, in the
+/// operator's order).
 /// The basis and the block's vectors live in `work` (kept between analyses).
-fn block_lanczos(
-    op: &mut Operator,
-    n: usize,
-    want: usize,
-    work: &mut Work,
-) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+fn block_lanczos(op: &mut Operator, n: usize, want: usize, work: &mut Work) -> Result<Ritz, Error> {
     let max_dim = (2 * want + EXTRA).min(n).max(1);
     let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
+    // The kept basis memory as it is (written before it is read), with room reserved.
+    let mut q = std::mem::take(&mut work.q);
+    q.try_reserve_exact((n * (max_dim + block)).saturating_sub(q.len()))
+        .map_err(|_| memory::OutOfMemory {
+            what,
+            bytes: (8 * n * (max_dim + block)) as u64,
+        })?;
     let mut basis = Basis::new(
         n,
         block,
-        reserved(std::mem::take(&mut work.q), n * (max_dim + block), what)?,
+        q,
         std::mem::take(&mut work.mq),
         std::mem::take(&mut work.qr),
     )?;
-    let mut vectors = zeroed(std::mem::take(&mut work.block), 3 * n * block, what)?;
+    let mut vectors = sized(std::mem::take(&mut work.block), 2 * n * block, what)?;
     let result = lanczos_iterate(op, n, want, max_dim, &mut basis, &mut vectors);
     work.q = basis.q;
     work.mq = basis.mq;
@@ -1136,8 +1222,8 @@ fn block_lanczos(
     result
 }
 
-/// [`block_lanczos`]'s iteration, with the basis (empty) and the block's vectors (W, M W
-/// and R, n × BLOCK each) given.
+/// [`block_lanczos`]'s iteration, with the basis (empty) and the block's vectors (W and M W,
+/// n × BLOCK each; M W first holds the start block R) given.
 fn lanczos_iterate(
     op: &mut Operator,
     n: usize,
@@ -1145,19 +1231,25 @@ fn lanczos_iterate(
     max_dim: usize,
     basis: &mut Basis,
     vectors: &mut [f64],
-) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+) -> Result<Ritz, Error> {
     let block = BLOCK.min(n);
-    let (w, rest) = vectors.split_at_mut(n * block);
-    let (mw, r) = rest.split_at_mut(n * block);
+    let (w, mw) = vectors.split_at_mut(n * block);
     // H's columns (h[k][i] = (M qᵢ)ᵀ A q_k).
     let mut h: Vec<Vec<f64>> = Vec::new();
     // The first block: A R, M-orthonormalised (A R lies in the range of A: no component along
-    // the massless directions' infinite frequencies).
+    // the massless directions' infinite frequencies). R is held in M W's place until M W is
+    // formed, in the operator's order.
+    let order = op.solver.linear.block_order().map(|(fwd, _)| fwd);
     for seed in 0..block {
-        r[seed * n..(seed + 1) * n].copy_from_slice(&start_vector(n, seed as u64));
+        let v = start_vector(n, seed as u64);
+        let r = &mut mw[seed * n..(seed + 1) * n];
+        match order {
+            Some(fwd) => r.iter_mut().zip(fwd).for_each(|(x, &e)| *x = v[e]),
+            None => r.copy_from_slice(&v),
+        }
     }
-    op.mass(r, w, block);
-    op.solve(w, block)?;
+    op.mass(mw, w, block);
+    op.solve(w, None, block)?;
     let mut scale = 0.0f64;
     let mut partial = Partial::new(block);
     orthonormalise_block(op, basis, w, mw, block, &mut scale, None, &h, &mut partial)?;
@@ -1169,8 +1261,11 @@ fn lanczos_iterate(
             return ritz_pairs(op, basis, &h, end, want, None);
         }
         let columns = end - start;
-        w[..n * columns].copy_from_slice(basis.mq_block(start, end));
-        op.solve(&mut w[..n * columns], columns)?;
+        op.solve(
+            &mut w[..n * columns],
+            Some(basis.mq_block(start, end)),
+            columns,
+        )?;
         let new = orthonormalise_block(
             op,
             basis,
@@ -1222,6 +1317,11 @@ fn lanczos_iterate(
     }
 }
 
+/// Converged Ritz pairs: θ descending, and the M-normalised vectors (n values each, one after
+/// the other, in the operator's order) in `vectors`, or None: in the kept M Q memory
+/// (`Work::mq`), where they are formed when they fit (no fresh memory per analysis).
+type Ritz = (Vec<f64>, Option<Vec<f64>>);
+
 /// Eigenpairs of the leading `m` × `m` block of H (columns `h`, symmetrised).
 fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64>) {
     let at = |i: usize, k: usize| h[k].get(i).copied().unwrap_or(0.0);
@@ -1231,19 +1331,20 @@ fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64
 }
 
 /// The Ritz pairs (θ, Q s) of the leading `m` vectors: those of `keep` (indices into the
-/// eigenpairs of H), or the largest `want`; the vectors as one product Q S.
+/// eigenpairs of H), or the largest `want`; the vectors as one product Q S (n values each,
+/// one after the other).
 fn ritz_pairs(
     op: &mut Operator,
-    basis: &Basis,
+    basis: &mut Basis,
     h: &[Vec<f64>],
     m: usize,
     want: usize,
     keep: Option<&[usize]>,
-) -> Result<Vec<(f64, Vec<f64>)>, Error> {
+) -> Result<Ritz, Error> {
     let t = std::time::Instant::now();
     let m = m.min(h.len());
     if m == 0 {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), Some(Vec::new())));
     }
     let (theta, s) = projected_eigen(h, m);
     let chosen: Vec<usize> = match keep {
@@ -1263,24 +1364,32 @@ fn ritz_pairs(
             coefficients[j * m + i] = s[(i, k)];
         }
     }
-    let mut y = memory::zeros(n * count, "the mode shapes")?;
+    // M Q of the last blocks is no longer needed: the vectors go there when they fit.
+    let fits = basis.mq.len() >= n * count;
+    let mut fresh = if fits {
+        Vec::new()
+    } else {
+        memory::zeros(n * count, "the mode shapes")?
+    };
+    let y = if fits {
+        &mut basis.mq[..n * count]
+    } else {
+        &mut fresh[..]
+    };
     let q = MatRef::from_column_major_slice(&basis.q[..n * m], n, m);
     let c = MatRef::from_column_major_slice(&coefficients, m, count);
     matmul(
-        MatMut::from_column_major_slice_mut(&mut y, n, count),
+        MatMut::from_column_major_slice_mut(y, n, count),
         Accum::Replace,
         q,
         c,
         1.0,
         Par::Seq,
     );
-    let out = chosen
-        .iter()
-        .zip(y.chunks(n.max(1)))
-        .map(|(&k, v)| (theta[k], v.to_vec()))
-        .collect();
+    let y = (!fits).then_some(fresh);
+    let thetas = chosen.iter().map(|&k| theta[k]).collect();
     op.seconds.ritz += t.elapsed().as_secs_f64();
-    Ok(out)
+    Ok((thetas, y))
 }
 
 impl Solver {
@@ -1360,7 +1469,14 @@ impl Solver {
             reorthogonalisations,
             seconds,
         };
-        for (theta, y) in found {
+        // The vectors are in the operator's order: equation e at position inv[e].
+        let (thetas, vectors) = found;
+        let vectors: &[f64] = match &vectors {
+            Some(v) => v,
+            None => &self.modes_work.mq,
+        };
+        let inv = self.linear.block_order().map(|(_, inv)| inv);
+        for (&theta, y) in thetas.iter().zip(vectors.chunks(n.max(1))) {
             let lambda = shift + 1.0 / theta;
             modes.eigenvalues.push(lambda);
             let f = lambda.abs().sqrt() / (2.0 * std::f64::consts::PI);
@@ -1368,7 +1484,7 @@ impl Solver {
             let mut shape = vec![0.0; model.dof_count()];
             for (d, &e) in eq.iter().enumerate() {
                 if e != NONE {
-                    shape[d] = y[e];
+                    shape[d] = y[inv.map_or(e, |inv| inv[e])];
                 }
             }
             modes.shapes.push(shape);
