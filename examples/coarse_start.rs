@@ -51,24 +51,6 @@ fn disc(rings: usize) -> Scene {
     scene
 }
 
-/// The scene with its generated mesh written out as explicit nodes, triangles and sets (a
-/// user's own mesher's): its coarse meshes are then made by edge collapses.
-fn written_out(mut scene: Scene) -> Scene {
-    let mesh = velarium::scene::generate::resolve(&scene.geometry);
-    scene.geometry = velarium::scene::Geometry {
-        nodes: mesh.nodes,
-        triangles: mesh
-            .triangles
-            .iter()
-            .map(|t| t.map(velarium::scene::OneNode::Id))
-            .collect(),
-        node_sets: mesh.node_sets,
-        triangle_sets: mesh.triangle_sets,
-        generators: Vec::new(),
-    };
-    scene
-}
-
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let value = |flag: &str| {
@@ -125,7 +107,8 @@ fn main() {
                         square(n)
                     };
                     if explicit {
-                        scene = written_out(scene);
+                        scene.geometry = velarium::scene::generate::written_out(&scene.geometry)
+                            .expect("the mesh written out");
                     }
                     scene.solver.coarse_start = setting;
                     scene.solver.threads = threads;

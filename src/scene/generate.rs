@@ -160,6 +160,21 @@ pub fn try_resolve(geometry: &Geometry) -> Result<Mesh, OutOfMemory> {
     Ok(mesh)
 }
 
+/// The geometry with every generator's mesh written out as explicit nodes, triangles and sets
+/// (what a user's own mesher gives): the same nodes, triangles and sets with the same ids, and
+/// no generators. The coarse start makes an explicit mesh's coarser meshes by edge
+/// collapses, a generated one's by halving its divisions (`scene::coarsen`).
+pub fn written_out(geometry: &Geometry) -> Result<Geometry, OutOfMemory> {
+    let mesh = try_resolve(geometry)?;
+    Ok(Geometry {
+        nodes: mesh.nodes,
+        triangles: mesh.triangles.iter().map(|t| t.map(OneNode::Id)).collect(),
+        node_sets: mesh.node_sets,
+        triangle_sets: mesh.triangle_sets,
+        generators: Vec::new(),
+    })
+}
+
 /// The global id of a triangle corner: an id, or the one node of a set (usize::MAX when the
 /// set does not exist or has not exactly one node; validation reports it).
 pub fn node_id(mesh: &Mesh, r: &OneNode) -> usize {
@@ -368,6 +383,39 @@ fn annulus(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A mesh written out (explicit nodes and a disc generator after them, and a rectangle)
+    /// resolves to the same nodes, triangles and sets, ids included, with no generators.
+    #[test]
+    fn a_mesh_written_out_resolves_to_itself() {
+        let geometry: Geometry = serde_json::from_value(serde_json::json!({
+            "nodes": [[9.0, 9.0, 1.0]],
+            "triangles": [[0, "d.center", "r.corner_tr"]],
+            "node_sets": {"extra": [0]},
+            "generators": [
+                {"kind": "disc", "name": "d", "center": [0, 0, 0], "radius": 1, "rings": 3},
+                {"kind": "rectangle", "name": "r", "origin": [2, 0, 0], "size": [1, 2], "divisions": [2, 3]}]
+        }))
+        .expect("geometry");
+        let (mesh, out) = (
+            resolve(&geometry),
+            written_out(&geometry).expect("written out"),
+        );
+        assert!(out.generators.is_empty());
+        let again = resolve(&out);
+        assert_eq!(again.nodes, mesh.nodes);
+        assert_eq!(again.triangles, mesh.triangles);
+        assert_eq!(again.node_sets, mesh.node_sets);
+        assert_eq!(again.triangle_sets, mesh.triangle_sets);
+        assert_eq!(
+            mesh.triangles[0],
+            [
+                0,
+                mesh.node_sets["d.center"][0],
+                mesh.node_sets["r.corner_tr"][0]
+            ]
+        );
+    }
 
     fn area(m: &Mesh) -> f64 {
         m.triangles

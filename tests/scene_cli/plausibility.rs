@@ -254,18 +254,8 @@ fn check_names_the_coarse_start_of_a_large_explicit_mesh() {
     if let velarium::scene::Generator::Disc { rings, .. } = &mut scene.geometry.generators[0] {
         *rings = 64;
     }
-    let mesh = velarium::scene::generate::resolve(&scene.geometry);
-    scene.geometry = velarium::scene::Geometry {
-        nodes: mesh.nodes,
-        triangles: mesh
-            .triangles
-            .iter()
-            .map(|t| t.map(velarium::scene::OneNode::Id))
-            .collect(),
-        node_sets: mesh.node_sets,
-        triangle_sets: mesh.triangle_sets,
-        generators: Vec::new(),
-    };
+    scene.geometry =
+        velarium::scene::generate::written_out(&scene.geometry).expect("the mesh written out");
     let found = lines(&scene, "hencky_64_explicit.json");
     assert!(
         found.len() == 1 && found[0].contains("an explicit one with edges collapsed"),

@@ -159,18 +159,8 @@ fn no_coarse_start_from_a_deformed_state_or_with_sleeves() {
 /// The same scene with its generated mesh written out as explicit nodes, triangles and sets
 /// (what a user's own mesher gives).
 fn explicit(mut scene: velarium::Scene) -> velarium::Scene {
-    let mesh = velarium::scene::generate::resolve(&scene.geometry);
-    scene.geometry = velarium::scene::Geometry {
-        nodes: mesh.nodes,
-        triangles: mesh
-            .triangles
-            .iter()
-            .map(|t| t.map(velarium::scene::OneNode::Id))
-            .collect(),
-        node_sets: mesh.node_sets,
-        triangle_sets: mesh.triangle_sets,
-        generators: Vec::new(),
-    };
+    scene.geometry =
+        velarium::scene::generate::written_out(&scene.geometry).expect("the mesh written out");
     scene
 }
 
