@@ -5,6 +5,11 @@
 //! never calls the structure a mechanism.
 //!
 //! ```text
+//! 0 squeezed  the triangle with the smallest signed area ratio at the last converged point,
+//!             named when below 3/4 of its reference area (a fact, not a diagnosis: a
+//!             tension-only film does not resist being gathered, and a gathering that goes
+//!             on ends in a collapsed triangle, which no answer may have; the drawstrings of
+//!             docs/robustness.md stop so)
 //! 1 rigid     parts (every element joins its nodes: triangles, cable segments, sleeve ties)
 //!             at their current positions x (the last converged point), rigid modes
 //!             v(x) = t + ω × (x − c): 6 columns per node, [I, −[(x − c)/L]×] (L: part size)
@@ -55,6 +60,10 @@ use super::core::Solver;
 use crate::model::{ElementKind, LoadModel, Model};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, SMatrix, Vector3};
 use std::collections::{BTreeMap, BTreeSet};
+
+/// Share of its reference area below which a triangle at the last converged point of a failed
+/// step is named (module docs, 0).
+const SQUEEZED: f64 = 0.75;
 
 /// Longest list of node ids a message names.
 const NAMED_NODES: usize = 12;
@@ -659,6 +668,32 @@ fn correct(
     Err(nearest)
 }
 
+/// The most squeezed membrane triangle at `u` (module docs, 0), as a clause of a failed
+/// step's message, or nothing when every triangle keeps at least [`SQUEEZED`] of its area.
+fn squeezed(model: &Model, u: &[f64], lambda: f64) -> String {
+    let Some((t, ratio)) = model
+        .triangles
+        .iter()
+        .map(|t| {
+            let x = t.nodes.map(|n| model.position(u, n));
+            (
+                t,
+                crate::model::membrane::signed_area_ratio(&t.reference, &x),
+            )
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+    else {
+        return String::new();
+    };
+    if !(ratio < SQUEEZED) {
+        return String::new();
+    }
+    format!(
+        "; at the last converged point (load fraction {lambda:.6}) triangle {} (nodes {}, {}, {}) is squeezed to {ratio:.2} of its reference area: a tension-only film does not resist being gathered, and a gathering that goes on collapses that triangle, which no answer may have (a finer mesh where the film gathers, or membranes[].residual_stiffness, gives it something to resist with)",
+        t.id, t.nodes[0], t.nodes[1], t.nodes[2]
+    )
+}
+
 impl Solver {
     /// What is known about the structure where the increment to `loads` failed from the
     /// converged point `u` at load fraction `lambda` (module docs): "; the structure is a
@@ -673,15 +708,16 @@ impl Solver {
         loads: &[f64],
         lambda: f64,
     ) -> String {
+        let squeezed = squeezed(model, u, lambda);
         let f = external_forces_at(model, u, loads);
         if let Some(why) = diagnose(model, u, &f) {
             return format!("; {why}");
         }
         let Some((v, ratio)) = self.soft_motion(model, u, loads) else {
-            return String::new();
+            return squeezed;
         };
         if !(ratio < NEAR_SINGULAR) {
-            return String::new();
+            return squeezed;
         }
         // The nodes v moves most, named in id order.
         let size = |i: &usize| Vector3::new(v[3 * i], v[3 * i + 1], v[3 * i + 2]).norm();
@@ -749,7 +785,7 @@ impl Solver {
             }
             Finite::NotChecked(why) => format!("; whether it extends to a finite motion was not checked ({why})"),
         };
-        format!("{head}{tail}")
+        format!("{head}{tail}{squeezed}")
     }
 
     /// The motion along which the physical tangent at `u` under `loads` is softest in the

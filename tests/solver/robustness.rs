@@ -197,3 +197,41 @@ fn tents_under_a_forced_coarse_start_come_back_right() {
     assert_eq!(runs.len(), 16, "eight tents, loaded and unloaded");
     assert_all_right(&runs);
 }
+
+/// What a failed step says of a film being gathered (src/solver/mechanism.rs, module docs, 0):
+/// the three drawstrings of the corpus that fail loaded (friction 0.22, 0.33, 0.45) stop where
+/// the sleeved edge's corner triangle is squeezed to 0.59-0.67 of its reference area. On load
+/// rows of 1 % (2026-11-29, `velarium solve` of the dumped members) the same triangle falls on
+/// (0.64, 0.44, 0.18 at 40, 44 and 47.5 % of the load for friction 0.22; 0.37 at 45 % for
+/// 0.45; 0.48 at 54 % for 0.33) until the path stops: a tension-only film does not resist the
+/// gathering, so the load cannot be carried without a collapsed triangle. The hypar that fails
+/// loaded (corner lowered 0.34 m) has no such triangle and gets no such clause.
+/// REQUIRED: each drawstring's loaded row an honest failure whose message names a triangle
+/// squeezed below 3/4 of its area; the hypar's message without that clause.
+#[test]
+fn a_failed_step_names_the_triangle_a_gathering_squeezes() {
+    let runs = run_all(|m| {
+        (m.family == "drawstring"
+            && (m.label.contains(" mu=0.22 ") || m.label.contains(" mu=0.33 ")))
+            || (m.family == "hypar" && m.label.contains(" drop=0.34 "))
+    });
+    let loaded: Vec<&corpus::Run> = runs.iter().filter(|r| r.row == "loaded").collect();
+    assert_eq!(loaded.len(), 3, "two drawstrings and a hypar");
+    for r in loaded {
+        let Verdict::Honest(message) = &r.verdict else {
+            panic!("{} [{}]: {}", r.family, r.member, corpus::short(&r.verdict));
+        };
+        let ratio = message
+            .split("is squeezed to ")
+            .nth(1)
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|v| v.parse::<f64>().ok());
+        if r.family == "drawstring" {
+            let ratio = ratio
+                .unwrap_or_else(|| panic!("[{}] names no squeezed triangle: {message}", r.member));
+            assert!(ratio < 0.75, "[{}] squeezed to {ratio}", r.member);
+        } else {
+            assert!(ratio.is_none(), "[{}]: {message}", r.member);
+        }
+    }
+}
