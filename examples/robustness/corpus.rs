@@ -2005,7 +2005,7 @@ pub fn table(runs: &[Run]) -> String {
     for r in runs {
         if let Verdict::Honest(m) = &r.verdict {
             let e = kinds
-                .entry((r.family, summary(m)))
+                .entry((r.family, format!("{}{}", summary(m), known_of(m))))
                 .or_insert((0, f64::INFINITY, 0.0));
             e.0 += 1;
             if let Some(q) = last_residual(m) {
@@ -2014,7 +2014,7 @@ pub fn table(runs: &[Run]) -> String {
         }
     }
     if !kinds.is_empty() {
-        out += "\nhonest failures, by message (numbers as #; the last iterate's |R|/scale):\n";
+        out += "\nhonest failures, by message (numbers as #; what the message knows of the structure; the last iterate's |R|/scale):\n";
         for ((family, kind), (count, lo, hi)) in kinds {
             let range = if hi > 0.0 {
                 format!(" [{lo:.0e} to {hi:.0e}]")
@@ -2061,6 +2061,25 @@ pub fn table(runs: &[Run]) -> String {
 
 /// A failure message with its numbers replaced by `#`, the words around its reason dropped
 /// and cut to a line, for grouping.
+/// What a failure's message says it knows of the structure (src/solver/mechanism.rs), as
+/// " (knows: …)", or nothing: the failures' summary lines are cut before those clauses.
+pub fn known_of(message: &str) -> String {
+    let known: Vec<&str> = [
+        ("the structure is a mechanism", "a verified mechanism"),
+        ("is near-singular", "a near-singular tangent"),
+        ("is squeezed to", "a squeezed triangle"),
+    ]
+    .into_iter()
+    .filter(|(clause, _)| message.contains(clause))
+    .map(|(_, name)| name)
+    .collect();
+    if known.is_empty() {
+        String::new()
+    } else {
+        format!(" (knows: {})", known.join(", "))
+    }
+}
+
 pub fn summary(message: &str) -> String {
     let mut out = String::new();
     let mut in_number = false;
