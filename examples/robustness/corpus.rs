@@ -2059,8 +2059,6 @@ pub fn table(runs: &[Run]) -> String {
     out
 }
 
-/// A failure message with its numbers replaced by `#`, the words around its reason dropped
-/// and cut to a line, for grouping.
 /// What a failure's message says it knows of the structure (src/solver/mechanism.rs), as
 /// " (knows: …)", or nothing: the failures' summary lines are cut before those clauses.
 pub fn known_of(message: &str) -> String {
@@ -2080,6 +2078,8 @@ pub fn known_of(message: &str) -> String {
     }
 }
 
+/// A failure message with its numbers replaced by `#`, the words around its reason dropped
+/// and cut to a line, for grouping.
 pub fn summary(message: &str) -> String {
     let mut out = String::new();
     let mut in_number = false;
