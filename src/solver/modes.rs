@@ -764,7 +764,7 @@ fn gram_schmidt_pass(
         Some(mw) => {
             let mwm = MatRef::from_column_major_slice(mw, n, columns);
             let cm = MatMut::from_column_major_slice_mut(&mut c[..k * columns], k, columns);
-            matmul(cm, Accum::Replace, q.transpose(), mwm, 1.0, Par::Seq);
+            product(cm, Accum::Replace, q.transpose(), mwm, 1.0);
         }
         None => {
             // Block by block (M Q is held per block).
@@ -777,7 +777,7 @@ fn gram_schmidt_pass(
                 let mq = MatRef::from_column_major_slice(basis.mq_block(s, e), n, rows);
                 let pm =
                     MatMut::from_column_major_slice_mut(&mut part[..rows * columns], rows, columns);
-                matmul(pm, Accum::Replace, mq.transpose(), wm, 1.0, Par::Seq);
+                product(pm, Accum::Replace, mq.transpose(), wm, 1.0);
                 for col in 0..columns {
                     for i in 0..rows {
                         c[col * k + s - from + i] = part[col * rows + i];
@@ -789,7 +789,7 @@ fn gram_schmidt_pass(
     }
     let cm = MatRef::from_column_major_slice(&c[..k * columns], k, columns);
     let wm = MatMut::from_column_major_slice_mut(w, n, columns);
-    matmul(wm, Accum::Add, q, cm, -1.0, Par::Seq);
+    product(wm, Accum::Add, q, cm, -1.0);
     for col in 0..columns {
         for i in 0..k {
             total[col * old + from + i] += c[col * k + i];
@@ -1140,13 +1140,12 @@ fn cholesky_qr_rounds(
 /// when a pivot is not positive and finite.
 fn gram_cholesky(x: &[f64], mx: &[f64], n: usize, p: usize) -> Option<Vec<f64>> {
     let mut g = vec![0.0; p * p];
-    matmul(
+    product(
         MatMut::from_column_major_slice_mut(&mut g, p, p),
         Accum::Replace,
         MatRef::from_column_major_slice(&mx[..n * p], n, p).transpose(),
         MatRef::from_column_major_slice(&x[..n * p], n, p),
         1.0,
-        Par::Seq,
     );
     let mut r = vec![0.0; p * p];
     for j in 0..p {
@@ -1179,15 +1178,34 @@ fn upper_inverse(r: &[f64], p: usize) -> Vec<f64> {
     inverse
 }
 
+/// C ← α A B, or C + α A B with `Accum::Add` (faer's product on one thread), then the vector
+/// registers' upper halves cleared ([`clear_upper_halves`]).
+fn product(c: MatMut<f64>, accumulate: Accum, a: MatRef<f64>, b: MatRef<f64>, alpha: f64) {
+    matmul(c, accumulate, a, b, alpha, Par::Seq);
+    clear_upper_halves();
+}
+
+/// VZEROUPPER. faer's products run AVX-512 kernels written in assembly (private-gemm-x86)
+/// that return with the vector registers' upper halves in use. Code compiled without AVX that
+/// runs after that (nalgebra's eigensolver here, the element routines of the next assembly)
+/// then ran about twice as slow on the development machine: the true tangent's assembly took
+/// 45 ms instead of 23 ms in every analysis after the first (docs/dynamics.md, thirteenth
+/// session).
+fn clear_upper_halves() {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(simd) = pulp::x86::V3::try_new() {
+        simd.avx._mm256_zeroupper();
+    }
+}
+
 /// Y = X R⁻¹ (n × p, column-major) as one matrix product.
 fn times_inverse(y: &mut [f64], x: &[f64], inverse: &[f64], n: usize, p: usize) {
-    matmul(
+    product(
         MatMut::from_column_major_slice_mut(&mut y[..n * p], n, p),
         Accum::Replace,
         MatRef::from_column_major_slice(&x[..n * p], n, p),
         MatRef::from_column_major_slice(inverse, p, p),
         1.0,
-        Par::Seq,
     );
 }
 
@@ -1378,13 +1396,12 @@ fn ritz_pairs(
     };
     let q = MatRef::from_column_major_slice(&basis.q[..n * m], n, m);
     let c = MatRef::from_column_major_slice(&coefficients, m, count);
-    matmul(
+    product(
         MatMut::from_column_major_slice_mut(y, n, count),
         Accum::Replace,
         q,
         c,
         1.0,
-        Par::Seq,
     );
     let y = (!fits).then_some(fresh);
     let thetas = chosen.iter().map(|&k| theta[k]).collect();
