@@ -139,29 +139,25 @@ fn reserved<T>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Er
     Ok(v)
 }
 
-/// `v` as `n` zeros (its kept memory reused).
-fn zeroed_index(v: Vec<usize>, n: usize, what: &'static str) -> Result<Vec<usize>, Error> {
-    let mut v = reserved(v, n, what)?;
-    v.resize(n, 0);
+/// `v` as `n` zeros: its kept memory reused, or fresh memory when it must grow
+/// (`memory::lazy_zeros`: pages the system zeroes at their first write, no pass over them
+/// here; a first analysis's buffers are all fresh).
+fn zeroed<T: Copy + Default>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Error> {
+    if v.capacity() < n {
+        return Ok(memory::lazy_zeros(n, what)?);
+    }
+    v.clear();
+    v.resize(n, T::default());
     Ok(v)
 }
 
-/// `v` as `n` zeros (its kept memory reused).
-fn zeroed(v: Vec<f64>, n: usize, what: &'static str) -> Result<Vec<f64>, Error> {
-    let mut v = reserved(v, n, what)?;
-    v.resize(n, 0.0);
-    Ok(v)
-}
-
-/// `v` as `n` values, its kept contents left as they are (only a new tail is zeroed): for
-/// buffers that are written before they are read.
+/// `v` as `n` values, its kept contents left as they are: for buffers that are written before
+/// they are read (fresh memory when it must grow, as [`zeroed`]).
 fn sized<T: Copy + Default>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Error> {
+    if v.capacity() < n {
+        return Ok(memory::lazy_zeros(n, what)?);
+    }
     v.truncate(n);
-    v.try_reserve_exact(n - v.len())
-        .map_err(|_| memory::OutOfMemory {
-            what,
-            bytes: (n * std::mem::size_of::<T>()) as u64,
-        })?;
     v.resize(n, T::default());
     Ok(v)
 }
@@ -219,7 +215,7 @@ impl<'a> Operator<'a> {
                 // The upper triangle of P M Pᵀ (entry (i, j) of M at (inv i, inv j), taken
                 // to the upper triangle): counted per column, then placed.
                 Some((_, inv)) => {
-                    let mut ptr = zeroed_index(ptr, n + 1, what)?;
+                    let mut ptr = zeroed(ptr, n + 1, what)?;
                     let mut nonzero = 0;
                     for j in 0..n {
                         let b = inv[j];
@@ -541,7 +537,8 @@ impl Basis {
     }
 
     /// Room in `q` for `vectors` vectors (grown with zeros; never shrunk, so that a later
-    /// analysis writes into the memory an earlier one touched, without clearing it first).
+    /// analysis writes into the memory an earlier one touched, without clearing it first;
+    /// [`block_lanczos`] gives it room for the whole basis at once).
     fn room(&mut self, vectors: usize) -> Result<(), Error> {
         let size = vectors * self.n;
         if self.q.len() < size {
@@ -1217,13 +1214,12 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize, work: &mut Work) -> R
     let max_dim = (2 * want + EXTRA).min(n).max(1);
     let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
-    // The kept basis memory as it is (written before it is read), with room reserved.
+    // The kept basis memory as it is (written before it is read), or fresh memory for the
+    // whole basis at once (its pages zeroed by the system as the blocks are first written).
     let mut q = std::mem::take(&mut work.q);
-    q.try_reserve_exact((n * (max_dim + block)).saturating_sub(q.len()))
-        .map_err(|_| memory::OutOfMemory {
-            what,
-            bytes: (8 * n * (max_dim + block)) as u64,
-        })?;
+    if q.len() < n * (max_dim + block) {
+        q = memory::lazy_zeros(n * (max_dim + block), what)?;
+    }
     let mut basis = Basis::new(
         n,
         block,
@@ -1455,7 +1451,10 @@ impl Solver {
         let shift = -SHIFT * largest.max(f64::MIN_POSITIVE);
         mass.add_to(-shift, self.linear.values_mut());
         let cpu_factor = crate::phases::thread_cpu();
-        self.linear.factor()?;
+        let factorization = self.linear.factor();
+        // (Its dense kernels leave the vector registers' upper halves in use.)
+        clear_upper_halves();
+        factorization?;
         let factor_cpu = crate::phases::thread_cpu() - cpu_factor;
         let factored = started.elapsed().as_secs_f64();
         let mut work = std::mem::take(&mut self.modes_work);
