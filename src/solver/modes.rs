@@ -1324,7 +1324,7 @@ fn lanczos_iterate(
                 .copied()
                 .filter(|&k| invariant || residual(k) <= TOLERANCE * largest)
                 .collect();
-            return ritz_pairs(op, basis, &h, end, want, Some(&keep));
+            return ritz_pairs(op, basis, &h, end, want, Some((&keep, (theta, s))));
         }
         previous = start;
         start = end;
@@ -1344,30 +1344,31 @@ fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64
     (e.eigenvalues.iter().copied().collect(), e.eigenvectors)
 }
 
-/// The Ritz pairs (θ, Q s) of the leading `m` vectors: those of `keep` (indices into the
-/// eigenpairs of H), or the largest `want`; the vectors as one product Q S (n values each,
-/// one after the other).
+/// The Ritz pairs (θ, Q s) of the leading `m` vectors: `known`, the eigenpairs of H's
+/// leading m × m block as the convergence test has them and those of them to keep (indices),
+/// or, when None, the largest `want` of H's eigenpairs; the vectors as one product Q S (n
+/// values each, one after the other).
 fn ritz_pairs(
     op: &mut Operator,
     basis: &mut Basis,
     h: &[Vec<f64>],
     m: usize,
     want: usize,
-    keep: Option<&[usize]>,
+    known: Option<(&[usize], (Vec<f64>, nalgebra::DMatrix<f64>))>,
 ) -> Result<Ritz, Error> {
     let t = std::time::Instant::now();
     let m = m.min(h.len());
     if m == 0 {
         return Ok((Vec::new(), Some(Vec::new())));
     }
-    let (theta, s) = projected_eigen(h, m);
-    let chosen: Vec<usize> = match keep {
-        Some(k) => k.to_vec(),
+    let (chosen, (theta, s)) = match known {
+        Some((keep, eigen)) => (keep.to_vec(), eigen),
         None => {
+            let (theta, s) = projected_eigen(h, m);
             let mut order: Vec<usize> = (0..m).collect();
             order.sort_by(|&x, &y| theta[y].total_cmp(&theta[x]));
             order.truncate(want);
-            order
+            (order, (theta, s))
         }
     };
     let n = basis.n;
