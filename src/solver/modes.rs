@@ -1336,8 +1336,11 @@ fn lanczos_iterate(
 /// (`Work::mq`), where they are formed when they fit (no fresh memory per analysis).
 type Ritz = (Vec<f64>, Option<Vec<f64>>);
 
+/// Eigenvalues θ and eigenvectors (columns) of a block of H.
+type Eigen = (Vec<f64>, nalgebra::DMatrix<f64>);
+
 /// Eigenpairs of the leading `m` × `m` block of H (columns `h`, symmetrised).
-fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64>) {
+fn projected_eigen(h: &[Vec<f64>], m: usize) -> Eigen {
     let at = |i: usize, k: usize| h[k].get(i).copied().unwrap_or(0.0);
     let t = nalgebra::DMatrix::from_fn(m, m, |i, k| 0.5 * (at(i, k) + at(k, i)));
     let e = nalgebra::SymmetricEigen::new(t);
@@ -1354,7 +1357,7 @@ fn ritz_pairs(
     h: &[Vec<f64>],
     m: usize,
     want: usize,
-    known: Option<(&[usize], (Vec<f64>, nalgebra::DMatrix<f64>))>,
+    known: Option<(&[usize], Eigen)>,
 ) -> Result<Ritz, Error> {
     let t = std::time::Instant::now();
     let m = m.min(h.len());
