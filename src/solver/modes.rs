@@ -1438,6 +1438,9 @@ impl Solver {
         let n = self.pattern.n;
         let started = std::time::Instant::now();
         let cpu_started = crate::phases::thread_cpu();
+        // (Whatever ran before, a faer product of the statics say, may have left the vector
+        // registers' upper halves in use; the element routines are compiled without AVX.)
+        clear_upper_halves();
         // The true tangent (as `factor_tangent`): states frozen, no artificial prestress.
         self.assemble_true_tangent(model, u, loads, wrinkle);
         self.remove_regularisation(model, u, wrinkle);
