@@ -889,7 +889,7 @@ impl Ldlt {
             .unwrap_or(0);
         let room = (n + longest) * width;
         if self.rows.len() < room {
-            self.rows = memory::zeros(room, "the block solve's workspace")?;
+            self.rows = memory::lazy_zeros(room, "the block solve's workspace")?;
         }
         let supernodal = supernodal_factor(&self.split, &self.symbolic, self.single)
             .expect("the whole tangent's supernodal factorization");

@@ -139,29 +139,25 @@ fn reserved<T>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Er
     Ok(v)
 }
 
-/// `v` as `n` zeros (its kept memory reused).
-fn zeroed_index(v: Vec<usize>, n: usize, what: &'static str) -> Result<Vec<usize>, Error> {
-    let mut v = reserved(v, n, what)?;
-    v.resize(n, 0);
+/// `v` as `n` zeros: its kept memory reused, or fresh memory when it must grow
+/// (`memory::lazy_zeros`: pages the system zeroes at their first write, no pass over them
+/// here; a first analysis's buffers are all fresh).
+fn zeroed<T: Copy + Default>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Error> {
+    if v.capacity() < n {
+        return Ok(memory::lazy_zeros(n, what)?);
+    }
+    v.clear();
+    v.resize(n, T::default());
     Ok(v)
 }
 
-/// `v` as `n` zeros (its kept memory reused).
-fn zeroed(v: Vec<f64>, n: usize, what: &'static str) -> Result<Vec<f64>, Error> {
-    let mut v = reserved(v, n, what)?;
-    v.resize(n, 0.0);
-    Ok(v)
-}
-
-/// `v` as `n` values, its kept contents left as they are (only a new tail is zeroed): for
-/// buffers that are written before they are read.
+/// `v` as `n` values, its kept contents left as they are: for buffers that are written before
+/// they are read (fresh memory when it must grow, as [`zeroed`]).
 fn sized<T: Copy + Default>(mut v: Vec<T>, n: usize, what: &'static str) -> Result<Vec<T>, Error> {
+    if v.capacity() < n {
+        return Ok(memory::lazy_zeros(n, what)?);
+    }
     v.truncate(n);
-    v.try_reserve_exact(n - v.len())
-        .map_err(|_| memory::OutOfMemory {
-            what,
-            bytes: (n * std::mem::size_of::<T>()) as u64,
-        })?;
     v.resize(n, T::default());
     Ok(v)
 }
@@ -219,7 +215,7 @@ impl<'a> Operator<'a> {
                 // The upper triangle of P M Pᵀ (entry (i, j) of M at (inv i, inv j), taken
                 // to the upper triangle): counted per column, then placed.
                 Some((_, inv)) => {
-                    let mut ptr = zeroed_index(ptr, n + 1, what)?;
+                    let mut ptr = zeroed(ptr, n + 1, what)?;
                     let mut nonzero = 0;
                     for j in 0..n {
                         let b = inv[j];
@@ -541,7 +537,8 @@ impl Basis {
     }
 
     /// Room in `q` for `vectors` vectors (grown with zeros; never shrunk, so that a later
-    /// analysis writes into the memory an earlier one touched, without clearing it first).
+    /// analysis writes into the memory an earlier one touched, without clearing it first;
+    /// [`block_lanczos`] gives it room for the whole basis at once).
     fn room(&mut self, vectors: usize) -> Result<(), Error> {
         let size = vectors * self.n;
         if self.q.len() < size {
@@ -764,7 +761,7 @@ fn gram_schmidt_pass(
         Some(mw) => {
             let mwm = MatRef::from_column_major_slice(mw, n, columns);
             let cm = MatMut::from_column_major_slice_mut(&mut c[..k * columns], k, columns);
-            matmul(cm, Accum::Replace, q.transpose(), mwm, 1.0, Par::Seq);
+            product(cm, Accum::Replace, q.transpose(), mwm, 1.0);
         }
         None => {
             // Block by block (M Q is held per block).
@@ -777,7 +774,7 @@ fn gram_schmidt_pass(
                 let mq = MatRef::from_column_major_slice(basis.mq_block(s, e), n, rows);
                 let pm =
                     MatMut::from_column_major_slice_mut(&mut part[..rows * columns], rows, columns);
-                matmul(pm, Accum::Replace, mq.transpose(), wm, 1.0, Par::Seq);
+                product(pm, Accum::Replace, mq.transpose(), wm, 1.0);
                 for col in 0..columns {
                     for i in 0..rows {
                         c[col * k + s - from + i] = part[col * rows + i];
@@ -789,7 +786,7 @@ fn gram_schmidt_pass(
     }
     let cm = MatRef::from_column_major_slice(&c[..k * columns], k, columns);
     let wm = MatMut::from_column_major_slice_mut(w, n, columns);
-    matmul(wm, Accum::Add, q, cm, -1.0, Par::Seq);
+    product(wm, Accum::Add, q, cm, -1.0);
     for col in 0..columns {
         for i in 0..k {
             total[col * old + from + i] += c[col * k + i];
@@ -1140,13 +1137,12 @@ fn cholesky_qr_rounds(
 /// when a pivot is not positive and finite.
 fn gram_cholesky(x: &[f64], mx: &[f64], n: usize, p: usize) -> Option<Vec<f64>> {
     let mut g = vec![0.0; p * p];
-    matmul(
+    product(
         MatMut::from_column_major_slice_mut(&mut g, p, p),
         Accum::Replace,
         MatRef::from_column_major_slice(&mx[..n * p], n, p).transpose(),
         MatRef::from_column_major_slice(&x[..n * p], n, p),
         1.0,
-        Par::Seq,
     );
     let mut r = vec![0.0; p * p];
     for j in 0..p {
@@ -1179,15 +1175,34 @@ fn upper_inverse(r: &[f64], p: usize) -> Vec<f64> {
     inverse
 }
 
+/// C ← α A B, or C + α A B with `Accum::Add` (faer's product on one thread), then the vector
+/// registers' upper halves cleared ([`clear_upper_halves`]).
+fn product(c: MatMut<f64>, accumulate: Accum, a: MatRef<f64>, b: MatRef<f64>, alpha: f64) {
+    matmul(c, accumulate, a, b, alpha, Par::Seq);
+    clear_upper_halves();
+}
+
+/// VZEROUPPER. faer's products run AVX-512 kernels written in assembly (private-gemm-x86)
+/// that return with the vector registers' upper halves in use. Code compiled without AVX that
+/// runs after that (nalgebra's eigensolver here, the element routines of the next assembly)
+/// then ran about twice as slow on the development machine: the true tangent's assembly took
+/// 45 ms instead of 23 ms in every analysis after the first (docs/dynamics.md, thirteenth
+/// session).
+fn clear_upper_halves() {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(simd) = pulp::x86::V3::try_new() {
+        simd.avx._mm256_zeroupper();
+    }
+}
+
 /// Y = X R⁻¹ (n × p, column-major) as one matrix product.
 fn times_inverse(y: &mut [f64], x: &[f64], inverse: &[f64], n: usize, p: usize) {
-    matmul(
+    product(
         MatMut::from_column_major_slice_mut(&mut y[..n * p], n, p),
         Accum::Replace,
         MatRef::from_column_major_slice(&x[..n * p], n, p),
         MatRef::from_column_major_slice(inverse, p, p),
         1.0,
-        Par::Seq,
     );
 }
 
@@ -1199,13 +1214,12 @@ fn block_lanczos(op: &mut Operator, n: usize, want: usize, work: &mut Work) -> R
     let max_dim = (2 * want + EXTRA).min(n).max(1);
     let block = BLOCK.min(n);
     let what = "the Lanczos vectors";
-    // The kept basis memory as it is (written before it is read), with room reserved.
+    // The kept basis memory as it is (written before it is read), or fresh memory for the
+    // whole basis at once (its pages zeroed by the system as the blocks are first written).
     let mut q = std::mem::take(&mut work.q);
-    q.try_reserve_exact((n * (max_dim + block)).saturating_sub(q.len()))
-        .map_err(|_| memory::OutOfMemory {
-            what,
-            bytes: (8 * n * (max_dim + block)) as u64,
-        })?;
+    if q.len() < n * (max_dim + block) {
+        q = memory::lazy_zeros(n * (max_dim + block), what)?;
+    }
     let mut basis = Basis::new(
         n,
         block,
@@ -1310,7 +1324,7 @@ fn lanczos_iterate(
                 .copied()
                 .filter(|&k| invariant || residual(k) <= TOLERANCE * largest)
                 .collect();
-            return ritz_pairs(op, basis, &h, end, want, Some(&keep));
+            return ritz_pairs(op, basis, &h, end, want, Some((&keep, (theta, s))));
         }
         previous = start;
         start = end;
@@ -1322,38 +1336,42 @@ fn lanczos_iterate(
 /// (`Work::mq`), where they are formed when they fit (no fresh memory per analysis).
 type Ritz = (Vec<f64>, Option<Vec<f64>>);
 
+/// Eigenvalues θ and eigenvectors (columns) of a block of H.
+type Eigen = (Vec<f64>, nalgebra::DMatrix<f64>);
+
 /// Eigenpairs of the leading `m` × `m` block of H (columns `h`, symmetrised).
-fn projected_eigen(h: &[Vec<f64>], m: usize) -> (Vec<f64>, nalgebra::DMatrix<f64>) {
+fn projected_eigen(h: &[Vec<f64>], m: usize) -> Eigen {
     let at = |i: usize, k: usize| h[k].get(i).copied().unwrap_or(0.0);
     let t = nalgebra::DMatrix::from_fn(m, m, |i, k| 0.5 * (at(i, k) + at(k, i)));
     let e = nalgebra::SymmetricEigen::new(t);
     (e.eigenvalues.iter().copied().collect(), e.eigenvectors)
 }
 
-/// The Ritz pairs (θ, Q s) of the leading `m` vectors: those of `keep` (indices into the
-/// eigenpairs of H), or the largest `want`; the vectors as one product Q S (n values each,
-/// one after the other).
+/// The Ritz pairs (θ, Q s) of the leading `m` vectors: `known`, the eigenpairs of H's
+/// leading m × m block as the convergence test has them and those of them to keep (indices),
+/// or, when None, the largest `want` of H's eigenpairs; the vectors as one product Q S (n
+/// values each, one after the other).
 fn ritz_pairs(
     op: &mut Operator,
     basis: &mut Basis,
     h: &[Vec<f64>],
     m: usize,
     want: usize,
-    keep: Option<&[usize]>,
+    known: Option<(&[usize], Eigen)>,
 ) -> Result<Ritz, Error> {
     let t = std::time::Instant::now();
     let m = m.min(h.len());
     if m == 0 {
         return Ok((Vec::new(), Some(Vec::new())));
     }
-    let (theta, s) = projected_eigen(h, m);
-    let chosen: Vec<usize> = match keep {
-        Some(k) => k.to_vec(),
+    let (chosen, (theta, s)) = match known {
+        Some((keep, eigen)) => (keep.to_vec(), eigen),
         None => {
+            let (theta, s) = projected_eigen(h, m);
             let mut order: Vec<usize> = (0..m).collect();
             order.sort_by(|&x, &y| theta[y].total_cmp(&theta[x]));
             order.truncate(want);
-            order
+            (order, (theta, s))
         }
     };
     let n = basis.n;
@@ -1378,13 +1396,12 @@ fn ritz_pairs(
     };
     let q = MatRef::from_column_major_slice(&basis.q[..n * m], n, m);
     let c = MatRef::from_column_major_slice(&coefficients, m, count);
-    matmul(
+    product(
         MatMut::from_column_major_slice_mut(y, n, count),
         Accum::Replace,
         q,
         c,
         1.0,
-        Par::Seq,
     );
     let y = (!fits).then_some(fresh);
     let thetas = chosen.iter().map(|&k| theta[k]).collect();
@@ -1421,6 +1438,9 @@ impl Solver {
         let n = self.pattern.n;
         let started = std::time::Instant::now();
         let cpu_started = crate::phases::thread_cpu();
+        // (Whatever ran before, a faer product of the statics say, may have left the vector
+        // registers' upper halves in use; the element routines are compiled without AVX.)
+        clear_upper_halves();
         // The true tangent (as `factor_tangent`): states frozen, no artificial prestress.
         self.assemble_true_tangent(model, u, loads, wrinkle);
         self.remove_regularisation(model, u, wrinkle);
@@ -1438,7 +1458,10 @@ impl Solver {
         let shift = -SHIFT * largest.max(f64::MIN_POSITIVE);
         mass.add_to(-shift, self.linear.values_mut());
         let cpu_factor = crate::phases::thread_cpu();
-        self.linear.factor()?;
+        let factorization = self.linear.factor();
+        // (Its dense kernels leave the vector registers' upper halves in use.)
+        clear_upper_halves();
+        factorization?;
         let factor_cpu = crate::phases::thread_cpu() - cpu_factor;
         let factored = started.elapsed().as_secs_f64();
         let mut work = std::mem::take(&mut self.modes_work);
