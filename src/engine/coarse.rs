@@ -36,6 +36,7 @@ use crate::scene::{CoarseStart, Generator, Scene};
 use crate::solver::threads::Pool;
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 /// Free DOF from which `coarse_start: auto` applies (docs/solver.md, "The coarse start").
@@ -275,8 +276,9 @@ fn coarser(scene: &Scene) -> Option<Scene> {
 /// `u` (the coarse model's displacements) carried over to the nodes of `fine` (module docs),
 /// 0 at every held DOF; Err(why) where a node of `fine` has no counterpart on the coarse mesh.
 /// With a helper in `pool`, on two threads: the coarse side's grids on the helper while this
-/// thread finds the fine nodes' groups and normals, then the fine nodes in two halves, one on
-/// each (each node's value is computed alone: the same answer as on one thread, bit for bit).
+/// thread finds the fine nodes' places, groups and normals, then the fine nodes in chunks that
+/// the two threads take in turn (each node's value is computed alone: the same answer as on
+/// one thread, bit for bit).
 fn transfer(
     coarse: Model,
     u: Vec<f64>,
@@ -301,32 +303,24 @@ fn transfer(
         coarse.index_places();
     }
     let (coarse, nodes) = (Arc::new(coarse), Arc::new(nodes));
-    let x = |range: std::ops::Range<usize>| -> Vec<[f64; 3]> {
-        fine.reference[range]
-            .iter()
-            .map(|p| [p[0], p[1], p[2]])
-            .collect()
-    };
-    let count = fine.reference.len();
-    let half = match helper {
-        Some(_) => count / 2,
-        None => count,
-    };
+    let next = Arc::new(AtomicUsize::new(0));
     let (theirs, mine) = {
-        let tail = x(half..count);
-        let (c, n) = (Arc::clone(&coarse), Arc::clone(&nodes));
-        let job = move || c.carry(&n, half, &tail);
-        let here = || coarse.carry(&nodes, 0, &x(0..half));
+        let (c, n, k) = (Arc::clone(&coarse), Arc::clone(&nodes), Arc::clone(&next));
+        let job = move || c.carry_chunks(&n, &k);
+        let here = || coarse.carry_chunks(&nodes, &next);
         match helper {
             Some(pool) => pool.beside(0, job, here).map_err(thread)?,
             None => (Some(Vec::new()), here()),
         }
     };
-    let (Some(mut out), Some(theirs)) = (mine, theirs) else {
+    let (Some(mine), Some(theirs)) = (mine, theirs) else {
         return Err(OFF.into());
     };
-    out.extend_from_slice(&theirs);
-    out.resize(fine.unknown_count(), 0.0);
+    let mut out = vec![0.0; fine.unknown_count()];
+    for (k, values) in mine.into_iter().chain(theirs) {
+        let at = 3 * k * CHUNK;
+        out[at..at + values.len()].copy_from_slice(&values);
+    }
     // A held DOF stays where its support holds it (0: no prescribed displacement here), even
     // where the node lies off the coarse mesh's rim (a curved rim's chord cuts the sheet, so
     // the nearest coarse point of a rim node can be inside a triangle that moves).
@@ -338,16 +332,18 @@ fn transfer(
     Ok(out)
 }
 
-/// The fine side of a transfer: the membrane group of every fine node (its first triangle's)
-/// and its normal (the sum of its triangles' area vectors in that group: two sheets that
-/// start on top of each other, a cushion's, face opposite ways).
+/// The fine side of a transfer: every fine node's place, its membrane group (its first
+/// triangle's) and its normal (the sum of its triangles' area vectors in that group: two
+/// sheets that start on top of each other, a cushion's, face opposite ways).
 struct FineNodes {
+    x: Vec<[f64; 3]>,
     group_of: Vec<usize>,
     normal: Vec<[f64; 3]>,
 }
 
 impl FineNodes {
     fn new(fine: &Model) -> FineNodes {
+        let x = fine.reference.iter().map(|p| [p[0], p[1], p[2]]).collect();
         let mut group_of = vec![usize::MAX; fine.reference.len()];
         let mut normal = vec![[0.0; 3]; fine.reference.len()];
         for (g, range) in fine.membrane_groups.iter().enumerate() {
@@ -365,9 +361,16 @@ impl FineNodes {
                 }
             }
         }
-        FineNodes { group_of, normal }
+        FineNodes {
+            x,
+            group_of,
+            normal,
+        }
     }
 }
+
+/// Fine nodes per chunk of the transfer's node loop ([`Coarse::carry_chunks`]).
+const CHUNK: usize = 4096;
 
 /// The coarse side of a transfer: the coarse model, its displacements `u`, a grid over each
 /// membrane group, and (only where some fine node is on no triangle) its nodes by place.
@@ -405,12 +408,32 @@ impl Coarse {
             .collect();
     }
 
-    /// The values of the fine nodes `first..first + x.len()` (places `x`), three per node;
-    /// None where one has no counterpart on the coarse mesh.
-    fn carry(&self, nodes: &FineNodes, first: usize, x: &[[f64; 3]]) -> Option<Vec<f64>> {
+    /// The values of the fine nodes of the chunks `next` hands out ([`CHUNK`] nodes each,
+    /// taken in turn with the other thread): (chunk, its values, three per node); None where
+    /// a node has no counterpart on the coarse mesh.
+    fn carry_chunks(
+        &self,
+        nodes: &FineNodes,
+        next: &AtomicUsize,
+    ) -> Option<Vec<(usize, Vec<f64>)>> {
+        let count = nodes.x.len();
+        let mut done = Vec::new();
+        loop {
+            let k = next.fetch_add(1, Ordering::Relaxed);
+            if k.saturating_mul(CHUNK) >= count {
+                return Some(done);
+            }
+            done.push((k, self.carry(nodes, k * CHUNK..count.min((k + 1) * CHUNK))?));
+        }
+    }
+
+    /// The values of the fine nodes `range`, three per node; None where one has no
+    /// counterpart on the coarse mesh.
+    fn carry(&self, nodes: &FineNodes, range: std::ops::Range<usize>) -> Option<Vec<f64>> {
         let (model, u) = (&self.model, &self.u);
-        let mut out = Vec::with_capacity(3 * x.len());
-        for (i, &p) in (first..).zip(x) {
+        let mut out = Vec::with_capacity(3 * range.len());
+        for i in range {
+            let p = nodes.x[i];
             let value = if nodes.group_of[i] == usize::MAX {
                 let j = *self
                     .at_place
