@@ -33,8 +33,11 @@
 use super::Engine;
 use crate::model::{LoadModel, Model};
 use crate::scene::{CoarseStart, Generator, Scene};
+use crate::solver::threads::Pool;
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
 /// Free DOF from which `coarse_start: auto` applies (docs/solver.md, "The coarse start").
 pub const AUTO_DOF: usize = 10_000;
@@ -206,19 +209,21 @@ impl Engine {
             crate::memory::probe(transfer_bytes, "the coarse start's transfer")
                 .map_err(|e| e.to_string())?;
         }
-        let phase = crate::phases::start("coarse start: transfer");
-        let start = transfer(&coarse.model, &coarse.state.displacement, &self.model)
-            .ok_or("a node of this mesh lies off the coarse mesh")?;
-        drop(phase);
-        let mut log: Vec<String> = report
+        let iterations = report.iterations;
+        let log: Vec<String> = report
             .log
-            .iter()
+            .into_iter()
             .filter(|l| l.starts_with("coarse start"))
-            .cloned()
             .collect();
+        // The coarse model and answer go to the transfer; the rest of the coarse engine (its
+        // solver) is freed here.
+        let Engine { model, state, .. } = coarse;
+        let phase = crate::phases::start("coarse start: transfer");
+        let start = transfer(model, state.displacement, &self.model, self.solver.pool())?;
+        drop(phase);
+        let mut log = log;
         log.push(format!(
-            "coarse start: {what} ({dofs} free DOF) converged in {} iterations ({:.2} s, its coarser meshes included); Newton here starts from its answer",
-            report.iterations,
+            "coarse start: {what} ({dofs} free DOF) converged in {iterations} iterations ({:.2} s, its coarser meshes included); Newton here starts from its answer",
             started.elapsed().as_secs_f64()
         ));
         Ok(Guess { start, log })
@@ -269,64 +274,52 @@ fn coarser(scene: &Scene) -> Option<Scene> {
 }
 
 /// `u` (the coarse model's displacements) carried over to the nodes of `fine` (module docs),
-/// 0 at every held DOF; None where a node of `fine` has no counterpart on the coarse mesh.
-fn transfer(coarse: &Model, u: &[f64], fine: &Model) -> Option<Vec<f64>> {
-    let groups = coarse.membrane_groups.len();
-    if groups != fine.membrane_groups.len() {
-        return None;
+/// 0 at every held DOF; Err(why) where a node of `fine` has no counterpart on the coarse mesh.
+/// With a helper in `pool`, on two threads: the coarse side's grids on the helper while this
+/// thread finds the fine nodes' places, groups and normals, then the fine nodes in chunks that
+/// the two threads take in turn (each node's value is computed alone: the same answer as on
+/// one thread, bit for bit).
+fn transfer(
+    coarse: Model,
+    u: Vec<f64>,
+    fine: &Model,
+    pool: Option<&Arc<Pool>>,
+) -> Result<Vec<f64>, String> {
+    const OFF: &str = "a node of this mesh lies off the coarse mesh";
+    if coarse.membrane_groups.len() != fine.membrane_groups.len() {
+        return Err(OFF.into());
     }
-    // The membrane group of every fine node (its first triangle's) and its normal (the sum
-    // of its triangles' area vectors in that group: two sheets that start on top of each
-    // other, a cushion's, face opposite ways).
-    let mut group_of = vec![usize::MAX; fine.reference.len()];
-    let mut normal = vec![[0.0; 3]; fine.reference.len()];
-    for (g, range) in fine.membrane_groups.iter().enumerate() {
-        for t in &fine.triangles[range.clone()] {
-            let a = area_vector(fine, t.nodes);
-            for &n in &t.nodes {
-                if group_of[n] == usize::MAX {
-                    group_of[n] = g;
-                }
-                if group_of[n] == g {
-                    for k in 0..3 {
-                        normal[n][k] += a[k];
-                    }
-                }
-            }
-        }
-    }
-    let grids: Vec<Grid> = coarse
-        .membrane_groups
-        .iter()
-        .map(|r| Grid::new(coarse, r.clone()))
-        .collect();
+    let helper = pool.filter(|p| p.helpers() > 0);
+    let thread = |e: crate::error::Error| format!("the transfer's thread: {e}");
+    let build = move || Coarse::new(coarse, u);
+    let (mut coarse, nodes) = match helper {
+        Some(pool) => pool
+            .beside(0, build, || FineNodes::new(fine))
+            .map_err(thread)?,
+        None => (build(), FineNodes::new(fine)),
+    };
     // Only where some node of this mesh is on no triangle.
-    let at_place: HashMap<[u64; 3], usize> = match group_of.contains(&usize::MAX) {
-        true => coarse
-            .reference
-            .iter()
-            .enumerate()
-            .map(|(i, x)| ([x[0].to_bits(), x[1].to_bits(), x[2].to_bits()], i))
-            .collect(),
-        false => HashMap::new(),
+    if nodes.group_of.contains(&usize::MAX) {
+        coarse.index_places();
+    }
+    let (coarse, nodes) = (Arc::new(coarse), Arc::new(nodes));
+    let next = Arc::new(AtomicUsize::new(0));
+    let (theirs, mine) = {
+        let (c, n, k) = (Arc::clone(&coarse), Arc::clone(&nodes), Arc::clone(&next));
+        let job = move || c.carry_chunks(&n, &k);
+        let here = || coarse.carry_chunks(&nodes, &next);
+        match helper {
+            Some(pool) => pool.beside(0, job, here).map_err(thread)?,
+            None => (Some(Vec::new()), here()),
+        }
+    };
+    let (Some(mine), Some(theirs)) = (mine, theirs) else {
+        return Err(OFF.into());
     };
     let mut out = vec![0.0; fine.unknown_count()];
-    for (i, x) in fine.reference.iter().enumerate() {
-        let value = if group_of[i] == usize::MAX {
-            let j = *at_place.get(&[x[0].to_bits(), x[1].to_bits(), x[2].to_bits()])?;
-            [u[3 * j], u[3 * j + 1], u[3 * j + 2]]
-        } else {
-            let (t, w) = grids[group_of[i]].nearest(coarse, [x[0], x[1], x[2]], normal[i])?;
-            let nodes = coarse.triangles[t].nodes;
-            let mut v = [0.0; 3];
-            for (a, &n) in nodes.iter().enumerate() {
-                for k in 0..3 {
-                    v[k] += w[a] * u[3 * n + k];
-                }
-            }
-            v
-        };
-        out[3 * i..3 * i + 3].copy_from_slice(&value);
+    for (k, values) in mine.into_iter().chain(theirs) {
+        let at = 3 * k * CHUNK;
+        out[at..at + values.len()].copy_from_slice(&values);
     }
     // A held DOF stays where its support holds it (0: no prescribed displacement here), even
     // where the node lies off the coarse mesh's rim (a curved rim's chord cuts the sheet, so
@@ -336,7 +329,130 @@ fn transfer(coarse: &Model, u: &[f64], fine: &Model) -> Option<Vec<f64>> {
             *x = 0.0;
         }
     }
-    Some(out)
+    Ok(out)
+}
+
+/// The fine side of a transfer: every fine node's place, its membrane group (its first
+/// triangle's) and its normal (the sum of its triangles' area vectors in that group: two
+/// sheets that start on top of each other, a cushion's, face opposite ways).
+struct FineNodes {
+    x: Vec<[f64; 3]>,
+    group_of: Vec<usize>,
+    normal: Vec<[f64; 3]>,
+}
+
+impl FineNodes {
+    fn new(fine: &Model) -> FineNodes {
+        let x = fine.reference.iter().map(|p| [p[0], p[1], p[2]]).collect();
+        let mut group_of = vec![usize::MAX; fine.reference.len()];
+        let mut normal = vec![[0.0; 3]; fine.reference.len()];
+        for (g, range) in fine.membrane_groups.iter().enumerate() {
+            for t in &fine.triangles[range.clone()] {
+                let a = area_vector(fine, t.nodes);
+                for &n in &t.nodes {
+                    if group_of[n] == usize::MAX {
+                        group_of[n] = g;
+                    }
+                    if group_of[n] == g {
+                        for k in 0..3 {
+                            normal[n][k] += a[k];
+                        }
+                    }
+                }
+            }
+        }
+        FineNodes {
+            x,
+            group_of,
+            normal,
+        }
+    }
+}
+
+/// Fine nodes per chunk of the transfer's node loop ([`Coarse::carry_chunks`]).
+const CHUNK: usize = 4096;
+
+/// The coarse side of a transfer: the coarse model, its displacements `u`, a grid over each
+/// membrane group, and (only where some fine node is on no triangle) its nodes by place.
+struct Coarse {
+    model: Model,
+    u: Vec<f64>,
+    grids: Vec<Grid>,
+    at_place: HashMap<[u64; 3], usize>,
+}
+
+impl Coarse {
+    fn new(model: Model, u: Vec<f64>) -> Coarse {
+        let grids = model
+            .membrane_groups
+            .iter()
+            .map(|r| Grid::new(&model, r.clone()))
+            .collect();
+        Coarse {
+            model,
+            u,
+            grids,
+            at_place: HashMap::new(),
+        }
+    }
+
+    /// Index the coarse nodes by their place (bit for bit), for fine nodes on no triangle.
+    fn index_places(&mut self) {
+        let place = |x: &nalgebra::Vector3<f64>| [x[0].to_bits(), x[1].to_bits(), x[2].to_bits()];
+        self.at_place = self
+            .model
+            .reference
+            .iter()
+            .enumerate()
+            .map(|(i, x)| (place(x), i))
+            .collect();
+    }
+
+    /// The values of the fine nodes of the chunks `next` hands out ([`CHUNK`] nodes each,
+    /// taken in turn with the other thread): (chunk, its values, three per node); None where
+    /// a node has no counterpart on the coarse mesh.
+    fn carry_chunks(
+        &self,
+        nodes: &FineNodes,
+        next: &AtomicUsize,
+    ) -> Option<Vec<(usize, Vec<f64>)>> {
+        let count = nodes.x.len();
+        let mut done = Vec::new();
+        loop {
+            let k = next.fetch_add(1, Ordering::Relaxed);
+            if k.saturating_mul(CHUNK) >= count {
+                return Some(done);
+            }
+            done.push((k, self.carry(nodes, k * CHUNK..count.min((k + 1) * CHUNK))?));
+        }
+    }
+
+    /// The values of the fine nodes `range`, three per node; None where one has no
+    /// counterpart on the coarse mesh.
+    fn carry(&self, nodes: &FineNodes, range: std::ops::Range<usize>) -> Option<Vec<f64>> {
+        let (model, u) = (&self.model, &self.u);
+        let mut out = Vec::with_capacity(3 * range.len());
+        for i in range {
+            let p = nodes.x[i];
+            let value = if nodes.group_of[i] == usize::MAX {
+                let j = *self
+                    .at_place
+                    .get(&[p[0].to_bits(), p[1].to_bits(), p[2].to_bits()])?;
+                [u[3 * j], u[3 * j + 1], u[3 * j + 2]]
+            } else {
+                let (t, w) = self.grids[nodes.group_of[i]].nearest(model, p, nodes.normal[i])?;
+                let mut v = [0.0; 3];
+                for (a, &n) in model.triangles[t].nodes.iter().enumerate() {
+                    for k in 0..3 {
+                        v[k] += w[a] * u[3 * n + k];
+                    }
+                }
+                v
+            };
+            out.extend_from_slice(&value);
+        }
+        Some(out)
+    }
 }
 
 /// A uniform grid of cells over one membrane group's coarse triangles, each triangle listed
@@ -710,7 +826,8 @@ mod tests {
         let (cm, fm) = (Model::build(&coarse), Model::build(&fine));
         assert_eq!((cm.reference.len(), fm.reference.len()), (30, 90));
         let u: Vec<f64> = cm.reference.iter().flat_map(|x| field(*x, 1.0)).collect();
-        let out = transfer(&cm, &u, &fm).expect("every node on the coarse mesh");
+        let out =
+            transfer(cm.clone(), u.clone(), &fm, None).expect("every node on the coarse mesh");
         let mut held = 0;
         for (i, x) in fm.reference.iter().enumerate() {
             let want = field(*x, 1.0);
@@ -757,7 +874,8 @@ mod tests {
             .enumerate()
             .flat_map(|(i, x)| field(*x, side(&cmesh, i)))
             .collect();
-        let out = transfer(&cm, &u, &fm).expect("every node on the coarse mesh");
+        let out =
+            transfer(cm.clone(), u.clone(), &fm, None).expect("every node on the coarse mesh");
         let mut sheets = [0, 0];
         for (i, x) in fm.reference.iter().enumerate() {
             let s = side(&fmesh, i);
@@ -779,6 +897,34 @@ mod tests {
             );
         }
         assert!(sheets[0] > 50 && sheets[1] > 50, "{sheets:?}");
+    }
+
+    /// On two threads (the grids on the helper, the fine nodes in two halves) the transfer
+    /// gives one thread's answer bit for bit, on a disc and on a flat cushion's two sheets.
+    #[test]
+    fn two_threads_carry_over_one_threads_answer() {
+        let pool = std::sync::Arc::new(crate::solver::threads::Pool::try_new(2).unwrap());
+        for generator in [
+            r#"{"kind": "disc", "name": "g", "center": [0, 0, 0], "radius": 1, "rings": 24}"#,
+            r#"{"kind": "cushion", "name": "g", "center": [0, 0, 0], "outline": {"shape": "rectangle", "size": [2, 1]}, "rings": 12}"#,
+        ] {
+            let fine = scene(
+                generator,
+                r#"[{"name": "m", "triangles": "g", "thickness": 1e-3, "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}]"#,
+            );
+            let coarse = coarser(&fine).expect("halved");
+            let (cm, fm) = (Model::build(&coarse), Model::build(&fine));
+            let u: Vec<f64> = (0..3 * cm.reference.len())
+                .map(|i| (i as f64 * 0.37).sin())
+                .collect();
+            let one = transfer(cm.clone(), u.clone(), &fm, None).expect("on the coarse mesh");
+            let two = transfer(cm, u, &fm, Some(&pool)).expect("on the coarse mesh");
+            assert_eq!(one.len(), fm.unknown_count());
+            assert!(one
+                .iter()
+                .map(|v| v.to_bits())
+                .eq(two.iter().map(|v| v.to_bits())));
+        }
     }
 
     /// The own cell's answer (`Grid::nearest_in_own_cell`) is the search's wherever it gives

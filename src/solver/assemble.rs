@@ -1880,6 +1880,11 @@ impl Parallel {
         (self.first, self.pattern.tri_order().len() - self.first)
     }
 
+    /// The threads it runs on.
+    pub fn pool(&self) -> &Arc<Pool> {
+        &self.pool
+    }
+
     /// Whether this is the helper's half of `pattern`.
     fn serves(&self, pattern: &Pattern) -> bool {
         std::ptr::eq(Arc::as_ptr(&self.pattern), pattern)

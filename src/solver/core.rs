@@ -145,6 +145,12 @@ impl Solver {
         self.work.scratch.parallel.as_ref().map(|p| p.halves())
     }
 
+    /// The solver's threads when it has a helper (the assembly's, `assemble::Parallel`):
+    /// free between the solver's own jobs, for work beside it (the coarse start's transfer).
+    pub fn pool(&self) -> Option<&std::sync::Arc<threads::Pool>> {
+        self.work.scratch.parallel.as_ref().map(|p| p.pool())
+    }
+
     /// Pattern, position maps and the symbolic factorization, once per model. Every buffer
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.

@@ -3,7 +3,9 @@
 //! pool holds the others (`threads - 1` helpers). Used by the two-domain factorization
 //! (`split.rs`): the solving thread factors one half of the tangent while a helper factors the
 //! other; and by the assembly (`assemble.rs`): the solving thread evaluates one half of the
-//! triangles while a helper evaluates the other. Each has its own job slot on the helper.
+//! triangles while a helper evaluates the other. Each has its own job slot on the helper; a
+//! third runs one-off jobs beside the caller's own work ([`Pool::beside`]: the coarse start's
+//! transfer, `engine/coarse.rs`).
 //!
 //! No global pool and no rayon: a thread that outlives the instance (rayon's global pool does)
 //! keeps the FMU's shared library mapped after `dlclose` (the 2000-run tests of
@@ -70,12 +72,15 @@ fn start_std(body: Box<dyn FnOnce() + Send>) -> std::io::Result<Joiner> {
 pub type Job = Box<dyn FnMut() + Send>;
 
 /// Jobs a helper can hold at once, each in its own slot: the two-domain factorization's
-/// ([`FACTOR`], `split.rs`) and the assembly's ([`ASSEMBLE`], `assemble.rs`).
-pub const SLOTS: usize = 2;
+/// ([`FACTOR`], `split.rs`), the assembly's ([`ASSEMBLE`], `assemble.rs`) and a one-off job's
+/// ([`ONCE`], [`Pool::beside`]).
+pub const SLOTS: usize = 3;
 /// The slot of the two-domain factorization's job ([`Pool::set_job`], [`Pool::start`]).
 pub const FACTOR: usize = 0;
 /// The slot of the parallel assembly's job.
 pub const ASSEMBLE: usize = 1;
+/// The slot of a one-off job ([`Pool::beside`]).
+pub const ONCE: usize = 2;
 
 #[derive(Default)]
 struct State {
@@ -211,6 +216,41 @@ impl Pool {
         shared.changed.notify_all();
     }
 
+    /// `job` once on helper `i` (slot [`ONCE`]) while the calling thread runs `here`; both
+    /// results once both have ended. What the job needs it owns (`Arc`s of what both read),
+    /// and it is dropped after its run. The helper must be idle, and `here` must not start
+    /// it. Err([`ThreadFailure::Panicked`]) if the job panicked.
+    pub fn beside<T, U>(
+        &self,
+        i: usize,
+        job: impl FnOnce() -> T + Send + 'static,
+        here: impl FnOnce() -> U,
+    ) -> Result<(T, U), Error>
+    where
+        T: Send + 'static,
+    {
+        let output: Arc<Mutex<Option<T>>> = Arc::new(Mutex::new(None));
+        let theirs = Arc::clone(&output);
+        let mut job = Some(job);
+        self.set_job_in(
+            i,
+            ONCE,
+            Box::new(move || {
+                if let Some(job) = job.take() {
+                    let value = job();
+                    *theirs.lock().unwrap_or_else(|e| e.into_inner()) = Some(value);
+                }
+            }),
+        );
+        self.start_in(i, ONCE);
+        let mine = here();
+        let waited = self.wait(i);
+        self.helpers[i].shared.lock().jobs[ONCE] = None;
+        waited?;
+        let theirs = output.lock().unwrap_or_else(|e| e.into_inner()).take();
+        Ok((theirs.ok_or(Error::Thread(ThreadFailure::Panicked))?, mine))
+    }
+
     /// Wait until helper `i`'s job has finished. Err([`ThreadFailure::Panicked`]) if it
     /// panicked.
     pub fn wait(&self, i: usize) -> Result<(), Error> {
@@ -275,6 +315,21 @@ mod tests {
         }
         assert_eq!(*counts[0].lock().unwrap(), 5);
         assert_eq!(*counts[1].lock().unwrap(), 10);
+    }
+
+    #[test]
+    fn a_job_beside_the_caller_gives_both_results_and_is_dropped() {
+        let pool = Pool::try_new(2).unwrap();
+        let held = Arc::new(vec![1.0, 2.0, 3.0]);
+        let theirs = Arc::clone(&held);
+        let (a, b) = pool
+            .beside(0, move || theirs.iter().sum::<f64>(), || held[0] * 10.0)
+            .unwrap();
+        assert_eq!((a, b), (6.0, 10.0));
+        assert_eq!(Arc::strong_count(&held), 1, "the spent job holds nothing");
+        let failed = pool.beside(0, || -> usize { panic!("the job fails") }, || 1);
+        assert!(failed.is_err());
+        assert_eq!(pool.beside(0, || 2, || 3).unwrap(), (2, 3));
     }
 
     #[test]
