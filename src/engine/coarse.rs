@@ -899,21 +899,39 @@ mod tests {
         assert!(sheets[0] > 50 && sheets[1] > 50, "{sheets:?}");
     }
 
-    /// On two threads (the grids on the helper, the fine nodes in two halves) the transfer
-    /// gives one thread's answer bit for bit, on a disc and on a flat cushion's two sheets.
-    #[test]
-    fn two_threads_carry_over_one_threads_answer() {
-        let pool = std::sync::Arc::new(crate::solver::threads::Pool::try_new(2).unwrap());
-        for generator in [
-            r#"{"kind": "disc", "name": "g", "center": [0, 0, 0], "radius": 1, "rings": 24}"#,
-            r#"{"kind": "cushion", "name": "g", "center": [0, 0, 0], "outline": {"shape": "rectangle", "size": [2, 1]}, "rings": 12}"#,
-        ] {
+    /// A disc of 24 rings and a flat 2 m x 1 m cushion of 12 rings (two sheets), each as the
+    /// models of its halved (coarse) and its own (fine) mesh, with its case number (0, 1) for
+    /// the tests' messages.
+    fn disc_and_cushion() -> Vec<(Model, Model, usize)> {
+        [
+            (
+                r#"{"kind": "disc", "name": "g", "center": [0, 0, 0], "radius": 1, "rings": 24}"#,
+                0,
+            ),
+            (
+                r#"{"kind": "cushion", "name": "g", "center": [0, 0, 0], "outline": {"shape": "rectangle", "size": [2, 1]}, "rings": 12}"#,
+                1,
+            ),
+        ]
+        .into_iter()
+        .map(|(generator, case)| {
             let fine = scene(
                 generator,
                 r#"[{"name": "m", "triangles": "g", "thickness": 1e-3, "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}]"#,
             );
             let coarse = coarser(&fine).expect("halved");
-            let (cm, fm) = (Model::build(&coarse), Model::build(&fine));
+            (Model::build(&coarse), Model::build(&fine), case)
+        })
+        .collect()
+    }
+
+    /// On two threads (the grids on the helper, the fine nodes in chunks the two take in
+    /// turn) the transfer gives one thread's answer bit for bit, on a disc and on a flat
+    /// cushion's two sheets.
+    #[test]
+    fn two_threads_carry_over_one_threads_answer() {
+        let pool = std::sync::Arc::new(crate::solver::threads::Pool::try_new(2).unwrap());
+        for (cm, fm, _) in disc_and_cushion() {
             let u: Vec<f64> = (0..3 * cm.reference.len())
                 .map(|i| (i as f64 * 0.37).sin())
                 .collect();
@@ -933,22 +951,7 @@ mod tests {
     /// and it decides most nodes.
     #[test]
     fn the_own_cell_gives_the_searchs_answer() {
-        for (generator, rings) in [
-            (
-                r#"{"kind": "disc", "name": "g", "center": [0, 0, 0], "radius": 1, "rings": 24}"#,
-                0,
-            ),
-            (
-                r#"{"kind": "cushion", "name": "g", "center": [0, 0, 0], "outline": {"shape": "rectangle", "size": [2, 1]}, "rings": 12}"#,
-                1,
-            ),
-        ] {
-            let fine = scene(
-                generator,
-                r#"[{"name": "m", "triangles": "g", "thickness": 1e-3, "material": {"kind": "svk", "E": 1e9, "nu": 0.3}}]"#,
-            );
-            let coarse = coarser(&fine).expect("halved");
-            let (cm, fm) = (Model::build(&coarse), Model::build(&fine));
+        for (cm, fm, case) in disc_and_cushion() {
             let grid = Grid::new(&cm, cm.membrane_groups[0].clone());
             let (mut decided, mut found) = (0, 0);
             for (i, x) in fm.reference.iter().enumerate() {
@@ -965,14 +968,14 @@ mod tests {
                         assert_eq!(
                             Some(own),
                             searched,
-                            "node {i}, normal {normal:?}, case {rings}"
+                            "node {i}, normal {normal:?}, case {case}"
                         );
                     }
                 }
             }
             assert!(
                 10 * decided > 9 * found,
-                "{decided} of {found}, case {rings}"
+                "{decided} of {found}, case {case}"
             );
         }
     }
