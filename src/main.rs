@@ -809,8 +809,10 @@ fn cmd_check(path: &str) -> Result<ExitCode, Stop> {
 /// that cuts back or continues takes more, within the budget), and what a
 /// step that does not converge spends before it gives up: its work budget of
 /// max_step_iterations iterations, in which every further line-search trial, re-check assembly
-/// and relaxation round counts as an iteration of its own or half of one, so that none of them
-/// costs more than the iteration it stands for (the model: `velarium::scene::limits::cost`).
+/// and relaxation round counts as an iteration of its own or half of one (a relaxation round
+/// can cost more than the iteration it stands for: the step's whole work, each round counted
+/// at the element evaluations it made, is bounded by 20 times the budget; the model:
+/// `velarium::scene::limits::cost`).
 fn cost_line(
     scene: &velarium::Scene,
     size: &velarium::scene::limits::Size,
@@ -819,7 +821,7 @@ fn cost_line(
     let s = &scene.solver;
     let c = velarium::scene::limits::cost(s, size, triangles as u64);
     format!(
-        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a step whose load increment converges at once takes up to about {} iterations (solver.max_iterations, about {:.0} s); cut-backs and continuations can take a converging step further, up to the budget of one that does not converge, which gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial or re-check counts as half of one, a round of nodal relaxation as one, though it can cost several): about {:.0} s, more where nodal relaxation runs long",
+        "cost: a Newton iteration factors {:.3} GFlop and assembles {triangles} membrane elements, at least {:.3} s on the reference machine; a step whose load increment converges at once takes up to about {} iterations (solver.max_iterations, about {:.0} s); cut-backs and continuations can take a converging step further, up to the budget of one that does not converge, which gives up after at most {} iterations' worth of work (solver.max_step_iterations; every further line-search trial or re-check counts as half of one, a round of nodal relaxation as one, though it can cost several, so the whole work with each round counted at its cost may reach 20 times the budget): about {:.0} s, a few times that where nodal relaxation runs long",
         size.factor_flops / 1e9,
         c.iteration,
         s.max_iterations,

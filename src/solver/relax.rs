@@ -134,6 +134,8 @@ struct Local {
     k: Matrix3<f64>,
     potential: Option<f64>,
     inverted: bool,
+    /// Elements evaluated for it (the work it cost, `Solver::relax`).
+    evaluated: usize,
 }
 
 /// The node's rows of R and its 3x3 diagonal block of K, from the same element routines as
@@ -152,9 +154,11 @@ fn local(
         k: Matrix3::zeros(),
         potential: Some(0.0),
         inverted: false,
+        evaluated: 0,
     };
     for kind in ElementKind::ALL {
         let at = &adj.elements[kind][node];
+        out.evaluated += at.len();
         match kind {
             ElementKind::Membrane => {
                 local_triangles(model, adj, u, loads, node, forced, at, want_k, &mut out)
@@ -282,6 +286,22 @@ pub fn relax_nodes(
     forced: Frozen,
     target: f64,
 ) -> usize {
+    relax_nodes_counted(model, adj, u, loads, nodes, forced, target, &mut 0)
+}
+
+/// [`relax_nodes`], adding to `evaluated` the element evaluations it made (the work it
+/// cost, charged to the step's work budget by `Solver::relax`).
+#[allow(clippy::too_many_arguments)]
+pub fn relax_nodes_counted(
+    model: &Model,
+    adj: &Adjacency,
+    u: &mut [f64],
+    loads: &[f64],
+    nodes: &[usize],
+    forced: Frozen,
+    target: f64,
+    evaluated: &mut usize,
+) -> usize {
     let mut moved = 0;
     for &node in nodes {
         // The node's free components (no allocation per node).
@@ -297,6 +317,7 @@ pub fn relax_nodes(
         let mut changed = false;
         for _ in 0..LOCAL_ITERATIONS {
             let here = local(model, adj, u, loads, node, forced, true);
+            *evaluated += here.evaluated;
             let norm = free.iter().fold(0.0f64, |m, &c| m.max(here.r[c].abs()));
             if norm <= target {
                 break;
@@ -304,7 +325,7 @@ pub fn relax_nodes(
             let Some(step) = newton_step(&here, free) else {
                 break;
             };
-            if !line_search(model, adj, u, loads, node, forced, &here, &step) {
+            if !line_search(model, adj, u, loads, node, forced, &here, &step, evaluated) {
                 break;
             }
             changed = true;
@@ -353,6 +374,7 @@ fn line_search(
     forced: Frozen,
     here: &Local,
     step: &Vector3<f64>,
+    evaluated: &mut usize,
 ) -> bool {
     let start = displacement(u, node);
     let s0 = here.r.dot(step);
@@ -367,6 +389,7 @@ fn line_search(
         }
         // Only the residual along the step: no tangent.
         let trial = local(model, adj, u, loads, node, forced, false);
+        *evaluated += trial.evaluated;
         let s = trial.r.dot(step);
         (!trial.inverted && s.is_finite()).then_some(s)
     });
@@ -418,6 +441,9 @@ impl PatchWork {
 pub struct PatchOutcome {
     pub iterations: usize,
     pub residual: f64,
+    /// Element evaluations made (each evaluation of the patch evaluates every element that
+    /// touches it): the work it cost.
+    pub evaluated: usize,
 }
 
 /// Newton on a patch of nodes as a whole, every other node held (a nonlinear elimination of
@@ -480,11 +506,18 @@ pub fn relax_patch(
     start.resize(n, 0.0);
     k.resize(n * n, 0.0);
     let mut out = PatchOutcome::default();
+    let per_evaluation: usize = ElementKind::ALL
+        .iter()
+        .map(|&kind| elements.elements[kind].len())
+        .sum();
+    let mut evaluated = 0;
     for it in 0..=iterations {
         elements.evaluate(model, adj, u, loads, r, Some(k));
+        evaluated += per_evaluation;
         out = PatchOutcome {
             iterations: it,
             residual: r.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+            evaluated,
         };
         if out.residual <= target || it == iterations {
             break;
@@ -510,6 +543,8 @@ pub fn relax_patch(
         let (alpha, met) = bracket_slope(s0, LOCAL_TRIES, LOCAL_SLOPE_RATIO, |alpha| {
             place(u, alpha);
             let inverted = elements.evaluate(model, adj, u, loads, r, None);
+            evaluated += per_evaluation;
+            out.evaluated = evaluated;
             let s: f64 = r.iter().zip(step.iter()).map(|(a, b)| a * b).sum();
             (!inverted && s.is_finite()).then_some(s)
         });

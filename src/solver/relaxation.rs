@@ -5,7 +5,7 @@
 
 use super::assemble::{assemble_with, Membranes, NONE};
 use super::core::Solver;
-use super::relax::{relax_nodes, relax_patch, Frozen};
+use super::relax::{relax_nodes_counted, relax_patch, Frozen};
 use crate::model::Model;
 
 impl Solver {
@@ -27,6 +27,12 @@ impl Solver {
         patch.clear();
         patch.resize(model.reference.len(), false);
         let mut nodes = std::mem::take(&mut self.work.nodes);
+        // Elements in one assembly (the unit of the relaxation's work below).
+        let elements = model.triangles.len()
+            + model.segments.len()
+            + model.ties.len()
+            + model.contact_pairs.len()
+            + model.contact_points.len();
         for _ in 0..s.relax_rounds {
             // The patch grows by the nodes that now carry the residual (the neighbours the last
             // round passed it on to) and is relaxed as a whole: block Gauss-Seidel on it.
@@ -48,8 +54,9 @@ impl Solver {
                 pre_strain: self.pre_strain,
             };
             let mut moved = 0;
+            let mut evaluated = 0;
             for _ in 0..s.relax_sweeps {
-                moved = moved.max(relax_nodes(
+                moved = moved.max(relax_nodes_counted(
                     model,
                     &self.adjacency,
                     u,
@@ -57,6 +64,7 @@ impl Solver {
                     &nodes,
                     forced,
                     0.1 * tolerance,
+                    &mut evaluated,
                 ));
             }
             // Near equilibrium, the patch as a whole (relax.rs: neighbours that drift together
@@ -78,6 +86,7 @@ impl Solver {
                     &mut self.work.patch_newton,
                 );
                 patch_iterations += outcome.iterations;
+                evaluated += outcome.evaluated;
                 if outcome.iterations > 0 {
                     moved = moved.max(nodes.len());
                 }
@@ -86,11 +95,21 @@ impl Solver {
                 break;
             }
             moved_total += moved;
-            // A global residual evaluation and the relaxation it ends (at most the patch's
-            // share of the nodes, each relaxed `relax_sweeps` times: within one more
-            // assembly's worth): two assemblies, an iteration's worth of the step's work
-            // budget (core.rs, step_work).
+            // The round's work: one iteration in the step's budget (core.rs, step_work, in
+            // halves), and what it cost beyond that in `relax_extra`, which with step_work is
+            // bounded by COST_BOUND times the budget: the global residual evaluation that ends
+            // the round (an assembly without the tangent, one half, as a line-search trial)
+            // and the relaxation's element evaluations in assemblies' worth (one half per
+            // evaluation of as many elements as the model has). Local Newton steps, their
+            // slope searches and the patch Newton can evaluate hundreds of assemblies' worth in
+            // a round: without the bound a frictional drawstring (16x16, 392 counted
+            // iterations) took 10.5 times `check`'s announced cost of a failing step, 67 % of
+            // it in the patch Newton (docs/robustness.md, fourteenth session). Counting the
+            // rounds at that cost in the budget itself ends steps that converge (measured
+            // there), so the bound is 20 times the budget (core.rs, COST_BOUND).
+            let assemblies = evaluated.div_ceil(elements.max(1));
             self.step_work += super::core::WORK_ITERATION;
+            self.relax_extra += (1 + assemblies).saturating_sub(super::core::WORK_ITERATION);
             let membranes = Membranes {
                 forced: forced.states,
                 pre_strain: self.pre_strain,
@@ -108,7 +127,9 @@ impl Solver {
             );
             let before = free;
             free = self.free_norm();
-            if free <= tolerance || free > 0.9 * before {
+            // No further round once the step's work is spent (it gives up at the Newton
+            // loop's next check).
+            if free <= tolerance || free > 0.9 * before || self.work_spent() {
                 break;
             }
         }

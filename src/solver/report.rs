@@ -19,6 +19,11 @@ pub struct StepReport {
     /// bounds it: an iteration one, a further line-search trial or re-check one half, a round
     /// of nodal relaxation one).
     pub work: f64,
+    /// The step's whole work in Newton iterations' worth: `work` plus what its rounds of nodal
+    /// relaxation cost beyond one iteration each, counted by the element evaluations they made
+    /// (an assembly's worth one half). At most 20 times `solver.max_step_iterations` (checked
+    /// between rounds, so one round may pass it).
+    pub whole_work: f64,
     /// Converged increments.
     pub increments: usize,
     /// Increments that were cut back.
@@ -44,6 +49,7 @@ impl StepReport {
             outcome: Outcome::Failed,
             iterations: 0,
             work: 0.0,
+            whole_work: 0.0,
             increments: 0,
             cutbacks: 0,
             reached: 0.0,

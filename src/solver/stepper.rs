@@ -55,6 +55,7 @@ impl Stepper {
     ) -> Stepper {
         let contact = states.clone();
         solver.step_work = 0;
+        solver.relax_extra = 0;
         let s = &solver.settings;
         let arc = if s.arc_length_path {
             ArcPath::begin(model, s, from, to, u, contact.clone())
@@ -104,6 +105,7 @@ impl Stepper {
         states: &History,
     ) -> Stepper {
         solver.step_work = 0;
+        solver.relax_extra = 0;
         let path = DynamicPath::begin(
             solver,
             model,
@@ -165,6 +167,8 @@ impl Stepper {
         }
         if solver.work_spent() && self.lambda() < 1.0 {
             self.report.work = solver.step_work as f64 / WORK_ITERATION as f64;
+            self.report.whole_work =
+                (solver.step_work + solver.relax_extra) as f64 / WORK_ITERATION as f64;
             self.give_up(solver, model);
             let lambda = self.lambda();
             return Some(Attempt::Rejected {
@@ -194,6 +198,8 @@ impl Stepper {
             self.failed = true;
         }
         self.report.work = solver.step_work as f64 / WORK_ITERATION as f64;
+        self.report.whole_work =
+            (solver.step_work + solver.relax_extra) as f64 / WORK_ITERATION as f64;
         attempt
     }
 
@@ -206,6 +212,14 @@ impl Stepper {
         let budget = solver.settings.max_step_iterations;
         let lambda = self.lambda();
         let spent = "solver.max_step_iterations";
+        let bound = if solver.cost_bound_reached() {
+            format!(
+                ", or {} times its cost with each round of nodal relaxation counted at the element evaluations it made",
+                super::core::COST_BOUND
+            )
+        } else {
+            String::new()
+        };
         let last = self
             .report
             .log
@@ -223,14 +237,14 @@ impl Stepper {
         self.report.reached = lambda;
         self.report.message = match &self.path {
             Path::Load(_) => format!(
-                "no equilibrium found beyond load fraction {lambda:.6} of the step: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one) is spent{last}"
+                "no equilibrium found beyond load fraction {lambda:.6} of the step: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one){bound} is spent{last}"
             ),
             Path::Arc(p) => format!(
-                "no equilibrium found beyond load fraction {lambda:.6} of the step by arc length: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one) is spent{last} (largest load fraction reached {:.6})",
+                "no equilibrium found beyond load fraction {lambda:.6} of the step by arc length: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one){bound} is spent{last} (largest load fraction reached {:.6})",
                 p.largest_lambda()
             ),
             Path::Dynamic(_) => format!(
-                "no dynamic equilibrium found beyond time fraction {lambda:.6} of the step: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one) is spent{last}"
+                "no dynamic equilibrium found beyond time fraction {lambda:.6} of the step: its work budget of {budget} Newton iterations ({spent}; a further line-search trial counts as half of one){bound} is spent{last}"
             ),
         };
         if let Path::Load(p) = &self.path {

@@ -235,3 +235,128 @@ fn a_failed_step_names_the_triangle_a_gathering_squeezes() {
         }
     }
 }
+
+/// GOAL: a symmetric scene whose symmetric equilibrium is unstable converges to a stable
+///       equilibrium without that symmetry, and the corpus tells such an answer from a wrong
+///       one by verifying the instability, not by trusting the solver.
+/// MESH, BOUNDARY CONDITIONS, PARAMETERS: the full two-sheet square cushion of the corpus
+///       (corpus.rs, `cushion_scene`): a = 1.0130 m, 32x32 cells over [−a, a]², rim held in z
+///       and free in its plane, in-plane rigid motions stopped at the four rim points on the
+///       axes; SVK E = 6.728e8 Pa, ν = 0.3, t = 9.867e-6 m (E t = 6639 N/m); follower pressure
+///       19.30 Pa from flat in one row (the member seed 28 drew before its seeds were told
+///       apart). The control: the 8x8 cushion at the same a, E t and p a/(E t).
+/// REFERENCE: the signs of the lowest eigenvalues of K x = λ M x about each state (the
+///       engine's shift-invert Lanczos, verified against closed forms in tests/verification;
+///       any positive-definite M gives the signs of K's, Sylvester's law of inertia), with
+///       the symmetric equilibrium from a twin of the scene with the planes x = 0 and y = 0
+///       held. Measured: the 32x32 answer is twisted (mirror x differs by 4.6e-2 m of a
+///       largest 0.514 m) and stable (lowest λ 12.5 1/s² with 1000 kg/m³), its symmetric
+///       twin unstable (−9.22 1/s², three negative λ); the twisted state's potential
+///       U − pV is 5.8e-5 J below the symmetric one's. The 8x8 cushion's answer is
+///       symmetric and its twin stable.
+/// REQUIRED: the 32x32 loaded row right with the corpus's note of a verified broken
+///       symmetry; for the 8x8, `broken_symmetry` refuses (the symmetric equilibrium is
+///       stable), so an asymmetric answer there would be wrong.
+#[test]
+fn a_cushion_whose_symmetric_equilibrium_is_unstable_breaks_the_symmetry_verified() {
+    let (a, young, t, p) = (
+        1.0130328492516258,
+        672813893.1345196,
+        9.867182786039431e-6,
+        1.9299880690521288e1,
+    );
+    let (scene, mirrors) =
+        corpus::cushion_scene(corpus::Shape::Square, 32, false, false, a, young, t);
+    let member = corpus::Member {
+        family: "cushion-full",
+        label: "square n=32, the twisted one".into(),
+        scene,
+        then: None,
+        rows: vec![corpus::row("loaded", vec![("p", p)], false)],
+        mirrors,
+        known: None,
+        quick: false,
+    };
+    let runs = corpus::run_member(&member);
+    print!("{}", corpus::table(&runs));
+    let r = &runs[0];
+    assert_eq!(r.verdict, Verdict::Right, "{}", corpus::short(&r.verdict));
+    assert!(
+        r.notes.iter().any(|n| n.contains(corpus::BROKEN)),
+        "the answer kept its symmetry: {:?}",
+        r.notes
+    );
+
+    // The control: at 8x8 the symmetric equilibrium is stable, so a broken symmetry there
+    // would not be verified.
+    let (scene, mirrors) =
+        corpus::cushion_scene(corpus::Shape::Square, 8, false, false, a, young, t);
+    let mut engine = velarium::Engine::try_new(scene).expect("the 8x8 cushion builds");
+    let vr = engine
+        .variables()
+        .iter()
+        .find(|v| v.name == "p")
+        .expect("input p")
+        .value_reference;
+    engine.set_real(vr, p).expect("p set");
+    assert!(engine.solve().converged(), "the 8x8 cushion converges");
+    let held: Vec<&corpus::Mirror> = mirrors.iter().filter(|m| m.plane.is_some()).collect();
+    assert_eq!(held.len(), 2, "the planes x = 0 and y = 0");
+    // The residual bound of the corpus's check (1e-6 of the pressure on a cell) and its size.
+    let bound = 1e-6 * p * (2.0 * a / 8.0).powi(2);
+    let why = corpus::broken_symmetry(&engine, &held, bound, 2.0 * a)
+        .expect_err("a stable symmetric equilibrium verifies no broken symmetry");
+    assert!(why.contains("stable too"), "{why}");
+}
+
+/// GOAL: a failing step's whole work is bounded however much its nodal relaxation evaluates,
+///       so that it ends within a few times `check`'s announced cost (issue 27, "fail fast").
+/// MESH, BOUNDARY CONDITIONS, PARAMETERS: the frictional drawstring that corpus seed 34
+///       draws (s = 0.134 m, 16x16, μ = 0.16, 2P = 0.369 N; corpus.rs, `drawstring_scene`),
+///       loaded from its start in one row at default settings.
+/// REFERENCE: the step's whole work (`StepReport::whole_work`: its budgeted work plus each
+///       relaxation round's element evaluations in assemblies' worth, half an iteration per
+///       assembly) against `solver.max_step_iterations`. Measured: without the bound the step
+///       spent 392 counted iterations in 9.3 s, 10.5 times the announced 0.886 s at load
+///       average 3.5 (67 % of it in the patch Newton); with it, 299 iterations in 3.7 s.
+/// REQUIRED: the row fails honestly, its whole work above its budgeted work (the relaxation
+///       is counted) and at most 20.5 times the budget: the bound of 20 is checked before
+///       each Newton iteration and after each relaxation round, so one round may pass it
+///       (measured: 20070 of 20000).
+#[test]
+fn a_failing_steps_relaxation_is_counted_at_its_cost() {
+    let member = corpus::members(34)
+        .into_iter()
+        .find(|m| m.family == "drawstring" && m.label.contains("mu=0.16 2P=3.693e-1"))
+        .expect("seed 34 draws the drawstring");
+    let mut engine = velarium::Engine::try_new(member.scene.clone()).expect("it builds");
+    assert!(engine.solve().converged(), "the start converges");
+    for (name, value) in &member.rows[0].set {
+        let vr = engine
+            .variables()
+            .iter()
+            .find(|v| v.name == *name)
+            .expect("the input")
+            .value_reference;
+        engine.set_real(vr, *value).expect("set");
+    }
+    let report = engine.solve();
+    assert!(
+        !report.converged(),
+        "the loaded row fails: {}",
+        report.message
+    );
+    assert!(report.message.contains("work budget"), "{}", report.message);
+    let settings = &engine.scene().solver;
+    let budget = settings.max_step_iterations as f64;
+    println!(
+        "work {} whole work {} budget {budget}: {}",
+        report.work, report.whole_work, report.message
+    );
+    assert!(report.whole_work > report.work, "the relaxation is counted");
+    assert!(
+        report.whole_work <= 20.5 * budget,
+        "whole work {} against a budget of {budget}",
+        report.whole_work
+    );
+}
