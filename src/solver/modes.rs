@@ -179,9 +179,12 @@ struct Operator<'a> {
 
 impl<'a> Operator<'a> {
     /// The operator, its buffers taken from `work` ([`Operator::give_back`] returns them).
+    /// M's values on the tangent's pattern are not needed once M is compressed: when `work`
+    /// has no row buffer yet (a first analysis), their memory becomes it (it is larger: the
+    /// pattern's entries against 2 n BLOCK), so that buffer costs no fresh pages.
     fn new(
         solver: &'a mut Solver,
-        mass: &Mass,
+        mass: Mass,
         seconds: Seconds,
         work: &mut Work,
     ) -> Result<Operator<'a>, Error> {
@@ -253,6 +256,17 @@ impl<'a> Operator<'a> {
                 }
             }
         };
+        let rows = {
+            let kept = std::mem::take(&mut work.rows);
+            let spare = mass.into_values();
+            let need = 2 * BLOCK * n;
+            let buffer = if kept.capacity() < need && spare.capacity() >= need {
+                spare
+            } else {
+                kept
+            };
+            sized(buffer, need, "the mass products' work buffer")?
+        };
         let mut op = Operator {
             solver,
             mass: compressed,
@@ -260,11 +274,7 @@ impl<'a> Operator<'a> {
             reorthogonalisations: 0,
             solves: 0,
             seconds,
-            rows: sized(
-                std::mem::take(&mut work.rows),
-                2 * BLOCK * n,
-                "the mass products' work buffer",
-            )?,
+            rows,
         };
         op.seconds.mass_products += t.elapsed().as_secs_f64();
         Ok(op)
@@ -1419,7 +1429,7 @@ impl Solver {
     pub fn modes(
         &mut self,
         model: &Model,
-        mass: &Mass,
+        mass: Mass,
         u: &[f64],
         loads: &[f64],
         wrinkle: &[WrinkleState],
@@ -1471,7 +1481,7 @@ impl Solver {
             ..Seconds::default()
         };
         let count = count.min(n);
-        let run = |solver: &mut Solver, work: &mut Work| {
+        let run = move |solver: &mut Solver, work: &mut Work| {
             let mut op = Operator::new(solver, mass, seconds, work)?;
             let found = block_lanczos(&mut op, n, count, work);
             op.give_back(work);
@@ -1754,7 +1764,7 @@ mod tests {
         let analyse = |solver: &mut Solver, count: usize| {
             let mass = solver.mass(&model, model.mass_kind).unwrap();
             let modes = solver
-                .modes(&model, &mass, &u, &[], &states, count)
+                .modes(&model, mass, &u, &[], &states, count)
                 .unwrap();
             (modes.frequencies, modes.shapes)
         };
@@ -1822,7 +1832,7 @@ mod tests {
         let states = vec![WrinkleState::Taut; model.triangles.len()];
         let count = 13;
         let modes = solver
-            .modes(&model, &mass, &u, &[], &states, count)
+            .modes(&model, mass.clone(), &u, &[], &states, count)
             .unwrap();
         assert_eq!(modes.eigenvalues.len(), count);
         eprintln!(
@@ -1910,7 +1920,7 @@ mod tests {
         // The flat, uniformly prestressed membrane is in equilibrium at u = 0 (no inputs).
         let u = vec![0.0; model.dof_count()];
         let states = vec![WrinkleState::Taut; model.triangles.len()];
-        let modes = solver.modes(&model, &mass, &u, &[], &states, 1).unwrap();
+        let modes = solver.modes(&model, mass, &u, &[], &states, 1).unwrap();
         assert!(
             (modes.frequencies[0] - 27.5726).abs() < 1e-3,
             "{:?}",
