@@ -1533,7 +1533,12 @@ impl Solver {
         // The vectors are in the operator's order: equation e at position inv[e].
         let t = std::time::Instant::now();
         let inv = self.linear.block_order().map(|(_, inv)| inv);
-        let mut position = memory::filled(n, 0usize, "the mode shapes")?;
+        // The DOF at each position, in the compressed M's column pointers (n + 1 values,
+        // rebuilt by the next analysis's compression): no fresh memory for it.
+        let mut position = std::mem::take(&mut self.modes_work.mass.0);
+        if position.len() < n {
+            position = memory::filled(n, 0usize, "the mode shapes")?;
+        }
         for (d, &e) in eq.iter().enumerate() {
             if e != NONE {
                 position[inv.map_or(e, |inv| inv[e])] = d;
@@ -1545,9 +1550,10 @@ impl Solver {
             m,
             &coefficients,
             thetas.len(),
-            &position,
+            &position[..n],
             model.dof_count(),
         );
+        self.modes_work.mass.0 = position;
         modes.seconds.ritz += t.elapsed().as_secs_f64();
         modes.seconds.total_cpu = crate::phases::thread_cpu() - cpu_started;
         Ok(modes)
@@ -1790,9 +1796,7 @@ mod tests {
         let states = vec![WrinkleState::Taut; model.triangles.len()];
         let analyse = |solver: &mut Solver, count: usize| {
             let mass = solver.mass(&model, model.mass_kind).unwrap();
-            let modes = solver
-                .modes(&model, mass, &u, &[], &states, count)
-                .unwrap();
+            let modes = solver.modes(&model, mass, &u, &[], &states, count).unwrap();
             (modes.frequencies, modes.shapes)
         };
         let mut kept = Solver::try_new(&model, settings.clone()).unwrap();
