@@ -25,7 +25,7 @@
 //!          Ritz values to round-off and admits no spurious copies), then within itself,
 //!          W = Q_{j+1} B_j (Cholesky QR twice: the Gram matrix (M W)ᵀ W and W B⁻¹ as matrix
 //!          products; column by column when the block is nearly dependent). Q is held as an
-//!          n × k matrix, M Q for the last three blocks only. The recurrence's coefficients
+//!          n × k matrix, M Q for the last two blocks only. The recurrence's coefficients
 //!          form H = Qᵀ M A Q (block tridiagonal); a Ritz pair (θ, Q s) of H
 //!          has the residual |B_j s_j| (s_j: its last block of components) in the M norm and
 //!          is converged when that is at most TOLERANCE θ_max
