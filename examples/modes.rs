@@ -13,7 +13,8 @@
 //! time: the least over the 3 analyses of the whole, the solves and the orthogonalisation, and
 //! each analysis's ratio to its own factorization of K - sigma M in run order (the first
 //! allocates the solver's kept work space, the later ones reuse it), and each analysis's
-//! factorization and whole in seconds.
+//! factorization and whole in seconds, and its minor page faults (fresh pages the system
+//! zeroes at their first write: the first analysis's buffers are new, the later ones' kept).
 
 use std::time::Instant;
 use velarium::{Engine, Scene};
@@ -47,9 +48,12 @@ fn main() {
     let (_, factor, solve) = engine.time_floor_parts(3);
     // Best of 3, as the factorization's time; CPU time of the process beside the wall time.
     let mut runs = Vec::new();
+    let mut faults = Vec::new();
     for _ in 0..3 {
         let (started, cpu) = (Instant::now(), velarium::phases::process_cpu());
+        let before = minor_faults();
         let modes = engine.modes(count).expect("the modes");
+        faults.push(minor_faults() - before);
         runs.push((
             started.elapsed().as_secs_f64(),
             velarium::phases::process_cpu() - cpu,
@@ -118,6 +122,14 @@ fn main() {
         parts.join(", ")
     );
     println!(
+        "  minor page faults per run (this thread): {}",
+        faults
+            .iter()
+            .map(|f| f.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!(
         "  of which: assembly and factorization of K - sigma M {:.3} s, solves {:.3} s, M products {:.3} s, orthogonalisation {:.3} s, Ritz pairs and shapes {:.3} s, other {:.3} s",
         s.factorization,
         s.solves,
@@ -140,4 +152,18 @@ fn main() {
             100.0 * (f - exact[k]) / exact[k]
         );
     }
+}
+
+/// Minor page faults of the calling thread so far (`/proc/thread-self/stat`'s tenth field;
+/// 0 where it cannot be read).
+fn minor_faults() -> i64 {
+    let Ok(text) = std::fs::read_to_string("/proc/thread-self/stat") else {
+        return 0;
+    };
+    // After the command name in parentheses: state, ppid, pgrp, session, tty, tpgid, flags,
+    // minflt.
+    text.rsplit_once(')')
+        .and_then(|(_, rest)| rest.split_whitespace().nth(7))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0)
 }

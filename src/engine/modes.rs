@@ -24,7 +24,7 @@ impl Engine {
         let s = &self.state;
         self.solver.modes(
             &self.model,
-            &mass,
+            mass,
             &s.displacement,
             &s.applied,
             &states,

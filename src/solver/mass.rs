@@ -39,6 +39,11 @@ impl Mass {
         &self.values
     }
 
+    /// The values' memory, for reuse as a work buffer (`modes.rs`).
+    pub fn into_values(self) -> Vec<f64> {
+        self.values
+    }
+
     /// Whether every entry is zero (a massless model).
     pub fn is_zero(&self) -> bool {
         self.values.iter().all(|&v| v == 0.0)

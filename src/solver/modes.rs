@@ -19,13 +19,13 @@
 //!          the factor per sweep for all of them), the block
 //!          M-orthogonalised twice against the last two blocks (classical Gram-Schmidt, each
 //!          pass two dense products, so a pass reads those blocks once, not once per
-//!          vector), against all earlier vectors only when an estimate of the loss of
+//!          vector), against the earlier vectors only when an estimate of the loss of
 //!          orthogonality passes √ε (partial reorthogonalisation, `Partial`: Simon 1984,
 //!          Grimes, Lewis & Simon 1994; the basis stays semi-orthogonal, which keeps the
 //!          Ritz values to round-off and admits no spurious copies), then within itself,
 //!          W = Q_{j+1} B_j (Cholesky QR twice: the Gram matrix (M W)ᵀ W and W B⁻¹ as matrix
 //!          products; column by column when the block is nearly dependent). Q is held as an
-//!          n × k matrix, M Q for the last three blocks only. The recurrence's coefficients
+//!          n × k matrix, M Q for the last two blocks only. The recurrence's coefficients
 //!          form H = Qᵀ M A Q (block tridiagonal); a Ritz pair (θ, Q s) of H
 //!          has the residual |B_j s_j| (s_j: its last block of components) in the M norm and
 //!          is converged when that is at most TOLERANCE θ_max
@@ -179,9 +179,12 @@ struct Operator<'a> {
 
 impl<'a> Operator<'a> {
     /// The operator, its buffers taken from `work` ([`Operator::give_back`] returns them).
+    /// M's values on the tangent's pattern are not needed once M is compressed: when `work`
+    /// has no row buffer yet (a first analysis), their memory becomes it (it is larger: the
+    /// pattern's entries against 2 n BLOCK), so that buffer costs no fresh pages.
     fn new(
         solver: &'a mut Solver,
-        mass: &Mass,
+        mass: Mass,
         seconds: Seconds,
         work: &mut Work,
     ) -> Result<Operator<'a>, Error> {
@@ -253,6 +256,17 @@ impl<'a> Operator<'a> {
                 }
             }
         };
+        let rows = {
+            let kept = std::mem::take(&mut work.rows);
+            let spare = mass.into_values();
+            let need = 2 * BLOCK * n;
+            let buffer = if kept.capacity() < need && spare.capacity() >= need {
+                spare
+            } else {
+                kept
+            };
+            sized(buffer, need, "the mass products' work buffer")?
+        };
         let mut op = Operator {
             solver,
             mass: compressed,
@@ -260,11 +274,7 @@ impl<'a> Operator<'a> {
             reorthogonalisations: 0,
             solves: 0,
             seconds,
-            rows: sized(
-                std::mem::take(&mut work.rows),
-                2 * BLOCK * n,
-                "the mass products' work buffer",
-            )?,
+            rows,
         };
         op.seconds.mass_products += t.elapsed().as_secs_f64();
         Ok(op)
@@ -480,8 +490,10 @@ fn start_vector(n: usize, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-/// Blocks of M Q held: the open block and the two before it (the three-term recurrence's).
-const RING: usize = 3;
+/// Blocks of M Q held: the last two (the three-term recurrence's). The open block takes the
+/// slot of the older one, written only once the block has been orthogonalised against both
+/// (its Cholesky QR, or its columns one by one, come after the Gram-Schmidt passes).
+const RING: usize = 2;
 
 /// The Lanczos basis: Q as a column-major n × k matrix (one allocation, grown by blocks), so
 /// that the orthogonalisation and the Ritz vectors are matrix products that read Q once per
@@ -560,7 +572,8 @@ impl Basis {
     /// Where vector `k`'s M q starts in `mq` (its block among the last [`RING`]).
     fn mq_at(&self, k: usize) -> usize {
         let b = self.starts.partition_point(|&s| s <= k) - 1;
-        debug_assert!(b + RING >= self.starts.len() && k - self.starts[b] < self.width);
+        // (The open block is the last of `starts`: the two before it are still held.)
+        debug_assert!(b + RING + 1 >= self.starts.len() && k - self.starts[b] < self.width);
         ((b % RING) * self.width + k - self.starts[b]) * self.n
     }
 
@@ -601,13 +614,14 @@ impl Basis {
 /// (classical Gram-Schmidt, each pass two matrix products that read those blocks' Q and M Q
 /// once for the whole block); then M W; then, when `partial` says the block would lose
 /// orthogonality to the earlier vectors beyond √ε (or always, without an estimate), against
-/// every vector of `basis` (the reorthogonalisation, its coefficients Qᵀ (M W)) and M W
-/// afresh; then then within the block: as matrix
+/// every vector of `basis` before the last two blocks (the reorthogonalisation, its
+/// coefficients Qᵀ (M W); the last two blocks had their two passes) and M W afresh; then
+/// within the block: as matrix
 /// products ([`cholesky_qr_block`]) when the block is well conditioned, otherwise one column
 /// after the other against the block's earlier accepted columns (twice). Accepted columns (M
 /// norm above 1e-10 `scale`) join `basis`. Returns per column its coefficients on the basis
 /// (the column of H: the last two blocks', the block's accepted ones', then its own M norm if
-/// accepted; the reorthogonalisation's coefficients on earlier vectors are left out of H, as
+/// accepted; the reorthogonalisation's coefficients are left out of H, as
 /// partial reorthogonalisation's analysis takes it: Simon 1984).
 #[allow(clippy::too_many_arguments)]
 fn orthonormalise_block(
@@ -634,7 +648,7 @@ fn orthonormalise_block(
     let mut c = vec![0.0; old * columns];
     // The three-term recurrence's part (the last two blocks, from `local`), twice.
     for _ in 0..2 {
-        gram_schmidt_pass(basis, w, None, columns, local, &mut c, &mut total);
+        gram_schmidt_pass(basis, w, None, columns, local, old, &mut c, &mut total);
     }
     op.seconds.orthogonalisation += t.elapsed().as_secs_f64();
     op.seconds.orthogonalisation_cpu += crate::phases::thread_cpu() - cpu;
@@ -653,15 +667,12 @@ fn orthonormalise_block(
         (None, _) => false,
     };
     if full {
-        // The reorthogonalisation against every earlier vector (the last two blocks' part
-        // of it joins their coefficients), then M W afresh.
+        // The reorthogonalisation against the vectors before the last two blocks (those
+        // were orthogonalised against twice above; what this pass subtracts adds to W's
+        // components along them only its product with the basis's semi-orthogonality, √ε
+        // times √ε), then M W afresh. Its coefficients stay out of H (Simon 1984).
         let mut extra = vec![0.0; old * columns];
-        gram_schmidt_pass(basis, w, Some(mw), columns, 0, &mut c, &mut extra);
-        for col in 0..columns {
-            for i in local..old {
-                total[col * old + i] += extra[col * old + i];
-            }
-        }
+        gram_schmidt_pass(basis, w, Some(mw), columns, 0, local, &mut c, &mut extra);
         op.seconds.orthogonalisation += t.elapsed().as_secs_f64();
         op.seconds.orthogonalisation_cpu += crate::phases::thread_cpu() - cpu;
         op.mass(w, mw, columns);
@@ -738,24 +749,26 @@ fn orthonormalise_block(
 }
 
 /// One classical Gram-Schmidt pass of the `columns` columns of W against the basis vectors
-/// `from..`: C = (M Q)ᵀ W, or Qᵀ (M W) when M W is given (`mw`: the vectors' M Q may no
+/// `from..to`: C = (M Q)ᵀ W, or Qᵀ (M W) when M W is given (`mw`: the vectors' M Q may no
 /// longer be held), then W ← W − Q C (two matrix products), C added to `total` (old ×
-/// columns, column-major; `c` a work space as large).
+/// columns, column-major, old the basis's length; `c` a work space as large).
+#[allow(clippy::too_many_arguments)]
 fn gram_schmidt_pass(
     basis: &Basis,
     w: &mut [f64],
     mw: Option<&[f64]>,
     columns: usize,
     from: usize,
+    to: usize,
     c: &mut [f64],
     total: &mut [f64],
 ) {
     let (n, old) = (basis.n, basis.len());
-    let k = old - from;
+    let k = to - from;
     if k == 0 {
         return;
     }
-    let q = MatRef::from_column_major_slice(&basis.q[from * n..old * n], n, k);
+    let q = MatRef::from_column_major_slice(&basis.q[from * n..to * n], n, k);
     let wm = MatRef::from_column_major_slice(w, n, columns);
     match mw {
         Some(mw) => {
@@ -767,9 +780,9 @@ fn gram_schmidt_pass(
             // Block by block (M Q is held per block).
             let mut part = vec![0.0; basis.width * columns];
             let mut s = from;
-            while s < old {
+            while s < to {
                 let b = basis.starts.partition_point(|&x| x <= s) - 1;
-                let e = basis.starts.get(b + 1).copied().unwrap_or(old).min(old);
+                let e = basis.starts.get(b + 1).copied().unwrap_or(to).min(to);
                 let rows = e - s;
                 let mq = MatRef::from_column_major_slice(basis.mq_block(s, e), n, rows);
                 let pm =
@@ -808,7 +821,8 @@ fn gram_schmidt_pass(
 /// block k before the last two (those are orthogonalised against at every step), with G
 /// replaced by NOISE θ_max in every entry, signed to add to the entry's magnitude (Simon's
 /// rule), and the last two blocks' entries set to NOISE θ_max ‖B_j⁻¹‖. When its largest entry
-/// passes √ε the block is orthogonalised against every earlier vector, and so is the next
+/// passes √ε the block is orthogonalised against every earlier block (those before the last
+/// two: [`orthonormalise_block`]), and so is the next
 /// one (Q_j itself is no better); both then restart at the noise level. Blocks narrower than
 /// p (a nearly dependent block) end the estimate: every later block is reorthogonalised.
 struct Partial {
@@ -1272,7 +1286,7 @@ fn lanczos_iterate(
         let end = basis.len();
         if start == end {
             // No new direction: an invariant subspace, every Ritz pair exact.
-            return ritz_pairs(op, basis, &h, end, want, None);
+            return ritz_pairs(op, &h, end, want, None);
         }
         let columns = end - start;
         op.solve(
@@ -1324,17 +1338,16 @@ fn lanczos_iterate(
                 .copied()
                 .filter(|&k| invariant || residual(k) <= TOLERANCE * largest)
                 .collect();
-            return ritz_pairs(op, basis, &h, end, want, Some((&keep, (theta, s))));
+            return ritz_pairs(op, &h, end, want, Some((&keep, (theta, s))));
         }
         previous = start;
         start = end;
     }
 }
 
-/// Converged Ritz pairs: θ descending, and the M-normalised vectors (n values each, one after
-/// the other, in the operator's order) in `vectors`, or None: in the kept M Q memory
-/// (`Work::mq`), where they are formed when they fit (no fresh memory per analysis).
-type Ritz = (Vec<f64>, Option<Vec<f64>>);
+/// Converged Ritz pairs: θ descending, and their coefficients S on the basis's first m vectors
+/// (m × count, column-major), and m: the M-normalised vectors are Q S ([`mode_shapes`]).
+type Ritz = (Vec<f64>, Vec<f64>, usize);
 
 /// Eigenvalues θ and eigenvectors (columns) of a block of H.
 type Eigen = (Vec<f64>, nalgebra::DMatrix<f64>);
@@ -1349,11 +1362,10 @@ fn projected_eigen(h: &[Vec<f64>], m: usize) -> Eigen {
 
 /// The Ritz pairs (θ, Q s) of the leading `m` vectors: `known`, the eigenpairs of H's
 /// leading m × m block as the convergence test has them and those of them to keep (indices),
-/// or, when None, the largest `want` of H's eigenpairs; the vectors as one product Q S (n
-/// values each, one after the other).
+/// or, when None, the largest `want` of H's eigenpairs; the vectors' coefficients S (the
+/// vectors Q S are formed straight into the mode shapes: [`mode_shapes`]).
 fn ritz_pairs(
     op: &mut Operator,
-    basis: &mut Basis,
     h: &[Vec<f64>],
     m: usize,
     want: usize,
@@ -1362,7 +1374,7 @@ fn ritz_pairs(
     let t = std::time::Instant::now();
     let m = m.min(h.len());
     if m == 0 {
-        return Ok((Vec::new(), Some(Vec::new())));
+        return Ok((Vec::new(), Vec::new(), 0));
     }
     let (chosen, (theta, s)) = match known {
         Some((keep, eigen)) => (keep.to_vec(), eigen),
@@ -1374,7 +1386,6 @@ fn ritz_pairs(
             (order, (theta, s))
         }
     };
-    let n = basis.n;
     let count = chosen.len();
     let mut coefficients = vec![0.0; m * count];
     for (j, &k) in chosen.iter().enumerate() {
@@ -1382,31 +1393,51 @@ fn ritz_pairs(
             coefficients[j * m + i] = s[(i, k)];
         }
     }
-    // M Q of the last blocks is no longer needed: the vectors go there when they fit.
-    let fits = basis.mq.len() >= n * count;
-    let mut fresh = if fits {
-        Vec::new()
-    } else {
-        memory::zeros(n * count, "the mode shapes")?
-    };
-    let y = if fits {
-        &mut basis.mq[..n * count]
-    } else {
-        &mut fresh[..]
-    };
-    let q = MatRef::from_column_major_slice(&basis.q[..n * m], n, m);
-    let c = MatRef::from_column_major_slice(&coefficients, m, count);
-    product(
-        MatMut::from_column_major_slice_mut(y, n, count),
-        Accum::Replace,
-        q,
-        c,
-        1.0,
-    );
-    let y = (!fits).then_some(fresh);
     let thetas = chosen.iter().map(|&k| theta[k]).collect();
     op.seconds.ritz += t.elapsed().as_secs_f64();
-    Ok((thetas, y))
+    Ok((thetas, coefficients, m))
+}
+
+/// Rows of Q per product of [`mode_shapes`] (the block of Q S, rows × count, stays in cache).
+const SHAPE_ROWS: usize = 1024;
+
+/// The mode shapes per DOF (`dofs` values each, held DOFs 0): the Ritz vectors Q S (`q` the
+/// basis, n × m, in the operator's order; `s` m × count) formed SHAPE_ROWS rows at a time
+/// and each row put at its DOF (`position`: the DOF of each position of the operator's
+/// order), so that no n × count matrix of them is written and read back.
+fn mode_shapes(
+    q: &[f64],
+    n: usize,
+    m: usize,
+    s: &[f64],
+    count: usize,
+    position: &[usize],
+    dofs: usize,
+) -> Vec<Vec<f64>> {
+    let mut shapes: Vec<Vec<f64>> = (0..count).map(|_| vec![0.0; dofs]).collect();
+    if count == 0 || m == 0 {
+        return shapes;
+    }
+    let q = MatRef::from_column_major_slice(&q[..n * m], n, m);
+    let s = MatRef::from_column_major_slice(&s[..m * count], m, count);
+    let mut y = vec![0.0; SHAPE_ROWS * count];
+    for start in (0..n).step_by(SHAPE_ROWS) {
+        let rows = SHAPE_ROWS.min(n - start);
+        product(
+            MatMut::from_column_major_slice_mut(&mut y[..rows * count], rows, count),
+            Accum::Replace,
+            q.subrows(start, rows),
+            s,
+            1.0,
+        );
+        let at = &position[start..start + rows];
+        for (shape, column) in shapes.iter_mut().zip(y.chunks(rows)) {
+            for (&d, &v) in at.iter().zip(column) {
+                shape[d] = v;
+            }
+        }
+    }
+    shapes
 }
 
 impl Solver {
@@ -1419,7 +1450,7 @@ impl Solver {
     pub fn modes(
         &mut self,
         model: &Model,
-        mass: &Mass,
+        mass: Mass,
         u: &[f64],
         loads: &[f64],
         wrinkle: &[WrinkleState],
@@ -1471,7 +1502,7 @@ impl Solver {
             ..Seconds::default()
         };
         let count = count.min(n);
-        let run = |solver: &mut Solver, work: &mut Work| {
+        let run = move |solver: &mut Solver, work: &mut Work| {
             let mut op = Operator::new(solver, mass, seconds, work)?;
             let found = block_lanczos(&mut op, n, count, work);
             op.give_back(work);
@@ -1492,26 +1523,38 @@ impl Solver {
             reorthogonalisations,
             seconds,
         };
-        // The vectors are in the operator's order: equation e at position inv[e].
-        let (thetas, vectors) = found;
-        let vectors: &[f64] = match &vectors {
-            Some(v) => v,
-            None => &self.modes_work.mq,
-        };
-        let inv = self.linear.block_order().map(|(_, inv)| inv);
-        for (&theta, y) in thetas.iter().zip(vectors.chunks(n.max(1))) {
+        let (thetas, coefficients, m) = found;
+        for &theta in &thetas {
             let lambda = shift + 1.0 / theta;
             modes.eigenvalues.push(lambda);
             let f = lambda.abs().sqrt() / (2.0 * std::f64::consts::PI);
             modes.frequencies.push(if lambda < 0.0 { -f } else { f });
-            let mut shape = vec![0.0; model.dof_count()];
-            for (d, &e) in eq.iter().enumerate() {
-                if e != NONE {
-                    shape[d] = y[inv.map_or(e, |inv| inv[e])];
-                }
-            }
-            modes.shapes.push(shape);
         }
+        // The vectors are in the operator's order: equation e at position inv[e].
+        let t = std::time::Instant::now();
+        let inv = self.linear.block_order().map(|(_, inv)| inv);
+        // The DOF at each position, in the compressed M's column pointers (n + 1 values,
+        // rebuilt by the next analysis's compression): no fresh memory for it.
+        let mut position = std::mem::take(&mut self.modes_work.mass.0);
+        if position.len() < n {
+            position = memory::filled(n, 0usize, "the mode shapes")?;
+        }
+        for (d, &e) in eq.iter().enumerate() {
+            if e != NONE {
+                position[inv.map_or(e, |inv| inv[e])] = d;
+            }
+        }
+        modes.shapes = mode_shapes(
+            &self.modes_work.q,
+            n,
+            m,
+            &coefficients,
+            thetas.len(),
+            &position[..n],
+            model.dof_count(),
+        );
+        self.modes_work.mass.0 = position;
+        modes.seconds.ritz += t.elapsed().as_secs_f64();
         modes.seconds.total_cpu = crate::phases::thread_cpu() - cpu_started;
         Ok(modes)
     }
@@ -1753,9 +1796,7 @@ mod tests {
         let states = vec![WrinkleState::Taut; model.triangles.len()];
         let analyse = |solver: &mut Solver, count: usize| {
             let mass = solver.mass(&model, model.mass_kind).unwrap();
-            let modes = solver
-                .modes(&model, &mass, &u, &[], &states, count)
-                .unwrap();
+            let modes = solver.modes(&model, mass, &u, &[], &states, count).unwrap();
             (modes.frequencies, modes.shapes)
         };
         let mut kept = Solver::try_new(&model, settings.clone()).unwrap();
@@ -1822,7 +1863,7 @@ mod tests {
         let states = vec![WrinkleState::Taut; model.triangles.len()];
         let count = 13;
         let modes = solver
-            .modes(&model, &mass, &u, &[], &states, count)
+            .modes(&model, mass.clone(), &u, &[], &states, count)
             .unwrap();
         assert_eq!(modes.eigenvalues.len(), count);
         eprintln!(
@@ -1910,7 +1951,7 @@ mod tests {
         // The flat, uniformly prestressed membrane is in equilibrium at u = 0 (no inputs).
         let u = vec![0.0; model.dof_count()];
         let states = vec![WrinkleState::Taut; model.triangles.len()];
-        let modes = solver.modes(&model, &mass, &u, &[], &states, 1).unwrap();
+        let modes = solver.modes(&model, mass, &u, &[], &states, 1).unwrap();
         assert!(
             (modes.frequencies[0] - 27.5726).abs() < 1e-3,
             "{:?}",
