@@ -55,11 +55,11 @@ pub(super) fn zero_columns(out: &mut Vec<Vec<f64>>, m: usize, n: usize) {
 }
 
 /// A modal analysis's large buffers, kept in the solver (`Solver::modes_work`; modes.rs) from one
-/// analysis to the next: the Lanczos basis Q and M Q (about 2 n (2 count + 44) values: 112 MB
-/// for ten modes of 110k unknowns), the block's vectors, M's nonzero entries and the work
-/// spaces. A repeated analysis (the `natural_frequency` output at every committed state) then
-/// writes into memory it already has instead of fresh pages (about 27 000 page faults per
-/// analysis of the modes benchmark). Their contents do not carry over: every analysis starts
+/// analysis to the next: the Lanczos basis Q (n values per vector, grown by blocks), M Q for
+/// the last two blocks only (a ring, modes.rs `RING`), the block's vectors, M's nonzero
+/// entries and the work spaces. A repeated analysis (the `natural_frequency` output at every
+/// committed state) then writes into memory it already has instead of fresh pages (the modes
+/// benchmark's first analysis takes about 23 000 minor page faults, a repeated one 2 000-3 500). Their contents do not carry over: every analysis starts
 /// from its own start vectors, so its result is the same whether the buffers are new or kept.
 #[derive(Default)]
 pub(super) struct ModesWork {
