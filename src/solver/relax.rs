@@ -275,24 +275,11 @@ fn displacement(u: &[f64], node: usize) -> Vector3<f64> {
     Vector3::new(u[3 * node], u[3 * node + 1], u[3 * node + 2])
 }
 
-/// Relax each node of `nodes` in turn (free components only, `held` per DOF). Returns the
-/// number of nodes that moved.
-pub fn relax_nodes(
-    model: &Model,
-    adj: &Adjacency,
-    u: &mut [f64],
-    loads: &[f64],
-    nodes: &[usize],
-    forced: Frozen,
-    target: f64,
-) -> usize {
-    relax_nodes_counted(model, adj, u, loads, nodes, forced, target, &mut 0)
-}
-
-/// [`relax_nodes`], adding to `evaluated` the element evaluations it made (the work it
-/// cost, charged to the step's work budget by `Solver::relax`).
+/// Relax each node of `nodes` in turn (free components only, `held` per DOF), adding to
+/// `evaluated` the element evaluations it made (what it cost: `Solver::relax` counts it in
+/// the step's whole work). Returns the number of nodes that moved.
 #[allow(clippy::too_many_arguments)]
-pub fn relax_nodes_counted(
+pub fn relax_nodes(
     model: &Model,
     adj: &Adjacency,
     u: &mut [f64],

@@ -5,7 +5,7 @@
 
 use super::assemble::{assemble_with, Membranes, NONE};
 use super::core::Solver;
-use super::relax::{relax_nodes_counted, relax_patch, Frozen};
+use super::relax::{relax_nodes, relax_patch, Frozen};
 use crate::model::Model;
 
 impl Solver {
@@ -56,7 +56,7 @@ impl Solver {
             let mut moved = 0;
             let mut evaluated = 0;
             for _ in 0..s.relax_sweeps {
-                moved = moved.max(relax_nodes_counted(
+                moved = moved.max(relax_nodes(
                     model,
                     &self.adjacency,
                     u,

@@ -53,6 +53,7 @@ fn the_patch_newton_moves_a_pair_that_gauss_seidel_only_drifts() {
             &[1, 2],
             Frozen::default(),
             1e-9 * p,
+            &mut 0,
         );
     }
     let drift = error(&u);

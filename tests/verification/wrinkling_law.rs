@@ -336,3 +336,42 @@ fn orthotropic_stress_is_continuous_at_the_state_boundaries() {
     println!("borders checked (taut/wrinkled, wrinkled/slack) {found:?}, worst jump {worst:e}");
     assert!(found.iter().all(|&n| n >= 20), "{found:?}");
 }
+
+/// A wrinkled state frozen by the solver (`forced`) at a strain outside the wrinkled region:
+/// at a nearly isotropic strain E1 − E2 vanishes and the exact rotation term of the tangent
+/// (2 E E1/(E1 − E2) for SVK, 8 ψ'/(λ1 − λ2) for neo-Hookean) overflowed, which failed every
+/// increment of a frictional drawstring of the robustness corpus (seed 35) with an infinite
+/// tangent diagonal. The denominator is kept above 1e-8 of its value at the wrinkled region's
+/// border ((1 + ν) E1, λ1 − λ1^(-1/2)). Required: at an exactly isotropic strain the tangent's
+/// shear entry is that floor's, 1e8 times the border value's, to 1e-9 relative (measured: to
+/// round-off), so finite; inside the region the tangent is unchanged
+/// (`consistent_tangents_match_finite_differences_in_every_state`).
+#[test]
+fn a_frozen_wrinkled_state_at_an_isotropic_strain_has_a_finite_tangent() {
+    let e1 = 1e-6;
+    for law in [SVK, Law::NeoHookean { mu: 1.0 }] {
+        let strain = Vector3::new(e1, e1, 0.0);
+        let r = law.response(&strain, Some(WrinkleState::Wrinkled));
+        assert!(
+            r.tangent.iter().all(|v| v.is_finite()),
+            "{law:?} at {strain:?}: {:?}",
+            r.tangent
+        );
+        let rotation = match law {
+            Law::Svk { young, nu } => 2.0 * young * e1 / (1e-8 * (1.0 + nu) * e1),
+            Law::NeoHookean { mu } => {
+                let l1 = 1.0 + 2.0 * e1;
+                8.0 * (0.5 * mu * (1.0 - l1.powf(-1.5))) / (1e-8 * (l1 - 1.0 / l1.sqrt()))
+            }
+            _ => unreachable!(),
+        };
+        // The w wᵀ term's shear entry: at the principal angle 0 (an isotropic strain),
+        // w = [0, 0, 1/2].
+        let shear = r.tangent[(2, 2)] - (law.small_strain() * REGULARIZATION)[(2, 2)];
+        let expect = rotation * 0.25;
+        assert!(
+            (shear - expect).abs() <= 1e-9 * expect.abs(),
+            "{law:?}: shear stiffness {shear:e} against the floor's {expect:e}"
+        );
+    }
+}
