@@ -20,16 +20,7 @@
 //! ```
 //! The wrinkled tangents include the rotation of the tension direction (the w wᵀ term), so
 //! Newton converges quadratically in wrinkled regions; their denominators stay positive inside
-//! the wrinkled state (E1 − E2 > (1 + ν) E1 > 0 for SVK, λ1 − λ2 > λ1 − λ1^(-1/2) > 0 for
-//! neo-Hookean). A wrinkled state frozen by the solver against chatter is also applied outside
-//! that region, where E1 − E2 can vanish (a nearly isotropic strain) and the exact rotation
-//! term with it overflow (measured: an infinite tangent diagonal that failed a frictional
-//! drawstring's every increment, docs/robustness.md, fourteenth session); there the
-//! denominator is kept above 1e-8 of its border value ((1 + ν) E1, λ1 − λ1^(-1/2)), in the
-//! tangent only: finite, and where it was finite before, as before. Holding it at the border
-//! value itself changed the iterations of frozen states far from it, measured on the corpus as
-//! 6 rows fewer right over nine seeds (the 1e-8 floor: 3 fewer on two seeds, 1 more on a
-//! third).
+//! the wrinkled state (E1 − E2 > (1 + ν) E1 > 0 for SVK, λ1 − λ2 > 0 for neo-Hookean).
 //! Wrinkled and slack points add `ε D0` (ε = 1e-6, D0 the small-strain elasticity) to the
 //! tangent only: the stress, hence the equilibrium, does not depend on it.
 //!
@@ -149,12 +140,8 @@ impl Law {
             WrinkleState::Wrinkled => {
                 let (v, w) = v_w(angle);
                 match *self {
-                    Law::Svk { young, nu } => {
-                        // Inside the wrinkled state E1 − E2 > (1 + ν) E1; a state frozen
-                        // against chatter (`forced`) may be applied outside it, where E1 − E2
-                        // can vanish and the rotation term 1/(E1 − E2) with it overflow: the
-                        // gap is kept above 1e-8 of its border value (module docs).
-                        let gap = (e1 - e2).max(1e-8 * (1.0 + nu) * e1).max(f64::MIN_POSITIVE);
+                    Law::Svk { young, .. } => {
+                        let gap = (e1 - e2).max(f64::MIN_POSITIVE);
                         let c = v * v.transpose() * young
                             + w * w.transpose() * (2.0 * young * e1 / gap);
                         (v * (young * e1), c + reg, 0.5 * young * e1 * e1)
@@ -163,11 +150,7 @@ impl Law {
                         let (l1, l2) = (1.0 + 2.0 * e1, 1.0 + 2.0 * e2);
                         let d1 = 0.5 * mu * (1.0 - l1.powf(-1.5));
                         let d2 = 0.75 * mu * l1.powf(-2.5);
-                        // Inside the wrinkled state λ2 < λ1^(-1/2); a frozen state outside it
-                        // keeps the gap above 1e-8 of the border's (as SVK's above).
-                        let gap = (l1 - l2)
-                            .max(1e-8 * (l1 - 1.0 / l1.sqrt()))
-                            .max(f64::MIN_POSITIVE);
+                        let gap = (l1 - l2).max(f64::MIN_POSITIVE);
                         let c =
                             v * v.transpose() * (4.0 * d2) + w * w.transpose() * (8.0 * d1 / gap);
                         (
