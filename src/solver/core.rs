@@ -108,24 +108,24 @@ pub(super) const WORK_ITERATION: usize = 2;
 pub(super) const COST_BOUND: usize = 20;
 
 impl Solver {
+    /// The step's work budget in halves of an iteration (`step_work`'s unit).
+    fn budget_halves(&self) -> usize {
+        self.settings
+            .max_step_iterations
+            .saturating_mul(WORK_ITERATION)
+    }
+
     /// Whether the step's work budget (`settings.max_step_iterations`) is spent, or its whole
     /// work with the relaxation counted at its cost is `COST_BOUND` times that.
     pub(super) fn work_spent(&self) -> bool {
-        let budget = self
-            .settings
-            .max_step_iterations
-            .saturating_mul(WORK_ITERATION);
+        let budget = self.budget_halves();
         self.step_work >= budget
             || self.step_work.saturating_add(self.relax_extra) >= budget.saturating_mul(COST_BOUND)
     }
 
     /// Whether the whole work's bound, not the budget, ended the step.
     pub(super) fn cost_bound_reached(&self) -> bool {
-        let budget = self
-            .settings
-            .max_step_iterations
-            .saturating_mul(WORK_ITERATION);
-        self.step_work < budget
+        self.step_work < self.budget_halves()
     }
 
     /// Stored entries of the tangent's LDLT factor.
