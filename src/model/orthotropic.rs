@@ -195,6 +195,17 @@ pub struct Wrinkle {
     pub energy: f64,
 }
 
+/// (cos 2θ, sin 2θ) at the search's samples θ = π k / [`ANGLE_SAMPLES`].
+fn angle_table() -> &'static [(f64, f64); ANGLE_SAMPLES] {
+    static TABLE: std::sync::OnceLock<[(f64, f64); ANGLE_SAMPLES]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let (s, c) = (2.0 * std::f64::consts::PI * k as f64 / ANGLE_SAMPLES as f64).sin_cos();
+            (c, s)
+        })
+    })
+}
+
 /// v(θ) = [m1², m2², 2 m1 m2] for m = (−sin θ, cos θ), and its first two θ-derivatives.
 fn v_derivatives(theta: f64) -> [Vector3<f64>; 3] {
     let (s2, c2) = (2.0 * theta).sin_cos();
@@ -211,20 +222,34 @@ fn v_derivatives(theta: f64) -> [Vector3<f64>; 3] {
 #[allow(non_snake_case)]
 pub fn wrinkle(d: &Matrix3<f64>, strain: &Vector3<f64>) -> Wrinkle {
     let trial = d * strain;
-    let objective = |theta: f64| {
-        let v = v_derivatives(theta)[0];
-        v.dot(&trial) / v.dot(&(d * v)).sqrt()
-    };
-    let mut theta = 0.0;
-    let mut best = f64::INFINITY;
-    for k in 0..ANGLE_SAMPLES {
-        let t = std::f64::consts::PI * k as f64 / ANGLE_SAMPLES as f64;
-        let g = objective(t);
-        if g < best {
-            best = g;
-            theta = t;
+    // With φ = 2θ, v = v0 + cos φ vc + sin φ vs, so n = v·D E and q = vᵀ D v are
+    // trigonometric polynomials in φ of degree 1 and 2: their coefficients once, then each
+    // sample of the search is a few products with the tabulated cos φ, sin φ (no sin_cos per
+    // sample: the search was 84 % of an orthotropic fabric cushion's solve, measured by perf).
+    let (v0, vc, vs) = (
+        Vector3::new(0.5, 0.5, 0.0),
+        Vector3::new(-0.5, 0.5, 0.0),
+        Vector3::new(0.0, 0.0, -1.0),
+    );
+    let (dv0, dvc, dvs) = (d * v0, d * vc, d * vs);
+    let (n0, nc, ns) = (v0.dot(&trial), vc.dot(&trial), vs.dot(&trial));
+    let (q0, q0c, q0s) = (v0.dot(&dv0), 2.0 * v0.dot(&dvc), 2.0 * v0.dot(&dvs));
+    let (qcc, qcs, qss) = (vc.dot(&dvc), 2.0 * vc.dot(&dvs), vs.dot(&dvs));
+    // n |n| / q orders the samples as n / √q does (x ↦ x |x| is increasing; q > 0): no root,
+    // and the samples are independent, so the loop vectorises; then the first smallest.
+    let mut h = [0.0; ANGLE_SAMPLES];
+    for (h, &(c, s)) in h.iter_mut().zip(angle_table()) {
+        let n = n0 + c * nc + s * ns;
+        let q = q0 + c * q0c + s * q0s + c * c * qcc + c * s * qcs + s * s * qss;
+        *h = n * n.abs() / q;
+    }
+    let mut k_best = 0;
+    for (k, &g) in h.iter().enumerate() {
+        if g < h[k_best] {
+            k_best = k;
         }
     }
+    let mut theta = std::f64::consts::PI * k_best as f64 / ANGLE_SAMPLES as f64;
     let max_step = std::f64::consts::PI / ANGLE_SAMPLES as f64;
     for _ in 0..60 {
         let [v, v1, v2] = v_derivatives(theta);
@@ -331,5 +356,59 @@ mod tests {
         println!("states (taut, wrinkled, slack) {seen:?}; worst stress, tangent {worst:?}");
         assert!(seen.iter().all(|&n| n > 20), "{seen:?}");
         assert!(worst.0 < 1e-12 && worst.1 < 1e-12, "{worst:?}");
+    }
+
+    /// The search on tabulated cos 2θ, sin 2θ finds the global minimiser of n/√q: against a
+    /// scan of 200 000 angles evaluating v(θ) directly, over fabrics from 1:4 to 1:1 and 1/40
+    /// to 1/3 shear, warp at any angle and wrinkled strains, the found angle is within the
+    /// scan's spacing (1.6e-5 rad) of the scan's best and its objective is not above the scan's
+    /// best (to 1e-14 relative: round-off of the objective; measured: angles 7.8e-6 rad apart,
+    /// the found objective below the scan's in every case).
+    #[test]
+    fn the_tabulated_search_finds_the_global_minimum() {
+        let mut checked = 0;
+        let (mut worst_angle, mut worst_excess) = (0.0f64, f64::NEG_INFINITY);
+        for k in 0..400 {
+            let a = k as f64 * 0.731;
+            let fill = 0.25 + 0.75 * (0.5 + 0.5 * (1.7 * a).sin());
+            let shear = 1.0 / 40.0 + (1.0 / 3.0 - 1.0 / 40.0) * (0.5 + 0.5 * (2.3 * a).cos());
+            let o = Orthotropic::new(1e9, 1e9 * fill, 0.3 * fill.sqrt(), 1e9 * shear, 3.1 * a);
+            let e = Vector3::new(
+                0.01 * (0.9 * a).cos(),
+                -0.02 * (1.3 * a).sin(),
+                0.015 * (0.7 * a).cos(),
+            );
+            if o.classify(&e) != WrinkleState::Wrinkled {
+                continue;
+            }
+            checked += 1;
+            let trial = o.d * e;
+            let objective = |theta: f64| {
+                let v = v_derivatives(theta)[0];
+                v.dot(&trial) / v.dot(&(o.d * v)).sqrt()
+            };
+            let samples = 200_000;
+            let (mut best, mut at) = (f64::INFINITY, 0.0);
+            for j in 0..samples {
+                let theta = std::f64::consts::PI * j as f64 / samples as f64;
+                let g = objective(theta);
+                if g < best {
+                    (best, at) = (g, theta);
+                }
+            }
+            let w = wrinkle(&o.d, &e);
+            // Angles modulo π (v has period π).
+            let mut diff = (w.angle - at).rem_euclid(std::f64::consts::PI);
+            diff = diff.min(std::f64::consts::PI - diff);
+            worst_angle = worst_angle.max(diff);
+            worst_excess = worst_excess.max((objective(w.angle) - best) / best.abs());
+        }
+        println!("{checked} wrinkled strains: angle {worst_angle:.1e} rad, objective above the scan's best by at most {worst_excess:.1e}");
+        assert!(checked > 50, "{checked}");
+        assert!(
+            worst_angle <= std::f64::consts::PI / 200_000.0,
+            "{worst_angle}"
+        );
+        assert!(worst_excess <= 1e-14, "{worst_excess}");
     }
 }
