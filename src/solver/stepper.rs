@@ -169,6 +169,9 @@ impl Stepper {
             self.report.work = solver.step_work as f64 / WORK_ITERATION as f64;
             self.report.whole_work =
                 (solver.step_work + solver.relax_extra) as f64 / WORK_ITERATION as f64;
+            if self.reference_answer(solver, model) {
+                return None;
+            }
             self.give_up(solver, model);
             let lambda = self.lambda();
             return Some(Attempt::Rejected {
@@ -194,13 +197,62 @@ impl Stepper {
                 }
             },
         };
-        if let Some(Attempt::Rejected { failed: true, .. }) = attempt {
-            self.failed = true;
-        }
         self.report.work = solver.step_work as f64 / WORK_ITERATION as f64;
         self.report.whole_work =
             (solver.step_work + solver.relax_extra) as f64 / WORK_ITERATION as f64;
+        if let Some(Attempt::Rejected { failed: true, .. }) = attempt {
+            if self.reference_answer(solver, model) {
+                return None;
+            }
+            self.failed = true;
+        }
         attempt
+    }
+
+    /// A load-controlled step whose every load ends at zero (nothing applied, nothing
+    /// prescribed), of a model without sleeves, whose path has failed: the reference
+    /// configuration (no displacement) is tried as the answer, with the history of the last
+    /// converged point. Unloaded, a structure without prestress whose film and cables have gone
+    /// slack (a free-rim cushion let down, a yielded ETFE foil in its frame) may rest anywhere
+    /// it stays slack, and the path towards one such rest can spend its budget on forces that
+    /// vanish; the reference is one such rest whenever it meets the convergence test (its
+    /// strains are round-off there, so its residual is the round-off floor's), and a
+    /// form-found scene's reference is its start. True
+    /// when it is taken: the step then ends there, converged, and the report says so.
+    fn reference_answer(&mut self, solver: &mut Solver, model: &Model) -> bool {
+        let Path::Load(p) = &mut self.path else {
+            return false;
+        };
+        if !model.slips.is_empty() || self.to.iter().any(|&v| v != 0.0) {
+            return false;
+        }
+        p.history.install(model);
+        let mut u = vec![0.0; p.converged.len()];
+        super::loads::prescribe(model, &self.to, &mut u);
+        let inc = super::rows::Increment {
+            loads: &self.to,
+            change: 0.0,
+            moved: true,
+        };
+        // One assembly with the tangent (its diagonal sets the round-off floor) and the states
+        // the criterion gives there, nothing frozen.
+        solver.frozen = None;
+        solver.step_work += 2;
+        let info = solver.assemble_at(model, &self.to, &u);
+        let check = solver.check(model, &info, &[], &u, &inc, 1);
+        if !(check.strict || check.within_floor) {
+            return false;
+        }
+        let line = format!(
+            "the path ended at load fraction {:.6}; every load of the step is zero and the reference configuration (no displacement) meets the convergence test with the history of the last converged point: it is the answer (what is slack may rest anywhere it stays slack; the reference is one such rest)",
+            p.lambda
+        );
+        p.converged = u;
+        p.lambda = 1.0;
+        self.report.log.push(line.clone());
+        self.report.message = line;
+        self.failed = false;
+        true
     }
 
     /// The step's budget is spent: the report says so, with the last increment that failed for
