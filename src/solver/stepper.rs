@@ -40,6 +40,8 @@ pub struct Stepper {
     /// An arc-length step's start (displacements, stick/slip states), kept for the fallback to
     /// load control as a whole; None under load control (its path holds the start already).
     arc_start: Option<(Vec<f64>, History)>,
+    /// Whether the reference configuration was tried before the path's first increment.
+    tried_reference: bool,
 }
 
 impl Stepper {
@@ -76,6 +78,7 @@ impl Stepper {
             from: from.to_vec(),
             to: to.to_vec(),
             arc_start,
+            tried_reference: false,
         }
     }
 
@@ -124,6 +127,7 @@ impl Stepper {
             from: from.to_vec(),
             to: to.to_vec(),
             arc_start: None,
+            tried_reference: false,
         }
     }
 
@@ -180,6 +184,13 @@ impl Stepper {
                 failed: true,
             });
         }
+        // A step to zero inputs first tries the reference (`reference_answer`), once.
+        if !self.tried_reference {
+            self.tried_reference = true;
+            if self.reference_answer(solver, model) {
+                return None;
+            }
+        }
         let attempt = match &mut self.path {
             Path::Load(p) => p.advance(solver, model, &mut self.report),
             Path::Dynamic(p) => p.advance(solver, model, &mut self.report),
@@ -210,15 +221,16 @@ impl Stepper {
     }
 
     /// A load-controlled step whose every load ends at zero (nothing applied, nothing
-    /// prescribed), of a model without sleeves, whose path has failed: the reference
-    /// configuration (no displacement) is tried as the answer, with the history of the last
-    /// converged point. Unloaded, a structure without prestress whose film and cables have gone
-    /// slack (a free-rim cushion let down, a yielded ETFE foil in its frame) may rest anywhere
-    /// it stays slack, and the path towards one such rest can spend its budget on forces that
-    /// vanish; the reference is one such rest whenever it meets the convergence test (its
-    /// strains are round-off there, so its residual is the round-off floor's), and a
-    /// form-found scene's reference is its start. True
-    /// when it is taken: the step then ends there, converged, and the report says so.
+    /// prescribed), of a model without sleeves: the reference configuration (no displacement)
+    /// is tried as the answer, with the history of the last converged point, before the path's
+    /// first increment and again if the path fails. Unloaded, a structure without prestress
+    /// whose film and cables go slack (a free-rim cushion let down, a yielded ETFE foil in its
+    /// frame) may rest anywhere it stays slack, and the path towards one such rest can spend
+    /// its budget on forces that vanish; a taut one (a clamped disc) comes back to it exactly.
+    /// The reference is such a rest whenever it meets the convergence test (its strains are
+    /// round-off there, so its residual is the round-off floor's), and a form-found scene's
+    /// reference is its start. True when it is taken: the step then ends there, converged, and
+    /// the report says so.
     fn reference_answer(&mut self, solver: &mut Solver, model: &Model) -> bool {
         let Path::Load(p) = &mut self.path else {
             return false;
@@ -243,9 +255,13 @@ impl Stepper {
         if !(check.strict || check.within_floor) {
             return false;
         }
+        let path = if self.tried_reference && p.lambda == 0.0 && self.report.iterations == 0 {
+            String::new()
+        } else {
+            format!("the path ended at load fraction {:.6}; ", p.lambda)
+        };
         let line = format!(
-            "the path ended at load fraction {:.6}; every load of the step is zero and the reference configuration (no displacement) meets the convergence test with the history of the last converged point: it is the answer (what is slack may rest anywhere it stays slack; the reference is one such rest)",
-            p.lambda
+            "{path}every load of the step is zero and the reference configuration (no displacement) meets the convergence test with the history of the last converged point: it is the answer (what is slack may rest anywhere it stays slack; the reference is one such rest)"
         );
         p.converged = u;
         p.lambda = 1.0;

@@ -373,8 +373,8 @@ fn a_failing_steps_relaxation_is_counted_at_its_cost() {
 ///       force and moment balance, mirror symmetries). Measured before: the unloaded row spent
 ///       its budget of 1000 (663 Newton iterations, |R| 1.3e-12 of the force scale, at load
 ///       fraction 0.997).
-/// REQUIRED: the unloaded row converges, its message names the reference, every displacement
-///       is 0, and the corpus finds both rows right.
+/// REQUIRED: the unloaded row converges (the reference is tried before the path), its message
+///       names the reference, every displacement is 0, and the corpus finds both rows right.
 #[test]
 fn a_slack_cushion_let_down_to_nothing_rests_at_its_reference() {
     let select = |m: &corpus::Member| {
