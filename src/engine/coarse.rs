@@ -229,6 +229,10 @@ impl Engine {
         if auto && self.free_dofs() < 5 * AUTO_DOF {
             return None;
         }
+        #[cfg(test)]
+        if !tests::BESIDE.with(|b| b.get()) {
+            return None;
+        }
         coarser_scene(scene, &self.model, self.free_dofs())
     }
 
@@ -293,7 +297,10 @@ fn take_early(wanted: &Scene) -> Option<Solved> {
     let mut scene = solved.scene.clone();
     scene.solver.limits.max_memory_gb = wanted.solver.limits.max_memory_gb;
     let within = (solved.estimate as f64 / 1e9) < wanted.solver.limits.max_memory_gb;
-    (scene == *wanted && within).then_some(solved)
+    let taken = scene == *wanted && within;
+    #[cfg(test)]
+    tests::TAKEN.with(|t| t.set(t.get() + usize::from(taken)));
+    taken.then_some(solved)
 }
 
 /// `coarse` (built from `scene`, the coarser mesh of an engine in state `from` with scene
@@ -898,7 +905,69 @@ mod tests {
     use super::{closest_point, coarser, transfer, Grid};
     use crate::model::Model;
     use crate::scene::generate::resolve;
+    use crate::Engine;
     use crate::Scene;
+    use std::cell::Cell;
+
+    thread_local! {
+        /// Off: no coarser chain solved beside a build ([`super::Engine::next_below`]).
+        pub(super) static BESIDE: Cell<bool> = const { Cell::new(true) };
+        /// Answers solved beside a build and taken by the next finer mesh's step.
+        pub(super) static TAKEN: Cell<usize> = const { Cell::new(0) };
+    }
+
+    /// With two threads the chain below a coarser mesh is solved while the helper builds that
+    /// mesh's engine, and its answer taken by that mesh's step: the Hencky disc at 84 rings
+    /// (62 751 free DOF, split on two threads) starts from 42 rings, which starts from 21,
+    /// solved beside the 42-ring build. The same outputs, bit for bit, as the chain built and
+    /// solved one mesh after the other, and the same log but for the times.
+    #[test]
+    fn the_chain_solved_beside_a_build_gives_the_serial_answer() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/modelDescription/HenckyDisc/scene.json"
+        );
+        let mut value: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        value["geometry"]["generators"][0]["rings"] = 84.into();
+        value["solver"]["threads"] = 2.into();
+        let scene = Scene::from_json(&value.to_string()).expect("valid scene");
+        let solve = |beside: bool| {
+            BESIDE.with(|b| b.set(beside));
+            TAKEN.with(|t| t.set(0));
+            let mut engine = Engine::try_new(scene.clone()).expect("valid");
+            let vr = engine
+                .variables()
+                .iter()
+                .find(|v| v.name == "pressure")
+                .expect("the pressure input")
+                .value_reference;
+            engine.set_real(vr, 40.0).unwrap();
+            let report = engine.solve();
+            assert!(report.converged(), "{}", report.message);
+            // Each coarse mesh's line without its wall time.
+            let times = |l: &String| match (l.find("iterations ("), l.find(" s, its")) {
+                (Some(a), Some(b)) => format!("{}{}", &l[..a], &l[b..]),
+                _ => l.clone(),
+            };
+            let log: Vec<String> = report.log.iter().map(times).collect();
+            BESIDE.with(|b| b.set(true));
+            (engine.outputs(), log, TAKEN.with(|t| t.get()))
+        };
+        let (serial, serial_log, none) = solve(false);
+        let (beside, beside_log, taken) = solve(true);
+        assert_eq!(none, 0);
+        assert_eq!(
+            taken, 1,
+            "the 21-ring answer, solved beside the 42-ring build"
+        );
+        assert_eq!(serial, beside);
+        assert_eq!(serial_log, beside_log);
+        assert!(
+            serial_log.iter().any(|l| l.contains("(3783 free DOF)")),
+            "{serial_log:?}"
+        );
+    }
 
     fn scene(generator: &str, membranes: &str) -> Scene {
         let text = format!(
