@@ -216,7 +216,8 @@ impl Engine {
             }
             _ => Engine::try_new(scene.clone()).map_err(|e| format!("its scene: {e}"))?,
         };
-        solve_built(built, &self.state, &self.scene, what, scene)
+        let nodes = self.model.reference.len();
+        solve_built(built, &self.state, &self.scene, nodes, what, scene)
     }
 
     /// The scene below `scene` (this one's coarser mesh) that `scene`'s own first step will
@@ -252,7 +253,11 @@ impl Engine {
         let here = || -> Option<Solved> {
             let started = std::time::Instant::now();
             let engine = Engine::try_new(next.clone()).ok()?;
-            let mut solved = solve_built(engine, &self.state, &self.scene, what, next).ok()?;
+            // Its transfer's lists are probed for a mesh of this one's nodes (the mesh it is
+            // carried over to, being built, has about a quarter of them).
+            let nodes = self.model.reference.len();
+            let mut solved =
+                solve_built(engine, &self.state, &self.scene, nodes, what, next).ok()?;
             solved.seconds = started.elapsed().as_secs_f64();
             Some(solved)
         };
@@ -304,20 +309,27 @@ fn take_early(wanted: &Scene) -> Option<Solved> {
 }
 
 /// `coarse` (built from `scene`, the coarser mesh of an engine in state `from` with scene
-/// `fine`) solved under `from`'s loads and parameters.
+/// `fine` and `fine_nodes` nodes) solved under `from`'s loads and parameters.
 fn solve_built(
     mut coarse: Engine,
     from: &super::EngineState,
     fine: &Scene,
+    fine_nodes: usize,
     what: &str,
     scene: Scene,
 ) -> Result<Solved, String> {
-    // The engine's state's copy, probed here (the transfer's lists are probed before the
-    // transfer, when the coarse solve's memory is in use).
+    // Every allocation of the coarse start besides the coarse engine's own (probed by it):
+    // its state's copy, and the transfer's lists (about 80 bytes per node of the finer mesh,
+    // 60 per node and up to 200 per triangle of the coarse one), probed here and again
+    // before the transfer, when the coarse solve's memory is in use.
+    let transfer_bytes = 80 * fine_nodes as u64
+        + 60 * coarse.model.reference.len() as u64
+        + 200 * coarse.model.triangles.len() as u64;
     let state_bytes = 8 * (coarse.state.displacement.len() + 4 * coarse.state.inputs.len()) as u64
         + 16 * coarse.state.wrinkle.len() as u64;
     if !fine.debug.skip_memory_probes {
-        crate::memory::probe(state_bytes, "the coarse start").map_err(|e| e.to_string())?;
+        crate::memory::probe(state_bytes + transfer_bytes, "the coarse start")
+            .map_err(|e| e.to_string())?;
     }
     let mut state = coarse.state.clone();
     if state.inputs.len() != from.inputs.len() || state.parameters.len() != from.parameters.len() {
