@@ -166,68 +166,214 @@ impl Engine {
     }
 
     /// Solve `scene` (this one's coarser mesh) under this state's loads and parameters and
-    /// carry its answer over to this mesh.
+    /// carry its answer over to this mesh. With a helper in this solver's pool and a coarser
+    /// mesh below `scene`'s likely, that coarser mesh's whole chain is solved on this thread
+    /// while the helper builds `scene`'s engine ([`Engine::solve_beside`]); `scene`'s solve then
+    /// starts from it. Where an earlier such chain solved `scene` already ([`EARLY`]), its
+    /// answer is taken.
     fn solve_coarse(&self, scene: Scene, what: &str) -> Result<Guess, String> {
         let started = std::time::Instant::now();
-        let mut coarse = Engine::try_new(scene).map_err(|e| format!("its scene: {e}"))?;
-        // Every allocation of the coarse start besides the coarse engine's own (probed by
-        // it): its state's copy, and the transfer's lists (about 80 bytes per node of this
-        // mesh, 60 per node and up to 200 per triangle of the coarse one), probed here and
-        // again before the transfer, when the coarse solve's memory is in use.
-        let transfer_bytes = 80 * self.model.reference.len() as u64
-            + 60 * coarse.model.reference.len() as u64
-            + 200 * coarse.model.triangles.len() as u64;
-        let state_bytes = 8
-            * (coarse.state.displacement.len() + 4 * coarse.state.inputs.len()) as u64
-            + 16 * coarse.state.wrinkle.len() as u64;
         let probes = !self.scene.debug.skip_memory_probes;
-        if probes {
-            crate::memory::probe(state_bytes + transfer_bytes, "the coarse start")
-                .map_err(|e| e.to_string())?;
-        }
-        let mut state = coarse.state.clone();
-        if state.inputs.len() != self.state.inputs.len()
-            || state.parameters.len() != self.state.parameters.len()
-        {
-            return Err("its inputs or parameters differ from this mesh's".into());
-        }
-        state.inputs.clone_from(&self.state.inputs);
-        state.applied.clone_from(&self.state.applied);
-        state.parameters.clone_from(&self.state.parameters);
-        coarse
-            .set_state(state)
-            .map_err(|e| format!("its start: {e}"))?;
-        let report = coarse.solve();
-        let dofs = coarse.free_dofs();
-        if !report.converged() {
-            return Err(format!(
-                "{what} ({dofs} free DOF) did not converge: {}",
-                report.message
-            ));
-        }
+        let solved = match take_early(&scene) {
+            Some(solved) => solved,
+            None => self.solve_scene(scene, what)?,
+        };
+        let transfer_bytes = 80 * self.model.reference.len() as u64
+            + 60 * solved.model.reference.len() as u64
+            + 200 * solved.model.triangles.len() as u64;
         if probes {
             crate::memory::probe(transfer_bytes, "the coarse start's transfer")
                 .map_err(|e| e.to_string())?;
         }
-        let iterations = report.iterations;
-        let log: Vec<String> = report
-            .log
-            .into_iter()
-            .filter(|l| l.starts_with("coarse start"))
-            .collect();
-        // The coarse model and answer go to the transfer; the rest of the coarse engine (its
-        // solver) is freed here.
-        let Engine { model, state, .. } = coarse;
+        USED.with(|u| u.set(solved.estimate));
+        let Solved {
+            model,
+            u,
+            dofs,
+            iterations,
+            mut log,
+            seconds,
+            ..
+        } = solved;
         let phase = crate::phases::start("coarse start: transfer");
-        let start = transfer(model, state.displacement, &self.model, self.solver.pool())?;
+        let start = transfer(model, u, &self.model, self.solver.pool())?;
         drop(phase);
-        let mut log = log;
         log.push(format!(
             "coarse start: {what} ({dofs} free DOF) converged in {iterations} iterations ({:.2} s, its coarser meshes included); Newton here starts from its answer",
-            started.elapsed().as_secs_f64()
+            seconds + started.elapsed().as_secs_f64()
         ));
         Ok(Guess { start, log })
     }
+
+    /// `scene` (this one's coarser mesh) built and solved under this state's loads and
+    /// parameters (the coarse engine's solver is freed here; its model and answer are kept
+    /// for the transfer).
+    fn solve_scene(&self, scene: Scene, what: &str) -> Result<Solved, String> {
+        let next = self.next_below(&scene);
+        let built = match (next, self.solver.pool()) {
+            (Some(next), Some(pool)) if pool.helpers() > 0 => {
+                self.solve_beside(pool, scene.clone(), next)?
+            }
+            _ => Engine::try_new(scene.clone()).map_err(|e| format!("its scene: {e}"))?,
+        };
+        let nodes = self.model.reference.len();
+        solve_built(built, &self.state, &self.scene, nodes, what, scene)
+    }
+
+    /// The scene below `scene` (this one's coarser mesh) that `scene`'s own first step will
+    /// likely start from: where this mesh is large enough that `scene`'s mesh (about a quarter
+    /// of it) has the coarse start too. A guess: the coarser mesh's own step decides, and
+    /// takes the answer solved here only where its scene is this one (but for the memory
+    /// limit, [`take_early`]).
+    fn next_below(&self, scene: &Scene) -> Option<Scene> {
+        let auto = scene.solver.coarse_start == CoarseStart::Auto;
+        if auto && self.free_dofs() < 5 * AUTO_DOF {
+            return None;
+        }
+        #[cfg(test)]
+        if !tests::BESIDE.with(|b| b.get()) {
+            return None;
+        }
+        coarser_scene(scene, &self.model, self.free_dofs())
+    }
+
+    /// `scene`'s engine built on `pool`'s helper while this thread solves the chain of `next`
+    /// (the mesh below `scene`'s, which `scene`'s first step starts from); that answer is
+    /// left in [`EARLY`] for `scene`'s step. Where the chain fails, `scene`'s step builds it
+    /// again (and fails the same way). Err where the helper failed to build.
+    fn solve_beside(&self, pool: &Arc<Pool>, scene: Scene, next: Scene) -> Result<Engine, String> {
+        let what = if next.geometry.generators.is_empty() {
+            "the mesh with edges collapsed"
+        } else {
+            "the mesh with half the divisions"
+        };
+        let build = move || Engine::try_new(scene);
+        // The chain below on this thread: `next`'s engine, which, solving, starts from its
+        // own coarser meshes (beside its own helper in turn).
+        let here = || -> Option<Solved> {
+            let started = std::time::Instant::now();
+            let engine = Engine::try_new(next.clone()).ok()?;
+            // Its transfer's lists are probed for a mesh of this one's nodes (the mesh it is
+            // carried over to, being built, has about a quarter of them).
+            let nodes = self.model.reference.len();
+            let mut solved =
+                solve_built(engine, &self.state, &self.scene, nodes, what, next).ok()?;
+            solved.seconds = started.elapsed().as_secs_f64();
+            Some(solved)
+        };
+        let (built, early) = pool
+            .beside(0, build, here)
+            .map_err(|e| format!("its engine's thread: {e}"))?;
+        let built = built.map_err(|e| format!("its scene: {e}"))?;
+        EARLY.with(|e| *e.borrow_mut() = early);
+        Ok(built)
+    }
+}
+
+/// A coarser mesh solved: its model and answer for the transfer, its free DOF, iterations and
+/// the coarse start's log lines of its own chain; the scene it was solved from, its engine's
+/// memory estimate with those of its own coarser meshes, and its wall time.
+struct Solved {
+    model: Model,
+    u: Vec<f64>,
+    dofs: usize,
+    iterations: usize,
+    log: Vec<String>,
+    scene: Scene,
+    estimate: u64,
+    seconds: f64,
+}
+
+thread_local! {
+    /// The answer of a coarser mesh solved beside the build of the next finer one
+    /// ([`Engine::solve_beside`]), for that finer mesh's first step on this thread.
+    static EARLY: std::cell::RefCell<Option<Solved>> = const { std::cell::RefCell::new(None) };
+    /// The memory estimate of the coarser meshes the last coarse start on this thread used
+    /// (the sum over its chain), read by [`solve_built`] after its engine's solve.
+    static USED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// The answer in [`EARLY`] where it was solved from `wanted` (the same scene but for the
+/// memory limit: it was solved under the finer mesh's, before the mesh between was built, so
+/// its chain's estimates must be within `wanted`'s limit, as its own size checks would have
+/// asked). Emptied either way.
+fn take_early(wanted: &Scene) -> Option<Solved> {
+    let solved = EARLY.with(|e| e.borrow_mut().take())?;
+    let mut scene = solved.scene.clone();
+    scene.solver.limits.max_memory_gb = wanted.solver.limits.max_memory_gb;
+    let within = (solved.estimate as f64 / 1e9) < wanted.solver.limits.max_memory_gb;
+    let taken = scene == *wanted && within;
+    #[cfg(test)]
+    tests::TAKEN.with(|t| t.set(t.get() + usize::from(taken)));
+    taken.then_some(solved)
+}
+
+/// `coarse` (built from `scene`, the coarser mesh of an engine in state `from` with scene
+/// `fine` and `fine_nodes` nodes) solved under `from`'s loads and parameters.
+fn solve_built(
+    mut coarse: Engine,
+    from: &super::EngineState,
+    fine: &Scene,
+    fine_nodes: usize,
+    what: &str,
+    scene: Scene,
+) -> Result<Solved, String> {
+    // Every allocation of the coarse start besides the coarse engine's own (probed by it):
+    // its state's copy, and the transfer's lists (about 80 bytes per node of the finer mesh,
+    // 60 per node and up to 200 per triangle of the coarse one), probed here and again
+    // before the transfer, when the coarse solve's memory is in use.
+    let transfer_bytes = 80 * fine_nodes as u64
+        + 60 * coarse.model.reference.len() as u64
+        + 200 * coarse.model.triangles.len() as u64;
+    let state_bytes = 8 * (coarse.state.displacement.len() + 4 * coarse.state.inputs.len()) as u64
+        + 16 * coarse.state.wrinkle.len() as u64;
+    if !fine.debug.skip_memory_probes {
+        crate::memory::probe(state_bytes + transfer_bytes, "the coarse start")
+            .map_err(|e| e.to_string())?;
+    }
+    let mut state = coarse.state.clone();
+    if state.inputs.len() != from.inputs.len() || state.parameters.len() != from.parameters.len() {
+        return Err("its inputs or parameters differ from this mesh's".into());
+    }
+    state.inputs.clone_from(&from.inputs);
+    state.applied.clone_from(&from.applied);
+    state.parameters.clone_from(&from.parameters);
+    coarse
+        .set_state(state)
+        .map_err(|e| format!("its start: {e}"))?;
+    // The estimates of the coarser meshes its own step uses, for take_early's check.
+    USED.with(|u| u.set(0));
+    let report = coarse.solve();
+    let below = USED.with(|u| u.get());
+    // An answer solved beside this engine's build that its step did not take goes.
+    EARLY.with(|e| e.borrow_mut().take());
+    let dofs = coarse.free_dofs();
+    if !report.converged() {
+        return Err(format!(
+            "{what} ({dofs} free DOF) did not converge: {}",
+            report.message
+        ));
+    }
+    let iterations = report.iterations;
+    let log: Vec<String> = report
+        .log
+        .into_iter()
+        .filter(|l| l.starts_with("coarse start"))
+        .collect();
+    // The coarse model and answer go to the transfer; the rest of the coarse engine (its
+    // solver) is freed here.
+    let estimate = coarse.memory_estimate + below;
+    let Engine { model, state, .. } = coarse;
+    Ok(Solved {
+        model,
+        u: state.displacement,
+        dofs,
+        iterations,
+        log,
+        scene,
+        estimate,
+        seconds: 0.0,
+    })
 }
 
 /// The scene with every generator's divisions halved (rounded up) where they stay at least
@@ -771,7 +917,69 @@ mod tests {
     use super::{closest_point, coarser, transfer, Grid};
     use crate::model::Model;
     use crate::scene::generate::resolve;
+    use crate::Engine;
     use crate::Scene;
+    use std::cell::Cell;
+
+    thread_local! {
+        /// Off: no coarser chain solved beside a build ([`super::Engine::next_below`]).
+        pub(super) static BESIDE: Cell<bool> = const { Cell::new(true) };
+        /// Answers solved beside a build and taken by the next finer mesh's step.
+        pub(super) static TAKEN: Cell<usize> = const { Cell::new(0) };
+    }
+
+    /// With two threads the chain below a coarser mesh is solved while the helper builds that
+    /// mesh's engine, and its answer taken by that mesh's step: the Hencky disc at 84 rings
+    /// (62 751 free DOF, split on two threads) starts from 42 rings, which starts from 21,
+    /// solved beside the 42-ring build. The same outputs, bit for bit, as the chain built and
+    /// solved one mesh after the other, and the same log but for the times.
+    #[test]
+    fn the_chain_solved_beside_a_build_gives_the_serial_answer() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/modelDescription/HenckyDisc/scene.json"
+        );
+        let mut value: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        value["geometry"]["generators"][0]["rings"] = 84.into();
+        value["solver"]["threads"] = 2.into();
+        let scene = Scene::from_json(&value.to_string()).expect("valid scene");
+        let solve = |beside: bool| {
+            BESIDE.with(|b| b.set(beside));
+            TAKEN.with(|t| t.set(0));
+            let mut engine = Engine::try_new(scene.clone()).expect("valid");
+            let vr = engine
+                .variables()
+                .iter()
+                .find(|v| v.name == "pressure")
+                .expect("the pressure input")
+                .value_reference;
+            engine.set_real(vr, 40.0).unwrap();
+            let report = engine.solve();
+            assert!(report.converged(), "{}", report.message);
+            // Each coarse mesh's line without its wall time.
+            let times = |l: &String| match (l.find("iterations ("), l.find(" s, its")) {
+                (Some(a), Some(b)) => format!("{}{}", &l[..a], &l[b..]),
+                _ => l.clone(),
+            };
+            let log: Vec<String> = report.log.iter().map(times).collect();
+            BESIDE.with(|b| b.set(true));
+            (engine.outputs(), log, TAKEN.with(|t| t.get()))
+        };
+        let (serial, serial_log, none) = solve(false);
+        let (beside, beside_log, taken) = solve(true);
+        assert_eq!(none, 0);
+        assert_eq!(
+            taken, 1,
+            "the 21-ring answer, solved beside the 42-ring build"
+        );
+        assert_eq!(serial, beside);
+        assert_eq!(serial_log, beside_log);
+        assert!(
+            serial_log.iter().any(|l| l.contains("(3783 free DOF)")),
+            "{serial_log:?}"
+        );
+    }
 
     fn scene(generator: &str, membranes: &str) -> Scene {
         let text = format!(

@@ -33,7 +33,7 @@
 use super::dissect::Fill;
 use super::factor::{numeric_ldlt, symbolic_ldlt};
 use super::split::Split;
-use super::threads::Pool;
+use super::threads::{Pool, PRODUCT};
 use crate::error::{Breakdown, Error};
 use crate::memory::{self, OutOfMemory};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -43,7 +43,7 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, RwLock};
 
 /// Regularization threshold relative to the largest diagonal entry.
 const PIVOT_EPSILON: f64 = 1e-13;
@@ -136,8 +136,168 @@ pub struct Ldlt {
     /// factorization: K may no longer be the factored matrix.
     stale: bool,
     /// An empty matrix, in `matrix`'s place while the split's halves borrow its values
-    /// ([`Ldlt::factor_split`]).
+    /// ([`Ldlt::factor_split`]) or the two threads' product borrows the matrix.
     spare: Option<SparseColMat<usize, f64>>,
+    /// K x on two threads (with the split, [`Product`]); None: on the caller's thread.
+    product: Option<Product>,
+}
+
+/// K x on two threads ([`Ldlt::multiply`], the refinement's [`Ldlt::residual`]): the caller
+/// takes K's columns before `m` and the split's helper those from `m` on (each about half of
+/// K's entries), each summing as the one-thread product does; the helper leaves out its
+/// columns' rows before `m` (in the upper triangle, the rows of the caller's part: few, where
+/// the internal order keeps K banded), which the caller adds after both are done, in column
+/// order. Every entry of K x is then the same sum in the same order as on one thread: the
+/// same bits ([`product_columns`], [`product_cross`]).
+struct Product {
+    pool: Arc<Pool>,
+    m: usize,
+    /// K (lent for one product; None between products), a copy of x, and whether |K| |x|
+    /// is wanted too: read by both threads.
+    lent: Arc<RwLock<Lent>>,
+    /// The helper's rows m..n of K x and of |K| |x|.
+    out: Arc<Mutex<[Vec<f64>; 2]>>,
+}
+
+#[derive(Default)]
+struct Lent {
+    matrix: Option<SparseColMat<usize, f64>>,
+    x: Vec<f64>,
+    abs: bool,
+}
+
+/// Below this many stored entries of K (with their row indices and x about 32 MB, the
+/// sandbox's L3 cache) a product stays on one thread: K x of the 110-ring disc (1.2 million
+/// entries) took 1.4-2.5 ms on one thread and 1.6-1.8 ms on two, the 334-ring disc's (11
+/// million) 18 ms against 12 ms (idle, docs/performance.md, "Fourteenth session").
+const PRODUCT_MIN_ENTRIES: usize = 1 << 21;
+
+impl Product {
+    /// For K's upper CSC pattern with a helper in `pool`: m where the columns before it hold
+    /// half of K's entries; None when K is small, or the rows left to the caller (rows before
+    /// m in columns from m on) are more than 1/16 of K's entries. The buffers (three vectors
+    /// of up to n) are allocated fallibly here, once.
+    fn try_new(
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        pool: Arc<Pool>,
+    ) -> Result<Option<Product>, OutOfMemory> {
+        let n = col_ptr.len() - 1;
+        let nnz = row_idx.len();
+        if pool.helpers() == 0 || nnz < PRODUCT_MIN_ENTRIES {
+            return Ok(None);
+        }
+        let m = col_ptr.partition_point(|&p| p < nnz / 2).min(n);
+        let cross: usize = (m..n)
+            .map(|j| row_idx[col_ptr[j]..col_ptr[j + 1]].partition_point(|&i| i < m))
+            .sum();
+        if m == 0 || m == n || cross > nnz / 16 {
+            return Ok(None);
+        }
+        let what = "the two threads' product";
+        let lent = Lent {
+            matrix: None,
+            x: memory::zeros(n, what)?,
+            abs: false,
+        };
+        let out = [memory::zeros(n - m, what)?, memory::zeros(n - m, what)?];
+        let (lent, out) = (Arc::new(RwLock::new(lent)), Arc::new(Mutex::new(out)));
+        let (l, o) = (Arc::clone(&lent), Arc::clone(&out));
+        pool.set_job_in(
+            0,
+            PRODUCT,
+            Box::new(move || {
+                let lent = l.read().unwrap_or_else(|e| e.into_inner());
+                let mut out = o.lock().unwrap_or_else(|e| e.into_inner());
+                let [y, abs] = &mut *out;
+                if let Some(k) = &lent.matrix {
+                    let abs = lent.abs.then_some(&mut abs[..]);
+                    product_columns(k, &lent.x, m..k.ncols(), m, y, abs);
+                }
+            }),
+        );
+        Ok(Some(Product { pool, m, lent, out }))
+    }
+}
+
+/// Columns `cols` of y = K x (K upper CSC, symmetric), and of |K| |x| into `abs` when given,
+/// into vectors that start at row `lo`: column j's entries summed into y[j - lo], and its
+/// entries in rows i in [lo, j) added to y[i - lo], column by column; rows before `lo` are left
+/// out ([`product_cross`] adds them). With `cols` 0..n and `lo` 0: the whole product.
+fn product_columns(
+    k: &SparseColMat<usize, f64>,
+    x: &[f64],
+    cols: std::ops::Range<usize>,
+    lo: usize,
+    y: &mut [f64],
+    mut abs: Option<&mut [f64]>,
+) {
+    let sym = k.symbolic();
+    let (cp, ri) = (sym.col_ptr(), sym.row_idx());
+    let v = k.val();
+    y.fill(0.0);
+    if let Some(a) = abs.as_deref_mut() {
+        a.fill(0.0);
+    }
+    match abs {
+        None => {
+            for j in cols {
+                let (mut acc, xj) = (0.0, x[j]);
+                for p in cp[j]..cp[j + 1] {
+                    let i = ri[p];
+                    acc += v[p] * x[i];
+                    if i != j && i >= lo {
+                        y[i - lo] += v[p] * xj;
+                    }
+                }
+                y[j - lo] += acc;
+            }
+        }
+        Some(abs) => {
+            for j in cols {
+                let (mut acc, mut acc_abs, xj) = (0.0, 0.0, x[j]);
+                for p in cp[j]..cp[j + 1] {
+                    let i = ri[p];
+                    acc += v[p] * x[i];
+                    acc_abs += (v[p] * x[i]).abs();
+                    if i != j && i >= lo {
+                        y[i - lo] += v[p] * xj;
+                        abs[i - lo] += (v[p] * xj).abs();
+                    }
+                }
+                y[j - lo] += acc;
+                abs[j - lo] += acc_abs;
+            }
+        }
+    }
+}
+
+/// The entries of columns m..n in rows before m added to y (and |K| |x| to `abs`), column by
+/// column: what [`product_columns`] left out of the part from m on.
+fn product_cross(
+    k: &SparseColMat<usize, f64>,
+    x: &[f64],
+    m: usize,
+    y: &mut [f64],
+    mut abs: Option<&mut [f64]>,
+) {
+    let sym = k.symbolic();
+    let (cp, ri) = (sym.col_ptr(), sym.row_idx());
+    let v = k.val();
+    for j in m..k.ncols() {
+        let xj = x[j];
+        // Rows are sorted in each column: those before m come first.
+        for p in cp[j]..cp[j + 1] {
+            let i = ri[p];
+            if i >= m {
+                break;
+            }
+            y[i] += v[p] * xj;
+            if let Some(a) = abs.as_deref_mut() {
+                a[i] += (v[p] * xj).abs();
+            }
+        }
+    }
 }
 
 /// Work counters of one [`Ldlt`].
@@ -210,6 +370,7 @@ impl Ldlt {
             _ => None,
         };
         let pool_split = pool.filter(|_| n >= SPLIT_MIN_EQUATIONS);
+        let pool_product = pool_split.clone();
         // With 2 threads and a top separator: the split straight from the order, its halves
         // built on both threads (the pattern shared with the helper meanwhile).
         let mut split = None;
@@ -277,6 +438,14 @@ impl Ldlt {
             },
             "the solve workspace",
         )?;
+        // The product on two threads with the split (whose helper then has the time).
+        let product = match (&split, pool_product) {
+            (Some(_), Some(pool)) => {
+                let sym = matrix.symbolic();
+                Product::try_new(sym.col_ptr(), sym.row_idx(), pool)?
+            }
+            _ => None,
+        };
         let mut ldlt = Ldlt {
             matrix,
             symbolic,
@@ -300,6 +469,7 @@ impl Ldlt {
             notes: Vec::new(),
             stale: false,
             spare: None,
+            product,
         };
         ldlt.set_precision(Precision::Auto)?;
         Ok(ldlt)
@@ -674,26 +844,8 @@ impl Ldlt {
 
     /// r = b − K x and |K| |x| + |b| (in `abs`); returns the componentwise backward error
     /// max_i |r_i| / (|K| |x| + |b|)_i (rows where the denominator is 0 count when r_i ≠ 0).
-    fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64], abs: &mut [f64]) -> f64 {
-        let sym = self.matrix.symbolic();
-        let (cp, ri) = (sym.col_ptr(), sym.row_idx());
-        let v = self.matrix.val();
-        r.fill(0.0);
-        abs.fill(0.0);
-        for j in 0..sym.ncols() {
-            let (mut acc, mut acc_abs, xj) = (0.0, 0.0, x[j]);
-            for k in cp[j]..cp[j + 1] {
-                let i = ri[k];
-                acc += v[k] * x[i];
-                acc_abs += (v[k] * x[i]).abs();
-                if i != j {
-                    r[i] += v[k] * xj;
-                    abs[i] += (v[k] * xj).abs();
-                }
-            }
-            r[j] += acc;
-            abs[j] += acc_abs;
-        }
+    fn residual(&mut self, b: &[f64], x: &[f64], r: &mut [f64], abs: &mut [f64]) -> f64 {
+        self.product(x, r, Some(abs));
         let mut omega = 0.0f64;
         for i in 0..r.len() {
             r[i] = b[i] - r[i];
@@ -1062,23 +1214,64 @@ impl Ldlt {
     }
 
     /// y = K x with the current values (upper triangle stored, symmetric).
-    fn multiply(&self, x: &[f64], y: &mut [f64]) {
+    fn multiply(&mut self, x: &[f64], y: &mut [f64]) {
         let _phase = crate::phases::start("solve: K p (pcg)");
-        let sym = self.matrix.symbolic();
-        let (cp, ri) = (sym.col_ptr(), sym.row_idx());
-        let v = self.matrix.val();
-        y.fill(0.0);
-        for j in 0..sym.ncols() {
-            let (mut acc, xj) = (0.0, x[j]);
-            for k in cp[j]..cp[j + 1] {
-                let i = ri[k];
-                acc += v[k] * x[i];
-                if i != j {
-                    y[i] += v[k] * xj;
-                }
-            }
-            y[j] += acc;
+        self.product(x, y, None);
+    }
+
+    /// y = K x, and |K| |x| into `abs` when given: on two threads where there is a
+    /// [`Product`] (the same bits), else on this one.
+    fn product(&mut self, x: &[f64], y: &mut [f64], mut abs: Option<&mut [f64]>) {
+        let n = self.matrix.ncols();
+        let Some(product) = self.product.as_ref().filter(|_| x.len() == n) else {
+            product_columns(&self.matrix, x, 0..n, 0, y, abs);
+            return;
+        };
+        let m = product.m;
+        let empty = match self.spare.take() {
+            Some(empty) => empty,
+            None => SparseColMat::new(
+                SymbolicSparseColMat::new_checked(0, 0, vec![0], None, Vec::new()),
+                Vec::new(),
+            ),
+        };
+        {
+            let mut lent = product.lent.write().unwrap_or_else(|e| e.into_inner());
+            lent.matrix = Some(std::mem::replace(&mut self.matrix, empty));
+            lent.x.copy_from_slice(x);
+            lent.abs = abs.is_some();
         }
+        product.pool.start_in(0, PRODUCT);
+        {
+            let lent = product.lent.read().unwrap_or_else(|e| e.into_inner());
+            if let Some(k) = &lent.matrix {
+                let mine = abs.as_deref_mut().map(|a| &mut a[..m]);
+                product_columns(k, x, 0..m, 0, &mut y[..m], mine);
+            }
+        }
+        let waited = product.pool.wait(0);
+        let matrix = product
+            .lent
+            .write()
+            .unwrap_or_else(|e| e.into_inner())
+            .matrix
+            .take();
+        if let Some(matrix) = matrix {
+            self.spare = Some(std::mem::replace(&mut self.matrix, matrix));
+        }
+        if waited.is_err() {
+            // The helper's part failed: the whole product here.
+            product_columns(&self.matrix, x, 0..n, 0, y, abs);
+            return;
+        }
+        {
+            let out = product.out.lock().unwrap_or_else(|e| e.into_inner());
+            y[m..].copy_from_slice(&out[0]);
+            if let Some(a) = abs.as_deref_mut() {
+                a[m..].copy_from_slice(&out[1]);
+            }
+        }
+        product_cross(&self.matrix, x, m, y, abs);
     }
 
     fn max_diagonal(&self) -> f64 {
@@ -2163,6 +2356,60 @@ mod tests {
         assert_eq!(x, want);
         // The values are K again, not S K S, after the factorization.
         assert_eq!(ldlt.values(), &v[..]);
+    }
+
+    /// K x on two threads ([`Product`]: the caller's columns, the helper's, then the rows the
+    /// helper left out) is the one-thread product bit for bit, with and without |K| |x|, and K
+    /// is back in place after it; so is the same three-part sum at other columns than the
+    /// product's balanced one. The Hencky disc at 167 rings (the 1M disc's first coarser mesh,
+    /// 2.7 million stored entries: enough for the product on two threads). The one-thread
+    /// product itself is checked against K x summed row by row (TOLERANCE: 1e-12 of |K| |x|,
+    /// round-off).
+    #[test]
+    fn the_two_threads_product_is_the_one_threads() {
+        let (n, cp, ri, v, _) = disc_tangent(167);
+        let pool = Arc::new(Pool::try_new(2).unwrap());
+        let mut ldlt = Ldlt::try_with_pool(n, cp.clone(), ri.clone(), Some(pool)).unwrap();
+        let m = ldlt.product.as_ref().expect("a product on two threads").m;
+        assert!(m > n / 4 && m < 3 * n / 4, "m {m} of {n}");
+        ldlt.values_mut().copy_from_slice(&v);
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i * 37) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let (mut y1, mut a1) = (vec![0.0; n], vec![0.0; n]);
+        product_columns(&ldlt.matrix, &x, 0..n, 0, &mut y1, Some(&mut a1));
+        let (mut y2, mut a2) = (vec![1.0; n], vec![1.0; n]);
+        ldlt.product(&x, &mut y2, Some(&mut a2));
+        assert_eq!(y1, y2);
+        assert_eq!(a1, a2);
+        let mut y3 = vec![1.0; n];
+        ldlt.multiply(&x, &mut y3);
+        assert_eq!(y1, y3);
+        assert_eq!(ldlt.values(), &v[..], "K is back");
+        for m in [1, n / 3, n - 1] {
+            let (mut y, mut a) = (vec![0.0; n], vec![0.0; n]);
+            let (mut yb, mut ab) = (vec![0.0; n - m], vec![0.0; n - m]);
+            product_columns(&ldlt.matrix, &x, 0..m, 0, &mut y[..m], Some(&mut a[..m]));
+            product_columns(&ldlt.matrix, &x, m..n, m, &mut yb, Some(&mut ab));
+            y[m..].copy_from_slice(&yb);
+            a[m..].copy_from_slice(&ab);
+            product_cross(&ldlt.matrix, &x, m, &mut y, Some(&mut a));
+            assert_eq!((&y1, &a1), (&y, &a), "at column {m}");
+        }
+        // K x row by row (the upper triangle and its transpose).
+        let mut rows = vec![0.0; n];
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                let i = ri[p];
+                rows[i] += v[p] * x[j];
+                if i != j {
+                    rows[j] += v[p] * x[i];
+                }
+            }
+        }
+        for i in 0..n {
+            assert!((rows[i] - y1[i]).abs() <= 1e-12 * a1[i], "row {i}");
+        }
     }
 
     /// The mixed-precision solve on a real tangent (the Hencky disc, 48 rings: 20 737

@@ -72,15 +72,17 @@ fn start_std(body: Box<dyn FnOnce() + Send>) -> std::io::Result<Joiner> {
 pub type Job = Box<dyn FnMut() + Send>;
 
 /// Jobs a helper can hold at once, each in its own slot: the two-domain factorization's
-/// ([`FACTOR`], `split.rs`), the assembly's ([`ASSEMBLE`], `assemble.rs`) and a one-off job's
-/// ([`ONCE`], [`Pool::beside`]).
-pub const SLOTS: usize = 3;
+/// ([`FACTOR`], `split.rs`), the assembly's ([`ASSEMBLE`], `assemble.rs`), a one-off job's
+/// ([`ONCE`], [`Pool::beside`]) and the product K x's ([`PRODUCT`], `linear.rs`).
+pub const SLOTS: usize = 4;
 /// The slot of the two-domain factorization's job ([`Pool::set_job`], [`Pool::start`]).
 pub const FACTOR: usize = 0;
 /// The slot of the parallel assembly's job.
 pub const ASSEMBLE: usize = 1;
 /// The slot of a one-off job ([`Pool::beside`]).
 pub const ONCE: usize = 2;
+/// The slot of the product K x on two threads (`linear.rs`).
+pub const PRODUCT: usize = 3;
 
 #[derive(Default)]
 struct State {
