@@ -1528,6 +1528,18 @@ fn tents(rng: &mut Rng) -> Vec<Member> {
     out
 }
 
+/// The four-point sail's dimensions as the sail families draw them: span l 5-15 m, n x n cells
+/// (8 for the first member, the CI slice's), height 0.15-0.3 l, prestress n0 1-3 kN/m, edge
+/// cable radius 0.8-2 l.
+fn sail_draw(rng: &mut Rng, k: usize) -> (f64, usize, f64, f64, f64) {
+    let l = rng.range(5.0, 15.0);
+    let n = if k == 0 { 8 } else { 2 * rng.int(4, 12) };
+    let height = l * rng.range(0.15, 0.3);
+    let n0 = rng.log(1000.0, 3000.0);
+    let radius = l * rng.range(0.8, 2.0);
+    (l, n, height, n0, radius)
+}
+
 /// A four-point sail: l x l, n x n cells, two opposite corners (bottom-left, top-right) placed
 /// `height` up, isotropic prestress n0 and edge cables of force n0 · radius (arcs of that
 /// radius), form-found.
@@ -1566,11 +1578,7 @@ fn grid_pairs(n: usize, map: impl Fn(usize, usize) -> (usize, usize)) -> Vec<(us
 fn hypars(rng: &mut Rng) -> Vec<Member> {
     let mut out = Vec::new();
     for k in 0..8 {
-        let l = rng.range(5.0, 15.0);
-        let n = if k == 0 { 8 } else { 2 * rng.int(4, 12) };
-        let height = l * rng.range(0.15, 0.3);
-        let n0 = rng.log(1000.0, 3000.0);
-        let radius = l * rng.range(0.8, 2.0);
+        let (l, n, height, n0, radius) = sail_draw(rng, k);
         // From a small drop to one past the low corners' level.
         let drop = height * rng.range(0.2, 1.3);
         let mut v = four_point(l, n, height, n0, radius);
@@ -1603,11 +1611,7 @@ fn hypars(rng: &mut Rng) -> Vec<Member> {
 fn sliding_sails(rng: &mut Rng) -> Vec<Member> {
     let mut out = Vec::new();
     for k in 0..8 {
-        let l = rng.range(5.0, 15.0);
-        let n = if k == 0 { 8 } else { 2 * rng.int(4, 12) };
-        let height = l * rng.range(0.15, 0.3);
-        let n0 = rng.log(1000.0, 3000.0);
-        let radius = l * rng.range(0.8, 2.0);
+        let (l, n, height, n0, radius) = sail_draw(rng, k);
         let mu = if k % 2 == 0 {
             0.0
         } else {
@@ -2511,11 +2515,7 @@ fn fabric_cushions(rng: &mut Rng) -> Vec<Member> {
 fn weighted_sails(rng: &mut Rng) -> Vec<Member> {
     let mut out = Vec::new();
     for k in 0..8 {
-        let l = rng.range(5.0, 15.0);
-        let n = if k == 0 { 8 } else { 2 * rng.int(4, 12) };
-        let height = l * rng.range(0.15, 0.3);
-        let n0 = rng.log(1000.0, 3000.0);
-        let radius = l * rng.range(0.8, 2.0);
+        let (l, n, height, n0, radius) = sail_draw(rng, k);
         let mut v = four_point(l, n, height, n0, radius);
         v["membranes"][0]["density"] = json!(1200.0);
         let snow = k % 2 == 0;

@@ -68,6 +68,19 @@ fn run_all(select: impl Fn(&corpus::Member) -> bool) -> Vec<corpus::Run> {
 }
 
 /// Every run right by the corpus's independent checks.
+/// Set a corpus row's inputs on an engine built from its member's scene.
+fn set_row(engine: &mut velarium::Engine, row: &corpus::Row) {
+    for (name, value) in &row.set {
+        let vr = engine
+            .variables()
+            .iter()
+            .find(|v| v.name == *name)
+            .expect("the input")
+            .value_reference;
+        engine.set_real(vr, *value).expect("set");
+    }
+}
+
 fn assert_all_right(runs: &[corpus::Run]) {
     for r in runs {
         assert!(
@@ -331,15 +344,7 @@ fn a_failing_steps_relaxation_is_counted_at_its_cost() {
         .expect("seed 34 draws the drawstring");
     let mut engine = velarium::Engine::try_new(member.scene.clone()).expect("it builds");
     assert!(engine.solve().converged(), "the start converges");
-    for (name, value) in &member.rows[0].set {
-        let vr = engine
-            .variables()
-            .iter()
-            .find(|v| v.name == *name)
-            .expect("the input")
-            .value_reference;
-        engine.set_real(vr, *value).expect("set");
-    }
+    set_row(&mut engine, &member.rows[0]);
     let report = engine.solve();
     assert!(
         !report.converged(),
@@ -387,15 +392,7 @@ fn a_slack_cushion_let_down_to_nothing_rests_at_its_reference() {
     let mut engine = velarium::Engine::try_new(member.scene.clone()).expect("it builds");
     assert!(engine.solve().converged(), "the start converges");
     for row in &member.rows {
-        for (name, value) in &row.set {
-            let vr = engine
-                .variables()
-                .iter()
-                .find(|v| v.name == *name)
-                .expect("the input")
-                .value_reference;
-            engine.set_real(vr, *value).expect("set");
-        }
+        set_row(&mut engine, row);
         let report = engine.solve();
         assert!(report.converged(), "{}: {}", row.label, report.message);
         if row.label == "unloaded" {
