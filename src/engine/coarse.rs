@@ -217,7 +217,11 @@ impl Engine {
             _ => Engine::try_new(scene.clone()).map_err(|e| format!("its scene: {e}"))?,
         };
         let nodes = self.model.reference.len();
-        solve_built(built, &self.state, &self.scene, nodes, what, scene)
+        let solved = solve_built(built, &self.state, &self.scene, nodes, what, scene);
+        // Whatever path `solve_built` left by (an early error included), an answer solved
+        // beside this build is stale now: it does not outlive this chain on the thread.
+        EARLY.with(|e| e.borrow_mut().take());
+        solved
     }
 
     /// The scene below `scene` (this one's coarser mesh) that `scene`'s own first step will
