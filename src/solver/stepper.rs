@@ -42,6 +42,9 @@ pub struct Stepper {
     arc_start: Option<(Vec<f64>, History)>,
     /// Whether the reference configuration was tried before the path's first increment.
     tried_reference: bool,
+    /// The history with which the reference last failed the test: with the same history the
+    /// same point fails again, so it is not assembled twice.
+    refused_with: Option<History>,
 }
 
 impl Stepper {
@@ -79,6 +82,7 @@ impl Stepper {
             to: to.to_vec(),
             arc_start,
             tried_reference: false,
+            refused_with: None,
         }
     }
 
@@ -128,6 +132,7 @@ impl Stepper {
             to: to.to_vec(),
             arc_start: None,
             tried_reference: false,
+            refused_with: None,
         }
     }
 
@@ -235,7 +240,10 @@ impl Stepper {
         let Path::Load(p) = &mut self.path else {
             return false;
         };
-        if !model.slips.is_empty() || self.to.iter().any(|&v| v != 0.0) {
+        if !model.slips.is_empty()
+            || self.to.iter().any(|&v| v != 0.0)
+            || self.refused_with.as_ref() == Some(&p.history)
+        {
             return false;
         }
         p.history.install(model);
@@ -253,6 +261,7 @@ impl Stepper {
         let info = solver.assemble_at(model, &self.to, &u);
         let check = solver.check(model, &info, &[], &u, &inc, 1);
         if !(check.strict || check.within_floor) {
+            self.refused_with = Some(p.history.clone());
             return false;
         }
         let path = if self.tried_reference && p.lambda == 0.0 && self.report.iterations == 0 {
