@@ -695,7 +695,7 @@ impl Validator {
             return;
         }
         let x = |i: usize| mesh.nodes[i];
-        let volume: f64 = ids
+        let (volume, magnitude) = ids
             .iter()
             .map(|&t| {
                 let [a, b, c] = mesh.triangles[t].map(x);
@@ -706,11 +706,17 @@ impl Validator {
                 ];
                 (a[0] * cross[0] + a[1] * cross[1] + a[2] * cross[2]) / 6.0
             })
-            .sum();
-        if !(volume > 0.0) {
+            .fold((0.0, 0.0), |(v, m), t: f64| (v + t, m + t.abs()));
+        // A flat closed group (a deflated cushion: two sheets on top of each other, sharing
+        // their rim) encloses no volume whichever way it faces: it inflates along its
+        // triangles' normals, as a pressure input does, so that the volume it then encloses
+        // is positive. Zero within the round-off of the sum is accepted; a negative volume
+        // is a group facing inward.
+        let flat = volume.abs() <= 1e-12 * magnitude;
+        if !(volume > 0.0 || flat) {
             self.push(
                 path,
-                format!("membrane group \"{membrane}\" encloses the volume {volume:e} m³: its triangles must face outward (counter-clockwise seen from outside) and enclose a positive volume"),
+                format!("membrane group \"{membrane}\" encloses the volume {volume:e} m³: its triangles must face outward (counter-clockwise seen from outside) and enclose a positive volume (or none, a flat cushion inflating along its normals)"),
             );
         }
     }

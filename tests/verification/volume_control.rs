@@ -418,3 +418,120 @@ fn volume_and_gas_inputs_under_arc_length_match_load_control() {
         assert!(arcs > 0, "gas {gas}: the run used arc length");
     }
 }
+
+/// GOAL: a flat cushion (two sheets on top of each other, sharing their rim: it encloses no
+///       volume) can be inflated by a `volume` input from flat, and its answer is the known one.
+///       Until the sixteenth session the scene was refused ("encloses the volume 0 m³").
+/// MESH: the disc generator's 20-ring mesh (radius a = 0.5 m) as the top sheet, facing +z; the
+///       bottom sheet the same triangles turned over on copies of the inner nodes (1261 nodes
+///       in all, 2400 CST triangles); the rim nodes are the two sheets' common nodes.
+/// BOUNDARY CONDITIONS: the rim clamped (x, y, z), as a cushion in its frame.
+/// MATERIAL: SVK, E = 200 MPa, ν = 0.3, h = 0.1 mm (the shipped HenckyDisc's film).
+/// LOADING: input `dV` of kind `volume` from 0 (flat) to ΔV₁ (an estimate), then to
+///       ΔV₂ = ΔV₁ (40 Pa / p₁)^(1/3) (the Hencky scaling V ∝ p^(1/3)), so that the pressure
+///       p₂ read by the `enclosed_pressure` output lands near 40 Pa, qa/(Eh) = 1e-3.
+/// REFERENCE: by symmetry each sheet is a clamped flat disc under the follower pressure p₂:
+///       docs/mechanics.md §4a, exact kinematics, w0/a = 0.065404 at qa/(Eh) = 1e-3, carried
+///       to p₂ by the Hencky scaling w0 ∝ p^(1/3) (p₂ within 1 % of 40 Pa: the finite-rotation
+///       part of w0, 9e-4 of it at 1e-3, changes by less than 1e-5 over that). The mirror image:
+///       the bottom sheet's centre at −w0. The volume computed here from the deformed nodes
+///       equals ΔV₂.
+/// TOLERANCE: w0 within 1e-3 at 20 rings, as tests/verification/hencky_disc.rs (its measured
+///       CST error 4.79e-4; measured here 4.8e-4); the bottom sheet the top's mirror to 1e-9 of
+///       w0; the volume to 1e-8 relative (the volume row's own test is 1e-9 of the forces it
+///       balances); p₂ within 1 % of 40 Pa.
+#[test]
+fn a_flat_framed_cushion_inflated_by_volume_is_two_hencky_discs() {
+    const A: f64 = 0.5;
+    let disc = read_scene(&shipped("HenckyDisc"));
+    let mut geometry = disc.geometry.clone();
+    let velarium::scene::Generator::Disc { rings, .. } = &mut geometry.generators[0] else {
+        panic!("HenckyDisc is a disc")
+    };
+    *rings = 20;
+    let mesh = velarium::scene::generate::resolve(&geometry);
+    let rim: Vec<usize> = mesh.node_sets["disc.rim"].clone();
+    let on_rim: Vec<bool> = (0..mesh.nodes.len()).map(|i| rim.contains(&i)).collect();
+    let center = mesh.node_sets["disc.center"][0];
+    let mut nodes = mesh.nodes.clone();
+    let mut copy = vec![usize::MAX; nodes.len()];
+    for i in 0..mesh.nodes.len() {
+        if !on_rim[i] {
+            copy[i] = nodes.len();
+            nodes.push(mesh.nodes[i]);
+        } else {
+            copy[i] = i;
+        }
+    }
+    let normal_z = |t: &[usize; 3]| {
+        let [p, q, r] = t.map(|k| Vector3::from(mesh.nodes[k]));
+        (q - p).cross(&(r - p))[2]
+    };
+    let mut triangles: Vec<[usize; 3]> = Vec::new();
+    for t in &mesh.triangles {
+        let top = if normal_z(t) > 0.0 {
+            *t
+        } else {
+            [t[0], t[2], t[1]]
+        };
+        triangles.push(top);
+    }
+    for k in 0..mesh.triangles.len() {
+        let [a, b, c] = triangles[k];
+        triangles.push([copy[a], copy[c], copy[b]]);
+    }
+    let all: Vec<usize> = (0..triangles.len()).collect();
+    let scene_json = json!({
+        "format": 1, "name": "FlatCushion",
+        "geometry": {"nodes": nodes, "triangles": triangles,
+                     "node_sets": {"rim": rim, "top": [center], "bottom": [copy[center]]},
+                     "triangle_sets": {"all": all}},
+        "membranes": [{"name": "sheets", "triangles": "all", "thickness": 1e-4,
+                       "material": {"kind": "svk", "E": 2e8, "nu": 0.3}}],
+        "supports": [{"nodes": "rim", "fix": ["x", "y", "z"]}],
+        "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "sheets"}}],
+        "outputs": [{"name": "p", "probe": {"kind": "enclosed_pressure", "input": "dV"}},
+                    {"name": "V", "probe": {"kind": "enclosed_volume", "membrane": "sheets"}},
+                    {"name": "w_top", "probe": {"kind": "displacement", "node": "top", "component": "z"}},
+                    {"name": "w_bottom", "probe": {"kind": "displacement", "node": "bottom", "component": "z"}}]
+    });
+    let scene = Scene::from_json(&scene_json.to_string()).unwrap();
+    let mut e = engine(scene);
+    solve(&mut e);
+    // A first estimate: two caps of half the cylinder under the Hencky centre deflection.
+    let dv1 = std::f64::consts::PI * A * A * 0.065404 * A;
+    set(&mut e, "dV", dv1);
+    let r1 = solve(&mut e);
+    let p1 = get(&e, "p");
+    let dv2 = dv1 * (40.0 / p1).cbrt();
+    set(&mut e, "dV", dv2);
+    let r2 = solve(&mut e);
+    let (p2, w_top, w_bottom) = (get(&e, "p"), get(&e, "w_top"), get(&e, "w_bottom"));
+    // The volume from the deformed nodes, computed here.
+    let u = &e.state().displacement;
+    let x = |k: usize| Vector3::from(nodes[k]) + Vector3::new(u[3 * k], u[3 * k + 1], u[3 * k + 2]);
+    let volume: f64 = triangles
+        .iter()
+        .map(|t| x(t[0]).dot(&x(t[1]).cross(&x(t[2]))) / 6.0)
+        .sum();
+    let reference = 0.065404 * A * (p2 / 40.0).cbrt();
+    let error = rel(w_top, reference);
+    println!(
+        "ΔV1 {dv1:.6e} -> p1 {p1:.4} Pa ({} it); ΔV2 {dv2:.6e} -> p2 {p2:.4} Pa ({} it); w0 top {w_top:.6e}, bottom {w_bottom:.6e}, reference {reference:.6e}: error {error:.2e}; volume {volume:.9e}",
+        r1.iterations, r2.iterations
+    );
+    assert!((p2 / 40.0 - 1.0).abs() < 1e-2, "p2 = {p2} Pa");
+    assert!(error < 1e-3, "w0 error {error:.3e}");
+    assert!(
+        (w_top + w_bottom).abs() <= 1e-9 * w_top,
+        "mirror: {w_top} {w_bottom}"
+    );
+    assert!(
+        (volume / dv2 - 1.0).abs() < 1e-8,
+        "volume {volume} against {dv2}"
+    );
+    assert!(
+        (get(&e, "V") / dv2 - 1.0).abs() < 1e-8,
+        "enclosed_volume output"
+    );
+}
