@@ -47,7 +47,7 @@ use std::time::Instant;
 use velarium::model::wrinkling::WrinkleState;
 use velarium::scene::generate::{resolve, Mesh};
 use velarium::scene::shape::{node_ids, triangle_ids};
-use velarium::scene::Load;
+use velarium::scene::{Load, Probe};
 use velarium::{Engine, Error, Scene};
 
 /// Residual at a free DOF, relative to the largest force acting.
@@ -209,6 +209,7 @@ pub const FAMILIES: &[(&str, &str)] = &[
     ("cable", "pretensioned cable under a midspan point load or pulled along its axis, 1 N-1e9 N (closed forms), engineering and Green-Lagrange strain"),
     ("cushion-fabric", "full two-sheet cushion from flat of orthotropic coated fabric (warp along x or y, fill 0.25-1 of the warp's modulus, soft in shear), rim free or framed, or of elastoplastic ETFE foil in a frame; square, rectangular 1:1-1:4, circular, 8x8 to 24x24; follower pressure 10 Pa-3 kPa"),
     ("sail-weight", "the form-found four-point sail under snow (50 Pa-1.5 kPa of plan area), or with its weight on (1.2 kg/m2) and one high corner lowered until edge cables and fabric go slack"),
+    ("cushion-volume", "full two-sheet cushion inflated from flat to a prescribed volume (volume control) or by a prescribed amount of gas (isothermal ideal gas, 101 kPa or a soft 5 kPa atmosphere); rim free or framed; square, rectangular 1:1-1:4, circular, 8x8 to 32x32; volume 0.02-0.25 (framed) or 0.1-0.6 (free rim: partly inflated and slack to stretched) of plan area x half-width"),
 ];
 
 fn scene_of(mut v: Value) -> Scene {
@@ -793,6 +794,39 @@ fn applied_forces(engine: &Engine, mesh: &Mesh) -> Result<Vec<f64>, String> {
                     }
                 }
             }
+            Load::Volume { membrane } | Load::Gas { membrane, .. } => {
+                // The pressure is an unknown of the solve: read through the scene's
+                // enclosed_pressure output for this input (the family adds one), applied as a
+                // follower pressure with the current areas and normals computed here.
+                let output = scene
+                    .outputs
+                    .iter()
+                    .find(|o| matches!(&o.probe, Probe::EnclosedPressure { input: i } if *i == input.name))
+                    .ok_or("a volume or gas input needs an enclosed_pressure output in the corpus")?;
+                let var = engine
+                    .variables()
+                    .iter()
+                    .find(|v| v.name == output.name)
+                    .ok_or("output not in the variable table")?;
+                let p = engine
+                    .get_real(var.value_reference)
+                    .map_err(|e| e.to_string())?;
+                let group = scene
+                    .membranes
+                    .iter()
+                    .find(|g| &g.name == membrane)
+                    .ok_or("no such membrane")?;
+                for t in triangle_ids(mesh, &group.triangles) {
+                    let nodes = mesh.triangles[t];
+                    let x = nodes.map(|i| model.position(u, i));
+                    let n = 0.5 * (x[1] - x[0]).cross(&(x[2] - x[0]));
+                    for i in nodes {
+                        for c in 0..3 {
+                            f[3 * i + c] += p * n[c] / 3.0;
+                        }
+                    }
+                }
+            }
             Load::Displacement { .. } => {}
             other => return Err(format!("load kind not handled by the corpus: {other:?}")),
         }
@@ -1125,6 +1159,7 @@ pub fn members(seed: u64) -> Vec<Member> {
             "cable" => cables(&mut rng),
             "cushion-fabric" => fabric_cushions(&mut rng),
             "sail-weight" => weighted_sails(&mut rng),
+            "cushion-volume" => volume_cushions(&mut rng),
             _ => unreachable!(),
         });
     }
@@ -2557,6 +2592,140 @@ fn weighted_sails(rng: &mut Rng) -> Vec<Member> {
                 m: SWAP_XY,
                 plane: None,
             }],
+            known: None,
+            quick: k == 0,
+        });
+    }
+    out
+}
+
+/// The signed volume a membrane group encloses at the current positions, Σ x0·(x1 × x2)/6 over
+/// its triangles (positive for outward normals), computed here from the state, not by the solver.
+fn enclosed_volume(e: &Engine, group: usize) -> f64 {
+    let mesh = resolve(&e.scene().geometry);
+    let model = e.model();
+    let u = &e.state().displacement;
+    triangle_ids(&mesh, &e.scene().membranes[group].triangles)
+        .into_iter()
+        .map(|t| {
+            let x = mesh.triangles[t].map(|i| model.position(u, i));
+            x[0].dot(&x[1].cross(&x[2])) / 6.0
+        })
+        .sum()
+}
+
+/// Cushions inflated from flat by volume control or by a gas amount (sixteenth session, after
+/// every solver measure was chosen): the full model of `cushion-full`, rim free or framed in
+/// turn, SVK film E t 1e4-1e7 N/m; the volume ΔV (or the gas ΔN, as its volume at the
+/// atmosphere's pressure) 0.02-0.25 (framed) or 0.1-0.6 (free rim) of the plan area times the
+/// half-width a. The pressure is an
+/// unknown of the solve; the force balance reads it through an `enclosed_pressure` output and
+/// applies it here, and a closed check holds the volume (or the gas law) computed here from the
+/// deformed geometry. Unloaded: ΔV = 0 (a framed cushion is back at flat).
+fn volume_cushions(rng: &mut Rng) -> Vec<Member> {
+    let mut out = Vec::new();
+    let shapes = [Shape::Square, Shape::Circle, Shape::Rectangle(0.0)];
+    for k in 0..12 {
+        let shape = match shapes[k % 3] {
+            Shape::Rectangle(_) => Shape::Rectangle(rng.range(1.0, 4.0)),
+            s => s,
+        };
+        let n = if k == 0 {
+            8
+        } else {
+            [8, 12, 16, 24, 32][rng.int(0, 4)]
+        };
+        let framed = k % 2 == 1;
+        let gas = k % 4 >= 2;
+        let a = rng.range(0.5, 2.0);
+        let et = rng.log(1e4, 1e7);
+        let young = rng.log(1e8, 3e9);
+        // A free rim draws in: an inextensible film's pillow holds about 0.38 π a³ (a circle),
+        // so below that the bag is partly inflated and slack at zero pressure (an equilibrium
+        // too, anywhere it stays slack); above it the film must stretch.
+        let fraction = if framed {
+            rng.log(0.02, 0.25)
+        } else {
+            rng.log(0.1, 0.6)
+        };
+        let atmosphere = if rng.unit() < 0.5 { 101325.0 } else { 5000.0 };
+        let (mut scene, mirrors) = cushion_scene(shape, n, false, framed, a, young, et / young);
+        let plan = match shape {
+            Shape::Square => 4.0 * a * a,
+            Shape::Rectangle(r) => 4.0 * a * a / r,
+            Shape::Circle => std::f64::consts::PI * a * a,
+        };
+        let amount = fraction * plan * a;
+        let load = if gas {
+            json!({"kind": "gas", "membrane": "sheets", "atmosphere": atmosphere})
+        } else {
+            json!({"kind": "volume", "membrane": "sheets"})
+        };
+        scene.inputs = vec![serde_json::from_value(json!({"name": "dV", "load": load})).unwrap()];
+        scene.outputs = vec![serde_json::from_value(
+            json!({"name": "p_in", "probe": {"kind": "enclosed_pressure", "input": "dV"}}),
+        )
+        .unwrap()];
+        let what = match shape {
+            Shape::Square => "square".to_string(),
+            Shape::Rectangle(r) => format!("rect 1:{r:.2}"),
+            Shape::Circle => "circle".to_string(),
+        };
+        // The volume row's own test: |k_V (V − ΔV)| within 1e-9 of the forces it balances,
+        // k_V = E t / A: far inside 1e-6 of the volume scale plan·a allowed here.
+        let scale = plan * a;
+        let check = move |target: f64| -> Check {
+            Box::new(move |e: &Engine| {
+                let v = enclosed_volume(e, 0);
+                let p = e
+                    .variables()
+                    .iter()
+                    .find(|x| x.name == "p_in")
+                    .and_then(|x| e.get_real(x.value_reference).ok())
+                    .ok_or("no enclosed pressure")?;
+                let (lhs, rhs, law) = if gas {
+                    (
+                        (p + atmosphere) * v / atmosphere,
+                        target,
+                        "gas law (p + p_atm) V / p_atm",
+                    )
+                } else {
+                    (v, target, "enclosed volume")
+                };
+                if !((lhs - rhs).abs() <= 1e-6 * scale) {
+                    return Err(format!(
+                        "{law} {lhs:.9e} m3 against {rhs:.9e} (bound {:.1e})",
+                        1e-6 * scale
+                    ));
+                }
+                // A membrane holds no suction with a volume in it; a slack, partly inflated bag
+                // holds its volume at zero pressure.
+                if !(p >= -1e-9 * et / a) {
+                    return Err(format!("enclosed pressure {p:e} Pa"));
+                }
+                Ok(())
+            })
+        };
+        let mut loaded = row("loaded", vec![("dV", amount)], false);
+        loaded.closed.push(check(amount));
+        let mut unloaded = row("unloaded", vec![("dV", 0.0)], framed);
+        unloaded.closed.push(check(0.0));
+        out.push(Member {
+            family: "cushion-volume",
+            label: format!(
+                "{what}{} n={n} a={a:.2} m Et={et:.3e} N/m {}={amount:.3e} m3{}",
+                if framed { " framed" } else { "" },
+                if gas { "gas dN" } else { "dV" },
+                if gas {
+                    format!(" p_atm={atmosphere:.0} Pa")
+                } else {
+                    String::new()
+                }
+            ),
+            scene,
+            then: None,
+            rows: vec![loaded, unloaded],
+            mirrors,
             known: None,
             quick: k == 0,
         });
