@@ -229,6 +229,15 @@ fn scene_of(mut v: Value) -> Scene {
             }
         }
     }
+    // CORPUS_PATH=arc_length: every member's steps followed by arc length.
+    if let Ok(path) = std::env::var("CORPUS_PATH") {
+        if let Some(o) = v.as_object_mut() {
+            let solver = o.entry("solver").or_insert_with(|| serde_json::json!({}));
+            if let Some(s) = solver.as_object_mut() {
+                s.insert("path".into(), path.into());
+            }
+        }
+    }
     Scene::from_json(&v.to_string()).unwrap_or_else(|p| panic!("corpus scene: {p}"))
 }
 

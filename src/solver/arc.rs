@@ -393,6 +393,17 @@ impl ArcPath {
         (&self.at.u, self.at.lambda, &self.at.history)
     }
 
+    /// Take `u` (with the history of the last converged point) as the step's answer at its
+    /// target: the reference configuration of a step to zero loads (stepper.rs,
+    /// `reference_answer`). The path is done.
+    pub fn take_answer(&mut self, u: Vec<f64>) {
+        self.at.u = u;
+        self.at.lambda = 1.0;
+        self.at.lambda_max = self.at.lambda_max.max(1.0);
+        self.at.previous = None;
+        self.done = true;
+    }
+
     /// The largest load fraction any converged point of the path reached (beyond a limit
     /// point the path comes back below it).
     pub fn largest_lambda(&self) -> f64 {
@@ -402,8 +413,8 @@ impl ArcPath {
     /// One attempt of the path (an arc-length increment, or the load-controlled increment that
     /// stands for one: the first, where the path tangent is undefined, after a state switch or
     /// a failed corrector, and the last to the target). Ok(None) once the target is reached;
-    /// Err(LoadControlInstead) when the step must be load-controlled as a whole instead (the first increment
-    /// moved nothing).
+    /// Err(LoadControlInstead) when the step must be load-controlled as a whole instead (the
+    /// first increment moved nothing, or failed down to the smallest increment).
     pub fn advance(
         &mut self,
         solver: &mut Solver,
@@ -545,9 +556,16 @@ impl ArcPath {
                 report.cutbacks += 1;
                 self.first_dl *= 0.25;
                 if self.first_dl < s.min_increment {
-                    report.message =
-                        format!("no equilibrium found beyond load fraction 0 of the step ({why})");
-                    return self.failed(report);
+                    // The path cannot start: its first increment is load-controlled, and load
+                    // control alone failed down to the smallest increment. The whole step goes
+                    // by load control instead, whose failed increments have the continuations
+                    // (prestress, overshoot, proximal: path.rs) this plain increment lacks; from
+                    // the step's start no limit point has been passed, so no branch is left.
+                    push_log(
+                        &mut report.log,
+                        format!("arc length: the first (load-controlled) increment failed down to solver.min_increment ({why}); the whole step by load control instead"),
+                    );
+                    self.ds = f64::NAN;
                 }
             }
         }

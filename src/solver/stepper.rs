@@ -202,13 +202,19 @@ impl Stepper {
             Path::Arc(p) => match p.advance(solver, model, &mut self.report) {
                 Ok(a) => a,
                 Err(super::arc::LoadControlInstead) => {
-                    // The arc-length path cannot start (its first increment moved nothing):
-                    // the whole step by load control, from the start, as if it had not run.
+                    // The arc-length path cannot start (its first increment moved nothing, or
+                    // failed down to the smallest increment): the whole step by load control,
+                    // from the start. The report keeps the path's log and iterations, and the
+                    // step's work budget what it spent.
                     let (u, contact) = self.arc_start.take().unwrap_or_default();
                     let s = &solver.settings;
                     let load = LoadPath::begin(model, s, &self.from, &self.to, &u, contact);
                     self.path = Path::Load(load);
+                    let (log, iterations) =
+                        (std::mem::take(&mut self.report.log), self.report.iterations);
                     self.report = StepReport::failed();
+                    self.report.log = log;
+                    self.report.iterations = iterations;
                     return self.advance(solver, model);
                 }
             },
@@ -225,8 +231,8 @@ impl Stepper {
         attempt
     }
 
-    /// A load-controlled step whose every load ends at zero (nothing applied, nothing
-    /// prescribed), of a model without sleeves: the reference configuration (no displacement)
+    /// A load-controlled or arc-length step whose every load ends at zero (nothing applied,
+    /// nothing prescribed), of a model without sleeves: the reference configuration (no displacement)
     /// is tried as the answer, with the history of the last converged point, before the path's
     /// first increment and again if the path fails. Unloaded, a structure without prestress
     /// whose film and cables go slack (a free-rim cushion let down, a yielded ETFE foil in its
@@ -237,17 +243,19 @@ impl Stepper {
     /// reference is its start. True when it is taken: the step then ends there, converged, and
     /// the report says so.
     fn reference_answer(&mut self, solver: &mut Solver, model: &Model) -> bool {
-        let Path::Load(p) = &mut self.path else {
+        if matches!(self.path, Path::Dynamic(_)) {
             return false;
-        };
+        }
+        let (converged, lambda, history) = self.converged();
+        let (n, lambda, history) = (converged.len(), lambda, history.clone());
         if !model.slips.is_empty()
             || self.to.iter().any(|&v| v != 0.0)
-            || self.refused_with.as_ref() == Some(&p.history)
+            || self.refused_with.as_ref() == Some(&history)
         {
             return false;
         }
-        p.history.install(model);
-        let mut u = vec![0.0; p.converged.len()];
+        history.install(model);
+        let mut u = vec![0.0; n];
         super::loads::prescribe(model, &self.to, &mut u);
         let inc = super::rows::Increment {
             loads: &self.to,
@@ -261,19 +269,26 @@ impl Stepper {
         let info = solver.assemble_at(model, &self.to, &u);
         let check = solver.check(model, &info, &[], &u, &inc, 1);
         if !(check.strict || check.within_floor) {
-            self.refused_with = Some(p.history.clone());
+            self.refused_with = Some(history);
             return false;
         }
-        let path = if self.tried_reference && p.lambda == 0.0 && self.report.iterations == 0 {
+        let path = if self.tried_reference && lambda == 0.0 && self.report.iterations == 0 {
             String::new()
         } else {
-            format!("the path ended at load fraction {:.6}; ", p.lambda)
+            format!("the path ended at load fraction {lambda:.6}; ")
         };
         let line = format!(
             "{path}every load of the step is zero and the reference configuration (no displacement) meets the convergence test with the history of the last converged point: it is the answer (what is slack may rest anywhere it stays slack; the reference is one such rest)"
         );
-        p.converged = u;
-        p.lambda = 1.0;
+        match &mut self.path {
+            Path::Load(p) => {
+                p.converged = u;
+                p.lambda = 1.0;
+            }
+            Path::Arc(p) => p.take_answer(u),
+            // Not tried in a time step (returned above).
+            Path::Dynamic(_) => return false,
+        }
         self.report.log.push(line.clone());
         self.report.message = line;
         self.failed = false;

@@ -433,3 +433,83 @@ fn a_free_rim_cushion_partly_inflated_by_gas_from_flat_converges_right() {
     assert_eq!(runs.len(), 2, "seed 27 draws the member");
     assert_all_right(&runs);
 }
+
+/// GOAL: a step to zero loads followed by arc length ends at the reference configuration when
+///       that is an equilibrium, as a load-controlled one does (stepper.rs, `reference_answer`,
+///       since the sixteenth session for arc length too).
+/// MESH, BOUNDARY CONDITIONS, PARAMETERS: the shipped HenckyDisc (16 rings, a = 0.5 m,
+///       h = 0.1 mm, E = 200 MPa, ν = 0.3, rim clamped) with `solver.path: arc_length`.
+/// LOADING: 40 Pa (follower), then 0 in one row.
+/// REFERENCE: loaded, docs/mechanics.md §4a: w0/a = 0.065404 at qa/(Eh) = 1e-3 (16 rings:
+///       CST error within 1e-3, as tests/verification/hencky_disc.rs measures at 20 rings,
+///       0.19/rings² here); unloaded, the flat disc is the one equilibrium (clamped, no
+///       prestress): every displacement 0. Measured before: the unloaded step spent its budget
+///       (1000 iterations, 2.4 s) at load fraction 0.999967 on the singular path w³ ∝ q.
+/// REQUIRED: both steps converge, the loaded within 1e-3 of the closed form (measured 7.3e-4),
+///       the unloaded in 0 iterations at zero displacement, naming the reference.
+#[test]
+fn an_arc_length_step_to_nothing_rests_at_the_reference() {
+    let mut scene = crate::common::read_scene(&crate::common::shipped("HenckyDisc"));
+    scene.solver.path = velarium::scene::PathMethod::ArcLength;
+    let mut e = velarium::Engine::try_new(scene).expect("it builds");
+    assert!(e.solve().converged());
+    crate::common::set(&mut e, "pressure", 40.0);
+    let r = e.solve();
+    assert!(r.converged(), "{}", r.message);
+    let w = crate::common::get(&e, "center_uz") / 0.5;
+    let error = (w / 0.065404 - 1.0).abs();
+    println!(
+        "loaded: w0/a {w:.6}, error {error:.2e}, {} iterations",
+        r.iterations
+    );
+    assert!(error < 1e-3, "w0/a {w}");
+    crate::common::set(&mut e, "pressure", 0.0);
+    let r = e.solve();
+    assert!(r.converged(), "{}", r.message);
+    assert_eq!(r.iterations, 0);
+    assert!(
+        r.message.contains("reference configuration"),
+        "{}",
+        r.message
+    );
+    assert!(e.state().displacement.iter().all(|&x| x == 0.0));
+}
+
+/// GOAL: an arc-length step whose first (load-controlled) increment fails down to the smallest
+///       increment goes by load control as a whole, with the continuations a failed
+///       load-controlled increment has (arc.rs, `first_increment`; since the sixteenth session).
+///       Before, it failed at load fraction 0.
+/// MESH, BOUNDARY CONDITIONS, PARAMETERS: the quarter airbag of issue 27 as corpus seed 27
+///       draws it (`cushion-quarter`, square, 8x8 cells, a = 0.70 m, E t = 1.505e8 N/m, two flat
+///       sheets sharing the rim, symmetry planes x = 0 and y = 0, rim held in z), with
+///       `solver.path: arc_length`; follower pressure 4167 Pa from flat, then 0.
+/// REFERENCE: the corpus's own checks (residual within 1e-6 of the forces acting plus 100 ε of
+///       the stiffness times the size, force and moment balance with the pressure computed from
+///       the current triangles, top/bottom and diagonal mirrors). Measured before: "no
+///       equilibrium found beyond load fraction 0 of the step" after 353 iterations; now right
+///       in 520 (the prestress and overshoot continuations), unloaded in 0.
+/// REQUIRED: both rows right; the loaded step's log names the switch to load control.
+#[test]
+fn an_arc_length_step_that_cannot_start_goes_by_load_control_with_its_continuations() {
+    let mut member = corpus::members(27)
+        .into_iter()
+        .find(|m| m.family == "cushion-quarter" && m.label.starts_with("square n=8 a=0.70 m"))
+        .expect("seed 27 draws the airbag");
+    member.scene.solver.path = velarium::scene::PathMethod::ArcLength;
+    let runs = corpus::run_member(&member);
+    print!("{}", corpus::table(&runs));
+    assert_eq!(runs.len(), 2);
+    assert_all_right(&runs);
+    let mut engine = velarium::Engine::try_new(member.scene.clone()).expect("it builds");
+    assert!(engine.solve().converged());
+    set_row(&mut engine, &member.rows[0]);
+    let report = engine.solve();
+    assert!(report.converged(), "{}", report.message);
+    assert!(
+        report
+            .log
+            .iter()
+            .any(|l| l.contains("the whole step by load control instead")),
+        "the log names the switch"
+    );
+}
