@@ -2701,7 +2701,8 @@ fn volume_cushions(rng: &mut Rng) -> Vec<Member> {
                 } else {
                     (v, target, "enclosed volume")
                 };
-                if !((lhs - rhs).abs() <= 1e-6 * scale) {
+                let off = (lhs - rhs).abs();
+                if off.is_nan() || off > 1e-6 * scale {
                     return Err(format!(
                         "{law} {lhs:.9e} m3 against {rhs:.9e} (bound {:.1e})",
                         1e-6 * scale
@@ -2709,7 +2710,7 @@ fn volume_cushions(rng: &mut Rng) -> Vec<Member> {
                 }
                 // A membrane holds no suction with a volume in it; a slack, partly inflated bag
                 // holds its volume at zero pressure.
-                if !(p >= -1e-9 * et / a) {
+                if p.is_nan() || p < -1e-9 * et / a {
                     return Err(format!("enclosed pressure {p:e} Pa"));
                 }
                 Ok(())
