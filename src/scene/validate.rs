@@ -708,12 +708,17 @@ impl Validator {
             })
             .fold((0.0, 0.0), |(v, m), t: f64| (v + t, m + t.abs()));
         // A flat closed group (a deflated cushion: two sheets on top of each other, sharing
-        // their rim) encloses no volume whichever way it faces: it inflates along its
-        // triangles' normals, as a pressure input does, so that the volume it then encloses
-        // is positive. Zero within the round-off of the sum is accepted; a negative volume
-        // is a group facing inward.
-        let flat = volume.abs() <= 1e-12 * magnitude;
-        if !(volume > 0.0 || flat) {
+        // their rim, every node in one plane) encloses no volume whichever way it faces: it
+        // inflates along its triangles' normals, as a pressure input does, so that the volume
+        // it then encloses is positive. Zero within the round-off of the sum is accepted
+        // there and only there (a closed group facing both ways, as an outward and an inward
+        // sphere, sums to zero too); a negative volume is a group facing inward.
+        let zero = volume.abs() <= 1e-12 * magnitude;
+        if !(if zero {
+            coplanar(mesh, &ids)
+        } else {
+            volume > 0.0
+        }) {
             self.push(
                 path,
                 format!("membrane group \"{membrane}\" encloses the volume {volume:e} m³: its triangles must face outward (counter-clockwise seen from outside) and enclose a positive volume (or none, a flat cushion inflating along its normals)"),
@@ -2396,4 +2401,48 @@ impl Validator {
             }
         }
     }
+}
+
+/// Whether the nodes of the triangles `ids` lie in one plane, within 1e-9 of their extent: the
+/// plane of the largest triangle (a flat cushion's two sheets on top of each other).
+fn coplanar(mesh: &Mesh, ids: &[usize]) -> bool {
+    let p = |i: usize| {
+        let [x, y, z] = mesh.nodes[i];
+        [x, y, z]
+    };
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let mut best = (0.0, [0.0; 3], [0.0; 3]);
+    for &t in ids {
+        let [a, b, c] = mesh.triangles[t].map(p);
+        let n = cross(sub(b, a), sub(c, a));
+        let area = dot(n, n).sqrt();
+        if area > best.0 {
+            best = (area, n.map(|v| v / area), a);
+        }
+    }
+    if !(best.0 > 0.0) {
+        return false;
+    }
+    let (lo, hi) = ids.iter().flat_map(|&t| mesh.triangles[t]).fold(
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+        |(lo, hi), i| {
+            let x = p(i);
+            (
+                [lo[0].min(x[0]), lo[1].min(x[1]), lo[2].min(x[2])],
+                [hi[0].max(x[0]), hi[1].max(x[1]), hi[2].max(x[2])],
+            )
+        },
+    );
+    let extent = dot(sub(hi, lo), sub(hi, lo)).sqrt();
+    ids.iter()
+        .flat_map(|&t| mesh.triangles[t])
+        .all(|i| dot(best.1, sub(p(i), best.2)).abs() <= 1e-9 * extent)
 }

@@ -216,6 +216,37 @@ fn a_volume_input_on_an_open_or_inward_group_is_rejected() {
         err.contains("inputs[0].load.membrane") && err.contains("face outward"),
         "{err}"
     );
+    // Zero volume is accepted only for a flat group (every node in one plane): a sphere facing
+    // outward beside the same sphere facing inward encloses none either, and is refused.
+    let (nodes, triangles) = octasphere(2, 1.0);
+    let shift = nodes.len();
+    let mut both_nodes = nodes.clone();
+    both_nodes.extend(nodes.iter().map(|p| [p[0] + 3.0, p[1], p[2]]));
+    let mut both = triangles.clone();
+    both.extend(
+        triangles
+            .iter()
+            .map(|t| [t[0] + shift, t[2] + shift, t[1] + shift]),
+    );
+    let twins = json!({
+        "format": 1, "name": "Twins",
+        "geometry": {"nodes": both_nodes, "triangles": both,
+                     "triangle_sets": {"all": (0..both.len()).collect::<Vec<_>>()}},
+        "membranes": [{"name": "rubber", "triangles": "all", "thickness": H,
+                       "material": {"kind": "neo_hookean", "mu": MU}}],
+        "supports": [{"nodes": [0], "fix": ["x", "y", "z"]}],
+        "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "rubber"}}]
+    });
+    let scene = Scene::from_json(&twins.to_string()).unwrap();
+    let err = velarium::Engine::try_new(scene)
+        .err()
+        .expect("rejected")
+        .to_string();
+    println!("{err}");
+    assert!(
+        err.contains("inputs[0].load.membrane") && err.contains("face outward"),
+        "{err}"
+    );
 }
 
 /// GOAL: arc length (`solver.path: arc_length`, `src/solver/arc.rs`) traces the same balloon
