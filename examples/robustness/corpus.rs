@@ -713,6 +713,55 @@ impl Context {
     }
 }
 
+/// The value of the variable `name` (an input or output) as the engine reports it.
+fn variable_value(engine: &Engine, name: &str) -> Result<f64, String> {
+    let var = engine
+        .variables()
+        .iter()
+        .find(|v| v.name == name)
+        .ok_or_else(|| format!("{name} is not in the variable table"))?;
+    engine
+        .get_real(var.value_reference)
+        .map_err(|e| e.to_string())
+}
+
+/// Adds a pressure p on the membrane group `membrane` to `f`: p A n / 3 to each node of each
+/// triangle, with the current area and normal (`follower`) or the reference ones.
+fn add_pressure(
+    engine: &Engine,
+    mesh: &Mesh,
+    membrane: &str,
+    p: f64,
+    follower: bool,
+    f: &mut [f64],
+) -> Result<(), String> {
+    let model = engine.model();
+    let u = &engine.state().displacement;
+    let group = engine
+        .scene()
+        .membranes
+        .iter()
+        .find(|g| g.name == membrane)
+        .ok_or("no such membrane")?;
+    for t in triangle_ids(mesh, &group.triangles) {
+        let nodes = mesh.triangles[t];
+        let x = nodes.map(|i| {
+            if follower {
+                model.position(u, i)
+            } else {
+                model.reference[i]
+            }
+        });
+        let n = 0.5 * (x[1] - x[0]).cross(&(x[2] - x[0]));
+        for i in nodes {
+            for c in 0..3 {
+                f[3 * i + c] += p * n[c] / 3.0;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The applied forces on every DOF, computed here from the scene's inputs and the deformed
 /// geometry (not the solver's load vector).
 fn applied_forces(engine: &Engine, mesh: &Mesh) -> Result<Vec<f64>, String> {
@@ -721,14 +770,7 @@ fn applied_forces(engine: &Engine, mesh: &Mesh) -> Result<Vec<f64>, String> {
     let u = &engine.state().displacement;
     let mut f = vec![0.0; model.dof_count()];
     for input in &scene.inputs {
-        let var = engine
-            .variables()
-            .iter()
-            .find(|v| v.name == input.name)
-            .ok_or("input not in the variable table")?;
-        let value = engine
-            .get_real(var.value_reference)
-            .map_err(|e| e.to_string())?;
+        let value = variable_value(engine, &input.name)?;
         match &input.load {
             Load::PointForce { nodes, direction } => {
                 let ids = node_ids(mesh, nodes);
@@ -744,27 +786,7 @@ fn applied_forces(engine: &Engine, mesh: &Mesh) -> Result<Vec<f64>, String> {
                 zone: None,
                 follower,
             } => {
-                let group = scene
-                    .membranes
-                    .iter()
-                    .find(|g| &g.name == membrane)
-                    .ok_or("no such membrane")?;
-                for t in triangle_ids(mesh, &group.triangles) {
-                    let nodes = mesh.triangles[t];
-                    let x = nodes.map(|i| {
-                        if *follower {
-                            model.position(u, i)
-                        } else {
-                            model.reference[i]
-                        }
-                    });
-                    let n = 0.5 * (x[1] - x[0]).cross(&(x[2] - x[0]));
-                    for i in nodes {
-                        for c in 0..3 {
-                            f[3 * i + c] += value * n[c] / 3.0;
-                        }
-                    }
-                }
+                add_pressure(engine, mesh, membrane, value, *follower, &mut f)?;
             }
             Load::Snow {
                 membrane,
@@ -812,29 +834,8 @@ fn applied_forces(engine: &Engine, mesh: &Mesh) -> Result<Vec<f64>, String> {
                     .iter()
                     .find(|o| matches!(&o.probe, Probe::EnclosedPressure { input: i } if *i == input.name))
                     .ok_or("a volume or gas input needs an enclosed_pressure output in the corpus")?;
-                let var = engine
-                    .variables()
-                    .iter()
-                    .find(|v| v.name == output.name)
-                    .ok_or("output not in the variable table")?;
-                let p = engine
-                    .get_real(var.value_reference)
-                    .map_err(|e| e.to_string())?;
-                let group = scene
-                    .membranes
-                    .iter()
-                    .find(|g| &g.name == membrane)
-                    .ok_or("no such membrane")?;
-                for t in triangle_ids(mesh, &group.triangles) {
-                    let nodes = mesh.triangles[t];
-                    let x = nodes.map(|i| model.position(u, i));
-                    let n = 0.5 * (x[1] - x[0]).cross(&(x[2] - x[0]));
-                    for i in nodes {
-                        for c in 0..3 {
-                            f[3 * i + c] += p * n[c] / 3.0;
-                        }
-                    }
-                }
+                let p = variable_value(engine, &output.name)?;
+                add_pressure(engine, mesh, membrane, p, true, &mut f)?;
             }
             Load::Displacement { .. } => {}
             other => return Err(format!("load kind not handled by the corpus: {other:?}")),
@@ -2686,12 +2687,7 @@ fn volume_cushions(rng: &mut Rng) -> Vec<Member> {
         let check = move |target: f64| -> Check {
             Box::new(move |e: &Engine| {
                 let v = enclosed_volume(e, 0);
-                let p = e
-                    .variables()
-                    .iter()
-                    .find(|x| x.name == "p_in")
-                    .and_then(|x| e.get_real(x.value_reference).ok())
-                    .ok_or("no enclosed pressure")?;
+                let p = variable_value(e, "p_in")?;
                 let (lhs, rhs, law) = if gas {
                     (
                         (p + atmosphere) * v / atmosphere,

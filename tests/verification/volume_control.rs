@@ -197,25 +197,29 @@ fn a_volume_input_on_an_open_or_inward_group_is_rejected() {
     for t in &mut triangles {
         t.swap(1, 2);
     }
-    let inward = json!({
-        "format": 1, "name": "Inward",
-        "geometry": {"nodes": nodes, "triangles": triangles,
-                     "triangle_sets": {"all": (0..triangles.len()).collect::<Vec<_>>()}},
-        "membranes": [{"name": "rubber", "triangles": "all", "thickness": H,
-                       "material": {"kind": "neo_hookean", "mu": MU}}],
-        "supports": [{"nodes": [0], "fix": ["x", "y", "z"]}],
-        "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "rubber"}}]
-    });
-    let scene = Scene::from_json(&inward.to_string()).unwrap();
-    let err = velarium::Engine::try_new(scene)
-        .err()
-        .expect("rejected")
-        .to_string();
-    println!("{err}");
-    assert!(
-        err.contains("inputs[0].load.membrane") && err.contains("face outward"),
-        "{err}"
-    );
+    // A closed rubber group under a volume input must be refused as not facing outward.
+    let refused_as_inward = |nodes: &[[f64; 3]], triangles: &[[usize; 3]]| {
+        let v = json!({
+            "format": 1, "name": "Inward",
+            "geometry": {"nodes": nodes, "triangles": triangles,
+                         "triangle_sets": {"all": (0..triangles.len()).collect::<Vec<_>>()}},
+            "membranes": [{"name": "rubber", "triangles": "all", "thickness": H,
+                           "material": {"kind": "neo_hookean", "mu": MU}}],
+            "supports": [{"nodes": [0], "fix": ["x", "y", "z"]}],
+            "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "rubber"}}]
+        });
+        let scene = Scene::from_json(&v.to_string()).unwrap();
+        let err = velarium::Engine::try_new(scene)
+            .err()
+            .expect("rejected")
+            .to_string();
+        println!("{err}");
+        assert!(
+            err.contains("inputs[0].load.membrane") && err.contains("face outward"),
+            "{err}"
+        );
+    };
+    refused_as_inward(&nodes, &triangles);
     // Zero volume is accepted only for a flat group (every node in one plane): a sphere facing
     // outward beside the same sphere facing inward encloses none either, and is refused.
     let (nodes, triangles) = octasphere(2, 1.0);
@@ -228,25 +232,7 @@ fn a_volume_input_on_an_open_or_inward_group_is_rejected() {
             .iter()
             .map(|t| [t[0] + shift, t[2] + shift, t[1] + shift]),
     );
-    let twins = json!({
-        "format": 1, "name": "Twins",
-        "geometry": {"nodes": both_nodes, "triangles": both,
-                     "triangle_sets": {"all": (0..both.len()).collect::<Vec<_>>()}},
-        "membranes": [{"name": "rubber", "triangles": "all", "thickness": H,
-                       "material": {"kind": "neo_hookean", "mu": MU}}],
-        "supports": [{"nodes": [0], "fix": ["x", "y", "z"]}],
-        "inputs": [{"name": "dV", "load": {"kind": "volume", "membrane": "rubber"}}]
-    });
-    let scene = Scene::from_json(&twins.to_string()).unwrap();
-    let err = velarium::Engine::try_new(scene)
-        .err()
-        .expect("rejected")
-        .to_string();
-    println!("{err}");
-    assert!(
-        err.contains("inputs[0].load.membrane") && err.contains("face outward"),
-        "{err}"
-    );
+    refused_as_inward(&both_nodes, &both);
 }
 
 /// GOAL: arc length (`solver.path: arc_length`, `src/solver/arc.rs`) traces the same balloon
