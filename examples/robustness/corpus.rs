@@ -2470,14 +2470,20 @@ fn with_material(scene: Scene, material: Value, density: Option<f64>) -> Scene {
 /// PTFE-glass are) with a free or a framed rim, and of ETFE foil (the elastoplastic law, 16 MPa
 /// first yield) in a frame. Not in the tuning of any solver measure: added in the fifteenth
 /// session to see how the globalisation does on materials it was never tried on.
+/// The k-th member's outline of the full-cushion families: square, circle and rectangle in
+/// turn, the rectangle's aspect drawn 1-4.
+fn nth_shape(rng: &mut Rng, k: usize) -> Shape {
+    match k % 3 {
+        0 => Shape::Square,
+        1 => Shape::Circle,
+        _ => Shape::Rectangle(rng.range(1.0, 4.0)),
+    }
+}
+
 fn fabric_cushions(rng: &mut Rng) -> Vec<Member> {
     let mut out = Vec::new();
-    let shapes = [Shape::Square, Shape::Circle, Shape::Rectangle(0.0)];
     for k in 0..12 {
-        let shape = match shapes[k % 3] {
-            Shape::Rectangle(_) => Shape::Rectangle(rng.range(1.0, 4.0)),
-            s => s,
-        };
+        let shape = nth_shape(rng, k);
         let n = [8, 12, 16, 24][rng.int(0, 3)];
         // The CI slice's member small.
         let n = if k == 0 { 8 } else { n };
@@ -2628,18 +2634,13 @@ fn enclosed_volume(e: &Engine, group: usize) -> f64 {
 /// every solver measure was chosen): the full model of `cushion-full`, rim free or framed in
 /// turn, SVK film E t 1e4-1e7 N/m; the volume ΔV (or the gas ΔN, as its volume at the
 /// atmosphere's pressure) 0.02-0.25 (framed) or 0.1-0.6 (free rim) of the plan area times the
-/// half-width a. The pressure is an
-/// unknown of the solve; the force balance reads it through an `enclosed_pressure` output and
-/// applies it here, and a closed check holds the volume (or the gas law) computed here from the
+/// half-width a. The pressure is an unknown of the solve; the force balance reads it through
+/// an `enclosed_pressure` output and applies it here, and a closed check holds the volume (or the gas law) computed here from the
 /// deformed geometry. Unloaded: ΔV = 0 (a framed cushion is back at flat).
 fn volume_cushions(rng: &mut Rng) -> Vec<Member> {
     let mut out = Vec::new();
-    let shapes = [Shape::Square, Shape::Circle, Shape::Rectangle(0.0)];
     for k in 0..12 {
-        let shape = match shapes[k % 3] {
-            Shape::Rectangle(_) => Shape::Rectangle(rng.range(1.0, 4.0)),
-            s => s,
-        };
+        let shape = nth_shape(rng, k);
         let n = if k == 0 {
             8
         } else {
