@@ -298,6 +298,9 @@ impl Dissection {
         let Some(pool) = pool else {
             return Dissection::Here(input);
         };
+        // The helper may still be building the relaxation's adjacency (`Solver::try_new`):
+        // the ordering starts after it (a failure of that job is its join's to report).
+        let _ = pool.wait(0);
         let input = Mutex::new(Some(input));
         let output: Arc<Mutex<Option<Filled>>> = Arc::new(Mutex::new(None));
         let job_output = Arc::clone(&output);
@@ -1398,6 +1401,12 @@ fn triangles_one(
             }
         }
     }
+}
+
+/// One placeholder evaluation per triangle, written (its pages touched) by the calling
+/// thread: what an assembly with evaluations writes into (every entry is overwritten).
+pub fn unevaluated(triangles: usize) -> Result<Vec<Evaluation>, OutOfMemory> {
+    memory::filled(triangles, UNEVALUATED, "the element evaluations")
 }
 
 /// `out` sized to one evaluation per triangle (every assembly writes every entry).

@@ -198,6 +198,20 @@ impl Solver {
         } else {
             None
         };
+        // Nodal relaxation's adjacency on the helper, from a copy of what it reads, while
+        // this thread builds the node graph and numbers the nodes (the ordering, the helper's
+        // next job, waits for it: `Pattern::try_ordered_on`). The lists of one thread.
+        let adjacency = match &pool {
+            Some(pool) => {
+                let input = relax::Adjacency::input(model)?;
+                let depth = crate::phases::depth();
+                Some(threads::Pool::launch(pool, 0, move || {
+                    let _phase = crate::phases::start_under("adjacency (on the helper)", depth);
+                    input.build()
+                }))
+            }
+            None => None,
+        };
         let mut pattern = Pattern::try_ordered_on(model, settings.node_order, pool.as_ref())?;
         // The factorization takes over the pattern's row indices: nothing reads them from the
         // solver's pattern once its position maps are built, and a copy would be K's largest
@@ -241,7 +255,11 @@ impl Solver {
         let reference_diagonal = reference_diagonal(model, &pattern)?;
         let reference_size = model.reference.iter().fold(0.0f64, |m, x| m.max(x.amax()));
         let vector = |len| memory::zeros(len, "the solver's vectors");
-        let adjacency = relax::Adjacency::try_new(model)?;
+        let adjacency = match adjacency.map(threads::Pending::join) {
+            Some(Ok(built)) => built?,
+            // No helper, or it failed: here, as with one thread.
+            _ => relax::Adjacency::try_new(model)?,
+        };
         drop(phase);
         Ok(Solver {
             settings,
