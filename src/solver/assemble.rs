@@ -13,7 +13,7 @@ use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::{WrinkleState, REGULARIZATION};
 use crate::model::{cable, membrane, pressure, sleeve, ElementKind, LoadModel, Model, PerKind};
 use crate::solver::renumber::{self, NodeOrder};
-use crate::solver::threads::{Pool, ASSEMBLE};
+use crate::solver::threads::{Pending, Pool, ASSEMBLE};
 use nalgebra::{SMatrix, SVector, Vector3};
 use std::ops::Range;
 use std::sync::{Arc, Mutex, MutexGuard, RwLock};
@@ -146,14 +146,51 @@ impl Pattern {
         order: NodeOrder,
         pool: Option<&std::sync::Arc<super::threads::Pool>>,
     ) -> Result<Pattern, OutOfMemory> {
+        Pattern::try_ordered_then::<()>(model, order, pool, None).map(|(pattern, _)| pattern)
+    }
+
+    /// [`Pattern::try_ordered_on`] that, with a helper, also runs `then` there once the
+    /// renumbering's keys and normals are done (while this thread numbers the nodes; the
+    /// ordering waits for it): its [`Pending`] result, None without a helper (the caller then
+    /// does that work itself). With a helper and a Cuthill-McKee order, the renumbering's
+    /// keys, seeds and normals are computed there while this thread builds the node graph
+    /// (`renumber::Prepared`, the same numbers).
+    pub(super) fn try_ordered_then<T: Send + 'static>(
+        model: &Model,
+        order: NodeOrder,
+        pool: Option<&std::sync::Arc<super::threads::Pool>>,
+        then: Option<Box<dyn FnOnce() -> T + Send>>,
+    ) -> Result<(Pattern, Option<Pending<T>>), OutOfMemory> {
         use crate::phases::start;
         let _phase = start("pattern (Pattern::try_ordered)");
+        let helper = pool.filter(|p| p.helpers() > 0);
+        let depth = crate::phases::depth();
+        let prepared = match (helper, order) {
+            (Some(pool), NodeOrder::Rings | NodeOrder::Rcm) => {
+                let input = renumber::PrepareInput::copy(model)?;
+                Some(Pool::launch(pool, 0, move || {
+                    let _phase =
+                        crate::phases::start_under("renumbering's keys (on the helper)", depth);
+                    input.prepare()
+                }))
+            }
+            _ => None,
+        };
         // The node graph, read by the renumbering, the dissection and K's pattern.
         let phase = start("node graph");
         let graph = renumber::node_graph(model)?;
         drop(phase);
         let phase = start("renumbering (node_rank)");
-        let rank = renumber::node_rank_on(model, order, &graph)?;
+        let prepared = match prepared.map(Pending::join) {
+            Some(Ok(prepared)) => Some(prepared?),
+            // None, or the helper failed: here.
+            _ => None,
+        };
+        let then = match (helper, then) {
+            (Some(pool), Some(job)) => Some(Pool::launch(pool, 0, job)),
+            _ => None,
+        };
+        let rank = renumber::node_rank_prepared(model, order, &graph, prepared)?;
         drop(phase);
         let phase = start("equation numbers");
         let (eq, n, by_rank) = number_equations(model, &rank)?;
@@ -214,21 +251,24 @@ impl Pattern {
         drop(blocks);
         drop(phase);
         let fill = dissection.map(Dissection::finish).transpose()?;
-        Ok(Pattern {
-            eq,
-            n,
-            col_ptr,
-            row_idx,
-            maps,
-            order: visits,
-            tri_slot,
-            triangles,
-            node_of,
-            rank,
-            pressed_order,
-            pressed_slots,
-            fill,
-        })
+        Ok((
+            Pattern {
+                eq,
+                n,
+                col_ptr,
+                row_idx,
+                maps,
+                order: visits,
+                tri_slot,
+                triangles,
+                node_of,
+                rank,
+                pressed_order,
+                pressed_slots,
+                fill,
+            },
+            then,
+        ))
     }
 
     /// The order in which an assembly visits the triangles (slot → triangle).
@@ -298,8 +338,9 @@ impl Dissection {
         let Some(pool) = pool else {
             return Dissection::Here(input);
         };
-        // The helper may still be building the relaxation's adjacency (`Solver::try_new`):
-        // the ordering starts after it (a failure of that job is its join's to report).
+        // The helper may still run the job given to `Pattern::try_ordered_then` (the
+        // relaxation's adjacency, `Solver::try_new`): the ordering starts after it (a failure
+        // of that job is its join's to report).
         let _ = pool.wait(0);
         let input = Mutex::new(Some(input));
         let output: Arc<Mutex<Option<Filled>>> = Arc::new(Mutex::new(None));

@@ -199,20 +199,22 @@ impl Solver {
             None
         };
         // Nodal relaxation's adjacency on the helper, from a copy of what it reads, while
-        // this thread builds the node graph and numbers the nodes (the ordering, the helper's
-        // next job, waits for it: `Pattern::try_ordered_on`). The lists of one thread.
-        let adjacency = match &pool {
-            Some(pool) => {
+        // this thread numbers the nodes (the ordering, the helper's next job, waits for it:
+        // `Pattern::try_ordered_then`). The lists of one thread.
+        type Built = Result<relax::Adjacency, OutOfMemory>;
+        let adjacency: Option<Box<dyn FnOnce() -> Built + Send>> = match &pool {
+            Some(_) => {
                 let input = relax::Adjacency::input(model)?;
                 let depth = crate::phases::depth();
-                Some(threads::Pool::launch(pool, 0, move || {
+                Some(Box::new(move || {
                     let _phase = crate::phases::start_under("adjacency (on the helper)", depth);
                     input.build()
                 }))
             }
             None => None,
         };
-        let mut pattern = Pattern::try_ordered_on(model, settings.node_order, pool.as_ref())?;
+        let (mut pattern, adjacency) =
+            Pattern::try_ordered_then(model, settings.node_order, pool.as_ref(), adjacency)?;
         // The factorization takes over the pattern's row indices: nothing reads them from the
         // solver's pattern once its position maps are built, and a copy would be K's largest
         // index array twice (88 MB at 1M DOF).

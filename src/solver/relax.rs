@@ -109,9 +109,7 @@ impl Adjacency {
         const WHAT: &str = "the node adjacency";
         let elements = PerKind::try_from_fn(|kind| {
             let count = model.element_count(kind);
-            let len: usize = (0..count)
-                .map(|e| model.element_nodes(kind, e).len())
-                .sum();
+            let len: usize = (0..count).map(|e| model.element_nodes(kind, e).len()).sum();
             let mut start = memory::with_capacity(count + 1, WHAT)?;
             let mut nodes = memory::with_capacity(len, WHAT)?;
             start.push(0);
@@ -169,9 +167,9 @@ impl Adjacency {
                 })
             })?,
             forces: Lists::try_build(n, || {
-                forces.iter().flat_map(|&(l, dofs)| {
-                    dofs.iter().map(move |&(d, f)| (d / 3, (l, d % 3, f)))
-                })
+                forces
+                    .iter()
+                    .flat_map(|&(l, dofs)| dofs.iter().map(move |&(d, f)| (d / 3, (l, d % 3, f))))
             })?,
         })
     }
@@ -843,7 +841,10 @@ mod tests {
         ] {
             let model = model(name, None);
             let serial = Adjacency::try_new(&model).unwrap();
-            assert!(!serial.elements[ElementKind::Membrane].items.is_empty() || model.triangles.is_empty());
+            assert!(
+                !serial.elements[ElementKind::Membrane].items.is_empty()
+                    || model.triangles.is_empty()
+            );
             let built = Adjacency::input(&model).unwrap().build().unwrap();
             assert_eq!(built, serial, "{name}");
         }

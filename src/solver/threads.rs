@@ -257,7 +257,11 @@ impl Pool {
     /// for it and gives its result. What the job needs it owns. Until it has ended the helper
     /// is busy: a caller that starts another job on it first waits for it ([`Pool::wait`]),
     /// and no [`Pool::beside`] may run before the join.
-    pub fn launch<T>(pool: &Arc<Pool>, i: usize, job: impl FnOnce() -> T + Send + 'static) -> Pending<T>
+    pub fn launch<T>(
+        pool: &Arc<Pool>,
+        i: usize,
+        job: impl FnOnce() -> T + Send + 'static,
+    ) -> Pending<T>
     where
         T: Send + 'static,
     {
