@@ -558,7 +558,7 @@ mod tests {
             }
         }
     }
-    use super::hilbert_key;
+    use super::*;
 
     /// The memory estimate (`scene::limits::memory_bytes`) counts 400 bytes a triangle for the
     /// assembly's copy of the triangles in visit order.
