@@ -146,7 +146,7 @@ impl Pattern {
         order: NodeOrder,
         pool: Option<&std::sync::Arc<super::threads::Pool>>,
     ) -> Result<Pattern, OutOfMemory> {
-        Pattern::try_ordered_then::<()>(model, order, pool, None).map(|(pattern, _)| pattern)
+        Pattern::try_ordered_then::<()>(model, order, pool, None, None).map(|(pattern, _)| pattern)
     }
 
     /// [`Pattern::try_ordered_on`] that, with a helper, also runs `then` there once the
@@ -160,6 +160,7 @@ impl Pattern {
         order: NodeOrder,
         pool: Option<&std::sync::Arc<super::threads::Pool>>,
         then: Option<Box<dyn FnOnce() -> T + Send>>,
+        maps: Option<Vec<u32>>,
     ) -> Result<(Pattern, Option<Pending<T>>), OutOfMemory> {
         use crate::phases::start;
         let _phase = start("pattern (Pattern::try_ordered)");
@@ -247,7 +248,7 @@ impl Pattern {
         let (col_ptr, row_idx) = blocks.upper_pattern(n)?;
         drop(phase);
         let phase = start("position maps");
-        let maps = position_maps(model, &eq, &col_ptr, &blocks, &visits)?;
+        let maps = position_maps(model, &eq, &col_ptr, &blocks, &visits, maps)?;
         drop(blocks);
         drop(phase);
         let fill = dissection.map(Dissection::finish).transpose()?;
@@ -776,13 +777,29 @@ fn position_maps(
     col_ptr: &[usize],
     blocks: &Blocks,
     visits: &PerKind<Vec<usize>>,
+    touched: Option<Vec<u32>>,
 ) -> Result<PerKind<Vec<u32>>, OutOfMemory> {
     // Every position is below the stored entries <= MAX_ENTRIES (`upper_pattern`), so below
     // UNMAPPED. The block term alone may be negative: sums are taken mod 2^64.
     const MAX_DOFS: usize = 3 * ElementKind::MAX_NODES;
+    let mut touched = touched;
     PerKind::try_from_fn(|kind| {
         let len = visits[kind].len().saturating_mul(kind.block_len());
-        let mut maps = memory::with_capacity(len, "the element position maps")?;
+        // The triangles' maps into the buffer touched on the helper where it is the size
+        // (`Started`): the same entries, written into pages already there.
+        let membrane = match kind {
+            ElementKind::Membrane => true,
+            ElementKind::Cable
+            | ElementKind::Tie
+            | ElementKind::ContactPair
+            | ElementKind::ContactPoint => false,
+        };
+        let mut maps = if membrane && touched.as_ref().is_some_and(|b| b.capacity() == len) {
+            touched.take().unwrap_or_default()
+        } else {
+            memory::with_capacity(len, "the element position maps")?
+        };
+        maps.clear();
         let mut d = [NONE; MAX_DOFS];
         let mut out = [UNMAPPED; MAX_DOFS * MAX_DOFS];
         // Per element node: its internal node (u32::MAX: every DOF held).
@@ -1442,6 +1459,15 @@ fn triangles_one(
             }
         }
     }
+}
+
+/// An empty buffer for `len` position-map entries whose pages are touched (written) by the
+/// calling thread: the solver's helper, while the solving thread builds the model
+/// (`core::Started`).
+pub fn touched_maps(len: usize) -> Result<Vec<u32>, OutOfMemory> {
+    let mut maps = memory::filled(len, UNMAPPED, "the element position maps")?;
+    maps.clear();
+    Ok(maps)
 }
 
 /// One placeholder evaluation per triangle, written (its pages touched) by the calling
@@ -2288,6 +2314,34 @@ mod tests {
         assert!(message.contains("4294967295"), "{message}");
         assert!(!message.contains("out of memory"), "{message}");
         assert!(check_addressable(u64::MAX).is_err());
+    }
+
+    /// The triangles' position maps written into a buffer touched beforehand (on the
+    /// solver's helper, `core::Started`) are those of a fresh allocation, entry for entry; a
+    /// buffer of another size is not used.
+    #[test]
+    fn the_maps_in_a_touched_buffer_are_the_fresh_ones() {
+        let path = format!(
+            "{}/modelDescription/HenckyDisc/scene.json",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let scene =
+            crate::scene::Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let model = Model::try_build(&scene).unwrap();
+        let fresh = Pattern::try_ordered(&model, NodeOrder::Rings).unwrap();
+        let len = model.triangles.len() * ElementKind::Membrane.block_len();
+        for touched in [touched_maps(len).unwrap(), touched_maps(len + 1).unwrap()] {
+            let (pattern, _) = Pattern::try_ordered_then::<()>(
+                &model,
+                NodeOrder::Rings,
+                None,
+                None,
+                Some(touched),
+            )
+            .unwrap();
+            assert_eq!(pattern.maps, fresh.maps);
+            assert_eq!(pattern.maps[ElementKind::Membrane].len(), len);
+        }
     }
 
     /// The pattern by nodes is the pattern by elements, and every element entry's position
