@@ -13,7 +13,7 @@ use crate::model::membrane::Evaluation;
 use crate::model::wrinkling::{WrinkleState, REGULARIZATION};
 use crate::model::{cable, membrane, pressure, sleeve, ElementKind, LoadModel, Model, PerKind};
 use crate::solver::renumber::{self, NodeOrder};
-use crate::solver::threads::{Pool, ASSEMBLE};
+use crate::solver::threads::{Pending, Pool, ASSEMBLE};
 use nalgebra::{SMatrix, SVector, Vector3};
 use std::ops::Range;
 use std::sync::{Arc, Mutex, MutexGuard, RwLock};
@@ -146,14 +146,52 @@ impl Pattern {
         order: NodeOrder,
         pool: Option<&std::sync::Arc<super::threads::Pool>>,
     ) -> Result<Pattern, OutOfMemory> {
+        Pattern::try_ordered_then::<()>(model, order, pool, None, None).map(|(pattern, _)| pattern)
+    }
+
+    /// [`Pattern::try_ordered_on`] that, with a helper, also runs `then` there once the
+    /// renumbering's keys and normals are done (while this thread numbers the nodes; the
+    /// ordering waits for it): its [`Pending`] result, None without a helper (the caller then
+    /// does that work itself). With a helper and a Cuthill-McKee order, the renumbering's
+    /// keys, seeds and normals are computed there while this thread builds the node graph
+    /// (`renumber::Prepared`, the same numbers).
+    pub(super) fn try_ordered_then<T: Send + 'static>(
+        model: &Model,
+        order: NodeOrder,
+        pool: Option<&std::sync::Arc<super::threads::Pool>>,
+        then: Option<Box<dyn FnOnce() -> T + Send>>,
+        maps: Option<Vec<u32>>,
+    ) -> Result<(Pattern, Option<Pending<T>>), OutOfMemory> {
         use crate::phases::start;
         let _phase = start("pattern (Pattern::try_ordered)");
+        let helper = pool.filter(|p| p.helpers() > 0);
+        let depth = crate::phases::depth();
+        let prepared = match (helper, order) {
+            (Some(pool), NodeOrder::Rings | NodeOrder::Rcm) => {
+                let input = renumber::PrepareInput::copy(model)?;
+                Some(Pool::launch(pool, 0, move || {
+                    let _phase =
+                        crate::phases::start_under("renumbering's keys (on the helper)", depth);
+                    input.prepare()
+                }))
+            }
+            _ => None,
+        };
         // The node graph, read by the renumbering, the dissection and K's pattern.
         let phase = start("node graph");
         let graph = renumber::node_graph(model)?;
         drop(phase);
         let phase = start("renumbering (node_rank)");
-        let rank = renumber::node_rank_on(model, order, &graph)?;
+        let prepared = match prepared.map(Pending::join) {
+            Some(Ok(prepared)) => Some(prepared?),
+            // None, or the helper failed: here.
+            _ => None,
+        };
+        let then = match (helper, then) {
+            (Some(pool), Some(job)) => Some(Pool::launch(pool, 0, job)),
+            _ => None,
+        };
+        let rank = renumber::node_rank_prepared(model, order, &graph, prepared)?;
         drop(phase);
         let phase = start("equation numbers");
         let (eq, n, by_rank) = number_equations(model, &rank)?;
@@ -210,25 +248,28 @@ impl Pattern {
         let (col_ptr, row_idx) = blocks.upper_pattern(n)?;
         drop(phase);
         let phase = start("position maps");
-        let maps = position_maps(model, &eq, &col_ptr, &blocks, &visits)?;
+        let maps = position_maps(model, &eq, &col_ptr, &blocks, &visits, maps)?;
         drop(blocks);
         drop(phase);
         let fill = dissection.map(Dissection::finish).transpose()?;
-        Ok(Pattern {
-            eq,
-            n,
-            col_ptr,
-            row_idx,
-            maps,
-            order: visits,
-            tri_slot,
-            triangles,
-            node_of,
-            rank,
-            pressed_order,
-            pressed_slots,
-            fill,
-        })
+        Ok((
+            Pattern {
+                eq,
+                n,
+                col_ptr,
+                row_idx,
+                maps,
+                order: visits,
+                tri_slot,
+                triangles,
+                node_of,
+                rank,
+                pressed_order,
+                pressed_slots,
+                fill,
+            },
+            then,
+        ))
     }
 
     /// The order in which an assembly visits the triangles (slot → triangle).
@@ -298,6 +339,10 @@ impl Dissection {
         let Some(pool) = pool else {
             return Dissection::Here(input);
         };
+        // The helper may still run the job given to `Pattern::try_ordered_then` (the
+        // relaxation's adjacency, `Solver::try_new`): the ordering starts after it (a failure
+        // of that job is its join's to report).
+        let _ = pool.wait(0);
         let input = Mutex::new(Some(input));
         let output: Arc<Mutex<Option<Filled>>> = Arc::new(Mutex::new(None));
         let job_output = Arc::clone(&output);
@@ -732,13 +777,29 @@ fn position_maps(
     col_ptr: &[usize],
     blocks: &Blocks,
     visits: &PerKind<Vec<usize>>,
+    touched: Option<Vec<u32>>,
 ) -> Result<PerKind<Vec<u32>>, OutOfMemory> {
     // Every position is below the stored entries <= MAX_ENTRIES (`upper_pattern`), so below
     // UNMAPPED. The block term alone may be negative: sums are taken mod 2^64.
     const MAX_DOFS: usize = 3 * ElementKind::MAX_NODES;
+    let mut touched = touched;
     PerKind::try_from_fn(|kind| {
         let len = visits[kind].len().saturating_mul(kind.block_len());
-        let mut maps = memory::with_capacity(len, "the element position maps")?;
+        // The triangles' maps into the buffer touched on the helper where it is the size
+        // (`Started`): the same entries, written into pages already there.
+        let membrane = match kind {
+            ElementKind::Membrane => true,
+            ElementKind::Cable
+            | ElementKind::Tie
+            | ElementKind::ContactPair
+            | ElementKind::ContactPoint => false,
+        };
+        let mut maps = if membrane && touched.as_ref().is_some_and(|b| b.capacity() == len) {
+            touched.take().unwrap_or_default()
+        } else {
+            memory::with_capacity(len, "the element position maps")?
+        };
+        maps.clear();
         let mut d = [NONE; MAX_DOFS];
         let mut out = [UNMAPPED; MAX_DOFS * MAX_DOFS];
         // Per element node: its internal node (u32::MAX: every DOF held).
@@ -1398,6 +1459,21 @@ fn triangles_one(
             }
         }
     }
+}
+
+/// An empty buffer for `len` position-map entries whose pages are touched (written) by the
+/// calling thread: the solver's helper, while the solving thread builds the model
+/// (`core::Started`).
+pub fn touched_maps(len: usize) -> Result<Vec<u32>, OutOfMemory> {
+    let mut maps = memory::filled(len, UNMAPPED, "the element position maps")?;
+    maps.clear();
+    Ok(maps)
+}
+
+/// One placeholder evaluation per triangle, written (its pages touched) by the calling
+/// thread: what an assembly with evaluations writes into (every entry is overwritten).
+pub fn unevaluated(triangles: usize) -> Result<Vec<Evaluation>, OutOfMemory> {
+    memory::filled(triangles, UNEVALUATED, "the element evaluations")
 }
 
 /// `out` sized to one evaluation per triangle (every assembly writes every entry).
@@ -2238,6 +2314,34 @@ mod tests {
         assert!(message.contains("4294967295"), "{message}");
         assert!(!message.contains("out of memory"), "{message}");
         assert!(check_addressable(u64::MAX).is_err());
+    }
+
+    /// The triangles' position maps written into a buffer touched beforehand (on the
+    /// solver's helper, `core::Started`) are those of a fresh allocation, entry for entry; a
+    /// buffer of another size is not used.
+    #[test]
+    fn the_maps_in_a_touched_buffer_are_the_fresh_ones() {
+        let path = format!(
+            "{}/modelDescription/HenckyDisc/scene.json",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let scene =
+            crate::scene::Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let model = Model::try_build(&scene).unwrap();
+        let fresh = Pattern::try_ordered(&model, NodeOrder::Rings).unwrap();
+        let len = model.triangles.len() * ElementKind::Membrane.block_len();
+        for touched in [touched_maps(len).unwrap(), touched_maps(len + 1).unwrap()] {
+            let (pattern, _) = Pattern::try_ordered_then::<()>(
+                &model,
+                NodeOrder::Rings,
+                None,
+                None,
+                Some(touched),
+            )
+            .unwrap();
+            assert_eq!(pattern.maps, fresh.maps);
+            assert_eq!(pattern.maps[ElementKind::Membrane].len(), len);
+        }
     }
 
     /// The pattern by nodes is the pattern by elements, and every element entry's position

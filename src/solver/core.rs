@@ -23,6 +23,25 @@ pub(super) fn check_inversion(model: &Model, info: &assemble::AssemblyInfo) -> R
     }
 }
 
+/// A solver's two threads started before its model is built (`Engine::try_new`), and the
+/// buffer of the triangles' position maps their helper allocates and touches meanwhile
+/// (`assemble::Pattern`): the solving thread then writes the maps into pages already there.
+pub struct Started {
+    pool: std::sync::Arc<threads::Pool>,
+    maps: threads::Pending<Result<Vec<u32>, OutOfMemory>>,
+}
+
+impl Started {
+    /// The threads, with the maps' buffer for `triangles` triangles begun on the helper.
+    /// None where the OS refuses the thread (the solver then tries again and reports it).
+    pub fn begin(triangles: usize) -> Option<Started> {
+        let pool = std::sync::Arc::new(threads::Pool::try_new(2).ok()?);
+        let len = triangles.saturating_mul(crate::model::ElementKind::Membrane.block_len());
+        let maps = threads::Pool::launch(&pool, 0, move || assemble::touched_maps(len));
+        Some(Started { pool, maps })
+    }
+}
+
 pub struct Solver {
     pub(super) settings: Settings,
     /// Shared with the helper thread's half of the assembly (`assemble::Parallel`).
@@ -181,12 +200,34 @@ impl Solver {
     /// that grows with the model is allocated fallibly (`crate::memory`): a shortage is an
     /// [`OutOfMemory`], never an abort.
     pub fn try_new(model: &Model, settings: Settings) -> Result<Solver, OutOfMemory> {
+        Solver::try_new_started(model, settings, None)
+    }
+
+    /// [`Solver::try_new`] with the threads started before the model was built and what
+    /// their helper prepared meanwhile ([`Started`]); the same solver. Where this solver has
+    /// no pool (one thread, or fewer equations than the split's), the started one is ended.
+    pub fn try_new_started(
+        model: &Model,
+        settings: Settings,
+        started: Option<Started>,
+    ) -> Result<Solver, OutOfMemory> {
         use crate::phases::start;
         let _phase = start("Solver::try_new");
         // The equations (free DOFs) before the pattern: the pool is started first, so that
         // the pattern's ordering runs on its helper (`Pattern::try_ordered_on`).
         let equations = model.held.iter().filter(|&&held| !held).count();
-        let pool = if settings.threads > 1 && equations >= linear::SPLIT_MIN_EQUATIONS {
+        let gate = settings.threads > 1 && equations >= linear::SPLIT_MIN_EQUATIONS;
+        let (started, maps) = match started.filter(|_| gate) {
+            Some(Started { pool, maps }) => {
+                // The helper's buffer, or none where its job failed (then allocated here).
+                let maps = maps.join().ok().and_then(Result::ok);
+                (Some(pool), maps)
+            }
+            None => (None, None),
+        };
+        let pool = if let Some(pool) = started {
+            Some(pool)
+        } else if gate {
             // The OS refusing a thread is a resource shortage like memory: reported, not fatal.
             // Two threads at most: the factorization has two halves (`split.rs`).
             let pool =
@@ -198,7 +239,23 @@ impl Solver {
         } else {
             None
         };
-        let mut pattern = Pattern::try_ordered_on(model, settings.node_order, pool.as_ref())?;
+        // Nodal relaxation's adjacency on the helper, from a copy of what it reads, while
+        // this thread numbers the nodes (the ordering, the helper's next job, waits for it:
+        // `Pattern::try_ordered_then`). The lists of one thread.
+        type Built = Result<relax::Adjacency, OutOfMemory>;
+        let adjacency: Option<Box<dyn FnOnce() -> Built + Send>> = match &pool {
+            Some(_) => {
+                let input = relax::Adjacency::input(model)?;
+                let depth = crate::phases::depth();
+                Some(Box::new(move || {
+                    let _phase = crate::phases::start_under("adjacency (on the helper)", depth);
+                    input.build()
+                }))
+            }
+            None => None,
+        };
+        let (mut pattern, adjacency) =
+            Pattern::try_ordered_then(model, settings.node_order, pool.as_ref(), adjacency, maps)?;
         // The factorization takes over the pattern's row indices: nothing reads them from the
         // solver's pattern once its position maps are built, and a copy would be K's largest
         // index array twice (88 MB at 1M DOF).
@@ -241,7 +298,11 @@ impl Solver {
         let reference_diagonal = reference_diagonal(model, &pattern)?;
         let reference_size = model.reference.iter().fold(0.0f64, |m, x| m.max(x.amax()));
         let vector = |len| memory::zeros(len, "the solver's vectors");
-        let adjacency = relax::Adjacency::try_new(model)?;
+        let adjacency = match adjacency.map(threads::Pending::join) {
+            Some(Ok(built)) => built?,
+            // No helper, or it failed: here, as with one thread.
+            _ => relax::Adjacency::try_new(model)?,
+        };
         drop(phase);
         Ok(Solver {
             settings,

@@ -83,7 +83,7 @@ pub mod threads;
 mod volume;
 mod work;
 
-pub use self::core::Solver;
+pub use self::core::{Solver, Started};
 pub use dynamic::Integration;
 pub use path::Attempt;
 pub use report::{push_log, Outcome, StepReport, MAX_LOG_LINES};

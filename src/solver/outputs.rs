@@ -24,8 +24,23 @@ impl Solver {
     /// ([`Solver::hold_states`]); the same assembly as [`Solver::evaluate_membranes`],
     /// [`Solver::residual`] and [`Solver::stored_energy`], once.
     pub fn evaluate_committed(&mut self, model: &Model, u: &[f64], loads: &[f64]) -> Committed {
+        self.evaluate_committed_into(model, u, loads, Vec::new())
+    }
+
+    /// [`Solver::evaluate_committed`] with the evaluations written into `out` (an earlier
+    /// committed state's, of this model: its pages are then not touched afresh; every entry
+    /// is overwritten).
+    pub fn evaluate_committed_into(
+        &mut self,
+        model: &Model,
+        u: &[f64],
+        loads: &[f64],
+        mut out: Vec<Evaluation>,
+    ) -> Committed {
         let mut residual = vec![0.0; model.dof_count()];
-        let mut out = Vec::with_capacity(model.triangles.len());
+        if out.len() != model.triangles.len() {
+            out = Vec::with_capacity(model.triangles.len());
+        }
         let membranes = assemble::Membranes {
             out: Some(&mut out),
             forced: self.probe_states.as_deref(),

@@ -34,7 +34,7 @@ use crate::model::{ElementKind, LoadModel, Model, PerKind};
 use nalgebra::{Matrix3, Vector3};
 
 /// What touches a node: per element kind, (element, local index) of every element at it.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Adjacency {
     elements: PerKind<Lists<(usize, usize)>>,
     /// Per triangle: (load index, follower) of the pressures acting on it.
@@ -45,7 +45,7 @@ pub struct Adjacency {
 
 /// Per key (a node or a triangle) a list of items, stored flat: one offset array and one item
 /// array, both allocated fallibly (`crate::memory`), in the order the pairs come.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 struct Lists<T> {
     start: Vec<usize>,
     items: Vec<T>,
@@ -90,40 +90,150 @@ const LOCAL_SLOPE_RATIO: f64 = 0.1;
 
 impl Adjacency {
     pub fn try_new(model: &Model) -> Result<Adjacency, OutOfMemory> {
-        let n = model.reference.len();
+        let pressures: Vec<(usize, bool, &[usize])> = pressed(model).collect();
+        let forces: Vec<(usize, &[(usize, f64)])> = forced(model).collect();
+        Adjacency::from_parts(
+            model.reference.len(),
+            model.triangles.len(),
+            |kind| model.element_count(kind),
+            |kind, e| model.element_nodes(kind, e),
+            &pressures,
+            &forces,
+        )
+    }
+
+    /// What [`Adjacency::try_new`] reads of `model`, copied (element nodes, pressed
+    /// triangles, point forces): built from it by [`AdjacencyInput::build`], on another
+    /// thread (`core.rs`: the solver's helper, while this one numbers the nodes).
+    pub fn input(model: &Model) -> Result<AdjacencyInput, OutOfMemory> {
+        const WHAT: &str = "the node adjacency";
+        let elements = PerKind::try_from_fn(|kind| {
+            let count = model.element_count(kind);
+            let len: usize = (0..count).map(|e| model.element_nodes(kind, e).len()).sum();
+            let mut start = memory::with_capacity(count + 1, WHAT)?;
+            let mut nodes = memory::with_capacity(len, WHAT)?;
+            start.push(0);
+            for e in 0..count {
+                nodes.extend_from_slice(model.element_nodes(kind, e));
+                start.push(nodes.len());
+            }
+            Ok(Lists {
+                start,
+                items: nodes,
+            })
+        })?;
+        let mut pressures = memory::with_capacity(model.loads.len(), WHAT)?;
+        for (l, follower, triangles) in pressed(model) {
+            pressures.push((l, follower, memory::copy(triangles, WHAT)?));
+        }
+        let mut forces = memory::with_capacity(model.loads.len(), WHAT)?;
+        for (l, dofs) in forced(model) {
+            forces.push((l, memory::copy(dofs, WHAT)?));
+        }
+        Ok(AdjacencyInput {
+            nodes: model.reference.len(),
+            triangles: model.triangles.len(),
+            elements,
+            pressures,
+            forces,
+        })
+    }
+
+    /// The lists from the model's parts: `nodes` nodes, `triangles` triangles, each kind's
+    /// element count and element nodes, the pressed triangles (load, follower, triangles)
+    /// and the point forces (load, (DOF, force)) in load order.
+    fn from_parts<'a>(
+        nodes: usize,
+        triangles: usize,
+        count: impl Fn(ElementKind) -> usize,
+        element_nodes: impl Fn(ElementKind, usize) -> &'a [usize],
+        pressures: &[(usize, bool, &[usize])],
+        forces: &[(usize, &[(usize, f64)])],
+    ) -> Result<Adjacency, OutOfMemory> {
+        let n = nodes;
+        let (count, element_nodes) = (&count, &element_nodes);
         Ok(Adjacency {
             elements: PerKind::try_from_fn(|kind| {
                 Lists::try_build(n, || {
-                    (0..model.element_count(kind)).flat_map(move |e| {
-                        let nodes = model.element_nodes(kind, e);
+                    (0..count(kind)).flat_map(move |e| {
+                        let nodes = element_nodes(kind, e);
                         nodes.iter().enumerate().map(move |(k, &i)| (i, (e, k)))
                     })
                 })
             })?,
-            pressures: Lists::try_build(model.triangles.len(), || {
-                model.loads.iter().enumerate().flat_map(|(l, load)| {
-                    let (triangles, follower): (&[usize], bool) = match load {
-                        LoadModel::Pressure {
-                            triangles,
-                            follower,
-                        } => (triangles, *follower),
-                        // Gas pressure of an enclosed volume: a follower pressure.
-                        LoadModel::Volume { triangles, .. } => (triangles, true),
-                        _ => (&[], false),
-                    };
+            pressures: Lists::try_build(triangles, || {
+                pressures.iter().flat_map(|&(l, follower, triangles)| {
                     triangles.iter().map(move |&e| (e, (l, follower)))
                 })
             })?,
             forces: Lists::try_build(n, || {
-                model.loads.iter().enumerate().flat_map(|(l, load)| {
-                    let dofs: &[(usize, f64)] = match load {
-                        LoadModel::PointForce(dofs) => dofs,
-                        _ => &[],
-                    };
-                    dofs.iter().map(move |&(d, f)| (d / 3, (l, d % 3, f)))
-                })
+                forces
+                    .iter()
+                    .flat_map(|&(l, dofs)| dofs.iter().map(move |&(d, f)| (d / 3, (l, d % 3, f))))
             })?,
         })
+    }
+}
+
+/// The model's pressures (a gas pressure of an enclosed volume is a follower pressure):
+/// (load, follower, triangles), in load order.
+fn pressed(model: &Model) -> impl Iterator<Item = (usize, bool, &[usize])> {
+    model
+        .loads
+        .iter()
+        .enumerate()
+        .filter_map(|(l, load)| match load {
+            LoadModel::Pressure {
+                triangles,
+                follower,
+            } => Some((l, *follower, &triangles[..])),
+            LoadModel::Volume { triangles, .. } => Some((l, true, &triangles[..])),
+            _ => None,
+        })
+}
+
+/// The model's point forces: (load, (DOF, force per unit load value)), in load order.
+fn forced(model: &Model) -> impl Iterator<Item = (usize, &[(usize, f64)])> {
+    model
+        .loads
+        .iter()
+        .enumerate()
+        .filter_map(|(l, load)| match load {
+            LoadModel::PointForce(dofs) => Some((l, &dofs[..])),
+            _ => None,
+        })
+}
+
+/// What an [`Adjacency`] is built from, owned ([`Adjacency::input`]): the same lists as
+/// [`Adjacency::try_new`] of the model it was copied from, item for item.
+#[derive(Debug)]
+pub struct AdjacencyInput {
+    nodes: usize,
+    triangles: usize,
+    /// Per kind, every element's nodes (flat, by element).
+    elements: PerKind<Lists<usize>>,
+    pressures: Vec<(usize, bool, Vec<usize>)>,
+    forces: Vec<(usize, Vec<(usize, f64)>)>,
+}
+
+impl AdjacencyInput {
+    pub fn build(self) -> Result<Adjacency, OutOfMemory> {
+        let pressures: Vec<(usize, bool, &[usize])> = self
+            .pressures
+            .iter()
+            .map(|(l, f, t)| (*l, *f, &t[..]))
+            .collect();
+        let forces: Vec<(usize, &[(usize, f64)])> =
+            self.forces.iter().map(|(l, d)| (*l, &d[..])).collect();
+        let elements = &self.elements;
+        Adjacency::from_parts(
+            self.nodes,
+            self.triangles,
+            |kind| elements[kind].start.len().saturating_sub(1),
+            |kind, e| &elements[kind][e],
+            &pressures,
+            &forces,
+        )
     }
 }
 
@@ -693,5 +803,61 @@ impl PatchElements<'_> {
             }
         }
         inverted
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solver::core::Solver;
+    use crate::solver::settings::Settings;
+
+    fn model(name: &str, rings: Option<usize>) -> Model {
+        let path = format!(
+            "{}/modelDescription/{name}/scene.json",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let mut value: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        if let Some(rings) = rings {
+            value["geometry"]["generators"][0]["rings"] = rings.into();
+        }
+        let scene = crate::scene::Scene::from_json(&value.to_string()).unwrap();
+        Model::try_build(&scene).unwrap()
+    }
+
+    /// The adjacency built from its copied input (on the solver's helper with two threads)
+    /// is the model's, list for list: shipped scenes with cables, sleeve ties, follower and
+    /// dead pressures, a gas volume and point forces.
+    #[test]
+    fn the_adjacency_from_its_copied_input_is_the_models() {
+        for name in [
+            "SleeveCable",
+            "SlidingCable",
+            "EtfeGasCushion",
+            "FourPointSail",
+            "HenckyDisc",
+            "PrestressedCable",
+        ] {
+            let model = model(name, None);
+            let serial = Adjacency::try_new(&model).unwrap();
+            assert!(
+                !serial.elements[ElementKind::Membrane].items.is_empty()
+                    || model.triangles.is_empty()
+            );
+            let built = Adjacency::input(&model).unwrap().build().unwrap();
+            assert_eq!(built, serial, "{name}");
+        }
+        // A solver on two threads (its helper built the lists) holds one thread's.
+        let model = model("HenckyDisc", Some(64));
+        let settings = |threads| Settings {
+            threads,
+            ..Settings::default()
+        };
+        let two = Solver::try_new(&model, settings(2)).unwrap();
+        assert!(two.pool().is_some(), "the disc is split on two threads");
+        let one = Solver::try_new(&model, settings(1)).unwrap();
+        assert_eq!(two.adjacency, one.adjacency);
+        assert_eq!(two.adjacency, Adjacency::try_new(&model).unwrap());
     }
 }

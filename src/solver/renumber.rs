@@ -79,11 +79,22 @@ pub(super) fn node_rank_on(
     order: NodeOrder,
     graph: &(Vec<usize>, Vec<usize>),
 ) -> Result<Vec<usize>, OutOfMemory> {
+    node_rank_prepared(model, order, graph, None)
+}
+
+/// [`node_rank_on`] with the Cuthill-McKee order's keys, seeds and normals computed
+/// elsewhere ([`Prepared`]; None: here).
+pub(super) fn node_rank_prepared(
+    model: &Model,
+    order: NodeOrder,
+    graph: &(Vec<usize>, Vec<usize>),
+    prepared: Option<Prepared>,
+) -> Result<Vec<usize>, OutOfMemory> {
     let n = model.reference.len();
     let sequence = match order {
         NodeOrder::Given => return memory::collect(0..n, WHAT),
-        NodeOrder::Rcm => cuthill_mckee(model, false, graph)?,
-        NodeOrder::Rings => cuthill_mckee(model, true, graph)?,
+        NodeOrder::Rcm => cuthill_mckee(model, false, graph, prepared)?,
+        NodeOrder::Rings => cuthill_mckee(model, true, graph, prepared)?,
         NodeOrder::Hilbert => hilbert(model)?,
     };
     let mut rank = memory::filled(n, usize::MAX, WHAT)?;
@@ -166,8 +177,78 @@ pub(super) fn node_graph(model: &Model) -> Result<(Vec<usize>, Vec<usize>), OutO
     Ok((ptr, adj))
 }
 
+/// What the Cuthill-McKee order reads besides the node graph: every node's Hilbert key, the
+/// nodes by key (the components' seeds) and every node's membrane normal. They need only the
+/// reference coordinates and the triangles' nodes ([`PrepareInput`]): with two threads they
+/// are computed on the solver's helper while the node graph is built (`assemble.rs`).
+#[derive(Debug, PartialEq)]
+pub(super) struct Prepared {
+    keys: Vec<u64>,
+    seeds: Vec<usize>,
+    normal: Vec<Vector3<f64>>,
+}
+
+/// What [`Prepared`] is computed from, copied from the model.
+pub(super) struct PrepareInput {
+    reference: Vec<Vector3<f64>>,
+    triangles: Vec<[usize; 3]>,
+}
+
+impl PrepareInput {
+    pub(super) fn copy(model: &Model) -> Result<PrepareInput, OutOfMemory> {
+        Ok(PrepareInput {
+            reference: memory::copy(&model.reference, WHAT)?,
+            triangles: memory::collect(model.triangles.iter().map(|t| t.nodes), WHAT)?,
+        })
+    }
+
+    pub(super) fn prepare(self) -> Result<Prepared, OutOfMemory> {
+        prepare(&self.reference, self.triangles.iter().copied())
+    }
+}
+
+/// [`Prepared`] of the nodes at `reference` and the triangles' nodes `triangles` (the
+/// model's, in model order).
+fn prepare(
+    reference: &[Vector3<f64>],
+    triangles: impl Iterator<Item = [usize; 3]>,
+) -> Result<Prepared, OutOfMemory> {
+    let keys = hilbert_keys_of(reference)?;
+    let mut seeds = memory::collect(0..reference.len(), WHAT)?;
+    seeds.sort_unstable_by_key(|&i| (keys[i], i));
+    let normal = normals_of(reference, triangles)?;
+    Ok(Prepared {
+        keys,
+        seeds,
+        normal,
+    })
+}
+
+/// Unit normal of the membrane at every node (area-weighted over its triangles; zero at a
+/// node no triangle touches). Lines have no surface: a node only on cables has no normal,
+/// and its neighbours go by degree (as in Cuthill-McKee).
+fn normals_of(
+    reference: &[Vector3<f64>],
+    triangles: impl Iterator<Item = [usize; 3]>,
+) -> Result<Vec<Vector3<f64>>, OutOfMemory> {
+    let mut normal = memory::filled(reference.len(), Vector3::zeros(), WHAT)?;
+    for nodes in triangles {
+        let [a, b, c] = nodes.map(|i| reference[i]);
+        let w = (b - a).cross(&(c - a));
+        for &i in &nodes {
+            normal[i] += w;
+        }
+    }
+    for v in &mut normal {
+        let l = v.norm();
+        *v = if l > 0.0 { *v / l } else { Vector3::zeros() };
+    }
+    Ok(normal)
+}
+
 /// Unit normal of the membrane at every node (area-weighted over its triangles; zero at a
 /// node no triangle touches).
+#[cfg(test)]
 fn node_normals(model: &Model) -> Result<Vec<Vector3<f64>>, OutOfMemory> {
     let mut normal = memory::filled(model.reference.len(), Vector3::zeros(), WHAT)?;
     for kind in ElementKind::ALL {
@@ -208,12 +289,18 @@ fn cuthill_mckee(
     model: &Model,
     central: bool,
     (ptr, adj): &(Vec<usize>, Vec<usize>),
+    prepared: Option<Prepared>,
 ) -> Result<Vec<usize>, OutOfMemory> {
     let n = model.reference.len();
-    let keys = hilbert_keys(model)?;
+    let Prepared {
+        keys,
+        seeds,
+        normal,
+    } = match prepared {
+        Some(prepared) => prepared,
+        None => prepare(&model.reference, model.triangles.iter().map(|t| t.nodes))?,
+    };
     let degree = |i: usize| ptr[i + 1] - ptr[i];
-    let mut seeds = memory::collect(0..n, WHAT)?;
-    seeds.sort_unstable_by_key(|&i| (keys[i], i));
     let mut order = memory::with_capacity(n, WHAT)?;
     let mut placed = memory::filled(n, false, WHAT)?;
     // Scratch of the level-structure searches: the level of each node (usize::MAX: unseen),
@@ -223,7 +310,6 @@ fn cuthill_mckee(
     let mut far_level: Vec<usize> = Vec::new();
     let mut neighbours: Vec<usize> = Vec::new();
     let mut parent = memory::filled(n, NONE, WHAT)?;
-    let normal = node_normals(model)?;
     let clear = |level: &mut [usize], reached: &[usize]| {
         for &i in reached {
             level[i] = usize::MAX;
@@ -376,8 +462,12 @@ fn hilbert(model: &Model) -> Result<Vec<usize>, OutOfMemory> {
 /// Every node's position on a 3D Hilbert curve through the bounding cube of the reference
 /// coordinates (21 bits per axis).
 fn hilbert_keys(model: &Model) -> Result<Vec<u64>, OutOfMemory> {
+    hilbert_keys_of(&model.reference)
+}
+
+/// [`hilbert_keys`] of the points `x`.
+fn hilbert_keys_of(x: &[Vector3<f64>]) -> Result<Vec<u64>, OutOfMemory> {
     const BITS: u32 = 21;
-    let x = &model.reference;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in x {
         for c in 0..3 {
@@ -440,7 +530,35 @@ fn hilbert_key(mut x: [u32; 3], bits: u32) -> u64 {
 
 #[cfg(test)]
 mod tests {
-    use super::hilbert_key;
+
+    /// The Cuthill-McKee inputs computed from the copied coordinates and triangles (on the
+    /// solver's helper with two threads) are the model's, and the ranks from them the same,
+    /// on shipped scenes (cables, a cushion's two sheets, a sail).
+    #[test]
+    fn the_prepared_keys_and_normals_are_the_models() {
+        for name in ["SleeveCable", "EtfeCushion", "FourPointSail", "HenckyDisc"] {
+            let path = format!(
+                "{}/modelDescription/{name}/scene.json",
+                env!("CARGO_MANIFEST_DIR")
+            );
+            let scene =
+                crate::scene::Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
+            let model = Model::try_build(&scene).unwrap();
+            let prepared = PrepareInput::copy(&model).unwrap().prepare().unwrap();
+            assert_eq!(prepared.keys, hilbert_keys(&model).unwrap(), "{name}");
+            assert_eq!(prepared.normal, node_normals(&model).unwrap(), "{name}");
+            let graph = node_graph(&model).unwrap();
+            for order in [NodeOrder::Rings, NodeOrder::Rcm] {
+                let again = PrepareInput::copy(&model).unwrap().prepare().unwrap();
+                assert_eq!(
+                    node_rank_prepared(&model, order, &graph, Some(again)).unwrap(),
+                    node_rank_on(&model, order, &graph).unwrap(),
+                    "{name} {order:?}"
+                );
+            }
+        }
+    }
+    use super::*;
 
     /// The memory estimate (`scene::limits::memory_bytes`) counts 400 bytes a triangle for the
     /// assembly's copy of the triangles in visit order.

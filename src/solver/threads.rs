@@ -253,6 +253,39 @@ impl Pool {
         Ok((theirs.ok_or(Error::Thread(ThreadFailure::Panicked))?, mine))
     }
 
+    /// `job` once on helper `i` (slot [`ONCE`]), returning at once; [`Pending::join`] waits
+    /// for it and gives its result. What the job needs it owns. Until it has ended the helper
+    /// is busy: a caller that starts another job on it first waits for it ([`Pool::wait`]),
+    /// and no [`Pool::beside`] may run before the join.
+    pub fn launch<T>(
+        pool: &Arc<Pool>,
+        i: usize,
+        job: impl FnOnce() -> T + Send + 'static,
+    ) -> Pending<T>
+    where
+        T: Send + 'static,
+    {
+        let output: Arc<Mutex<Option<T>>> = Arc::new(Mutex::new(None));
+        let theirs = Arc::clone(&output);
+        let mut job = Some(job);
+        pool.set_job_in(
+            i,
+            ONCE,
+            Box::new(move || {
+                if let Some(job) = job.take() {
+                    let value = job();
+                    *theirs.lock().unwrap_or_else(|e| e.into_inner()) = Some(value);
+                }
+            }),
+        );
+        pool.start_in(i, ONCE);
+        Pending {
+            pool: Arc::clone(pool),
+            i,
+            output,
+        }
+    }
+
     /// Wait until helper `i`'s job has finished. Err([`ThreadFailure::Panicked`]) if it
     /// panicked.
     pub fn wait(&self, i: usize) -> Result<(), Error> {
@@ -269,6 +302,26 @@ impl Pool {
         } else {
             Ok(())
         }
+    }
+}
+
+/// A job started by [`Pool::launch`].
+pub struct Pending<T> {
+    pool: Arc<Pool>,
+    i: usize,
+    output: Arc<Mutex<Option<T>>>,
+}
+
+impl<T> Pending<T> {
+    /// The job's result once it has ended (the spent job dropped).
+    /// Err([`ThreadFailure::Panicked`]) if it panicked (also when a [`Pool::wait`] in between
+    /// was told so).
+    pub fn join(self) -> Result<T, Error> {
+        let waited = self.pool.wait(self.i);
+        self.pool.helpers[self.i].shared.lock().jobs[ONCE] = None;
+        waited?;
+        let value = self.output.lock().unwrap_or_else(|e| e.into_inner()).take();
+        value.ok_or(Error::Thread(ThreadFailure::Panicked))
     }
 }
 
@@ -331,6 +384,25 @@ mod tests {
         assert_eq!(Arc::strong_count(&held), 1, "the spent job holds nothing");
         let failed = pool.beside(0, || -> usize { panic!("the job fails") }, || 1);
         assert!(failed.is_err());
+        assert_eq!(pool.beside(0, || 2, || 3).unwrap(), (2, 3));
+    }
+
+    #[test]
+    fn a_launched_job_gives_its_result_at_the_join_and_is_dropped() {
+        let pool = Arc::new(Pool::try_new(2).unwrap());
+        let held = Arc::new(vec![1.0, 2.0, 3.0]);
+        let theirs = Arc::clone(&held);
+        let pending = Pool::launch(&pool, 0, move || theirs.iter().sum::<f64>());
+        let here = held[0] * 10.0;
+        assert_eq!((pending.join().unwrap(), here), (6.0, 10.0));
+        assert_eq!(Arc::strong_count(&held), 1, "the spent job holds nothing");
+        // A wait in between (another job's start) leaves the result to the join.
+        let pending = Pool::launch(&pool, 0, || 7);
+        pool.wait(0).unwrap();
+        assert_eq!(pending.join().unwrap(), 7);
+        let failed = Pool::launch(&pool, 0, || -> usize { panic!("the job fails") });
+        assert!(pool.wait(0).is_err());
+        assert!(failed.join().is_err());
         assert_eq!(pool.beside(0, || 2, || 3).unwrap(), (2, 3));
     }
 
