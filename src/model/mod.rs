@@ -1733,3 +1733,14 @@ fn bounding_diagonal(x: &[Vector3<f64>], used: &[bool]) -> f64 {
         1.0
     }
 }
+
+/// The model of a shipped scene (`modelDescription/<name>/scene.json`), for unit tests.
+#[cfg(test)]
+pub(crate) fn shipped_model(name: &str) -> Model {
+    let path = format!(
+        "{}/modelDescription/{name}/scene.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let scene = crate::scene::Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
+    Model::try_build(&scene).unwrap()
+}

@@ -2321,13 +2321,7 @@ mod tests {
     /// buffer of another size is not used.
     #[test]
     fn the_maps_in_a_touched_buffer_are_the_fresh_ones() {
-        let path = format!(
-            "{}/modelDescription/HenckyDisc/scene.json",
-            env!("CARGO_MANIFEST_DIR")
-        );
-        let scene =
-            crate::scene::Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
-        let model = Model::try_build(&scene).unwrap();
+        let model = crate::model::shipped_model("HenckyDisc");
         let fresh = Pattern::try_ordered(&model, NodeOrder::Rings).unwrap();
         let len = model.triangles.len() * ElementKind::Membrane.block_len();
         for touched in [touched_maps(len).unwrap(), touched_maps(len + 1).unwrap()] {
@@ -2355,13 +2349,7 @@ mod tests {
             "FourPointSail",
             "HenckyDisc",
         ] {
-            let path = format!(
-                "{}/modelDescription/{name}/scene.json",
-                env!("CARGO_MANIFEST_DIR")
-            );
-            let scene =
-                crate::scene::Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
-            let model = Model::try_build(&scene).unwrap();
+            let model = crate::model::shipped_model(name);
             for order in [NodeOrder::Rings, NodeOrder::Given] {
                 let pattern = Pattern::try_ordered(&model, order).unwrap();
                 let (cp, ri) = upper_pattern(&model, &pattern.eq, pattern.n).unwrap();

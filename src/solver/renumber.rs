@@ -537,13 +537,7 @@ mod tests {
     #[test]
     fn the_prepared_keys_and_normals_are_the_models() {
         for name in ["SleeveCable", "EtfeCushion", "FourPointSail", "HenckyDisc"] {
-            let path = format!(
-                "{}/modelDescription/{name}/scene.json",
-                env!("CARGO_MANIFEST_DIR")
-            );
-            let scene =
-                crate::scene::Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
-            let model = Model::try_build(&scene).unwrap();
+            let model = crate::model::shipped_model(name);
             let prepared = PrepareInput::copy(&model).unwrap().prepare().unwrap();
             assert_eq!(prepared.keys, hilbert_keys(&model).unwrap(), "{name}");
             assert_eq!(prepared.normal, node_normals(&model).unwrap(), "{name}");
